@@ -1,0 +1,1 @@
+"""MuJoCo: MJCF loading, stepping in the requested friction mode, observables."""

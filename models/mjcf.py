@@ -1,0 +1,224 @@
+"""MJCF text for the loaded-sphere tippe top on a table.
+
+One template, filled by :func:`make_mjcf`. The model holds:
+
+* ``table``: a plane at z = 0 (checker material, for renders).
+* ``top``: a body with the free joint ``top_free``. Its origin is the sphere's centre S and its
+  z axis is the symmetry axis k (see :mod:`models.frames`). The mass and inertia come only from
+  ``<inertial pos="0 0 -a" mass="M" diaginertia="A A C"/>`` (``inertiafromgeom="false"``; every
+  geom also has mass 0), so the top is exactly the paper's loaded sphere.
+* ``ball``: the sphere geom of radius R, the only geom of the top that collides.
+* ``stem`` and ``spin_marker``: visual-only geoms (``contype = conaffinity = 0``, mass 0,
+  group 1) that make tilt and spin visible in renders.
+
+Contact parameters (condim, friction, solref, solimp) are written identically on ``table`` and
+``ball``, so MuJoCo's mixing rules (max for condim and friction, solmix-weighted average for
+solref and solimp) reproduce them exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from models.errors import expect
+from models.params import TopParams
+
+#: Friction modes: "paper" = frictionless contact plus the paper's law applied by the harness;
+#: "native" = MuJoCo's own contact friction.
+FRICTION_MODES: tuple[str, ...] = ("paper", "native")
+#: MuJoCo's integrators, as spelled in MJCF.
+INTEGRATORS: tuple[str, ...] = ("Euler", "RK4", "implicit", "implicitfast")
+#: MuJoCo's friction cones.
+CONES: tuple[str, ...] = ("pyramidal", "elliptic")
+#: Contact dimensionalities: 1 frictionless, 3 sliding, 4 adds torsional, 6 adds rolling.
+CONDIMS: tuple[int, ...] = (1, 3, 4, 6)
+
+#: MuJoCo's own default torsional and rolling coefficients (geom friction "1 0.005 0.0001").
+MUJOCO_DEFAULT_TORSIONAL = 0.005  # (m)
+MUJOCO_DEFAULT_ROLLING = 0.0001  # (m)
+
+#: Element names, shared with the runner (read quantities by name, never by index).
+TABLE_GEOM = "table"
+TOP_BODY = "top"
+FREE_JOINT = "top_free"
+BALL_GEOM = "ball"
+STEM_GEOM = "stem"
+MARKER_GEOM = "spin_marker"
+
+# Visual-only geometry, in sphere radii (it has no mass and never collides).
+_STEM_FROM_R = 0.8  # stem starts inside the ball, on the axis
+_STEM_TO_R = 1.55  # stem tip above the ball's surface
+_STEM_RADIUS_R = 0.12
+_MARKER_HALF_R = (0.22, 0.05, 0.05)  # a flag at the stem tip, off the axis: shows the spin
+
+
+def _num(x: float) -> str:
+    """A float as MJCF text that parses back to the same double."""
+    return repr(float(x))
+
+
+def _nums(xs: Sequence[float]) -> str:
+    return " ".join(_num(x) for x in xs)
+
+
+def _finite_seq(what: str, values: Sequence[float], lengths: tuple[int, ...]) -> tuple:
+    ok = (
+        isinstance(values, (tuple, list))
+        and len(values) in lengths
+        and all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+    )
+    expect(ok, what, f"{' or '.join(map(str, lengths))} finite numbers", values)
+    return tuple(float(v) for v in values)
+
+
+def _validate(
+    friction_mode: str,
+    condim: int | None,
+    mu: float,
+    timestep_s: float,
+    integrator: str,
+    cone: str,
+    impratio: float,
+    solref: Sequence[float],
+    solimp: Sequence[float],
+    torsional: float,
+    rolling: float,
+) -> int:
+    """Check the arguments of :func:`make_mjcf`; return the effective condim."""
+    expect(friction_mode in FRICTION_MODES, "friction_mode", "one of " + "|".join(FRICTION_MODES),
+           friction_mode)
+    if condim is None:
+        condim = 1 if friction_mode == "paper" else 3
+    expect(isinstance(condim, int) and condim in CONDIMS, "condim",
+           "one of " + "|".join(map(str, CONDIMS)), condim)
+    expect(friction_mode != "paper" or condim == 1, "condim",
+           "1 in paper mode (the harness applies the friction itself)", condim)
+    for name, value in (("mu", mu), ("torsional", torsional), ("rolling", rolling)):
+        expect(isinstance(value, (int, float)) and math.isfinite(value) and value >= 0, name,
+               "a finite number >= 0", value)
+    expect(isinstance(timestep_s, (int, float)) and math.isfinite(timestep_s) and timestep_s > 0,
+           "timestep_s", "a finite number > 0 (seconds)", timestep_s)
+    expect(integrator in INTEGRATORS, "integrator", "one of " + "|".join(INTEGRATORS), integrator)
+    expect(cone in CONES, "cone", "one of " + "|".join(CONES), cone)
+    expect(isinstance(impratio, (int, float)) and math.isfinite(impratio) and impratio > 0,
+           "impratio", "a finite number > 0", impratio)
+    ref = _finite_seq("solref", solref, (2,))
+    expect(ref[0] != 0, "solref", "(timeconst > 0, dampratio > 0) or (-stiffness, -damping)",
+           solref)
+    imp = _finite_seq("solimp", solimp, (3, 5))
+    expect(0 < imp[0] < 1 and 0 < imp[1] < 1 and imp[2] > 0, "solimp",
+           "(dmin, dmax, width, ...) with 0 < dmin, dmax < 1 and width > 0 (m)", solimp)
+    return condim
+
+
+def make_mjcf(
+    top: TopParams,
+    *,
+    friction_mode: str = "paper",
+    condim: int | None = None,
+    mu: float = 0.1,
+    timestep_s: float = 2e-5,
+    integrator: str = "RK4",
+    cone: str = "elliptic",
+    impratio: float = 1.0,
+    solref: Sequence[float] = (0.02, 1.0),
+    solimp: Sequence[float] = (0.9, 0.95, 0.001, 0.5, 2.0),
+    torsional: float = 0.0,
+    rolling: float = 0.0,
+) -> str:
+    """MJCF text of the loaded sphere on a table.
+
+    Args:
+        top: The loaded sphere (SI).
+        friction_mode: ``"paper"``: frictionless contact (condim 1); the harness applies the
+            paper's law (see :mod:`mujoco_runner.friction_callback`). ``"native"``: MuJoCo's
+            own contact friction.
+        condim: Contact dimensionality; ``None`` means 1 in paper mode and 3 in native mode.
+            Native mode takes 1 (frictionless), 3 (sliding), 4 (adds torsional) or 6 (adds
+            rolling).
+        mu: Sliding friction coefficient, native mode only (the paper mode writes 0).
+        timestep_s: Integration step (s).
+        integrator: One of :data:`INTEGRATORS`.
+        cone: Friction cone, ``"pyramidal"`` or ``"elliptic"``.
+        impratio: Ratio of frictional to normal constraint impedance.
+        solref: Contact ``solref`` (timeconst in s, dampratio), or (-stiffness, -damping).
+        solimp: Contact ``solimp`` (dmin, dmax, width in m[, midpoint, power]).
+        torsional: Torsional friction coefficient (m), used when condim >= 4. Zero by default:
+            pass :data:`MUJOCO_DEFAULT_TORSIONAL` for MuJoCo's own default.
+        rolling: Rolling friction coefficient (m), used when condim == 6. Zero by default:
+            pass :data:`MUJOCO_DEFAULT_ROLLING` for MuJoCo's own default.
+
+    Returns:
+        The MJCF document as text.
+
+    Raises:
+        TippetopError: If an argument is out of range (one line: what, expected, got).
+    """
+    condim = _validate(friction_mode, condim, mu, timestep_s, integrator, cone, impratio,
+                       solref, solimp, torsional, rolling)
+    R, a = top.R_m, top.a_m
+    if friction_mode == "paper":
+        friction = (0.0, 0.0, 0.0)
+    else:
+        friction = (mu, torsional, rolling)
+    contact = (
+        f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(solref)}" '
+        f'solimp="{_nums(solimp)}"'
+    )
+    stem_from, stem_to = _STEM_FROM_R * R, _STEM_TO_R * R
+    marker_pos = (_MARKER_HALF_R[0] * R + _STEM_RADIUS_R * R, 0.0, stem_to - _MARKER_HALF_R[2] * R)
+    marker_size = tuple(h * R for h in _MARKER_HALF_R)
+    cam_dist = 12 * R
+    return f"""<mujoco model="tippetop">
+  <compiler angle="radian" inertiafromgeom="false"/>
+  <option timestep="{_num(timestep_s)}" integrator="{integrator}" cone="{cone}"
+          impratio="{_num(impratio)}" gravity="0 0 {_num(-top.g_mps2)}"/>
+  <visual>
+    <global offwidth="1280" offheight="720"/>
+    <headlight ambient="0.3 0.3 0.3" diffuse="0.6 0.6 0.6"/>
+  </visual>
+  <asset>
+    <texture name="checker" type="2d" builtin="checker" rgb1="0.82 0.82 0.78"
+             rgb2="0.55 0.6 0.65" width="512" height="512"/>
+    <material name="table_mat" texture="checker" texrepeat="20 20" reflectance="0.05"/>
+    <material name="ball_mat" rgba="0.85 0.3 0.15 1"/>
+    <material name="stem_mat" rgba="0.2 0.2 0.25 1"/>
+    <material name="marker_mat" rgba="0.95 0.85 0.1 1"/>
+  </asset>
+  <worldbody>
+    <light name="key_light" pos="0 -0.3 0.6" dir="0 0.45 -1" directional="false"/>
+    <camera name="side" pos="0 {_num(-cam_dist)} {_num(2 * R)}" xyaxes="1 0 0 0 0 1"/>
+    <geom name="{TABLE_GEOM}" type="plane" size="0.5 0.5 0.01" material="table_mat" {contact}/>
+    <body name="{TOP_BODY}" pos="0 0 {_num(R)}">
+      <freejoint name="{FREE_JOINT}"/>
+      <inertial pos="0 0 {_num(-a)}" mass="{_num(top.M_kg)}"
+                diaginertia="{_nums((top.A_kgm2, top.A_kgm2, top.C_kgm2))}"/>
+      <geom name="{BALL_GEOM}" type="sphere" size="{_num(R)}" mass="0" material="ball_mat"
+            {contact}/>
+      <geom name="{STEM_GEOM}" type="cylinder" fromto="0 0 {_num(stem_from)} 0 0 {_num(stem_to)}"
+            size="{_num(_STEM_RADIUS_R * R)}" mass="0" contype="0" conaffinity="0" group="1"
+            material="stem_mat"/>
+      <geom name="{MARKER_GEOM}" type="box" pos="{_nums(marker_pos)}" size="{_nums(marker_size)}"
+            mass="0" contype="0" conaffinity="0" group="1" material="marker_mat"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+__all__ = [
+    "BALL_GEOM",
+    "CONDIMS",
+    "CONES",
+    "FREE_JOINT",
+    "FRICTION_MODES",
+    "INTEGRATORS",
+    "MARKER_GEOM",
+    "MUJOCO_DEFAULT_ROLLING",
+    "MUJOCO_DEFAULT_TORSIONAL",
+    "STEM_GEOM",
+    "TABLE_GEOM",
+    "TOP_BODY",
+    "make_mjcf",
+]

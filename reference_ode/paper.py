@@ -1,0 +1,131 @@
+"""The paper's own equations (Appendix A), in its variables.
+
+State, shape (10,): ``[theta, theta_dot, Omega, n, uOX, uOY, phi, psi, x, y]`` where
+(phi, theta, psi) are the ZYZ Euler angles, Omega = dphi/dt, n = Omega cos(theta) + dpsi/dt,
+(uOX, uOY) the centre-of-mass velocity in the rotating frame OXYZ and (x, y) its position on
+the table.
+
+    A dOmega/dt sin(theta) = (C n - 2 A Omega cos(theta)) theta_dot + (a - R cos(theta)) F_Y
+    A theta_ddot = -Omega (C n - A Omega cos(theta)) sin(theta) - a sin(theta) N - h F_X
+    C dn/dt = R sin(theta) F_Y
+    M duOX/dt = M Omega uOY + F_X,     M duOY/dt = -M Omega uOX + F_Y
+    N = M (g + a (theta_dot^2 cos(theta) + theta_ddot sin(theta)))     (solved with theta_ddot)
+
+The first equation divides by sin(theta): the formulation is singular at theta = 0 and pi. The
+integrator stops a paper-formulation run when |sin(theta)| falls below ``P_SING`` and reports it
+(status ``singular``) instead of integrating through the singularity.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from reference_ode.friction import friction_terms
+from reference_ode.params_array import (
+    P_A_OFF,
+    P_CVISC,
+    P_G,
+    P_IA,
+    P_IC,
+    P_LAM,
+    P_M,
+    P_MU,
+    P_R,
+    P_VEPS,
+)
+from reference_ode.vector import xi_curves
+
+N_STATE = 10
+ITH, ITHD, IOM, IN, IUX, IUY, IPHI, IPSI, IX, IY = range(N_STATE)
+
+
+@nb.njit(cache=True)
+def paper_core(coulomb_kind, viscous, y, p, dy):
+    """Write dy/dt into ``dy`` and return (N, FX, FY, vPX, vPY) in the rotating frame."""
+    R = p[P_R]
+    a = p[P_A_OFF]
+    M = p[P_M]
+    A = p[P_IA]
+    C = p[P_IC]
+    g = p[P_G]
+    th, thd, Om, n = y[ITH], y[ITHD], y[IOM], y[IN]
+    uX, uY = y[IUX], y[IUY]
+    s = math.sin(th)
+    c = math.cos(th)
+    h = R - a * c
+    vPX = uX - h * thd
+    vPY = uY + (R * (n - Om * c) + a * Om) * s
+    phix, phiy, psix, psiy = friction_terms(
+        coulomb_kind, viscous, vPX, vPY, p[P_MU], p[P_LAM], p[P_CVISC], p[P_VEPS])
+    xi = C * n - A * Om * c
+    # A theta_ddot = P A + Q A N, then N from the vertical constraint
+    Pt = (-Om * xi * s - h * psix) / A
+    Qt = (-a * s - h * phix) / A
+    N = M * (g + a * thd * thd * c + a * s * Pt) / (1.0 - M * a * s * Qt)
+    FX = N * phix + psix
+    FY = N * phiy + psiy
+    dy[ITH] = thd
+    dy[ITHD] = Pt + Qt * N
+    dy[IOM] = ((C * n - 2.0 * A * Om * c) * thd + (a - R * c) * FY) / (A * s)
+    dy[IN] = R * s * FY / C
+    dy[IUX] = Om * uY + FX / M
+    dy[IUY] = -Om * uX + FY / M
+    dy[IPHI] = Om
+    dy[IPSI] = n - Om * c
+    cp = math.cos(y[IPHI])
+    sp = math.sin(y[IPHI])
+    dy[IX] = uX * cp - uY * sp
+    dy[IY] = uX * sp + uY * cp
+    return N, FX, FY, vPX, vPY
+
+
+@nb.njit(cache=True)
+def paper_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
+    """Fill ``out`` (22,) with the observables of one state (order: ``OBS_NAMES``)."""
+    R = p[P_R]
+    a = p[P_A_OFF]
+    M = p[P_M]
+    A = p[P_IA]
+    C = p[P_IC]
+    g = p[P_G]
+    N, FX, FY, vPX, vPY = paper_core(coulomb_kind, viscous, y, p, scratch)
+    th, thd, Om, n = y[ITH], y[ITHD], y[IOM], y[IN]
+    s = math.sin(th)
+    c = math.cos(th)
+    h = R - a * c
+    J = C * n * (R * c - a) + A * Om * R * s * s
+    uOZ = a * s * thd
+    E = (0.5 * M * (y[IUX] ** 2 + y[IUY] ** 2 + uOZ * uOZ)
+         + 0.5 * (A * (thd * thd + Om * Om * s * s) + C * n * n) + M * g * h)
+    xi_p, xi_m = xi_curves(J, c, R, a, M, A, g)
+    defined = abs(s) > sin_undefined
+    nan = math.nan
+    # quaternion of Rz(phi) Ry(theta) Rz(psi)
+    hp, ht, hs = 0.5 * y[IPHI], 0.5 * th, 0.5 * y[IPSI]
+    ct, st = math.cos(ht), math.sin(ht)
+    cs, ss = math.cos(hp + hs), math.sin(hp + hs)
+    cd, sd = math.cos(hp - hs), math.sin(hp - hs)
+    out[0] = th
+    out[1] = thd
+    out[2] = Om if defined else nan
+    out[3] = n
+    out[4] = C * n - A * Om * c if defined else nan
+    out[5] = xi_p
+    out[6] = xi_m
+    out[7] = J
+    out[8] = E
+    out[9] = vPX if defined else nan
+    out[10] = vPY if defined else nan
+    out[11] = N
+    out[12] = y[IUX] if defined else nan
+    out[13] = y[IUY] if defined else nan
+    out[14] = y[IX]
+    out[15] = y[IY]
+    out[16] = h
+    out[17] = ct * cs
+    out[18] = -st * sd
+    out[19] = st * cd
+    out[20] = ct * ss
+    out[21] = FX * vPX + FY * vPY
