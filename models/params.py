@@ -22,7 +22,7 @@ PAPER_LAMBDA_CMPS = 1.0  # (cm / s)
 _CM = 1e-2  # (metres per centimetre)
 _G = 1e-3  # (kilograms per gram)
 
-FRICTION_LAWS = ("modified_coulomb", "coulomb", "viscous", "coulomb_viscous")
+FRICTION_LAWS = ("modified_coulomb", "coulomb", "viscous", "coulomb_viscous", "none")
 
 #: Half-width of the linear ramp that stands in for the set-valued exact Coulomb law at v_P = 0.
 DEFAULT_COULOMB_V_EPS_MPS = 1e-5  # (m/s), 1000x below the paper's Lambda
@@ -145,7 +145,7 @@ class FrictionParams:
 
     Attributes:
         law: One of ``modified_coulomb`` (the paper's eq. 2.12), ``coulomb``, ``viscous``,
-            ``coulomb_viscous``.
+            ``coulomb_viscous``, ``none`` (frictionless).
         mu: Coulomb coefficient (dimensionless, >= 0).
         Lambda_mps: The modified Coulomb law's regularising speed (m/s, > 0).
         viscous_Nspm: Viscous coefficient c in F = -c v_P (N s/m). ``None`` means

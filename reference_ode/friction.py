@@ -17,6 +17,7 @@ specialised on both (numba literal dispatch), so a run computes only the terms i
   which the adaptive step-size control resolves: expect small steps while the top rolls.
 * ``viscous``: psi = -c v_P with c = ``FrictionParams.viscous_coefficient``.
 * ``coulomb_viscous`` (as in Or's hybrid law): both of the above.
+* ``none``: a frictionless table (a scene with ``effects.sliding = false``).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ LAW_TERMS: dict[str, tuple[int, bool]] = {
     "coulomb": (COULOMB_EXACT, False),
     "viscous": (COULOMB_NONE, True),
     "coulomb_viscous": (COULOMB_EXACT, True),
+    "none": (COULOMB_NONE, False),
 }
 
 

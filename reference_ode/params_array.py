@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.options import DEFAULT_SINGULAR_SIN
 from models.params import FrictionParams, TopParams
 
 P_R = 0  # sphere radius (m)
@@ -22,8 +23,6 @@ P_VEPS = 9  # exact Coulomb ramp half-width (m/s)
 P_SING = 10  # paper formulation: |sin theta| below which it is declared singular
 N_PARAMS = 11
 
-#: The paper formulation divides by sin(theta); below this it stops and says so.
-DEFAULT_SINGULAR_SIN = 1e-7
 
 
 def pack_params(top: TopParams, friction: FrictionParams,

@@ -14,14 +14,16 @@ import pandas as pd
 from models.errors import TippetopError, expect
 from models.frames import initial_rigid_state
 from models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
+from models.options import FORMULATIONS as _FORMULATION_NAMES
+from models.options import OdeOptions
 from models.params import FrictionParams, InitialState, TopParams
 from reference_ode import dop853 as _d
 from reference_ode import paper as _paper
 from reference_ode import vector as _vector
 from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import DEFAULT_SINGULAR_SIN, pack_params
+from reference_ode.params_array import pack_params
 
-FORMULATIONS = {"vector": _d.FORM_VECTOR, "paper": _d.FORM_PAPER}
+FORMULATIONS = dict(zip(_FORMULATION_NAMES, (_d.FORM_VECTOR, _d.FORM_PAPER), strict=True))
 
 #: Rows of the observables table when the caller gives no sample interval.
 DEFAULT_MAX_SAMPLES = 20_000
@@ -29,37 +31,6 @@ DEFAULT_MAX_SAMPLES = 20_000
 DEFAULT_SAMPLE_DT_S = 1e-3
 #: The run is integrated in this many pieces so that a progress bar can advance.
 N_CHUNKS = 50
-
-
-@dataclass(frozen=True)
-class OdeOptions:
-    """How the reference ODE is integrated.
-
-    Attributes:
-        formulation: ``vector`` (singularity-free, the default) or ``paper`` (Appendix A).
-        rtol: Relative tolerance of the DOP853 error control.
-        atol: Absolute tolerance (same units as each state component).
-        max_steps: The run stops with status ``max_steps`` after this many accepted steps.
-        singular_sin: Paper formulation: stop with status ``singular`` below this |sin theta|.
-    """
-
-    formulation: str = "vector"
-    rtol: float = 1e-9
-    atol: float = 1e-12
-    max_steps: int = 20_000_000
-    singular_sin: float = DEFAULT_SINGULAR_SIN
-
-    def __post_init__(self) -> None:
-        expect(self.formulation in FORMULATIONS, "ode.formulation", "vector|paper",
-               self.formulation)
-        for name in ("rtol", "atol", "singular_sin"):
-            v = getattr(self, name)
-            expect(isinstance(v, (int, float)) and math.isfinite(v) and v > 0, f"ode.{name}",
-                   "a finite number > 0", v)
-        expect(self.rtol >= 1e-14, "ode.rtol", "a tolerance >= 1e-14 (double precision)",
-               self.rtol)
-        expect(isinstance(self.max_steps, int) and self.max_steps > 0, "ode.max_steps",
-               "a positive integer", self.max_steps)
 
 
 @dataclass

@@ -1,0 +1,196 @@
+"""The ``tippetop`` command line.
+
+Bad input ends in one line on stderr (``tippetop: error: ...``) and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any, NoReturn
+
+from models.errors import TippetopError
+
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        sys.stderr.write(f"tippetop: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def _finite_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def _json_default(o: Any) -> Any:
+    if hasattr(o, "item"):
+        return o.item()
+    raise TypeError(type(o).__name__)
+
+
+def _clean(obj: Any) -> Any:
+    """NaN/inf -> None so the JSON stays standard."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def print_json(obj: Any) -> None:
+    """Print one JSON object on stdout."""
+    print(json.dumps(_clean(obj), default=_json_default))
+
+
+def _print_human(d: dict[str, Any]) -> None:
+    width = max(len(k) for k in d)
+    for k, v in d.items():
+        if isinstance(v, float):
+            v = f"{v:.6g}"
+        print(f"{k:<{width}}  {v}")
+
+
+# ---------------------------------------------------------------- theory
+def _cmd_theory(args: argparse.Namespace) -> int:
+    from compare import theory
+    from models.params import TopParams
+
+    extra: dict[str, Any] = {}
+    if args.mjcf:
+        from mujoco_runner.model import top_from_mjcf_file
+
+        top = top_from_mjcf_file(args.mjcf)
+        extra = {"R_m": top.R_m, "a_m": top.a_m, "A": top.A_kgm2, "C": top.C_kgm2,
+                 "M_kg": top.M_kg, "A_over_C": top.A_over_C, "a_over_R": top.a_over_R}
+    else:
+        if args.A_over_C is None or args.a_over_R is None:
+            raise TippetopError("theory: expected --A-over-C and --a-over-R (or --mjcf FILE), "
+                                "got neither")
+        top = TopParams.from_ratios(args.A_over_C, args.a_over_R, args.C_factor,
+                                    R_m=args.R_m, M_kg=args.M_kg, g_mps2=args.g_mps2)
+    out = theory.summary(top, n0=args.n0)
+    out.update(extra)
+    if args.json:
+        print_json(out)
+    else:
+        _print_human(out)
+    return 0
+
+
+# ---------------------------------------------------------------- simulate
+def _load(args: argparse.Namespace):
+    from models.scene import load_scene
+
+    overrides = list(args.set or [])
+    if getattr(args, "mjcf", None):
+        overrides.append(f"top.mjcf={json.dumps(args.mjcf)}")
+    return load_scene(args.scene, overrides)
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from compare.engines import run_engine
+    from compare.io import TABLE_SUFFIXES, check_output_path, write_table
+
+    scene = _load(args)
+    out_path = None
+    target = args.out or scene.outputs.table
+    if target:
+        if not args.out and scene.path is not None:
+            target = str(scene.path.parent / target)
+        out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
+    run = run_engine(scene, args.engine)
+    if out_path is not None:
+        write_table(run.table, out_path)
+    if args.json:
+        print_json(run.summary)
+    else:
+        _print_human({"scene": scene.name, **run.summary})
+    return 0
+
+
+# ---------------------------------------------------------------- bench
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from compare.bench import bench_ode
+
+    if args.what != "ode":
+        raise TippetopError(f"bench: expected 'ode', got {args.what!r}")
+    res = bench_ode(n0=args.n0, t_end_s=args.t_end_s, rtol=args.rtol, repeats=args.repeats)
+    if args.json:
+        print_json(res)
+    else:
+        print(res.pop("report"))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (exposed for tests and docs)."""
+    p = _Parser(prog="tippetop", description="Tippe-top cross-validation harness: the paper's "
+                "reference ODE, its theory, and MuJoCo.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    t = sub.add_parser("theory", help="the paper's predictions for a top")
+    t.add_argument("--A-over-C", dest="A_over_C", type=_finite_float)
+    t.add_argument("--a-over-R", dest="a_over_R", type=_finite_float)
+    t.add_argument("--C-factor", dest="C_factor", type=_finite_float, default=1.0,
+                   help="C = F * (2/5) M R^2 (default 1)")
+    t.add_argument("--R-m", dest="R_m", type=_finite_float, default=0.015)
+    t.add_argument("--M-kg", dest="M_kg", type=_finite_float, default=0.015)
+    t.add_argument("--g-mps2", dest="g_mps2", type=_finite_float, default=9.8)
+    t.add_argument("--n0", type=_finite_float, help="initial spin near theta = 0 (rad/s)")
+    t.add_argument("--mjcf", help="derive the top from an MJCF file")
+    t.add_argument("--json", action="store_true")
+    t.set_defaults(func=_cmd_theory)
+
+    s = sub.add_parser("simulate", help="run a scene in one engine and print its summary")
+    s.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
+                   "paper's top and Fig. 3 start)")
+    s.add_argument("--engine", default="ode", help="ode (default) or mujoco")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene key, e.g. init.n0=60 (repeatable)")
+    s.add_argument("--mjcf", help="run a loaded MJCF top instead of the scene's")
+    s.add_argument("--out", help="write the observables table (.csv or .parquet)")
+    s.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=_cmd_simulate)
+
+    b = sub.add_parser("bench", help="benchmarks that print ratios against a baseline")
+    b.add_argument("what", help="ode: compiled integrator vs scipy solve_ivp(DOP853)")
+    b.add_argument("--n0", type=_finite_float, default=60.0)
+    b.add_argument("--t-end-s", dest="t_end_s", type=_finite_float, default=60.0)
+    b.add_argument("--rtol", type=_finite_float, default=1e-9)
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--json", action="store_true")
+    b.set_defaults(func=_cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``tippetop`` command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except TippetopError as exc:
+        sys.stderr.write(f"tippetop: error: {exc}\n")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        sys.stderr.write("tippetop: interrupted\n")
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,106 @@
+"""How a scene is integrated: the reference ODE's options and MuJoCo's."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from models.errors import expect
+
+FORMULATIONS = ("vector", "paper")
+
+#: The paper formulation divides by sin(theta); below this it stops and says so.
+DEFAULT_SINGULAR_SIN = 1e-7
+
+
+@dataclass(frozen=True)
+class OdeOptions:
+    """How the reference ODE is integrated.
+
+    Attributes:
+        formulation: ``vector`` (singularity-free, the default) or ``paper`` (Appendix A).
+        rtol: Relative tolerance of the DOP853 error control.
+        atol: Absolute tolerance (same units as each state component).
+        max_steps: The run stops with status ``max_steps`` after this many accepted steps.
+        singular_sin: Paper formulation: stop with status ``singular`` below this |sin theta|.
+    """
+
+    formulation: str = "vector"
+    rtol: float = 1e-9
+    atol: float = 1e-12
+    max_steps: int = 20_000_000
+    singular_sin: float = DEFAULT_SINGULAR_SIN
+
+    def __post_init__(self) -> None:
+        expect(self.formulation in FORMULATIONS, "ode.formulation", "|".join(FORMULATIONS),
+               self.formulation)
+        for name in ("rtol", "atol", "singular_sin"):
+            v = getattr(self, name)
+            expect(isinstance(v, (int, float)) and math.isfinite(v) and v > 0, f"ode.{name}",
+                   "a finite number > 0", v)
+        expect(self.rtol >= 1e-14, "ode.rtol", "a tolerance >= 1e-14 (double precision)",
+               self.rtol)
+        expect(isinstance(self.max_steps, int) and self.max_steps > 0, "ode.max_steps",
+               "a positive integer", self.max_steps)
+
+
+MUJOCO_FRICTION_MODES = ("paper", "native")
+MUJOCO_INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4")
+MUJOCO_CONES = ("pyramidal", "elliptic")
+
+
+@dataclass(frozen=True)
+class MujocoOptions:
+    """How MuJoCo simulates a scene.
+
+    Attributes:
+        friction: ``paper`` (frictionless contact, the paper's law applied by the harness) or
+            ``native`` (MuJoCo's own contact friction).
+        timestep_s: Physics timestep (s).
+        integrator: ``Euler``, ``implicit``, ``implicitfast`` or ``RK4``.
+        cone: Friction cone, ``pyramidal`` or ``elliptic`` (native mode).
+        condim: Contact dimensionality; None derives it from the scene's effects (1 in paper
+            mode; 3 sliding, 4 with torsional, 6 with rolling friction in native mode).
+        mu: Native sliding coefficient; None uses the scene's friction.mu.
+        solref: Contact solref (time constant s, damping ratio), native mode.
+        solimp: Contact solimp (d0, dwidth, width m, midpoint, power).
+        impratio: Ratio of frictional to normal constraint impedance (native, elliptic cone).
+    """
+
+    friction: str = "paper"
+    timestep_s: float = 2e-5
+    integrator: str = "RK4"
+    cone: str = "elliptic"
+    condim: int | None = None
+    mu: float | None = None
+    solref: tuple[float, float] = (0.02, 1.0)
+    solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
+    impratio: float = 1.0
+
+    def __post_init__(self) -> None:
+        expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",
+               "|".join(MUJOCO_FRICTION_MODES), self.friction)
+        expect(self.integrator in MUJOCO_INTEGRATORS, "mujoco.integrator",
+               "|".join(MUJOCO_INTEGRATORS), self.integrator)
+        expect(self.cone in MUJOCO_CONES, "mujoco.cone", "|".join(MUJOCO_CONES), self.cone)
+        expect(_positive(self.timestep_s), "mujoco.timestep_s", "a finite number > 0",
+               self.timestep_s)
+        expect(self.condim is None or self.condim in (1, 3, 4, 6), "mujoco.condim",
+               "1, 3, 4 or 6", self.condim)
+        expect(self.mu is None or (_positive(self.mu) or self.mu == 0), "mujoco.mu",
+               "a finite number >= 0", self.mu)
+        expect(_positive(self.impratio), "mujoco.impratio", "a finite number > 0",
+               self.impratio)
+        expect(len(self.solref) == 2 and all(_finite(v) for v in self.solref),
+               "mujoco.solref", "two finite numbers [timeconst, dampratio]", self.solref)
+        expect(len(self.solimp) in (3, 5) and all(_finite(v) for v in self.solimp),
+               "mujoco.solimp", "3 or 5 finite numbers [d0, dwidth, width, midpoint, power]",
+               self.solimp)
+
+
+def _finite(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _positive(v: object) -> bool:
+    return _finite(v) and v > 0

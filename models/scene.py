@@ -1,0 +1,331 @@
+"""Scene files: what to simulate, and nothing more.
+
+One TOML file names the top, the table's friction, the effects that are on, the initial state,
+the run and the outputs wanted.
+
+Example (every key optional; the defaults are the paper's top and Fig. 3 start)::
+
+    [scene]
+    name = "fig3"
+    description = "Group II top, theta0 = 0.1: passes near theta = 0 while nutating, inverts"
+    source = "Ueda, Sasaki & Watanabe, Fig. 3"
+
+    [top]                 # the loaded sphere, from the paper's ratios (SI for the rest)
+    A_over_C = 1.0
+    a_over_R = 0.1
+    C_factor = 1.0        # C = C_factor * (2/5) M R^2
+    R_m = 0.015
+    M_kg = 0.015
+
+    [friction]
+    law = "modified_coulomb"   # modified_coulomb | coulomb | viscous | coulomb_viscous
+    mu = 0.1
+    Lambda_mps = 0.01
+
+    [effects]             # which contact effects are simulated at all
+    sliding = true
+    torsional = false     # MuJoCo only (condim 4)
+    rolling = false       # MuJoCo only (condim 6)
+
+    [init]
+    theta0 = 0.1
+    n0 = 100.0
+
+    [run]
+    t_end_s = 8.0
+
+    [ode]
+    formulation = "vector"
+    rtol = 1e-9
+
+    [outputs]
+    table = "fig3.csv"    # written only when named
+
+Unknown sections or keys are errors that name the key. ``--set section.key=value`` overrides
+apply to the same dictionary before validation, so they obey the same rules.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from models.errors import TippetopError, expect
+from models.options import MujocoOptions, OdeOptions
+from models.params import FrictionParams, InitialState, TopParams
+
+SCENES_DIR = Path(__file__).parent / "scenes"
+
+_F, _I, _S, _B, _L = "float", "int", "str", "bool", "list"
+
+#: section -> key -> type. The contract for scene files and ``--set`` keys.
+SCHEMA: dict[str, dict[str, str]] = {
+    "scene": {"name": _S, "description": _S, "source": _S},
+    "top": {"A_over_C": _F, "a_over_R": _F, "C_factor": _F, "R_m": _F, "M_kg": _F,
+            "g_mps2": _F, "mjcf": _S},
+    "friction": {"law": _S, "mu": _F, "Lambda_mps": _F, "viscous_Nspm": _F,
+                 "coulomb_v_eps_mps": _F},
+    "effects": {"sliding": _B, "torsional": _B, "rolling": _B, "torsional_mu": _F,
+                "rolling_mu": _F},
+    "init": {"theta0": _F, "thetadot0": _F, "Omega0": _F, "n0": _F, "uOX": _F, "uOY": _F},
+    "run": {"t_end_s": _F, "sample_dt_s": _F},
+    "ode": {"formulation": _S, "rtol": _F, "atol": _F, "max_steps": _I, "singular_sin": _F},
+    "mujoco": {"friction": _S, "timestep_s": _F, "integrator": _S, "cone": _S, "condim": _I,
+               "mu": _F, "solref": _L, "solimp": _L, "impratio": _F},
+    "outputs": {"table": _S, "summary": _B},
+    "expect": {"outcome": _S, "theta_asymp": _F, "theta_asymp_tol": _F, "t_invert_max_s": _F,
+               "note": _S},
+}
+
+OUTCOMES = ("upright", "intermediate", "inverted")
+DEFAULT_T_END_S = 8.0  # (s) long enough for the paper's Fig. 3 top to invert
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Contact effects a scene switches on. Only these are simulated.
+
+    Attributes:
+        sliding: Sliding friction at the contact point (both engines).
+        torsional: Torsional friction about the contact normal (MuJoCo, condim 4).
+        rolling: Rolling friction (MuJoCo, condim 6).
+        torsional_mu: MuJoCo torsional coefficient (m); None keeps MuJoCo's default.
+        rolling_mu: MuJoCo rolling coefficient (m); None keeps MuJoCo's default.
+    """
+
+    sliding: bool = True
+    torsional: bool = False
+    rolling: bool = False
+    torsional_mu: float | None = None
+    rolling_mu: float | None = None
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Length and sampling of a run.
+
+    Attributes:
+        t_end_s: Simulated time (s).
+        sample_dt_s: Row spacing of the observables table (s); None picks 1 ms, coarser for long
+            runs (at most 20,000 rows).
+    """
+
+    t_end_s: float = DEFAULT_T_END_S
+    sample_dt_s: float | None = None
+
+    def __post_init__(self) -> None:
+        expect(_is_num(self.t_end_s) and self.t_end_s > 0, "run.t_end_s", "a finite number > 0",
+               self.t_end_s)
+        expect(self.sample_dt_s is None or (_is_num(self.sample_dt_s) and self.sample_dt_s > 0),
+               "run.sample_dt_s", "a finite number > 0", self.sample_dt_s)
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a run writes. Nothing is written that is not named.
+
+    Attributes:
+        table: Path of the observables table (.csv or .parquet), relative to the scene file.
+        summary: Print the summary JSON.
+    """
+
+    table: str | None = None
+    summary: bool = True
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene."""
+
+    name: str
+    description: str
+    source: str
+    top: TopParams
+    friction: FrictionParams
+    effects: Effects
+    init: InitialState
+    run: RunSpec
+    ode: OdeOptions
+    mujoco: MujocoOptions
+    outputs: Outputs
+    expect: dict[str, Any]
+    raw: dict[str, dict[str, Any]] = field(repr=False)
+    path: Path | None = None
+    top_mjcf: Path | None = None
+
+    def content_hash(self) -> str:
+        """A hash of everything that defines the run (for caches), not of names or paths."""
+        keep = {k: v for k, v in self.raw.items() if k not in ("scene", "outputs", "expect")}
+        text = json.dumps(keep, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _is_num(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check_type(key: str, kind: str, value: Any) -> Any:
+    if kind == _F:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        expect(ok, key, "a number", value)
+        return float(value)
+    if kind == _I:
+        expect(isinstance(value, int) and not isinstance(value, bool), key, "an integer", value)
+        return value
+    if kind == _S:
+        expect(isinstance(value, str), key, "a string", value)
+        return value
+    if kind == _B:
+        expect(isinstance(value, bool), key, "true or false", value)
+        return value
+    expect(isinstance(value, list) and all(_is_num(v) for v in value), key,
+           "a list of numbers", value)
+    return [float(v) for v in value]
+
+
+def _validate_raw(raw: dict[str, Any], origin: str) -> dict[str, dict[str, Any]]:
+    out: dict[str, dict[str, Any]] = {}
+    for section, body in raw.items():
+        if section not in SCHEMA:
+            raise TippetopError(
+                f"{origin}: unknown section [{section}] (expected one of: "
+                f"{', '.join(SCHEMA)})")
+        if not isinstance(body, dict):
+            raise TippetopError(f"{origin}: [{section}] must be a table, got {body!r}")
+        out[section] = {}
+        for key, value in body.items():
+            if key not in SCHEMA[section]:
+                raise TippetopError(
+                    f"{origin}: unknown key '{section}.{key}' (expected one of: "
+                    f"{', '.join(section + '.' + k for k in SCHEMA[section])})")
+            out[section][key] = _check_type(f"{section}.{key}", SCHEMA[section][key], value)
+    return out
+
+
+def parse_override(item: str) -> tuple[str, str, Any]:
+    """Parse ``section.key=value``; the value is read as TOML, else taken as a bare string."""
+    if "=" not in item:
+        raise TippetopError(f"--set: expected KEY=VALUE (e.g. init.n0=60), got {item!r}")
+    key, text = item.split("=", 1)
+    key = key.strip()
+    if key.count(".") != 1:
+        raise TippetopError(f"--set: expected a key of the form section.key, got {key!r}")
+    section, name = key.split(".")
+    if section not in SCHEMA or name not in SCHEMA[section]:
+        known = ", ".join(f"{s}.{k}" for s in SCHEMA for k in SCHEMA[s]
+                          if s not in ("scene", "expect"))
+        raise TippetopError(f"--set: unknown key {key!r} (expected one of: {known})")
+    text = text.strip()
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text
+    if SCHEMA[section][name] == _S and not isinstance(value, str):
+        value = text
+    return section, name, value
+
+
+def read_scene_file(path: str | Path) -> dict[str, Any]:
+    """Read a scene TOML file into a dictionary (no validation)."""
+    p = Path(path)
+    if not p.is_file():
+        raise TippetopError(f"scene: expected an existing .toml file, got {str(path)!r}")
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        msg = f"scene {p.name}: expected valid TOML, got a parse error: {exc}"
+        raise TippetopError(msg) from None
+    except UnicodeDecodeError:
+        msg = f"scene {p.name}: expected a UTF-8 TOML text file, got binary data"
+        raise TippetopError(msg) from None
+
+
+def resolve_scene_path(name_or_path: str) -> Path:
+    """A scene file path, or the name of a catalogue scene (``fig3`` -> models/scenes/fig3.toml)."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        return p
+    cand = SCENES_DIR / f"{name_or_path}.toml"
+    if cand.is_file():
+        return cand
+    raise TippetopError(
+        f"scene: expected a .toml file or a catalogue name ({', '.join(catalogue_names())}), "
+        f"got {name_or_path!r}")
+
+
+def catalogue_names() -> list[str]:
+    """Names of the scenes shipped in ``models/scenes``."""
+    return sorted(p.stem for p in SCENES_DIR.glob("*.toml"))
+
+
+def load_scene(path: str | Path | None = None, overrides: list[str] | None = None) -> Scene:
+    """Load and validate a scene file (or the default scene), with ``--set`` overrides.
+
+    Args:
+        path: A scene file, a catalogue name, or None for the paper's default top and start.
+        overrides: ``section.key=value`` strings applied before validation.
+    """
+    if path is None:
+        raw: dict[str, Any] = {}
+        origin = "default scene"
+        file_path = None
+    else:
+        file_path = resolve_scene_path(str(path))
+        raw = read_scene_file(file_path)
+        origin = f"scene {file_path.name}"
+    data = _validate_raw(raw, origin)
+    for item in overrides or []:
+        section, name, value = parse_override(item)
+        data.setdefault(section, {})[name] = _check_type(f"{section}.{name}",
+                                                         SCHEMA[section][name], value)
+    return scene_from_dict(data, path=file_path)
+
+
+def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None) -> Scene:
+    """Build a :class:`Scene` from an already type-checked dictionary."""
+    sec = {s: dict(data.get(s, {})) for s in SCHEMA}
+    meta = sec["scene"]
+    top_d = sec["top"]
+    mjcf = top_d.pop("mjcf", None)
+    top_mjcf = None
+    if mjcf is not None:
+        top_mjcf = Path(mjcf) if path is None or Path(mjcf).is_absolute() else path.parent / mjcf
+    top = TopParams.from_ratios(**top_d)
+    friction = FrictionParams(**sec["friction"])
+    effects = Effects(**sec["effects"])
+    init = InitialState(**sec["init"])
+    run = RunSpec(**sec["run"])
+    ode = OdeOptions(**sec["ode"])
+    mj = sec["mujoco"]
+    for k in ("solref", "solimp"):
+        if k in mj:
+            mj[k] = tuple(mj[k])
+    mujoco = MujocoOptions(**mj)
+    outputs = Outputs(**sec["outputs"])
+    exp = sec["expect"]
+    if "outcome" in exp:
+        expect(exp["outcome"] in OUTCOMES, "expect.outcome", "|".join(OUTCOMES), exp["outcome"])
+    name = meta.get("name") or (path.stem if path is not None else "default")
+    return Scene(
+        name=name,
+        description=meta.get("description", ""),
+        source=meta.get("source", ""),
+        top=top,
+        friction=friction,
+        effects=effects,
+        init=init,
+        run=run,
+        ode=ode,
+        mujoco=mujoco,
+        outputs=outputs,
+        expect=exp,
+        raw={s: v for s, v in data.items() if v},
+        path=path,
+        top_mjcf=top_mjcf,
+    )
