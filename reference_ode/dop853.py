@@ -10,7 +10,8 @@ Events, checked after every accepted step:
   7th-order dense output by bisection and reported; the run goes on.
 * loss of contact (N <= 0): the model assumes contact, so the run stops at the located time
   with status ``contact_lost``.
-* paper formulation only: |sin theta| below ``P_SING``: status ``singular``.
+* paper formulation only: sin theta below ``P_SING`` (theta within that of 0 or pi, or
+  outside (0, pi) after a step that jumped across): status ``singular``.
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ def _cos_sin(form, y):
         kx = 2.0 * (qx * qz + qw * qy) * inv
         ky = 2.0 * (qy * qz - qw * qx) * inv
         return (qw * qw - qx * qx - qy * qy + qz * qz) * inv, math.sqrt(kx * kx + ky * ky)
-    return math.cos(y[0]), abs(math.sin(y[0]))
+    return math.cos(y[0]), math.sin(y[0])  # signed: theta outside (0, pi) is caught
 
 
 @nb.njit(cache=True)
@@ -180,8 +181,10 @@ def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, 
     err5 = np.empty(n)
     err3 = np.empty(n)
     f = np.empty(n)
-    rhs(form, coulomb_kind, viscous, y, p, f)
+    N0 = rhs(form, coulomb_kind, viscous, y, p, f)
     stats[S_NRHS] += 1
+    if not N0 > 0.0:
+        return STATUS_CONTACT_LOST, t, i_out
     h_abs = stats[S_H]
     if not h_abs > 0.0:
         h_abs = initial_step(form, coulomb_kind, viscous, t, y, f, t_end, p, rtol, atol)
@@ -201,7 +204,7 @@ def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, 
             if h_abs < min_step:
                 stats[S_H] = h_abs
                 c, s = _cos_sin(form, y)
-                if form == FORM_PAPER and s < 1e-3:
+                if form == FORM_PAPER and abs(s) < 1e-3:
                     return STATUS_SINGULAR, t, i_out
                 return STATUS_STEP_TOO_SMALL, t, i_out
             t_new = t + h_abs
@@ -265,8 +268,8 @@ def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, 
         # --- events and samples on the dense output
         c_old, s_old = _cos_sin(form, y)
         c_new, s_new = _cos_sin(form, y_new)
-        if s_new < stats[S_MIN_SIN]:
-            stats[S_MIN_SIN] = s_new
+        if abs(s_new) < stats[S_MIN_SIN]:
+            stats[S_MIN_SIN] = abs(s_new)
         lost = not (N_new > 0.0)
         invert = math.isnan(stats[S_T_INVERT]) and c_old > 0.0 and c_new <= 0.0
         need_dense = lost or invert or (i_out < n_out and t_out[i_out] <= t_new)

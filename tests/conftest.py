@@ -1,0 +1,30 @@
+"""Shared fixtures: runs are cached per session so that several tests can read one run."""
+
+from __future__ import annotations
+
+import functools
+
+from models.options import OdeOptions
+from models.params import FrictionParams, InitialState, TopParams
+from models.scene import load_scene
+from reference_ode.solve import OdeResult, simulate_ode
+
+
+@functools.cache
+def run_scene_ode(name: str, *overrides: str) -> OdeResult:
+    """Run a catalogue scene in the reference ODE (cached)."""
+    s = load_scene(name, list(overrides))
+    return simulate_ode(s.top, s.friction, s.init, t_end_s=s.run.t_end_s,
+                        sample_dt_s=s.run.sample_dt_s, options=s.ode)
+
+
+@functools.cache
+def run_ode(A_over_C: float, a_over_R: float, C_factor: float = 1.0, *, law: str =
+            "modified_coulomb", t_end_s: float = 5.0, rtol: float = 1e-10,
+            formulation: str = "vector", sample_dt_s: float | None = None,
+            **init: float) -> OdeResult:
+    """Run the reference ODE for a top given by its ratios (cached)."""
+    return simulate_ode(TopParams.from_ratios(A_over_C, a_over_R, C_factor),
+                        FrictionParams(law=law), InitialState(**init), t_end_s=t_end_s,
+                        sample_dt_s=sample_dt_s,
+                        options=OdeOptions(formulation=formulation, rtol=rtol))
