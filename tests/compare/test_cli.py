@@ -1,0 +1,108 @@
+"""The command-line contract: JSON keys, exit codes, one-line errors, safe outputs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from models.observables import COLUMNS
+
+THEORY_KEYS = {"group", "n1", "n2", "n3", "n4", "nc", "rc", "theta_c", "theta_f", "theta_d"}
+SIMULATE_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
+                 "energy_monotone", "contact_lost", "wall_s", "n_rhs"}
+
+
+def tippetop(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "compare.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=600)
+
+
+def test_theory_json() -> None:
+    r = tippetop("theory", "--A-over-C", "0.95", "--a-over-R", "0.125", "--n0", "47", "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert set(d) == THEORY_KEYS | {"theta_s"}
+    assert d["group"] == "II"
+    assert d["n1"] == pytest.approx(45.7, abs=0.05) and d["n4"] == pytest.approx(49.4, abs=0.05)
+    assert d["theta_c"] is None and d["theta_f"] is None
+    assert d["theta_d"] == pytest.approx(1.89, abs=0.005)
+    assert d["theta_d"] < d["theta_s"] < 3.1416
+
+
+def test_theory_without_n0_has_no_theta_s() -> None:
+    d = json.loads(tippetop("theory", "--A-over-C", "1.25", "--a-over-R", "0.15",
+                            "--C-factor", "0.8", "--json").stdout)
+    assert set(d) == THEORY_KEYS
+    assert d["group"] == "III" and d["theta_f"] == pytest.approx(2.21, abs=0.005)
+    assert d["n3"] is None and d["n4"] is None and d["nc"] is None
+
+
+def test_simulate_default_json(tmp_path: Path) -> None:
+    out = tmp_path / "run.csv"
+    r = tippetop("simulate", "--engine", "ode", "--set", "run.t_end_s=4", "--out", str(out),
+                 "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert SIMULATE_KEYS <= set(d)
+    assert d["engine"] == "ode" and d["contact_lost"] is False and d["energy_monotone"] is True
+    assert 1.5 < d["t_invert"] < 4.0  # the paper's top inverts by about 3 s
+    table = pd.read_csv(out)
+    assert list(table.columns[: len(COLUMNS)]) == list(COLUMNS)
+    assert table["t"].iloc[-1] == pytest.approx(4.0)
+
+
+def test_simulate_parquet_and_no_overwrite(tmp_path: Path) -> None:
+    out = tmp_path / "run.parquet"
+    assert tippetop("simulate", "fig7b", "--set", "run.t_end_s=0.5", "--out", str(out),
+                    "--json").returncode == 0
+    before = out.read_bytes()
+    r = tippetop("simulate", "fig7b", "--set", "run.t_end_s=0.2", "--out", str(out), "--json")
+    assert r.returncode == 2 and "--force" in r.stderr
+    assert out.read_bytes() == before
+    r = tippetop("simulate", "fig7b", "--set", "run.t_end_s=0.2", "--out", str(out), "--force",
+                 "--json")
+    assert r.returncode == 0
+    assert pd.read_parquet(out)["t"].iloc[-1] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["simulate", "--set", "top.M_kg=-1"], "top.M_kg"),
+        (["simulate", "--set", "top.a_over_R=1.2"], "a/R"),
+        (["simulate", "--set", "top.A_over_C=0.3"], "top.A_over_C"),
+        (["simulate", "--set", "friction.law=sticky"], "friction.law"),
+        (["simulate", "--set", "friction.Lambda_mps=0"], "friction.Lambda_mps"),
+        (["simulate", "--set", "init.n0=nan"], "init.n0"),
+        (["simulate", "--set", "top.colour=3"], "top.colour"),
+        (["simulate", "--engine", "bullet"], "--engine"),
+        (["simulate", "no_such_scene"], "no_such_scene"),
+        (["simulate", "--set", "ode.formulation=paper", "--set", "init.theta0=0"], "singular"),
+        (["simulate", "--out", "x.txt"], ".csv or .parquet"),
+        (["theory", "--A-over-C", "abc", "--a-over-R", "0.1"], "--A-over-C"),
+        (["theory", "--A-over-C", "1.0", "--a-over-R", "1.5"], "a/R"),
+        (["frobnicate"], "frobnicate"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(args: list[str], fragment: str, tmp_path: Path) -> None:
+    r = tippetop(*args, cwd=tmp_path)
+    assert r.returncode == 2
+    assert r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert fragment in lines[0] and "Traceback" not in r.stderr
+    assert list(tmp_path.iterdir()) == []  # no partial output
+
+
+def test_failed_run_leaves_no_output(tmp_path: Path) -> None:
+    """A run that fails on bad input after --out was accepted writes nothing."""
+    out = tmp_path / "t.csv"
+    r = tippetop("simulate", "--set", "ode.formulation=paper", "--set", "init.theta0=0",
+                 "--out", str(out))
+    assert r.returncode == 2 and not out.exists()
+    assert list(tmp_path.iterdir()) == []
