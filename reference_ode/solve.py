@@ -146,6 +146,7 @@ def simulate_ode(
     options = options or OdeOptions()
     expect(math.isfinite(t_end_s) and t_end_s > 0, "run.t_end_s", "a finite number > 0",
            t_end_s)
+    t_end_s = float(t_end_s)  # one compiled signature: every scalar crosses as float64
     form_name = options.formulation
     form = FORMULATIONS[form_name]
     ck, visc = LAW_TERMS[friction.law]
@@ -168,16 +169,17 @@ def simulate_ode(
     t = 0.0
     i_out = 0
     # load (or compile) the integrator before the clock starts: a call that takes no step
-    _d.dop853_run(form, ck, visc, y.copy(), 0.0, 0.0, t_end_s, p, options.rtol, options.atol,
-                  1, t_out[:0], Y[:0], 0, stats.copy())
+    _d.dop853_run(form, ck, visc, y.copy(), 0.0, 0.0, t_end_s, p, float(options.rtol),
+                  float(options.atol), 1, t_out[:0], Y[:0], 0, stats.copy())
     wall0 = time.perf_counter()
     status = _d.STATUS_RUNNING
     for k in range(1, N_CHUNKS + 1):
         t_stop = t_end_s if k == N_CHUNKS else t_end_s * k / N_CHUNKS
         if t >= t_stop:
             continue
-        status, t, i_out = _d.dop853_run(form, ck, visc, y, t, t_stop, t_end_s, p,
-                                         options.rtol, options.atol, options.max_steps,
+        status, t, i_out = _d.dop853_run(form, ck, visc, y, t, float(t_stop), t_end_s, p,
+                                         float(options.rtol), float(options.atol),
+                                         int(options.max_steps),
                                          t_out, Y, i_out, stats)
         if progress is not None:
             progress(t)
