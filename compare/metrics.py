@@ -78,3 +78,48 @@ def summary(
         "wall_s": float(wall_s),
         **{k: int(v) for k, v in counters.items()},
     }
+
+
+#: theta_asymp below this is "upright", above pi minus this "inverted" (rad). Wide enough for
+#: the nutation left after a start at theta0 = 0.1 (Figs. 6-8 end within 0.03 rad of 0).
+OUTCOME_MARGIN = 0.15
+#: A run is "inconclusive" if the mean theta of its last 5 % differs from that of the 5 %
+#: before by more than this (rad): theta is still moving when the horizon ends.
+DRIFT_TOL = 0.02
+
+
+def outcome_of_angle(theta: float) -> str:
+    """``upright``, ``intermediate`` or ``inverted`` for an asymptotic angle (rad).
+
+    Applied both to a run's theta_asymp and to the theory's theta_s, so that both sides of a
+    comparison are classified the same way.
+    """
+    if theta < OUTCOME_MARGIN:
+        return "upright"
+    if theta > math.pi - OUTCOME_MARGIN:
+        return "inverted"
+    return "intermediate"
+
+
+def theta_drift(table: pd.DataFrame) -> float:
+    """Mean theta over the last 5 % of the run minus the mean over the 5 % before (rad)."""
+    t = table["t"].to_numpy()
+    th = table["theta"].to_numpy()
+    span = t[-1] - t[0]
+    last = t >= t[-1] - 0.05 * span
+    before = (t >= t[-1] - 0.10 * span) & ~last
+    if not last.any() or not before.any():
+        return math.nan
+    return float(np.mean(th[last]) - np.mean(th[before]))
+
+
+def classify_outcome(table: pd.DataFrame) -> str:
+    """The run's final state.
+
+    ``upright``, ``intermediate`` or ``inverted`` by theta_asymp, or ``inconclusive`` when theta
+    is still moving by more than ``DRIFT_TOL`` at the end of the horizon.
+    """
+    drift = theta_drift(table)
+    if not math.isfinite(drift) or abs(drift) > DRIFT_TOL:
+        return "inconclusive"
+    return outcome_of_angle(theta_asymp(table))

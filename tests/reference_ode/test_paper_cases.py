@@ -95,3 +95,16 @@ def test_fig3_xi_reaches_the_xi_minus_curve() -> None:
     mid = t[(t["theta"] > 1.0) & (t["theta"] < 2.5)]
     assert len(mid) > 100
     assert abs(np.mean(mid["xi"] / xi0) - np.mean(mid["xi_minus"] / xi0)) < 0.02
+
+
+@pytest.mark.parametrize("name", ["fig3", "fig4", "fig6", "fig7a", "fig7b", "fig8a", "fig8b",
+                                  *[f"fig11_n0{n}" for n in FIG11]])
+def test_outcome_matches_the_scene_and_the_theory(name: str) -> None:
+    """Each catalogue scene's final state is the one the paper reports (its ``expect.outcome``)
+    and the one the theory predicts from theta_s, classified the same way."""
+    from compare.metrics import classify_outcome, outcome_of_angle
+
+    s = load_scene(name)
+    got = classify_outcome(run_scene_ode(name).table)
+    assert got == s.expect["outcome"]
+    assert outcome_of_angle(theory.theta_s(s.top, s.init.n0)) == got
