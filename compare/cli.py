@@ -136,6 +136,63 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------- threshold
+def _cmd_threshold(args: argparse.Namespace) -> int:
+    from compare.engines import ENGINES
+    from compare.threshold import measure_threshold
+
+    if args.engine not in ENGINES:
+        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {args.engine!r}")
+    res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
+                            rel_tol=args.rel_tol, scheduler=args.scheduler,
+                            workers=args.workers, use_cache=not args.no_cache)
+    if args.json:
+        print_json(res)
+    else:
+        _print_human({k: v for k, v in res.items() if k != "runs"})
+    return 0
+
+
+# ---------------------------------------------------------------- sweep
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from compare.io import write_atomic
+    from compare.modes import parse_modes
+    from compare.sweep import parse_range, run_sweep, sweep_figure
+
+    n0s = parse_range(args.n0)
+    modes = parse_modes(args.modes)
+    out_dir = None
+    if args.out:
+        out_dir = Path(args.out)
+        files = [out_dir / "sweep.csv", out_dir / "theory.csv", out_dir / "sweep.png"]
+        if any(f.exists() for f in files) and not args.force:
+            raise TippetopError(f"--out: expected a folder without sweep results (or --force), "
+                                f"got {str(out_dir)!r} which has them")
+    res = run_sweep(args.scene, n0s, modes, tuple(args.set or []), scheduler=args.scheduler,
+                    workers=args.workers, use_cache=not args.no_cache)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        write_atomic(files[0], lambda tmp: res["table"].to_csv(tmp, index=False))
+        write_atomic(files[1], lambda tmp: res["theory"].to_csv(tmp, index=False))
+        sweep_figure(res, files[2])
+    if args.json:
+        print_json({"scene": res["scene"], "computed": res["computed"], "cached": res["cached"],
+                    "rows": res["table"].to_dict(orient="records")})
+    else:
+        print(res["table"].to_string(index=False))
+        print(f"{res['computed']} computed, {res['cached']} from the cache")
+    return 0
+
+
+def _add_parallel_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", help="tcp://HOST:PORT of a Dask scheduler (default: local "
+                   "processes)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and docs)."""
     p = _Parser(prog="tippetop", description="Tippe-top cross-validation harness: the paper's "
@@ -167,6 +224,29 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=_cmd_simulate)
 
+    th = sub.add_parser("threshold", help="measure n1 or nc by bisection on n0")
+    th.add_argument("scene", nargs="?", help="scene (default: fig11_n060, the Fig. 9 (a) top "
+                    "from theta0 = 0.01 over 60 s)")
+    th.add_argument("--engine", default="ode", help="ode (default) or mujoco")
+    th.add_argument("--which", required=True, help="n1 or nc")
+    th.add_argument("--set", action="append", metavar="KEY=VALUE")
+    th.add_argument("--rel-tol", dest="rel_tol", type=_finite_float, default=0.005,
+                    help="stop when the bracket is this narrow, relative (default 0.005)")
+    _add_parallel_options(th)
+    th.add_argument("--json", action="store_true")
+    th.set_defaults(func=_cmd_threshold)
+
+    sw = sub.add_parser("sweep", help="theta_asymp against n0 per mode, with theta_s(n0)")
+    sw.add_argument("scene", help="scene file or catalogue name")
+    sw.add_argument("--n0", required=True, help="START:STOP:STEP (rad/s)")
+    sw.add_argument("--modes", default="ode", help="comma-separated modes (default: ode)")
+    sw.add_argument("--set", action="append", metavar="KEY=VALUE")
+    sw.add_argument("--out", help="folder for sweep.csv, theory.csv and sweep.png")
+    sw.add_argument("--force", action="store_true", help="overwrite results in --out")
+    _add_parallel_options(sw)
+    sw.add_argument("--json", action="store_true")
+    sw.set_defaults(func=_cmd_sweep)
+
     b = sub.add_parser("bench", help="benchmarks that print ratios against a baseline")
     b.add_argument("what", help="ode: compiled integrator vs scipy solve_ivp(DOP853)")
     b.add_argument("--n0", type=_finite_float, default=60.0)
@@ -190,6 +270,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("tippetop: interrupted\n")
         return 130
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ class EngineRun:
 @contextmanager
 def progress_bar(total_s: float, label: str):
     """A tqdm bar over simulated seconds on a terminal; nothing when stderr is not a terminal."""
-    if not sys.stderr.isatty():
+    if not sys.stderr.isatty() or total_s <= 0:
         yield None
         return
     from tqdm import tqdm
@@ -67,11 +67,15 @@ def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> En
     return EngineRun(res.table, s, res.status, res.message)
 
 
-def run_engine(scene: Scene, engine: str) -> EngineRun:
-    """Run ``scene`` in ``engine`` (``ode`` or ``mujoco``) with a progress bar on a terminal."""
+def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:
+    """Run ``scene`` in ``engine`` (``ode`` or ``mujoco``).
+
+    With ``progress`` a bar over simulated time is shown when stderr is a terminal.
+    """
     if engine not in ENGINES:
         raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {engine!r}")
-    with progress_bar(scene.run.t_end_s, f"{scene.name} [{engine}]") as progress:
+    label = f"{scene.name} [{engine}]"
+    with progress_bar(scene.run.t_end_s if progress else 0.0, label) as progress:
         if engine == "ode":
             return run_ode(scene, progress)
         from mujoco_runner.engine import run_mujoco

@@ -1,0 +1,270 @@
+"""Many runs at once, cached.
+
+Runs go in parallel on this machine's cores by default, on a Dask cluster when a scheduler
+address is given, and are cached on disk so that a rerun computes only what changed.
+
+A :class:`Task` names a scene (file or catalogue name, or None for the default scene), its
+``--set`` overrides and an engine. Its cache key hashes what defines the physics: the scene's
+content after overrides (not its name or outputs), the engine, the source code of the packages
+that compute it, and the MuJoCo version. Change any of these and the task runs again.
+"""
+
+from __future__ import annotations
+
+import atexit
+import hashlib
+import json
+import os
+import sys
+from collections.abc import Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from functools import lru_cache
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from compare.io import write_atomic
+from models.errors import TippetopError
+from models.scene import Scene, load_scene
+
+_PACKAGES = ("models", "reference_ode", "mujoco_runner")
+#: Rows kept of each run's observables table in the cache (for figures and reports).
+CACHED_TABLE_ROWS = 4000
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: a scene, its overrides and an engine."""
+
+    scene: str | None
+    overrides: tuple[str, ...] = ()
+    engine: str = "ode"
+    label: str = field(default="", compare=False)
+
+    def load(self) -> Scene:
+        """The validated scene."""
+        return load_scene(self.scene, list(self.overrides))
+
+
+@lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """Hash of the source of the packages that compute a run (and of MuJoCo's version)."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent
+    for pkg in _PACKAGES:
+        for path in sorted((root / pkg).rglob("*.py")):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    try:
+        import mujoco
+
+        h.update(mujoco.__version__.encode())
+    except ImportError:  # pragma: no cover - mujoco is a dependency
+        pass
+    return h.hexdigest()[:16]
+
+
+def task_key(task: Task, scene: Scene | None = None) -> str:
+    """The cache key of a task (see the module docstring)."""
+    scene = scene or task.load()
+    keep = {k: v for k, v in scene.raw.items() if k not in ("scene", "outputs", "expect")}
+    payload: dict[str, Any] = {"scene": keep, "engine": task.engine, "code": code_fingerprint()}
+    if scene.top_mjcf is not None:
+        payload["mjcf"] = hashlib.sha256(Path(scene.top_mjcf).read_bytes()).hexdigest()
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def default_cache_dir() -> Path:
+    """``$TIPPETOP_CACHE``, else ``~/.cache/tippetop``."""
+    env = os.environ.get("TIPPETOP_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "tippetop"
+
+
+def _downsample(table: pd.DataFrame, rows: int = CACHED_TABLE_ROWS) -> pd.DataFrame:
+    step = max(1, len(table) // rows)
+    out = table.iloc[::step]
+    if out.index[-1] != table.index[-1]:
+        out = pd.concat([out, table.iloc[[-1]]])
+    return out.reset_index(drop=True)
+
+
+def execute(task: Task) -> dict[str, Any]:
+    """Run one task in this process; returns its summary and a downsampled table.
+
+    Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
+    in a sweep is reported with the others.
+    """
+    from compare.engines import run_engine
+
+    try:
+        scene = task.load()
+        run = run_engine(scene, task.engine, progress=False)
+    except TippetopError as exc:
+        return {"error": str(exc)}
+    return {"summary": run.summary, "table": _downsample(run.table)}
+
+
+@dataclass
+class TaskResult:
+    """A finished task: its summary (or error), its table, and whether it came from the cache."""
+
+    task: Task
+    key: str
+    summary: dict[str, Any] | None
+    table: pd.DataFrame | None
+    error: str | None
+    cached: bool
+
+
+class ResultCache:
+    """One JSON summary and one Parquet table per task key, written atomically."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+
+    def _paths(self, key: str) -> tuple[Path, Path]:
+        d = self.root / key[:2]
+        return d / f"{key}.json", d / f"{key}.parquet"
+
+    def get(self, key: str) -> tuple[dict[str, Any], pd.DataFrame] | None:
+        """The cached summary and table, or None."""
+        js, pq = self._paths(key)
+        if not (js.is_file() and pq.is_file()):
+            return None
+        try:
+            return json.loads(js.read_text()), pd.read_parquet(pq)
+        except (ValueError, OSError):
+            return None
+
+    def put(self, key: str, summary: dict[str, Any], table: pd.DataFrame) -> None:
+        """Store a task's results."""
+        js, pq = self._paths(key)
+        js.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(pq, lambda tmp: table.to_parquet(tmp, index=False))
+        write_atomic(js, lambda tmp: tmp.write_text(json.dumps(summary)))
+
+
+def _progress(total: int, label: str):
+    if not sys.stderr.isatty() or total == 0:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=label, unit="run", leave=False)
+
+
+def run_tasks(
+    tasks: Sequence[Task],
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    cache_dir: Path | None = None,
+    use_cache: bool = True,
+    label: str = "runs",
+) -> list[TaskResult]:
+    """Run tasks in parallel (locally, or on the Dask cluster at ``scheduler``), with caching.
+
+    Args:
+        tasks: The runs.
+        scheduler: ``tcp://HOST:PORT`` of a Dask scheduler; None runs on local processes.
+        workers: Local worker processes (default: all cores).
+        cache_dir: Cache folder (default :func:`default_cache_dir`).
+        use_cache: Read and write the cache.
+        label: Progress-bar label.
+
+    Returns:
+        One result per task, in order.
+    """
+    cache = ResultCache(cache_dir or default_cache_dir()) if use_cache else None
+    scenes = [t.load() for t in tasks]  # validate everything before any work
+    keys = [task_key(t, s) for t, s in zip(tasks, scenes, strict=True)]
+    results: list[TaskResult | None] = [None] * len(tasks)
+    todo: dict[str, list[int]] = {}
+    for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
+        hit = cache.get(key) if cache else None
+        if hit is not None:
+            results[i] = TaskResult(task, key, hit[0], hit[1], None, True)
+        else:
+            todo.setdefault(key, []).append(i)
+    unique = [(key, tasks[idx[0]]) for key, idx in todo.items()]
+    bar = _progress(len(unique), label)
+    for key, out in _dispatch(unique, scheduler, workers, bar):
+        if "error" in out:
+            res_summary, table, err = None, None, out["error"]
+        else:
+            res_summary, table, err = out["summary"], out["table"], None
+            if cache:
+                cache.put(key, res_summary, table)
+        for i in todo[key]:
+            results[i] = TaskResult(tasks[i], key, res_summary, table, err, False)
+    if bar is not None:
+        bar.close()
+    return [r for r in results if r is not None]
+
+
+def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: int | None,
+              bar: Any) -> Iterable[tuple[str, dict[str, Any]]]:
+    if not unique:
+        return
+    if scheduler:
+        yield from _dispatch_dask(unique, scheduler, bar)
+        return
+    n = workers or os.cpu_count() or 1
+    if n == 1 or len(unique) == 1:
+        for key, task in unique:
+            yield key, execute(task)
+            if bar is not None:
+                bar.update()
+        return
+    pool = _local_pool(n)
+    futures = {pool.submit(execute, task): key for key, task in unique}
+    for fut in as_completed(futures):
+        yield futures[fut], fut.result()
+        if bar is not None:
+            bar.update()
+
+
+@lru_cache(maxsize=1)
+def _local_pool(n: int) -> ProcessPoolExecutor:
+    """One pool of worker processes per process, kept for later calls.
+
+    A bisection makes several rounds; fresh workers each round would cost seconds of imports.
+    """
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"))
+    atexit.register(pool.shutdown, wait=False, cancel_futures=True)
+    return pool
+
+
+def _dispatch_dask(unique: list[tuple[str, Task]], scheduler: str,
+                   bar: Any) -> Iterable[tuple[str, dict[str, Any]]]:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_as_completed
+    except ImportError:  # pragma: no cover - distributed is a dependency
+        raise TippetopError("--scheduler: expected the 'distributed' package installed, got an "
+                            "ImportError") from None
+    if not scheduler.startswith("tcp://"):
+        raise TippetopError(f"--scheduler: expected tcp://HOST:PORT, got {scheduler!r}")
+    try:
+        client = Client(scheduler, timeout="10s")
+    except OSError as exc:
+        raise TippetopError(f"--scheduler: expected a reachable Dask scheduler, got "
+                            f"{scheduler!r} ({exc})") from None
+    with client:
+        futures = client.map(execute, [t for _, t in unique], pure=False)
+        keys = {f.key: k for f, (k, _) in zip(futures, unique, strict=True)}
+        for fut in dask_as_completed(futures):
+            yield keys[fut.key], fut.result()
+            if bar is not None:
+                bar.update()
+
+
+def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
+    """A summary without its wall time (for comparing runs made on different machines)."""
+    return {k: v for k, v in summary.items() if k != "wall_s"}
+
+
+__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "execute", "run_tasks",
+           "strip_timing", "task_key"]

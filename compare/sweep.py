@@ -1,0 +1,99 @@
+"""theta_asymp against the initial spin n0 in each mode, with the theory's theta_s(n0).
+
+This is the paper's Figs. 9 and 10, measured in any engine.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from compare import theory
+from compare.io import write_atomic
+from compare.metrics import classify_outcome
+from compare.modes import mode_task_parts
+from compare.runner import Task, run_tasks
+from models.errors import TippetopError
+
+
+def parse_range(text: str) -> list[float]:
+    """``START:STOP:STEP`` (STOP included when it falls on the grid) -> the n0 values."""
+    parts = text.split(":")
+    try:
+        start, stop, step = (float(p) for p in parts)
+    except ValueError:
+        raise TippetopError(f"--n0: expected START:STOP:STEP numbers, got {text!r}") from None
+    if not (math.isfinite(start) and math.isfinite(stop) and math.isfinite(step)) or step <= 0 \
+            or stop < start:
+        raise TippetopError(f"--n0: expected START <= STOP and STEP > 0, got {text!r}")
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if n > 2000:
+        raise TippetopError(f"--n0: expected at most 2000 points, got {n} from {text!r}")
+    return [round(start + i * step, 12) for i in range(n)]
+
+
+def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
+              overrides: tuple[str, ...] = (), *, scheduler: str | None = None,
+              workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
+    """Run every (mode, n0) and return the table, the theory curve and the cache hits."""
+    tasks, meta = [], []
+    for mode in modes:
+        engine, mode_over = mode_task_parts(mode)
+        for n0 in n0_values:
+            tasks.append(Task(scene, (*overrides, *mode_over, f"init.n0={n0!r}"), engine))
+            meta.append((mode, n0))
+    results = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
+                        label="sweep")
+    rows = []
+    for (mode, n0), res in zip(meta, results, strict=True):
+        if res.error:
+            raise TippetopError(res.error)
+        s = res.summary
+        rows.append({"mode": mode, "n0": n0, "theta_asymp": s["theta_asymp"],
+                     "outcome": classify_outcome(res.table), "t_invert": s["t_invert"],
+                     "J_rel_drift": s["J_rel_drift"], "status": s.get("status", "ok"),
+                     "cached": res.cached})
+    top = tasks[0].load().top
+    lo, hi = min(n0_values), max(n0_values)
+    grid = np.linspace(lo, hi, 400)
+    return {
+        "table": pd.DataFrame(rows),
+        "theory": pd.DataFrame({"n0": grid, "theta_s": theory.theta_s_curve(top, grid)}),
+        "top": top,
+        "scene": tasks[0].load().name,
+        "computed": sum(not r.cached for r in results),
+        "cached": sum(r.cached for r in results),
+    }
+
+
+def sweep_figure(result: dict[str, Any], path: Path) -> None:
+    """theta_asymp against n0 per mode, with theta_s(n0) and the critical spins (PNG/SVG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    top = result["top"]
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    th = result["theory"]
+    ax.plot(th["n0"], th["theta_s"], "k-", lw=1, label=r"theory $\theta_s(n_0)$")
+    markers = iter("os^vD<>p*")
+    for mode, grp in result["table"].groupby("mode", sort=False):
+        ax.plot(grp["n0"], grp["theta_asymp"], next(markers), mfc="none", label=mode)
+    for name, val in (("n1", theory.n1(top)), ("n4", theory.n4(top))):
+        if val is not None and th["n0"].min() <= val <= th["n0"].max():
+            ax.axvline(val, color="0.6", ls=":", lw=1)
+            ax.text(val, 0.05, f" {name}", color="0.4", fontsize=8)
+    ax.set_xlabel(r"$n_0$ (rad/s)")
+    ax.set_ylabel(r"$\theta_{asymp}$ (rad)")
+    ax.set_ylim(-0.1, math.pi + 0.15)
+    ax.set_title(f"{result['scene']}: A/C = {top.A_over_C:.3g}, a/R = {top.a_over_R:.3g} "
+                 f"(Group {theory.group(top)})", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format=path.suffix.lstrip(".")))
+    plt.close(fig)

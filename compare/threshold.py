@@ -1,0 +1,138 @@
+"""Critical spins measured by bisection on n0, against the theory's n1 and n_c.
+
+* ``n1``: the spin above which the vertical state theta = 0 is unstable (eq. 4.13). A run
+  "crosses" when theta moves away from the vertical: its mean over the last 10 % of the run is
+  above its mean over 40-50 % of the run (growing), or theta_asymp is clearly off the vertical.
+  Near n1 the growth rate of theta goes to zero, so the horizon bounds how close the bisection
+  can get; the scene's ``run.t_end_s`` is that horizon.
+* ``nc``: the spin above which a Group II top inverts fully (Sec. 4.3): the run crosses when its
+  final state is ``inverted``.
+
+Each round runs as many points inside the bracket as there are workers, in parallel and
+cached, and keeps the sub-bracket where the outcome changes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from compare import theory
+from compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
+from compare.runner import Task, run_tasks
+from models.errors import TippetopError
+
+WHICH = ("n1", "nc")
+#: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.
+DEFAULT_SCENE = "fig11_n060"
+
+
+def left_vertical(table: pd.DataFrame) -> bool:
+    """True if theta grows away from the vertical over the second half of the run."""
+    t = table["t"].to_numpy()
+    th = table["theta"].to_numpy()
+    T = t[-1]
+    late = th[t >= 0.9 * T].mean()
+    mid = th[(t >= 0.4 * T) & (t < 0.5 * T)].mean()
+    return bool(late > mid or theta_asymp(table) > OUTCOME_MARGIN)
+
+
+def crossed(which: str, table: pd.DataFrame) -> bool:
+    """Whether a run is above the threshold ``which``."""
+    if which == "n1":
+        return left_vertical(table)
+    return classify_outcome(table) == "inverted"
+
+
+def theory_value(which: str, scene_top: Any) -> float:
+    """The theory's n1 or n_c for a top; a clear error where it does not exist."""
+    value = theory.n1(scene_top) if which == "n1" else theory.n_c(scene_top)
+    if value is None:
+        g = theory.group(scene_top)
+        raise TippetopError(f"--which: {which} does not exist for a Group {g} top "
+                            f"(n1 exists for Groups II and III, nc for Group II)")
+    return float(value)
+
+
+def measure_threshold(
+    scene: str | None,
+    engine: str,
+    which: str,
+    overrides: tuple[str, ...] = (),
+    *,
+    rel_tol: float = 0.005,
+    max_rounds: int = 10,
+    points_per_round: int | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    use_cache: bool = True,
+) -> dict[str, Any]:
+    """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) in ``engine``.
+
+    Returns:
+        ``measured`` (bracket midpoint, rad/s), ``theory``, ``rel_diff`` (measured / theory - 1),
+        ``bracket`` [low, high], ``runs`` (each n0 with its result) and ``n_runs``.
+    """
+    if which not in WHICH:
+        raise TippetopError(f"--which: expected n1|nc, got {which!r}")
+    scene = scene or DEFAULT_SCENE
+    base = Task(scene, overrides, engine).load()
+    n_th = theory_value(which, base.top)
+    k = points_per_round or max(2, workers or 2)
+    runs: list[dict[str, Any]] = []
+
+    def evaluate(n0s: list[float]) -> list[bool]:
+        tasks = [Task(scene, (*overrides, f"init.n0={n0!r}"), engine) for n0 in n0s]
+        out = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
+                        label=f"{which} bisection")
+        flags = []
+        for n0, res in zip(n0s, out, strict=True):
+            if res.error:
+                raise TippetopError(res.error)
+            flag = crossed(which, res.table)
+            runs.append({"n0": n0, "crossed": flag,
+                         "theta_asymp": res.summary["theta_asymp"],
+                         "status": res.summary.get("status", "ok")})
+            flags.append(flag)
+        return flags
+
+    lo, hi = 0.8 * n_th, 1.25 * n_th
+    for _ in range(4):  # widen the bracket until its ends disagree
+        f_lo, f_hi = evaluate([lo, hi])
+        if not f_lo and f_hi:
+            break
+        if f_lo:
+            lo *= 0.7
+        if not f_hi:
+            hi *= 1.4
+    else:
+        raise TippetopError(f"threshold: expected the outcome to change between n0 = {lo:.4g} "
+                            f"and {hi:.4g} rad/s, got the same outcome at both ends")
+    rounds = 0
+    while (hi - lo) / (0.5 * (hi + lo)) > rel_tol and rounds < max_rounds:
+        pts = [float(x) for x in np.linspace(lo, hi, k + 2)[1:-1]]
+        flags = evaluate(pts)
+        grid = [lo, *pts, hi]
+        res = [False, *flags, True]
+        # first crossing from False to True (monotone outcome assumed; the first flip is kept)
+        j = next(i for i in range(1, len(res)) if res[i])
+        lo, hi = grid[j - 1], grid[j]
+        rounds += 1
+    measured = 0.5 * (lo + hi)
+    return {
+        "which": which,
+        "engine": engine,
+        "scene": base.name,
+        "measured": measured,
+        "theory": n_th,
+        "rel_diff": measured / n_th - 1.0,
+        "bracket": [lo, hi],
+        "runs": sorted(runs, key=lambda r: r["n0"]),
+        "n_runs": len(runs),
+        "horizon_s": base.run.t_end_s,
+        "converged": (hi - lo) / measured <= rel_tol,
+    }
+
+
