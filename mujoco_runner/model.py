@@ -1,0 +1,366 @@
+"""Load an MJCF tippe top and read the paper's parameters (R, a, A, C, M) from the compiled model.
+
+"Any MJCF top" is a model with exactly one body on a free joint, with no child bodies, that
+carries a colliding sphere geom: the ball that touches the table (the largest colliding sphere
+if there are several; the others count as extra contact geoms). Its mass and
+inertia are MuJoCo's composed ones (``body_mass``, ``body_inertia``, ``body_ipos``,
+``body_iquat``), so several geoms on the body are fine. The table is assumed to be the plane
+z = 0 and gravity to point along -z.
+
+The inertia must be axisymmetric about the line through the centre of mass O and the sphere's
+centre S: two principal moments equal (A) to :data:`AXISYMMETRY_RTOL` and O on the principal
+axis of the third one (C) through S. When all three moments are equal any axis is principal,
+and the symmetry axis k is taken along O -> S.
+
+Other colliding geoms on the top (a stem, say) are allowed with a warning that gives the tilt at
+which they would touch the table (:func:`touch_tilt`); the paper's loaded sphere has none.
+
+A body origin away from the sphere's centre is allowed with a warning: MuJoCo's constraint
+dynamics omit the velocity-product term (J-dot q-dot) of the contact, which vanishes for the
+sphere-plane gap only when the free joint's origin is the sphere's centre S. Elsewhere the
+normal force picks up an error ~ M |centre offset| |omega x (omega x k)| (measured: 1.5% of
+M g for a = 1.9 mm, n = 100 rad/s, theta = 0.4, origin at the centre of mass).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field, replace
+
+import mujoco
+import numpy as np
+
+from models.errors import TippetopError, expect
+from models.frames import quat_to_mat
+from models.params import TopParams
+
+#: Relative tolerance for "A1 == A2" and for "the centre of mass is on the axis" (in units of R).
+AXISYMMETRY_RTOL = 1e-9
+
+# Geom types whose lowest point :func:`touch_tilt` computes in closed form (support functions).
+_SUPPORTED_TOUCH_TYPES = {
+    int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
+    int(mujoco.mjtGeom.mjGEOM_BOX): "box",
+    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID): "ellipsoid",
+}
+_ORIGIN_RTOL = 1e-12  # body origin "at" the sphere's centre, in units of R
+_TILT_GRID = 2001  # tilt samples on [0, pi] before bisection
+_AZIMUTH_GRID = 360  # azimuth samples (1 degree) for geoms that are not axisymmetric about k
+_BISECTIONS = 60  # refines the first touching tilt to ~1e-15 rad
+
+
+class TopModelWarning(UserWarning):
+    """The MJCF top departs from the paper's loaded sphere in a way that changes the results."""
+
+
+@dataclass(frozen=True, eq=False)
+class TopModel:
+    """A compiled MJCF top with the paper's parameters and where they sit in the body.
+
+    Attributes:
+        model: The compiled model.
+        top: R, a, A, C, M and g read from the model (SI).
+        body_id: Id of the free body.
+        joint_id: Id of its free joint.
+        qpos_adr: Address of the free joint in ``qpos`` (7 numbers: position, w x y z).
+        dof_adr: Address of the free joint in ``qvel`` (6 numbers: world linear velocity of the
+            body origin, body-frame angular velocity).
+        ball_geom_id: Id of the colliding sphere geom.
+        centre_body_m: The sphere's centre S in the body frame, shape (3,) (zero for
+            :func:`models.mjcf.make_mjcf` models).
+        axis_body: The unit symmetry axis k (from O towards S) in the body frame, shape (3,).
+        paper_from_body_quat: Quaternion (w, x, y, z) of the rotation taking body-frame vectors
+            to the paper's body frame (whose z axis is k), shape (4,). Identity for
+            :func:`models.mjcf.make_mjcf` models.
+        warnings: Messages about extra colliding geoms and an off-centre body origin (also
+            issued with ``warnings.warn`` as :class:`TopModelWarning`).
+    """
+
+    model: mujoco.MjModel
+    top: TopParams
+    body_id: int
+    joint_id: int
+    qpos_adr: int
+    dof_adr: int
+    ball_geom_id: int
+    centre_body_m: np.ndarray
+    axis_body: np.ndarray
+    paper_from_body_quat: np.ndarray
+    warnings: tuple[str, ...] = field(default=())
+
+
+def load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
+    """Compile MJCF given as text (starts with ``<``) or as a file path.
+
+    Raises:
+        TippetopError: If the file is missing or MuJoCo rejects the document.
+    """
+    is_text = isinstance(mjcf, str) and mjcf.lstrip().startswith("<")
+    try:
+        if is_text:
+            return mujoco.MjModel.from_xml_string(mjcf)
+        path = os.fspath(mjcf)
+        expect(os.path.isfile(path), "mjcf", "MJCF text or the path of an MJCF file", path)
+        return mujoco.MjModel.from_xml_path(path)
+    except ValueError as exc:
+        if isinstance(exc, TippetopError):
+            raise
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise TippetopError(f"mjcf: expected a valid MJCF document, got MuJoCo error: {first}")\
+            from None
+
+
+def load_top(mjcf: str | os.PathLike[str]) -> TopModel:
+    """Compile MJCF (text or path) and read the top's parameters; see :func:`top_from_model`."""
+    return top_from_model(load_model(mjcf))
+
+
+def top_from_mjcf_file(path: str | os.PathLike[str]) -> TopParams:
+    """The paper's parameters (R, a, A, C, M, g) of the top in an MJCF file or text."""
+    return load_top(path).top
+
+
+def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
+    return mujoco.mj_id2name(model, obj, i) or f"#{i}"
+
+
+def _quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of the smallest rotation taking unit u to unit v."""
+    d = float(np.dot(u, v))
+    if d < -1 + 1e-12:
+        # Half turn about any axis perpendicular to u.
+        axis = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(axis) < 1e-6:
+            axis = np.cross(u, [0.0, 1.0, 0.0])
+        axis /= np.linalg.norm(axis)
+        return np.array([0.0, *axis])
+    q = np.array([1.0 + d, *np.cross(u, v)])
+    return q / np.linalg.norm(q)
+
+
+def _symmetry_axis(
+    model: mujoco.MjModel, b: int, centre_body: np.ndarray, R: float
+) -> tuple[np.ndarray, float, float]:
+    """The unit axis k (body frame, O -> S) and the moments (A, C); raise if not axisymmetric."""
+    body = _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+    moments = np.array(model.body_inertia[b], dtype=float)
+    axes = quat_to_mat(model.body_iquat[b])  # columns: principal axes in the body frame
+    offset = centre_body - np.array(model.body_ipos[b], dtype=float)  # S - O, body frame
+    a = float(np.linalg.norm(offset))
+    pairs = [(i, j, 3 - i - j) for i, j in ((0, 1), (0, 2), (1, 2))]
+    equal = [
+        (i, j, c) for i, j, c in pairs
+        if abs(moments[i] - moments[j]) <= AXISYMMETRY_RTOL * max(moments[i], moments[j])
+    ]
+    expect(bool(equal), f"body '{body}' inertia",
+           f"two equal principal moments (axisymmetric to {AXISYMMETRY_RTOL:g} relative)",
+           tuple(float(m) for m in moments))
+    if len(equal) == 3:  # spherical inertia: any axis is principal; take O -> S
+        A = C = float(np.mean(moments))
+        axis = offset / a if a > 0 else axes[:, 2]
+        return axis, A, C
+    i, j, c = equal[0]
+    A, C = 0.5 * float(moments[i] + moments[j]), float(moments[c])
+    axis = axes[:, c] / np.linalg.norm(axes[:, c])
+    off_axis = float(np.linalg.norm(offset - np.dot(offset, axis) * axis))
+    expect(off_axis <= AXISYMMETRY_RTOL * R, f"body '{body}' centre of mass",
+           "on the principal C axis through the sphere's centre (off by <= "
+           f"{AXISYMMETRY_RTOL:g} R)", f"{off_axis:.3e} m off the axis")
+    if a > 0 and np.dot(offset, axis) < 0:
+        axis = -axis
+    return axis, A, C
+
+
+def _lowest_offsets(model: mujoco.MjModel, g: int, centre_body: np.ndarray,
+                    ups: np.ndarray) -> np.ndarray | None:
+    """Min over geom g of ``up . (x - S)`` for each body-frame up vector (rows of ``ups``).
+
+    Returns None for geom types without a closed-form support function.
+    """
+    kind = _SUPPORTED_TOUCH_TYPES.get(int(model.geom_type[g]))
+    if kind is None:
+        return None
+    size = np.array(model.geom_size[g], dtype=float)
+    rot = quat_to_mat(model.geom_quat[g])  # geom frame -> body frame
+    centre = ups @ (np.array(model.geom_pos[g], dtype=float) - centre_body)
+    proj = ups @ rot  # (n, 3): components of up along the geom's axes
+    if kind == "sphere":
+        reach = np.full(len(ups), size[0])
+    elif kind == "capsule":
+        reach = size[0] + size[1] * np.abs(proj[:, 2])
+    elif kind == "cylinder":
+        reach = size[1] * np.abs(proj[:, 2]) + size[0] * np.sqrt(
+            np.clip(1.0 - proj[:, 2] ** 2, 0.0, None))
+    elif kind == "box":
+        reach = np.abs(proj) @ size
+    else:  # ellipsoid
+        reach = np.sqrt(((proj * size) ** 2).sum(axis=1))
+    return centre - reach
+
+
+def _ups(tilt: np.ndarray, azimuth: np.ndarray, paper_from_body: np.ndarray) -> np.ndarray:
+    """World up e_z in the body frame for every (tilt, azimuth) pair, shape (n, 3).
+
+    Body orientation: Ry(tilt) Rz(azimuth) Q, with Q the paper-from-body rotation.
+    """
+    t, p = np.meshgrid(tilt, azimuth, indexing="ij")
+    up_paper = np.stack([-np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+    return up_paper.reshape(-1, 3) @ quat_to_mat(paper_from_body)  # Q^T u, row-wise
+
+
+def _axisymmetric_about_k(top_model: TopModel, g: int) -> bool:
+    """A sphere, capsule or cylinder centred on the symmetry axis and aligned with it."""
+    model, k = top_model.model, top_model.axis_body
+    kind = _SUPPORTED_TOUCH_TYPES.get(int(model.geom_type[g]))
+    offset = np.array(model.geom_pos[g], dtype=float) - top_model.centre_body_m
+    on_axis = np.linalg.norm(offset - np.dot(offset, k) * k) <= 1e-12 * top_model.top.R_m
+    if kind == "sphere":
+        return bool(on_axis)
+    if kind in ("capsule", "cylinder"):
+        return bool(on_axis and abs(abs(quat_to_mat(model.geom_quat[g])[:, 2] @ k) - 1) < 1e-12)
+    return False
+
+
+def touch_tilt(top_model: TopModel, geom_id: int) -> float | None:
+    """Smallest tilt theta (rad) at which a geom of the top touches the table.
+
+    The ball rests on the table (its centre at height R); the geom touches when its lowest
+    point reaches z = 0. Geoms that are not axisymmetric about k (anything but a sphere,
+    capsule or cylinder centred on and aligned with k) are checked every degree of azimuth
+    about k, and the worst azimuth counts.
+
+    Supported geom types: sphere, capsule, cylinder, box, ellipsoid (any position and
+    orientation in the body). Others raise TippetopError.
+
+    Returns:
+        The tilt in [0, pi] (0 if it already touches upright), or None if it never touches.
+    """
+    model, g = top_model.model, geom_id
+    kind = _SUPPORTED_TOUCH_TYPES.get(int(model.geom_type[g]))
+    expect(kind is not None, f"geom '{_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)}' type",
+           "one of " + "|".join(_SUPPORTED_TOUCH_TYPES.values()), int(model.geom_type[g]))
+    R, c_b, q = top_model.top.R_m, top_model.centre_body_m, top_model.paper_from_body_quat
+    n_azimuth = 1 if _axisymmetric_about_k(top_model, g) else _AZIMUTH_GRID
+    azimuth = np.linspace(0.0, 2 * math.pi, n_azimuth, endpoint=False)
+
+    def clearance(tilts: np.ndarray) -> np.ndarray:
+        low = _lowest_offsets(model, g, c_b, _ups(tilts, azimuth, q))
+        return R + low.reshape(len(tilts), len(azimuth)).min(axis=1)
+
+    tilts = np.linspace(0.0, math.pi, _TILT_GRID)
+    gap = clearance(tilts)
+    hits = np.flatnonzero(gap <= 0)
+    if hits.size == 0:
+        return None
+    if hits[0] == 0:
+        return 0.0
+    lo, hi = float(tilts[hits[0] - 1]), float(tilts[hits[0]])
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if clearance(np.array([mid]))[0] <= 0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def _extra_geom_warnings(top_model: TopModel) -> tuple[str, ...]:
+    model, b = top_model.model, top_model.body_id
+    out = []
+    for g in range(model.ngeom):
+        if g == top_model.ball_geom_id or model.geom_bodyid[g] != b:
+            continue
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            continue
+        name = _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
+        kind = _SUPPORTED_TOUCH_TYPES.get(int(model.geom_type[g]))
+        head = f"geom '{name}' on the top also collides"
+        if kind is None:
+            msg = (f"{head}; the tilt at which it touches the table is not computed for its type "
+                   f"({int(model.geom_type[g])}; supported: "
+                   + ", ".join(_SUPPORTED_TOUCH_TYPES.values()) + ")")
+        else:
+            tilt = touch_tilt(top_model, g)
+            if tilt is None:
+                msg = f"{head} ({kind}) but never touches the table at any tilt"
+            else:
+                msg = (f"{head} ({kind}): it touches the table at tilt theta = {tilt:.4f} rad "
+                       f"({math.degrees(tilt):.1f} deg); the paper's loaded sphere has no such "
+                       "geom, so runs past that tilt are not comparable with the reference")
+        out.append(msg)
+    return tuple(out)
+
+
+def top_from_model(model: mujoco.MjModel) -> TopModel:
+    """Read the paper's parameters of the one free body of a compiled model.
+
+    Raises:
+        TippetopError: If the model has not exactly one free body, the free body has child
+            bodies or no colliding sphere geom (or several of the same largest radius),
+            gravity is not along -z, or the inertia is not axisymmetric about the sphere's
+            centre line.
+
+    Warns:
+        TopModelWarning: For each other colliding geom on the top, and for a body origin away
+            from the sphere's centre (also listed in :attr:`TopModel.warnings`).
+    """
+    free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
+    expect(len(free) == 1, "mjcf", "exactly one body with a free joint",
+           f"{len(free)} free joints")
+    j = free[0]
+    b = int(model.jnt_bodyid[j])
+    body = _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+    children = [_name(model, mujoco.mjtObj.mjOBJ_BODY, c) for c in range(model.nbody)
+                if c != b and model.body_parentid[c] == b]
+    expect(not children, f"body '{body}'", "no child bodies (put every geom in the one body)",
+           children)
+    spheres = [
+        g for g in range(model.ngeom)
+        if model.geom_bodyid[g] == b and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE
+        and (model.geom_contype[g] != 0 or model.geom_conaffinity[g] != 0)
+    ]
+    radii = sorted((float(model.geom_size[g, 0]), g) for g in spheres)
+    expect(len(spheres) == 1 or (len(spheres) > 1 and radii[-1][0] > radii[-2][0]),
+           f"body '{body}'", "a colliding sphere geom (the ball; the largest if several)",
+           [_name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in spheres])
+    ball = radii[-1][1]
+    gravity = np.array(model.opt.gravity, dtype=float)
+    expect(gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0, "mjcf option gravity",
+           "(0, 0, -g) with g > 0 (the table is the plane z = 0)", tuple(gravity))
+    R = float(model.geom_size[ball, 0])
+    centre_body = np.array(model.geom_pos[ball], dtype=float)
+    axis, A, C = _symmetry_axis(model, b, centre_body, R)
+    a = float(np.linalg.norm(centre_body - model.body_ipos[b]))
+    top = TopParams(R_m=R, a_m=a, M_kg=float(model.body_mass[b]), A_kgm2=A, C_kgm2=C,
+                    g_mps2=float(-gravity[2]))
+    top_model = TopModel(
+        model=model, top=top, body_id=b, joint_id=j, qpos_adr=int(model.jnt_qposadr[j]),
+        dof_adr=int(model.jnt_dofadr[j]), ball_geom_id=ball, centre_body_m=centre_body,
+        axis_body=axis, paper_from_body_quat=_quat_between(axis, np.array([0.0, 0.0, 1.0])),
+    )
+    messages = _extra_geom_warnings(top_model)
+    offset = float(np.linalg.norm(centre_body))
+    if offset > _ORIGIN_RTOL * R:
+        messages += (
+            f"body '{body}' origin is {offset * 1e3:.4g} mm from the ball's centre: MuJoCo's "
+            "contact dynamics omit the velocity-product term, so the normal force is then off "
+            "by ~ M offset |omega|^2; put the body origin at the sphere's centre",)
+    for msg in messages:
+        warnings.warn(msg, TopModelWarning, stacklevel=2)
+    return replace(top_model, warnings=messages)
+
+
+__all__ = [
+    "AXISYMMETRY_RTOL",
+    "TopModelWarning",
+    "TopModel",
+    "load_model",
+    "load_top",
+    "top_from_mjcf_file",
+    "top_from_model",
+    "touch_tilt",
+]

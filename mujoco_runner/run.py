@@ -1,0 +1,382 @@
+"""Run a MuJoCo tippe top and return the shared observables table.
+
+:func:`simulate_mujoco` builds the MJCF of a :class:`~models.params.TopParams` top
+(:func:`models.mjcf.make_mjcf`) and runs it; :func:`simulate_top_model` runs any loaded MJCF top
+(:func:`mujoco_runner.model.load_top`). Friction is either the paper's law applied by the
+compiled callback (``mode="paper"``, frictionless condim-1 contact) or MuJoCo's own contact
+friction (``mode="native"``).
+
+Stepping runs in C: ``mj_step(model, data, nstep)`` advances one sample interval per call, so
+Python runs only once per sample (to record the state, read the contact force on a scratch
+copy of the state, and check for divergence). A run that diverges ends early with
+``status == "diverged"``, a one-line message, and only the samples before the failure.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+import pandas as pd
+
+from models.errors import expect
+from models.frames import quat_to_mat
+from models.mjcf import FRICTION_MODES, INTEGRATORS, make_mjcf
+from models.params import FrictionParams, InitialState, TopParams
+from mujoco_runner.friction_callback import (
+    PaperFriction,
+    compiled_callback,
+    law_force,
+    law_parameters,
+)
+from mujoco_runner.model import TopModel, load_top
+from mujoco_runner.observables import observables_table
+from mujoco_runner.state import initial_qpos_qvel, kinematics
+
+#: Deepest admissible penetration of the ball into the table, in radii (the soft contact sinks
+#: ~0.025 R at rest with the default solref; more than this means the contact failed).
+MAX_PENETRATION_R = 0.2
+#: The ball's lowest point more than this above the table counts as "no contact" (m).
+CONTACT_GAP_M = 1e-6
+#: Longer than this without contact is "contact lost" (s); the paper assumes permanent contact.
+MAX_AIRBORNE_S = 0.05
+#: A rise of the mechanical energy by more than this fraction of its initial value marks an
+#: unstable integration (friction and the contact can only dissipate energy).
+MAX_ENERGY_RISE = 0.1
+#: Wall time between calls of the progress callback (s).
+PROGRESS_INTERVAL_S = 0.2
+#: Relative tolerance for "sample_dt_s is a whole number of timesteps".
+_GRID_RTOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class MujocoResult:
+    """The outcome of one MuJoCo run.
+
+    Attributes:
+        table: ``models.observables.COLUMNS + EXTRA_COLUMNS``, one row per sample at t = 0,
+            sample_dt, ...; on divergence only the samples before it.
+        n_steps: Integration steps taken.
+        wall_s: Wall-clock time of the stepping loop (s), sampling included.
+        status: ``"ok"`` or ``"diverged"``.
+        message: One line: what was run, or why it failed and what to change.
+        mode: ``"paper"`` or ``"native"``.
+        warnings: Warnings about the model (extra colliding geoms).
+    """
+
+    table: pd.DataFrame
+    n_steps: int
+    wall_s: float
+    status: str
+    message: str
+    mode: str
+    warnings: tuple[str, ...] = field(default=())
+
+    @property
+    def ok(self) -> bool:
+        """True when the run reached t_end without diverging."""
+        return self.status == "ok"
+
+
+def simulate_mujoco(
+    top: TopParams,
+    friction: FrictionParams,
+    init: InitialState,
+    *,
+    t_end_s: float,
+    sample_dt_s: float,
+    mode: str = "paper",
+    timestep_s: float = 2e-5,
+    integrator: str = "RK4",
+    cone: str = "elliptic",
+    condim: int | None = None,
+    mu: float | None = None,
+    solref: Sequence[float] = (0.02, 1.0),
+    solimp: Sequence[float] = (0.9, 0.95, 0.001, 0.5, 2.0),
+    impratio: float = 1.0,
+    torsional: float = 0.0,
+    rolling: float = 0.0,
+    progress: Callable[[float], None] | None = None,
+) -> MujocoResult:
+    """Simulate the loaded sphere in MuJoCo.
+
+    Args:
+        top: The loaded sphere (SI).
+        friction: The friction law. Paper mode applies it (``modified_coulomb``, ``coulomb``
+            or ``viscous``); native mode uses only ``friction.mu``.
+        init: The paper's initial state.
+        t_end_s: Simulated time (s).
+        sample_dt_s: Sampling interval (s), a whole number of timesteps.
+        mode: ``"paper"`` or ``"native"``.
+        timestep_s: Integration step (s).
+        integrator: MuJoCo integrator (``Euler``, ``RK4``, ``implicit``, ``implicitfast``).
+        cone: ``"pyramidal"`` or ``"elliptic"`` (native mode).
+        condim: Contact dimensionality (None: 1 in paper mode, 3 in native mode).
+        mu: Sliding coefficient; None means ``friction.mu`` (both modes).
+        solref: Contact solref.
+        solimp: Contact solimp.
+        impratio: Frictional-to-normal impedance ratio (native mode).
+        torsional: Torsional coefficient (m), native condim >= 4.
+        rolling: Rolling coefficient (m), native condim 6.
+        progress: Called with the simulated time (s) now and then (at most every
+            :data:`PROGRESS_INTERVAL_S` of wall time, and at the end).
+
+    Returns:
+        The run's :class:`MujocoResult`.
+
+    Raises:
+        TippetopError: For bad arguments (nothing is simulated then).
+    """
+    expect(mode in FRICTION_MODES, "mode", "one of " + "|".join(FRICTION_MODES), mode)
+    mu_eff = friction.mu if mu is None else mu
+    xml = make_mjcf(top, friction_mode=mode, condim=condim, mu=mu_eff, timestep_s=timestep_s,
+                    integrator=integrator, cone=cone, impratio=impratio, solref=solref,
+                    solimp=solimp, torsional=torsional, rolling=rolling)
+    return simulate_top_model(load_top(xml), friction, init, t_end_s=t_end_s,
+                              sample_dt_s=sample_dt_s, mode=mode, mu=mu_eff, progress=progress)
+
+
+def _check_paper_contacts(top_model: TopModel) -> None:
+    """Paper mode needs frictionless contacts on the ball (else friction is applied twice)."""
+    model, ball = top_model.model, top_model.ball_geom_id
+    dims = {int(model.geom_condim[ball])}
+    for g in range(model.ngeom):
+        static = model.body_weldid[model.geom_bodyid[g]] == 0
+        if static and (model.geom_contype[g] or model.geom_conaffinity[g]):
+            dims.add(int(model.geom_condim[g]))
+    for p in range(model.npair):
+        if ball in (model.pair_geom1[p], model.pair_geom2[p]):
+            dims.add(int(model.pair_dim[p]))
+    expect(dims == {1}, "mode", "paper mode on a model whose ball and table contacts have "
+           "condim 1 (frictionless)", f"condims {sorted(dims)}")
+
+
+def _grid(sample_dt_s: float, t_end_s: float, timestep_s: float) -> tuple[int, int]:
+    """(steps per sample, number of sample intervals)."""
+    for name, value in (("sample_dt_s", sample_dt_s), ("t_end_s", t_end_s)):
+        expect(isinstance(value, (int, float)) and math.isfinite(value) and value > 0, name,
+               "a finite number > 0 (seconds)", value)
+    steps = round(sample_dt_s / timestep_s)
+    expect(steps >= 1 and abs(steps * timestep_s - sample_dt_s) <= _GRID_RTOL * sample_dt_s,
+           "sample_dt_s", f"a whole multiple of the timestep {timestep_s:g} s", sample_dt_s)
+    n_intervals = math.floor(t_end_s / sample_dt_s * (1 + _GRID_RTOL))
+    expect(n_intervals >= 1, "t_end_s", f">= sample_dt_s = {sample_dt_s:g} s", t_end_s)
+    return steps, n_intervals
+
+
+def _gap_and_energy(top_model: TopModel, qpos: np.ndarray, qvel: np.ndarray) -> tuple[float, float]:
+    """Height of the ball's lowest point above the table (m) and the mechanical energy (J).
+
+    Scalar arithmetic (it runs once per sample); :func:`observables_table` computes E again,
+    vectorised, for the table.
+    """
+    top = top_model.top
+    rot = quat_to_mat(qpos[3:7])
+    k = rot @ top_model.axis_body
+    arm = rot @ top_model.centre_body_m  # S - body origin
+    ox, oy, oz = (rot @ qvel[3:6]).tolist()
+    rx, ry, rz = (arm - top.a_m * k).tolist()  # O - body origin
+    vx = qvel[0] + oy * rz - oz * ry
+    vy = qvel[1] + oz * rx - ox * rz
+    vz = qvel[2] + ox * ry - oy * rx
+    spin = ox * k[0] + oy * k[1] + oz * k[2]
+    kinetic = 0.5 * top.M_kg * (vx * vx + vy * vy + vz * vz) + 0.5 * (
+        top.A_kgm2 * (ox * ox + oy * oy + oz * oz) + (top.C_kgm2 - top.A_kgm2) * spin * spin)
+    centre_z = float(qpos[2] + arm[2])
+    energy = kinetic + top.M_kg * top.g_mps2 * (centre_z - top.a_m * float(k[2]))
+    return centre_z - top.R_m, float(energy)
+
+
+class _ContactReader:
+    """Normal force, friction force and friction torque on the top, from one mjData."""
+
+    def __init__(self, top_model: TopModel) -> None:
+        self.model = top_model.model
+        self.body = top_model.body_id
+        self._f6 = np.zeros(6)
+
+    def read(self, data: mujoco.MjData) -> tuple[float, np.ndarray, np.ndarray]:
+        """(N, F (3,), tau (3,)) on the top, world frame, summed over its contacts."""
+        N, F, tau = 0.0, np.zeros(3), np.zeros(3)
+        if data.ncon == 0:
+            return N, F, tau
+        geoms, frames = data.contact.geom, data.contact.frame
+        for i in range(data.ncon):
+            b1, b2 = self.model.geom_bodyid[geoms[i]]
+            if self.body not in (b1, b2):
+                continue
+            mujoco.mj_contactForce(self.model, data, i, self._f6)
+            frame = frames[i].reshape(3, 3)  # rows: normal (geom1 -> geom2), tangents
+            sign = 1.0 if b2 == self.body else -1.0  # the force acts on geom2 along +normal
+            force = sign * (frame.T @ self._f6[:3])
+            normal = sign * frame[0]
+            N += self._f6[0]
+            F += force - self._f6[0] * normal
+            tau += sign * (frame.T @ self._f6[3:])
+        return N, F, tau
+
+
+class _SampleChecks:
+    """Per-sample divergence checks: penetration, energy rise, lost contact."""
+
+    def __init__(self, R_m: float, fix: str) -> None:
+        self.R_m, self.fix = R_m, fix
+        self.energy0: float | None = None
+        self.airborne_since: float | None = None
+
+    def failure(self, t: float, gap: float, energy: float) -> str | None:
+        """A one-line reason if the sample at time t (s) shows a failed run, else None."""
+        if self.energy0 is None:
+            self.energy0 = energy
+        if gap < -MAX_PENETRATION_R * self.R_m:
+            return (f"the ball sank {-gap * 1e3:.3g} mm into the table (bound "
+                    f"{MAX_PENETRATION_R:g} R); stiffen solref or {self.fix}")
+        if energy - self.energy0 > MAX_ENERGY_RISE * abs(self.energy0):
+            return (f"the energy rose {100 * (energy / self.energy0 - 1):.3g}% above its "
+                    f"initial value (friction can only dissipate it); {self.fix}")
+        if gap <= CONTACT_GAP_M:
+            self.airborne_since = None
+            return None
+        if self.airborne_since is None:
+            self.airborne_since = t
+        if t - self.airborne_since > MAX_AIRBORNE_S:
+            return (f"contact lost: the ball left the table at t = {self.airborne_since:.6g} s "
+                    f"for more than {MAX_AIRBORNE_S:g} s (the paper assumes permanent contact)")
+        return None
+
+
+def _integrator_name(code: int) -> str:
+    """MJCF spelling of an integrator code (``RK4``, ``Euler``, ...)."""
+    name = mujoco.mjtIntegrator(code).name.removeprefix("mjINT_")
+    return next((s for s in INTEGRATORS if s.upper() == name), name.lower())
+
+
+def _warning_message(data: mujoco.MjData) -> str | None:
+    counts = data.warning.number
+    if not counts.any():
+        return None
+    i = int(np.flatnonzero(counts)[0])
+    return f"MuJoCo warning {mujoco.mjtWarning(i).name} ({int(counts[i])}x)"
+
+
+def simulate_top_model(
+    top_model: TopModel,
+    friction: FrictionParams,
+    init: InitialState,
+    *,
+    t_end_s: float,
+    sample_dt_s: float,
+    mode: str = "paper",
+    mu: float | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> MujocoResult:
+    """Simulate a loaded MJCF top (integrator, timestep and contacts from its MJCF).
+
+    Args:
+        top_model: From :func:`mujoco_runner.model.load_top`.
+        friction: Paper mode: the law applied by the callback. Native mode: unused (the MJCF's
+            friction applies).
+        init: The paper's initial state (:func:`mujoco_runner.state.initial_qpos_qvel`).
+        t_end_s: Simulated time (s).
+        sample_dt_s: Sampling interval (s), a whole number of timesteps.
+        mode: ``"paper"`` (needs condim-1 contacts) or ``"native"``.
+        mu: Paper mode: overrides ``friction.mu``.
+        progress: Called with the simulated time (s) now and then (at most every
+            :data:`PROGRESS_INTERVAL_S` of wall time, and at the end).
+
+    Returns:
+        The run's :class:`MujocoResult`.
+    """
+    expect(mode in FRICTION_MODES, "mode", "one of " + "|".join(FRICTION_MODES), mode)
+    model = top_model.model
+    dt = float(model.opt.timestep)
+    steps, n_intervals = _grid(sample_dt_s, t_end_s, dt)
+    if mode == "paper":
+        _check_paper_contacts(top_model)
+        params = law_parameters(friction, top_model, mu)
+    integrator = _integrator_name(int(model.opt.integrator))
+    fix = f"reduce timestep_s (now {dt:g} s)" + (
+        "" if integrator == "RK4" else f" or use integrator RK4 (now {integrator})")
+
+    data, scratch = mujoco.MjData(model), mujoco.MjData(model)
+    qa, va = top_model.qpos_adr, top_model.dof_adr
+    data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(top_model, init)
+    reader = _ContactReader(top_model)
+    n_rows = n_intervals + 1
+    qpos_s, qvel_s = np.empty((n_rows, 7)), np.empty((n_rows, 6))
+    N_s, F_s, tau_s = np.empty(n_rows), np.empty((n_rows, 3)), np.empty((n_rows, 3))
+
+    status, message, n_good, n_steps = "ok", "", 0, 0
+    checks = _SampleChecks(top_model.top.R_m, fix)
+    callback = (PaperFriction(top_model, data, friction, mu=mu) if mode == "paper"
+                else contextlib.nullcontext())
+    if mode == "paper":
+        compiled_callback()  # numba compiles once per process; keep that out of wall_s
+    wall0 = time.perf_counter()
+    next_report = wall0  # report t = 0 at once
+    with callback:
+        mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
+        for i in range(n_rows):
+            t = i * steps * dt
+            if i > 0:
+                mujoco.mj_step(model, data, steps)
+                n_steps += steps
+            qpos, qvel = data.qpos[qa:qa + 7], data.qvel[va:va + 6]
+            if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()):
+                status, message = "diverged", f"NaN or Inf in qpos/qvel; {fix}"
+                break
+            warning = _warning_message(data)
+            if warning:
+                status, message = "diverged", f"{warning}, the integration is unstable; {fix}"
+                break
+            scratch.qpos[:], scratch.qvel[:], scratch.time = data.qpos, data.qvel, data.time
+            scratch.qacc_warmstart[:] = data.qacc_warmstart
+            mujoco.mj_forward(model, scratch)  # the callback ignores this mjData
+            N_s[i], F_s[i], tau_s[i] = reader.read(scratch)
+            qpos_s[i], qvel_s[i] = qpos, qvel
+            failure = checks.failure(t, *_gap_and_energy(top_model, qpos_s[i], qvel_s[i]))
+            if failure:
+                status, message = "diverged", failure
+                break
+            n_good = i + 1
+            if progress is not None and time.perf_counter() >= next_report:
+                progress(t)
+                next_report = time.perf_counter() + PROGRESS_INTERVAL_S
+    wall_s = time.perf_counter() - wall0
+    if progress is not None and n_good:
+        progress((n_good - 1) * steps * dt)
+
+    t_s = np.arange(n_good) * (steps * dt)
+    qpos_s, qvel_s, N_s = qpos_s[:n_good], qvel_s[:n_good], N_s[:n_good]
+    if mode == "paper":
+        F_s = law_force(params, kinematics(top_model, qpos_s, qvel_s).v_P_mps, N_s) \
+            if n_good else F_s[:0]
+        tau = None
+    else:
+        F_s, tau = F_s[:n_good], tau_s[:n_good]
+    table = observables_table(top_model, t_s, qpos_s, qvel_s, N_s, F_s, tau)
+    if status == "ok":
+        message = (f"{mode} mode: {n_steps} steps of {integrator} at dt = {dt:g} s to "
+                   f"t = {n_intervals * steps * dt:g} s in {wall_s:.3g} s")
+    else:
+        t_fail = n_good * steps * dt
+        message = f"diverged by t = {t_fail:.6g} s ({mode} mode): {message}"
+    return MujocoResult(table=table, n_steps=n_steps, wall_s=wall_s, status=status,
+                        message=message, mode=mode, warnings=top_model.warnings)
+
+
+__all__ = [
+    "CONTACT_GAP_M",
+    "MAX_AIRBORNE_S",
+    "MAX_ENERGY_RISE",
+    "MAX_PENETRATION_R",
+    "MujocoResult",
+    "PROGRESS_INTERVAL_S",
+    "simulate_mujoco",
+    "simulate_top_model",
+]

@@ -1,0 +1,164 @@
+"""The paper's state <-> MuJoCo's free-joint qpos/qvel, and the top's kinematics from them.
+
+MuJoCo's free joint: ``qpos = (p, q)`` with p the body origin
+in the world and q the world quaternion (w, x, y, z) of the body; ``qvel = (v, w_b)`` with v the
+world linear velocity of the body origin and w_b the angular velocity in the BODY frame. For a
+:func:`models.mjcf.make_mjcf` top the body origin is the sphere's centre S and the body's z axis
+is the symmetry axis k; for any other MJCF top :class:`~mujoco_runner.model.TopModel` says where
+S and k sit in the body, and the maps below account for it.
+
+Frame conventions are those of :mod:`models.frames` (table z = 0, k from O to S, the paper's
+rotating frame e_X = horizontal projection of k normalised, e_Y = e_Z x e_X).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.errors import expect
+from models.frames import initial_rigid_state, quat_mul, quat_to_mat
+from models.observables import SIN_THETA_UNDEFINED
+from models.params import InitialState
+from mujoco_runner.model import TopModel
+
+
+def initial_qpos_qvel(top_model: TopModel, init: InitialState) -> tuple[np.ndarray, np.ndarray]:
+    """The free joint's qpos (7,) and qvel (6,) for the paper's initial state.
+
+    The top starts with phi = psi = 0 and its centre of mass above the origin, the ball just
+    touching the table (S at height R), as in :func:`models.frames.initial_rigid_state`.
+    """
+    top = top_model.top
+    rigid = initial_rigid_state(top, init)
+    quat = quat_mul(rigid.quat, top_model.paper_from_body_quat)
+    quat /= np.linalg.norm(quat)
+    rot = quat_to_mat(quat)
+    origin = rigid.sphere_centre_m(top) - rot @ top_model.centre_body_m
+    v_origin = rigid.v_com_mps + np.cross(rigid.omega_radps, origin - rigid.com_m)
+    qpos = np.concatenate([origin, quat])
+    qvel = np.concatenate([v_origin, rot.T @ rigid.omega_radps])
+    return qpos, qvel
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """The top's kinematics at n instants, table frame, SI; every array has n rows.
+
+    Attributes:
+        rot: Body-to-world rotation matrices, shape (n, 3, 3).
+        k: Symmetry axis (O -> S), shape (n, 3).
+        centre_m: Sphere centre S, shape (n, 3).
+        com_m: Centre of mass O, shape (n, 3).
+        omega_radps: Angular velocity, shape (n, 3).
+        v_com_mps: Velocity of O, shape (n, 3).
+        v_P_mps: Velocity of the material point at P = S - R e_z (the slip velocity), (n, 3).
+        e_X: The paper's e_X (NaN where |sin theta| < SIN_THETA_UNDEFINED), shape (n, 3).
+        e_Y: The paper's e_Y = e_z x e_X (NaN likewise), shape (n, 3).
+        sin_theta: |horizontal part of k|, shape (n,).
+    """
+
+    rot: np.ndarray
+    k: np.ndarray
+    centre_m: np.ndarray
+    com_m: np.ndarray
+    omega_radps: np.ndarray
+    v_com_mps: np.ndarray
+    v_P_mps: np.ndarray
+    e_X: np.ndarray
+    e_Y: np.ndarray
+    sin_theta: np.ndarray
+
+
+def _rotations(quat: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) of (n, 4) quaternions (w, x, y, z), normalised here."""
+    q = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], axis=1)
+
+
+def kinematics(top_model: TopModel, qpos: np.ndarray, qvel: np.ndarray) -> Kinematics:
+    """Kinematics of the top from the free joint's coordinates.
+
+    Args:
+        top_model: The top and where S and k sit in its body.
+        qpos: Free-joint positions, shape (n, 7) or (7,).
+        qvel: Free-joint velocities, shape (n, 6) or (6,).
+    """
+    top = top_model.top
+    qpos = np.atleast_2d(np.asarray(qpos, dtype=float))
+    qvel = np.atleast_2d(np.asarray(qvel, dtype=float))
+    rot = _rotations(qpos[:, 3:7])
+    k = rot @ top_model.axis_body
+    arm = rot @ top_model.centre_body_m  # S - body origin
+    centre = qpos[:, 0:3] + arm
+    com = centre - top.a_m * k
+    omega = np.einsum("nij,nj->ni", rot, qvel[:, 3:6])
+    v_centre = qvel[:, 0:3] + np.cross(omega, arm)
+    v_com = v_centre - top.a_m * np.cross(omega, k)
+    v_P = v_centre + np.cross(omega, np.array([0.0, 0.0, -top.R_m]))
+    sin_theta = np.hypot(k[:, 0], k[:, 1])
+    defined = sin_theta >= SIN_THETA_UNDEFINED
+    safe = np.where(defined, sin_theta, 1.0)
+    e_X = np.stack([k[:, 0] / safe, k[:, 1] / safe, np.zeros_like(safe)], axis=1)
+    e_X[~defined] = np.nan
+    e_Y = np.stack([-e_X[:, 1], e_X[:, 0], e_X[:, 2]], axis=1)
+    return Kinematics(rot=rot, k=k, centre_m=centre, com_m=com, omega_radps=omega,
+                      v_com_mps=v_com, v_P_mps=v_P, e_X=e_X, e_Y=e_Y, sin_theta=sin_theta)
+
+
+def paper_angles(kin: Kinematics) -> dict[str, np.ndarray]:
+    """theta, theta_dot, Omega and n (arrays of shape (n,)) from the kinematics.
+
+    theta = atan2(|k_h|, k_z); n = omega . k; theta_dot = omega . e_Y; Omega = -(omega . x_hat)
+    / sin theta with x_hat = cos theta e_X - sin theta e_z (the paper's Ox axis), which avoids
+    the cancellation of (omega_z - n cos theta) / sin^2 theta. Where |sin theta| <
+    SIN_THETA_UNDEFINED, Omega is NaN and theta_dot is the rate at which theta leaves the pole,
+    +|horizontal part of dk/dt| at theta = 0 and -|...| at theta = pi.
+    """
+    k, omega, s = kin.k, kin.omega_radps, kin.sin_theta
+    c = k[:, 2]
+    theta = np.arctan2(s, c)
+    n = np.einsum("ni,ni->n", omega, k)
+    theta_dot = np.einsum("ni,ni->n", omega, kin.e_Y)
+    x_hat = c[:, None] * kin.e_X - s[:, None] * np.array([0.0, 0.0, 1.0])
+    undefined = np.isnan(kin.e_X[:, 0])
+    Omega = -np.einsum("ni,ni->n", omega, x_hat) / np.where(undefined, 1.0, s)
+    Omega[undefined] = np.nan
+    if undefined.any():
+        k_dot = np.cross(omega[undefined], k[undefined])
+        theta_dot[undefined] = np.sign(c[undefined]) * np.hypot(k_dot[:, 0], k_dot[:, 1])
+    return {"theta": theta, "theta_dot": theta_dot, "Omega": Omega, "n": n}
+
+
+def initial_state_from_qpos_qvel(top_model: TopModel, qpos: np.ndarray,
+                                 qvel: np.ndarray) -> InitialState:
+    """The inverse of :func:`initial_qpos_qvel`: the paper's state of one (qpos, qvel).
+
+    Raises:
+        TippetopError: If the axis is vertical (|sin theta| < SIN_THETA_UNDEFINED), where Omega,
+            u_OX and u_OY are undefined.
+    """
+    kin = kinematics(top_model, qpos, qvel)
+    expect(kin.sin_theta[0] >= SIN_THETA_UNDEFINED, "state", "a tilted axis (sin theta >= "
+           f"{SIN_THETA_UNDEFINED:g}) to define the paper's frame", float(kin.sin_theta[0]))
+    ang = paper_angles(kin)
+    return InitialState(
+        theta0=float(ang["theta"][0]), thetadot0=float(ang["theta_dot"][0]),
+        Omega0=float(ang["Omega"][0]), n0=float(ang["n"][0]),
+        uOX=float(kin.v_com_mps[0] @ kin.e_X[0]), uOY=float(kin.v_com_mps[0] @ kin.e_Y[0]),
+    )
+
+
+__all__ = [
+    "Kinematics",
+    "initial_qpos_qvel",
+    "initial_state_from_qpos_qvel",
+    "kinematics",
+    "paper_angles",
+]
