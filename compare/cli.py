@@ -14,6 +14,7 @@ from typing import Any, NoReturn
 from models.errors import TippetopError
 
 EXIT_BAD_INPUT = 2
+EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
 
 
 class _Parser(argparse.ArgumentParser):
@@ -113,12 +114,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             target = str(scene.path.parent / target)
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
     run = run_engine(scene, args.engine)
-    if out_path is not None:
+    failed = run.status not in ("ok", "contact_lost")
+    if out_path is not None and not failed:
         write_table(run.table, out_path)
     if args.json:
         print_json(run.summary)
     else:
         _print_human({"scene": scene.name, **run.summary})
+    if failed:
+        sys.stderr.write(f"tippetop: run failed: {run.message}\n")
+        return EXIT_RUN_FAILED
     return 0
 
 

@@ -53,12 +53,17 @@ def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> En
                             "torsional = false and rolling = false, got "
                             f"torsional = {scene.effects.torsional}, "
                             f"rolling = {scene.effects.rolling}")
+    top = scene.top
+    if scene.top_mjcf is not None:
+        from mujoco_runner.model import load_top
+
+        top = load_top(scene.top_mjcf).top
     friction = scene.friction
     if not scene.effects.sliding:
         from dataclasses import replace
 
         friction = replace(friction, law="none")
-    res = simulate_ode(scene.top, friction, scene.init, t_end_s=scene.run.t_end_s,
+    res = simulate_ode(top, friction, scene.init, t_end_s=scene.run.t_end_s,
                        sample_dt_s=scene.run.sample_dt_s, options=scene.ode, progress=progress)
     s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
                 contact_lost=res.status == "contact_lost", wall_s=res.wall_s, n_rhs=res.n_rhs)

@@ -53,8 +53,10 @@ def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
         if res.error:
             raise TippetopError(res.error)
         s = res.summary
+        failed = s.get("status") == "diverged"
         rows.append({"mode": mode, "n0": n0, "theta_asymp": s["theta_asymp"],
-                     "outcome": classify_outcome(res.table), "t_invert": s["t_invert"],
+                     "outcome": "failed" if failed else classify_outcome(res.table),
+                     "t_invert": s["t_invert"],
                      "J_rel_drift": s["J_rel_drift"], "status": s.get("status", "ok"),
                      "cached": res.cached})
     top = tasks[0].load().top

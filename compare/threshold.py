@@ -91,6 +91,9 @@ def measure_threshold(
         for n0, res in zip(n0s, out, strict=True):
             if res.error:
                 raise TippetopError(res.error)
+            if res.summary.get("status") == "diverged":
+                raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
+                                    f"{res.summary['message']}")
             flag = crossed(which, res.table)
             runs.append({"n0": n0, "crossed": flag,
                          "theta_asymp": res.summary["theta_asymp"],

@@ -106,3 +106,36 @@ def test_failed_run_leaves_no_output(tmp_path: Path) -> None:
                  "--out", str(out))
     assert r.returncode == 2 and not out.exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
+    """A loaded MJCF top: the theory keys plus its derived parameters, and a run in each engine
+    (the ODE on the parameters derived from the file)."""
+    from models.mjcf import make_mjcf
+    from models.params import TopParams
+
+    top = TopParams.from_ratios(1.25, 0.15, 0.8)
+    f = tmp_path / "top.xml"
+    f.write_text(make_mjcf(top))
+    d = json.loads(tippetop("theory", "--mjcf", str(f), "--json").stdout)
+    assert THEORY_KEYS | {"R_m", "a_m", "A", "C", "M_kg", "A_over_C", "a_over_R"} <= set(d)
+    assert d["group"] == "III" and d["A_over_C"] == pytest.approx(1.25, rel=1e-9)
+    assert d["a_m"] == pytest.approx(top.a_m, rel=1e-9)
+    for engine in ("ode", "mujoco"):
+        r = tippetop("simulate", "--mjcf", str(f), "--engine", engine, "--set",
+                     "run.t_end_s=0.3", "--set", "mujoco.timestep_s=1e-4", "--json")
+        assert r.returncode == 0, r.stderr
+        assert json.loads(r.stdout)["engine"] == engine
+
+
+def test_diverged_mujoco_run_fails_loudly(tmp_path: Path) -> None:
+    """A timestep far too large: one line on stderr, exit 1, no numbers, no table written."""
+    out = tmp_path / "t.csv"
+    r = tippetop("simulate", "fig3", "--engine", "mujoco", "--set", "mujoco.integrator=Euler",
+                 "--set", "mujoco.timestep_s=0.02", "--set", "run.t_end_s=1", "--out", str(out),
+                 "--json", cwd=tmp_path)
+    assert r.returncode == 1
+    d = json.loads(r.stdout)
+    assert d["status"] == "diverged" and d["theta_asymp"] is None and d["theta_final"] is None
+    assert len(r.stderr.strip().splitlines()) == 1 and "diverged" in r.stderr
+    assert not out.exists()

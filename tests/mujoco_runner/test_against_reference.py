@@ -1,0 +1,80 @@
+"""MuJoCo against the reference ODE: the same scenes, the same observables."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+
+from compare import theory
+from compare.engines import run_engine
+from compare.metrics import classify_outcome, theta_asymp
+from models.scene import load_scene
+
+
+@functools.cache
+def run(name: str, engine: str, *overrides: str):
+    return run_engine(load_scene(name, list(overrides)), engine, progress=False)
+
+
+def test_paper_mode_follows_the_reference_fig3() -> None:
+    """Fig. 3 (theta0 = 0.1, n0 = 100, A = C, a/R = 0.1) over 0-6 s at dt = 2e-5 s.
+
+    Observed: max |theta_mujoco - theta_ode| = 2.2e-4 rad. Two things separate the engines: the
+    one-evaluation lag of N in the callback (5e-5 rad at this dt, from the self-convergence
+    test below) and MuJoCo's soft contact (the ball sinks < 1 um with the paper-mode solref;
+    1e-4 rad here). The bound, 1e-3 rad, leaves 4x for the nutation phase's sensitivity and is
+    20x tighter than what MuJoCo's default contact softness gives (0.014 rad, facts.md: 0.01-0.02).
+    """
+    o = ("run.t_end_s=6", "run.sample_dt_s=0.001")
+    ode = run("fig3", "ode", *o).table
+    mj = run("fig3", "mujoco", *o, "mujoco.timestep_s=2e-5").table
+    assert len(mj) == len(ode)
+    assert np.max(np.abs(mj["theta"] - ode["theta"])) < 1e-3
+    # the inversion time to the sampling resolution (1 ms) plus the same margin
+    t_ode = ode["t"][ode["theta"] > math.pi / 2].iloc[0]
+    t_mj = mj["t"][mj["theta"] > math.pi / 2].iloc[0]
+    assert abs(t_mj - t_ode) <= 0.005
+
+
+def test_paper_mode_error_falls_with_dt() -> None:
+    """The callback's error is first order in dt: it uses the previous evaluation's N.
+
+    Self-convergence over 0-1.5 s of Fig. 3 against dt = 1.25e-5 s (which isolates the
+    time-stepping and lag error from the contact model): errors 6.1e-4, 2.8e-4, 1.3e-4 rad at
+    dt = 2e-4, 1e-4, 5e-5 s, an observed order of 1.1-1.2. Required: monotone decrease and a
+    fitted order between 0.8 and 1.6 (first order, with room for the finite reference).
+    """
+    o = ("run.t_end_s=1.5", "run.sample_dt_s=0.001")
+    ref = run("fig3", "mujoco", *o, "mujoco.timestep_s=1.25e-5").table["theta"].to_numpy()
+    dts = [2e-4, 1e-4, 5e-5]
+    errs = [np.max(np.abs(run("fig3", "mujoco", *o, f"mujoco.timestep_s={dt}").table["theta"]
+                          .to_numpy() - ref)) for dt in dts]
+    assert errs[0] > errs[1] > errs[2]
+    order = np.polyfit(np.log(dts), np.log(errs), 1)[0]
+    assert 0.8 < order < 1.6, (errs, order)
+
+
+def test_paper_mode_group_one_stays_upright() -> None:
+    """Fig. 7 (a), Group I: theta = 0 is stable for any spin (eq. 4.12); as in the reference."""
+    o = ("run.t_end_s=6", "mujoco.timestep_s=1e-4")
+    mj = run("fig7a", "mujoco", *o).table
+    ode = run("fig7a", "ode", "run.t_end_s=6").table
+    assert mj["theta"].max() < 0.15
+    assert theta_asymp(mj) == pytest.approx(theta_asymp(ode), abs=0.01)
+
+
+def test_paper_mode_group_three_stops_short_of_pi() -> None:
+    """Fig. 8 (a), Group III: rises to the intermediate theta_s < theta_f < pi, as in the
+    reference. 20 s at dt = 1e-4 s (the run is within 0.01 rad of its steady angle by then);
+    MuJoCo's theta_asymp within 0.02 rad of the reference's (the lag error at this dt is ~3e-4
+    rad, the rest is the approach to the steady state)."""
+    o = ("run.t_end_s=20",)
+    mj = run("fig8a", "mujoco", *o, "mujoco.timestep_s=1e-4").table
+    ode = run("fig8a", "ode", *o).table
+    top = load_scene("fig8a").top
+    assert classify_outcome(mj) == "intermediate"
+    assert theta_asymp(mj) < theory.theta_f(top)
+    assert theta_asymp(mj) == pytest.approx(theta_asymp(ode), abs=0.02)
