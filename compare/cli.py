@@ -141,6 +141,29 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------- compare
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from compare.crossval import compare_scene, friction_law_table
+    from compare.modes import parse_modes
+
+    res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
+                        scheduler=args.scheduler, workers=args.workers,
+                        use_cache=not args.no_cache)
+    if args.json:
+        print_json(res)
+    else:
+        print(f"scene {res['scene']} (Group {res['group']}): theory predicts "
+              f"{res['theory']['outcome']} (theta_s = {res['theory']['theta_s']:.3f} rad)")
+        import pandas as pd
+
+        with pd.option_context("display.width", 200, "display.max_colwidth", 120):
+            print(friction_law_table(res).to_string(index=False))
+        for d in res["differences"]:
+            print(f"  differs: {d['mode']} {d['metric']} = {d['value']} "
+                  f"(reference {d['reference']}, tolerance {d['tolerance']})")
+    return 0
+
+
 # ---------------------------------------------------------------- threshold
 def _cmd_threshold(args: argparse.Namespace) -> int:
     from compare.engines import ENGINES
@@ -228,6 +251,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=_cmd_simulate)
+
+    cp = sub.add_parser("compare", help="run a scene in several engines/modes and compare")
+    cp.add_argument("scene", help="scene file or catalogue name")
+    cp.add_argument("--modes", default="ode,mujoco-paper,mujoco-native",
+                    help="comma-separated modes (default: ode,mujoco-paper,mujoco-native)")
+    cp.add_argument("--set", action="append", metavar="KEY=VALUE")
+    _add_parallel_options(cp)
+    cp.add_argument("--json", action="store_true")
+    cp.set_defaults(func=_cmd_compare)
 
     th = sub.add_parser("threshold", help="measure n1 or nc by bisection on n0")
     th.add_argument("scene", nargs="?", help="scene (default: fig11_n060, the Fig. 9 (a) top "
