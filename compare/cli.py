@@ -129,10 +129,21 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------- bench
 def _cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "accuracy":
+        from compare.accuracy import run_accuracy
+
+        res = run_accuracy([args.scene] if args.scene else ["fig3", "fig11_n060"],
+                           args.out or "accuracy", budget_s=args.budget_s, force=args.force,
+                           log=None if args.json else (lambda m: print(m, file=sys.stderr)))
+        if args.json:
+            print_json({k: v for k, v in res.items() if k != "report"})
+        else:
+            print(res["report"])
+        return 0
     from compare.bench import bench_ode
 
     if args.what != "ode":
-        raise TippetopError(f"bench: expected 'ode', got {args.what!r}")
+        raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")
     res = bench_ode(n0=args.n0, t_end_s=args.t_end_s, rtol=args.rtol, repeats=args.repeats)
     if args.json:
         print_json(res)
@@ -285,7 +296,13 @@ def build_parser() -> argparse.ArgumentParser:
     sw.set_defaults(func=_cmd_sweep)
 
     b = sub.add_parser("bench", help="benchmarks that print ratios against a baseline")
-    b.add_argument("what", help="ode: compiled integrator vs scipy solve_ivp(DOP853)")
+    b.add_argument("what", help="ode: compiled integrator vs scipy solve_ivp(DOP853); "
+                   "accuracy: work-precision data and plots")
+    b.add_argument("scene", nargs="?", help="accuracy: scene (default fig3 and fig11_n060)")
+    b.add_argument("--out", help="accuracy: output folder (default ./accuracy)")
+    b.add_argument("--budget-s", dest="budget_s", type=_finite_float, default=20.0,
+                   help="accuracy: wall-time budget per point (s)")
+    b.add_argument("--force", action="store_true", help="accuracy: overwrite results in --out")
     b.add_argument("--n0", type=_finite_float, default=60.0)
     b.add_argument("--t-end-s", dest="t_end_s", type=_finite_float, default=60.0)
     b.add_argument("--rtol", type=_finite_float, default=1e-9)

@@ -10,7 +10,7 @@ from typing import Any
 
 import pandas as pd
 
-from compare.metrics import summary
+from compare.metrics import jellett_scale, summary
 from models.errors import TippetopError
 from models.scene import Scene
 
@@ -66,7 +66,9 @@ def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> En
     res = simulate_ode(top, friction, scene.init, t_end_s=scene.run.t_end_s,
                        sample_dt_s=scene.run.sample_dt_s, options=scene.ode, progress=progress)
     s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
-                contact_lost=res.status == "contact_lost", wall_s=res.wall_s, n_rhs=res.n_rhs)
+                contact_lost=res.status == "contact_lost", wall_s=res.wall_s,
+                J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
+                n_rhs=res.n_rhs)
     s["status"] = res.status
     s["message"] = res.message
     return EngineRun(res.table, s, res.status, res.message)

@@ -28,10 +28,27 @@ def first_inversion_time(table: pd.DataFrame) -> float | None:
     return float(table["t"].iloc[above[0]]) if above.size else None
 
 
-def jellett_drift(table: pd.DataFrame) -> float:
-    """Max |J / J0 - 1| over the run."""
+def jellett_drift(table: pd.DataFrame, J_scale: float | None = None) -> float:
+    """Max |J - J0| / |J0| over the run.
+
+    When J0 = 0 (no spin and no precession at the start) the relative drift is undefined;
+    then the drift is taken relative to ``J_scale`` (an upper bound of R |L| over the run,
+    from :func:`jellett_scale`), or it is NaN if none is given.
+    """
     J = table["J"].to_numpy()
-    return float(np.max(np.abs(J / J[0] - 1.0)))
+    den = abs(J[0]) if J[0] != 0 else (J_scale if J_scale else math.nan)
+    return float(np.max(np.abs(J - J[0])) / den)
+
+
+def jellett_scale(table: pd.DataFrame, R_m: float, A: float, C: float) -> float:
+    """An upper bound of R |L| over a run: R (C max|n| + A max|theta_dot| + A max|Omega|)."""
+
+    def peak(col: str) -> float:
+        v = np.abs(table[col].to_numpy())
+        v = v[np.isfinite(v)]
+        return float(v.max()) if v.size else 0.0
+
+    return R_m * (C * peak("n") + A * peak("theta_dot") + A * peak("Omega"))
 
 
 def energy_rise(table: pd.DataFrame) -> float:
@@ -54,6 +71,7 @@ def summary(
     t_invert: float | None,
     contact_lost: bool,
     wall_s: float,
+    J_scale: float | None = None,
     **counters: int,
 ) -> dict:
     """The run summary the ``simulate`` command prints (keys are a contract).
@@ -65,6 +83,7 @@ def summary(
         t_invert: First time theta > pi/2 if the engine located it; None if never.
         contact_lost: Whether the run stopped because the sphere left the table.
         wall_s: Wall time of the simulation (s).
+        J_scale: Scale for Jellett's drift when J0 = 0 (see :func:`jellett_drift`).
         **counters: Cost counters, ``n_rhs`` for the ODE or ``n_steps`` for MuJoCo.
     """
     return {
@@ -72,7 +91,7 @@ def summary(
         "theta_final": float(table["theta"].iloc[-1]),
         "theta_asymp": theta_asymp(table),
         "t_invert": t_invert,
-        "J_rel_drift": jellett_drift(table),
+        "J_rel_drift": jellett_drift(table, J_scale),
         "energy_monotone": energy_monotone(table, rtol),
         "contact_lost": bool(contact_lost),
         "wall_s": float(wall_s),
@@ -117,9 +136,13 @@ def classify_outcome(table: pd.DataFrame) -> str:
     """The run's final state.
 
     ``upright``, ``intermediate`` or ``inverted`` by theta_asymp, or ``inconclusive`` when theta
-    is still moving by more than ``DRIFT_TOL`` at the end of the horizon.
+    is still moving at the end of the horizon: by more than ``DRIFT_TOL`` between the last two
+    5 % windows, or at a rate that would change the class within one more run length.
     """
     drift = theta_drift(table)
     if not math.isfinite(drift) or abs(drift) > DRIFT_TOL:
         return "inconclusive"
-    return outcome_of_angle(theta_asymp(table))
+    now = outcome_of_angle(theta_asymp(table))
+    # the trend carried on for one more run length (20 windows of 5 %) must not change class
+    later = outcome_of_angle(theta_asymp(table) + 20.0 * drift)
+    return now if later == now else "inconclusive"

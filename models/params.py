@@ -97,7 +97,7 @@ class TopParams:
         expect(0 <= a_over_R < 1, "top.a_over_R", "0 <= a/R < 1", a_over_R)
         R_m = _finite_positive("top.R_m", R_m)
         M_kg = _finite_positive("top.M_kg", M_kg)
-        C = C_factor * 0.4 * M_kg * R_m**2
+        C = C_factor * 0.4 * M_kg * R_m * R_m  # inf on overflow, rejected below
         return cls(R_m=R_m, a_m=a_over_R * R_m, M_kg=M_kg, A_kgm2=A_over_C * C, C_kgm2=C,
                    g_mps2=g_mps2)
 

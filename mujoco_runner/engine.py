@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from compare.engines import EngineRun
-from compare.metrics import first_inversion_time, summary
+from compare.metrics import first_inversion_time, jellett_scale, summary
 from models.errors import TippetopError
 from models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL
 from models.scene import Scene
@@ -119,9 +119,12 @@ def run_mujoco(scene: Scene, progress: Callable[[float], None] | None = None) ->
              "message": res.message, "mode": kw["mode"], "timestep_s": kw["timestep_s"],
              "integrator": kw["integrator"], "condim": kw["condim"]}
         return EngineRun(res.table.iloc[:0], s, res.status, res.message)
+    top = load_top(scene.top_mjcf).top if scene.top_mjcf is not None else scene.top
     s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
                 t_invert=first_inversion_time(res.table), contact_lost=False,
-                wall_s=res.wall_s, n_steps=res.n_steps)
+                wall_s=res.wall_s,
+                J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
+                n_steps=res.n_steps)
     s["status"] = res.status
     s["message"] = res.message
     s["mode"] = kw["mode"]

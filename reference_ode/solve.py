@@ -49,6 +49,10 @@ class OdeResult:
         wall_s: Wall time of the integration (s), compile time excluded.
         min_sin_theta: Smallest |sin theta| seen at a step end.
         states: The sampled raw states, shape (samples, state size).
+        stiff_steps: Accepted steps whose stiffness estimate h lambda exceeded 6.1 (Hairer's
+            DOP853 test, see :mod:`reference_ode.dop853`): steps limited by stability, not by
+            accuracy. A large share means the problem is stiff for an explicit method.
+        h_lambda_max: The largest h lambda estimate of an accepted step.
     """
 
     table: pd.DataFrame
@@ -64,6 +68,8 @@ class OdeResult:
     rtol: float
     states: np.ndarray = field(repr=False)
     engine: str = "ode"
+    stiff_steps: int = 0
+    h_lambda_max: float = 0.0
 
 
 def initial_state_vector(top: TopParams, init: InitialState) -> np.ndarray:
@@ -161,6 +167,16 @@ def simulate_ode(
                 f"formulation (it is singular at theta = 0 and pi), got {init.theta0!r}; use "
                 "ode.formulation=vector")
         y = initial_state_paper(top, init)
+    dy0 = np.empty_like(y)
+    N0 = _d.rhs(form, ck, visc, y, p, dy0)
+    row0 = observables_table(form_name, friction, p, np.zeros(1), y[None, :]).iloc[0]
+    if not (np.all(np.isfinite(dy0)) and math.isfinite(N0) and math.isfinite(row0["E"])
+            and math.isfinite(row0["J"])):
+        raise TippetopError(
+            "init: expected a start whose energy and accelerations are finite, got overflow at "
+            f"t = 0 (n0 = {init.n0!r}, theta_dot0 = {init.thetadot0!r}, "
+            f"uOX = {init.uOX!r}, uOY = {init.uOY!r}, mu = {friction.mu!r}, "
+            f"g = {top.g_mps2!r}): the values are too large for double precision")
     t_out = sample_times(t_end_s, sample_dt_s)
     Y = np.full((t_out.size, y.size), np.nan)
     stats = np.zeros(_d.N_STATS)
@@ -206,6 +222,8 @@ def simulate_ode(
         min_sin_theta=float(stats[_d.S_MIN_SIN]),
         rtol=options.rtol,
         states=Y,
+        stiff_steps=int(stats[_d.S_NSTIFF]),
+        h_lambda_max=float(stats[_d.S_HLAMBDA_MAX]),
     )
 
 
