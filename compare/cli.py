@@ -309,6 +309,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
+
+    from compare.nightly import add_nightly_parser
+
+    add_nightly_parser(sub)
     return p
 
 

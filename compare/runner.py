@@ -31,6 +31,8 @@ from models.errors import TippetopError
 from models.scene import Scene, load_scene
 
 _PACKAGES = ("models", "reference_ode", "mujoco_runner")
+#: Modules outside those packages that shape a cached result (its summary and table).
+_MODULES = ("compare/engines.py", "compare/metrics.py", "compare/runner.py")
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000
 
@@ -51,13 +53,14 @@ class Task:
 
 @lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """Hash of the source of the packages that compute a run (and of MuJoCo's version)."""
+    """Hash of the source that computes a run and its summary (and of MuJoCo's version)."""
     h = hashlib.sha256()
     root = Path(__file__).resolve().parent.parent
-    for pkg in _PACKAGES:
-        for path in sorted((root / pkg).rglob("*.py")):
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(path.read_bytes())
+    files = [p for pkg in _PACKAGES for p in sorted((root / pkg).rglob("*.py"))]
+    files += [root / m for m in _MODULES]
+    for path in files:
+        h.update(path.relative_to(root).as_posix().encode())
+        h.update(path.read_bytes())
     try:
         import mujoco
 
