@@ -310,9 +310,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
 
+    from compare.calibrate import add_calibrate_parser
     from compare.nightly import add_nightly_parser
 
     add_nightly_parser(sub)
+    add_calibrate_parser(sub)
     return p
 
 

@@ -31,8 +31,10 @@ from models.errors import TippetopError
 from models.scene import Scene, load_scene
 
 _PACKAGES = ("models", "reference_ode", "mujoco_runner")
-#: Modules outside those packages that shape a cached result (its summary and table).
-_MODULES = ("compare/engines.py", "compare/metrics.py", "compare/runner.py")
+#: Files outside those packages that shape a cached result (its summary and table), among
+#: them the calibrated native-friction settings that native runs use by default.
+_MODULES = ("compare/engines.py", "compare/metrics.py", "compare/runner.py",
+            "models/calibrated_native.toml")
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000
 
@@ -57,7 +59,7 @@ def code_fingerprint() -> str:
     h = hashlib.sha256()
     root = Path(__file__).resolve().parent.parent
     files = [p for pkg in _PACKAGES for p in sorted((root / pkg).rglob("*.py"))]
-    files += [root / m for m in _MODULES]
+    files += [root / m for m in _MODULES if (root / m).is_file()]
     for path in files:
         h.update(path.relative_to(root).as_posix().encode())
         h.update(path.read_bytes())
