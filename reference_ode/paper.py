@@ -35,7 +35,7 @@ from reference_ode.params_array import (
     P_R,
     P_VEPS,
 )
-from reference_ode.vector import xi_curves
+from reference_ode.vector import write_observables, xi_curves
 
 N_STATE = 10
 ITH, ITHD, IOM, IN, IUX, IUY, IPHI, IPSI, IX, IY = range(N_STATE)
@@ -107,25 +107,8 @@ def paper_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     ct, st = math.cos(ht), math.sin(ht)
     cs, ss = math.cos(hp + hs), math.sin(hp + hs)
     cd, sd = math.cos(hp - hs), math.sin(hp - hs)
-    out[0] = th
-    out[1] = thd
-    out[2] = Om if defined else nan
-    out[3] = n
-    out[4] = C * n - A * Om * c if defined else nan
-    out[5] = xi_p
-    out[6] = xi_m
-    out[7] = J
-    out[8] = E
-    out[9] = vPX if defined else nan
-    out[10] = vPY if defined else nan
-    out[11] = N
-    out[12] = y[IUX] if defined else nan
-    out[13] = y[IUY] if defined else nan
-    out[14] = y[IX]
-    out[15] = y[IY]
-    out[16] = h
-    out[17] = ct * cs
-    out[18] = -st * sd
-    out[19] = st * cd
-    out[20] = ct * ss
-    out[21] = FX * vPX + FY * vPY
+    write_observables(out, th, thd, Om if defined else nan, n,
+                      C * n - A * Om * c if defined else nan, xi_p, xi_m, J, E,
+                      vPX if defined else nan, vPY if defined else nan, N,
+                      y[IUX] if defined else nan, y[IUY] if defined else nan, y[IX], y[IY], h,
+                      ct * cs, -st * sd, st * cd, ct * ss, FX * vPX + FY * vPY)

@@ -159,6 +159,15 @@ def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     xi_p, xi_m = xi_curves(J, kz, R, a, M, A, g)
     qw, qx, qy, qz = y[IQW], y[IQX], y[IQY], y[IQZ]
     qn = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    write_observables(out, theta, theta_dot, Omega, n, xi, xi_p, xi_m, J, E, vPX, vPY, N, uOX,
+                      uOY, y[IX], y[IY], h, qw * qn, qx * qn, qy * qn, qz * qn,
+                      Fx * vpx + Fy * vpy)
+
+
+@nb.njit(cache=True, inline="always")
+def write_observables(out, theta, theta_dot, Omega, n, xi, xi_p, xi_m, J, E, vPX, vPY, N, uOX,
+                      uOY, x, y, z, qw, qx, qy, qz, P_fric):
+    """Write one row of observables into ``out`` in the order of ``COLUMNS[1:] + EXTRA``."""
     out[0] = theta
     out[1] = theta_dot
     out[2] = Omega
@@ -173,14 +182,14 @@ def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     out[11] = N
     out[12] = uOX
     out[13] = uOY
-    out[14] = y[IX]
-    out[15] = y[IY]
-    out[16] = h
-    out[17] = qw * qn
-    out[18] = qx * qn
-    out[19] = qy * qn
-    out[20] = qz * qn
-    out[21] = Fx * vpx + Fy * vpy
+    out[14] = x
+    out[15] = y
+    out[16] = z
+    out[17] = qw
+    out[18] = qx
+    out[19] = qy
+    out[20] = qz
+    out[21] = P_fric
 
 
 @nb.njit(cache=True, inline="always")
