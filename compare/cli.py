@@ -312,9 +312,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     from compare.calibrate import add_calibrate_parser
     from compare.nightly import add_nightly_parser
+    from mujoco_runner.render import add_render_parser
 
     add_nightly_parser(sub)
     add_calibrate_parser(sub)
+    add_render_parser(sub)
     return p
 
 

@@ -927,6 +927,43 @@ class NightlyOptions:
     argv: tuple[str, ...] = ()
 
 
+#: Nightly videos: small, side by side (MuJoCo | reference), at most this many frames each.
+VIDEO_SIZE = (320, 240)
+VIDEO_FPS = 15.0
+VIDEO_MAX_FRAMES = 240
+VIDEO_OVERRIDES = ("mujoco.timestep_s=1e-4",)  # paper mode is within 3e-4 rad of 1.25e-5 s
+
+
+def render_videos(cases: Sequence[Case], out_dir: Path,
+                  log: Callable[[str], None]) -> dict[str, Any]:
+    """Render one short side-by-side video per scene of the profile's ``paper`` run cases.
+
+    The playback speed is chosen so that a video has at most ``VIDEO_MAX_FRAMES`` frames (at
+    least quarter-speed slow motion). Returns what the report links: scene -> relative path.
+    """
+    from models.scene import load_scene
+    from mujoco_runner.render import render_scene
+
+    scenes = sorted({c.scene for c in cases if c.kind == "run" and c.category == "paper"})
+    (out_dir / "videos").mkdir(parents=True, exist_ok=True)
+    files: dict[str, str] = {}
+    failed: dict[str, str] = {}
+    for name in scenes:
+        scene = load_scene(name, list(VIDEO_OVERRIDES))
+        speed = max(0.25, scene.run.t_end_s * VIDEO_FPS / VIDEO_MAX_FRAMES)
+        rel = f"videos/{_slug(name)}.mp4"
+        log(f"nightly: rendering {rel} (speed {speed:.3g})")
+        try:
+            render_scene(scene, out_dir / rel, engine="both", fps=VIDEO_FPS, speed=speed,
+                         size=VIDEO_SIZE, max_frames=VIDEO_MAX_FRAMES, force=True,
+                         progress=False)
+            files[name] = rel
+        except TippetopError as exc:
+            failed[name] = str(exc)
+    status = f"{len(files)} written" + (f", {len(failed)} failed" if failed else "")
+    return {"requested": True, "status": status, "files": files, "failed": failed}
+
+
 def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = None,
                 echo: Callable[[str], None] = print) -> int:
     """Run the nightly regression; returns the exit status (0 clean, 1 regression or error).
@@ -989,9 +1026,8 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
         "started": started,
         "baseline_file": str(bfile),
         "baseline_update": None,
-        "videos": {"requested": opts.videos,
-                   "status": "requested, but video rendering is not implemented yet: none "
-                             "written" if opts.videos else "not requested"},
+        "videos": (render_videos(cases, out_dir, log) if opts.videos
+                   else {"requested": False, "status": "not requested", "files": {}}),
         "environment": env,
         "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
                            "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
@@ -1076,8 +1112,8 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--cache", action="store_true", help="reuse the shared run cache (default: "
                    "recompute every run)")
-    p.add_argument("--videos", action="store_true", help="also render videos (recorded; "
-                   "rendering is not implemented yet)")
+    p.add_argument("--videos", action="store_true", help="also render a short side-by-side "
+                   "video of each paper scene (MuJoCo | reference), linked from the report")
     p.add_argument("--accuracy-dir", dest="accuracy_dir", metavar="DIR", help="folder of "
                    "accuracy-versus-cost PNG figures to embed in the report")
     p.set_defaults(func=_cmd_nightly)

@@ -252,8 +252,12 @@ def _verdict_section(results: Mapping[str, Any]) -> str:
                      + _table(["case", "metrics"], [(k, ", ".join(v))
                                                     for k, v in by_case.items()],
                               ["new"] * len(by_case)) + "</details>")
-    if results.get("videos", {}).get("requested"):
-        parts.append(f"<p>Videos: {_e(results['videos']['status'])}.</p>")
+    videos = results.get("videos", {})
+    if videos.get("requested"):
+        links = "".join(f'<li><a href="{_e(rel)}">{_e(name)}</a></li>'
+                        for name, rel in sorted(videos.get("files", {}).items()))
+        parts.append(f"<p>Videos (MuJoCo left, the reference ODE replayed right): "
+                     f"{_e(videos['status'])}.</p>" + (f"<ul>{links}</ul>" if links else ""))
     return "".join(parts)
 
 

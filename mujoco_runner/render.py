@@ -1,0 +1,379 @@
+"""``tippetop render``: an offscreen H.264 MP4 of a scene's run, MuJoCo's, the reference's or both.
+
+Usage::
+
+    tippetop render SCENE [--engine mujoco|ode|both] [--out FILE.mp4] [--fps 30] [--speed 0.25]
+                          [--size 640x480] [--max-frames 3000] [--force] [--set KEY=VALUE ...]
+
+* ``--engine mujoco`` draws the MuJoCo run's poses; ``--engine ode`` replays the reference
+  ODE's trajectory kinematically in the same MJCF (at each frame the free joint's qpos is set
+  from the ODE's pose, then ``mj_forward``); ``--engine both`` puts MuJoCo (left) and the
+  reference (right) side by side, on the same time base, with the same camera settings.
+* Time: ``--speed`` is the playback rate, simulated seconds per second of video, so frame k
+  shows simulated time ``t_k = k * speed / fps`` and the video lasts ``t_end / speed``:
+  ``--speed 0.25`` is quarter-speed slow motion (4 s of video per simulated second), ``1`` is
+  real time. Poses between the table's samples are interpolated (position linearly, orientation
+  by slerp); the physics steps are not drawn one by one.
+* Frames: ``floor(t_end * fps / speed) + 1``; more than ``--max-frames`` (default 3000) is an
+  error raised before anything is simulated, which says which --speed would fit.
+* Picture: the MJCF's checker table and light, a camera that follows the top's centre of mass
+  from a fixed bearing, looking down at 25 degrees; the ball has a two-colour checker texture
+  (visual only) so that spin and tilt show, besides the MJCF's stem and spin marker; top left
+  of each panel, the engine, t (s), theta (rad) and n (rad/s).
+* Output: ``<scene name>.mp4`` in the working folder unless ``--out`` says otherwise; written
+  to a temporary file and renamed, never over an existing file without ``--force``. Sizes are
+  rounded down to even numbers (H.264 with yuv420p needs them).
+
+OpenGL: rendering needs an offscreen backend. ``MUJOCO_GL`` may name it (``egl`` or ``osmesa``);
+unset, EGL is used when its libraries can open a device and OSMesa otherwise, and the choice is
+written to ``MUJOCO_GL`` before this command imports ``mujoco``. Nothing here is imported by
+the simulation: this module imports only the standard library at the top, and the drawing code
+(:mod:`mujoco_runner.video`, imageio-ffmpeg, Pillow) is imported when a video is asked for.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import math
+import os
+import re
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from models.errors import TippetopError, expect
+
+if TYPE_CHECKING:
+    from models.scene import Scene
+
+#: ``--engine`` choices; ``both`` is MuJoCo (left) and the reference ODE (right).
+RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode", "both")
+#: Panel titles.
+ENGINE_LABELS = {"mujoco": "MuJoCo", "ode": "reference ODE"}
+DEFAULT_FPS = 30.0  # (frames per second of video)
+DEFAULT_SPEED = 0.25  # (simulated seconds per second of video: quarter-speed slow motion)
+DEFAULT_SIZE = "640x480"  # (px, one panel)
+DEFAULT_MAX_FRAMES = 3000
+#: Panel sides (px) accepted by --size, before rounding down to even.
+MIN_SIDE_PX, MAX_SIDE_PX = 16, 4096
+#: Offscreen OpenGL backends, in the order they are tried, with the Debian packages they need.
+OFFSCREEN_BACKENDS: tuple[str, ...] = ("egl", "osmesa")
+BACKEND_PACKAGES = {"egl": "libegl1 libopengl0 libgl1-mesa-dri", "osmesa": "libosmesa6"}
+VIDEO_SUFFIXES = (".mp4",)
+
+_SIZE_RE = re.compile(r"^\s*(\d+)\s*[xX]\s*(\d+)\s*$")
+_FRAME_SLACK = 1e-9  # relative: a frame time within this of t_end still counts
+_EGL_PLATFORM_DEVICE_EXT = 0x313F  # EGL_EXT_platform_device
+_EGL_MAX_DEVICES = 16
+
+
+class RunFailed(RuntimeError):
+    """An engine's run diverged or stopped short: there is nothing (complete) to draw."""
+
+
+# ---------------------------------------------------------------- arguments
+def parse_size(text: str) -> tuple[int, int]:
+    """``"WIDTHxHEIGHT"`` -> (width, height) in px, each rounded down to an even number.
+
+    Raises:
+        TippetopError: If the text is not two whole numbers in [16, 4096] joined by ``x``.
+    """
+    m = _SIZE_RE.match(str(text))
+    ok = m is not None and all(MIN_SIDE_PX <= int(v) <= MAX_SIDE_PX for v in m.groups())
+    expect(ok, "--size", f"WIDTHxHEIGHT in px, each from {MIN_SIDE_PX} to {MAX_SIDE_PX} "
+           "(e.g. 640x480)", text)
+    w, h = (int(v) for v in m.groups())
+    return w - w % 2, h - h % 2
+
+
+def frame_count(t_end_s: float, fps: float, speed: float) -> int:
+    """Frames of a run of ``t_end_s`` simulated seconds: t_k = k speed / fps for t_k <= t_end."""
+    return int(math.floor(t_end_s * fps / speed * (1 + _FRAME_SLACK))) + 1
+
+
+def _check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> int:
+    """Validate --fps, --speed and --max-frames; return the frame count."""
+    expect(isinstance(fps, (int, float)) and math.isfinite(fps) and 0 < fps <= 1000, "--fps",
+           "a number of frames per second > 0 and <= 1000", fps)
+    expect(isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0, "--speed",
+           "a number > 0 (simulated seconds per second of video; 0.25 = quarter speed)", speed)
+    expect(isinstance(max_frames, int) and max_frames >= 1, "--max-frames", "a whole number >= 1",
+           max_frames)
+    n = frame_count(t_end_s, fps, speed)
+    if n > max_frames:
+        fits = t_end_s * fps / (max_frames - 1) if max_frames > 1 else math.inf
+        raise TippetopError(
+            f"--max-frames: expected at most {max_frames} frames, got {n} for "
+            f"run.t_end_s = {t_end_s:g} s at --fps {fps:g} and --speed {speed:g} (video "
+            f"{t_end_s / speed:g} s); use --speed {math.ceil(fits * 100) / 100:g} or more, a "
+            "shorter --set run.t_end_s=..., or a larger --max-frames")
+    return n
+
+
+# ---------------------------------------------------------------- OpenGL backend
+def _egl_problem() -> str | None:
+    """None if EGL can open and initialise a device (checked with ctypes), else the reason.
+
+    Uses the C library directly, not PyOpenGL, whose platform is fixed for the process once it
+    is imported: a failed EGL attempt must leave OSMesa still possible.
+    """
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+        ctypes.CDLL("libOpenGL.so.0")
+    except OSError as exc:
+        return str(exc)
+    proc = egl.eglGetProcAddress
+    proc.restype, proc.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    query_addr = proc(b"eglQueryDevicesEXT")
+    display_addr = proc(b"eglGetPlatformDisplayEXT")
+    if not query_addr or not display_addr:
+        return "libEGL has no device platform (EGL_EXT_device_enumeration)"
+    query = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_void_p),
+                             ctypes.POINTER(ctypes.c_int))(query_addr)
+    get_display = ctypes.CFUNCTYPE(ctypes.c_void_p, ctypes.c_uint, ctypes.c_void_p,
+                                   ctypes.c_void_p)(display_addr)
+    egl.eglInitialize.restype = ctypes.c_uint
+    egl.eglInitialize.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    devices = (ctypes.c_void_p * _EGL_MAX_DEVICES)()
+    count = ctypes.c_int(0)
+    if not query(_EGL_MAX_DEVICES, devices, ctypes.byref(count)) or count.value < 1:
+        return "no EGL device (Mesa's drivers missing?)"
+    for i in range(count.value):
+        display = get_display(_EGL_PLATFORM_DEVICE_EXT, devices[i], None)
+        # Left initialised: the display of a device is shared in the process (mujoco.egl's
+        # included), and initialising it again is a no-op, terminating it is not.
+        if display and egl.eglInitialize(display, None, None):
+            return None
+    return f"none of {count.value} EGL devices could be initialised"
+
+
+def _osmesa_problem() -> str | None:
+    """None if the OSMesa library loads, else the reason."""
+    try:
+        ctypes.CDLL("libOSMesa.so.8")
+    except OSError as exc:
+        return str(exc)
+    return None
+
+
+def choose_gl_backend() -> str:
+    """The offscreen backend: ``MUJOCO_GL`` if set, else egl if it works, else osmesa.
+
+    Raises:
+        TippetopError: If ``MUJOCO_GL`` names something other than egl or osmesa, or neither
+            works; the message names the Debian packages to install.
+    """
+    requested = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if requested:
+        expect(requested in OFFSCREEN_BACKENDS, "MUJOCO_GL",
+               "egl or osmesa (offscreen rendering), or unset to pick one", requested)
+        return requested
+    problems = []
+    for backend, problem in (("egl", _egl_problem), ("osmesa", _osmesa_problem)):
+        reason = problem()
+        if reason is None:
+            return backend
+        problems.append(f"{backend}: {reason}")
+    raise TippetopError(
+        "MUJOCO_GL: expected a working offscreen OpenGL backend, got none ("
+        + "; ".join(problems) + f"); install Debian's {BACKEND_PACKAGES['egl']} (EGL) or "
+        f"{BACKEND_PACKAGES['osmesa']} (OSMesa)")
+
+
+def use_gl_backend() -> str:
+    """Choose the backend and write it to ``MUJOCO_GL`` (read by ``mujoco`` when imported)."""
+    backend = choose_gl_backend()
+    os.environ["MUJOCO_GL"] = backend
+    return backend
+
+
+# ---------------------------------------------------------------- rendering a scene
+@dataclass(frozen=True)
+class RenderResult:
+    """What :func:`render_scene` wrote.
+
+    Attributes:
+        path: The MP4 file.
+        engine: ``mujoco``, ``ode`` or ``both``.
+        backend: The OpenGL backend used (``egl`` or ``osmesa``).
+        n_frames: Frames in the video.
+        width: Video width (px; two panels for ``both``).
+        height: Video height (px).
+        fps: Frames per second.
+        speed: Simulated seconds per second of video.
+        video_s: Length of the video (s).
+        render_wall_s: Wall time of drawing and encoding (s), the simulations excluded.
+    """
+
+    path: Path
+    engine: str
+    backend: str
+    n_frames: int
+    width: int
+    height: int
+    fps: float
+    speed: float
+    video_s: float
+    render_wall_s: float
+
+    @property
+    def ms_per_frame(self) -> float:
+        """Drawing and encoding wall time per frame (ms)."""
+        return 1e3 * self.render_wall_s / self.n_frames
+
+
+def render_scene(
+    scene: Scene,
+    out: str | Path,
+    *,
+    engine: str = "mujoco",
+    fps: float = DEFAULT_FPS,
+    speed: float = DEFAULT_SPEED,
+    size: str | tuple[int, int] = DEFAULT_SIZE,
+    max_frames: int = DEFAULT_MAX_FRAMES,
+    force: bool = False,
+    progress: bool = True,
+) -> RenderResult:
+    """Simulate ``scene`` in the engine(s) and write an MP4 of the run.
+
+    Every argument is checked, and the backend chosen, before anything is simulated.
+
+    Args:
+        scene: A :class:`models.scene.Scene`.
+        out: The ``.mp4`` file to write.
+        engine: ``"mujoco"``, ``"ode"`` or ``"both"`` (side by side, MuJoCo left).
+        fps: Frames per second of the video.
+        speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
+        size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
+        max_frames: Refuse to make more frames than this.
+        force: Overwrite an existing ``out``.
+        progress: Show progress bars on stderr when it is a terminal.
+
+    Returns:
+        The file written and its frame count, size and render time.
+
+    Raises:
+        TippetopError: For bad arguments, an existing ``out`` without ``force``, or no working
+            OpenGL backend (no file is written).
+        RunFailed: If an engine's run diverged or stopped short (no file is written).
+    """
+    from compare.io import check_output_path
+
+    expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
+    width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
+    n_frames = _check_timing(scene.run.t_end_s, fps, speed, max_frames)
+    path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
+    backend = use_gl_backend()  # before anything below imports mujoco
+
+    from compare.engines import run_engine
+
+    engines = ("mujoco", "ode") if engine == "both" else (engine,)
+    tables = {}
+    for name in engines:
+        run = run_engine(scene, name, progress=progress)
+        if run.status not in ("ok", "contact_lost") or len(run.table) == 0:
+            raise RunFailed(f"{name}: {run.message}")
+        tables[name] = run.table
+
+    from compare.io import write_atomic
+    from mujoco_runner import video
+
+    top_model = video.render_model(scene, width, height)
+    tracks = [video.Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
+                                     paper_frame=name == "ode") for name in engines]
+    times = video.frame_times(n_frames, fps, speed)
+    stats: list[video.VideoStats] = []
+    with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video") as tick:
+        write_atomic(path, lambda tmp: stats.append(video.write_video(
+            tmp, tracks, times, fps=fps, width=width, height=height, backend=backend,
+            on_frame=tick)))
+    s = stats[0]
+    return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
+                        width=s.width, height=s.height, fps=float(fps), speed=float(speed),
+                        video_s=n_frames / fps, render_wall_s=s.wall_s)
+
+
+@contextmanager
+def _frame_bar(total: int, label: str) -> Iterator[Callable[[], None] | None]:
+    """A tqdm bar over frames on stderr when it is a terminal; yields its tick, or None."""
+    if total <= 0 or not sys.stderr.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+
+    with tqdm(total=total, desc=label, unit="frame", leave=False) as bar:
+        yield lambda: bar.update(1)
+
+
+# ---------------------------------------------------------------- command line
+def _cmd_render(args: argparse.Namespace) -> int:
+    """Run ``tippetop render``; returns the exit status (0, or 1 for a failed run)."""
+    from models.scene import load_scene
+
+    scene = load_scene(args.scene, list(args.set or []))
+    out = args.out if args.out else f"{scene.name}.mp4"
+    try:
+        res = render_scene(scene, out, engine=args.engine, fps=args.fps, speed=args.speed,
+                           size=args.size, max_frames=args.max_frames, force=args.force)
+    except RunFailed as exc:
+        sys.stderr.write(f"tippetop: run failed: {exc}\n")
+        return 1
+    print(f"wrote {res.path}: {res.n_frames} frames {res.width}x{res.height}, "
+          f"{res.video_s:.3g} s of video at {res.fps:g} fps for {scene.run.t_end_s:g} s "
+          f"simulated (--speed {res.speed:g}); {res.backend}, "
+          f"{res.ms_per_frame:.0f} ms a frame")
+    return 0
+
+
+def add_render_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the ``render`` subcommand to ``tippetop``'s subparsers; returns its parser.
+
+    The parser's ``func`` takes the parsed namespace and returns an exit status.
+    """
+    p = subparsers.add_parser(
+        "render", help="an offscreen H.264 MP4 of a run (MuJoCo, reference ODE or both)",
+        description="Simulate a scene and write an MP4: MuJoCo's run, the reference ODE "
+        "replayed in the same MJCF, or both side by side. Needs an offscreen OpenGL backend "
+        "(MUJOCO_GL=egl or osmesa; unset picks one).")
+    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
+                   "paper's top and Fig. 3 start)")
+    p.add_argument("--engine", default="mujoco", help="mujoco (default), ode or both")
+    p.add_argument("--out", help="the .mp4 file (default: <scene name>.mp4 here)")
+    p.add_argument("--fps", type=float, default=DEFAULT_FPS,
+                   help=f"frames per second of video (default {DEFAULT_FPS:g})")
+    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
+                   help="simulated seconds per second of video: 0.25 (default) is quarter-speed "
+                   "slow motion, 1 real time")
+    p.add_argument("--size", default=DEFAULT_SIZE,
+                   help=f"WIDTHxHEIGHT of one panel in px (default {DEFAULT_SIZE})")
+    p.add_argument("--max-frames", dest="max_frames", type=int, default=DEFAULT_MAX_FRAMES,
+                   help=f"refuse longer videos (default {DEFAULT_MAX_FRAMES})")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene key, e.g. run.t_end_s=4 (repeatable)")
+    p.set_defaults(func=_cmd_render)
+    return p
+
+
+__all__ = [
+    "BACKEND_PACKAGES",
+    "DEFAULT_FPS",
+    "DEFAULT_MAX_FRAMES",
+    "DEFAULT_SIZE",
+    "DEFAULT_SPEED",
+    "ENGINE_LABELS",
+    "OFFSCREEN_BACKENDS",
+    "RENDER_ENGINES",
+    "RenderResult",
+    "RunFailed",
+    "add_render_parser",
+    "choose_gl_backend",
+    "frame_count",
+    "parse_size",
+    "render_scene",
+    "use_gl_backend",
+]

@@ -1,0 +1,274 @@
+"""``tippetop render``: the MP4s decode, the replays put the body where the engines say, bad input
+ends in one line with no file left, and the simulation never touches OpenGL.
+
+Videos are tiny (160x120, 20 fps, real time, 0.5 s simulated: 11 frames) and MuJoCo steps at
+1e-4 s, so the file runs in seconds. They need an offscreen OpenGL backend (Debian's libegl1
+libopengl0 libgl1-mesa-dri, or libosmesa6), which CI installs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from pathlib import Path
+
+import imageio.v3 as iio
+import mujoco
+import numpy as np
+import pytest
+
+from compare import cli
+from compare.engines import run_engine
+from models.errors import TippetopError
+from models.frames import quat_to_mat
+from models.scene import load_scene
+from mujoco_runner import render
+from mujoco_runner.model import TopModelWarning
+
+ROOT = Path(__file__).resolve().parents[2]
+SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
+FPS, SPEED, W, H = 20.0, 1.0, 160, 120
+N_FRAMES = 11  # t_k = k * speed / fps = 0, 0.05, ..., 0.5 s
+
+
+def _frames(path: Path) -> np.ndarray:
+    return iio.imread(path, index=None, plugin="FFMPEG")
+
+
+@pytest.fixture(scope="module")
+def backend() -> str:
+    """The backend the render command picks here (MUJOCO_GL is left as it was)."""
+    return render.choose_gl_backend()
+
+
+@pytest.fixture(scope="module")
+def videos(tmp_path_factory: pytest.TempPathFactory, backend: str) -> dict[str, Path]:
+    """One short MuJoCo video and one side-by-side video of Fig. 3."""
+    folder = tmp_path_factory.mktemp("videos")
+    scene = load_scene("fig3", list(SHORT))
+    out = {}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MUJOCO_GL", backend)  # restored afterwards; render_scene writes it
+        for engine in ("mujoco", "both"):
+            res = render.render_scene(scene, folder / f"{engine}.mp4", engine=engine, fps=FPS,
+                                      speed=SPEED, size=(W, H), progress=False)
+            assert res.n_frames == N_FRAMES and res.backend == backend
+            out[engine] = res.path
+    return out
+
+
+def test_frame_times_and_sizes() -> None:
+    assert render.frame_count(0.5, FPS, SPEED) == N_FRAMES
+    # the default: 8 s at quarter speed and 30 fps is 32 s of video
+    assert render.frame_count(8.0, 30.0, 0.25) == 961
+    assert render.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
+
+
+def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Path]) -> None:
+    frames = _frames(videos["mujoco"])
+    assert frames.shape == (N_FRAMES, H, W, 3)
+    assert frames.dtype == np.uint8
+    # the top spins at ~100 rad/s (0.05 s of simulated time between frames), the text changes:
+    # every frame differs from the one before
+    steps = np.abs(np.diff(frames.astype(int), axis=0)).mean(axis=(1, 2, 3))
+    assert np.all(steps > 1.0), steps
+
+
+def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
+    frames = _frames(videos["both"])
+    assert frames.shape == (N_FRAMES, H, 2 * W, 3)
+    left, right = frames[:, :, :W].astype(int), frames[:, :, W:].astype(int)
+    # Same camera, same times, and the engines agree to ~1e-4 rad over 0.5 s: below the text
+    # box the two panels are nearly the same picture, while each changes from frame to frame.
+    below_text = slice(H // 2, H)
+    between_panels = np.abs(left[:, below_text] - right[:, below_text]).mean()
+    over_time = np.abs(left[-1, below_text] - left[0, below_text]).mean()
+    assert between_panels < 0.25 * over_time, (between_panels, over_time)
+
+
+def _pose_check(scene, engine: str, paper_frame: bool) -> None:
+    """Replay the engine's table; the drawn body must sit where the table's pose says."""
+    from mujoco_runner import video
+
+    table = run_engine(scene, engine, progress=False).table
+    top_model = video.render_model(scene, W, H)
+    track = video.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
+    times = video.frame_times(N_FRAMES, FPS, SPEED)
+    samples = track.at(times)
+    data = mujoco.MjData(top_model.model)
+    a = top_model.top.a_m
+    ball = top_model.ball_geom_id
+    for k in (0, 3, 7, 10):  # frame times on the table's 1 ms grid
+        row = table.iloc[int(np.argmin(np.abs(table["t"].to_numpy() - times[k])))]
+        assert abs(row["t"] - times[k]) < 1e-12
+        video.set_pose(top_model, data, samples[k].qpos)
+        q = np.array(row[["qw", "qx", "qy", "qz"]], dtype=float)
+        q = q / np.linalg.norm(q)
+        rot = quat_to_mat(q)
+        com = np.array(row[["x", "y", "z"]], dtype=float)
+        k_axis = rot[:, 2] if paper_frame else rot @ top_model.axis_body
+        xmat = data.xmat[top_model.body_id].reshape(3, 3)
+        # the sphere's centre S = O + a k, the symmetry axis and the centre of mass
+        np.testing.assert_allclose(data.geom_xpos[ball], com + a * k_axis, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(xmat @ top_model.axis_body, k_axis, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(data.xipos[top_model.body_id], com, rtol=0, atol=1e-9)
+        if np.allclose(top_model.paper_from_body_quat, [1, 0, 0, 0]) and not np.any(
+                top_model.centre_body_m):
+            # make_mjcf tops: body frame = the paper's, body origin = S; pose = (S, q) exactly
+            xquat = data.xquat[top_model.body_id]
+            assert min(np.abs(xquat - q).max(), np.abs(xquat + q).max()) < 1e-9
+            np.testing.assert_allclose(data.xpos[top_model.body_id], com + a * rot[:, 2],
+                                       rtol=0, atol=1e-9)
+
+
+def test_ode_replay_puts_the_body_at_the_ode_pose() -> None:
+    _pose_check(load_scene("fig3", list(SHORT)), "ode", paper_frame=True)
+
+
+def test_mujoco_replay_puts_the_body_at_the_mujoco_pose() -> None:
+    _pose_check(load_scene("fig3", list(SHORT)), "mujoco", paper_frame=False)
+
+
+def test_ode_replay_in_an_mjcf_whose_body_frame_is_not_the_papers(tmp_path: Path) -> None:
+    """Body origin at the centre of mass, symmetry axis along the body's -y (C on y)."""
+    top = load_scene("fig3").top
+    xml = f"""<mujoco><option gravity="0 0 {-top.g_mps2!r}"/><worldbody>
+      <body pos="0 0 0.1"><freejoint/>
+        <inertial pos="0 0 0" mass="{top.M_kg!r}"
+                  diaginertia="{top.A_kgm2!r} {top.C_kgm2 * 1.05!r} {top.A_kgm2!r}"/>
+        <geom type="sphere" size="{top.R_m!r}" pos="0 {-top.a_m!r} 0" condim="1"/>
+      </body></worldbody></mujoco>"""
+    path = tmp_path / "top.xml"
+    path.write_text(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TopModelWarning)  # origin off the ball's centre
+        scene = load_scene("fig3", [*SHORT, f"top.mjcf={json.dumps(str(path))}"])
+        _pose_check(scene, "ode", paper_frame=True)
+
+
+def test_interpolation_between_samples_is_on_the_way() -> None:
+    from mujoco_runner import video
+
+    scene = load_scene("fig3", list(SHORT))
+    table = run_engine(scene, "ode", progress=False).table
+    top_model = video.render_model(scene, W, H)
+    track = video.Track.from_table(table, top_model, label="ode", paper_frame=True)
+    t0, t1 = table["t"].iloc[100], table["t"].iloc[101]
+    a, mid, b = track.at([t0, 0.5 * (t0 + t1), t1])
+    # one 1 ms sample interval turns the top by ~0.1 rad: the midpoint is halfway (slerp)
+    angle = lambda p, q: 2 * np.arccos(min(1.0, abs(float(np.dot(p[3:], q[3:])))))  # noqa: E731
+    assert angle(a.qpos, b.qpos) > 0.05
+    assert abs(angle(a.qpos, mid.qpos) - angle(mid.qpos, b.qpos)) < 1e-9
+    np.testing.assert_allclose(mid.qpos[:3], 0.5 * (a.qpos[:3] + b.qpos[:3]), atol=1e-6)
+    assert mid.theta == pytest.approx(0.5 * (a.theta + b.theta))
+    assert not mid.ended and track.at([0.6])[0].ended
+
+
+# ---------------------------------------------------------------- bad input
+def _main(argv: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
+    """``tippetop`` with the render subcommand (added here until compare.cli registers it)."""
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    if "render" not in sub.choices:
+        render.add_render_parser(sub)
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    return cli.main(argv)
+
+
+@pytest.mark.parametrize(("args", "env", "says"), [
+    (["--size", "10xabc"], None, "--size: expected WIDTHxHEIGHT"),
+    (["--fps", "0"], None, "--fps: expected"),
+    (["--speed", "-1"], None, "--speed: expected"),
+    (["--engine", "blender"], None, "--engine: expected one of mujoco|ode|both"),
+    (["--out", "video.avi"], None, "--out: expected a file ending in .mp4"),
+    (["--out", "taken.mp4"], None, "--out: expected a path that does not exist yet"),
+    (["--speed", "0.004"], None, "--max-frames: expected at most 3000 frames, got 3751"),
+    ([], "nonsense", "MUJOCO_GL: expected egl or osmesa"),
+])
+def test_bad_input_is_one_line_and_leaves_no_file(
+    args: list[str], env: str | None, says: str, tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "taken.mp4").write_text("keep me")
+    if env is not None:
+        monkeypatch.setenv("MUJOCO_GL", env)
+    code = _main(["render", "fig3", "--set", "run.t_end_s=0.5", "--speed", "1", *args],
+                 monkeypatch)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("tippetop: error: ") and says in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken.mp4"]
+    assert (tmp_path / "taken.mp4").read_text() == "keep me"
+
+
+def test_no_backend_names_the_debian_packages(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(render, "_egl_problem", lambda: "libEGL.so.1: cannot open")
+    monkeypatch.setattr(render, "_osmesa_problem", lambda: "libOSMesa.so.8: cannot open")
+    with pytest.raises(TippetopError) as info:
+        render.choose_gl_backend()
+    msg = str(info.value)
+    assert "\n" not in msg
+    assert "libegl1 libopengl0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
+    # EGL missing, OSMesa there: OSMesa is used
+    monkeypatch.setattr(render, "_osmesa_problem", lambda: None)
+    assert render.choose_gl_backend() == "osmesa"
+
+
+def test_cli_writes_the_default_name_and_refuses_to_overwrite(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+    backend: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MUJOCO_GL", backend)
+    argv = ["render", "fig3", "--engine", "ode", "--set", "run.t_end_s=0.2", "--speed", "1",
+            "--fps", "20", "--size", "96x64"]
+    assert _main(argv, monkeypatch) == 0
+    assert "wrote fig3.mp4: 5 frames 96x64" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig3.mp4"]
+    assert _frames(tmp_path / "fig3.mp4").shape == (5, 64, 96, 3)
+    assert _main(argv, monkeypatch) == 2
+    assert _main([*argv, "--force"], monkeypatch) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig3.mp4"]
+
+
+# ---------------------------------------------------------------- OpenGL only when asked
+_GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco_runner.video", "imageio",
+               "imageio_ffmpeg", "PIL")
+
+
+def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
+    """In a fresh process: importing the simulation, building the command line, a simulate run
+    and a rejected render leave MUJOCO_GL unset and import no GL backend or video code.
+
+    (``import mujoco`` itself imports its default windowed backend's module, ``mujoco.glfw``,
+    when MUJOCO_GL is unset; it creates no context. The offscreen backends are ours to pick.)
+    """
+    code = textwrap.dedent(f"""
+        import argparse, os, sys
+        import compare.cli, reference_ode.solve, mujoco_runner.run, mujoco_runner.render
+        from compare import cli
+        parser = cli.build_parser()
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        if "render" not in sub.choices:
+            mujoco_runner.render.add_render_parser(sub)
+        cli.build_parser = lambda: parser
+        assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set",
+                         "run.t_end_s=0.01", "--json"]) == 0
+        assert cli.main(["render", "fig3", "--fps", "0"]) == 2
+        loaded = [m for m in sys.modules if m.startswith({_GL_MODULES!r})]
+        print("LOADED", loaded, os.environ.get("MUJOCO_GL"), os.environ.get("PYOPENGL_PLATFORM"))
+    """)
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "LOADED [] None None" in out.stdout, out.stdout
+    assert list(tmp_path.iterdir()) == []
