@@ -130,10 +130,18 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------- bench
 def _cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "accuracy":
-        from compare.accuracy import run_accuracy
+        from compare.accuracy import DEFAULT_BUDGET_S, DEFAULT_MUJOCO_BUDGET_S, run_accuracy
 
+        engines = [e.strip() for e in args.engines.split(",") if e.strip()]
+        if args.workers is not None and args.workers < 1:
+            raise TippetopError(f"--workers: expected an integer >= 1, got {args.workers}")
+        if args.budget_s is not None and args.budget_s <= 0:
+            raise TippetopError(f"--budget-s: expected a number > 0, got {args.budget_s}")
         res = run_accuracy([args.scene] if args.scene else ["fig3", "fig11_n060"],
-                           args.out or "accuracy", budget_s=args.budget_s, force=args.force,
+                           args.out or "accuracy", force=args.force, engines=engines,
+                           budget_s=args.budget_s or DEFAULT_BUDGET_S,
+                           mujoco_budget_s=args.budget_s or DEFAULT_MUJOCO_BUDGET_S,
+                           workers=args.workers,
                            log=None if args.json else (lambda m: print(m, file=sys.stderr)))
         if args.json:
             print_json({k: v for k, v in res.items() if k != "report"})
@@ -300,8 +308,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "accuracy: work-precision data and plots")
     b.add_argument("scene", nargs="?", help="accuracy: scene (default fig3 and fig11_n060)")
     b.add_argument("--out", help="accuracy: output folder (default ./accuracy)")
-    b.add_argument("--budget-s", dest="budget_s", type=_finite_float, default=20.0,
-                   help="accuracy: wall-time budget per point (s)")
+    b.add_argument("--budget-s", dest="budget_s", type=_finite_float, default=None,
+                   help="accuracy: wall-time budget per point (s; default 20 for the ODE, 30 "
+                   "for MuJoCo)")
+    b.add_argument("--engines", default="ode,mujoco",
+                   help="accuracy: comma-separated engines (default: ode,mujoco)")
+    b.add_argument("--workers", type=int, help="accuracy: processes for the MuJoCo series "
+                   "(default: all cores)")
     b.add_argument("--force", action="store_true", help="accuracy: overwrite results in --out")
     b.add_argument("--n0", type=_finite_float, default=60.0)
     b.add_argument("--t-end-s", dest="t_end_s", type=_finite_float, default=60.0)

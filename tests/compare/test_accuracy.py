@@ -153,3 +153,179 @@ def test_run_accuracy_writes_csv_figure_and_table(tmp_path: Path) -> None:
         acc.run_accuracy(("fig3",), out, tolerances=(1e-6,),
                          methods=("dop853-compiled/vector",), t_end_s=0.5)
     assert pd.read_csv(out / "accuracy_ode.csv").to_csv() == before
+
+
+# ------------------------------------------------------------------ MuJoCo half
+MJ_T_END_S = 0.5  # Fig. 3 cut to 0.5 s: theta falls from 0.1 while nutating
+MJ_TIMESTEPS = (1e-3, 5e-4, 2.5e-4)
+
+
+@functools.cache
+def _mj() -> pd.DataFrame:
+    return acc.mujoco_work_precision("fig3", t_end_s=MJ_T_END_S, integrators=("RK4", "Euler"),
+                                     modes=("paper",), timesteps=MJ_TIMESTEPS, budget_s=60.0,
+                                     workers=1)
+
+
+def _mj_errors(method: str) -> pd.Series:
+    df = _mj()
+    rows = df[df["method"] == method].sort_values("timestep_s", ascending=False)
+    assert (rows["status"] == "ok").all(), rows["status"].tolist()
+    return rows.set_index("timestep_s")["theta_max_err"]
+
+
+def test_mujoco_rows_share_the_ode_columns() -> None:
+    """One row per (integrator, mode, timestep) in the ODE's columns: engine 'mujoco', method
+    'INTEGRATOR/MODE', the timestep and the steps set, the ODE-only columns NaN."""
+    df = _mj()
+    assert list(df.columns) == list(acc.ACCURACY_COLUMNS)
+    assert len(df) == 2 * len(MJ_TIMESTEPS)
+    assert set(df["engine"]) == {"mujoco"} and set(df["scene"]) == {"fig3"}
+    assert set(df["method"]) == {"RK4/paper", "Euler/paper"}
+    assert set(df["formulation"]) == {"paper"}
+    assert df["rtol"].isna().all() and df["atol"].isna().all() and df["n_rhs"].isna().all()
+    assert (df["n_steps"] == np.round(MJ_T_END_S / df["timestep_s"])).all()
+    assert (df["wall_s"] > 0).all()
+    assert np.isfinite(df[["theta_max_err", "final_state_err", "J_drift"]].to_numpy()).all()
+    assert df.attrs["reference"]["rtol"] == acc.REFERENCE_RTOL
+
+
+def test_mujoco_rk4_paper_mode_error_is_first_order_in_dt() -> None:
+    """RK4 in paper mode: max |theta - theta_ref| falls as dt falls, with a fitted order (slope
+    of log error against log dt) in [0.7, 1.4].
+
+    First order, not RK4's fourth: the friction callback uses the normal force of the previous
+    dynamics evaluation (mujoco_runner/friction_callback.py), an O(dt) error that dominates.
+    Measured on 0-0.5 s of Fig. 3: 1.2e-3, 6.5e-4, 3.4e-4 rad at dt = 1e-3, 5e-4, 2.5e-4 s,
+    order 0.92 (the same 0.9-1.0 over the full 8 s down to dt = 1e-4, where MuJoCo's soft
+    contact floors it near 1e-4 rad). A fourth-order error or a stalled one (order ~0) falls
+    outside the bound.
+    """
+    err = _mj_errors("RK4/paper")
+    assert (np.diff(err.to_numpy()) < 0).all(), err.tolist()
+    order = np.polyfit(np.log10(err.index.to_numpy()), np.log10(err.to_numpy()), 1)[0]
+    assert 0.7 < order < 1.4, (err.tolist(), order)
+    assert err.iloc[-1] < 1e-3
+
+
+def test_mujoco_euler_error_also_falls_with_dt() -> None:
+    """Euler in paper mode is first order too (measured 2.0e-3, 1.0e-3, 5.1e-4 rad): each
+    halving of dt at least 1.5x smaller."""
+    err = _mj_errors("Euler/paper").to_numpy()
+    assert (err[:-1] / err[1:] > 1.5).all(), err
+
+
+def test_too_large_euler_step_is_recorded_not_dropped() -> None:
+    """Euler at dt = 0.05 s (one step per 0.05-s sample): the ball sinks through the table
+    within the first sample; the row says 'diverged: ...' with the runner's reason and carries
+    no error numbers. At dt = 0.01 s it completes with a large error (measured 0.15 rad, 700x
+    the 2e-4 rad it has at 1e-4 s): recorded as it is."""
+    from models.scene import load_scene
+
+    s = load_scene("fig3", ["run.t_end_s=0.5", "run.sample_dt_s=0.05"])
+    df = acc.mujoco_work_precision(s, integrators=("Euler",), modes=("paper",),
+                                   timesteps=(0.05, 0.01), workers=1)
+    assert df["timestep_s"].tolist() == [0.05, 0.01]
+    big, ok = df.iloc[0], df.iloc[1]
+    assert big["status"].startswith("diverged: by t = 0.05 s"), big["status"]
+    assert "sank" in big["status"] and "reduce timestep_s" in big["status"]
+    assert math.isnan(big["theta_max_err"]) and big["n_steps"] >= 1
+    assert ok["status"] == "ok" and ok["theta_max_err"] > 0.05
+
+
+def test_mujoco_over_budget_points_are_recorded_not_dropped() -> None:
+    """With a budget no run can meet, the largest timestep still runs (nothing to extrapolate
+    from) and every smaller one is a 'skipped: over budget' row with no numbers."""
+    df = acc.mujoco_work_precision("fig3", t_end_s=0.1, integrators=("RK4",), modes=("paper",),
+                                   timesteps=(1e-3, 5e-4, 2.5e-4), budget_s=1e-9, workers=1)
+    assert df["status"].tolist() == ["ok", acc.STATUS_SKIPPED, acc.STATUS_SKIPPED]
+    assert df["theta_max_err"].iloc[1:].isna().all()
+    assert (df["n_steps"].iloc[1:] == 0).all()
+
+
+def test_mujoco_run_over_the_hard_limit_is_stopped() -> None:
+    """A run still going after HARD_LIMIT_FACTOR budgets of wall time is stopped at the
+    runner's next progress call (every 0.2 s) and recorded as failed; the smaller timesteps
+    are then skipped. (2 s at dt = 1e-4 s takes about 1 s here.)"""
+    df = acc.mujoco_work_precision("fig3", t_end_s=2.0, integrators=("RK4",), modes=("paper",),
+                                   timesteps=(1e-4, 5e-5), budget_s=1e-9, workers=1)
+    assert df["status"].iloc[0].startswith("failed: stopped after"), df["status"].iloc[0]
+    assert df["wall_s"].iloc[0] < 1.0 and math.isnan(df["theta_max_err"].iloc[0])
+    assert df["status"].iloc[1] == acc.STATUS_SKIPPED
+
+
+def test_mujoco_wall_time_prediction() -> None:
+    """The prediction: a fixed part plus a part proportional to the steps, fitted on the last
+    two completed runs; one run scales its whole wall time (an overestimate); only diverged
+    runs scale by the steps they took; nothing to go on gives None."""
+    p = acc._predict_steps_wall
+    assert p([], 1000) is None
+    assert p([(100, 1.0, True)], 1000) == pytest.approx(10.0)
+    # 1 s fixed + 1 ms per step
+    assert p([(1000, 2.0, True), (2000, 3.0, True)], 10_000) == pytest.approx(11.0)
+    # noisy timings (wall fell): back to scaling the last run
+    assert p([(1000, 2.0, True), (2000, 1.9, True)], 4000) == pytest.approx(3.8)
+    assert p([(50, 0.5, False)], 1000) == pytest.approx(10.0)
+
+
+def test_mujoco_pareto_text() -> None:
+    """MuJoCo entries say which integrator, timestep and mode; an unreached threshold gives
+    the best error achieved and where."""
+    rows = [_row("RK4/paper", math.nan, 1.0, 5e-4), _row("Euler/paper", math.nan, 0.5, 5e-3),
+            _row("Euler/native", math.nan, 0.1, 0.2)]
+    for r, dt, mode in zip(rows, (1e-4, 1e-4, 1e-3), ("paper", "paper", "native"), strict=True):
+        r.update(engine="mujoco", timestep_s=dt, formulation=mode, rtol=math.nan,
+                 atol=math.nan, n_rhs=math.nan, n_steps=round(2.0 / dt))
+    got = acc.pareto_table(pd.DataFrame(rows), thresholds=(1e-2, 1e-4))
+    assert got[0]["text"] == ("to get theta right to 0.01 rad, use Euler at dt = 0.0001 s in "
+                              "paper mode; it costs 0.25 s per simulated second (theta error "
+                              "5.0e-03 rad)")
+    assert got[0]["n_steps_per_sim_s"] == pytest.approx(1e4)
+    assert got[1]["method"] is None
+    assert got[1]["text"] == ("to get theta right to 0.0001 rad: not reached (best error "
+                              "5.0e-04 rad, RK4 at dt = 0.0001 s in paper mode)")
+
+
+def test_run_accuracy_both_engines(tmp_path: Path) -> None:
+    """Both engines into one folder, the MuJoCo series on two processes: the ODE files as
+    before, plus accuracy_mujoco.csv (the same columns), a MuJoCo figure per scene and
+    pareto_mujoco.md, which names the friction-model floor of native mode."""
+    out = tmp_path / "acc"
+    res = acc.run_accuracy(("fig3",), out, tolerances=(1e-6,),
+                           methods=("dop853-compiled/vector",), t_end_s=0.3,
+                           engines=("ode", "mujoco"), integrators=("RK4", "Euler"),
+                           modes=("paper", "native"), timesteps=(1e-3, 5e-4), workers=2)
+    ode = pd.read_csv(out / "accuracy_ode.csv")
+    mj = pd.read_csv(out / "accuracy_mujoco.csv")
+    assert list(ode.columns) == list(mj.columns) == list(acc.ACCURACY_COLUMNS)
+    assert len(ode) == 1 and len(mj) == 8
+    assert set(mj["method"]) == {"RK4/paper", "RK4/native", "Euler/paper", "Euler/native"}
+    assert (mj["status"] == "ok").all(), mj["status"].tolist()
+    for name in ("accuracy_ode_fig3.png", "accuracy_mujoco_fig3.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    md = (out / "pareto_mujoco.md").read_text()
+    assert "# MuJoCo: accuracy against cost" in md and "not the paper's law" in md
+    assert "to get theta right to 0.01 rad, use " in md
+    assert "| RK4/native |" in md
+    assert res["engines"]["mujoco"]["n_points"] == 8 and res["n_points"] == 9
+    assert res["csv"] == str(out / "accuracy_ode.csv")
+    assert {e["engine"] for e in res["pareto"]} == {"ode", "mujoco"}
+    assert "fig3 [mujoco]: to get theta right to 0.01 rad" in res["report"]
+    assert not list(out.glob(".*.tmp"))
+    with pytest.raises(TippetopError, match="--force"):
+        acc.run_accuracy(("fig3",), out, engines=("mujoco",), t_end_s=0.3)
+
+
+def test_bench_accuracy_engines_option(capsys: pytest.CaptureFixture[str],
+                                       tmp_path: Path) -> None:
+    """The command runs both engines by default; an unknown engine is one line and exit 2,
+    before any work."""
+    from compare.cli import build_parser, main
+
+    args = build_parser().parse_args(["bench", "accuracy"])
+    assert args.engines == "ode,mujoco" and args.budget_s is None
+    code = main(["bench", "accuracy", "fig3", "--engines", "ode,bullet", "--out",
+                 str(tmp_path / "x")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "'bullet'" in err and "--engines" in err
+    assert not (tmp_path / "x").exists()
