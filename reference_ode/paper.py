@@ -24,16 +24,11 @@ import numba as nb
 
 from reference_ode.friction import friction_terms
 from reference_ode.params_array import (
-    P_A_OFF,
     P_CVISC,
-    P_G,
-    P_IA,
-    P_IC,
     P_LAM,
-    P_M,
     P_MU,
-    P_R,
     P_VEPS,
+    top_params,
 )
 from reference_ode.vector import write_observables, xi_curves
 
@@ -44,12 +39,7 @@ ITH, ITHD, IOM, IN, IUX, IUY, IPHI, IPSI, IX, IY = range(N_STATE)
 @nb.njit(cache=True)
 def paper_core(coulomb_kind, viscous, y, p, dy):
     """Write dy/dt into ``dy`` and return (N, FX, FY, vPX, vPY) in the rotating frame."""
-    R = p[P_R]
-    a = p[P_A_OFF]
-    M = p[P_M]
-    A = p[P_IA]
-    C = p[P_IC]
-    g = p[P_G]
+    R, a, M, A, C, g = top_params(p)
     th, thd, Om, n = y[ITH], y[ITHD], y[IOM], y[IN]
     uX, uY = y[IUX], y[IUY]
     s = math.sin(th)
@@ -83,13 +73,8 @@ def paper_core(coulomb_kind, viscous, y, p, dy):
 
 @nb.njit(cache=True)
 def paper_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
-    """Fill ``out`` (22,) with the observables of one state (order: ``OBS_NAMES``)."""
-    R = p[P_R]
-    a = p[P_A_OFF]
-    M = p[P_M]
-    A = p[P_IA]
-    C = p[P_IC]
-    g = p[P_G]
+    """Fill ``out`` (22,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
+    R, a, M, A, C, g = top_params(p)
     N, FX, FY, vPX, vPY = paper_core(coulomb_kind, viscous, y, p, scratch)
     th, thd, Om, n = y[ITH], y[ITHD], y[IOM], y[IN]
     s = math.sin(th)

@@ -5,6 +5,7 @@ Compiled code takes one array, not objects; these indices name its slots.
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from models.options import DEFAULT_SINGULAR_SIN
@@ -41,3 +42,9 @@ def pack_params(top: TopParams, friction: FrictionParams,
     p[P_VEPS] = friction.coulomb_v_eps_mps
     p[P_SING] = singular_sin
     return p
+
+
+@nb.njit(cache=True, inline="always")
+def top_params(p):
+    """(R, a, M, A, C, g) of a packed parameter vector."""
+    return p[P_R], p[P_A_OFF], p[P_M], p[P_IA], p[P_IC], p[P_G]

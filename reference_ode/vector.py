@@ -23,16 +23,11 @@ import numba as nb
 
 from reference_ode.friction import friction_terms
 from reference_ode.params_array import (
-    P_A_OFF,
     P_CVISC,
-    P_G,
-    P_IA,
-    P_IC,
     P_LAM,
-    P_M,
     P_MU,
-    P_R,
     P_VEPS,
+    top_params,
 )
 
 N_STATE = 11
@@ -53,12 +48,7 @@ def _axis(y):
 @nb.njit(cache=True)
 def vector_core(coulomb_kind, viscous, y, p, dy):
     """Write dy/dt into ``dy`` and return (N, Fx, Fy, vPx, vPy)."""
-    R = p[P_R]
-    a = p[P_A_OFF]
-    M = p[P_M]
-    A = p[P_IA]
-    C = p[P_IC]
-    g = p[P_G]
+    R, a, M, A, C, g = top_params(p)
     kx, ky, kz = _axis(y)
     wx, wy, wz = y[IWX], y[IWY], y[IWZ]
     n = wx * kx + wy * ky + wz * kz
@@ -117,13 +107,8 @@ def vector_core(coulomb_kind, viscous, y, p, dy):
 
 @nb.njit(cache=True)
 def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
-    """Fill ``out`` (22,) with the observables of one state (order: ``OBS_NAMES``)."""
-    R = p[P_R]
-    a = p[P_A_OFF]
-    M = p[P_M]
-    A = p[P_IA]
-    C = p[P_IC]
-    g = p[P_G]
+    """Fill ``out`` (22,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
+    R, a, M, A, C, g = top_params(p)
     N, Fx, Fy, vpx, vpy = vector_core(coulomb_kind, viscous, y, p, scratch)
     kx, ky, kz = _axis(y)
     wx, wy, wz = y[IWX], y[IWY], y[IWZ]
