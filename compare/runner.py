@@ -183,7 +183,13 @@ def run_tasks(
         One result per task, in order.
     """
     cache = ResultCache(cache_dir or default_cache_dir()) if use_cache else None
-    scenes = [t.load() for t in tasks]  # validate everything before any work
+    from compare.engines import ENGINES
+
+    for t in tasks:  # validate everything before any work
+        if t.engine not in ENGINES:
+            raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, "
+                                f"got {t.engine!r}")
+    scenes = [t.load() for t in tasks]
     keys = [task_key(t, s) for t, s in zip(tasks, scenes, strict=True)]
     results: list[TaskResult | None] = [None] * len(tasks)
     todo: dict[str, list[int]] = {}

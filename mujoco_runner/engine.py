@@ -104,10 +104,13 @@ def run_mujoco(scene: Scene, progress: Callable[[float], None] | None = None) ->
     kw = mujoco_settings(scene)
     sample_dt = sample_interval(scene.run.t_end_s, scene.run.sample_dt_s, kw["timestep_s"])
     if scene.top_mjcf is not None:
-        res = simulate_top_model(load_top(scene.top_mjcf), scene.friction, scene.init,
+        top_model = load_top(scene.top_mjcf)
+        top = top_model.top
+        res = simulate_top_model(top_model, scene.friction, scene.init,
                                  t_end_s=scene.run.t_end_s, sample_dt_s=sample_dt,
                                  mode=kw["mode"], mu=kw["mu"], progress=progress)
     else:
+        top = scene.top
         res = simulate_mujoco(scene.top, scene.friction, scene.init, t_end_s=scene.run.t_end_s,
                               sample_dt_s=sample_dt, progress=progress, **kw)
     if not res.ok:
@@ -119,7 +122,6 @@ def run_mujoco(scene: Scene, progress: Callable[[float], None] | None = None) ->
              "message": res.message, "mode": kw["mode"], "timestep_s": kw["timestep_s"],
              "integrator": kw["integrator"], "condim": kw["condim"]}
         return EngineRun(res.table.iloc[:0], s, res.status, res.message)
-    top = load_top(scene.top_mjcf).top if scene.top_mjcf is not None else scene.top
     s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
                 t_invert=first_inversion_time(res.table), contact_lost=False,
                 wall_s=res.wall_s,
