@@ -27,12 +27,12 @@ import time
 
 import mujoco
 
-from models.mjcf import make_mjcf
-from models.params import FrictionParams, InitialState, TopParams
-from mujoco_runner.friction_callback import PaperFriction, compiled_callback
-from mujoco_runner.model import TopModel, load_top
-from mujoco_runner.run import simulate_mujoco
-from mujoco_runner.state import initial_qpos_qvel
+from tippetop.models.mjcf import make_mjcf
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
+from tippetop.mujoco_runner.model import TopModel, load_top
+from tippetop.mujoco_runner.run import simulate_mujoco
+from tippetop.mujoco_runner.state import initial_qpos_qvel
 
 
 def _fresh(tm: TopModel, init: InitialState) -> mujoco.MjData:

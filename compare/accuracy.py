@@ -52,17 +52,17 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from compare.bench import _rhs_alloc
-from compare.io import write_atomic
-from compare.metrics import jellett_drift
-from models.errors import TippetopError, expect
-from models.options import OdeOptions
-from models.params import FrictionParams
-from models.scene import Scene, load_scene
-from reference_ode import dop853 as _d
-from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import pack_params
-from reference_ode.solve import (
+from tippetop.compare.bench import _rhs_alloc
+from tippetop.compare.io import write_atomic
+from tippetop.compare.metrics import jellett_drift
+from tippetop.models.errors import TippetopError, expect
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams
+from tippetop.models.scene import Scene, load_scene
+from tippetop.reference_ode import dop853 as _d
+from tippetop.reference_ode.friction import LAW_TERMS
+from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.solve import (
     initial_state_vector,
     observables_table,
     sample_times,
@@ -442,7 +442,7 @@ def _mujoco_scene(s: Scene, integrator: str, mode: str, dt: float, sample_dt_s: 
 
 def _run_mujoco_point(s: Scene, ref: Reference, hard_limit_s: float) -> dict[str, Any]:
     """One MuJoCo run scored against the reference; stopped past ``hard_limit_s`` of stepping."""
-    from mujoco_runner.engine import run_mujoco
+    from tippetop.mujoco_runner.engine import run_mujoco
 
     start: list[float] = []
     t_done = s.run.t_end_s - 0.5 * float(ref.t[1] - ref.t[0])
@@ -611,7 +611,7 @@ def _check_mujoco_scene(s: Scene) -> None:
 
 def _check_mujoco_args(integrators: Sequence[str], modes: Sequence[str],
                        timesteps: Sequence[float], budget_s: float) -> list[float]:
-    from models.options import MUJOCO_FRICTION_MODES, MUJOCO_INTEGRATORS
+    from tippetop.models.options import MUJOCO_FRICTION_MODES, MUJOCO_INTEGRATORS
 
     for i in integrators:
         expect(i in MUJOCO_INTEGRATORS, "accuracy.integrators", "|".join(MUJOCO_INTEGRATORS), i)

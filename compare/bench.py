@@ -9,12 +9,12 @@ import numba as nb
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from models.options import OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
-from reference_ode import dop853 as _d
-from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import pack_params
-from reference_ode.solve import initial_state_vector, simulate_ode
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.reference_ode import dop853 as _d
+from tippetop.reference_ode.friction import LAW_TERMS
+from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
 
 #: The issue's target: the compiled integrator at least this many times faster than scipy.
 TARGET_SPEEDUP = 30.0

@@ -71,15 +71,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from compare.io import check_output_path, write_atomic
-from compare.metrics import classify_outcome, theta_asymp
-from compare.runner import Task, TaskResult, code_fingerprint, run_tasks
-from models.errors import TippetopError
-from models.scene import load_scene
+from tippetop.compare.io import check_output_path, write_atomic
+from tippetop.compare.metrics import classify_outcome, theta_asymp
+from tippetop.compare.runner import Task, TaskResult, code_fingerprint, run_tasks
+from tippetop.models.calibrated import CALIBRATION_FILE
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import load_scene
 
-_REPO_ROOT = Path(__file__).resolve().parent.parent
 #: The shipped result (the default of ``mujoco.friction=native``).
-DEFAULT_OUT = _REPO_ROOT / "models" / "calibrated_native.toml"
+DEFAULT_OUT = CALIBRATION_FILE
+#: How the shipped result is named in the reproduce command (run from the repository's root).
+DEFAULT_OUT_SHOWN = "models/calibrated_native.toml"
 #: Calibration scenes, ``NAME:T_END_S``: two Group II tops that turn over, from theta0 = 0.1
 #: (Fig. 3, A/C = 1, a/R = 0.1) and from theta0 = 0.01 (Fig. 11, a/R = 0.15, n0 = 70 rad/s).
 DEFAULT_CALIBRATION = "fig3:6,fig11_n070:6"
@@ -622,10 +624,7 @@ def reproduce_command(args: argparse.Namespace, out: Path) -> str:
     parts = ["tippetop", "calibrate", "--calibration", args.calibration, "--holdout",
              args.holdout, "--budget-runs", str(args.budget_runs), "--timestep-s",
              repr(args.timestep_s), "--integrator", args.integrator]
-    try:  # the shipped file is named relative to the repository (run from its root)
-        shown = out.resolve().relative_to(_REPO_ROOT).as_posix()
-    except ValueError:
-        shown = str(out)
+    shown = DEFAULT_OUT_SHOWN if out.resolve() == DEFAULT_OUT.resolve() else str(out)
     parts += ["--out", shown, "--force"]
     return " ".join(shlex.quote(p) for p in parts)
 
@@ -655,7 +654,7 @@ def calibrate(args: argparse.Namespace) -> dict[str, Any]:
     if not (math.isfinite(args.timestep_s) and 0 < args.timestep_s <= 1e-3):
         raise TippetopError(f"--timestep-s: expected a number in (0, 1e-3] s, got "
                             f"{args.timestep_s!r}")
-    from models.options import MUJOCO_INTEGRATORS
+    from tippetop.models.options import MUJOCO_INTEGRATORS
 
     if args.integrator not in MUJOCO_INTEGRATORS:
         raise TippetopError(f"--integrator: expected one of {'|'.join(MUJOCO_INTEGRATORS)}, "
@@ -775,7 +774,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``tippetop calibrate``: run, write the file, print the report."""
     report = calibrate(args)
     if args.json:
-        from compare.cli import print_json
+        from tippetop.compare.cli import print_json
 
         print_json(report)
     else:

@@ -11,7 +11,7 @@ import math
 import sys
 from typing import Any, NoReturn
 
-from models.errors import TippetopError
+from tippetop.models.errors import TippetopError
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
@@ -67,12 +67,12 @@ def _print_human(d: dict[str, Any]) -> None:
 
 # ---------------------------------------------------------------- theory
 def _cmd_theory(args: argparse.Namespace) -> int:
-    from compare import theory
-    from models.params import TopParams
+    from tippetop.compare import theory
+    from tippetop.models.params import TopParams
 
     extra: dict[str, Any] = {}
     if args.mjcf:
-        from mujoco_runner.model import top_from_mjcf_file
+        from tippetop.mujoco_runner.model import top_from_mjcf_file
 
         top = top_from_mjcf_file(args.mjcf)
         extra = {"R_m": top.R_m, "a_m": top.a_m, "A": top.A_kgm2, "C": top.C_kgm2,
@@ -94,7 +94,7 @@ def _cmd_theory(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------- simulate
 def _load(args: argparse.Namespace):
-    from models.scene import load_scene
+    from tippetop.models.scene import load_scene
 
     overrides = list(args.set or [])
     if getattr(args, "mjcf", None):
@@ -103,8 +103,8 @@ def _load(args: argparse.Namespace):
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from compare.engines import run_engine
-    from compare.io import TABLE_SUFFIXES, check_output_path, write_table
+    from tippetop.compare.engines import run_engine
+    from tippetop.compare.io import TABLE_SUFFIXES, check_output_path, write_table
 
     scene = _load(args)
     out_path = None
@@ -130,7 +130,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------- bench
 def _cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "accuracy":
-        from compare.accuracy import DEFAULT_BUDGET_S, DEFAULT_MUJOCO_BUDGET_S, run_accuracy
+        from tippetop.compare.accuracy import (
+            DEFAULT_BUDGET_S,
+            DEFAULT_MUJOCO_BUDGET_S,
+            run_accuracy,
+        )
 
         engines = [e.strip() for e in args.engines.split(",") if e.strip()]
         if args.workers is not None and args.workers < 1:
@@ -148,7 +152,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         else:
             print(res["report"])
         return 0
-    from compare.bench import bench_ode
+    from tippetop.compare.bench import bench_ode
 
     if args.what != "ode":
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")
@@ -162,8 +166,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------- compare
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from compare.crossval import compare_scene, friction_law_table
-    from compare.modes import parse_modes
+    from tippetop.compare.crossval import compare_scene, friction_law_table
+    from tippetop.compare.modes import parse_modes
 
     res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
                         scheduler=args.scheduler, workers=args.workers,
@@ -185,7 +189,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------- threshold
 def _cmd_threshold(args: argparse.Namespace) -> int:
-    from compare.threshold import measure_threshold
+    from tippetop.compare.threshold import measure_threshold
 
     res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
@@ -201,9 +205,9 @@ def _cmd_threshold(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from compare.io import write_atomic
-    from compare.modes import parse_modes
-    from compare.sweep import parse_range, run_sweep, sweep_figure
+    from tippetop.compare.io import write_atomic
+    from tippetop.compare.modes import parse_modes
+    from tippetop.compare.sweep import parse_range, run_sweep, sweep_figure
 
     n0s = parse_range(args.n0)
     modes = parse_modes(args.modes)
@@ -320,9 +324,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=_cmd_bench)
 
-    from compare.calibrate import add_calibrate_parser
-    from compare.nightly import add_nightly_parser
-    from mujoco_runner.render import add_render_parser
+    from tippetop.compare.calibrate import add_calibrate_parser
+    from tippetop.compare.nightly import add_nightly_parser
+    from tippetop.mujoco_runner.render import add_render_parser
 
     add_nightly_parser(sub)
     add_calibrate_parser(sub)

@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from compare import theory
-from compare.metrics import classify_outcome, outcome_of_angle
-from compare.modes import MODES, mode_task_parts
-from compare.runner import Task, TaskResult, run_tasks
-from models.errors import TippetopError
-from models.scene import Scene
+from tippetop.compare import theory
+from tippetop.compare.metrics import classify_outcome, outcome_of_angle
+from tippetop.compare.modes import MODES, mode_task_parts
+from tippetop.compare.runner import Task, TaskResult, run_tasks
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Scene
 
 REFERENCE_MODE = "ode"
 

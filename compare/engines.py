@@ -10,9 +10,9 @@ from typing import Any
 
 import pandas as pd
 
-from compare.metrics import jellett_scale, summary
-from models.errors import TippetopError
-from models.scene import Scene
+from tippetop.compare.metrics import jellett_scale, summary
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Scene
 
 ENGINES = ("ode", "mujoco")
 
@@ -46,7 +46,7 @@ def progress_bar(total_s: float, label: str):
 
 def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> EngineRun:
     """Run the reference ODE on a scene."""
-    from reference_ode.solve import simulate_ode
+    from tippetop.reference_ode.solve import simulate_ode
 
     if scene.effects.torsional or scene.effects.rolling:
         raise TippetopError("effects: the reference ODE models sliding friction only, expected "
@@ -55,7 +55,7 @@ def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> En
                             f"rolling = {scene.effects.rolling}")
     top = scene.top
     if scene.top_mjcf is not None:
-        from mujoco_runner.model import load_top
+        from tippetop.mujoco_runner.model import load_top
 
         top = load_top(scene.top_mjcf).top
     friction = scene.friction
@@ -85,6 +85,6 @@ def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun
     with progress_bar(scene.run.t_end_s if progress else 0.0, label) as progress:
         if engine == "ode":
             return run_ode(scene, progress)
-        from mujoco_runner.engine import run_mujoco
+        from tippetop.mujoco_runner.engine import run_mujoco
 
         return run_mujoco(scene, progress)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from models.errors import TippetopError
+from tippetop.models.errors import TippetopError
 
 TABLE_SUFFIXES = (".csv", ".parquet")
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from models.errors import TippetopError
+from tippetop.models.errors import TippetopError
 
 #: mode -> (engine, overrides). Every mode is a plain scene run, so it caches like one.
 MODES: dict[str, tuple[str, tuple[str, ...]]] = {

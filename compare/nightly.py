@@ -43,19 +43,20 @@ from typing import Any
 
 import pandas as pd
 
-from compare.io import write_atomic
-from compare.metrics import classify_outcome
-from compare.modes import MODES
-from compare.runner import Task, TaskResult, default_cache_dir, run_tasks
-from compare.sweep import parse_range
-from compare.threshold import WHICH, measure_threshold
-from models.errors import TippetopError
-from models.scene import SCENES_DIR, Scene, load_scene
+from tippetop.compare.io import write_atomic
+from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.modes import MODES
+from tippetop.compare.runner import Task, TaskResult, default_cache_dir, run_tasks
+from tippetop.compare.sweep import parse_range
+from tippetop.compare.threshold import WHICH, measure_threshold
+from tippetop.models.errors import TippetopError
+from tippetop.models.resources import data_path
+from tippetop.models.scene import Scene, load_scene
 
 #: The catalogue shipped with the package.
-CATALOGUE_PATH = SCENES_DIR.parent / "nightly.toml"
+CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
 #: Where the baselines live in the repository (one JSON file per profile).
-BASELINE_DIR = Path(__file__).resolve().parent / "baselines"
+BASELINE_DIR = data_path("tippetop.compare", "baselines")
 PROFILES = ("quick", "full", "stress")
 KINDS = ("run", "threshold", "sweep")
 ENGINES = ("ode", "mujoco")
@@ -674,8 +675,8 @@ def case_status(checks: Sequence[dict[str, Any]]) -> str:
 
 
 def _top_record(scene: Scene) -> tuple[dict[str, Any], dict[str, Any]]:
-    from compare import theory
-    from compare.metrics import outcome_of_angle
+    from tippetop.compare import theory
+    from tippetop.compare.metrics import outcome_of_angle
 
     top, fr, ini = scene.top, scene.friction, scene.init
     params = {
@@ -734,7 +735,7 @@ def _clean(obj: Any) -> Any:
 
 
 def _git(*args: str) -> str | None:
-    root = Path(__file__).resolve().parent.parent
+    root = data_path("tippetop.compare")  # git finds the repository from inside it
     try:
         out = subprocess.run(["git", *args], cwd=root, capture_output=True, text=True,
                              timeout=10, check=True)
@@ -747,7 +748,7 @@ def environment() -> dict[str, Any]:
     """Versions, machine and git commit (when the code runs from a git checkout)."""
     from importlib import metadata
 
-    from compare.runner import code_fingerprint
+    from tippetop.compare.runner import code_fingerprint
 
     versions = {}
     for pkg in ("tippetop", "numpy", "scipy", "numba", "pandas", "pyarrow", "matplotlib",
@@ -941,8 +942,8 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
     The playback speed is chosen so that a video has at most ``VIDEO_MAX_FRAMES`` frames (at
     least quarter-speed slow motion). Returns what the report links: scene -> relative path.
     """
-    from models.scene import load_scene
-    from mujoco_runner.render import render_scene
+    from tippetop.models.scene import load_scene
+    from tippetop.mujoco_runner.render import render_scene
 
     scenes = sorted({c.scene for c in cases if c.kind == "run" and c.category == "paper"})
     (out_dir / "videos").mkdir(parents=True, exist_ok=True)
@@ -1053,7 +1054,7 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
 
     write_results()
     try:
-        from compare.report import build_report
+        from tippetop.compare.report import build_report
 
         build_report(_clean(results), out_dir / "report.html", tables=tables,
                      accuracy_dir=opts.accuracy_dir)
@@ -1121,8 +1122,8 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m compare.nightly [options]``: the same as ``tippetop nightly``."""
-    from compare.cli import EXIT_BAD_INPUT, _Parser
+    """``python -m tippetop.compare.nightly [options]``: the same as ``tippetop nightly``."""
+    from tippetop.compare.cli import EXIT_BAD_INPUT, _Parser
 
     parser = _Parser(prog="tippetop")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)

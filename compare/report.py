@@ -17,7 +17,7 @@ outside the page. Sections:
 
 :func:`build_report` takes the nightly's results (the ``results.json`` dictionary or its
 path). Run tables come from ``tables=`` or from the ``tables/`` files the nightly wrote beside
-``results.json``. ``python -m compare.report RESULTS.json [--out report.html]
+``results.json``. ``python -m tippetop.compare.report RESULTS.json [--out report.html]
 [--accuracy-dir DIR]`` rebuilds a report from a nightly folder.
 """
 
@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from compare.io import write_atomic
-from models.errors import TippetopError
+from tippetop.compare.io import write_atomic
+from tippetop.models.errors import TippetopError
 
 #: Order of the rows of the friction-law table, with what each mode is.
 FRICTION_MODES: dict[str, str] = {
@@ -184,7 +184,7 @@ def _scene_key(rec: Mapping[str, Any]) -> str:
 
 
 def _top(params: Mapping[str, Any]):
-    from models.params import TopParams
+    from tippetop.models.params import TopParams
 
     return TopParams(R_m=params["R_m"], a_m=params["a_m"], M_kg=params["M_kg"],
                      A_kgm2=params["A_kgm2"], C_kgm2=params["C_kgm2"],
@@ -370,7 +370,7 @@ def _timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.Data
 
 
 def _sweeps_section(results: Mapping[str, Any]) -> str:
-    from compare import theory
+    from tippetop.compare import theory
 
     sweeps = [r for r in results.get("cases", []) if r["kind"] == "sweep" and r.get("points")]
     parts = ["<h2 id='sweeps'>theta_asymp against n0 (Figs. 9, 10)</h2>",
@@ -738,8 +738,8 @@ def build_report(results: Mapping[str, Any] | str | Path, path: str | Path, *,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR] [--force]``."""
-    p = argparse.ArgumentParser(prog="python -m compare.report",
+    """``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR] [--force]``."""
+    p = argparse.ArgumentParser(prog="python -m tippetop.compare.report",
                                 description="Rebuild the validation report from a nightly's "
                                 "results.json.")
     p.add_argument("results", help="results.json of a nightly run")

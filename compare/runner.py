@@ -20,21 +20,23 @@ from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from functools import lru_cache
+from importlib import metadata
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from compare.io import write_atomic
-from models.errors import TippetopError
-from models.scene import Scene, load_scene
+from tippetop.compare.io import write_atomic
+from tippetop.models.errors import TippetopError
+from tippetop.models.resources import data_path
+from tippetop.models.scene import Scene, load_scene
 
-_PACKAGES = ("models", "reference_ode", "mujoco_runner")
-#: Files outside those packages that shape a cached result (its summary and table), among
-#: them the calibrated native-friction settings that native runs use by default.
-_MODULES = ("compare/engines.py", "compare/metrics.py", "compare/runner.py",
-            "models/calibrated_native.toml")
+_PACKAGES = ("tippetop.models", "tippetop.reference_ode", "tippetop.mujoco_runner")
+#: Files outside those packages' Python sources that shape a cached result (its summary and
+#: table), among them the calibrated native-friction settings that native runs use by default.
+_MODULES = (("tippetop.compare", "engines.py"), ("tippetop.compare", "metrics.py"),
+            ("tippetop.compare", "runner.py"), ("tippetop.models", "calibrated_native.toml"))
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000
 
@@ -57,17 +59,16 @@ class Task:
 def code_fingerprint() -> str:
     """Hash of the source that computes a run and its summary (and of MuJoCo's version)."""
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parent.parent
-    files = [p for pkg in _PACKAGES for p in sorted((root / pkg).rglob("*.py"))]
-    files += [root / m for m in _MODULES if (root / m).is_file()]
-    for path in files:
-        h.update(path.relative_to(root).as_posix().encode())
+    files = [(pkg, p) for pkg in _PACKAGES for p in sorted(data_path(pkg).rglob("*.py"))]
+    files += [(pkg, data_path(pkg, name)) for pkg, name in _MODULES]
+    for pkg, path in files:
+        if not path.is_file():
+            continue
+        h.update(f"{pkg}/{path.relative_to(data_path(pkg)).as_posix()}".encode())
         h.update(path.read_bytes())
     try:
-        import mujoco
-
-        h.update(mujoco.__version__.encode())
-    except ImportError:  # pragma: no cover - mujoco is a dependency
+        h.update(metadata.version("mujoco").encode())
+    except metadata.PackageNotFoundError:  # pragma: no cover - mujoco is a dependency
         pass
     return h.hexdigest()[:16]
 
@@ -102,7 +103,7 @@ def execute(task: Task) -> dict[str, Any]:
     Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
     in a sweep is reported with the others.
     """
-    from compare.engines import run_engine
+    from tippetop.compare.engines import run_engine
 
     try:
         scene = task.load()
@@ -183,7 +184,7 @@ def run_tasks(
         One result per task, in order.
     """
     cache = ResultCache(cache_dir or default_cache_dir()) if use_cache else None
-    from compare.engines import ENGINES
+    from tippetop.compare.engines import ENGINES
 
     for t in tasks:  # validate everything before any work
         if t.engine not in ENGINES:

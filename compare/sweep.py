@@ -12,12 +12,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from compare import theory
-from compare.io import write_atomic
-from compare.metrics import classify_outcome
-from compare.modes import mode_task_parts
-from compare.runner import Task, run_tasks
-from models.errors import TippetopError
+from tippetop.compare import theory
+from tippetop.compare.io import write_atomic
+from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.modes import mode_task_parts
+from tippetop.compare.runner import Task, run_tasks
+from tippetop.models.errors import TippetopError
 
 
 def parse_range(text: str) -> list[float]:

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
-from models.params import TopParams
+from tippetop.models.params import TopParams
 
 #: Relative tolerance under which ``A/C`` is taken to sit exactly on a group border.
 BORDER_RTOL = 1e-12

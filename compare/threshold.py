@@ -19,10 +19,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from compare import theory
-from compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
-from compare.runner import Task, run_tasks
-from models.errors import TippetopError
+from tippetop.compare import theory
+from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
+from tippetop.compare.runner import Task, run_tasks
+from tippetop.models.errors import TippetopError
 
 WHICH = ("n1", "nc")
 #: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.params import InitialState, TopParams
+from tippetop.models.params import InitialState, TopParams
 
 
 def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:

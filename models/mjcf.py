@@ -21,8 +21,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from models.errors import expect
-from models.params import TopParams
+from tippetop.models.errors import expect
+from tippetop.models.params import TopParams
 
 #: Friction modes: "paper" = frictionless contact plus the paper's law applied by the harness;
 #: "native" = MuJoCo's own contact friction.

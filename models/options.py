@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from models.errors import expect
+from tippetop.models.errors import expect
 
 FORMULATIONS = ("vector", "paper")
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from models.errors import TippetopError, expect
+from tippetop.models.errors import TippetopError, expect
 
 # The paper's default top (eq. 3.10), cgs: R = 1.5 cm, M = 15 g, g = 980 cm/s^2.
 PAPER_R_CM = 1.5  # (centimetres)

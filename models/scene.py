@@ -55,11 +55,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from models.errors import TippetopError, expect
-from models.options import MujocoOptions, OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.errors import TippetopError, expect
+from tippetop.models.options import MujocoOptions, OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.resources import data_path
 
-SCENES_DIR = Path(__file__).parent / "scenes"
+SCENES_DIR = data_path("tippetop.models", "scenes")
 
 _F, _I, _S, _B, _L = "float", "int", "str", "bool", "list"
 

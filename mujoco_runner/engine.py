@@ -17,12 +17,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from compare.engines import EngineRun
-from compare.metrics import first_inversion_time, jellett_scale, summary
-from models.errors import TippetopError
-from models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL
-from models.scene import Scene
-from mujoco_runner.calibrated import calibrated_native_settings
+from tippetop.compare.engines import EngineRun
+from tippetop.compare.metrics import first_inversion_time, jellett_scale, summary
+from tippetop.models.calibrated import calibrated_native_settings
+from tippetop.models.errors import TippetopError
+from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL
+from tippetop.models.scene import Scene
 
 #: Stand-in for an integration tolerance in the energy check: soft contacts store a little
 #: elastic energy in the penetration that the table's E leaves out (about 1e-5 of E0 at rest).
@@ -98,8 +98,8 @@ def sample_interval(t_end_s: float, sample_dt_s: float | None, timestep_s: float
 
 def run_mujoco(scene: Scene, progress: Callable[[float], None] | None = None) -> EngineRun:
     """Run a scene in MuJoCo and summarise it with the shared metrics."""
-    from mujoco_runner.model import load_top
-    from mujoco_runner.run import simulate_mujoco, simulate_top_model
+    from tippetop.mujoco_runner.model import load_top
+    from tippetop.mujoco_runner.run import simulate_mujoco, simulate_top_model
 
     kw = mujoco_settings(scene)
     sample_dt = sample_interval(scene.run.t_end_s, scene.run.sample_dt_s, kw["timestep_s"])

@@ -56,9 +56,9 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from models.params import FrictionParams
-from mujoco_runner.model import TopModel
-from reference_ode.friction import LAW_TERMS, friction_terms
+from tippetop.models.params import FrictionParams
+from tippetop.mujoco_runner.model import TopModel
+from tippetop.reference_ode.friction import LAW_TERMS, friction_terms
 
 # Slot layout. Integer slots:
 _I_DATA, _I_MODEL, _I_QPOS, _I_QVEL, _I_QFRC_PASSIVE, _I_QFRC_CONSTRAINT = 0, 1, 2, 3, 4, 5

@@ -32,9 +32,9 @@ from dataclasses import dataclass, field, replace
 import mujoco
 import numpy as np
 
-from models.errors import TippetopError, expect
-from models.frames import quat_to_mat
-from models.params import TopParams
+from tippetop.models.errors import TippetopError, expect
+from tippetop.models.frames import quat_to_mat
+from tippetop.models.params import TopParams
 
 #: Relative tolerance for "A1 == A2" and for "the centre of mass is on the axis" (in units of R).
 AXISYMMETRY_RTOL = 1e-9

@@ -21,9 +21,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from models.observables import COLUMNS, EXTRA_COLUMNS
-from mujoco_runner.model import TopModel
-from mujoco_runner.state import kinematics, paper_angles
+from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS
+from tippetop.mujoco_runner.model import TopModel
+from tippetop.mujoco_runner.state import kinematics, paper_angles
 
 
 def observables_table(

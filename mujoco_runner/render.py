@@ -45,10 +45,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from models.errors import TippetopError, expect
+from tippetop.models.errors import TippetopError, expect
 
 if TYPE_CHECKING:
-    from models.scene import Scene
+    from tippetop.models.scene import Scene
 
 #: ``--engine`` choices; ``both`` is MuJoCo (left) and the reference ODE (right).
 RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode", "both")
@@ -261,7 +261,7 @@ def render_scene(
             OpenGL backend (no file is written).
         RunFailed: If an engine's run diverged or stopped short (no file is written).
     """
-    from compare.io import check_output_path
+    from tippetop.compare.io import check_output_path
 
     expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
     width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
@@ -269,7 +269,7 @@ def render_scene(
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
     backend = use_gl_backend()  # before anything below imports mujoco
 
-    from compare.engines import run_engine
+    from tippetop.compare.engines import run_engine
 
     engines = ("mujoco", "ode") if engine == "both" else (engine,)
     tables = {}
@@ -279,8 +279,8 @@ def render_scene(
             raise RunFailed(f"{name}: {run.message}")
         tables[name] = run.table
 
-    from compare.io import write_atomic
-    from mujoco_runner import video
+    from tippetop.compare.io import write_atomic
+    from tippetop.mujoco_runner import video
 
     top_model = video.render_model(scene, width, height)
     tracks = [video.Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
@@ -312,7 +312,7 @@ def _frame_bar(total: int, label: str) -> Iterator[Callable[[], None] | None]:
 # ---------------------------------------------------------------- command line
 def _cmd_render(args: argparse.Namespace) -> int:
     """Run ``tippetop render``; returns the exit status (0, or 1 for a failed run)."""
-    from models.scene import load_scene
+    from tippetop.models.scene import load_scene
 
     scene = load_scene(args.scene, list(args.set or []))
     out = args.out if args.out else f"{scene.name}.mp4"

@@ -24,19 +24,19 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from models.errors import expect
-from models.frames import quat_to_mat
-from models.mjcf import FRICTION_MODES, INTEGRATORS, make_mjcf
-from models.params import FrictionParams, InitialState, TopParams
-from mujoco_runner.friction_callback import (
+from tippetop.models.errors import expect
+from tippetop.models.frames import quat_to_mat
+from tippetop.models.mjcf import FRICTION_MODES, INTEGRATORS, make_mjcf
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.mujoco_runner.friction_callback import (
     PaperFriction,
     compiled_callback,
     law_force,
     law_parameters,
 )
-from mujoco_runner.model import TopModel, load_top
-from mujoco_runner.observables import observables_table
-from mujoco_runner.state import initial_qpos_qvel, kinematics
+from tippetop.mujoco_runner.model import TopModel, load_top
+from tippetop.mujoco_runner.observables import observables_table
+from tippetop.mujoco_runner.state import initial_qpos_qvel, kinematics
 
 #: Deepest admissible penetration of the ball into the table, in radii (the soft contact sinks
 #: ~0.025 R at rest with the default solref; more than this means the contact failed).

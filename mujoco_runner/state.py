@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import expect
-from models.frames import initial_rigid_state, quat_mul, quat_to_mat
-from models.observables import SIN_THETA_UNDEFINED
-from models.params import InitialState
-from mujoco_runner.model import TopModel
+from tippetop.models.errors import expect
+from tippetop.models.frames import initial_rigid_state, quat_mul, quat_to_mat
+from tippetop.models.observables import SIN_THETA_UNDEFINED
+from tippetop.models.params import InitialState
+from tippetop.mujoco_runner.model import TopModel
 
 
 def initial_qpos_qvel(top_model: TopModel, init: InitialState) -> tuple[np.ndarray, np.ndarray]:

@@ -30,12 +30,12 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from models.errors import TippetopError
-from models.frames import quat_mul, quat_to_mat
-from models.mjcf import make_mjcf
-from models.scene import Scene
-from mujoco_runner.model import TopModel, TopModelWarning, load_top, top_from_model
-from mujoco_runner.render import BACKEND_PACKAGES
+from tippetop.models.errors import TippetopError
+from tippetop.models.frames import quat_mul, quat_to_mat
+from tippetop.models.mjcf import make_mjcf
+from tippetop.models.scene import Scene
+from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, top_from_model
+from tippetop.mujoco_runner.render import BACKEND_PACKAGES
 
 # The camera follows the top's centre of mass at a fixed bearing (it translates, never turns).
 _CAM_DISTANCE_R = 9.0  # (sphere radii) from the centre of mass

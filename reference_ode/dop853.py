@@ -32,9 +32,9 @@ import numba as nb
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from reference_ode.paper import paper_core
-from reference_ode.params_array import P_SING
-from reference_ode.vector import vector_core
+from tippetop.reference_ode.paper import paper_core
+from tippetop.reference_ode.params_array import P_SING
+from tippetop.reference_ode.vector import vector_core
 
 FORM_VECTOR = 0
 FORM_PAPER = 1

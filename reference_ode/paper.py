@@ -22,15 +22,15 @@ import math
 
 import numba as nb
 
-from reference_ode.friction import friction_terms
-from reference_ode.params_array import (
+from tippetop.reference_ode.friction import friction_terms
+from tippetop.reference_ode.params_array import (
     P_CVISC,
     P_LAM,
     P_MU,
     P_VEPS,
     top_params,
 )
-from reference_ode.vector import write_observables, xi_curves
+from tippetop.reference_ode.vector import write_observables, xi_curves
 
 N_STATE = 10
 ITH, ITHD, IOM, IN, IUX, IUY, IPHI, IPSI, IX, IY = range(N_STATE)

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from models.options import DEFAULT_SINGULAR_SIN
-from models.params import FrictionParams, TopParams
+from tippetop.models.options import DEFAULT_SINGULAR_SIN
+from tippetop.models.params import FrictionParams, TopParams
 
 P_R = 0  # sphere radius (m)
 P_A_OFF = 1  # centre-of-mass offset a (m)

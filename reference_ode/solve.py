@@ -11,17 +11,17 @@ import numba as nb
 import numpy as np
 import pandas as pd
 
-from models.errors import TippetopError, expect
-from models.frames import initial_rigid_state
-from models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
-from models.options import FORMULATIONS as _FORMULATION_NAMES
-from models.options import OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
-from reference_ode import dop853 as _d
-from reference_ode import paper as _paper
-from reference_ode import vector as _vector
-from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import pack_params
+from tippetop.models.errors import TippetopError, expect
+from tippetop.models.frames import initial_rigid_state
+from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
+from tippetop.models.options import FORMULATIONS as _FORMULATION_NAMES
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.reference_ode import dop853 as _d
+from tippetop.reference_ode import paper as _paper
+from tippetop.reference_ode import vector as _vector
+from tippetop.reference_ode.friction import LAW_TERMS
+from tippetop.reference_ode.params_array import pack_params
 
 FORMULATIONS = dict(zip(_FORMULATION_NAMES, (_d.FORM_VECTOR, _d.FORM_PAPER), strict=True))
 

@@ -21,8 +21,8 @@ import math
 
 import numba as nb
 
-from reference_ode.friction import friction_terms
-from reference_ode.params_array import (
+from tippetop.reference_ode.friction import friction_terms
+from tippetop.reference_ode.params_array import (
     P_CVISC,
     P_LAM,
     P_MU,

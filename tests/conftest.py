@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import functools
 
-from models.options import OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
-from models.scene import load_scene
-from reference_ode.solve import OdeResult, simulate_ode
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.scene import load_scene
+from tippetop.reference_ode.solve import OdeResult, simulate_ode
 
 
 @functools.cache

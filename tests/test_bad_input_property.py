@@ -31,8 +31,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from compare.cli import main
-from models.params import FRICTION_LAWS
+from tippetop.compare.cli import main
+from tippetop.models.params import FRICTION_LAWS
 
 RUN = ["--set", "run.t_end_s=0.05", "--set", "ode.max_steps=20000"]
 CALL_TIMEOUT_S = 5.0  # (s) a 0.05-s run capped at 20,000 steps takes well under 0.5 s

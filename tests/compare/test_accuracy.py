@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from compare import accuracy as acc
-from models.errors import TippetopError
+from tippetop.compare import accuracy as acc
+from tippetop.models.errors import TippetopError
 
 T_END_S = 1.0  # Fig. 3 cut to 1 s: through the first nutation dips towards theta = 0
 TOLS = (1e-6, 1e-8, 1e-10)
@@ -92,7 +92,7 @@ def test_over_budget_points_are_recorded_not_dropped() -> None:
 def test_a_failing_method_is_recorded_with_its_reason() -> None:
     """theta0 = 0: the paper formulation refuses to start (it is singular there); the row says
     so and carries no error numbers, while the vector formulation completes."""
-    from models.scene import load_scene
+    from tippetop.models.scene import load_scene
 
     scene = load_scene("fig3", ["init.theta0=0.0", "run.t_end_s=0.2"])
     df = acc.ode_work_precision(scene, tolerances=(1e-6,),
@@ -220,7 +220,7 @@ def test_too_large_euler_step_is_recorded_not_dropped() -> None:
     within the first sample; the row says 'diverged: ...' with the runner's reason and carries
     no error numbers. At dt = 0.01 s it completes with a large error (measured 0.15 rad, 700x
     the 2e-4 rad it has at 1e-4 s): recorded as it is."""
-    from models.scene import load_scene
+    from tippetop.models.scene import load_scene
 
     s = load_scene("fig3", ["run.t_end_s=0.5", "run.sample_dt_s=0.05"])
     df = acc.mujoco_work_precision(s, integrators=("Euler",), modes=("paper",),
@@ -320,7 +320,7 @@ def test_bench_accuracy_engines_option(capsys: pytest.CaptureFixture[str],
                                        tmp_path: Path) -> None:
     """The command runs both engines by default; an unknown engine is one line and exit 2,
     before any work."""
-    from compare.cli import build_parser, main
+    from tippetop.compare.cli import build_parser, main
 
     args = build_parser().parse_args(["bench", "accuracy"])
     assert args.engines == "ode,mujoco" and args.budget_s is None

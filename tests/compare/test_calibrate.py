@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from compare.calibrate import (
+from tippetop.compare.calibrate import (
     MUJOCO_DEFAULTS,
     W_T,
     Candidate,
@@ -29,11 +29,11 @@ from compare.calibrate import (
     parse_scene_list,
     residual,
 )
-from compare.engines import run_engine
-from compare.runner import TaskResult
-from models.errors import TippetopError
-from models.scene import load_scene
-from mujoco_runner.calibrated import CALIBRATION_FILE, calibrated_native_settings
+from tippetop.compare.engines import run_engine
+from tippetop.compare.runner import TaskResult
+from tippetop.models.calibrated import CALIBRATION_FILE, calibrated_native_settings
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import load_scene
 
 SETTINGS_KEYS = {"mu", "cone", "impratio", "solref", "solimp", "timestep_s", "integrator"}
 

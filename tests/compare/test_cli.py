@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from models.observables import COLUMNS
+from tippetop.models.observables import COLUMNS
 
 THEORY_KEYS = {"group", "n1", "n2", "n3", "n4", "nc", "rc", "theta_c", "theta_f", "theta_d"}
 SIMULATE_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
@@ -18,8 +18,8 @@ SIMULATE_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drif
 
 
 def tippetop(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "compare.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=600)
+    return subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *args],
+                          capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
 def test_theory_json() -> None:
@@ -111,8 +111,8 @@ def test_failed_run_leaves_no_output(tmp_path: Path) -> None:
 def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
     """A loaded MJCF top: the theory keys plus its derived parameters, and a run in each engine
     (the ODE on the parameters derived from the file)."""
-    from models.mjcf import make_mjcf
-    from models.params import TopParams
+    from tippetop.models.mjcf import make_mjcf
+    from tippetop.models.params import TopParams
 
     top = TopParams.from_ratios(1.25, 0.15, 0.8)
     f = tmp_path / "top.xml"

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from compare.crossval import compare_scene, friction_law_table
-from models.errors import TippetopError
+from tippetop.compare.crossval import compare_scene, friction_law_table
+from tippetop.models.errors import TippetopError
 
 SUMMARY_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
                 "energy_monotone", "contact_lost", "wall_s"}

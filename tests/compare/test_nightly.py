@@ -17,17 +17,17 @@ from pathlib import Path
 
 import pytest
 
-from compare import nightly
-from compare.modes import MODES
-from compare.nightly import (
+from tippetop.compare import nightly
+from tippetop.compare.modes import MODES
+from tippetop.compare.nightly import (
     TOLERANCES,
     Tolerance,
     compare_value,
     load_catalogue,
     select_cases,
 )
-from models.errors import TippetopError
-from models.scene import catalogue_names
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import catalogue_names
 
 TINY = """
 [profiles.tiny]

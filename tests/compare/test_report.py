@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from compare import nightly
-from compare.report import build_report, friction_note
+from tippetop.compare import nightly
+from tippetop.compare.report import build_report, friction_note
 
 TINY = """
 [profiles.tiny]

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from compare import theory
-from compare.runner import Task, run_tasks, strip_timing
-from compare.sweep import parse_range, run_sweep
-from compare.threshold import measure_threshold
-from models.errors import TippetopError
-from models.scene import load_scene
+from tippetop.compare import theory
+from tippetop.compare.runner import Task, run_tasks, strip_timing
+from tippetop.compare.sweep import parse_range, run_sweep
+from tippetop.compare.threshold import measure_threshold
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import load_scene
 
 
 @pytest.fixture(autouse=True)

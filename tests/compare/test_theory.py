@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from compare import theory as th
-from models.params import TopParams
+from tippetop.compare import theory as th
+from tippetop.models.params import TopParams
 
 
 def top(A_over_C: float, a_over_R: float, C_factor: float = 1.0) -> TopParams:

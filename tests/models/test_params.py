@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from models.errors import TippetopError
-from models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.errors import TippetopError
+from tippetop.models.params import FrictionParams, InitialState, TopParams
 
 
 def test_paper_cgs_set_is_converted_once_to_si() -> None:

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from compare import theory
-from models.errors import TippetopError
-from models.scene import SCHEMA, catalogue_names, load_scene, parse_override
+from tippetop.compare import theory
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import SCHEMA, catalogue_names, load_scene, parse_override
 
 
 def test_catalogue_has_the_papers_cases() -> None:

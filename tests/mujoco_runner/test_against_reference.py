@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from compare import theory
-from compare.engines import run_engine
-from compare.metrics import classify_outcome, theta_asymp
-from models.scene import load_scene
+from tippetop.compare import theory
+from tippetop.compare.engines import run_engine
+from tippetop.compare.metrics import classify_outcome, theta_asymp
+from tippetop.models.scene import load_scene
 
 
 @functools.cache

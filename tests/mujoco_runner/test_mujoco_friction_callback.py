@@ -6,17 +6,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.mjcf import make_mjcf
-from models.params import FrictionParams, InitialState, TopParams
-from mujoco_runner.friction_callback import (
+from tippetop.models.mjcf import make_mjcf
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.mujoco_runner.friction_callback import (
     PaperFriction,
     friction_xy,
     law_force,
     law_parameters,
 )
-from mujoco_runner.model import TopModelWarning, load_top
-from mujoco_runner.state import initial_qpos_qvel, kinematics
-from reference_ode.friction import LAW_TERMS
+from tippetop.mujoco_runner.model import TopModelWarning, load_top
+from tippetop.mujoco_runner.state import initial_qpos_qvel, kinematics
+from tippetop.reference_ode.friction import LAW_TERMS
 
 TOP = TopParams.from_ratios(0.95, 0.125)
 INIT = InitialState(theta0=0.4, thetadot0=1.0, Omega0=5.0, n0=100.0, uOX=0.02, uOY=-0.01)

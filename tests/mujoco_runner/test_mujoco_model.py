@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from models.errors import TippetopError
-from models.mjcf import (
+from tippetop.models.errors import TippetopError
+from tippetop.models.mjcf import (
     BALL_GEOM,
     FREE_JOINT,
     MARKER_GEOM,
@@ -20,9 +20,9 @@ from models.mjcf import (
     TOP_BODY,
     make_mjcf,
 )
-from models.params import InitialState, TopParams
-from mujoco_runner.model import TopModelWarning, load_model, load_top, touch_tilt
-from mujoco_runner.state import initial_qpos_qvel, kinematics
+from tippetop.models.params import InitialState, TopParams
+from tippetop.mujoco_runner.model import TopModelWarning, load_model, load_top, touch_tilt
+from tippetop.mujoco_runner.state import initial_qpos_qvel, kinematics
 
 TOPS = [
     TopParams.from_ratios(1.0, 0.1),  # Fig. 3 / Fig. 6: spherical inertia

@@ -12,12 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from models.errors import TippetopError
-from models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL, make_mjcf
-from models.observables import COLUMNS, EXTRA_COLUMNS
-from models.params import FrictionParams, InitialState, TopParams
-from mujoco_runner.model import load_top
-from mujoco_runner.run import simulate_mujoco, simulate_top_model
+from tippetop.models.errors import TippetopError
+from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL, make_mjcf
+from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.mujoco_runner.model import load_top
+from tippetop.mujoco_runner.run import simulate_mujoco, simulate_top_model
 
 FIG3_TOP = TopParams.from_ratios(1.0, 0.1)
 FIG3_INIT = InitialState(theta0=0.1, n0=100.0)

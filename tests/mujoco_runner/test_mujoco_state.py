@@ -8,12 +8,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.errors import TippetopError
-from models.frames import initial_rigid_state
-from models.mjcf import make_mjcf
-from models.params import InitialState, TopParams
-from mujoco_runner.model import TopModelWarning, load_top
-from mujoco_runner.state import (
+from tippetop.models.errors import TippetopError
+from tippetop.models.frames import initial_rigid_state
+from tippetop.models.mjcf import make_mjcf
+from tippetop.models.params import InitialState, TopParams
+from tippetop.mujoco_runner.model import TopModelWarning, load_top
+from tippetop.mujoco_runner.state import (
     initial_qpos_qvel,
     initial_state_from_qpos_qvel,
     kinematics,

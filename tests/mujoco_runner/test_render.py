@@ -22,13 +22,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from compare import cli
-from compare.engines import run_engine
-from models.errors import TippetopError
-from models.frames import quat_to_mat
-from models.scene import load_scene
-from mujoco_runner import render
-from mujoco_runner.model import TopModelWarning
+from tippetop.compare import cli
+from tippetop.compare.engines import run_engine
+from tippetop.models.errors import TippetopError
+from tippetop.models.frames import quat_to_mat
+from tippetop.models.scene import load_scene
+from tippetop.mujoco_runner import render
+from tippetop.mujoco_runner.model import TopModelWarning
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
@@ -93,7 +93,7 @@ def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
 
 def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     """Replay the engine's table; the drawn body must sit where the table's pose says."""
-    from mujoco_runner import video
+    from tippetop.mujoco_runner import video
 
     table = run_engine(scene, engine, progress=False).table
     top_model = video.render_model(scene, W, H)
@@ -152,7 +152,7 @@ def test_ode_replay_in_an_mjcf_whose_body_frame_is_not_the_papers(tmp_path: Path
 
 
 def test_interpolation_between_samples_is_on_the_way() -> None:
-    from mujoco_runner import video
+    from tippetop.mujoco_runner import video
 
     scene = load_scene("fig3", list(SHORT))
     table = run_engine(scene, "ode", progress=False).table
@@ -239,7 +239,7 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 
 
 # ---------------------------------------------------------------- OpenGL only when asked
-_GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco_runner.video", "imageio",
+_GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "tippetop.mujoco_runner.video", "imageio",
                "imageio_ffmpeg", "PIL")
 
 
@@ -252,12 +252,13 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     """
     code = textwrap.dedent(f"""
         import argparse, os, sys
-        import compare.cli, reference_ode.solve, mujoco_runner.run, mujoco_runner.render
-        from compare import cli
+        import tippetop.compare.cli, tippetop.reference_ode.solve, tippetop.mujoco_runner.run
+        import tippetop.mujoco_runner.render
+        from tippetop.compare import cli
         parser = cli.build_parser()
         sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         if "render" not in sub.choices:
-            mujoco_runner.render.add_render_parser(sub)
+            tippetop.mujoco_runner.render.add_render_parser(sub)
         cli.build_parser = lambda: parser
         assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set",
                          "run.t_end_s=0.01", "--json"]) == 0

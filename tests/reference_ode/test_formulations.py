@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from compare.bench import _rhs_alloc
-from models.errors import TippetopError
-from models.options import OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
-from reference_ode import dop853 as d
-from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import pack_params
-from reference_ode.solve import initial_state_vector, simulate_ode
 from tests.conftest import run_ode
+from tippetop.compare.bench import _rhs_alloc
+from tippetop.models.errors import TippetopError
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.reference_ode import dop853 as d
+from tippetop.reference_ode.friction import LAW_TERMS
+from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
 
 COLUMNS = ["theta", "theta_dot", "n", "J", "E", "N", "vPX", "vPY", "uOX", "uOY", "x", "y",
            "qw", "qx", "qy", "qz"]

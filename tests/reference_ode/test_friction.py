@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from models.params import FrictionParams, TopParams
-from reference_ode.friction import LAW_TERMS, friction_terms
+from tippetop.models.params import FrictionParams, TopParams
+from tippetop.reference_ode.friction import LAW_TERMS, friction_terms
 
 MU, LAM, C, VEPS = 0.3, 0.01, 2.5, 1e-5
 

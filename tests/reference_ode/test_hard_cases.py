@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from compare import theory
-from compare.bench import _rhs_alloc
-from compare.metrics import (
+from tippetop.compare import theory
+from tippetop.compare.bench import _rhs_alloc
+from tippetop.compare.metrics import (
     classify_outcome,
     energy_monotone,
     jellett_drift,
@@ -26,13 +26,13 @@ from compare.metrics import (
     theta_asymp,
     theta_drift,
 )
-from models.errors import TippetopError
-from models.options import OdeOptions
-from models.params import FrictionParams, InitialState, TopParams
-from reference_ode import dop853 as d
-from reference_ode.friction import LAW_TERMS
-from reference_ode.params_array import pack_params
-from reference_ode.solve import OdeResult, initial_state_vector, simulate_ode
+from tippetop.models.errors import TippetopError
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.reference_ode import dop853 as d
+from tippetop.reference_ode.friction import LAW_TERMS
+from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.solve import OdeResult, initial_state_vector, simulate_ode
 
 FINITE_COLUMNS = ["t", "theta", "theta_dot", "n", "J", "E", "N", "x", "y", "z", "qw", "qx",
                   "qy", "qz"]

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from compare import theory
-from compare.metrics import energy_rise, jellett_drift
-from models.params import InitialState, TopParams
 from tests.conftest import run_ode
+from tippetop.compare import theory
+from tippetop.compare.metrics import energy_rise, jellett_drift
+from tippetop.models.params import InitialState, TopParams
 
 LAWS = ["modified_coulomb", "coulomb", "viscous", "coulomb_viscous"]
 

@@ -7,7 +7,10 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-CALIBRATION_FILE = Path(__file__).resolve().parent.parent / "models" / "calibrated_native.toml"
+from tippetop.models.resources import data_path
+
+#: Written by ``tippetop calibrate``; the defaults of ``mujoco.friction=native``.
+CALIBRATION_FILE: Path = data_path("tippetop.models", "calibrated_native.toml")
 
 
 @lru_cache(maxsize=1)

@@ -1,0 +1,27 @@
+"""Data files shipped inside the package (scenes, the catalogue, calibrations, baselines).
+
+They are found through :mod:`importlib.resources` from the package that ships them, never from
+``__file__``: the installed layout (``tippetop.models``, ...) need not mirror the repository's.
+"""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+
+def data_path(package: str, *parts: str) -> Path:
+    """The file-system path of a data file or folder shipped in ``package``.
+
+    Args:
+        package: A package of this distribution, e.g. ``"tippetop.models"``.
+        *parts: Path components inside it, e.g. ``"scenes"``.
+
+    Raises:
+        RuntimeError: If the package is not installed as plain files (a zip import), where
+            data files have no path to write or glob.
+    """
+    p = files(package).joinpath(*parts)
+    if not isinstance(p, Path):  # pragma: no cover - only for zip imports
+        raise RuntimeError(f"{package}: expected an installation on the file system, got {p!r}")
+    return p

@@ -1,0 +1,56 @@
+"""The distribution installs its packages under one name, tippetop.*.
+
+``import models`` and ``import compare`` are other PyPI packages' names: they must not resolve to
+this project outside its checkout, and a ``models.py`` or ``compare.py`` in the working folder
+must not shadow the tool.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TOP_LEVEL = ("models", "reference_ode", "mujoco_runner", "compare")
+
+
+def _python(code: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_bare_names_do_not_import_outside_the_checkout(tmp_path: Path) -> None:
+    for name in TOP_LEVEL:
+        r = _python(f"import {name}", tmp_path)
+        assert r.returncode != 0 and "ModuleNotFoundError" in r.stderr, (name, r.stderr)
+        r = _python(f"import tippetop.{name}", tmp_path)
+        assert r.returncode == 0, (name, r.stderr)
+
+
+def test_modules_named_like_the_folders_in_the_working_folder_do_not_shadow_it(
+        tmp_path: Path) -> None:
+    # `python -c` puts the working folder first on sys.path: these would win a bare import
+    for name in TOP_LEVEL:
+        (tmp_path / f"{name}.py").write_text("raise SystemExit('shadowed: wrong module')\n")
+    code = ("from tippetop.compare.cli import main; "
+            "raise SystemExit(main(['theory', '--A-over-C', '1', '--a-over-R', '0.1', "
+            "'--json']))")
+    r = _python(code, tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert '"group": "II"' in r.stdout
+
+
+def test_every_package_folder_is_installed() -> None:
+    """A subpackage missing from pyproject.toml works in an editable install but not in a wheel."""
+    conf = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(conf["packages"])
+    mapping = conf["package-dir"]
+    found = set()
+    for top in TOP_LEVEL:
+        assert mapping[f"tippetop.{top}"] == top
+        for init in (ROOT / top).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / top).parts
+            found.add(".".join(("tippetop", top, *rel)))
+    assert listed == found
