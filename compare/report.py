@@ -738,7 +738,7 @@ def build_report(results: Mapping[str, Any] | str | Path, path: str | Path, *,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR] [--force]``."""
+    """``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR]``."""
     p = argparse.ArgumentParser(prog="python -m tippetop.compare.report",
                                 description="Rebuild the validation report from a nightly's "
                                 "results.json.")

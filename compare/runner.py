@@ -29,7 +29,7 @@ import pandas as pd
 
 from tippetop.compare.io import write_atomic
 from tippetop.models.errors import TippetopError
-from tippetop.models.resources import data_path
+from tippetop.models.resources import data_path, user_cache_dir
 from tippetop.models.scene import Scene, load_scene
 
 _PACKAGES = ("tippetop.models", "tippetop.reference_ode", "tippetop.mujoco_runner")
@@ -85,8 +85,7 @@ def task_key(task: Task, scene: Scene | None = None) -> str:
 
 def default_cache_dir() -> Path:
     """``$TIPPETOP_CACHE``, else ``~/.cache/tippetop``."""
-    env = os.environ.get("TIPPETOP_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "tippetop"
+    return user_cache_dir()
 
 
 def _downsample(table: pd.DataFrame, rows: int = CACHED_TABLE_ROWS) -> pd.DataFrame:

@@ -6,6 +6,7 @@ They are found through :mod:`importlib.resources` from the package that ships th
 
 from __future__ import annotations
 
+import os
 from importlib.resources import files
 from pathlib import Path
 
@@ -25,3 +26,9 @@ def data_path(package: str, *parts: str) -> Path:
     if not isinstance(p, Path):  # pragma: no cover - only for zip imports
         raise RuntimeError(f"{package}: expected an installation on the file system, got {p!r}")
     return p
+
+
+def user_cache_dir() -> Path:
+    """``$TIPPETOP_CACHE``, else ``~/.cache/tippetop``: cached runs and compiled code."""
+    env = os.environ.get("TIPPETOP_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "tippetop"
