@@ -15,9 +15,9 @@ import pandas as pd
 
 from tippetop.compare import theory
 from tippetop.compare.metrics import classify_outcome, outcome_of_angle
-from tippetop.compare.modes import MODES, mode_task_parts
 from tippetop.compare.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import MODES, mode_task_parts
 from tippetop.models.scene import Scene
 
 REFERENCE_MODE = "ode"

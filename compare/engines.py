@@ -1,25 +1,42 @@
-"""Run a scene in an engine and summarise it with the shared metrics."""
+"""Run a plan in its engine and summarise it with the shared metrics.
+
+:func:`plan_for` turns a scene and an engine (or a mode) into the run plan
+(:func:`tippetop.models.plan.resolve_plan`, reading an MJCF top's parameters when the scene has
+one); :func:`run_plan` runs it. Every summary reports what ran - for the reference the law,
+the formulation and the tolerances it integrated; for MuJoCo the settings read back from the
+compiled model and the top's contact - and lists under ``unused`` the ``--set`` keys that the
+engine did not read.
+"""
 
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.metrics import jellett_scale, summary
+from tippetop.compare.metrics import first_inversion_time, jellett_scale, summary
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import MODES
+from tippetop.models.plan import ENGINES, RunPlan, mode_engine, resolve_plan
 from tippetop.models.scene import Scene
 
-ENGINES = ("ode", "mujoco")
+#: Stand-in for an integration tolerance in MuJoCo's energy check: soft contacts store a
+#: little elastic energy in the penetration that the table's E leaves out (about 1e-5 of E0
+#: at rest).
+MUJOCO_ENERGY_RTOL = 1e-6
+#: The summary keys of a failed run that would be numbers: a failed run reports none.
+RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone")
+
+__all__ = ["ENGINES", "EngineRun", "plan_for", "progress_bar", "run_engine", "run_plan"]
 
 
 @dataclass
 class EngineRun:
-    """One engine's run of a scene: the observables table and the summary dictionary."""
+    """One engine's run of a plan: the observables table and the summary dictionary."""
 
     table: pd.DataFrame
     summary: dict[str, Any]
@@ -27,8 +44,24 @@ class EngineRun:
     message: str
 
 
+def plan_for(scene: Scene, engine: str) -> RunPlan:
+    """The run plan of ``scene`` in ``engine`` (``ode``, ``mujoco``, or a mode name).
+
+    A mode (``mujoco-native-elliptic``, ...) is its engine plus the overrides that select it.
+    """
+    engine, overrides = mode_engine(engine)
+    if overrides:
+        scene = scene.with_overrides(list(overrides))
+    file_top = None
+    if scene.top_mjcf is not None:
+        from tippetop.mujoco_runner.model import load_top
+
+        file_top = load_top(scene.top_mjcf).top
+    return resolve_plan(scene, engine, file_top=file_top)
+
+
 @contextmanager
-def progress_bar(total_s: float, label: str):
+def progress_bar(total_s: float, label: str) -> Iterator[Callable[[float], None] | None]:
     """A tqdm bar over simulated seconds on a terminal; nothing when stderr is not a terminal."""
     if not sys.stderr.isatty() or total_s <= 0:
         yield None
@@ -44,47 +77,72 @@ def progress_bar(total_s: float, label: str):
         yield update
 
 
-def run_ode(scene: Scene, progress: Callable[[float], None] | None = None) -> EngineRun:
-    """Run the reference ODE on a scene."""
+def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineRun:
     from tippetop.reference_ode.solve import simulate_ode
 
-    if scene.effects.torsional or scene.effects.rolling:
-        raise TippetopError("effects: the reference ODE models sliding friction only, expected "
-                            "torsional = false and rolling = false, got "
-                            f"torsional = {scene.effects.torsional}, "
-                            f"rolling = {scene.effects.rolling}")
-    top = scene.top
-    if scene.top_mjcf is not None:
-        from tippetop.mujoco_runner.model import load_top
-
-        top = load_top(scene.top_mjcf).top
-    friction = scene.friction
-    if not scene.effects.sliding:
-        from dataclasses import replace
-
-        friction = replace(friction, law="none")
-    res = simulate_ode(top, friction, scene.init, t_end_s=scene.run.t_end_s,
-                       sample_dt_s=scene.run.sample_dt_s, options=scene.ode, progress=progress)
+    p = plan.ode
+    assert p is not None
+    res = simulate_ode(p.top, p.friction, p.init, t_end_s=p.t_end_s, sample_dt_s=p.sample_dt_s,
+                       options=p.options, progress=progress)
+    top = p.top
     s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
                 contact_lost=res.status == "contact_lost", wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_rhs=res.n_rhs)
-    s["status"] = res.status
-    s["message"] = res.message
+    s.update(status=res.status, message=res.message, friction_law=p.friction.law,
+             formulation=p.options.formulation, rtol=p.options.rtol, atol=p.options.atol,
+             sample_dt_s=p.sample_dt_s, unused=list(plan.unused))
     return EngineRun(res.table, s, res.status, res.message)
 
 
-def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:
-    """Run ``scene`` in ``engine`` (``ode`` or ``mujoco``).
+def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineRun:
+    from tippetop.mujoco_runner.run import simulate_plan
 
-    With ``progress`` a bar over simulated time is shown when stderr is a terminal.
+    p = plan.mujoco
+    assert p is not None
+    res = simulate_plan(p, progress=progress)
+    ran = {k: v for k, v in res.ran.items() if k != "contact_source"}
+    if not res.ok:
+        # a diverged run is a failed run with its reason, never numbers
+        s = {"engine": "mujoco", **dict.fromkeys(RESULT_KEYS),
+             "contact_lost": "contact lost" in res.message, "wall_s": res.wall_s,
+             "n_steps": res.n_steps}
+        s.update(status=res.status, message=res.message, mode=p.mode, **ran,
+                 unused=list(plan.unused))
+        return EngineRun(res.table.iloc[:0], s, res.status, res.message)
+    top = p.top
+    s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
+                t_invert=first_inversion_time(res.table), contact_lost=False,
+                wall_s=res.wall_s,
+                J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
+                n_steps=res.n_steps)
+    s.update(status=res.status, message=res.message, mode=p.mode, **ran,
+             unused=list(plan.unused))
+    return EngineRun(res.table, s, res.status, res.message)
+
+
+def run_plan(plan: RunPlan, *,
+             progress: bool | Callable[[float], None] = True) -> EngineRun:
+    """Run a plan in its engine.
+
+    Args:
+        plan: From :func:`plan_for`.
+        progress: True shows a bar over simulated time when stderr is a terminal; a callable
+            is called with the simulated time reached instead (the engines call it now and
+            then, and at the end).
     """
-    if engine not in ENGINES:
-        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {engine!r}")
-    label = f"{scene.name} [{engine}]"
-    with progress_bar(scene.run.t_end_s if progress else 0.0, label) as progress:
-        if engine == "ode":
-            return run_ode(scene, progress)
-        from tippetop.mujoco_runner.engine import run_mujoco
+    if callable(progress):
+        run = _run_ode if plan.engine == "ode" else _run_mujoco
+        return run(plan, progress)
+    label = f"{plan.scene} [{plan.engine}]"
+    with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:
+        if plan.engine == "ode":
+            return _run_ode(plan, tick)
+        return _run_mujoco(plan, tick)
 
-        return run_mujoco(scene, progress)
+
+def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:
+    """Run ``scene`` in ``engine`` (``ode``, ``mujoco`` or a mode name): plan, then run."""
+    if engine not in ENGINES and engine not in MODES:
+        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {engine!r}")
+    return run_plan(plan_for(scene, engine), progress=progress)

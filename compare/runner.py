@@ -4,9 +4,10 @@ Runs go in parallel on this machine's cores by default, on a Dask cluster when a
 address is given, and are cached on disk so that a rerun computes only what changed.
 
 A :class:`Task` names a scene (file or catalogue name, or None for the default scene), its
-``--set`` overrides and an engine. Its cache key hashes what defines the physics: the scene's
-content after overrides (not its name or outputs), the engine, the source code of the packages
-that compute it, and the MuJoCo version. Change any of these and the task runs again.
+``--set`` overrides and an engine. Its cache key hashes what defines the physics: the run plan
+(:func:`tippetop.compare.engines.plan_for`; not the scene's name, outputs or unused keys), an
+MJCF top's file content, the source code of the packages that compute it, and the MuJoCo
+version. Change any of these and the task runs again.
 """
 
 from __future__ import annotations
@@ -27,8 +28,11 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.engines import plan_for, run_plan
 from tippetop.compare.io import write_atomic
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import MODES
+from tippetop.models.plan import ENGINES, RunPlan
 from tippetop.models.resources import data_path, user_cache_dir
 from tippetop.models.scene import Scene, load_scene
 
@@ -43,7 +47,7 @@ CACHED_TABLE_ROWS = 4000
 
 @dataclass(frozen=True)
 class Task:
-    """One run: a scene, its overrides and an engine."""
+    """One run: a scene, its overrides and an engine (or a mode name)."""
 
     scene: str | None
     overrides: tuple[str, ...] = ()
@@ -53,6 +57,10 @@ class Task:
     def load(self) -> Scene:
         """The validated scene."""
         return load_scene(self.scene, list(self.overrides))
+
+    def plan(self, scene: Scene | None = None) -> RunPlan:
+        """The run plan (:func:`tippetop.compare.engines.plan_for`)."""
+        return plan_for(scene or self.load(), self.engine)
 
 
 @lru_cache(maxsize=1)
@@ -73,13 +81,13 @@ def code_fingerprint() -> str:
     return h.hexdigest()[:16]
 
 
-def task_key(task: Task, scene: Scene | None = None) -> str:
-    """The cache key of a task (see the module docstring)."""
-    scene = scene or task.load()
-    keep = {k: v for k, v in scene.raw.items() if k not in ("scene", "outputs", "expect")}
-    payload: dict[str, Any] = {"scene": keep, "engine": task.engine, "code": code_fingerprint()}
-    if scene.top_mjcf is not None:
-        payload["mjcf"] = hashlib.sha256(Path(scene.top_mjcf).read_bytes()).hexdigest()
+def task_key(task: Task, plan: RunPlan | None = None) -> str:
+    """The cache key of a task: its plan's physics, the code, and an MJCF file's content."""
+    plan = plan or task.plan()
+    payload: dict[str, Any] = {**plan.physics(), "code": code_fingerprint()}
+    mjcf = plan.mujoco.mjcf if plan.mujoco is not None else None
+    if mjcf is not None:
+        payload["mjcf"] = hashlib.sha256(Path(mjcf).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:24]
 
 
@@ -102,11 +110,8 @@ def execute(task: Task) -> dict[str, Any]:
     Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
     in a sweep is reported with the others.
     """
-    from tippetop.compare.engines import run_engine
-
     try:
-        scene = task.load()
-        run = run_engine(scene, task.engine, progress=False)
+        run = run_plan(task.plan(), progress=False)
     except TippetopError as exc:
         return {"error": str(exc)}
     return {"summary": run.summary, "table": _downsample(run.table)}
@@ -183,20 +188,25 @@ def run_tasks(
         One result per task, in order.
     """
     cache = ResultCache(cache_dir or default_cache_dir()) if use_cache else None
-    from tippetop.compare.engines import ENGINES
-
     for t in tasks:  # validate everything before any work
-        if t.engine not in ENGINES:
+        if t.engine not in ENGINES and t.engine not in MODES:
             raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, "
                                 f"got {t.engine!r}")
-    scenes = [t.load() for t in tasks]
-    keys = [task_key(t, s) for t, s in zip(tasks, scenes, strict=True)]
+    plans = [t.plan() for t in tasks]
+    keys = [task_key(t, p) for t, p in zip(tasks, plans, strict=True)]
+
+    def own(i: int, res_summary: dict[str, Any] | None) -> dict[str, Any] | None:
+        """A task's own copy of a (shared or cached) summary, with its own unused keys."""
+        if res_summary is None:
+            return None
+        return {**res_summary, "unused": list(plans[i].unused)}
+
     results: list[TaskResult | None] = [None] * len(tasks)
     todo: dict[str, list[int]] = {}
     for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
         hit = cache.get(key) if cache else None
         if hit is not None:
-            results[i] = TaskResult(task, key, hit[0], hit[1], None, True)
+            results[i] = TaskResult(task, key, own(i, hit[0]), hit[1], None, True)
         else:
             todo.setdefault(key, []).append(i)
     unique = [(key, tasks[idx[0]]) for key, idx in todo.items()]
@@ -209,7 +219,7 @@ def run_tasks(
             if cache:
                 cache.put(key, res_summary, table)
         for i in todo[key]:
-            results[i] = TaskResult(tasks[i], key, res_summary, table, err, False)
+            results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
     if bar is not None:
         bar.close()
     return [r for r in results if r is not None]

@@ -15,9 +15,9 @@ import pandas as pd
 from tippetop.compare import theory
 from tippetop.compare.io import write_atomic
 from tippetop.compare.metrics import classify_outcome
-from tippetop.compare.modes import mode_task_parts
 from tippetop.compare.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import mode_task_parts
 
 
 def parse_range(text: str) -> list[float]:

@@ -158,12 +158,29 @@ class Scene:
     raw: dict[str, dict[str, Any]] = field(repr=False)
     path: Path | None = None
     top_mjcf: Path | None = None
+    set_keys: tuple[str, ...] = ()
 
     def content_hash(self) -> str:
         """A hash of everything that defines the run (for caches), not of names or paths."""
         keep = {k: v for k, v in self.raw.items() if k not in ("scene", "outputs", "expect")}
         text = json.dumps(keep, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def is_set(self, key: str) -> bool:
+        """Whether ``section.key`` was given (in the file or by ``--set``), not defaulted."""
+        section, name = key.split(".", 1)
+        return name in self.raw.get(section, {})
+
+    def with_overrides(self, overrides: list[str] | tuple[str, ...]) -> Scene:
+        """This scene with more ``section.key=value`` overrides, validated as at load time."""
+        data = {k: dict(v) for k, v in self.raw.items()}
+        keys = list(self.set_keys)
+        for item in overrides:
+            section, name, value = parse_override(item)
+            data.setdefault(section, {})[name] = _check_type(f"{section}.{name}",
+                                                             SCHEMA[section][name], value)
+            keys.append(f"{section}.{name}")
+        return scene_from_dict(data, path=self.path, set_keys=tuple(dict.fromkeys(keys)))
 
 
 def _is_num(v: object) -> bool:
@@ -281,15 +298,24 @@ def load_scene(path: str | Path | None = None, overrides: list[str] | None = Non
         raw = read_scene_file(file_path)
         origin = f"scene {file_path.name}"
     data = _validate_raw(raw, origin)
+    keys = []
     for item in overrides or []:
         section, name, value = parse_override(item)
         data.setdefault(section, {})[name] = _check_type(f"{section}.{name}",
                                                          SCHEMA[section][name], value)
-    return scene_from_dict(data, path=file_path)
+        keys.append(f"{section}.{name}")
+    return scene_from_dict(data, path=file_path, set_keys=tuple(dict.fromkeys(keys)))
 
 
-def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None) -> Scene:
-    """Build a :class:`Scene` from an already type-checked dictionary."""
+def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
+                    set_keys: tuple[str, ...] = ()) -> Scene:
+    """Build a :class:`Scene` from an already type-checked dictionary.
+
+    Args:
+        data: section -> key -> value, type-checked against :data:`SCHEMA`.
+        path: The scene file (relative ``top.mjcf`` paths are relative to its folder).
+        set_keys: The ``section.key`` names given by ``--set`` (reported when unused).
+    """
     sec = {s: dict(data.get(s, {})) for s in SCHEMA}
     meta = sec["scene"]
     top_d = sec["top"]
@@ -329,4 +355,5 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None) -
         raw={s: v for s, v in data.items() if v},
         path=path,
         top_mjcf=top_mjcf,
+        set_keys=set_keys,
     )

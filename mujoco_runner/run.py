@@ -1,10 +1,14 @@
-"""Run a MuJoCo tippe top and return the shared observables table.
+"""Run a MuJoCo tippe top from a plan and return the shared observables table.
 
-:func:`simulate_mujoco` builds the MJCF of a :class:`~models.params.TopParams` top
-(:func:`models.mjcf.make_mjcf`) and runs it; :func:`simulate_top_model` runs any loaded MJCF top
-(:func:`mujoco_runner.model.load_top`). Friction is either the paper's law applied by the
-compiled callback (``mode="paper"``, frictionless condim-1 contact) or MuJoCo's own contact
-friction (``mode="native"``).
+:func:`simulate_plan` takes a :class:`~tippetop.models.plan.MujocoPlan` (made by
+:func:`tippetop.models.plan.resolve_plan`, the one place a scene is resolved): it builds the
+generated top (:func:`tippetop.models.mjcf.make_mjcf`) or loads the MJCF file and applies the
+settings the plan sets (a ``None`` keeps the file's), runs it, and reports what ran, read back
+from the compiled model and from the top's contact at t = 0 (:func:`settings_that_ran`).
+Friction is either the paper's law applied by the compiled callback (``mode="paper"``,
+frictionless condim-1 contacts; no callback at all when the plan applies no law) or MuJoCo's
+own contact friction (``mode="native"``). :func:`simulate_mujoco` is the same for a top given
+by its parameters and keyword settings; :func:`simulate_top_model` runs a compiled top as is.
 
 Stepping runs in C: ``mj_step(model, data, nstep)`` advances one sample interval per call, so
 Python runs only once per sample (to record the state, read the contact force on a scratch
@@ -19,6 +23,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -26,8 +31,9 @@ import pandas as pd
 
 from tippetop.models.errors import expect
 from tippetop.models.frames import quat_to_mat
-from tippetop.models.mjcf import FRICTION_MODES, INTEGRATORS, make_mjcf
+from tippetop.models.mjcf import CONES, FRICTION_MODES, INTEGRATORS, make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.plan import MujocoPlan, sample_interval
 from tippetop.mujoco_runner.friction_callback import (
     PaperFriction,
     compiled_callback,
@@ -67,6 +73,8 @@ class MujocoResult:
         message: One line: what was run, or why it failed and what to change.
         mode: ``"paper"`` or ``"native"``.
         warnings: Warnings about the model (extra colliding geoms).
+        ran: What ran, read back from the compiled model and the top's contact
+            (:func:`settings_that_ran`), and the row spacing ``sample_dt_s``.
     """
 
     table: pd.DataFrame
@@ -76,6 +84,7 @@ class MujocoResult:
     message: str
     mode: str
     warnings: tuple[str, ...] = field(default=())
+    ran: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -103,12 +112,13 @@ def simulate_mujoco(
     rolling: float = 0.0,
     progress: Callable[[float], None] | None = None,
 ) -> MujocoResult:
-    """Simulate the loaded sphere in MuJoCo.
+    """Simulate the loaded sphere in MuJoCo (a :class:`MujocoPlan` built from arguments).
 
     Args:
         top: The loaded sphere (SI).
-        friction: The friction law. Paper mode applies it (``modified_coulomb``, ``coulomb``
-            or ``viscous``); native mode uses only ``friction.mu``.
+        friction: The friction law. Paper mode applies it (any law of
+            :class:`~tippetop.models.params.FrictionParams`; ``none`` applies nothing);
+            native mode uses only ``friction.mu``.
         init: The paper's initial state.
         t_end_s: Simulated time (s).
         sample_dt_s: Sampling interval (s), a whole number of timesteps.
@@ -133,12 +143,183 @@ def simulate_mujoco(
         TippetopError: For bad arguments (nothing is simulated then).
     """
     expect(mode in FRICTION_MODES, "mode", "one of " + "|".join(FRICTION_MODES), mode)
-    mu_eff = friction.mu if mu is None else mu
-    xml = make_mjcf(top, friction_mode=mode, condim=condim, mu=mu_eff, timestep_s=timestep_s,
-                    integrator=integrator, cone=cone, impratio=impratio, solref=solref,
-                    solimp=solimp, torsional=torsional, rolling=rolling)
-    return simulate_top_model(load_top(xml), friction, init, t_end_s=t_end_s,
-                              sample_dt_s=sample_dt_s, mode=mode, mu=mu_eff, progress=progress)
+    for name, value in (("sample_dt_s", sample_dt_s), ("t_end_s", t_end_s)):
+        expect(isinstance(value, (int, float)) and math.isfinite(value) and value > 0, name,
+               "a finite number > 0 (seconds)", value)
+    mu_eff = friction.mu if mu is None else float(mu)
+    if condim is None:
+        condim = 1 if mode == "paper" else 3
+    law = None
+    if mode == "paper" and friction.law != "none":
+        law = FrictionParams(friction.law, mu_eff, friction.Lambda_mps, friction.viscous_Nspm,
+                             friction.coulomb_v_eps_mps)
+    plan = MujocoPlan(
+        mode=mode, top=top, mjcf=None, law=law, init=init, t_end_s=float(t_end_s),
+        sample_dt_s=None, requested_sample_dt_s=float(sample_dt_s), timestep_s=timestep_s,
+        integrator=integrator, cone=cone, impratio=impratio, condim=condim,
+        mu=0.0 if mode == "paper" else mu_eff, solref=tuple(solref), solimp=tuple(solimp),
+        torsional=torsional, rolling=rolling)
+    return simulate_plan(plan, progress=progress)
+
+
+# ---------------------------------------------------------------- the model a plan runs
+def build_model(plan: MujocoPlan) -> TopModel:
+    """The compiled top of a plan: generated from its parameters, or loaded and adjusted.
+
+    A generated top is :func:`~tippetop.models.mjcf.make_mjcf` with every setting of the plan.
+    A loaded file keeps everything the plan leaves ``None``; the rest is set on the compiled
+    model (:func:`apply_settings`).
+
+    Raises:
+        TippetopError: For settings MuJoCo cannot take (nothing is simulated then).
+    """
+    if plan.mjcf is None:
+        xml = make_mjcf(plan.top, friction_mode=plan.mode, condim=plan.condim,
+                        mu=float(plan.mu or 0.0), timestep_s=plan.timestep_s,
+                        integrator=plan.integrator, cone=plan.cone, impratio=plan.impratio,
+                        solref=plan.solref, solimp=plan.solimp,
+                        torsional=float(plan.torsional or 0.0),
+                        rolling=float(plan.rolling or 0.0))
+        return load_top(xml)
+    top_model = load_top(plan.mjcf)
+    apply_settings(top_model, plan)
+    return top_model
+
+
+def _contact_geoms(top_model: TopModel) -> list[int]:
+    """The colliding geoms of the top and of the static world (the table)."""
+    model, b = top_model.model, top_model.body_id
+    out = []
+    for g in range(model.ngeom):
+        collides = model.geom_contype[g] != 0 or model.geom_conaffinity[g] != 0
+        static = model.body_weldid[model.geom_bodyid[g]] == 0
+        if collides and (model.geom_bodyid[g] == b or static):
+            out.append(g)
+    return out
+
+
+def _top_pairs(top_model: TopModel) -> list[int]:
+    model, b = top_model.model, top_model.body_id
+    bodies = model.geom_bodyid
+    return [p for p in range(model.npair)
+            if b in (bodies[model.pair_geom1[p]], bodies[model.pair_geom2[p]])]
+
+
+def apply_settings(top_model: TopModel, plan: MujocoPlan) -> None:
+    """Set on a compiled model every setting the plan gives (``None`` keeps the model's).
+
+    Options go to ``model.opt``; contact settings to every colliding geom of the top and of
+    the static world and to every explicit contact pair of the top, so that MuJoCo's mixing
+    (max for condim and friction, a solmix-weighted mean for solref and solimp) yields exactly
+    the plan's values.
+    """
+    model = top_model.model
+    if plan.timestep_s is not None:
+        expect(math.isfinite(plan.timestep_s) and plan.timestep_s > 0, "mujoco.timestep_s",
+               "a finite number > 0 (seconds)", plan.timestep_s)
+        model.opt.timestep = plan.timestep_s
+    if plan.integrator is not None:
+        expect(plan.integrator in INTEGRATORS, "mujoco.integrator", "|".join(INTEGRATORS),
+               plan.integrator)
+        model.opt.integrator = _integrator_code(plan.integrator)
+    if plan.cone is not None:
+        expect(plan.cone in CONES, "mujoco.cone", "|".join(CONES), plan.cone)
+        model.opt.cone = (mujoco.mjtCone.mjCONE_PYRAMIDAL if plan.cone == "pyramidal"
+                          else mujoco.mjtCone.mjCONE_ELLIPTIC)
+    if plan.impratio is not None:
+        model.opt.impratio = plan.impratio
+    geoms, pairs = _contact_geoms(top_model), _top_pairs(top_model)
+    for g in geoms:
+        if plan.condim is not None:
+            model.geom_condim[g] = plan.condim
+        for i, v in enumerate((plan.mu, plan.torsional, plan.rolling)):
+            if v is not None:
+                model.geom_friction[g, i] = v
+        if plan.solref is not None:
+            model.geom_solref[g] = plan.solref
+        if plan.solimp is not None:
+            model.geom_solimp[g, :len(plan.solimp)] = plan.solimp
+    for p in pairs:
+        if plan.condim is not None:
+            model.pair_dim[p] = plan.condim
+        for idx, v in (((0, 1), plan.mu), ((2,), plan.torsional), ((3, 4), plan.rolling)):
+            if v is not None:
+                model.pair_friction[p, list(idx)] = v
+        if plan.solref is not None:
+            model.pair_solref[p] = plan.solref
+        if plan.solimp is not None:
+            model.pair_solimp[p, :len(plan.solimp)] = plan.solimp
+
+
+def _integrator_code(name: str) -> int:
+    return int(getattr(mujoco.mjtIntegrator, f"mjINT_{name.upper()}"))
+
+
+def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any]:
+    """What runs, read back from the compiled model and from ``data``'s contacts.
+
+    The contact settings are those of the top's first contact in ``data`` (after a forward
+    pass: MuJoCo has mixed the two geoms' values into it); with no contact, those of the
+    ball geom. Keys: ``timestep_s``, ``integrator``, ``cone``, ``impratio``,
+    ``noslip_iterations``, ``condim``, ``mu``, ``torsional``, ``rolling``, ``solref``,
+    ``solimp``, ``contact_source``.
+    """
+    model = top_model.model
+    opt = model.opt
+    out: dict[str, Any] = {
+        "timestep_s": float(opt.timestep),
+        "integrator": _integrator_name(int(opt.integrator)),
+        "cone": "pyramidal" if int(opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
+        else "elliptic",
+        "impratio": float(opt.impratio),
+        "noslip_iterations": int(opt.noslip_iterations),
+    }
+    b = top_model.body_id
+    for i in range(data.ncon):
+        c = data.contact[i]
+        if b in (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]):
+            fr = [float(v) for v in c.friction]
+            out.update(_friction_that_acts(int(c.dim), fr[0], fr[2], fr[3]),
+                       solref=[float(v) for v in c.solref],
+                       solimp=[float(v) for v in c.solimp], contact_source="contact at t = 0")
+            return out
+    g = top_model.ball_geom_id
+    fr = [float(v) for v in model.geom_friction[g]]
+    out.update(_friction_that_acts(int(model.geom_condim[g]), *fr),
+               solref=[float(v) for v in model.geom_solref[g]],
+               solimp=[float(v) for v in model.geom_solimp[g]],
+               contact_source="ball geom (no contact at t = 0)")
+    return out
+
+
+def _friction_that_acts(condim: int, mu: float, torsional: float,
+                        rolling: float) -> dict[str, Any]:
+    """Condim and the coefficients it uses; None for a coefficient with no friction row."""
+    return {"condim": condim, "mu": mu if condim >= 3 else None,
+            "torsional": torsional if condim >= 4 else None,
+            "rolling": rolling if condim >= 6 else None}
+
+
+def simulate_plan(plan: MujocoPlan, *,
+                  progress: Callable[[float], None] | None = None) -> MujocoResult:
+    """Run a plan (:func:`tippetop.models.plan.resolve_plan`).
+
+    Args:
+        plan: What to run.
+        progress: Called with the simulated time (s) now and then (at most every
+            :data:`PROGRESS_INTERVAL_S` of wall time, and at the end).
+
+    Returns:
+        The run, with ``ran`` read back from the model that ran.
+
+    Raises:
+        TippetopError: For settings the model cannot take (nothing is simulated then).
+    """
+    top_model = build_model(plan)
+    dt = float(top_model.model.opt.timestep)
+    sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
+    return simulate_top_model(top_model, plan.law, plan.init, t_end_s=plan.t_end_s,
+                              sample_dt_s=sample_dt, mode=plan.mode, progress=progress)
 
 
 def _check_paper_contacts(top_model: TopModel) -> None:
@@ -266,7 +447,7 @@ def _warning_message(data: mujoco.MjData) -> str | None:
 
 def simulate_top_model(
     top_model: TopModel,
-    friction: FrictionParams,
+    friction: FrictionParams | None,
     init: InitialState,
     *,
     t_end_s: float,
@@ -275,12 +456,13 @@ def simulate_top_model(
     mu: float | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> MujocoResult:
-    """Simulate a loaded MJCF top (integrator, timestep and contacts from its MJCF).
+    """Simulate a compiled top as it is (integrator, timestep and contacts from its model).
 
     Args:
         top_model: From :func:`mujoco_runner.model.load_top`.
-        friction: Paper mode: the law applied by the callback. Native mode: unused (the MJCF's
-            friction applies).
+        friction: Paper mode: the law applied by the callback; None (or law ``none``) applies
+            no friction and installs no callback. Native mode: unused (the model's friction
+            applies).
         init: The paper's initial state (:func:`mujoco_runner.state.initial_qpos_qvel`).
         t_end_s: Simulated time (s).
         sample_dt_s: Sampling interval (s), a whole number of timesteps.
@@ -296,9 +478,12 @@ def simulate_top_model(
     model = top_model.model
     dt = float(model.opt.timestep)
     steps, n_intervals = _grid(sample_dt_s, t_end_s, dt)
+    law = friction if mode == "paper" and friction is not None and friction.law != "none" \
+        else None
     if mode == "paper":
         _check_paper_contacts(top_model)
-        params = law_parameters(friction, top_model, mu)
+    if law is not None:
+        params = law_parameters(law, top_model, mu)
     integrator = _integrator_name(int(model.opt.integrator))
     fix = f"reduce timestep_s (now {dt:g} s)" + (
         "" if integrator == "RK4" else f" or use integrator RK4 (now {integrator})")
@@ -313,10 +498,17 @@ def simulate_top_model(
 
     status, message, n_good, n_steps = "ok", "", 0, 0
     checks = _SampleChecks(top_model.top.R_m, fix)
-    callback = (PaperFriction(top_model, data, friction, mu=mu) if mode == "paper"
+    callback = (PaperFriction(top_model, data, law, mu=mu) if law is not None
                 else contextlib.nullcontext())
-    if mode == "paper":
-        compiled_callback()  # numba compiles once per process; keep that out of wall_s
+    if law is not None:
+        compiled_callback()  # compiled (or loaded) once per process; kept out of wall_s
+    mujoco.mj_forward(model, data)
+    ran = settings_that_ran(top_model, data)
+    ran["friction_law"] = ("mujoco-native" if mode == "native"
+                           else law.law if law is not None else "none")
+    if law is not None:
+        ran["law_mu"] = float(params["mu"])
+    ran["sample_dt_s"] = steps * dt
     wall0 = time.perf_counter()
     next_report = wall0  # report t = 0 at once
     with callback:
@@ -353,10 +545,12 @@ def simulate_top_model(
 
     t_s = np.arange(n_good) * (steps * dt)
     qpos_s, qvel_s, N_s = qpos_s[:n_good], qvel_s[:n_good], N_s[:n_good]
-    if mode == "paper":
+    if law is not None:
         F_s = law_force(params, kinematics(top_model, qpos_s, qvel_s).v_P_mps, N_s) \
             if n_good else F_s[:0]
         tau = None
+    elif mode == "paper":
+        F_s, tau = np.zeros((n_good, 3)), None
     else:
         F_s, tau = F_s[:n_good], tau_s[:n_good]
     table = observables_table(top_model, t_s, qpos_s, qvel_s, N_s, F_s, tau)
@@ -367,7 +561,7 @@ def simulate_top_model(
         t_fail = n_good * steps * dt
         message = f"diverged by t = {t_fail:.6g} s ({mode} mode): {message}"
     return MujocoResult(table=table, n_steps=n_steps, wall_s=wall_s, status=status,
-                        message=message, mode=mode, warnings=top_model.warnings)
+                        message=message, mode=mode, warnings=top_model.warnings, ran=ran)
 
 
 __all__ = [
@@ -377,6 +571,10 @@ __all__ = [
     "MAX_PENETRATION_R",
     "MujocoResult",
     "PROGRESS_INTERVAL_S",
+    "apply_settings",
+    "build_model",
+    "settings_that_ran",
     "simulate_mujoco",
+    "simulate_plan",
     "simulate_top_model",
 ]

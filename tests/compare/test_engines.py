@@ -1,0 +1,95 @@
+"""Both engines run the plan, and the summary says what ran.
+
+The two bugs of the three-place scene resolution each have a test here: paper mode ignored
+``effects.sliding = false``, and a loaded MJCF top ignored ``mujoco.timestep_s`` and
+``mujoco.integrator`` while the summary echoed them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tippetop.compare.engines import plan_for, run_engine, run_plan
+from tippetop.models.mjcf import make_mjcf
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.scene import load_scene
+from tippetop.mujoco_runner.run import simulate_mujoco
+
+T_END = 0.5  # s: a quarter of Fig. 3's rise, enough for friction to move the top visibly
+
+
+def _run(engine: str, *overrides: str):
+    return run_engine(load_scene("fig3", ["run.t_end_s=0.5", *overrides]), engine,
+                      progress=False)
+
+
+def test_paper_mode_without_sliding_applies_no_friction() -> None:
+    off = _run("mujoco", "mujoco.friction=paper", "effects.sliding=false")
+    on = _run("mujoco", "mujoco.friction=paper")
+    assert off.status == on.status == "ok"
+    assert off.summary["friction_law"] == "none" and on.summary["friction_law"] != "none"
+    # A frictionless table pushes only along e_z: the centre of mass cannot move sideways
+    # from its start at rest (x = y = 0); 1e-12 m is round-off over 25,000 RK4 steps. With
+    # friction on, the same start slides by about a millimetre.
+    assert np.max(np.hypot(off.table["x"], off.table["y"])) < 1e-12
+    assert np.max(np.hypot(on.table["x"], on.table["y"])) > 1e-4
+    # ... and the friction power is zero, not just small
+    assert np.all(off.table["P_fric"] == 0.0)
+    # It follows the frictionless reference: only the soft contact separates them. Paper mode
+    # agrees with the reference to ~2e-4 rad over 6 s with friction (README); without it the
+    # error left is the contact's (ball sinking < 1 um): 1e-3 rad bounds it over 0.5 s.
+    ode = _run("ode", "effects.sliding=false")
+    theta_ode = np.interp(off.table["t"], ode.table["t"], ode.table["theta"])
+    assert np.max(np.abs(off.table["theta"] - theta_ode)) < 1e-3
+    # the frictionless and the frictional runs differ by far more than that
+    assert np.max(np.abs(on.table["theta"] - off.table["theta"])) > 1e-2
+
+
+@pytest.fixture(scope="module")
+def mjcf_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A top written as a file with options that no scene default has."""
+    xml = make_mjcf(TopParams.from_ratios(1.0, 0.1), friction_mode="paper", timestep_s=5e-5,
+                    integrator="implicitfast")
+    path = tmp_path_factory.mktemp("mjcf") / "top.xml"
+    path.write_text(xml)
+    return path
+
+
+def test_a_loaded_top_runs_its_own_timestep_and_integrator(mjcf_file: Path) -> None:
+    scene = load_scene("fig3", [f"top.mjcf={str(mjcf_file)!r}", "run.t_end_s=0.1",
+                                "mujoco.friction=paper"])
+    run = run_plan(plan_for(scene, "mujoco"), progress=False)
+    assert (run.summary["timestep_s"], run.summary["integrator"]) == (5e-5, "implicitfast")
+    assert run.summary["n_steps"] == round(0.1 / 5e-5)
+
+
+def test_a_loaded_top_runs_the_timestep_and_integrator_it_is_given(mjcf_file: Path) -> None:
+    scene = load_scene("fig3", [f"top.mjcf={str(mjcf_file)!r}", "run.t_end_s=0.1",
+                                "mujoco.friction=paper", "mujoco.timestep_s=1e-4",
+                                "mujoco.integrator=Euler"])
+    run = run_plan(plan_for(scene, "mujoco"), progress=False)
+    s = run.summary
+    assert (s["timestep_s"], s["integrator"], s["n_steps"]) == (1e-4, "Euler", 1000)
+    # and it is the run of a model written with those settings, bit for bit
+    same = simulate_mujoco(TopParams.from_ratios(1.0, 0.1), FrictionParams(),
+                           InitialState(theta0=0.1, n0=100.0), t_end_s=0.1, sample_dt_s=1e-3,
+                           mode="paper", timestep_s=1e-4, integrator="Euler",
+                           solref=(0.02, 1.0))
+    assert np.array_equal(run.table["theta"].to_numpy(), same.table["theta"].to_numpy())
+
+
+def test_the_summary_reports_what_ran_and_what_was_not_used() -> None:
+    mj = _run("mujoco", "mujoco.friction=native", "mujoco.cone=elliptic", "ode.rtol=1e-6",
+              "run.t_end_s=0.05")
+    s = mj.summary
+    assert s["cone"] == "elliptic" and s["condim"] == 3 and s["friction_law"] == "mujoco-native"
+    assert s["unused"] == ["ode.rtol"]
+    for key in ("timestep_s", "integrator", "impratio", "mu", "solref", "solimp"):
+        assert s[key] is not None, key
+    ode = _run("ode", "mujoco.cone=pyramidal", "run.t_end_s=0.05")
+    assert ode.summary["unused"] == ["mujoco.cone"]
+    assert (ode.summary["friction_law"], ode.summary["formulation"]) == ("modified_coulomb",
+                                                                         "vector")
