@@ -10,6 +10,10 @@ One template, filled by :func:`make_mjcf`. The model holds:
 * ``ball``: the sphere geom of radius R, the only geom of the top that collides.
 * ``stem`` and ``spin_marker``: visual-only geoms (``contype = conaffinity = 0``, mass 0,
   group 1) that make tilt and spin visible in renders.
+* ``<size nuserdata="HARNESS_USERDATA"/>``: room in ``mjData.userdata`` for the paper-mode
+  callback's parameters (:mod:`mujoco_runner.friction_callback`), so the text works with it
+  even when compiled by MuJoCo directly (:func:`mujoco_runner.model.load_model` appends its
+  own block of that size to whatever a document declares).
 
 Contact parameters (condim, friction, solref, solimp) are written identically on ``table`` and
 ``ball``, so MuJoCo's mixing rules (max for condim and friction, solmix-weighted average for
@@ -37,6 +41,10 @@ CONDIMS: tuple[int, ...] = (1, 3, 4, 6)
 #: MuJoCo's own default torsional and rolling coefficients (geom friction "1 0.005 0.0001").
 MUJOCO_DEFAULT_TORSIONAL = 0.005  # (m)
 MUJOCO_DEFAULT_ROLLING = 0.0001  # (m)
+
+#: Entries of ``mjData.userdata`` the paper-mode callback reserves at the END of the vector for
+#: its parameters and outputs (:mod:`mujoco_runner.friction_callback` defines their layout).
+HARNESS_USERDATA = 18
 
 #: Element names, shared with the runner (read quantities by name, never by index).
 TABLE_GEOM = "table"
@@ -172,6 +180,7 @@ def make_mjcf(
     cam_dist = 12 * R
     return f"""<mujoco model="tippetop">
   <compiler angle="radian" inertiafromgeom="false"/>
+  <size nuserdata="{HARNESS_USERDATA}"/>
   <option timestep="{_num(timestep_s)}" integrator="{integrator}" cone="{cone}"
           impratio="{_num(impratio)}" gravity="0 0 {_num(-top.g_mps2)}"/>
   <visual>
@@ -213,6 +222,7 @@ __all__ = [
     "CONES",
     "FREE_JOINT",
     "FRICTION_MODES",
+    "HARNESS_USERDATA",
     "INTEGRATORS",
     "MARKER_GEOM",
     "MUJOCO_DEFAULT_ROLLING",

@@ -7,25 +7,43 @@ In "paper" mode the contact is frictionless (condim 1) and the friction force
 (or any other law of :class:`models.params.FrictionParams`, through the reference ODE's own
 compiled law terms, so both engines apply the same function) acts at the
 contact point P = S - R e_z, with v_P the horizontal velocity of the material point at P. This
-module owns MuJoCo's process-global ``mjcb_passive`` while a :class:`PaperFriction` context is
-open, and restores the previous callback when it closes.
+module owns MuJoCo's process-global ``mjcb_passive`` while at least one :class:`PaperFriction`
+(or :func:`callback_installed`) context is open, and restores the previous callback when the
+last one closes.
 
-How the callback reaches mjData (no Python runs per step):
+How the callback reaches its state (no Python runs per step):
 
-* The callback is one numba ``cfunc`` with MuJoCo's signature ``void(const mjModel*, mjData*)``,
-  compiled once per process on first use (about 1-2 s; it is not cached on disk, because it
-  embeds the addresses below).
-* Two module-level numpy arrays, :data:`_SLOT_I` (int64) and :data:`_SLOT_F` (float64), are the
-  only shared state. Their addresses are fixed for the life of the process and are baked into
-  the cfunc as constants; a tiny numba intrinsic turns an integer address into a typed pointer,
-  and ``numba.carray`` views it as an array.
-* :meth:`PaperFriction.__enter__` writes into the slots: the ``mjData*`` and ``mjModel*``
-  addresses (``data._address``, ``model._address``), the raw addresses of ``data.qpos``,
-  ``data.qvel``, ``data.qfrc_passive`` and ``data.qfrc_constraint`` (``arr.ctypes.data``; the
-  bindings' arrays are views of mjData's own buffers, which never move), the free joint's
-  qpos/dof addresses, and the law's parameters. The callback compares the ``mjData*`` it is
-  given with the stored one and does nothing for any other mjData (another model stepping in
-  the same process, or the runner's scratch data), and nothing once the context is closed.
+* The callback is one numba ``cfunc`` with MuJoCo's signature ``void(const mjModel*, mjData*)``.
+  It reads everything through the two pointers it is given, so it works on any mjData on any
+  thread (e.g. the thread pool of ``mujoco.batch.Batch``), and it holds no address of this
+  process: it is cached on disk by numba (``cache=True``; the folder is set by
+  :mod:`reference_ode._jit`), so only the first process after an install, an upgrade or a
+  source change compiles it.
+* The struct field offsets it needs (``mjData.qpos``, ``qvel``, ``userdata``, ``qfrc_passive``,
+  ``qfrc_constraint`` and ``mjModel.nuserdata``) are not in the Python bindings. They are found
+  once per process by :func:`struct_layout`, from probe models and data (see there), and baked
+  into the callback as constants. A cached callback reports the constants it was compiled with
+  (called with a NULL model, which MuJoCo never passes); if they differ from this process's
+  layout (a MuJoCo build with another layout but the same version, so the same cache folder),
+  the callback is compiled afresh without the cache, with a :class:`StaleCallbackWarning`.
+* Its parameters live in the mjData itself: the LAST :data:`USERDATA_SIZE` entries of
+  ``mjData.userdata`` (:data:`models.mjcf.HARNESS_USERDATA`; :func:`mujoco_runner.model.
+  load_model` appends that many to every model, :func:`models.mjcf.make_mjcf` declares them).
+  :func:`userdata_block` builds them: a magic marker, the ``mjModel*`` address (so the
+  callback ignores any other model, e.g. a copy), the law (coulomb kind, viscous flag, mu,
+  Lambda, viscous coefficient, v_eps), R and the sphere's centre in the body frame, the free
+  joint's qpos/dof addresses, then outputs the callback writes (last Fx, Fy, N and a call
+  counter). Without the marker and the matching model the callback does nothing, so an
+  mjData nobody armed (the runner's scratch data, which copies only qpos/qvel; a new
+  ``MjData``; one after ``mj_resetData``) steps frictionless. A copy of an armed mjData
+  (``mj_copyData``, ``copy.copy``, a batch's state rows, which hold userdata) is armed too.
+* :class:`PaperFriction` arms one mjData (writes its block) on enter and disarms it (clears the
+  marker) on exit; several mjData may be armed at once, each with its own law. The global
+  callback is installed while at least one context is open (reference counted) and the
+  previous one restored when the last closes. Thread-safety: open and close contexts from one
+  thread (the main thread) only, and never while a simulation is being stepped on another
+  thread; the callback itself is reentrant (it touches only the mjData it is given) and may
+  run on any number of threads at once.
 * The force is added to ``qfrc_passive`` (MuJoCo fills it before calling the callback, which
   must add, not overwrite) as the free joint's generalized force: the world force F on the
   translational dofs and the torque (P - body origin) x F, rotated into the body frame, on the
@@ -41,14 +59,27 @@ the translational dofs take the world force). With RK4 (four evaluations per ste
 thus sees the N of the stage before it, and the first stage the N of the previous step's last
 stage; with Euler it is the previous step's N. So N lags by one evaluation, an O(dt) error.
 Any other constraint force on the body (another contact, an equality) would be counted in N;
-a top whose only contact is the ball has none. N is clipped at 0.
+a top whose only contact is the ball has none. N is clipped at 0. ``qfrc_constraint`` is not
+part of MuJoCo's state vector: a ``mujoco.batch.Batch`` must be ``persistent=True`` (one mjData
+per simulation) for the first stage of a call to see its own simulation's N (otherwise it sees
+another simulation's), and must run on the caller's model (``batch.set_models(model)``: the
+batch's own copy has another address, so the callback would ignore it). So set up, a batch
+equals single-mjData runs bit for bit on any number of threads.
 
 The velocity used is the one in mjData at call time (the RK4 stage's velocity).
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import functools
+import mmap
+import sys
 import threading
+import warnings
+from collections.abc import Iterator
+from dataclasses import astuple, dataclass
 
 import mujoco
 import numba
@@ -56,23 +87,222 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
+from tippetop.models.errors import expect
+from tippetop.models.mjcf import HARNESS_USERDATA
 from tippetop.models.params import FrictionParams
 from tippetop.mujoco_runner.model import TopModel
 from tippetop.reference_ode.friction import LAW_TERMS, friction_terms
 
-# Slot layout. Integer slots:
-_I_DATA, _I_MODEL, _I_QPOS, _I_QVEL, _I_QFRC_PASSIVE, _I_QFRC_CONSTRAINT = 0, 1, 2, 3, 4, 5
-_I_QPOS_ADR, _I_DOF_ADR, _I_COULOMB, _I_CALLS, _I_VISC = 6, 7, 8, 9, 10
-# Float slots:
-_F_MU, _F_LAMBDA, _F_VISCOUS, _F_VEPS, _F_R, _F_CENTRE = 0, 1, 2, 3, 4, 5  # centre: 5, 6, 7
-_F_LAST_FX, _F_LAST_FY, _F_LAST_N = 8, 9, 10
-_NSLOT = 16
+#: Entries at the end of ``mjData.userdata`` that hold the callback's block.
+USERDATA_SIZE = HARNESS_USERDATA
 
-#: The callback's shared state (see the module docstring). Never reallocated.
-_SLOT_I = np.zeros(_NSLOT, dtype=np.int64)
-_SLOT_F = np.zeros(_NSLOT, dtype=np.float64)
-_SLOT_I_ADDR = int(_SLOT_I.ctypes.data)
-_SLOT_F_ADDR = int(_SLOT_F.ctypes.data)
+# Layout of the block (float64 entries; the marker and the model address are int64 bits).
+_U_MAGIC, _U_MODEL, _U_COULOMB, _U_VISC_ON, _U_MU, _U_LAMBDA, _U_VISCOUS, _U_VEPS = range(8)
+_U_R, _U_CENTRE = 8, 9  # centre: 9, 10, 11
+_U_QPOS_ADR, _U_DOF_ADR = 12, 13
+_U_LAST_FX, _U_LAST_FY, _U_LAST_N, _U_CALLS = 14, 15, 16, 17
+if _U_CALLS >= USERDATA_SIZE:  # pragma: no cover - a layout edit without the constant
+    raise ImportError(f"the callback's block needs {_U_CALLS + 1} userdata entries, "
+                      f"models.mjcf.HARNESS_USERDATA is {USERDATA_SIZE}")
+#: The marker's bits (ASCII "TTopCB01", little-endian: a normal float64, never NaN). The last
+#: two characters version the block's layout.
+_MAGIC = int.from_bytes(b"TTopCB01", "little")
+
+
+class StructLayoutError(RuntimeError):
+    """The mjModel/mjData field offsets could not be found unambiguously in this MuJoCo."""
+
+
+class StaleCallbackWarning(UserWarning):
+    """numba's on-disk cache held a callback compiled for another struct layout."""
+
+
+@dataclass(frozen=True)
+class StructLayout:
+    """Byte offsets of the fields the callback reads, in MuJoCo's ``mjModel`` and ``mjData``.
+
+    Attributes:
+        qpos: ``mjData.qpos`` (a ``mjtNum*``).
+        qvel: ``mjData.qvel``.
+        userdata: ``mjData.userdata``.
+        qfrc_passive: ``mjData.qfrc_passive``.
+        qfrc_constraint: ``mjData.qfrc_constraint``.
+        nuserdata: ``mjModel.nuserdata`` (an integer of ``nuserdata_width`` bytes).
+        nuserdata_width: 8 (``mjtSize``, MuJoCo >= 3.3) or 4 (``int``).
+    """
+
+    qpos: int
+    qvel: int
+    userdata: int
+    qfrc_passive: int
+    qfrc_constraint: int
+    nuserdata: int
+    nuserdata_width: int
+
+
+#: mjData pointer fields the callback reads, in their declaration order in mjdata.h.
+_DATA_FIELDS = ("qpos", "qvel", "userdata", "qfrc_passive", "qfrc_constraint")
+# Probe models. The data probe has an actuator with activation dynamics so that no zero-sized
+# array sits in front of userdata (act_dot, na) in mjData's buffer: a zero-sized array shares
+# the address of the next one, and would make userdata's value appear twice. Its ball touches
+# the plane, so that the constraint arrays (the last pointer fields) are allocated and the scan
+# reaches the end of the struct. Two probes with different sizes must give the same offsets.
+_DATA_PROBE_XML = """<mujoco><size nuserdata="{nuserdata}"/>
+  <worldbody><geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.09"><freejoint/><geom size="0.1"/></body>
+    <body pos="1 0 0"><joint name="hinge" type="hinge"/><geom size="0.1"/>{extra}</body>
+  </worldbody>
+  <actuator><general joint="hinge" dyntype="filter" dynprm="1"/></actuator>
+  <sensor><jointpos joint="hinge"/></sensor></mujoco>"""
+_DATA_PROBES = (dict(nuserdata=3, extra=""),
+                dict(nuserdata=7, extra='<body pos="0 1 0"><joint/><geom size="0.1"/></body>'))
+# Two model probes that differ only in nuserdata (values unlike any other size of the probe).
+_MODEL_PROBE_XML = ('<mujoco><size nuserdata="{}"/><worldbody><body><freejoint/>'
+                    '<geom size="0.1"/></body></worldbody></mujoco>')
+_MODEL_PROBE_NUSERDATA = (1013, 2029)
+# The introspected C types of mjModel.nuserdata that this module knows the width of.
+_INT_WIDTHS = {"int": 4, "int32_t": 4, "mjtSize": 8, "int64_t": 8}
+
+
+def _words(address: int, start: int, stop: int) -> np.ndarray:
+    """The uint64 words at ``address + [start, stop)`` (a copy)."""
+    return np.frombuffer(ctypes.string_at(address + start, stop - start), dtype=np.uint64).copy()
+
+
+def _data_words(data: mujoco.MjData, known: np.ndarray) -> np.ndarray:
+    """The words of ``data``'s struct, up to its ``signature`` field, never past a mapped page.
+
+    The head of the struct (sizes and statistics, up to the inline ``energy`` array) lies in
+    it by construction. Past it MuJoCo declares the pointer fields, and ``signature`` last; each
+    of the ``known`` array addresses of ``data`` is stored in one of them, so the struct
+    reaches at least 8 bytes per known address past the head, and past every word found to
+    hold one. Memory is read a page at a time, and a page only if a byte known to be in the
+    struct lies in it, so the scan cannot fault; if the signature lies beyond, the words up to
+    the last known one are returned.
+    """
+    address, page = data._address, mmap.PAGESIZE
+    if address % 8:  # pragma: no cover - MuJoCo aligns its allocations
+        raise StructLayoutError("scanning mjData: the struct is not 8-byte aligned")
+    head = data.energy.ctypes.data + data.energy.nbytes - address
+    known = known[(known < address) | (known >= address + head)]  # not the head's own arrays
+    signature = np.uint64(data.signature)
+    # Bytes [0, reach) are known to be in the struct.
+    chunks, pos, reach = [], 0, head + 8 * known.size
+    while True:
+        stop = ((address + reach - 1) // page + 1) * page - address
+        if stop <= pos:  # no signature where the scan may read: stop at the known extent
+            return np.concatenate(chunks)[:reach // 8]
+        chunk = _words(address, pos, stop)
+        offsets = pos + 8 * np.arange(chunk.size)
+        end = np.flatnonzero((chunk == signature) & (offsets >= head))
+        if end.size:
+            chunks.append(chunk[:end[0] + 1])
+            return np.concatenate(chunks)
+        chunks.append(chunk)
+        pointers = offsets[np.isin(chunk, known)]
+        if pointers.size:
+            reach = max(reach, int(pointers[-1]) + 8)
+        pos = stop
+
+
+def _data_offsets(data: mujoco.MjData) -> tuple[int, ...]:
+    """Offsets of :data:`_DATA_FIELDS` in mjData, from one probe ``data``."""
+    known = set()
+    for name in dir(data):
+        value = getattr(data, name, None) if not name.startswith("_") else None
+        if isinstance(value, np.ndarray) and value.size:
+            known.add(value.ctypes.data)
+    words = _data_words(data, np.array(sorted(known), dtype=np.uint64))
+    offsets = []
+    for name in _DATA_FIELDS:
+        value = np.uint64(getattr(data, name).ctypes.data)
+        hits = [8 * int(i) for i in np.flatnonzero(words == value)]
+        # mjData.buffer points at the start of the main buffer, which is qpos (its first
+        # array): that value is expected in two fields, buffer and then qpos.
+        expected = (1, 2) if name == "qpos" else (1,)
+        if len(hits) not in expected:
+            raise StructLayoutError(
+                f"scanning mjData: the address of {name} is stored in {len(hits)} fields "
+                f"(offsets {hits}), expected {' or '.join(map(str, expected))}: cannot tell "
+                f"which one is mjData.{name}")
+        offsets.append(hits[-1])
+    if offsets != sorted(set(offsets)):
+        raise StructLayoutError(
+            f"scanning mjData: fields {_DATA_FIELDS} found at offsets {offsets}, not in their "
+            "declaration order")
+    return tuple(offsets)
+
+
+def _declared_width(struct: str, field: str) -> int | None:
+    """Byte width of an integer field as MuJoCo's introspection declares it, or None."""
+    try:
+        from mujoco.introspect import structs
+    except ImportError:  # pragma: no cover - shipped with the bindings
+        return None
+    for f in structs.STRUCTS[struct].fields:
+        if f.name == field:
+            return _INT_WIDTHS.get(getattr(f.type, "name", None))
+    return None  # pragma: no cover
+
+
+def _nuserdata_offset() -> tuple[int, int]:
+    """(offset, width) of mjModel.nuserdata, by diffing two probe models' size fields."""
+    a, b = (mujoco.MjModel.from_xml_string(_MODEL_PROBE_XML.format(n))
+            for n in _MODEL_PROBE_NUSERDATA)
+    # The sizes come first in mjModel, before the inline mjOption: read only that head.
+    head = min(m.opt.gravity.ctypes.data - m._address for m in (a, b)) // 8 * 8
+    raw_a = np.frombuffer(ctypes.string_at(a._address, head), dtype=np.uint8)
+    raw_b = np.frombuffer(ctypes.string_at(b._address, head), dtype=np.uint8)
+    changed = np.flatnonzero(raw_a != raw_b)
+    declared = _declared_width("mjModel", "nuserdata")
+    hits: list[tuple[int, int]] = []
+    for width in (declared,) if declared else (8, 4):
+        dtype = np.int64 if width == 8 else np.int32
+        at = np.flatnonzero((raw_a.view(dtype) == _MODEL_PROBE_NUSERDATA[0])
+                            & (raw_b.view(dtype) == _MODEL_PROBE_NUSERDATA[1]))
+        hits += [(width * int(i), width) for i in at]
+        if hits:
+            break
+    if len(hits) != 1:
+        raise StructLayoutError(
+            "diffing two probe mjModels: nuserdata's values found at "
+            f"{len(hits)} places ({hits}), expected 1")
+    offset, width = hits[0]
+    if not changed.size or changed.min() < offset or changed.max() >= offset + width:
+        raise StructLayoutError(
+            "diffing two probe mjModels that differ only in nuserdata: bytes "
+            f"{changed.tolist()} differ, expected those of one {width}-byte integer at {offset}")
+    return offset, width
+
+
+@functools.cache
+def struct_layout() -> StructLayout:
+    """The field offsets the callback reads, found once per process.
+
+    mjData: two probe ``MjData`` (of probe models with different sizes) are scanned as words,
+    from ``data._address`` to their last field, for the addresses the bindings give for
+    ``qpos``, ``qvel``, ``userdata``, ``qfrc_passive`` and ``qfrc_constraint``
+    (``arr.ctypes.data``). Each must be stored in exactly one field (qpos: also in
+    ``mjData.buffer``, which points at it), in that declaration order, at the same offset in
+    both probes. mjModel: two probe models that differ only in ``<size nuserdata>`` are diffed
+    over their size fields; exactly the bytes of one integer must differ, holding the two
+    values, with the width MuJoCo's introspection declares for ``nuserdata``.
+
+    Raises:
+        StructLayoutError: If a scan is ambiguous or inconsistent (another MuJoCo layout).
+    """
+    if sys.byteorder != "little":  # pragma: no cover
+        raise StructLayoutError("the callback's struct scan assumes a little-endian machine")
+    found = set()
+    for probe in _DATA_PROBES:
+        model = mujoco.MjModel.from_xml_string(_DATA_PROBE_XML.format(**probe))
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        found.add(_data_offsets(data))
+    if len(found) != 1:
+        raise StructLayoutError(f"scanning mjData: the probes disagree: {sorted(found)}")
+    offset, width = _nuserdata_offset()
+    return StructLayout(*found.pop(), nuserdata=offset, nuserdata_width=width)
 
 
 @numba.njit(cache=True)
@@ -98,29 +328,24 @@ def _friction_many(vx, vy, N, coulomb_kind, viscous, mu, Lambda, c_visc, v_eps):
     return fx, fy
 
 
+def _pointer_intrinsic(target: types.Type):
+    """An intrinsic that turns an int64 address into a ``target*``."""
+
+    @intrinsic
+    def as_pointer(typingctx, address):
+        sig = types.CPointer(target)(types.int64)
+
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], context.get_value_type(types.CPointer(target)))
+
+        return sig, codegen
+
+    return as_pointer
 
 
-
-@intrinsic
-def _f64_ptr(typingctx, address):
-    """An int64 address as a ``float64*``."""
-    sig = types.CPointer(types.float64)(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(types.CPointer(types.float64)))
-
-    return sig, codegen
-
-
-@intrinsic
-def _i64_ptr(typingctx, address):
-    """An int64 address as an ``int64*``."""
-    sig = types.CPointer(types.int64)(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(types.CPointer(types.int64)))
-
-    return sig, codegen
+_f64_ptr = _pointer_intrinsic(types.float64)
+_i64_ptr = _pointer_intrinsic(types.int64)
+_i32_ptr = _pointer_intrinsic(types.int32)
 
 
 @intrinsic
@@ -134,16 +359,42 @@ def _address_of(typingctx, pointer):
     return sig, codegen
 
 
+# The layout baked into the callback: set from struct_layout() before it is compiled (numba
+# freezes global integers as constants). -1: not set yet.
+_OFF_QPOS = _OFF_QVEL = _OFF_USERDATA = _OFF_QFRC_PASSIVE = _OFF_QFRC_CONSTRAINT = -1
+_OFF_NUSERDATA = _NUSERDATA_WIDTH = -1
+_BAKED = ("_OFF_QPOS", "_OFF_QVEL", "_OFF_USERDATA", "_OFF_QFRC_PASSIVE", "_OFF_QFRC_CONSTRAINT",
+          "_OFF_NUSERDATA", "_NUSERDATA_WIDTH")  # the fields of StructLayout, in order
+_N_BAKED = len(_BAKED)
+
+
 def _passive(m, d):  # pragma: no cover - runs compiled, inside MuJoCo
-    si = numba.carray(_i64_ptr(_SLOT_I_ADDR), (_NSLOT,))
-    sf = numba.carray(_f64_ptr(_SLOT_F_ADDR), (_NSLOT,))
-    if si[_I_DATA] == 0 or si[_I_DATA] != _address_of(d) or si[_I_MODEL] != _address_of(m):
+    model, data = _address_of(m), _address_of(d)
+    if model == 0:
+        # Not a MuJoCo call (it never passes a NULL model): report the baked layout into the
+        # int64[_N_BAKED] array at d.
+        out = numba.carray(_i64_ptr(data), (_N_BAKED,))
+        out[0], out[1], out[2] = _OFF_QPOS, _OFF_QVEL, _OFF_USERDATA
+        out[3], out[4] = _OFF_QFRC_PASSIVE, _OFF_QFRC_CONSTRAINT
+        out[5], out[6] = _OFF_NUSERDATA, _NUSERDATA_WIDTH
         return
-    si[_I_CALLS] += 1
-    qpos = numba.carray(_f64_ptr(si[_I_QPOS] + 8 * si[_I_QPOS_ADR]), (7,))
-    qvel = numba.carray(_f64_ptr(si[_I_QVEL] + 8 * si[_I_DOF_ADR]), (6,))
-    qfrc = numba.carray(_f64_ptr(si[_I_QFRC_PASSIVE] + 8 * si[_I_DOF_ADR]), (6,))
-    qcon = numba.carray(_f64_ptr(si[_I_QFRC_CONSTRAINT] + 8 * si[_I_DOF_ADR]), (6,))
+    if _NUSERDATA_WIDTH == 8:
+        nuserdata = _i64_ptr(model + _OFF_NUSERDATA)[0]
+    else:
+        nuserdata = np.int64(_i32_ptr(model + _OFF_NUSERDATA)[0])
+    if nuserdata < USERDATA_SIZE:
+        return
+    block = _i64_ptr(data + _OFF_USERDATA)[0] + 8 * (nuserdata - USERDATA_SIZE)
+    bits = numba.carray(_i64_ptr(block), (USERDATA_SIZE,))
+    if bits[_U_MAGIC] != _MAGIC or bits[_U_MODEL] != model:
+        return
+    u = numba.carray(_f64_ptr(block), (USERDATA_SIZE,))
+    qpos_adr, dof_adr = np.int64(u[_U_QPOS_ADR]), np.int64(u[_U_DOF_ADR])
+    qpos = numba.carray(_f64_ptr(_i64_ptr(data + _OFF_QPOS)[0] + 8 * qpos_adr), (7,))
+    qvel = numba.carray(_f64_ptr(_i64_ptr(data + _OFF_QVEL)[0] + 8 * dof_adr), (6,))
+    qfrc = numba.carray(_f64_ptr(_i64_ptr(data + _OFF_QFRC_PASSIVE)[0] + 8 * dof_adr), (6,))
+    qcon = numba.carray(_f64_ptr(_i64_ptr(data + _OFF_QFRC_CONSTRAINT)[0] + 8 * dof_adr), (6,))
+    u[_U_CALLS] += 1.0
     # Body-to-world rotation from the (normalised) quaternion.
     w, x, y, z = qpos[3], qpos[4], qpos[5], qpos[6]
     inv = 1.0 / np.sqrt(w * w + x * x + y * y + z * z)
@@ -156,18 +407,18 @@ def _passive(m, d):  # pragma: no cover - runs compiled, inside MuJoCo
     ox = r00 * wbx + r01 * wby + r02 * wbz
     oy = r10 * wbx + r11 * wby + r12 * wbz
     oz = r20 * wbx + r21 * wby + r22 * wbz
-    cx, cy, cz = sf[_F_CENTRE], sf[_F_CENTRE + 1], sf[_F_CENTRE + 2]
+    cx, cy, cz = u[_U_CENTRE], u[_U_CENTRE + 1], u[_U_CENTRE + 2]
     ax = r00 * cx + r01 * cy + r02 * cz
     ay = r10 * cx + r11 * cy + r12 * cz
-    az = r20 * cx + r21 * cy + r22 * cz - sf[_F_R]
+    az = r20 * cx + r21 * cy + r22 * cz - u[_U_R]
     # Velocity of the material point at P: v_origin + omega x arm.
     vx = qvel[0] + oy * az - oz * ay
     vy = qvel[1] + oz * ax - ox * az
     N = qcon[2]
     if N < 0.0:
         N = 0.0
-    fx, fy = friction_xy(vx, vy, N, si[_I_COULOMB], si[_I_VISC], sf[_F_MU], sf[_F_LAMBDA],
-                         sf[_F_VISCOUS], sf[_F_VEPS])
+    fx, fy = friction_xy(vx, vy, N, np.int64(u[_U_COULOMB]), np.int64(u[_U_VISC_ON]),
+                         u[_U_MU], u[_U_LAMBDA], u[_U_VISCOUS], u[_U_VEPS])
     # Torque about the body origin, arm x F with F = (fx, fy, 0), rotated into the body frame.
     tx, ty, tz = -az * fy, az * fx, ax * fy - ay * fx
     qfrc[0] += fx
@@ -175,24 +426,53 @@ def _passive(m, d):  # pragma: no cover - runs compiled, inside MuJoCo
     qfrc[3] += r00 * tx + r10 * ty + r20 * tz
     qfrc[4] += r01 * tx + r11 * ty + r21 * tz
     qfrc[5] += r02 * tx + r12 * ty + r22 * tz
-    sf[_F_LAST_FX], sf[_F_LAST_FY], sf[_F_LAST_N] = fx, fy, N
+    u[_U_LAST_FX], u[_U_LAST_FY], u[_U_LAST_N] = fx, fy, N
 
 
+_SIGNATURE = types.void(types.voidptr, types.voidptr)
 _compiled = None
 _compile_lock = threading.Lock()
 
 
+def baked_layout(callback: numba.core.ccallback.CFunc) -> StructLayout:
+    """The struct layout a compiled callback was compiled with (it reports its constants)."""
+    out = np.zeros(_N_BAKED, dtype=np.int64)
+    callback.ctypes(None, out.ctypes.data)
+    return StructLayout(*(int(v) for v in out))
+
+
+def _compile(cache: bool) -> numba.core.ccallback.CFunc:
+    return numba.cfunc(_SIGNATURE, cache=cache, error_model="numpy")(_passive)
+
+
 def compiled_callback() -> numba.core.ccallback.CFunc:
-    """The compiled passive callback (compiled on the first call, once per process)."""
+    """The compiled passive callback: loaded from numba's on-disk cache, or compiled.
+
+    Once per process. The first call finds the struct layout (:func:`struct_layout`) and bakes
+    it in; a cached callback whose baked layout differs is compiled afresh instead.
+
+    Warns:
+        StaleCallbackWarning: If the on-disk cache held a callback for another layout.
+    """
     global _compiled
     with _compile_lock:
         if _compiled is None:
-            _compiled = numba.cfunc(types.void(types.voidptr, types.voidptr),
-                                    error_model="numpy")(_passive)
+            layout = struct_layout()
+            globals().update(zip(_BAKED, astuple(layout), strict=True))
+            callback = _compile(cache=True)
+            baked = baked_layout(callback)
+            if baked != layout:
+                warnings.warn(
+                    f"numba's cache ({numba.config.CACHE_DIR or 'next to the sources'}) held the "
+                    f"paper-mode callback compiled for another MuJoCo struct layout ({baked}; "
+                    f"this process: {layout}); compiling it afresh without the cache. Delete "
+                    "that folder to stop this.", StaleCallbackWarning, stacklevel=2)
+                callback = _compile(cache=False)
+                if baked_layout(callback) != layout:  # pragma: no cover - numba misbehaving
+                    raise StructLayoutError(f"the callback compiled with {baked_layout(callback)}"
+                                            f", not this process's {layout}")
+            _compiled = callback
     return _compiled
-
-
-_owner: PaperFriction | None = None
 
 
 def law_parameters(friction: FrictionParams, top_model: TopModel,
@@ -209,12 +489,98 @@ def law_parameters(friction: FrictionParams, top_model: TopModel,
     }
 
 
+def _check_userdata(model: mujoco.MjModel) -> None:
+    expect(model.nuserdata >= USERDATA_SIZE, "mjcf size nuserdata",
+           f">= {USERDATA_SIZE} in paper mode (the callback keeps its parameters in the last "
+           f"{USERDATA_SIZE} entries of mjData.userdata): load the model with "
+           f'mujoco_runner.model.load_model, or declare <size nuserdata="{USERDATA_SIZE}"/>',
+           int(model.nuserdata))
+
+
+def userdata_block(top_model: TopModel, friction: FrictionParams, *,
+                   mu: float | None = None) -> np.ndarray:
+    """The :data:`USERDATA_SIZE` values that arm an mjData of ``top_model.model``.
+
+    Write them into the LAST entries of its userdata (``data.userdata[-USERDATA_SIZE:]``, or
+    ``batch.userdata[:, -USERDATA_SIZE:]`` for the rows of a ``mujoco.batch.Batch``); the
+    callback then applies the law to that mjData whenever it is stepped with exactly this
+    ``MjModel`` and the callback is installed (:func:`callback_installed`). Zeros disarm.
+
+    Raises:
+        TippetopError: If the model has fewer than :data:`USERDATA_SIZE` userdata entries.
+    """
+    _check_userdata(top_model.model)
+    p = law_parameters(friction, top_model, mu)
+    bits = np.zeros(USERDATA_SIZE, dtype=np.int64)
+    bits[_U_MAGIC], bits[_U_MODEL] = _MAGIC, top_model.model._address
+    block = bits.view(np.float64)
+    block[_U_COULOMB], block[_U_VISC_ON] = p["coulomb_kind"], p["viscous_on"]
+    block[_U_MU], block[_U_LAMBDA] = p["mu"], p["Lambda"]
+    block[_U_VISCOUS], block[_U_VEPS] = p["viscous"], p["v_eps"]
+    block[_U_R] = top_model.top.R_m
+    block[_U_CENTRE:_U_CENTRE + 3] = top_model.centre_body_m
+    block[_U_QPOS_ADR], block[_U_DOF_ADR] = top_model.qpos_adr, top_model.dof_adr
+    return block
+
+
+# The installed callback's reference count and the callback it replaced (main thread only).
+_install_lock = threading.Lock()
+_install_count = 0
+_previous_callback = None
+_armed: dict[int, PaperFriction] = {}  # data._address -> its open context
+
+
+def _install() -> None:
+    global _install_count, _previous_callback
+    callback = compiled_callback()
+    with _install_lock:
+        if _install_count == 0:
+            _previous_callback = mujoco.get_mjcb_passive()
+            mujoco.set_mjcb_passive(callback.ctypes)
+        _install_count += 1
+
+
+def _uninstall() -> None:
+    global _install_count, _previous_callback
+    with _install_lock:
+        _install_count -= 1
+        if _install_count == 0:
+            mujoco.set_mjcb_passive(_previous_callback)
+            _previous_callback = None
+
+
+@contextlib.contextmanager
+def callback_installed() -> Iterator[numba.core.ccallback.CFunc]:
+    """Install the compiled callback as MuJoCo's ``mjcb_passive`` for the ``with`` block.
+
+    Reference counted with every :class:`PaperFriction`: the previous callback is restored
+    when the last context closes. It acts only on mjData armed with :func:`userdata_block`;
+    use this for a ``mujoco.batch.Batch`` (persistent, on the caller's model) whose rows'
+    userdata you armed. Open and close it from the main thread, not while stepping elsewhere.
+
+    Example:
+        >>> batch = mujoco.batch.Batch(tm.model, nsim=8, nthread=2, persistent=True)
+        >>> batch.set_models(tm.model)
+        >>> batch.userdata[:, -USERDATA_SIZE:] = userdata_block(tm, FrictionParams())
+        >>> with callback_installed():
+        ...     batch.step(nstep=1000)
+    """
+    _install()
+    try:
+        yield compiled_callback()
+    finally:
+        _uninstall()
+
+
 class PaperFriction:
     """Context manager that applies the paper's friction law to one mjData.
 
-    While open, MuJoCo's global passive callback is the compiled one and acts on ``data`` only;
-    on exit the previous callback is restored. Only one can be open at a time (the callback is
-    process-global).
+    On enter the compiled callback is installed (if no other context has) and ``data`` is
+    armed: its userdata's last :data:`USERDATA_SIZE` entries get :func:`userdata_block`. On exit
+    the marker is cleared and, when it was the last open context, the previous callback is
+    restored. Several contexts may be open at once on different mjData (of the same model or
+    not), each with its own law; the same mjData cannot be armed twice. Open and close them
+    from the main thread only (see the module docstring).
 
     Example:
         >>> with PaperFriction(top_model, data, FrictionParams()):
@@ -223,65 +589,55 @@ class PaperFriction:
 
     def __init__(self, top_model: TopModel, data: mujoco.MjData, friction: FrictionParams,
                  *, mu: float | None = None) -> None:
-        """Prepare (not install) the callback for ``data`` of ``top_model.model``."""
+        """Prepare (not install) the callback for ``data`` of ``top_model.model``.
+
+        Raises:
+            TippetopError: If the model has fewer than :data:`USERDATA_SIZE` userdata entries.
+            ValueError: If ``data`` does not have the sizes of an mjData of the model.
+        """
         self.top_model = top_model
         self.data = data
         self.params = law_parameters(friction, top_model, mu)
-        self._previous = None
+        self._block = userdata_block(top_model, friction, mu=mu)
+        model = top_model.model
+        if data.userdata.size != model.nuserdata or data.qvel.size != model.nv:
+            raise ValueError("data is not an mjData of top_model.model (sizes differ)")
         self._open = False
 
+    def _userdata(self) -> np.ndarray:
+        return self.data.userdata[-USERDATA_SIZE:]
+
     def __enter__(self) -> PaperFriction:
-        """Install the compiled callback for this data."""
-        global _owner
-        if _owner is not None:
-            raise RuntimeError("a PaperFriction callback is already installed; MuJoCo's passive "
-                               "callback is process-global, so close it first")
-        callback = compiled_callback()
-        model, data, tm = self.top_model.model, self.data, self.top_model
-        p = self.params
-        _SLOT_I[:] = 0
-        _SLOT_F[:] = 0.0
-        _SLOT_I[_I_MODEL] = model._address
-        _SLOT_I[_I_QPOS] = data.qpos.ctypes.data
-        _SLOT_I[_I_QVEL] = data.qvel.ctypes.data
-        _SLOT_I[_I_QFRC_PASSIVE] = data.qfrc_passive.ctypes.data
-        _SLOT_I[_I_QFRC_CONSTRAINT] = data.qfrc_constraint.ctypes.data
-        _SLOT_I[_I_QPOS_ADR] = tm.qpos_adr
-        _SLOT_I[_I_DOF_ADR] = tm.dof_adr
-        _SLOT_I[_I_COULOMB] = p["coulomb_kind"]
-        _SLOT_I[_I_VISC] = p["viscous_on"]
-        _SLOT_F[_F_MU], _SLOT_F[_F_LAMBDA] = p["mu"], p["Lambda"]
-        _SLOT_F[_F_VISCOUS], _SLOT_F[_F_VEPS] = p["viscous"], p["v_eps"]
-        _SLOT_F[_F_R] = tm.top.R_m
-        _SLOT_F[_F_CENTRE:_F_CENTRE + 3] = tm.centre_body_m
-        self._previous = mujoco.get_mjcb_passive()
-        _SLOT_I[_I_DATA] = data._address  # last: arms the callback
-        mujoco.set_mjcb_passive(callback.ctypes)
-        _owner = self
+        """Install the compiled callback (reference counted) and arm this data."""
+        address = self.data._address
+        if address in _armed:
+            raise RuntimeError("this MjData is already armed by an open PaperFriction context; "
+                               "close that one first")
+        _install()
+        self._userdata()[:] = self._block
+        _armed[address] = self
         self._open = True
         return self
 
     def __exit__(self, *exc_info: object) -> None:
-        """Disarm the callback and restore the previous one."""
-        global _owner
+        """Disarm this data; restore the previous callback if no other context is open."""
         if not self._open:
             return
-        _SLOT_I[_I_DATA] = 0
-        mujoco.set_mjcb_passive(self._previous)
-        self._previous = None
+        self._userdata().view(np.int64)[_U_MAGIC] = 0
+        del _armed[self.data._address]
         self._open = False
-        _owner = None
+        _uninstall()
 
     @property
     def n_calls(self) -> int:
         """How many times the callback acted on this data since the context opened."""
-        return int(_SLOT_I[_I_CALLS]) if self._open else 0
+        return int(self._userdata()[_U_CALLS]) if self._open else 0
 
     @property
     def last_force(self) -> tuple[float, float, float]:
         """(Fx, Fy, N) of the callback's last call (N, N, N); zeros before the first."""
-        return (float(_SLOT_F[_F_LAST_FX]), float(_SLOT_F[_F_LAST_FY]),
-                float(_SLOT_F[_F_LAST_N]))
+        u = self._userdata()
+        return float(u[_U_LAST_FX]), float(u[_U_LAST_FY]), float(u[_U_LAST_N])
 
     def force(self, v_P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """The law's world force (n, 3) for slip velocities ``v_P`` (n, 3) and normal forces N."""
@@ -302,8 +658,16 @@ def law_force(params: dict[str, float | int], v_P: np.ndarray, N: np.ndarray) ->
 
 __all__ = [
     "PaperFriction",
+    "StaleCallbackWarning",
+    "StructLayout",
+    "StructLayoutError",
+    "USERDATA_SIZE",
+    "baked_layout",
+    "callback_installed",
     "compiled_callback",
     "friction_xy",
     "law_force",
     "law_parameters",
+    "struct_layout",
+    "userdata_block",
 ]

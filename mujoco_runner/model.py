@@ -34,6 +34,7 @@ import numpy as np
 
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import quat_to_mat
+from tippetop.models.mjcf import HARNESS_USERDATA
 from tippetop.models.params import TopParams
 
 #: Relative tolerance for "A1 == A2" and for "the centre of mass is on the axis" (in units of R).
@@ -96,16 +97,26 @@ class TopModel:
 def load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
     """Compile MJCF given as text (starts with ``<``) or as a file path.
 
+    The document is parsed into an :class:`mujoco.MjSpec` and compiled from it, with
+    :data:`models.mjcf.HARNESS_USERDATA` entries appended to the ``nuserdata`` it declares: the
+    paper-mode callback keeps its parameters there (the last entries of ``mjData.userdata``;
+    see :mod:`mujoco_runner.friction_callback`), and the document's own userdata stays in
+    front, untouched. Nothing else differs from ``mujoco.MjModel.from_xml_path`` (or
+    ``from_xml_string``) on the same document.
+
     Raises:
         TippetopError: If the file is missing or MuJoCo rejects the document.
     """
     is_text = isinstance(mjcf, str) and mjcf.lstrip().startswith("<")
     try:
         if is_text:
-            return mujoco.MjModel.from_xml_string(mjcf)
-        path = os.fspath(mjcf)
-        expect(os.path.isfile(path), "mjcf", "MJCF text or the path of an MJCF file", path)
-        return mujoco.MjModel.from_xml_path(path)
+            spec = mujoco.MjSpec.from_string(mjcf)
+        else:
+            path = os.fspath(mjcf)
+            expect(os.path.isfile(path), "mjcf", "MJCF text or the path of an MJCF file", path)
+            spec = mujoco.MjSpec.from_file(path)
+        spec.nuserdata += HARNESS_USERDATA
+        return spec.compile()
     except ValueError as exc:
         if isinstance(exc, TippetopError):
             raise

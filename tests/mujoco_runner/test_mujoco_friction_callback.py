@@ -2,19 +2,37 @@
 
 from __future__ import annotations
 
+import ctypes
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from importlib.util import find_spec
+from pathlib import Path
+
 import mujoco
+import numba
 import numpy as np
 import pytest
 
-from tippetop.models.mjcf import make_mjcf
+from tippetop.models.errors import TippetopError
+from tippetop.models.mjcf import HARNESS_USERDATA, make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.mujoco_runner import friction_callback
 from tippetop.mujoco_runner.friction_callback import (
+    USERDATA_SIZE,
     PaperFriction,
+    baked_layout,
+    callback_installed,
+    compiled_callback,
     friction_xy,
     law_force,
     law_parameters,
+    struct_layout,
+    userdata_block,
 )
-from tippetop.mujoco_runner.model import TopModelWarning, load_top
+from tippetop.mujoco_runner.model import TopModelWarning, load_model, load_top, top_from_model
 from tippetop.mujoco_runner.state import initial_qpos_qvel, kinematics
 from tippetop.reference_ode.friction import LAW_TERMS
 
@@ -27,11 +45,13 @@ _GENERIC = """<mujoco><option timestep="2e-5" integrator="RK4" gravity="0 0 -9.8
     <inertial pos="0 0 0" mass="0.015" diaginertia="1.2825e-6 1.35e-6 1.2825e-6"/>
     <geom type="sphere" size="0.015" pos="0 -0.001875 0" condim="1"/>
   </body></worldbody></mujoco>"""
+_GENERIC_USERDATA = _GENERIC.replace("<mujoco>", '<mujoco><size nuserdata="5"/>')
 
 
 @pytest.fixture(autouse=True)
 def _no_leftover_callback():
     yield
+    assert friction_callback._install_count == 0, "a test left a callback context open"
     mujoco.set_mjcb_passive(None)
 
 
@@ -92,7 +112,7 @@ def test_callback_acts_on_its_data_only_and_restores_previous() -> None:
     tm = load_top(make_mjcf(TOP))
     data, other = _start(tm), _start(tm)
 
-    def previous(model, d):  # a user's callback, restored on exit
+    def previous(model, d):  # a user's callback, restored when the last context closes
         d.qfrc_passive[0] += 0.0
 
     mujoco.set_mjcb_passive(previous)
@@ -101,8 +121,13 @@ def test_callback_acts_on_its_data_only_and_restores_previous() -> None:
         mujoco.mj_step(tm.model, other, 200)
         assert np.abs(data.qfrc_passive).max() > 0
         np.testing.assert_array_equal(other.qfrc_passive, 0.0)
-        with pytest.raises(RuntimeError, match="already installed"):
-            PaperFriction(tm, other, FRICTION).__enter__()
+        with pytest.raises(RuntimeError, match="already armed"):
+            PaperFriction(tm, data, FRICTION).__enter__()
+        with PaperFriction(tm, other, FRICTION):  # several data may be armed at once
+            assert mujoco.get_mjcb_passive() is not previous
+        assert mujoco.get_mjcb_passive() is not previous  # data's context is still open
+        mujoco.mj_forward(tm.model, other)  # disarmed again
+        np.testing.assert_array_equal(other.qfrc_passive, 0.0)
     assert mujoco.get_mjcb_passive() is previous
     mujoco.mj_forward(tm.model, data)
     np.testing.assert_array_equal(data.qfrc_passive, 0.0)
@@ -142,3 +167,257 @@ def test_every_reference_law_is_available() -> None:
     for law in LAW_TERMS:
         params = law_parameters(FrictionParams(law=law), tm)
         assert (params["coulomb_kind"], bool(params["viscous_on"])) == LAW_TERMS[law]
+
+
+def _run(tm, data, steps, model=None):
+    """mj_forward (the runner's first N), then ``steps`` steps."""
+    model = tm.model if model is None else model
+    mujoco.mj_forward(model, data)
+    mujoco.mj_step(model, data, steps)
+
+
+def _bits(data) -> bytes:
+    return data.qpos.tobytes() + data.qvel.tobytes() + data.qacc_warmstart.tobytes()
+
+
+def test_the_callback_reads_the_mjdata_it_is_given() -> None:
+    # Two mjData of one model, armed with different mu and stepped alternately, each equal its
+    # own run alone bit for bit: each call reads and writes only the mjData it is given, so the
+    # same floating-point operations run in the same order (no tolerance is needed or given).
+    tm = load_top(make_mjcf(TOP))
+    alone = {}
+    for mu in (0.05, 0.3):
+        data = _start(tm)
+        with PaperFriction(tm, data, FRICTION, mu=mu) as f:
+            _run(tm, data, 400)
+            alone[mu] = (_bits(data), f.n_calls, f.last_force)
+    a, b = _start(tm), _start(tm)
+    with (PaperFriction(tm, a, FRICTION, mu=0.05) as fa,
+          PaperFriction(tm, b, FRICTION, mu=0.3) as fb):
+        mujoco.mj_forward(tm.model, a)
+        mujoco.mj_forward(tm.model, b)
+        for _ in range(8):
+            mujoco.mj_step(tm.model, a, 50)
+            mujoco.mj_step(tm.model, b, 50)
+        assert (_bits(a), fa.n_calls, fa.last_force) == alone[0.05]
+        assert (_bits(b), fb.n_calls, fb.last_force) == alone[0.3]
+    assert alone[0.05][0] != alone[0.3][0]  # the two laws did differ
+
+
+def test_unarmed_data_steps_frictionless() -> None:
+    # The same model stepped with no callback at all, armed with the law "none" (a force of
+    # exactly +0.0), and unarmed while another mjData is armed: bit-identical trajectories.
+    tm = load_top(make_mjcf(TOP))
+    bare = _start(tm)
+    _run(tm, bare, 400)
+    none = _start(tm)
+    with PaperFriction(tm, none, FrictionParams(law="none")) as f:
+        _run(tm, none, 400)
+        assert f.n_calls == 4 * 400 + 1
+    armed, unarmed = _start(tm), _start(tm)
+    scratch = mujoco.MjData(tm.model)  # the runner's scratch copy: qpos and qvel only
+    other_model = load_model(make_mjcf(TOP))  # same document, another mjModel
+    foreign = mujoco.MjData(other_model)
+    with PaperFriction(tm, armed, FRICTION):
+        mujoco.mj_forward(tm.model, armed)
+        scratch.qpos[:], scratch.qvel[:] = armed.qpos, armed.qvel
+        foreign.qpos[:], foreign.qvel[:] = unarmed.qpos, unarmed.qvel
+        foreign.userdata[:] = armed.userdata  # armed, but for tm.model: ignored
+        copied = foreign.userdata.copy()
+        _run(tm, unarmed, 400)
+        _run(tm, foreign, 400, other_model)
+        mujoco.mj_forward(tm.model, scratch)
+        np.testing.assert_array_equal(scratch.qfrc_passive, 0.0)
+        mujoco.mj_step(tm.model, armed, 400)
+    assert _bits(none) == _bits(bare) == _bits(unarmed)
+    assert _bits(foreign) == _bits(bare)
+    assert foreign.userdata.tobytes() == copied.tobytes()  # not a call counted on it
+    assert _bits(armed) != _bits(bare)
+
+
+@pytest.mark.skipif(find_spec("mujoco.batch") is None, reason="this MuJoCo has no mujoco.batch")
+def test_batch_on_two_threads_equals_single_runs() -> None:
+    # mujoco.batch.Batch steps many simulations of one model on a thread pool, each from its
+    # state row (which holds userdata, so each row is armed with its own mu). It must be
+    # persistent (qfrc_constraint, the callback's N, is not in the state rows) and run on the
+    # caller's model (set_models; its own copy has another address). Then: bit for bit.
+    from mujoco import batch as mjbatch
+
+    tm = load_top(make_mjcf(TOP))
+    mus = (0.02, 0.1, 0.2, 0.4)
+    inits = [InitialState(theta0=0.1 + 0.2 * i, n0=100.0, uOX=0.02 * (i - 1)) for i in range(4)]
+    single = []
+    for mu, init in zip(mus, inits, strict=True):
+        data = mujoco.MjData(tm.model)
+        data.qpos[:], data.qvel[:] = initial_qpos_qvel(tm, init)
+        with PaperFriction(tm, data, FRICTION, mu=mu) as f:
+            _run(tm, data, 400)
+            single.append((data.qpos.copy(), data.qvel.copy(), f.n_calls))
+    batch = mjbatch.Batch(tm.model, nsim=len(mus), nthread=2, persistent=True)
+    batch.set_models(tm.model)
+    for i, (mu, init) in enumerate(zip(mus, inits, strict=True)):
+        batch.qpos[i], batch.qvel[i] = initial_qpos_qvel(tm, init)
+        batch.userdata[i, -USERDATA_SIZE:] = userdata_block(tm, FRICTION, mu=mu)
+    with callback_installed():
+        batch.forward()
+        for _ in range(4):
+            batch.step(nstep=100)
+    for i, (qpos, qvel, n_calls) in enumerate(single):
+        assert batch.qpos[i].tobytes() == qpos.tobytes()
+        assert batch.qvel[i].tobytes() == qvel.tobytes()
+        assert batch.userdata[i, -1] == n_calls
+    assert len({q.tobytes() for q, _, _ in single}) == len(mus)
+
+
+def test_struct_layout_matches_the_bindings() -> None:
+    # The offsets found on the probes hold this model's pointers and size too.
+    with pytest.warns(TopModelWarning, match="origin"):
+        tm = load_top(_GENERIC_USERDATA)
+    data = mujoco.MjData(tm.model)
+    mujoco.mj_forward(tm.model, data)
+    layout = struct_layout()
+
+    def word(address: int, offset: int) -> int:
+        return ctypes.c_uint64.from_address(address + offset).value
+
+    for name in ("qpos", "qvel", "userdata", "qfrc_passive", "qfrc_constraint"):
+        assert word(data._address, getattr(layout, name)) == getattr(data, name).ctypes.data
+    integer = {8: ctypes.c_int64, 4: ctypes.c_int32}[layout.nuserdata_width]
+    assert integer.from_address(tm.model._address + layout.nuserdata).value == tm.model.nuserdata
+    assert baked_layout(compiled_callback()) == layout
+
+
+def _fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """Every array and number of a model, its options, visual and statistics."""
+    out = {}
+    for prefix, obj in (("", model), ("opt.", model.opt), ("vis.", model.vis),
+                        ("stat.", model.stat)):
+        for name in dir(obj):
+            value = getattr(obj, name, None) if not name.startswith("_") else None
+            if isinstance(value, (np.ndarray, int, float)):
+                out[prefix + name] = np.array(value, copy=True)
+    for name in ("global_", "headlight", "map", "quality", "scale", "rgba"):
+        sub = getattr(model.vis, name)
+        for field in dir(sub):
+            value = getattr(sub, field, None) if not field.startswith("_") else None
+            if isinstance(value, (np.ndarray, int, float)):
+                out[f"vis.{name}.{field}"] = np.array(value, copy=True)
+    return out
+
+
+@pytest.mark.parametrize("source", ["generated", "generic", "include"])
+def test_loaded_model_differs_from_mujocos_only_in_nuserdata(source: str, tmp_path: Path) -> None:
+    # load_model compiles through MjSpec to append the harness's userdata; everything else
+    # (options, geoms, bodies, names, contacts...) equals MjModel.from_xml_path's, exactly.
+    path = tmp_path / "top.xml"
+    if source == "include":  # a file that includes another, with a user nuserdata
+        (tmp_path / "parts").mkdir()
+        (tmp_path / "parts" / "ball.xml").write_text(
+            '<mujocoinclude><geom type="sphere" size="0.015" pos="0 -0.001875 0" condim="1"/>'
+            "</mujocoinclude>")
+        path.write_text(_GENERIC_USERDATA.replace(
+            '<geom type="sphere" size="0.015" pos="0 -0.001875 0" condim="1"/>',
+            '<include file="parts/ball.xml"/>'))
+    else:
+        path.write_text(make_mjcf(TOP) if source == "generated" else _GENERIC_USERDATA)
+    ours, mujocos = load_model(path), mujoco.MjModel.from_xml_path(str(path))
+    assert ours.nuserdata == mujocos.nuserdata + HARNESS_USERDATA
+    assert mujocos.nuserdata == (HARNESS_USERDATA if source == "generated" else 5)
+    a, b = _fields(ours), _fields(mujocos)
+    assert a.keys() == b.keys() and len(a) > 500
+    different = [k for k in a if a[k].shape != b[k].shape
+                 or not np.array_equal(a[k], b[k], equal_nan=True)]
+    assert different == ["nuserdata"]
+    if source != "include":  # MJCF text takes the same path
+        assert _fields(load_model(path.read_text())).keys() == a.keys()
+        assert load_model(path.read_text()).nuserdata == ours.nuserdata
+
+
+def test_users_own_userdata_is_left_in_front() -> None:
+    with pytest.warns(TopModelWarning, match="origin"):
+        tm = load_top(_GENERIC_USERDATA)
+    assert tm.model.nuserdata == 5 + USERDATA_SIZE
+    data = _start(tm)
+    data.userdata[:5] = [1.0, 2.0, 3.0, 4.0, 5.0]
+    with PaperFriction(tm, data, FRICTION) as f:
+        _run(tm, data, 100)
+        assert f.n_calls == 401
+    np.testing.assert_array_equal(data.userdata[:5], [1.0, 2.0, 3.0, 4.0, 5.0])
+
+
+def test_model_without_room_in_userdata_is_refused() -> None:
+    with pytest.warns(TopModelWarning, match="origin"):
+        tm = top_from_model(mujoco.MjModel.from_xml_string(_GENERIC))
+    with pytest.raises(TippetopError, match=f"nuserdata: expected >= {USERDATA_SIZE}"):
+        PaperFriction(tm, mujoco.MjData(tm.model), FRICTION)
+
+
+_CACHE_SCRIPT = textwrap.dedent("""
+    import json, sys, time, warnings
+    from dataclasses import astuple
+
+    import numba
+
+    t0 = time.perf_counter()
+    from numba.core import registry
+    registry.cpu_target.target_context.refresh()  # numba's own start-up, paid by any jit use
+    from tippetop.mujoco_runner import friction_callback as fc
+    fc.struct_layout()
+    if sys.argv[1] == "fake":  # compile (never run!) a callback for another struct layout
+        real = fc.struct_layout()
+        fake = fc.StructLayout(*(v + 8 for v in astuple(real)[:6]), real.nuserdata_width)
+        fc.struct_layout = lambda: fake
+    t1 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        callback = fc.compiled_callback()
+    t2 = time.perf_counter()
+    print(json.dumps({
+        "seconds": t2 - t1, "cache_hits": callback.cache_hits,
+        "baked": list(astuple(fc.baked_layout(callback))),
+        "layout": list(astuple(fc.struct_layout())),
+        "warnings": [type(w.message).__name__ for w in caught],
+        "folder": str(numba.config.CACHE_DIR),
+    }))
+""")
+
+
+def _subprocess(cache_dir: Path | None, mode: str = "real") -> dict:
+    """Run :data:`_CACHE_SCRIPT` in a fresh process (``cache_dir`` None: the usual folder)."""
+    env = dict(os.environ) | ({} if cache_dir is None else {"NUMBA_CACHE_DIR": str(cache_dir)})
+    out = subprocess.run([sys.executable, "-c", _CACHE_SCRIPT, mode], env=env,
+                         capture_output=True, text=True, timeout=300, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_callback_is_served_from_numbas_disk_cache(tmp_path: Path) -> None:
+    # A fresh process with an empty cache compiles the callback (cache_hits 0) and saves it; a
+    # second process loads it (cache_hits 1). Measured here: ~0.9 s against ~5 ms; the bound
+    # (a third) leaves room for a loaded machine.
+    first = _subprocess(tmp_path)
+    second = _subprocess(tmp_path)
+    assert (first["cache_hits"], second["cache_hits"]) == (0, 1)
+    assert first["warnings"] == second["warnings"] == []
+    assert first["baked"] == first["layout"] == second["baked"] == second["layout"]
+    assert second["seconds"] < first["seconds"] / 3, (first, second)
+
+
+def test_callback_is_cached_in_the_configured_folder() -> None:
+    # Without NUMBA_CACHE_DIR: the folder reference_ode._jit configures. This process has the
+    # callback (compiled and saved, or loaded): a fresh process loads it.
+    compiled_callback()
+    report = _subprocess(None)
+    if report["folder"] != str(numba.config.CACHE_DIR):  # pragma: no cover
+        pytest.skip("the reference sources changed during the test (a new cache folder)")
+    assert report["cache_hits"] == 1
+
+
+def test_stale_cache_is_compiled_afresh(tmp_path: Path) -> None:
+    # A cache written for another layout (same sources, so numba would serve it) is detected
+    # from the constants the cached callback reports, and the callback compiled afresh.
+    stale = _subprocess(tmp_path, "fake")
+    assert stale["cache_hits"] == 0 and stale["baked"] == stale["layout"]
+    fresh = _subprocess(tmp_path)
+    assert fresh["warnings"] == ["StaleCallbackWarning"]
+    assert fresh["baked"] == fresh["layout"] != stale["baked"]
+    assert fresh["cache_hits"] == 0  # the afresh compilation, not the stale entry
