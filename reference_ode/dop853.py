@@ -1,17 +1,37 @@
-"""A compiled Dormand-Prince 8(5,3) integrator with dense output and the run's events.
+"""A compiled Dormand-Prince 8(5,3) integrator, generic over a compiled right-hand side.
 
-The tableau, the error estimator (the 5th- and 3rd-order embedded pair) and the step-size
-control are those of Hairer's DOP853 as in ``scipy.integrate.DOP853``; the difference is that
+The tableau, the error estimator (the 5th- and 3rd-order embedded pair), the 7th-order dense
+output and the step-size control are those of Hairer's DOP853 as in ``scipy.integrate.DOP853``
+(same coefficients, from ``scipy.integrate._ivp.dop853_coefficients``); the difference is that
 the whole loop, the right-hand side and the events run compiled, so a step costs no Python.
 
-Events, checked after every accepted step:
+The problem is given by two numba ``njit`` functions of an autonomous system:
 
-* theta crossing pi/2 (cos theta changing sign): the first crossing time is located on the
-  7th-order dense output by bisection and reported; the run goes on.
-* loss of contact (N <= 0): the model assumes contact, so the run stops at the located time
-  with status ``contact_lost``.
-* paper formulation only: sin theta below ``P_SING`` (theta within that of 0 or pi, or
-  outside (0, pi) after a step that jumped across): status ``singular``.
+* ``rhs(y, p, dy) -> g``: writes dy/dt into ``dy`` and returns a *guard* value. The run stops
+  where g falls to <= 0 (status :data:`STATUS_GUARD`), the crossing located on the dense
+  output (for the tippe top g is the normal force N: loss of contact).
+* ``watch(y, p) -> (mark, monitor)``: evaluated at every step end. The first crossing of
+  ``mark`` from > 0 to <= 0 is located on the dense output and recorded in
+  ``stats[S_T_MARK]``; the run goes on (the top: mark = cos theta, the inversion time). The
+  smallest ``monitor`` seen at a step end is kept in ``stats[S_MONITOR_MIN]``, and the run stops
+  with status :data:`STATUS_MONITOR` once it falls below ``monitor_floor`` (the paper
+  formulation: sin theta below its singular threshold; pass ``-inf`` for no such stop).
+
+``p`` is a float64 array of parameters passed through to both. ``y`` is a float64 array.
+
+One compiled kernel for every problem. ``rhs`` and ``watch`` are numba first-class functions:
+the functions below are compiled once, for the signatures :data:`RHS_SIG` and
+:data:`WATCH_SIG` (``RHS_TYPE``, ``WATCH_TYPE``), and call them through a function pointer.
+Pass any ``njit`` dispatcher with those signatures (float64 C-contiguous vectors; the
+dispatcher is compiled for them on the first call). Why not let numba specialise the kernel
+on each dispatcher (its default for a function argument): such a specialisation can never be
+served from the on-disk cache (numba 0.68 keys it by the dispatcher object, so every process
+would compile it again, ~8 s, and write a new cache file), and a cached wrapper that passes a
+global dispatcher on embeds its address and is refused by the cache ("dynamic globals").
+With function pointers the kernel is compiled eagerly at import, cached, and shared by every
+right-hand side; the price is an indirect call per evaluation (a few per cent of the tippe
+top's run time against a kernel specialised on its right-hand side). All array arguments
+must be float64 and C-contiguous (else: ``TypeError: No matching definition``).
 
 Stiffness detection (Hairer's DOP853, Hairer & Wanner, Solving ODEs II, Sec. IV.2): after
 every accepted step the product of the step and the local Lipschitz estimate,
@@ -32,97 +52,201 @@ import numba as nb
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _coef
 
-from tippetop.reference_ode.paper import paper_core
-from tippetop.reference_ode.params_array import P_SING
-from tippetop.reference_ode.vector import vector_core
+STATUS_OK = 0  # reached t_end
+STATUS_GUARD = 1  # the guard returned by rhs fell to <= 0 (located on the dense output)
+STATUS_MONITOR = 2  # the monitor returned by watch fell below monitor_floor at a step end
+STATUS_MAX_STEPS = 3  # max_steps accepted steps taken
+STATUS_STEP_TOO_SMALL = 4  # the step size fell below 10 ulp of t (or became NaN)
+STATUS_RUNNING = 5  # a chunk ended at t_stop before t_end; the caller continues
 
-FORM_VECTOR = 0
-FORM_PAPER = 1
+# ---------------------------------------------------------------- the tableau (scipy's)
+N_STAGES = _coef.N_STAGES  # 12 stages per step (the 13th, f(y_new), is reused: FSAL)
+A = np.ascontiguousarray(_coef.A[:N_STAGES, :N_STAGES])  # stage coefficients a_ij
+B = np.ascontiguousarray(_coef.B)  # 8th-order weights b_i
+C = np.ascontiguousarray(_coef.C[:N_STAGES])  # nodes c_i
+E3 = np.ascontiguousarray(_coef.E3)  # 3rd-order error estimator (13 entries, last: f(y_new))
+E5 = np.ascontiguousarray(_coef.E5)  # 5th-order error estimator
+D = np.ascontiguousarray(_coef.D)  # dense output, (4, 16)
+A_EXTRA = np.ascontiguousarray(_coef.A[N_STAGES + 1:])  # the 3 dense-output stages, (3, 16)
+C_EXTRA = np.ascontiguousarray(_coef.C[N_STAGES + 1:])  # their nodes
+N_K = N_STAGES + 4  # rows of the stage buffer K: 12 stages, f(y_new), 3 dense-output stages
 
-STATUS_OK = 0
-STATUS_CONTACT_LOST = 1
-STATUS_SINGULAR = 2
-STATUS_MAX_STEPS = 3
-STATUS_STEP_TOO_SMALL = 4
-STATUS_RUNNING = 5  # a chunk ended before t_end; the caller continues
-
-STATUS_NAMES = {
-    STATUS_OK: "ok",
-    STATUS_CONTACT_LOST: "contact_lost",
-    STATUS_SINGULAR: "singular",
-    STATUS_MAX_STEPS: "max_steps",
-    STATUS_STEP_TOO_SMALL: "step_too_small",
-}
-
-_NS = _coef.N_STAGES  # 12 stages
-_A = np.ascontiguousarray(_coef.A[:_NS, :_NS])
-_B = np.ascontiguousarray(_coef.B)
-_C = np.ascontiguousarray(_coef.C[:_NS])
-_E3 = np.ascontiguousarray(_coef.E3)
-_E5 = np.ascontiguousarray(_coef.E5)
-_D = np.ascontiguousarray(_coef.D)
-_A_EXTRA = np.ascontiguousarray(_coef.A[_NS + 1:])
-_C_EXTRA = np.ascontiguousarray(_coef.C[_NS + 1:])
-
+# ---------------------------------------------------------------- tuning
 SAFETY = 0.9  # step-size safety factor
 MIN_FACTOR = 0.2  # largest allowed decrease of the step in one go
 MAX_FACTOR = 10.0  # largest allowed increase of the step in one go
 ERROR_EXPONENT = -1.0 / 8.0  # -1 / (error estimator order + 1)
 BISECTION_ITERS = 60  # event location on the dense output: 2^-60 of a step
 STIFF_HLAMBDA = 6.1  # h lambda above this flags a step as stiff (Hairer's DOP853 threshold)
+MIN_STEP_ULPS = 10.0  # a step below this many ulp of t is an underflow (as scipy)
 
-# stats slots
-S_NRHS = 0
-S_NSTEPS = 1
-S_NREJECT = 2
-S_T_INVERT = 3
-S_H = 4
-S_MIN_SIN = 5
+# ---------------------------------------------------------------- compiled signatures
+_V = nb.types.float64[::1]  # a C-contiguous float64 vector
+_M = nb.types.float64[:, ::1]  # a C-contiguous float64 matrix
+_F8 = nb.types.float64
+_I8 = nb.types.int64
+#: ``rhs(y, p, dy) -> guard``
+RHS_SIG = _F8(_V, _V, _V)
+#: ``watch(y, p) -> (mark, monitor)``
+WATCH_SIG = nb.types.UniTuple(_F8, 2)(_V, _V)
+RHS_TYPE = nb.types.FunctionType(RHS_SIG)
+WATCH_TYPE = nb.types.FunctionType(WATCH_SIG)
+_OPTS = {"cache": True, "error_model": "numpy"}  # x / 0 gives inf or NaN (a rejected step)
+
+# ---------------------------------------------------------------- stats slots
+S_NRHS = 0  # right-hand-side evaluations
+S_NSTEPS = 1  # accepted steps
+S_NREJECT = 2  # rejected steps
+S_T_MARK = 3  # time of the first > 0 to <= 0 crossing of the mark, NaN if none
+S_H = 4  # step size carried to the next chunk (0: choose a starting step)
+S_MONITOR_MIN = 5  # smallest monitor at a step end, +inf before the first step
 S_NSTIFF = 6  # accepted steps with h lambda > STIFF_HLAMBDA
 S_HLAMBDA_MAX = 7  # largest h lambda estimate of an accepted step
 N_STATS = 8
 
 
-@nb.njit(cache=True)
-def rhs(form, coulomb_kind, viscous, y, p, dy):
-    """dy/dt of the chosen formulation and friction law; returns the normal force N."""
-    if form == FORM_VECTOR:
-        return vector_core(coulomb_kind, viscous, y, p, dy)[0]
-    return paper_core(coulomb_kind, viscous, y, p, dy)[0]
+def new_stats() -> np.ndarray:
+    """A fresh ``stats`` vector for :func:`dop853_run`: counters 0, no mark, no monitor."""
+    stats = np.zeros(N_STATS)
+    stats[S_T_MARK] = np.nan
+    stats[S_MONITOR_MIN] = np.inf
+    return stats
 
 
-@nb.njit(cache=True, inline="always")
-def _cos_sin(form, y):
-    if form == FORM_VECTOR:
-        qw, qx, qy, qz = y[4], y[5], y[6], y[7]
-        inv = 1.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-        kx = 2.0 * (qx * qz + qw * qy) * inv
-        ky = 2.0 * (qy * qz - qw * qx) * inv
-        return (qw * qw - qx * qx - qy * qy + qz * qz) * inv, math.sqrt(kx * kx + ky * ky)
-    return math.cos(y[0]), math.sin(y[0])  # signed: theta outside (0, pi) is caught
+# ---------------------------------------------------------------- one step
+@nb.njit(_F8(RHS_TYPE, _V, _V, _F8, _V, _M, _V, _V, _V), **_OPTS)
+def rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp):
+    """One DOP853 step of size ``h`` from ``y`` (with ``f = rhs(y)``); no step control.
+
+    The stage sums skip the tableau's zero entries (written out stage by stage). On return
+    ``K[:13]`` holds the 12 stage derivatives and f(y_new), ``y_new`` the 8th-order solution,
+    ``f_new`` = rhs(y_new) and ``ytmp`` the last stage's point (c = 1, used by the stiffness
+    estimate). Buffers: ``K`` (>= 13, n), the others (n,). 12 evaluations of ``rhs``. The
+    stages are evaluated into ``f_new`` and copied into ``K`` while the next stage's point is
+    formed: a row view ``K[s]`` would cost two atomic reference-count updates per evaluation.
+
+    Returns:
+        The guard value g(y_new) returned by ``rhs``.
+    """
+    n = y.size
+    for i in range(n):
+        K[0, i] = f[i]
+        ytmp[i] = y[i] + h * (A[1, 0] * f[i])
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[1, i] = k
+        ytmp[i] = y[i] + h * (A[2, 0] * K[0, i] + A[2, 1] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[2, i] = k
+        ytmp[i] = y[i] + h * (A[3, 0] * K[0, i] + A[3, 2] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[3, i] = k
+        ytmp[i] = y[i] + h * (A[4, 0] * K[0, i] + A[4, 2] * K[2, i] + A[4, 3] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[4, i] = k
+        ytmp[i] = y[i] + h * (A[5, 0] * K[0, i] + A[5, 3] * K[3, i] + A[5, 4] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[5, i] = k
+        ytmp[i] = y[i] + h * (A[6, 0] * K[0, i] + A[6, 3] * K[3, i] + A[6, 4] * K[4, i]
+                              + A[6, 5] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[6, i] = k
+        ytmp[i] = y[i] + h * (A[7, 0] * K[0, i] + A[7, 3] * K[3, i] + A[7, 4] * K[4, i]
+                              + A[7, 5] * K[5, i] + A[7, 6] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[7, i] = k
+        ytmp[i] = y[i] + h * (A[8, 0] * K[0, i] + A[8, 3] * K[3, i] + A[8, 4] * K[4, i]
+                              + A[8, 5] * K[5, i] + A[8, 6] * K[6, i] + A[8, 7] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[8, i] = k
+        ytmp[i] = y[i] + h * (A[9, 0] * K[0, i] + A[9, 3] * K[3, i] + A[9, 4] * K[4, i]
+                              + A[9, 5] * K[5, i] + A[9, 6] * K[6, i] + A[9, 7] * K[7, i]
+                              + A[9, 8] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[9, i] = k
+        ytmp[i] = y[i] + h * (A[10, 0] * K[0, i] + A[10, 3] * K[3, i] + A[10, 4] * K[4, i]
+                              + A[10, 5] * K[5, i] + A[10, 6] * K[6, i] + A[10, 7] * K[7, i]
+                              + A[10, 8] * K[8, i] + A[10, 9] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[10, i] = k
+        ytmp[i] = y[i] + h * (A[11, 0] * K[0, i] + A[11, 3] * K[3, i] + A[11, 4] * K[4, i]
+                              + A[11, 5] * K[5, i] + A[11, 6] * K[6, i] + A[11, 7] * K[7, i]
+                              + A[11, 8] * K[8, i] + A[11, 9] * K[9, i] + A[11, 10] * k)
+    rhs(ytmp, p, f_new)
+    for i in range(n):
+        k = f_new[i]
+        K[11, i] = k
+        y_new[i] = y[i] + h * (B[0] * K[0, i] + B[5] * K[5, i] + B[6] * K[6, i]
+                               + B[7] * K[7, i] + B[8] * K[8, i] + B[9] * K[9, i]
+                               + B[10] * K[10, i] + B[11] * k)
+    g = rhs(y_new, p, f_new)
+    for i in range(n):
+        K[N_STAGES, i] = f_new[i]
+    return g
 
 
-@nb.njit(cache=True)
-def _rms(v, scale):
-    s = 0.0
-    for i in range(v.size):
-        r = v[i] / scale[i]
-        s += r * r
-    return math.sqrt(s / v.size)
+@nb.njit(_F8(_M, _F8, _V, _V, _F8, _F8), **_OPTS)
+def error_norm(K, h, y, y_new, rtol, atol):
+    """The step's error norm, as scipy's DOP853 (< 1: accept; NaN or inf: overflow).
+
+    ``|h| * e5 / sqrt(e5^2 + 0.01 e3^2)`` with e5, e3 the RMS of the 5th- and 3rd-order
+    estimates scaled by ``atol + max(|y|, |y_new|) rtol`` (the estimators' zero entries,
+    stages 1-4 and f(y_new), skipped).
+    """
+    n = y.size
+    e5 = 0.0
+    e3 = 0.0
+    for i in range(n):
+        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+        a5 = (E5[0] * K[0, i] + E5[5] * K[5, i] + E5[6] * K[6, i] + E5[7] * K[7, i]
+              + E5[8] * K[8, i] + E5[9] * K[9, i] + E5[10] * K[10, i] + E5[11] * K[11, i])
+        a3 = (E3[0] * K[0, i] + E3[5] * K[5, i] + E3[6] * K[6, i] + E3[7] * K[7, i]
+              + E3[8] * K[8, i] + E3[9] * K[9, i] + E3[10] * K[10, i] + E3[11] * K[11, i])
+        a5 /= sc
+        a3 /= sc
+        e5 += a5 * a5
+        e3 += a3 * a3
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
 
 
-@nb.njit(cache=True)
-def _dense_coeffs(form, ck, visc, t_old, y_old, y_new, f_new, h, K, F, p, ytmp):
-    """Fill F (7, n) with the dense-output coefficients of the step; 3 extra evaluations."""
+# ---------------------------------------------------------------- dense output and events
+@nb.njit(nb.types.none(RHS_TYPE, _V, _V, _V, _F8, _V, _M, _M, _V), **_OPTS)
+def dense_coeffs(rhs, y_old, y_new, f_new, h, p, K, F, ytmp):
+    """Fill ``F`` (7, n) with the step's dense-output coefficients; 3 extra evaluations.
+
+    ``K`` is the (16, n) stage buffer of the step (rows 0-12 from :func:`rk_step`); rows
+    13-15 receive the extra stages. ``ytmp`` is scratch.
+    """
     n = y_old.size
     for s in range(3):
-        a = _A_EXTRA[s]
+        a = A_EXTRA[s]
         for i in range(n):
             acc = 0.0
-            for j in range(_NS + 1 + s):
+            for j in range(N_STAGES + 1 + s):
                 acc += a[j] * K[j, i]
             ytmp[i] = y_old[i] + h * acc
-        rhs(form, ck, visc, ytmp, p, K[_NS + 1 + s])
+        rhs(ytmp, p, K[N_STAGES + 1 + s])
     for i in range(n):
         dy = y_new[i] - y_old[i]
         F[0, i] = dy
@@ -130,14 +254,14 @@ def _dense_coeffs(form, ck, visc, t_old, y_old, y_new, f_new, h, K, F, p, ytmp):
         F[2, i] = 2.0 * dy - h * (f_new[i] + K[0, i])
         for r in range(4):
             acc = 0.0
-            for j in range(16):
-                acc += _D[r, j] * K[j, i]
+            for j in range(N_K):
+                acc += D[r, j] * K[j, i]
             F[3 + r, i] = h * acc
 
 
-@nb.njit(cache=True)
-def _dense_eval(F, y_old, x, out):
-    """Evaluate the dense output at x = (t - t_old) / h into ``out``."""
+@nb.njit(nb.types.none(_M, _V, _F8, _V), **_OPTS)
+def dense_eval(F, y_old, x, out):
+    """The 7th-order dense output at the fraction ``x = (t - t_old) / h`` of the step."""
     n = y_old.size
     for i in range(n):
         v = 0.0
@@ -150,15 +274,51 @@ def _dense_eval(F, y_old, x, out):
         out[i] = v + y_old[i]
 
 
-@nb.njit(cache=True)
-def initial_step(form, ck, visc, t0, y0, f0, t_end, p, rtol, atol):
-    """Hairer's starting step (as ``scipy.integrate._ivp.common.select_initial_step``)."""
+@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _V), **_OPTS)
+def locate(rhs, watch, use_guard, F, y_old, p, ytmp, dy):
+    """Where in the step an event function falls from > 0 to <= 0, by bisection.
+
+    The event function is the guard ``rhs(y, p, dy)`` if ``use_guard``, else the mark
+    ``watch(y, p)[0]``, evaluated on the dense output ``F`` of the step from ``y_old``. The
+    caller has checked that it is > 0 at the step's start and <= 0 at its end.
+
+    Returns:
+        The fraction x in (0, 1] of the step (within 2^-BISECTION_ITERS) at which the event
+        function is first found <= 0.
+    """
+    lo = 0.0
+    hi = 1.0
+    for _ in range(BISECTION_ITERS):
+        mid = 0.5 * (lo + hi)
+        dense_eval(F, y_old, mid, ytmp)
+        if use_guard:
+            v = rhs(ytmp, p, dy)
+        else:
+            v = watch(ytmp, p)[0]
+        if v > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+# ---------------------------------------------------------------- the adaptive driver
+@nb.njit(_F8(RHS_TYPE, _F8, _V, _V, _F8, _V, _F8, _F8), **_OPTS)
+def initial_step(rhs, t0, y0, f0, t_end, p, rtol, atol):
+    """Hairer's starting step (as ``scipy.integrate._ivp.common.select_initial_step``).
+
+    One evaluation of ``rhs``. NaN or 0 if the start overflows (the driver then reports
+    :data:`STATUS_STEP_TOO_SMALL`).
+    """
     n = y0.size
-    scale = np.empty(n)
+    d0 = 0.0
+    d1 = 0.0
     for i in range(n):
-        scale[i] = atol + abs(y0[i]) * rtol
-    d0 = _rms(y0, scale)
-    d1 = _rms(f0, scale)
+        sc = atol + abs(y0[i]) * rtol
+        d0 += (y0[i] / sc) ** 2
+        d1 += (f0[i] / sc) ** 2
+    d0 = math.sqrt(d0 / n)
+    d1 = math.sqrt(d1 / n)
     if d0 < 1e-5 or d1 < 1e-5 or not (d0 < np.inf and d1 < np.inf):
         h0 = 1e-6
     else:
@@ -168,100 +328,87 @@ def initial_step(form, ck, visc, t0, y0, f0, t_end, p, rtol, atol):
         h0 = 1e-6 * (t_end - t0)
     y1 = y0 + h0 * f0
     f1 = np.empty(n)
-    rhs(form, ck, visc, y1, p, f1)
-    d2 = _rms(f1 - f0, scale) / h0
+    rhs(y1, p, f1)
+    d2 = 0.0
+    for i in range(n):
+        sc = atol + abs(y0[i]) * rtol
+        d2 += ((f1[i] - f0[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / n) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    return min(100.0 * h0, h1, t_end - t0)  # NaN or 0 if the start overflows: see solve.py
+    return min(100.0 * h0, h1, t_end - t0)
 
 
-@nb.njit(cache=True)
-def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, _F8,
+                                          _I8, _F8, _V, _M, _I8, _V), **_OPTS)
+def dop853_run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
                t_out, Y_out, i_out, stats):
-    """Integrate from (t, y) until t >= t_stop (the last step ends at t_end, never beyond).
+    """Integrate y' = rhs(y) from (t, y) until t >= t_stop (the last step ends at t_end).
 
-    ``y`` is advanced in place; samples at the times ``t_out[i_out:]`` passed are written to
-    ``Y_out``. ``stats`` carries counters, the inversion time and the step size across calls
-    (see the ``S_*`` slots). Returns (status, t, i_out).
+    Args:
+        rhs: ``rhs(y, p, dy) -> guard`` (njit); the run stops where the guard falls to <= 0.
+        watch: ``watch(y, p) -> (mark, monitor)`` (njit), see the module docstring.
+        y: The state (float64, (n,)), advanced in place.
+        t: The start time.
+        t_stop: This call returns once a step ends at or after ``t_stop`` (a chunk).
+        t_end: The end of the whole run; no step goes beyond it.
+        p: Parameters passed to ``rhs`` and ``watch``.
+        rtol: Relative tolerance.
+        atol: Absolute tolerance.
+        max_steps: Stop with :data:`STATUS_MAX_STEPS` once ``stats[S_NSTEPS]`` reaches it.
+        monitor_floor: Stop with :data:`STATUS_MONITOR` once a step ends with the monitor
+            below it (``-inf``: never).
+        t_out: Sample times, increasing.
+        Y_out: Samples, (t_out.size, n); row i receives the state at ``t_out[i]`` (dense
+            output), for every i >= ``i_out`` passed.
+        i_out: The first sample not yet written.
+        stats: Counters and the carried step size (``S_*`` slots; :func:`new_stats`); pass
+            the same vector to the calls of one run so that it resumes where it stopped.
+
+    Returns:
+        (status, t, i_out): one of the ``STATUS_*`` codes, the time reached (at a guard stop:
+        the located crossing, with ``y`` on the dense output there) and the next sample.
     """
     n = y.size
-    K = np.empty((16, n))
+    K = np.empty((N_K, n))
     F = np.empty((7, n))
     y_new = np.empty(n)
     f_new = np.empty(n)
     ytmp = np.empty(n)
-    scale = np.empty(n)
-    err5 = np.empty(n)
-    err3 = np.empty(n)
+    dy = np.empty(n)
     f = np.empty(n)
-    N0 = rhs(form, coulomb_kind, viscous, y, p, f)
+    g0 = rhs(y, p, f)
     stats[S_NRHS] += 1
-    if not N0 > 0.0:
-        return STATUS_CONTACT_LOST, t, i_out
+    if not g0 > 0.0:
+        return STATUS_GUARD, t, i_out
     h_abs = stats[S_H]
     if not h_abs > 0.0:
-        h_abs = initial_step(form, coulomb_kind, viscous, t, y, f, t_end, p, rtol, atol)
+        h_abs = initial_step(rhs, t, y, f, t_end, p, rtol, atol)
         stats[S_NRHS] += 1
+    mark_old = watch(y, p)[0]
     n_out = t_out.size
     while i_out < n_out and t_out[i_out] <= t:
         Y_out[i_out, :] = y
         i_out += 1
-    steps_here = 0
     while t < t_stop:
         if stats[S_NSTEPS] >= max_steps:
             stats[S_H] = h_abs
             return STATUS_MAX_STEPS, t, i_out
-        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        min_step = MIN_STEP_ULPS * abs(np.nextafter(t, np.inf) - t)
         rejected = False
         while True:
             if not h_abs >= min_step:  # also catches a NaN step size
                 stats[S_H] = h_abs
-                c, s = _cos_sin(form, y)
-                if form == FORM_PAPER and abs(s) < 1e-3:
-                    return STATUS_SINGULAR, t, i_out
                 return STATUS_STEP_TOO_SMALL, t, i_out
             t_new = t + h_abs
             if t_new > t_end:
                 t_new = t_end
             h = t_new - t
-            # --- one Runge-Kutta step
-            for i in range(n):
-                K[0, i] = f[i]
-            for s in range(1, _NS):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += _A[s, j] * K[j, i]
-                    ytmp[i] = y[i] + h * acc
-                rhs(form, coulomb_kind, viscous, ytmp, p, K[s])
-            for i in range(n):
-                acc = 0.0
-                for j in range(_NS):
-                    acc += _B[j] * K[j, i]
-                y_new[i] = y[i] + h * acc
-            N_new = rhs(form, coulomb_kind, viscous, y_new, p, f_new)
-            stats[S_NRHS] += _NS
-            for i in range(n):
-                K[_NS, i] = f_new[i]
-                scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-                a5 = 0.0
-                a3 = 0.0
-                for j in range(_NS + 1):
-                    a5 += _E5[j] * K[j, i]
-                    a3 += _E3[j] * K[j, i]
-                err5[i] = a5 / scale[i]
-                err3[i] = a3 / scale[i]
-            e5 = 0.0
-            e3 = 0.0
-            for i in range(n):
-                e5 += err5[i] * err5[i]
-                e3 += err3[i] * err3[i]
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = h * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+            g_new = rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp)
+            stats[S_NRHS] += N_STAGES
+            err = error_norm(K, h, y, y_new, rtol, atol)
             if err < 1.0:
                 if err == 0.0:
                     factor = MAX_FACTOR
@@ -279,12 +426,11 @@ def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, 
             rejected = True
             stats[S_NREJECT] += 1
         stats[S_NSTEPS] += 1
-        steps_here += 1
         # --- stiffness detection: ytmp still holds the last stage's point (c_12 = 1, t + h)
         st_num = 0.0
         st_den = 0.0
         for i in range(n):
-            dk = f_new[i] - K[_NS - 1, i]
+            dk = f_new[i] - K[N_STAGES - 1, i]
             dyv = y_new[i] - ytmp[i]
             st_num += dk * dk
             st_den += dyv * dyv
@@ -295,60 +441,42 @@ def dop853_run(form, coulomb_kind, viscous, y, t, t_stop, t_end, p, rtol, atol, 
             if h_lambda > STIFF_HLAMBDA:
                 stats[S_NSTIFF] += 1
         # --- events and samples on the dense output
-        c_old, s_old = _cos_sin(form, y)
-        c_new, s_new = _cos_sin(form, y_new)
-        if abs(s_new) < stats[S_MIN_SIN]:
-            stats[S_MIN_SIN] = abs(s_new)
-        lost = not (N_new > 0.0)
-        invert = math.isnan(stats[S_T_INVERT]) and c_old > 0.0 and c_new <= 0.0
-        need_dense = lost or invert or (i_out < n_out and t_out[i_out] <= t_new)
+        mark_new, monitor = watch(y_new, p)
+        if monitor < stats[S_MONITOR_MIN]:
+            stats[S_MONITOR_MIN] = monitor
+        guard_hit = not (g_new > 0.0)
+        mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
+        need_dense = guard_hit or mark_hit or (i_out < n_out and t_out[i_out] <= t_new)
         t_final = t_new
         if need_dense:
-            _dense_coeffs(form, coulomb_kind, viscous, t, y, y_new, f_new, h, K, F, p, ytmp)
+            dense_coeffs(rhs, y, y_new, f_new, h, p, K, F, ytmp)
             stats[S_NRHS] += 3
-            if lost:
-                lo = 0.0
-                hi = 1.0
-                for _ in range(BISECTION_ITERS):
-                    mid = 0.5 * (lo + hi)
-                    _dense_eval(F, y, mid, ytmp)
-                    if rhs(form, coulomb_kind, viscous, ytmp, p, err3) > 0.0:
-                        lo = mid
-                    else:
-                        hi = mid
+            if guard_hit:
+                t_final = t + h * locate(rhs, watch, True, F, y, p, ytmp, dy)
                 stats[S_NRHS] += BISECTION_ITERS
-                t_final = t + hi * h
-            if invert:
-                lo = 0.0
-                hi = 1.0
-                for _ in range(BISECTION_ITERS):
-                    mid = 0.5 * (lo + hi)
-                    _dense_eval(F, y, mid, ytmp)
-                    if _cos_sin(form, ytmp)[0] > 0.0:
-                        lo = mid
-                    else:
-                        hi = mid
-                t_inv = t + hi * h
-                if t_inv <= t_final:
-                    stats[S_T_INVERT] = t_inv
+            if mark_hit:
+                t_mark = t + h * locate(rhs, watch, False, F, y, p, ytmp, dy)
+                if t_mark <= t_final:
+                    stats[S_T_MARK] = t_mark
             while i_out < n_out and t_out[i_out] <= t_final:
                 if t_out[i_out] == t_new:
                     Y_out[i_out, :] = y_new
                 else:
-                    _dense_eval(F, y, (t_out[i_out] - t) / h, ytmp)
+                    dense_eval(F, y, (t_out[i_out] - t) / h, ytmp)
                     Y_out[i_out, :] = ytmp
                 i_out += 1
-            if lost:
-                _dense_eval(F, y, (t_final - t) / h, ytmp)
+            if guard_hit:
+                dense_eval(F, y, (t_final - t) / h, ytmp)
                 y[:] = ytmp
                 stats[S_H] = h_abs
-                return STATUS_CONTACT_LOST, t_final, i_out
+                return STATUS_GUARD, t_final, i_out
         t = t_new
         y[:] = y_new
         f[:] = f_new
-        if form == FORM_PAPER and s_new < p[P_SING]:
+        mark_old = mark_new
+        if monitor < monitor_floor:
             stats[S_H] = h_abs
-            return STATUS_SINGULAR, t, i_out
+            return STATUS_MONITOR, t, i_out
     stats[S_H] = h_abs
     if t >= t_end:
         return STATUS_OK, t, i_out

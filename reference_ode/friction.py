@@ -4,8 +4,9 @@ Every law is written as F = N * phi(v_P) + psi(v_P): a Coulomb-type part proport
 normal force N and a viscous part that is not. The normal force is solved from the contact
 constraint together with the accelerations, which is linear in N because of this split.
 
-A law is the pair (``coulomb_kind``, ``viscous``), fixed at compile time: the integrator is
-specialised on both (numba literal dispatch), so a run computes only the terms its scene names.
+A law is the pair (``coulomb_kind``, ``viscous``) of :data:`LAW_TERMS`. The reference ODE
+carries it in its parameter vector (``params_array.P_COULOMB_KIND``, ``P_VISCOUS``) and
+:func:`friction_terms` branches on it, so a run computes only the terms its scene names.
 
 * ``modified_coulomb`` (the paper's eq. 2.12): phi = -mu v_P / sqrt(|v_P|^2 + Lambda^2).
 * ``coulomb``: phi = -mu v_P / |v_P|. The exact law is set-valued at v_P = 0 (any force with

@@ -10,6 +10,7 @@ import numpy as np
 
 from tippetop.models.options import DEFAULT_SINGULAR_SIN
 from tippetop.models.params import FrictionParams, TopParams
+from tippetop.reference_ode.friction import LAW_TERMS
 
 P_R = 0  # sphere radius (m)
 P_A_OFF = 1  # centre-of-mass offset a (m)
@@ -22,13 +23,24 @@ P_LAM = 7  # modified Coulomb speed Lambda (m/s)
 P_CVISC = 8  # viscous coefficient (N s/m)
 P_VEPS = 9  # exact Coulomb ramp half-width (m/s)
 P_SING = 10  # paper formulation: |sin theta| below which it is declared singular
-N_PARAMS = 11
-
+P_COULOMB_KIND = 11  # the friction law's Coulomb part: friction.COULOMB_* code
+P_VISCOUS = 12  # the friction law's viscous part: 1.0 if present, else 0.0
+N_PARAMS = 13
 
 
 def pack_params(top: TopParams, friction: FrictionParams,
                 singular_sin: float = DEFAULT_SINGULAR_SIN) -> np.ndarray:
-    """Pack the parameters into the compiled functions' vector, shape (N_PARAMS,)."""
+    """Pack the parameters and the friction law into the compiled functions' vector.
+
+    Args:
+        top: The loaded sphere.
+        friction: The sliding-friction law (its terms go to ``P_COULOMB_KIND`` and
+            ``P_VISCOUS``) and its coefficients.
+        singular_sin: The paper formulation's singular threshold on |sin theta|.
+
+    Returns:
+        The vector, shape (N_PARAMS,).
+    """
     p = np.empty(N_PARAMS)
     p[P_R] = top.R_m
     p[P_A_OFF] = top.a_m
@@ -41,10 +53,23 @@ def pack_params(top: TopParams, friction: FrictionParams,
     p[P_CVISC] = friction.viscous_coefficient(top)
     p[P_VEPS] = friction.coulomb_v_eps_mps
     p[P_SING] = singular_sin
+    p[P_COULOMB_KIND], p[P_VISCOUS] = friction_law_codes(friction)
     return p
+
+
+def friction_law_codes(friction: FrictionParams) -> tuple[float, float]:
+    """The values of the ``P_COULOMB_KIND`` and ``P_VISCOUS`` slots for a friction law."""
+    coulomb_kind, viscous = LAW_TERMS[friction.law]
+    return float(coulomb_kind), 1.0 if viscous else 0.0
 
 
 @nb.njit(cache=True, inline="always")
 def top_params(p):
     """(R, a, M, A, C, g) of a packed parameter vector."""
     return p[P_R], p[P_A_OFF], p[P_M], p[P_IA], p[P_IC], p[P_G]
+
+
+@nb.njit(cache=True, inline="always")
+def friction_law(p):
+    """(coulomb_kind, viscous) of a packed parameter vector, as ``friction.LAW_TERMS``."""
+    return int(p[P_COULOMB_KIND]), p[P_VISCOUS] != 0.0

@@ -7,7 +7,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numba as nb
 import numpy as np
 import pandas as pd
 
@@ -18,18 +17,37 @@ from tippetop.models.options import FORMULATIONS as _FORMULATION_NAMES
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.reference_ode import dop853 as _d
-from tippetop.reference_ode import paper as _paper
-from tippetop.reference_ode import vector as _vector
-from tippetop.reference_ode.friction import LAW_TERMS
-from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.params_array import (
+    P_COULOMB_KIND,
+    P_SING,
+    P_VISCOUS,
+    friction_law_codes,
+    pack_params,
+)
+from tippetop.reference_ode.top import FORMULATIONS, Formulation
 
-FORMULATIONS = dict(zip(_FORMULATION_NAMES, (_d.FORM_VECTOR, _d.FORM_PAPER), strict=True))
+assert tuple(FORMULATIONS) == _FORMULATION_NAMES
+
+#: The kernel's statuses under the tippe top's names: the guard is the normal force (contact
+#: lost), the monitor the paper formulation's sin theta (its singularity).
+STATUS_NAMES = {
+    _d.STATUS_OK: "ok",
+    _d.STATUS_GUARD: "contact_lost",
+    _d.STATUS_MONITOR: "singular",
+    _d.STATUS_MAX_STEPS: "max_steps",
+    _d.STATUS_STEP_TOO_SMALL: "step_too_small",
+}
+#: A step-size underflow of the paper formulation with |sin theta| below this is reported as
+#: its singularity (``singular``), not as ``step_too_small``.
+SINGULAR_UNDERFLOW_SIN = 1e-3
 
 #: Rows of the observables table when the caller gives no sample interval.
 DEFAULT_MAX_SAMPLES = 20_000
 #: Finest default sample interval (s).
 DEFAULT_SAMPLE_DT_S = 1e-3
-#: The run is integrated in this many pieces so that a progress bar can advance.
+#: With a progress callback the run is integrated in this many pieces so that a progress bar
+#: can advance (each piece costs ~0.1 ms of Python: the kernel's function arguments are
+#: unboxed per call); without one, in one piece. The steps are the same either way.
 N_CHUNKS = 50
 
 
@@ -47,7 +65,8 @@ class OdeResult:
         n_steps: Accepted steps.
         n_rejected: Rejected steps.
         wall_s: Wall time of the integration (s), compile time excluded.
-        min_sin_theta: Smallest |sin theta| seen at a step end.
+        min_sin_theta: Smallest |sin theta| seen at a step end (0 when a paper-formulation
+            step ended with theta outside (0, pi): it passed through the singularity).
         states: The sampled raw states, shape (samples, state size).
         stiff_steps: Accepted steps whose stiffness estimate h lambda exceeded 6.1 (Hairer's
             DOP853 test, see :mod:`reference_ode.dop853`): steps limited by stability, not by
@@ -82,18 +101,6 @@ def initial_state_paper(top: TopParams, init: InitialState) -> np.ndarray:
     """The paper formulation's state, shape (10,): phi = psi = 0, x = y = 0."""
     return np.array([init.theta0, init.thetadot0, init.Omega0, init.n0, init.uOX, init.uOY,
                      0.0, 0.0, 0.0, 0.0])
-
-
-@nb.njit(cache=True)
-def _observe_all(form, coulomb_kind, viscous, Y, p, sin_undefined, out):
-    scratch = np.empty(Y.shape[1])
-    for i in range(Y.shape[0]):
-        if form == _d.FORM_VECTOR:
-            _vector.vector_observe(coulomb_kind, viscous, Y[i], p, sin_undefined, out[i],
-                                   scratch)
-        else:
-            _paper.paper_observe(coulomb_kind, viscous, Y[i], p, sin_undefined, out[i],
-                                 scratch)
 
 
 def sample_times(t_end_s: float, sample_dt_s: float | None) -> np.ndarray:
@@ -155,20 +162,20 @@ def simulate_ode(
     t_end_s = float(t_end_s)  # one compiled signature: every scalar crosses as float64
     form_name = options.formulation
     form = FORMULATIONS[form_name]
-    ck, visc = LAW_TERMS[friction.law]
-    visc = int(visc)
     p = pack_params(top, friction, options.singular_sin)
-    if form == _d.FORM_VECTOR:
-        y = initial_state_vector(top, init)
-    else:
+    if form.singular:
         if abs(math.sin(init.theta0)) < options.singular_sin:
             raise TippetopError(
                 f"init.theta0: expected |sin theta0| >= {options.singular_sin:g} for the paper "
                 f"formulation (it is singular at theta = 0 and pi), got {init.theta0!r}; use "
                 "ode.formulation=vector")
         y = initial_state_paper(top, init)
+        monitor_floor = float(p[P_SING])
+    else:
+        y = initial_state_vector(top, init)
+        monitor_floor = -math.inf
     dy0 = np.empty_like(y)
-    N0 = _d.rhs(form, ck, visc, y, p, dy0)
+    N0 = form.rhs(y, p, dy0)
     row0 = observables_table(form_name, friction, p, np.zeros(1), y[None, :]).iloc[0]
     if not (np.all(np.isfinite(dy0)) and math.isfinite(N0) and math.isfinite(row0["E"])
             and math.isfinite(row0["J"])):
@@ -179,47 +186,51 @@ def simulate_ode(
             f"g = {top.g_mps2!r}): the values are too large for double precision")
     t_out = sample_times(t_end_s, sample_dt_s)
     Y = np.full((t_out.size, y.size), np.nan)
-    stats = np.zeros(_d.N_STATS)
-    stats[_d.S_T_INVERT] = np.nan
-    stats[_d.S_MIN_SIN] = np.inf
+    stats = _d.new_stats()
     t = 0.0
     i_out = 0
+    rtol = float(options.rtol)
+    atol = float(options.atol)
+    max_steps = int(options.max_steps)
     # load (or compile) the integrator before the clock starts: a call that takes no step
-    _d.dop853_run(form, ck, visc, y.copy(), 0.0, 0.0, t_end_s, p, float(options.rtol),
-                  float(options.atol), 1, t_out[:0], Y[:0], 0, stats.copy())
+    _d.dop853_run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
+                  monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
     wall0 = time.perf_counter()
     status = _d.STATUS_RUNNING
-    for k in range(1, N_CHUNKS + 1):
-        t_stop = t_end_s if k == N_CHUNKS else t_end_s * k / N_CHUNKS
+    n_chunks = N_CHUNKS if progress is not None else 1
+    for k in range(1, n_chunks + 1):
+        t_stop = t_end_s if k == n_chunks else t_end_s * k / n_chunks
         if t >= t_stop:
             continue
-        status, t, i_out = _d.dop853_run(form, ck, visc, y, t, float(t_stop), t_end_s, p,
-                                         float(options.rtol), float(options.atol),
-                                         int(options.max_steps),
-                                         t_out, Y, i_out, stats)
+        status, t, i_out = _d.dop853_run(form.rhs, form.watch, y, t, float(t_stop), t_end_s, p,
+                                         rtol, atol, max_steps, monitor_floor, t_out, Y, i_out,
+                                         stats)
         if progress is not None:
             progress(t)
         if status != _d.STATUS_RUNNING:
             break
     wall = time.perf_counter() - wall0
-    status_name = _d.STATUS_NAMES[status]
+    status_name = _status_name(form, status, y)
     if status != _d.STATUS_OK:
         # keep the samples reached and add the final state at the stopping time
         t_out = np.append(t_out[:i_out], t)
         Y = np.vstack([Y[:i_out], y[None, :]])
     table = observables_table(form_name, friction, p, t_out, Y)
-    t_inv = stats[_d.S_T_INVERT]
+    t_inv = stats[_d.S_T_MARK]
+    # the paper form's monitor is the signed sin theta: < 0 means the last step jumped across
+    # theta = 0 (or pi), i.e. |sin theta| passed through 0
+    min_sin = max(float(stats[_d.S_MONITOR_MIN]), 0.0)
     return OdeResult(
         table=table,
         status=status_name,
-        message=_message(status_name, t, stats[_d.S_MIN_SIN], form_name),
+        message=_message(status_name, t, min_sin, form_name),
         t_final=float(t),
         t_invert=None if math.isnan(t_inv) else float(t_inv),
         n_rhs=int(stats[_d.S_NRHS]),
         n_steps=int(stats[_d.S_NSTEPS]),
         n_rejected=int(stats[_d.S_NREJECT]),
         wall_s=wall,
-        min_sin_theta=float(stats[_d.S_MIN_SIN]),
+        min_sin_theta=min_sin,
         rtol=options.rtol,
         states=Y,
         stiff_steps=int(stats[_d.S_NSTIFF]),
@@ -227,14 +238,63 @@ def simulate_ode(
     )
 
 
+def _status_name(form: Formulation, status: int, y: np.ndarray) -> str:
+    """The tippe top's name of a kernel status; ``y`` is the state where the run stopped."""
+    if (status == _d.STATUS_STEP_TOO_SMALL and form.singular
+            and abs(math.sin(y[0])) < SINGULAR_UNDERFLOW_SIN):
+        return "singular"
+    return STATUS_NAMES[status]
+
+
+def scipy_rhs(top: TopParams, friction: FrictionParams,
+              formulation: str = "vector") -> Callable[[float, np.ndarray], np.ndarray]:
+    """The compiled right-hand side as a ``fun(t, y) -> dy`` for ``scipy.integrate.solve_ivp``.
+
+    Every call runs the compiled, allocating right-hand side of the formulation (the one the
+    reference integrator uses, friction law and parameters as :func:`pack_params`); it is
+    compiled (or loaded) before this returns, so the first call costs no compilation.
+
+    Args:
+        top: The loaded sphere.
+        friction: The sliding-friction law and its coefficients.
+        formulation: ``vector`` (state of :func:`initial_state_vector`) or ``paper``
+            (:func:`initial_state_paper`).
+
+    Returns:
+        ``fun(t, y)``, returning dy/dt as a new float64 array (t is ignored: autonomous).
+    """
+    expect(formulation in FORMULATIONS, "formulation", "|".join(FORMULATIONS), formulation)
+    rhs_alloc = FORMULATIONS[formulation].rhs_alloc
+    p = pack_params(top, friction)
+    rhs_alloc(np.ones(FORMULATIONS[formulation].n_state), p)  # compile (or load) now
+
+    def fun(t: float, y: np.ndarray) -> np.ndarray:
+        return rhs_alloc(y, p)
+
+    return fun
+
+
 def observables_table(formulation: str, friction: FrictionParams, p: np.ndarray,
                       t: np.ndarray, Y: np.ndarray) -> pd.DataFrame:
-    """The observables table for sampled states ``Y`` (rows) at times ``t``."""
-    ck, visc = LAW_TERMS[friction.law]
+    """The observables table for sampled states ``Y`` (rows) at times ``t``.
+
+    Args:
+        formulation: ``vector`` or ``paper``, the layout of ``Y``'s rows.
+        friction: The friction law; it must be the one packed in ``p`` (the compiled
+            observables read the law from ``p``).
+        p: The packed parameters (:func:`pack_params`).
+        t: Sample times (s).
+        Y: Sampled states, (len(t), state size).
+
+    Returns:
+        ``t`` then ``models.observables.COLUMNS[1:] + EXTRA_COLUMNS``, one row per sample.
+    """
+    if friction_law_codes(friction) != (p[P_COULOMB_KIND], p[P_VISCOUS]):
+        raise ValueError(f"observables_table: p was packed for another friction law than "
+                         f"{friction.law!r}")
     names = COLUMNS[1:] + EXTRA_COLUMNS
     out = np.empty((Y.shape[0], len(names)))
-    _observe_all(FORMULATIONS[formulation], ck, int(visc), np.ascontiguousarray(Y), p,
-                 SIN_THETA_UNDEFINED, out)
+    FORMULATIONS[formulation].observe_all(np.ascontiguousarray(Y), p, SIN_THETA_UNDEFINED, out)
     df = pd.DataFrame(out, columns=list(names))
     df.insert(0, "t", t)
     return df

