@@ -24,11 +24,12 @@ Usage::
   to a temporary file and renamed, never over an existing file without ``--force``. Sizes are
   rounded down to even numbers (H.264 with yuv420p needs them).
 
-OpenGL: rendering needs an offscreen backend. ``MUJOCO_GL`` may name it (``egl`` or ``osmesa``);
-unset, EGL is used when its libraries can open a device and OSMesa otherwise, and the choice is
-written to ``MUJOCO_GL`` before this command imports ``mujoco``. Nothing here is imported by
+OpenGL: rendering needs an offscreen backend (:mod:`tippetop.mujoco_runner.gl`). ``MUJOCO_GL``
+may name it (``egl`` or ``osmesa``); unset, EGL is used when its libraries can open a device
+and OSMesa otherwise, and the choice is written to ``MUJOCO_GL`` before this command imports
+``mujoco``. Nothing here is imported by
 the simulation: this module imports only the standard library at the top, and the drawing code
-(:mod:`mujoco_runner.video`, imageio-ffmpeg, Pillow) is imported when a video is asked for.
+(:mod:`tippetop.mujoco_runner.video`, imageio-ffmpeg, Pillow) is imported when a video is asked for.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tippetop.models.errors import TippetopError, expect
-from tippetop.mujoco_runner.gl import BACKEND_PACKAGES, OFFSCREEN_BACKENDS, use_gl_backend
+from tippetop.mujoco_runner.gl import use_gl_backend
 
 if TYPE_CHECKING:
     from tippetop.models.scene import Scene
@@ -186,12 +187,13 @@ def render_scene(
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
     backend = use_gl_backend()  # before anything below imports mujoco
 
-    from tippetop.compare.engines import run_engine
+    from tippetop.compare.engines import plan_for, run_plan
 
     engines = ("mujoco", "ode") if engine == "both" else (engine,)
+    plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
     tables = {}
     for name in engines:
-        run = run_engine(scene, name, progress=progress)
+        run = run_plan(plans[name], progress=progress)
         if run.status not in ("ok", "contact_lost") or len(run.table) == 0:
             raise RunFailed(f"{name}: {run.message}")
         tables[name] = run.table
@@ -199,7 +201,8 @@ def render_scene(
     from tippetop.compare.io import write_atomic
     from tippetop.mujoco_runner import video
 
-    top_model = video.render_model(scene, width, height)
+    first = plans[engines[0]]
+    top_model = video.render_model(first.top, scene.top_mjcf, width, height)
     tracks = [video.Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
                                      paper_frame=name == "ode") for name in engines]
     times = video.frame_times(n_frames, fps, speed)
@@ -277,20 +280,16 @@ def add_render_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
 
 
 __all__ = [
-    "BACKEND_PACKAGES",
     "DEFAULT_FPS",
     "DEFAULT_MAX_FRAMES",
     "DEFAULT_SIZE",
     "DEFAULT_SPEED",
     "ENGINE_LABELS",
-    "OFFSCREEN_BACKENDS",
     "RENDER_ENGINES",
     "RenderResult",
     "RunFailed",
     "add_render_parser",
-    "choose_gl_backend",
     "frame_count",
     "parse_size",
     "render_scene",
-    "use_gl_backend",
 ]

@@ -1,4 +1,4 @@
-"""The offscreen OpenGL backend for MuJoCo's renderer: EGL or OSMesa, chosen before ``import mujoco``.
+"""Offscreen OpenGL for MuJoCo's renderer: EGL or OSMesa, chosen before ``import mujoco``.
 
 ``MUJOCO_GL`` may name the backend (``egl`` or ``osmesa``); unset, EGL is used when its
 libraries can open a device and OSMesa otherwise, and the choice is written to ``MUJOCO_GL``

@@ -33,9 +33,9 @@ import pandas as pd
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_mul, quat_to_mat
 from tippetop.models.mjcf import make_mjcf
-from tippetop.models.scene import Scene
+from tippetop.models.params import TopParams
+from tippetop.mujoco_runner.gl import BACKEND_PACKAGES
 from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, top_from_model
-from tippetop.mujoco_runner.render import BACKEND_PACKAGES
 
 # The camera follows the top's centre of mass at a fixed bearing (it translates, never turns).
 _CAM_DISTANCE_R = 9.0  # (sphere radii) from the centre of mass
@@ -66,23 +66,24 @@ _X264_PRESET = "veryfast"
 
 
 # ---------------------------------------------------------------- the model that is drawn
-def render_model(scene: Scene, width: int, height: int) -> TopModel:
-    """The top to draw for ``scene``, with an offscreen buffer of at least ``width x height``.
+def render_model(top: TopParams, mjcf: Path | None, width: int, height: int) -> TopModel:
+    """The top to draw, with an offscreen buffer of at least ``width x height``.
 
     Args:
-        scene: The scene; its ``top.mjcf`` file is drawn as is, otherwise the scene's top from
-            :func:`models.mjcf.make_mjcf` with a checker texture on the ball.
+        top: The top's parameters (a run plan's): drawn as :func:`models.mjcf.make_mjcf` makes
+            it, with a checker texture on the ball, unless ``mjcf`` is given.
+        mjcf: A loaded top's MJCF file, drawn as is.
         width: Panel width (px).
         height: Panel height (px).
 
     Returns:
         The compiled model and where the top sits in it.
     """
-    if scene.top_mjcf is not None:
-        load_top(scene.top_mjcf)  # validates the file with the harness's messages
-        spec = mujoco.MjSpec.from_file(str(scene.top_mjcf))
+    if mjcf is not None:
+        load_top(mjcf)  # validates the file with the harness's messages
+        spec = mujoco.MjSpec.from_file(str(mjcf))
     else:
-        spec = mujoco.MjSpec.from_string(make_mjcf(scene.top))
+        spec = mujoco.MjSpec.from_string(make_mjcf(top))
         ball_mat = next((m for m in spec.materials if m.name == "ball_mat"), None)
         if ball_mat is not None:
             spec.add_texture(name=_BALL_TEXTURE, type=mujoco.mjtTexture.mjTEXTURE_CUBE,

@@ -22,12 +22,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare import cli
+from tippetop.compare import cli, render
 from tippetop.compare.engines import run_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.scene import load_scene
-from tippetop.mujoco_runner import render
+from tippetop.mujoco_runner import gl
 from tippetop.mujoco_runner.model import TopModelWarning
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +43,7 @@ def _frames(path: Path) -> np.ndarray:
 @pytest.fixture(scope="module")
 def backend() -> str:
     """The backend the render command picks here (MUJOCO_GL is left as it was)."""
-    return render.choose_gl_backend()
+    return gl.choose_gl_backend()
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +96,7 @@ def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     from tippetop.mujoco_runner import video
 
     table = run_engine(scene, engine, progress=False).table
-    top_model = video.render_model(scene, W, H)
+    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
     track = video.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
     times = video.frame_times(N_FRAMES, FPS, SPEED)
     samples = track.at(times)
@@ -156,7 +156,7 @@ def test_interpolation_between_samples_is_on_the_way() -> None:
 
     scene = load_scene("fig3", list(SHORT))
     table = run_engine(scene, "ode", progress=False).table
-    top_model = video.render_model(scene, W, H)
+    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
     track = video.Track.from_table(table, top_model, label="ode", paper_frame=True)
     t0, t1 = table["t"].iloc[100], table["t"].iloc[101]
     a, mid, b = track.at([t0, 0.5 * (t0 + t1), t1])
@@ -209,16 +209,16 @@ def test_bad_input_is_one_line_and_leaves_no_file(
 
 def test_no_backend_names_the_debian_packages(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("MUJOCO_GL", raising=False)
-    monkeypatch.setattr(render, "_egl_problem", lambda: "libEGL.so.1: cannot open")
-    monkeypatch.setattr(render, "_osmesa_problem", lambda: "libOSMesa.so.8: cannot open")
+    monkeypatch.setattr(gl, "_egl_problem", lambda: "libEGL.so.1: cannot open")
+    monkeypatch.setattr(gl, "_osmesa_problem", lambda: "libOSMesa.so.8: cannot open")
     with pytest.raises(TippetopError) as info:
-        render.choose_gl_backend()
+        gl.choose_gl_backend()
     msg = str(info.value)
     assert "\n" not in msg
     assert "libegl1 libopengl0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
     # EGL missing, OSMesa there: OSMesa is used
-    monkeypatch.setattr(render, "_osmesa_problem", lambda: None)
-    assert render.choose_gl_backend() == "osmesa"
+    monkeypatch.setattr(gl, "_osmesa_problem", lambda: None)
+    assert gl.choose_gl_backend() == "osmesa"
 
 
 def test_cli_writes_the_default_name_and_refuses_to_overwrite(
@@ -253,12 +253,12 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     code = textwrap.dedent(f"""
         import argparse, os, sys
         import tippetop.compare.cli, tippetop.reference_ode.solve, tippetop.mujoco_runner.run
-        import tippetop.mujoco_runner.render
+        import tippetop.compare.render
         from tippetop.compare import cli
         parser = cli.build_parser()
         sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         if "render" not in sub.choices:
-            tippetop.mujoco_runner.render.add_render_parser(sub)
+            tippetop.compare.render.add_render_parser(sub)
         cli.build_parser = lambda: parser
         assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set",
                          "run.t_end_s=0.01", "--json"]) == 0
