@@ -54,3 +54,18 @@ def test_every_package_folder_is_installed() -> None:
             rel = init.parent.relative_to(ROOT / top).parts
             found.add(".".join(("tippetop", top, *rel)))
     assert listed == found
+
+
+def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
+    """Once a submodule is imported it becomes the package attribute of its name, so a lazily
+    exported function of the same name would turn into the module."""
+    import importlib
+
+    for pkg in ("tippetop.compare.nightly", "tippetop.compare.calibrate",
+                "tippetop.compare.accuracy", "tippetop.compare.report"):
+        mod = importlib.import_module(pkg)
+        folder = Path(mod.__file__).parent
+        submodules = {p.stem for p in folder.glob("*.py")}
+        for name in mod.__all__:
+            assert name not in submodules, (pkg, name)
+            assert callable(getattr(mod, name)) or not isinstance(getattr(mod, name), type(mod))

@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from tippetop.compare import accuracy as acc
+from tippetop.compare.accuracy.mujoco_study import predict_steps_wall
 from tippetop.models.errors import TippetopError
 
 T_END_S = 1.0  # Fig. 3 cut to 1 s: through the first nutation dips towards theta = 0
@@ -258,7 +259,7 @@ def test_mujoco_wall_time_prediction() -> None:
     """The prediction: a fixed part plus a part proportional to the steps, fitted on the last
     two completed runs; one run scales its whole wall time (an overestimate); only diverged
     runs scale by the steps they took; nothing to go on gives None."""
-    p = acc._predict_steps_wall
+    p = predict_steps_wall
     assert p([], 1000) is None
     assert p([(100, 1.0, True)], 1000) == pytest.approx(10.0)
     # 1 s fixed + 1 ms per step

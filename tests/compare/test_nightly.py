@@ -18,7 +18,6 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare import nightly
-from tippetop.compare.modes import MODES
 from tippetop.compare.nightly import (
     TOLERANCES,
     Tolerance,
@@ -27,6 +26,7 @@ from tippetop.compare.nightly import (
     select_cases,
 )
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import MODES
 from tippetop.models.scene import catalogue_names
 
 TINY = """

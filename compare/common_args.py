@@ -1,0 +1,138 @@
+"""What every ``tippetop`` command shares: the parser, exit statuses, JSON output, options.
+
+An option that several commands take is declared here once (its name, dest, type, default and
+help), asv-style: a command calls ``add_..._option(parser)``, in the place of its help listing
+where the option should appear, and passes its own ``help`` only where its wording differs.
+
+This module imports only the standard library and :mod:`tippetop.models.errors`, so building
+the command line stays cheap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable
+from typing import Any, NoReturn
+
+from tippetop.models.errors import TippetopError
+
+EXIT_BAD_INPUT = 2
+EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
+
+#: Help of the shared options, where every command words them the same.
+SCHEDULER_HELP = "tcp://HOST:PORT of a Dask scheduler (default: local processes)"
+WORKERS_HELP = "local worker processes (default: all cores)"
+NO_CACHE_HELP = "neither read nor write the cache"
+FORCE_HELP = "overwrite an existing --out file"
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Write ``tippetop: error: MESSAGE (see 'PROG --help')`` and exit 2."""
+        sys.stderr.write(f"tippetop: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2."""
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except TippetopError as exc:
+        sys.stderr.write(f"tippetop: error: {exc}\n")
+        return EXIT_BAD_INPUT
+
+
+# ---------------------------------------------------------------- types
+def number(text: str) -> float:
+    """An argparse type: any float (the command checks the range, NaN included)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a finite float."""
+    v = number(text)
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def comma_list(text: str) -> tuple[str, ...]:
+    """The non-empty, stripped items of a comma-separated option value (``--engines``)."""
+    return tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def worker_count(text: str) -> int:
+    """An argparse type: an integer >= 1 (the one check of ``--workers``)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return n
+
+
+# ---------------------------------------------------------------- output
+def _json_default(o: Any) -> Any:
+    if hasattr(o, "item"):
+        return o.item()
+    raise TypeError(type(o).__name__)
+
+
+def _clean(obj: Any) -> Any:
+    """NaN/inf -> None so the JSON stays standard."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def print_json(obj: Any) -> None:
+    """Print one JSON object on stdout."""
+    print(json.dumps(_clean(obj), default=_json_default))
+
+
+# ---------------------------------------------------------------- options
+def add_scheduler_option(p: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS`` (dest ``scheduler``, default None: local processes)."""
+    p.add_argument("--scheduler", help=SCHEDULER_HELP)
+
+
+def add_workers_option(p: argparse.ArgumentParser, help: str = WORKERS_HELP) -> None:
+    """``--workers N`` (dest ``workers``, default None: all cores), checked to be >= 1."""
+    p.add_argument("--workers", type=worker_count, help=help)
+
+
+def add_parallel_options(p: argparse.ArgumentParser, *, no_cache: bool = True) -> None:
+    """``--scheduler``, ``--workers`` and (unless ``no_cache=False``) ``--no-cache``."""
+    add_scheduler_option(p)
+    add_workers_option(p)
+    if no_cache:
+        p.add_argument("--no-cache", action="store_true", help=NO_CACHE_HELP)
+
+
+def add_set_option(p: argparse.ArgumentParser, help: str | None = None) -> None:
+    """``--set KEY=VALUE``, repeatable (dest ``set``: a list, or None when not given)."""
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help=help)
+
+
+def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:
+    """``--force`` (dest ``force``): write over existing output."""
+    p.add_argument("--force", action="store_true", help=help)
+
+
+def add_json_option(p: argparse.ArgumentParser, help: str | None = None) -> None:
+    """``--json`` (dest ``json``): print one JSON object instead of text."""
+    p.add_argument("--json", action="store_true", help=help)

@@ -1,0 +1,73 @@
+"""The stored baselines: one JSON file per profile, changed only by ``--update-baseline``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.io import write_atomic
+from tippetop.compare.nightly.outputs import json_ready, timestamp
+from tippetop.models.errors import TippetopError
+from tippetop.models.resources import data_path
+
+#: Where the baselines live in the repository (one JSON file per profile).
+BASELINE_DIR = data_path("tippetop.compare", "baselines")
+BASELINE_FORMAT = "tippetop-nightly-baseline/1"
+
+
+def baseline_file(directory: Path, profile: str) -> Path:
+    """``DIR/<profile>.json``."""
+    return directory / f"{profile}.json"
+
+
+def load_baseline(path: Path) -> dict[str, dict[str, Any]]:
+    """Case id -> metric -> baseline value; empty when the file does not exist."""
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, OSError) as exc:
+        raise TippetopError(f"--baseline: expected a readable JSON baseline at {str(path)!r}, "
+                            f"got: {exc}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("cases"), dict):
+        raise TippetopError(f"--baseline: expected a baseline file with a 'cases' object, got "
+                            f"{str(path)!r} without one")
+    return data["cases"]
+
+
+def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
+                    profile_ids: set[str], environment: dict[str, Any]) -> dict[str, int]:
+    """Write the baselines of the cases that ran, atomically.
+
+    Cases that did not run this time (filtered out by ``--engines``/``--cases``, or failed)
+    keep their stored values; ids no longer in the profile are dropped.
+
+    Returns:
+        Counts: ``written`` (cases whose values were stored), ``added`` (new ids), ``dropped``
+        and ``kept``.
+    """
+    old = load_baseline(path)
+    cases = {k: v for k, v in old.items() if k in profile_ids}
+    written = added = 0
+    for rec in records:
+        if rec["error"] is not None:
+            continue
+        added += rec["id"] not in cases
+        cases[rec["id"]] = {m: rec["values"].get(m) for m in rec["metrics"]}
+        written += 1
+    doc = {
+        "format": BASELINE_FORMAT,
+        "profile": profile,
+        "updated": timestamp(),
+        "note": "written by 'tippetop nightly --update-baseline'; never edit by hand except to "
+                "test the regression check",
+        "environment": environment,
+        "cases": dict(sorted(cases.items())),
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(json_ready(doc), indent=1, sort_keys=False) + "\n"
+    write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return {"written": written, "added": added, "dropped": len(set(old) - set(cases)),
+            "kept": len(cases) - written}

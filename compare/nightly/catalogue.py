@@ -1,0 +1,214 @@
+"""The nightly catalogue (``models/nightly.toml``): profiles and cases, read and validated."""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import tomllib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.sweep import parse_range
+from tippetop.compare.threshold import WHICH
+from tippetop.models.errors import TippetopError
+from tippetop.models.modes import MODES
+from tippetop.models.resources import data_path
+
+#: The catalogue shipped with the package.
+CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
+PROFILES = ("quick", "full", "stress")
+KINDS = ("run", "threshold", "sweep")
+ENGINES = ("ode", "mujoco")
+
+#: Metrics each kind of case can check.
+KIND_METRICS: dict[str, tuple[str, ...]] = {
+    "run": ("outcome", "matches_expect", "theta_asymp", "t_invert", "J_rel_drift",
+            "energy_monotone", "energy_lost", "contact_lost", "status"),
+    "threshold": ("measured", "converged"),
+    "sweep": ("theta_asymp_vs_n0", "outcomes_vs_n0"),
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case of the catalogue in one mode."""
+
+    id: str
+    name: str
+    category: str
+    kind: str
+    scene: str
+    mode: str
+    metrics: tuple[str, ...]
+    profiles: tuple[str, ...]
+    set: tuple[str, ...] = ()
+    description: str = ""
+    which: str | None = None
+    rel_tol: float | None = None
+    max_rounds: int = 10
+    points_per_round: int = 2
+    n0: tuple[float, ...] = ()
+    figure: str = ""
+    label: str = ""
+
+    @property
+    def engine(self) -> str:
+        """``ode`` or ``mujoco``."""
+        return MODES[self.mode][0]
+
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """The case's ``set`` then its mode's overrides."""
+        return (*self.set, *MODES[self.mode][1])
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    """The profiles and the cases (one per mode) of a catalogue file."""
+
+    path: Path
+    profiles: dict[str, str]
+    cases: tuple[Case, ...]
+
+
+_COMMON_KEYS = {"name", "category", "kind", "scene", "set", "modes", "profiles", "metrics",
+                "description"}
+_KIND_KEYS = {"run": set(), "threshold": {"which", "rel_tol", "max_rounds", "points_per_round"},
+              "sweep": {"n0", "figure", "label"}}
+
+
+def _req(entry: dict[str, Any], key: str, kind: type, where: str) -> Any:
+    if key not in entry:
+        raise TippetopError(f"{where}: expected a '{key}' key, got none")
+    v = entry[key]
+    if kind is float:
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) \
+            and v > 0
+    elif kind is int:
+        ok = isinstance(v, int) and not isinstance(v, bool) and v > 0
+    elif kind is list:
+        ok = isinstance(v, list) and all(isinstance(x, str) for x in v)
+    else:
+        ok = isinstance(v, str) and bool(v)
+    if not ok:
+        what = {float: "a number > 0", int: "an integer > 0", list: "a list of strings",
+                str: "a non-empty string"}[kind]
+        raise TippetopError(f"{where}.{key}: expected {what}, got {v!r}")
+    return v
+
+
+def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) -> list[Case]:
+    if not isinstance(entry, dict):
+        raise TippetopError(f"{where}: expected a table, got {entry!r}")
+    kind = _req(entry, "kind", str, where)
+    if kind not in KINDS:
+        raise TippetopError(f"{where}.kind: expected one of {'|'.join(KINDS)}, got {kind!r}")
+    allowed = _COMMON_KEYS | _KIND_KEYS[kind]
+    for key in entry:
+        if key not in allowed:
+            raise TippetopError(f"{where}: unknown key {key!r} for a {kind} case (expected "
+                                f"one of: {', '.join(sorted(allowed))})")
+    name = _req(entry, "name", str, where)
+    category = _req(entry, "category", str, where)
+    scene = _req(entry, "scene", str, where)
+    modes = _req(entry, "modes", list, where)
+    profs = _req(entry, "profiles", list, where)
+    metrics = _req(entry, "metrics", list, where)
+    over = entry.get("set", [])
+    if not (isinstance(over, list) and all(isinstance(x, str) for x in over)):
+        raise TippetopError(f"{where}.set: expected a list of 'section.key=value' strings, "
+                            f"got {over!r}")
+    for m in modes:
+        if m not in MODES:
+            raise TippetopError(f"{where}.modes: expected names from {', '.join(MODES)}, "
+                                f"got {m!r}")
+    for p in profs:
+        if p not in profiles:
+            raise TippetopError(f"{where}.profiles: expected names from "
+                                f"{', '.join(profiles)}, got {p!r}")
+    for m in metrics:
+        if m not in KIND_METRICS[kind]:
+            raise TippetopError(f"{where}.metrics: expected names from "
+                                f"{', '.join(KIND_METRICS[kind])} for a {kind} case, got {m!r}")
+    if not (modes and profs and metrics):
+        raise TippetopError(f"{where}: expected non-empty modes, profiles and metrics")
+    extra: dict[str, Any] = {}
+    if kind == "threshold":
+        which = _req(entry, "which", str, where)
+        if which not in WHICH:
+            raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}")
+        extra = {"which": which, "rel_tol": float(_req(entry, "rel_tol", float, where)),
+                 "max_rounds": entry.get("max_rounds", 10),
+                 "points_per_round": entry.get("points_per_round", 2)}
+        for key in ("max_rounds", "points_per_round"):
+            if key in entry:
+                _req(entry, key, int, where)
+    elif kind == "sweep":
+        extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
+                 "figure": entry.get("figure", ""), "label": entry.get("label", "")}
+    return [Case(id=f"{category}/{name}[{mode}]", name=name, category=category, kind=kind,
+                 scene=scene, mode=mode, metrics=tuple(metrics), profiles=tuple(profs),
+                 set=tuple(over), description=entry.get("description", ""), **extra)
+            for mode in modes]
+
+
+def load_catalogue(path: str | Path | None = None) -> Catalogue:
+    """Read and validate a catalogue file (default: ``models/nightly.toml``).
+
+    Raises:
+        TippetopError: unreadable file, unknown keys, modes, profiles or metrics, or two cases
+            with the same id in one profile.
+    """
+    p = Path(path) if path is not None else CATALOGUE_PATH
+    if not p.is_file():
+        raise TippetopError(f"--catalogue: expected an existing .toml file, got {str(p)!r}")
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise TippetopError(f"catalogue {p.name}: expected valid TOML, got: {exc}") from None
+    for key in data:
+        if key not in ("profiles", "case"):
+            raise TippetopError(f"catalogue {p.name}: unknown top-level key {key!r} (expected "
+                                f"[profiles.NAME] and [[case]])")
+    prof_raw = data.get("profiles", {})
+    profiles = {name: str(body.get("description", "")) if isinstance(body, dict) else ""
+                for name, body in prof_raw.items()}
+    if not profiles:
+        raise TippetopError(f"catalogue {p.name}: expected at least one [profiles.NAME]")
+    cases: list[Case] = []
+    for i, entry in enumerate(data.get("case", [])):
+        label = entry.get("name", i) if isinstance(entry, dict) else i
+        cases.extend(_entry_cases(entry, f"catalogue {p.name}: case {label!r}", profiles))
+    for prof in profiles:
+        seen: set[str] = set()
+        for c in cases:
+            if prof in c.profiles:
+                if c.id in seen:
+                    raise TippetopError(f"catalogue {p.name}: expected unique case ids in "
+                                        f"profile {prof!r}, got {c.id!r} twice")
+                seen.add(c.id)
+    return Catalogue(p, profiles, tuple(cases))
+
+
+def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = ENGINES,
+                 patterns: Sequence[str] = ()) -> list[Case]:
+    """The cases of ``profile`` on ``engines`` whose id matches one of ``patterns``.
+
+    Patterns are globs with ``*`` and ``?``; brackets are literal, so ``paper/fig3[*`` selects
+    every mode of ``paper/fig3``.
+    """
+    if profile not in catalogue.profiles:
+        raise TippetopError(f"--profile: expected one of {'|'.join(catalogue.profiles)}, got "
+                            f"{profile!r}")
+    out = [c for c in catalogue.cases if profile in c.profiles and c.engine in engines]
+    if patterns:
+        globs = [_literal_brackets(p) for p in patterns]
+        out = [c for c in out if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
+    return out
+
+
+def _literal_brackets(pattern: str) -> str:
+    """A glob in which ``[`` and ``]`` match themselves (case ids end in ``[mode]``)."""
+    return pattern.replace("[", "\0").replace("]", "[]]").replace("\0", "[[]")

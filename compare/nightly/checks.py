@@ -1,0 +1,84 @@
+"""The checks of a case against its baseline, and the case's results.json entry."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from tippetop.compare.nightly.running import CaseRun, error_text, expectation
+from tippetop.compare.nightly.tolerances import compare_value, format_value, tolerance_for
+from tippetop.models.scene import Scene, load_scene
+
+
+def check_case(cr: CaseRun, baseline: Mapping[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """One check per listed metric: value, baseline, tolerance, status and message."""
+    c = cr.case
+    base = baseline.get(c.id)
+    checks = []
+    for m in c.metrics:
+        tol = tolerance_for(m, c)
+        value = cr.values.get(m)
+        b = None if base is None else base.get(m)
+        chk: dict[str, Any] = {"metric": m, "value": value, "baseline": b,
+                               "tolerance": {"kind": tol.kind, "value": tol.value,
+                                             "floor": tol.floor, "unit": tol.unit,
+                                             "text": tol.describe(), "why": tol.why}}
+        if cr.error is not None:
+            chk.update(status="error", message=f"{m}: the case did not run: {cr.error}")
+        elif base is None or m not in base:
+            chk.update(status="new", message=f"{m}: {format_value(value, tol.unit)} (no "
+                       f"baseline yet; --update-baseline adds it)")
+        else:
+            ok, msg = compare_value(value, b, tol)
+            chk.update(status="pass" if ok else "fail",
+                       message=f"{m}: {msg}" if ok else f"{m} regressed: {msg}")
+        checks.append(chk)
+    return checks
+
+
+def case_status(checks: Sequence[dict[str, Any]]) -> str:
+    """``error``, ``fail``, ``new`` or ``pass`` (the worst of the checks)."""
+    for s in ("error", "fail", "new"):
+        if any(ch["status"] == s for ch in checks):
+            return s
+    return "pass"
+
+
+def _top_record(scene: Scene) -> tuple[dict[str, Any], dict[str, Any]]:
+    from tippetop.compare import theory
+    from tippetop.compare.metrics import outcome_of_angle
+
+    top, fr, ini = scene.top, scene.friction, scene.init
+    params = {
+        "A_over_C": top.A_over_C, "a_over_R": top.a_over_R,
+        "C_factor": top.C_kgm2 / (0.4 * top.M_kg * top.R_m**2),
+        "R_m": top.R_m, "a_m": top.a_m, "M_kg": top.M_kg, "A_kgm2": top.A_kgm2,
+        "C_kgm2": top.C_kgm2, "g_mps2": top.g_mps2,
+        "law": fr.law, "mu": fr.mu, "Lambda_mps": fr.Lambda_mps,
+        "theta0": ini.theta0, "thetadot0": ini.thetadot0, "Omega0": ini.Omega0, "n0": ini.n0,
+        "t_end_s": scene.run.t_end_s,
+    }
+    try:
+        th: dict[str, Any] = dict(theory.summary(top, n0=ini.n0))
+        th["outcome"] = outcome_of_angle(float(th["theta_s"]))
+    except (ValueError, ArithmeticError) as exc:
+        th = {"error": error_text(exc)}
+    return params, th
+
+
+def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
+    """The results.json entry of a case."""
+    c = cr.case
+    scene = load_scene(c.scene, list(c.overrides))
+    params, th = _top_record(scene)
+    rec: dict[str, Any] = {
+        "id": c.id, "name": c.name, "category": c.category, "kind": c.kind, "mode": c.mode,
+        "engine": c.engine, "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
+        "overrides": list(c.overrides), "description": c.description or scene.description,
+        "metrics": list(c.metrics), "status": case_status(checks), "error": cr.error,
+        "wall_s": cr.wall_s, "params": params, "theory": th, "expect": expectation(c, scene),
+        "values": cr.values, "checks": checks, **cr.detail,
+    }
+    if c.kind == "sweep":
+        rec.update(figure=c.figure, label=c.label, n0_grid=list(c.n0))
+    return rec

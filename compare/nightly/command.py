@@ -1,0 +1,83 @@
+"""``tippetop nightly``: its parser, ``cmd_nightly``, and ``python -m tippetop.compare.nightly``.
+
+Imports only what building the parser needs; the suite is imported when it runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.common_args import (
+    Parser,
+    add_force_option,
+    add_scheduler_option,
+    add_workers_option,
+    comma_list,
+    run_command,
+)
+from tippetop.models.plan import ENGINES
+
+
+def cmd_nightly(args: argparse.Namespace) -> int:
+    """``tippetop nightly``: build the :class:`NightlyOptions` and run them."""
+    from tippetop.compare.nightly.baselines import BASELINE_DIR
+    from tippetop.compare.nightly.suite import NightlyOptions, run_nightly
+
+    opts = NightlyOptions(
+        profile=args.profile, catalogue=Path(args.catalogue) if args.catalogue else None,
+        baseline_dir=Path(args.baseline) if args.baseline else BASELINE_DIR,
+        update_baseline=args.update_baseline, out=args.out, force=args.force,
+        engines=comma_list(args.engines), cases=comma_list(args.cases or ""),
+        scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
+        accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
+        argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
+    return run_nightly(opts)
+
+
+def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add the ``nightly`` subcommand to the ``tippetop`` parser (``set_defaults(func=...)``)."""
+    p = subparsers.add_parser(
+        "nightly", help="the regression suite: catalogue vs stored baselines; exit 1 on "
+        "regression",
+        description="Run the nightly catalogue (models/nightly.toml), compare every metric with "
+        "the stored baselines, write results.json, junit.xml and report.html into --out, and "
+        "exit 1 on any regression.")
+    p.add_argument("--profile", default="quick", help="quick (default, a few minutes), full "
+                   "(up to an hour) or stress")
+    p.add_argument("--baseline", metavar="DIR", help="folder of <profile>.json baselines "
+                   "(default: compare/baselines in the repository)")
+    p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
+                   help="store this run's values as the baselines (the only way they change)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: a new "
+                   "nightly-YYYYMMDD-HHMMSS in the current folder)")
+    add_force_option(p, help="write into a non-empty --out")
+    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines to "
+                   "run (default: ode,mujoco)")
+    p.add_argument("--cases", metavar="GLOBS", help="only case ids matching these "
+                   "comma-separated globs, e.g. 'paper/*[ode]'")
+    p.add_argument("--catalogue", metavar="FILE", help="catalogue file (default: "
+                   "models/nightly.toml)")
+    add_scheduler_option(p)
+    add_workers_option(p)
+    p.add_argument("--cache", action="store_true", help="reuse the shared run cache (default: "
+                   "recompute every run)")
+    p.add_argument("--videos", action="store_true", help="also render a short side-by-side "
+                   "video of each paper scene (MuJoCo | reference), linked from the report")
+    p.add_argument("--accuracy-dir", dest="accuracy_dir", metavar="DIR", help="folder of "
+                   "accuracy-versus-cost PNG figures to embed in the report")
+    p.set_defaults(func=cmd_nightly)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m tippetop.compare.nightly [options]``: the same as ``tippetop nightly``."""
+    parser = Parser(prog="tippetop")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    add_nightly_parser(sub)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(["nightly", *argv])
+    args._argv = argv
+    return run_command(args)

@@ -1,0 +1,227 @@
+"""What a nightly writes and prints: the output folder, JSON values, junit.xml, the summary.
+
+Also the environment recorded with the results (versions, machine, git commit).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import socket
+import subprocess
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping, Sequence
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tippetop.models.errors import TippetopError
+from tippetop.models.resources import data_path
+
+RESULTS_FORMAT = "tippetop-nightly-results/1"
+#: Rows of each run's observables kept in the output folder's ``tables/`` (for the report).
+TABLE_ROWS = 2000
+#: Lines of each list (failures, new, errors) in the printed summary.
+SUMMARY_LINES = 12
+
+
+def timestamp() -> str:
+    """Now, local time with its UTC offset, to the second (ISO 8601)."""
+    return datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def json_ready(obj: Any) -> Any:
+    """JSON-ready: NaN/inf -> None, numpy scalars -> Python, tuples -> lists."""
+    if isinstance(obj, dict):
+        return {str(k): json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def _git(*args: str) -> str | None:
+    root = data_path("tippetop.compare")  # git finds the repository from inside it
+    try:
+        out = subprocess.run(["git", *args], cwd=root, capture_output=True, text=True,
+                             timeout=10, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip()
+
+
+def environment() -> dict[str, Any]:
+    """Versions, machine and git commit (when the code runs from a git checkout)."""
+    from importlib import metadata
+
+    from tippetop.compare.runner import code_fingerprint
+
+    versions = {}
+    for pkg in ("tippetop", "numpy", "scipy", "numba", "pandas", "pyarrow", "matplotlib",
+                "mujoco", "distributed"):
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = None
+    commit = _git("rev-parse", "HEAD")
+    dirty = _git("status", "--porcelain", "--untracked-files=no")
+    return {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "hostname": socket.gethostname(),
+        "packages": versions,
+        "git_commit": commit or None,
+        "git_dirty": None if dirty is None or not commit else bool(dirty),
+        "code_fingerprint": code_fingerprint(),
+    }
+
+
+def junit_xml(results: Mapping[str, Any]) -> bytes:
+    """JUnit XML: a suite per category, a testcase per case and metric."""
+    cases = results["cases"]
+    profile = results["profile"]
+    counts = results["counts"]
+    root = ET.Element("testsuites", {
+        "name": f"tippetop nightly ({profile})", "tests": str(counts["checks"]),
+        "failures": str(counts["checks_fail"]), "errors": str(counts["checks_error"]),
+        "skipped": str(counts["checks_new"]), "time": f"{results['wall_s']:.3f}"})
+    categories: dict[str, list[dict[str, Any]]] = {}
+    for rec in cases:
+        categories.setdefault(rec["category"], []).append(rec)
+    for cat, recs in categories.items():
+        checks = [ch for r in recs for ch in r["checks"]]
+        suite = ET.SubElement(root, "testsuite", {
+            "name": f"nightly.{profile}.{cat}", "tests": str(len(checks)),
+            "failures": str(sum(ch["status"] == "fail" for ch in checks)),
+            "errors": str(sum(ch["status"] == "error" for ch in checks)),
+            "skipped": str(sum(ch["status"] == "new" for ch in checks)),
+            "time": f"{sum(r['wall_s'] for r in recs):.3f}",
+            "timestamp": results["started"], "hostname": results["environment"]["hostname"]})
+        props = ET.SubElement(suite, "properties")
+        env = results["environment"]
+        for k, v in (("profile", profile), ("git_commit", env.get("git_commit")),
+                     ("mujoco", env["packages"].get("mujoco")),
+                     ("baseline", results["baseline_file"])):
+            ET.SubElement(props, "property", {"name": k, "value": str(v)})
+        for r in recs:
+            n = max(1, len(r["checks"]))
+            for ch in r["checks"]:
+                tc = ET.SubElement(suite, "testcase", {
+                    "classname": f"nightly.{profile}.{cat}.{r['name']}[{r['mode']}]",
+                    "name": ch["metric"], "time": f"{r['wall_s'] / n:.3f}"})
+                detail = (f"case {r['id']}\nmetric {ch['metric']}\nvalue {ch['value']!r}\n"
+                          f"baseline {ch['baseline']!r}\ntolerance {ch['tolerance']['text']}"
+                          f"\nwhy {ch['tolerance']['why']}")
+                if ch["status"] == "fail":
+                    el = ET.SubElement(tc, "failure", {
+                        "message": f"{r['id']}: {ch['message']}", "type": "regression"})
+                    el.text = detail
+                elif ch["status"] == "error":
+                    el = ET.SubElement(tc, "error", {"message": ch["message"][:2000],
+                                                     "type": "case_error"})
+                    el.text = r["error"]
+                elif ch["status"] == "new":
+                    ET.SubElement(tc, "skipped", {"message": f"new: {ch['message']}"})
+                ET.SubElement(tc, "system-out").text = detail
+    ET.indent(root)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
+
+
+def count(records: Sequence[dict[str, Any]]) -> dict[str, int]:
+    """Case and check counts by status."""
+    checks = [ch for r in records for ch in r["checks"]]
+    out = {"cases": len(records), "checks": len(checks)}
+    for s in ("pass", "fail", "new", "error"):
+        out[f"cases_{s}"] = sum(r["status"] == s for r in records)
+        out[f"checks_{s}"] = sum(ch["status"] == s for ch in checks)
+    return out
+
+
+def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
+    """The one-screen summary printed at the end."""
+    c = results["counts"]
+    lines = [f"tippetop nightly: profile {results['profile']}, {c['cases']} cases, "
+             f"{c['checks']} checks in {results['wall_s']:.0f} s",
+             f"  checks: {c['checks_pass']} pass, {c['checks_fail']} fail, {c['checks_new']} "
+             f"new, {c['checks_error']} error"]
+
+    def block(title: str, items: list[str]) -> None:
+        if not items:
+            return
+        lines.append(title)
+        lines.extend(f"  {s}" for s in items[:SUMMARY_LINES])
+        if len(items) > SUMMARY_LINES:
+            lines.append(f"  ... and {len(items) - SUMMARY_LINES} more (see results.json)")
+
+    recs = results["cases"]
+    title = ("CHANGED (accepted into the baseline):" if results.get("baseline_update")
+             else "REGRESSIONS:")
+    block(title, [f"{r['id']} {ch['message']}" for r in recs for ch in r["checks"]
+                  if ch["status"] == "fail"])
+    block("ERRORS (case did not run):", [f"{r['id']}: {r['error']}" for r in recs
+                                         if r["status"] == "error"])
+    new = {r["id"]: [ch["metric"] for ch in r["checks"] if ch["status"] == "new"]
+           for r in recs}
+    block("NEW (no baseline yet; --update-baseline adds them):",
+          [f"{r['id']}: " + (f"all {len(new[r['id']])} metrics"
+                             if len(new[r["id"]]) == len(r["checks"])
+                             else ", ".join(new[r["id"]])) for r in recs if new[r["id"]]])
+    upd = results.get("baseline_update")
+    if upd:
+        lines.append(f"baseline updated: {results['baseline_file']} ({upd['written']} cases "
+                     f"written, {upd['added']} added, {upd['kept']} kept, {upd['dropped']} "
+                     f"dropped)")
+    else:
+        lines.append(f"baseline: {results['baseline_file']}")
+    if results.get("videos", {}).get("requested"):
+        lines.append(f"videos: {results['videos']['status']}")
+    if results.get("report_error"):
+        lines.append(f"REPORT FAILED: {results['report_error']}")
+    lines.append(f"output: {out_dir}")
+    lines.append(f"result: {results['verdict']}")
+    return "\n".join(lines)
+
+
+def prepare_out_dir(out: str | None, force: bool) -> Path:
+    """The output folder, checked before any work.
+
+    A new ``nightly-YYYYMMDD-HHMMSS`` in the current folder by default; an existing non-empty
+    folder only with ``force``.
+    """
+    if out is None:
+        p = Path.cwd() / f"nightly-{datetime.now():%Y%m%d-%H%M%S}"
+    else:
+        p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise TippetopError(f"--out: expected a folder, got the file {str(p)!r}")
+    if p.is_dir() and any(p.iterdir()) and not force:
+        raise TippetopError(f"--out: expected a new or empty folder (or --force to write into "
+                            f"it), got {str(p)!r} which is not empty")
+    if not p.parent.is_dir():
+        raise TippetopError(f"--out: expected an existing parent folder, got "
+                            f"{str(p.parent)!r}")
+    return p
+
+
+def downsample(table: pd.DataFrame, rows: int = TABLE_ROWS) -> pd.DataFrame:
+    """Every k-th row and the last, at most about ``rows`` rows (the tables/ files)."""
+    step = max(1, math.ceil(len(table) / rows))
+    out = table.iloc[::step]
+    if out.index[-1] != table.index[-1]:
+        out = pd.concat([out, table.iloc[[-1]]])
+    return out.reset_index(drop=True)
+
+
+def slug(case_id: str) -> str:
+    """A case id or scene name as a file name."""
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in case_id).strip("_")

@@ -1,0 +1,210 @@
+"""Running the cases: runs and sweep points in parallel batches per engine, then bisections."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.nightly.catalogue import ENGINES, Case
+from tippetop.compare.runner import Task, TaskResult, run_tasks
+from tippetop.compare.threshold import measure_threshold
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Scene, load_scene
+
+
+@dataclass
+class CaseRun:
+    """What one case produced: metric values, details for the report, tables, or an error."""
+
+    case: Case
+    values: dict[str, Any] = field(default_factory=dict)
+    detail: dict[str, Any] = field(default_factory=dict)
+    table: pd.DataFrame | None = None
+    error: str | None = None
+    wall_s: float = 0.0
+
+
+#: ``set`` overrides in these sections leave the physics, and so the scene's [expect], as is.
+_NEUTRAL_SECTIONS = ("run", "ode", "mujoco", "outputs")
+
+
+def expectation(case: Case, scene: Scene) -> dict[str, Any]:
+    """The scene's [expect] table, or {} when the case's ``set`` leaves it behind.
+
+    A ``set`` that changes the top, the friction or the start makes the scene file's
+    expectation about another run; one that changes only the horizon or the solver does not.
+    """
+    if all(o.split(".", 1)[0] in _NEUTRAL_SECTIONS for o in case.set):
+        return dict(scene.expect)
+    return {}
+
+
+def run_metrics(scene: Scene, summary: dict[str, Any], table: pd.DataFrame,
+                expect: Mapping[str, Any]) -> dict[str, Any]:
+    """Every run metric from a run's summary and observables.
+
+    Args:
+        scene: The scene that ran.
+        summary: The engine's run summary.
+        table: The run's observables.
+        expect: The expectation that applies (:func:`expectation`).
+    """
+    outcome = classify_outcome(table)
+    exp = expect.get("outcome")
+    E = table["E"].to_numpy()
+    return {
+        "outcome": outcome,
+        "matches_expect": None if exp is None else outcome == exp,
+        "theta_asymp": summary["theta_asymp"],
+        "t_invert": summary["t_invert"],
+        "J_rel_drift": summary["J_rel_drift"],
+        "energy_monotone": summary["energy_monotone"],
+        "energy_lost": float(E[0] - E[-1]),
+        "contact_lost": summary["contact_lost"],
+        "status": summary.get("status", "ok"),
+    }
+
+
+def error_text(exc: BaseException) -> str:
+    """``Type: message`` of an exception, as results.json records it."""
+    return f"{type(exc).__name__}: {exc}".strip()
+
+
+def _run_engine_group(tasks: list[Task], *, scheduler: str | None, workers: int | None,
+                      cache_dir: Path, log: Callable[[str], None]) -> list[TaskResult | str]:
+    """Run tasks; if the batch raises (e.g. an engine that cannot start), rerun one by one.
+
+    Finished tasks of a failed batch are in ``cache_dir`` already, so the retry recomputes
+    only what had not finished. Returns a TaskResult or an error message per task.
+    """
+    try:
+        return list(run_tasks(tasks, scheduler=scheduler, workers=workers, cache_dir=cache_dir,
+                              use_cache=True, label="nightly"))
+    except TippetopError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - one broken engine must not hide the others
+        log(f"  batch failed ({error_text(exc)}); retrying its runs one by one")
+    out: list[TaskResult | str] = []
+    for task in tasks:
+        try:
+            out.append(run_tasks([task], workers=1, cache_dir=cache_dir, use_cache=True)[0])
+        except TippetopError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            out.append(error_text(exc))
+    return out
+
+
+
+def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
+              workers: int | None = None, cache_dir: Path | None = None,
+              shared_cache: bool = False,
+              log: Callable[[str], None] = lambda s: None) -> list[CaseRun]:
+    """Run every case: runs and sweep points in parallel batches per engine, then thresholds.
+
+    Args:
+        cases: The selected cases.
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes (default: all cores).
+        cache_dir: The run cache used for this nightly (duplicates and retries).
+        shared_cache: Thresholds also read and write the shared cache (``--cache``).
+        log: Where progress lines go.
+
+    Returns:
+        One :class:`CaseRun` per case, in order.
+    """
+    out = {c.id: CaseRun(c) for c in cases}
+    scenes: dict[str, Scene] = {}
+    for c in cases:  # validate every scene before any work
+        try:
+            scenes[c.id] = load_scene(c.scene, list(c.overrides))
+        except TippetopError as exc:
+            raise TippetopError(f"case {c.id}: {exc}") from None
+    with tempfile.TemporaryDirectory(prefix="tippetop-nightly-") as tmp:
+        cache = cache_dir or Path(tmp)
+        for engine in ENGINES:
+            jobs: list[tuple[Case, float | None, Task]] = []
+            for c in cases:
+                if c.engine != engine:
+                    continue
+                if c.kind == "run":
+                    jobs.append((c, None, Task(c.scene, c.overrides, engine)))
+                elif c.kind == "sweep":
+                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), engine))
+                             for n0 in c.n0]
+            if not jobs:
+                continue
+            log(f"nightly: {len(jobs)} {engine} runs")
+            t0 = time.perf_counter()
+            results = _run_engine_group([j[2] for j in jobs], scheduler=scheduler,
+                                        workers=workers, cache_dir=cache, log=log)
+            log(f"  done in {time.perf_counter() - t0:.1f} s")
+            for (c, n0, _task), res in zip(jobs, results, strict=True):
+                _collect(out[c.id], scenes[c.id], n0, res)
+        for c in cases:
+            if c.kind == "threshold":
+                _run_threshold(out[c.id], scheduler=scheduler, workers=workers,
+                               use_cache=shared_cache, log=log)
+    for c in cases:
+        if c.kind == "sweep" and out[c.id].error is None:
+            pts = sorted(out[c.id].detail.get("points", []), key=lambda p: p["n0"])
+            out[c.id].detail["points"] = pts
+            out[c.id].values = {
+                "theta_asymp_vs_n0": {f"{p['n0']:g}": p["theta_asymp"] for p in pts},
+                "outcomes_vs_n0": {f"{p['n0']:g}": p["outcome"] for p in pts},
+            }
+    return [out[c.id] for c in cases]
+
+
+def _collect(cr: CaseRun, scene: Scene, n0: float | None, res: TaskResult | str) -> None:
+    err = res if isinstance(res, str) else res.error
+    if err is not None:
+        msg = err if n0 is None else f"n0 = {n0:g}: {err}"
+        cr.error = msg if cr.error is None else cr.error
+        return
+    assert not isinstance(res, str) and res.summary is not None and res.table is not None
+    s = res.summary
+    cr.wall_s += float(s.get("wall_s", 0.0))
+    if n0 is None:
+        cr.values = run_metrics(scene, s, res.table, expectation(cr.case, scene))
+        slip = (res.table["vPX"] ** 2 + res.table["vPY"] ** 2) ** 0.5
+        small = slip[slip.notna()] < 0.1 * scene.friction.Lambda_mps
+        cr.detail = {"summary": s, "cached": res.cached,
+                     "E0": float(res.table["E"].iloc[0]),
+                     "slip_small_frac": float(small.mean()) if len(small) else None}
+        cr.table = res.table
+        return
+    cr.detail.setdefault("points", []).append({
+        "n0": n0, "theta_asymp": s["theta_asymp"], "outcome": classify_outcome(res.table),
+        "t_invert": s["t_invert"], "J_rel_drift": s["J_rel_drift"],
+        "status": s.get("status", "ok"), "wall_s": s.get("wall_s")})
+
+
+def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
+                   use_cache: bool, log: Callable[[str], None]) -> None:
+    c = cr.case
+    t0 = time.perf_counter()
+    log(f"nightly: threshold {c.id} (rel_tol {c.rel_tol:g})")
+    try:
+        res = measure_threshold(c.scene, c.engine, c.which or "n1", c.overrides,
+                                rel_tol=c.rel_tol or 0.005, max_rounds=c.max_rounds,
+                                points_per_round=c.points_per_round, scheduler=scheduler,
+                                workers=workers, use_cache=use_cache)
+    except Exception as exc:  # noqa: BLE001 - a failed bisection is that case's error
+        cr.error = error_text(exc)
+        cr.wall_s = time.perf_counter() - t0
+        log(f"  failed: {cr.error}")
+        return
+    cr.wall_s = time.perf_counter() - t0
+    cr.values = {"measured": res["measured"], "converged": bool(res["converged"])}
+    cr.detail = {"threshold": {**res, "rel_tol": c.rel_tol}}
+    log(f"  {res['measured']:.4g} rad/s (theory {res['theory']:.4g}), {res['n_runs']} runs, "
+        f"{cr.wall_s:.1f} s")
+

@@ -1,0 +1,165 @@
+"""``run_nightly``: the whole regression for one :class:`NightlyOptions`, start to verdict."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tippetop.compare.io import write_atomic
+from tippetop.compare.nightly.baselines import (
+    BASELINE_DIR,
+    baseline_file,
+    load_baseline,
+    update_baseline,
+)
+from tippetop.compare.nightly.catalogue import ENGINES, load_catalogue, select_cases
+from tippetop.compare.nightly.checks import case_record, check_case
+from tippetop.compare.nightly.outputs import (
+    RESULTS_FORMAT,
+    count,
+    downsample,
+    environment,
+    json_ready,
+    junit_xml,
+    prepare_out_dir,
+    slug,
+    summary_text,
+    timestamp,
+)
+from tippetop.compare.nightly.running import error_text, run_cases
+from tippetop.compare.nightly.tolerances import TOLERANCES
+from tippetop.compare.nightly.videos import render_videos
+from tippetop.compare.runner import default_cache_dir
+from tippetop.models.errors import TippetopError
+
+EXIT_OK, EXIT_REGRESSION = 0, 1
+
+
+@dataclass
+class NightlyOptions:
+    """Everything ``tippetop nightly`` was asked for."""
+
+    profile: str = "quick"
+    catalogue: Path | None = None
+    baseline_dir: Path = BASELINE_DIR
+    update_baseline: bool = False
+    out: str | None = None
+    force: bool = False
+    engines: tuple[str, ...] = ENGINES
+    cases: tuple[str, ...] = ()
+    scheduler: str | None = None
+    workers: int | None = None
+    cache: bool = False
+    videos: bool = False
+    accuracy_dir: Path | None = None
+    argv: tuple[str, ...] = ()
+
+
+def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = None,
+                echo: Callable[[str], None] = print) -> int:
+    """Run the nightly regression; returns the exit status (0 clean, 1 regression or error).
+
+    Raises:
+        TippetopError: bad input (exit 2), before any simulation.
+    """
+    log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    started, t0 = timestamp(), time.perf_counter()
+    for e in opts.engines:
+        if e not in ENGINES:
+            raise TippetopError(f"--engines: expected a comma-separated list of "
+                                f"{','.join(ENGINES)}, got {e!r}")
+    catalogue = load_catalogue(opts.catalogue)
+    cases = select_cases(catalogue, opts.profile, opts.engines, opts.cases)
+    if not cases:
+        raise TippetopError(f"nightly: expected at least one case for profile "
+                            f"{opts.profile!r}, engines {','.join(opts.engines)} and cases "
+                            f"{','.join(opts.cases) or '*'}, got none")
+    base_dir = Path(opts.baseline_dir)
+    if not base_dir.is_dir() and not opts.update_baseline:
+        raise TippetopError(f"--baseline: expected an existing folder of baseline files, got "
+                            f"{str(base_dir)!r}")
+    bfile = baseline_file(base_dir, opts.profile)
+    baseline = load_baseline(bfile)
+    out_dir = prepare_out_dir(opts.out, opts.force)
+    if opts.scheduler and not opts.scheduler.startswith("tcp://"):
+        raise TippetopError(f"--scheduler: expected tcp://HOST:PORT, got {opts.scheduler!r}")
+    if opts.accuracy_dir is not None and not Path(opts.accuracy_dir).is_dir():
+        raise TippetopError(f"--accuracy-dir: expected an existing folder, got "
+                            f"{str(opts.accuracy_dir)!r}")
+    log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline {bfile}"
+        f"{'' if bfile.is_file() else ' (missing: every case is new)'}")
+
+    runs = run_cases(cases, scheduler=opts.scheduler, workers=opts.workers,
+                     cache_dir=default_cache_dir() if opts.cache else None,
+                     shared_cache=opts.cache, log=log)
+    records = [case_record(cr, check_case(cr, baseline)) for cr in runs]
+    env = environment()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tables: dict[str, pd.DataFrame] = {}
+    (out_dir / "tables").mkdir(exist_ok=True)
+    for cr, rec in zip(runs, records, strict=True):
+        if cr.table is not None:
+            tab = downsample(cr.table)
+            rel = f"tables/{slug(cr.case.id)}.parquet"
+            write_atomic(out_dir / rel, lambda tmp, t=tab: t.to_parquet(tmp, index=False))
+            rec["table"] = rel
+            tables[cr.case.id] = tab
+    results: dict[str, Any] = {
+        "format": RESULTS_FORMAT,
+        "profile": opts.profile,
+        "profile_description": catalogue.profiles[opts.profile],
+        "catalogue": str(catalogue.path),
+        "engines": list(opts.engines),
+        "case_patterns": list(opts.cases),
+        "command": ["tippetop", "nightly", *opts.argv],
+        "started": started,
+        "baseline_file": str(bfile),
+        "baseline_update": None,
+        "videos": (render_videos(cases, out_dir, log) if opts.videos
+                   else {"requested": False, "status": "not requested", "files": {}}),
+        "environment": env,
+        "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
+                           "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
+        "cases": records,
+    }
+    results["counts"] = count(records)
+    if opts.update_baseline:
+        profile_ids = {c.id for c in catalogue.cases if opts.profile in c.profiles}
+        results["baseline_update"] = update_baseline(bfile, opts.profile, records,
+                                                     profile_ids, env)
+    c = results["counts"]
+    failed = c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
+    results["verdict"] = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
+                          else "ERROR" if c["cases_error"] else "OK")
+    results["finished"] = timestamp()
+    results["wall_s"] = time.perf_counter() - t0
+
+    def write_results() -> None:
+        text = json.dumps(json_ready(results), indent=1) + "\n"
+        write_atomic(out_dir / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
+        xml = junit_xml(json_ready(results))
+        write_atomic(out_dir / "junit.xml", lambda tmp: tmp.write_bytes(xml))
+
+    write_results()
+    try:
+        from tippetop.compare.report.build import build_report
+
+        build_report(json_ready(results), out_dir / "report.html", tables=tables,
+                     accuracy_dir=opts.accuracy_dir)
+    except Exception as exc:  # noqa: BLE001 - the verdict is written; the report is part of it
+        traceback.print_exc(file=sys.stderr)
+        results["report_error"] = error_text(exc)
+        results["verdict"] = ("ERROR" if results["verdict"] == "OK" else results["verdict"]) \
+            + " (report failed)"
+        failed = True
+        write_results()
+    echo(summary_text(results, out_dir))
+    return EXIT_REGRESSION if failed else EXIT_OK

@@ -1,0 +1,131 @@
+"""Assembling and writing the report; ``python -m tippetop.compare.report RESULTS.json``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tippetop.compare.common_args import EXIT_BAD_INPUT, add_force_option
+from tippetop.compare.io import write_atomic
+from tippetop.compare.report.figures import sweeps_section, timeseries_section
+from tippetop.compare.report.friction import friction_section
+from tippetop.compare.report.groupmap import group_map_section
+from tippetop.compare.report.markup import CSS, esc
+from tippetop.compare.report.sections import (
+    accuracy_section,
+    checks_section,
+    environment_section,
+    header,
+    scenes_section,
+    threshold_section,
+    verdict_section,
+)
+from tippetop.models.errors import TippetopError
+
+_NAV = ("<nav><ul><li><a href='#checks'>Regression checks</a></li>"
+        "<li><a href='#scenes'>Scenes and groups</a></li>"
+        "<li><a href='#timeseries'>theta(t), xi(t), slip (Figs. 3-8)</a></li>"
+        "<li><a href='#sweeps'>theta_asymp against n0 (Figs. 9, 10)</a></li>"
+        "<li><a href='#groups'>Group map</a></li><li><a href='#friction'>Friction laws</a></li>"
+        "<li><a href='#thresholds'>Thresholds</a></li>"
+        "<li><a href='#accuracy'>Accuracy against cost</a></li>"
+        "<li><a href='#all'>Every check</a></li><li><a href='#env'>Environment</a></li>"
+        "</ul></nav>")
+
+
+def _load_tables(results: Mapping[str, Any], base_dir: Path,
+                 tables: Mapping[str, pd.DataFrame] | None) -> dict[str, pd.DataFrame]:
+    out: dict[str, pd.DataFrame] = dict(tables or {})
+    for rec in results.get("cases", []):
+        rel = rec.get("table")
+        if rec["id"] in out or not rel:
+            continue
+        p = base_dir / rel
+        if p.is_file():
+            out[rec["id"]] = pd.read_parquet(p)
+    return out
+
+
+def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame],
+                  accuracy_dir: Path | None = None) -> str:
+    """The report's HTML text."""
+    body = [header(results), _NAV, verdict_section(results), scenes_section(results),
+            timeseries_section(results, tables), sweeps_section(results),
+            group_map_section(results), friction_section(results),
+            threshold_section(results), accuracy_section(accuracy_dir),
+            checks_section(results), environment_section(results)]
+    title = f"tippetop report ({results.get('profile', '')}, {results.get('verdict', '')})"
+    return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+            "<meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; "
+            "img-src data:; style-src 'unsafe-inline'\">"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
+            + "\n".join(body) + "</body></html>\n")
+
+
+def build_report(results: Mapping[str, Any] | str | Path, path: str | Path, *,
+                 tables: Mapping[str, pd.DataFrame] | None = None,
+                 accuracy_dir: str | Path | None = None,
+                 base_dir: str | Path | None = None) -> Path:
+    """Write the self-contained HTML report.
+
+    Args:
+        results: The nightly's results dictionary, or the path of its ``results.json``.
+        path: The HTML file to write (atomically).
+        tables: Case id -> observables table; missing ones are read from the ``tables/``
+            files named in ``results``, relative to ``base_dir``.
+        accuracy_dir: A folder of accuracy-versus-cost PNG figures to embed (optional).
+        base_dir: Where the results' relative table paths start (default: the folder of
+            ``results.json``, or of ``path``).
+
+    Returns:
+        The path written.
+    """
+    if isinstance(results, (str, Path)):
+        rpath = Path(results)
+        try:
+            data = json.loads(rpath.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise TippetopError(f"report: expected a readable results.json, got "
+                                f"{str(rpath)!r} ({exc})") from None
+        base = Path(base_dir) if base_dir else rpath.parent
+    else:
+        data = dict(results)
+        base = Path(base_dir) if base_dir else Path(path).parent
+    if "cases" not in data:
+        raise TippetopError("report: expected nightly results with a 'cases' list, got none")
+    acc = Path(accuracy_dir) if accuracy_dir else None
+    text = render_report(data, _load_tables(data, base, tables), acc)
+    out = Path(path)
+    write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR]``."""
+    p = argparse.ArgumentParser(prog="python -m tippetop.compare.report",
+                                description="Rebuild the validation report from a nightly's "
+                                "results.json.")
+    p.add_argument("results", help="results.json of a nightly run")
+    p.add_argument("--out", help="HTML file (default: report.html beside results.json)")
+    p.add_argument("--accuracy-dir", dest="accuracy_dir", help="folder of PNG figures")
+    add_force_option(p, help="overwrite an existing --out")
+    args = p.parse_args(argv)
+    out = Path(args.out) if args.out else Path(args.results).parent / "report.html"
+    try:
+        if out.exists() and not args.force:
+            raise TippetopError(f"--out: expected a path that does not exist yet (or --force), "
+                                f"got existing {str(out)!r}")
+        build_report(args.results, out, accuracy_dir=args.accuracy_dir)
+    except TippetopError as exc:
+        sys.stderr.write(f"tippetop: error: {exc}\n")
+        return EXIT_BAD_INPUT
+    print(out)
+    return 0
+

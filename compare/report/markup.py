@@ -1,0 +1,88 @@
+"""HTML pieces of the report: escaping, numbers, tables, figures as inline PNG, the style sheet."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+#: Resolution of the embedded figures.
+FIG_DPI = 90
+
+CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;margin:1.5em auto;
+max-width:1280px;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.6em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.86em;display:block;overflow-x:auto}
+td.wide{min-width:18em}
+th,td{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}
+th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
+.pass{background:#e8f5e9}.fail{background:#ffebee;font-weight:600}.new{background:#fff8e1}
+.error{background:#fce4ec;font-weight:600}.verdict{font-size:1.3em;padding:.3em .8em;
+display:inline-block;border-radius:4px}.ok{background:#c8e6c9}.bad{background:#ffcdd2}
+img{max-width:100%;height:auto;display:block;margin:.5em 0}figure{margin:1em 0}
+figcaption{font-size:.88em;color:#444}code{background:#f5f5f5;padding:0 .2em}
+.note{font-size:.9em;color:#333;max-width:40em}nav ul{columns:2}
+"""
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (imported on first use)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def png(fig: Any) -> str:
+    """The figure as an ``<img>`` with a base64 PNG data URI; closes the figure."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=FIG_DPI)
+    pyplot().close(fig)
+    data = base64.b64encode(buf.getvalue()).decode("ascii")
+    return f'<img alt="figure" src="data:image/png;base64,{data}">'
+
+
+def esc(x: Any) -> str:
+    """HTML-escaped text of any value."""
+    return html.escape(str(x))
+
+
+def fmt_num(v: Any, fmt: str = ".4g", unit: str = "") -> str:
+    """A cell value: a number in ``fmt`` (with ``unit``), yes/no, ``-`` when missing."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        return f"{v:{fmt}}{(' ' + unit) if unit else ''}"
+    return esc(v)
+
+
+def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
+               classes: Iterable[str] | None = None) -> str:
+    """An HTML table; cells are pre-rendered HTML strings or plain values (escaped)."""
+    out = ["<table><thead><tr>", *(f"<th>{esc(h)}</th>" for h in header), "</tr></thead><tbody>"]
+    cls_iter = iter(classes) if classes is not None else None
+    for row in rows:
+        cls = next(cls_iter, "") if cls_iter is not None else ""
+        out.append(f'<tr class="{esc(cls)}">' if cls else "<tr>")
+        for cell in row:
+            if isinstance(cell, Html):
+                out.append(f"<td>{cell}</td>")
+            elif isinstance(cell, (int, float)) and not isinstance(cell, bool):
+                out.append(f'<td class="num">{fmt_num(cell)}</td>')
+            else:
+                out.append(f"<td>{fmt_num(cell)}</td>")
+        out.append("</tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+class Html(str):
+    """A table cell that is already HTML."""
