@@ -14,11 +14,12 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
+from tippetop.compare.engines import describe_ran
 from tippetop.compare.metrics import classify_outcome, outcome_of_angle
 from tippetop.compare.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES, mode_task_parts
-from tippetop.models.scene import Scene
+from tippetop.models.params import TopParams
 
 REFERENCE_MODE = "ode"
 
@@ -53,13 +54,12 @@ MODE_NOTES: dict[str, str] = {
 }
 
 
-def predicted_outcome(scene: Scene, J0: float) -> tuple[float, str]:
+def predicted_outcome(top: TopParams, J0: float) -> tuple[float, str]:
     """The theory's asymptotic angle and outcome for a run with Jellett's constant J0.
 
     theta_s is evaluated at the spin with the same J started upright, n = J0 / (C (R - a)),
     which is n0 for theta0 -> 0.
     """
-    top = scene.top
     n_equiv = J0 / (top.C_kgm2 * (top.R_m - top.a_m))
     th = theory.theta_s(top, n_equiv)
     return th, outcome_of_angle(th)
@@ -97,9 +97,10 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
         if r.error:
             raise TippetopError(f"{m}: {r.error}")
     sc = tasks[0].load()
+    top = tasks[0].plan(sc).top  # for an MJCF top, the parameters read from its file
     ref = results[REFERENCE_MODE]
     J0 = float(ref.table["J"].iloc[0])
-    th_pred, out_pred = predicted_outcome(sc, J0)
+    th_pred, out_pred = predicted_outcome(top, J0)
     per_mode: dict[str, Any] = {}
     diffs: list[dict[str, Any]] = []
     for m in modes:
@@ -145,7 +146,7 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
                           "reference": ref_s["J_rel_drift"], "tolerance": tol})
     return {
         "scene": sc.name,
-        "group": theory.group(sc.top),
+        "group": theory.group(top),
         "theory": {"theta_s": th_pred, "outcome": out_pred},
         "modes": per_mode,
         "differences": diffs,
@@ -162,15 +163,17 @@ FRICTION_LAW_MODES = ("ode", "ode-coulomb", "ode-viscous", "ode-coulomb_viscous"
 def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
     """The friction-law table of a :func:`compare_scene` result, one row per mode.
 
-    Columns: inverts or not, inversion time, theta_asymp, J drift, energy dissipated, and a
-    sentence on where (from the numbers) and why (from the law) it departs from the paper's.
+    Columns: inverts or not, inversion time, theta_asymp, J drift, energy dissipated, a
+    sentence on where (from the numbers) and why (from the law) it departs from the paper's,
+    and what ran (the settings read back from the engine, :func:`describe_ran`).
     """
     rows = []
     for m, s in result["modes"].items():
         if s.get("outcome") == "failed":
             rows.append({"mode": m, "inverts": None, "t_invert_s": None, "theta_asymp": None,
                          "J_rel_drift": None, "energy_dissipated_J": None,
-                         "departs": f"the run failed: {s.get('message', '')}"})
+                         "departs": f"the run failed: {s.get('message', '')}",
+                         "ran": describe_ran(s)})
             continue
         mine = [d for d in result["differences"] if d["mode"] == m]
         if m == REFERENCE_MODE:
@@ -202,5 +205,6 @@ def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
             "J_rel_drift": s["J_rel_drift"],
             "energy_dissipated_J": s.get("energy_dissipated_J"),
             "departs": f"{verdict}{': ' + note if note and m != REFERENCE_MODE else ''}.",
+            "ran": describe_ran(s),
         })
     return pd.DataFrame(rows)

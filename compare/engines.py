@@ -10,6 +10,7 @@ engine did not read.
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -31,7 +32,8 @@ MUJOCO_ENERGY_RTOL = 1e-6
 #: The summary keys of a failed run that would be numbers: a failed run reports none.
 RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone")
 
-__all__ = ["ENGINES", "EngineRun", "plan_for", "progress_bar", "run_engine", "run_plan"]
+__all__ = ["ENGINES", "EngineRun", "describe_ran", "plan_for", "progress_bar", "run_engine",
+           "run_plan"]
 
 
 @dataclass
@@ -42,6 +44,38 @@ class EngineRun:
     summary: dict[str, Any]
     status: str
     message: str
+
+
+def describe_ran(summary: dict[str, Any]) -> str:
+    """One line on what a run's summary says ran (the settings read back, not those asked for).
+
+    Example: ``MuJoCo RK4 at dt = 0.0002 s, native friction: pyramidal cone, condim 3,
+    mu 0.104, impratio 1.41, solref [0.002, 1], solimp [0.05, 0.95, 0.001, 0.5, 2]``.
+    """
+    def nums(v: Any) -> str:
+        return "[" + ", ".join(f"{x:g}" for x in v) + "]" if v is not None else "-"
+
+    if summary.get("engine") == "ode":
+        return (f"reference ODE, DOP853 on the {summary.get('formulation')} formulation at "
+                f"rtol {summary.get('rtol', math.nan):g}, law {summary.get('friction_law')}")
+    if summary.get("timestep_s") is None:
+        return "MuJoCo (no settings recorded)"
+    head = f"MuJoCo {summary.get('integrator')} at dt = {summary['timestep_s']:g} s, "
+    contact = (f"condim {summary.get('condim')}, solref {nums(summary.get('solref'))}, "
+               f"solimp {nums(summary.get('solimp'))}")
+    if summary.get("mode") == "paper":
+        law = summary.get("friction_law")
+        mu = summary.get("law_mu")
+        applied = f"the paper-mode law {law}" + (f" (mu {mu:g})" if mu is not None else "")
+        return f"{head}{applied} on a frictionless contact: {contact}"
+    friction = [f"{summary.get('cone')} cone", contact.split(", solref")[0]]
+    for key in ("mu", "torsional", "rolling"):
+        if summary.get(key) is not None:
+            friction.append(f"{key} {summary[key]:g}")
+    friction.append(f"impratio {summary.get('impratio', math.nan):g}")
+    friction.append("solref " + nums(summary.get("solref")))
+    friction.append("solimp " + nums(summary.get("solimp")))
+    return f"{head}native friction: " + ", ".join(friction)
 
 
 def plan_for(scene: Scene, engine: str) -> RunPlan:

@@ -59,7 +59,7 @@ def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
                      "t_invert": s["t_invert"],
                      "J_rel_drift": s["J_rel_drift"], "status": s.get("status", "ok"),
                      "cached": res.cached})
-    top = tasks[0].load().top
+    top = tasks[0].plan().top
     lo, hi = min(n0_values), max(n0_values)
     grid = np.linspace(lo, hi, 400)
     return {

@@ -78,8 +78,9 @@ def measure_threshold(
     if which not in WHICH:
         raise TippetopError(f"--which: expected n1|nc, got {which!r}")
     scene = scene or DEFAULT_SCENE
-    base = Task(scene, overrides, engine).load()
-    n_th = theory_value(which, base.top)
+    task = Task(scene, overrides, engine)
+    base = task.load()
+    n_th = theory_value(which, task.plan(base).top)
     k = points_per_round or max(2, workers or 2)
     runs: list[dict[str, Any]] = []
 

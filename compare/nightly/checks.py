@@ -5,8 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from tippetop.compare.engines import plan_for
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
 from tippetop.compare.nightly.tolerances import compare_value, format_value, tolerance_for
+from tippetop.models.plan import RunPlan
 from tippetop.models.scene import Scene, load_scene
 
 
@@ -44,17 +46,32 @@ def case_status(checks: Sequence[dict[str, Any]]) -> str:
     return "pass"
 
 
-def _top_record(scene: Scene) -> tuple[dict[str, Any], dict[str, Any]]:
+def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
+    """(law, mu, Lambda) that run: the reference's or paper mode's law, or native friction."""
+    if plan.ode is not None:
+        fr = plan.ode.friction
+    elif plan.mujoco is not None and plan.mujoco.law is not None:
+        fr = plan.mujoco.law
+    else:
+        mu = plan.mujoco.mu if plan.mujoco is not None else None
+        law = "mujoco-native" if plan.mujoco is not None and plan.mujoco.mode == "native" \
+            else "none"
+        return law, mu, None
+    return fr.law, fr.mu, fr.Lambda_mps
+
+
+def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, Any]]:
     from tippetop.compare import theory
     from tippetop.compare.metrics import outcome_of_angle
 
-    top, fr, ini = scene.top, scene.friction, scene.init
+    top, ini = plan.top, plan.init
+    law, mu, lam = _law(plan)
     params = {
         "A_over_C": top.A_over_C, "a_over_R": top.a_over_R,
         "C_factor": top.C_kgm2 / (0.4 * top.M_kg * top.R_m**2),
         "R_m": top.R_m, "a_m": top.a_m, "M_kg": top.M_kg, "A_kgm2": top.A_kgm2,
         "C_kgm2": top.C_kgm2, "g_mps2": top.g_mps2,
-        "law": fr.law, "mu": fr.mu, "Lambda_mps": fr.Lambda_mps,
+        "law": law, "mu": mu, "Lambda_mps": lam,
         "theta0": ini.theta0, "thetadot0": ini.thetadot0, "Omega0": ini.Omega0, "n0": ini.n0,
         "t_end_s": scene.run.t_end_s,
     }
@@ -70,7 +87,7 @@ def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
     """The results.json entry of a case."""
     c = cr.case
     scene = load_scene(c.scene, list(c.overrides))
-    params, th = _top_record(scene)
+    params, th = _top_record(scene, plan_for(scene, c.engine))
     rec: dict[str, Any] = {
         "id": c.id, "name": c.name, "category": c.category, "kind": c.kind, "mode": c.mode,
         "engine": c.engine, "scene": c.scene, "scene_name": scene.name, "set": list(c.set),

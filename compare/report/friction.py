@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from tippetop.compare.engines import describe_ran
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 
 #: Order of the rows of the friction-law table, with what each mode is.
@@ -14,7 +15,7 @@ FRICTION_MODES: dict[str, str] = {
     "ode-viscous": "reference ODE, viscous F = -c v_P",
     "ode-coulomb_viscous": "reference ODE, Coulomb + viscous",
     "mujoco-paper": "MuJoCo, the paper's law applied at the contact point",
-    "mujoco-native": "MuJoCo native friction (elliptic cone, condim 3)",
+    "mujoco-native": "MuJoCo native friction, the calibrated settings",
     "mujoco-native-elliptic": "MuJoCo native friction, elliptic cone",
     "mujoco-native-pyramidal": "MuJoCo native friction, pyramidal cone",
     "mujoco-native-condim4": "MuJoCo native friction + torsional (condim 4)",
@@ -143,7 +144,9 @@ def friction_section(results: Mapping[str, Any]) -> str:
         v = r["values"]
         inverts = v.get("t_invert") is not None
         table_rows.append((
-            r["mode"], FRICTION_MODES[r["mode"]], "yes" if inverts else "no",
+            r["mode"], Html(f"{esc(FRICTION_MODES[r['mode']])}<br><small>ran: "
+                            f"{esc(describe_ran(r['summary']) if r.get('summary') else '-')}"
+                            "</small>"), "yes" if inverts else "no",
             v.get("t_invert"), v.get("theta_asymp"), v.get("outcome"),
             Html(fmt_num(v.get("J_rel_drift"), ".2e")), v.get("energy_lost"),
             Html(esc(friction_note(r, ref)))))
