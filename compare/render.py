@@ -44,6 +44,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from tippetop.compare.common_args import add_force_option, add_set_option
 from tippetop.models.errors import TippetopError, expect
 from tippetop.mujoco_runner.gl import use_gl_backend
 
@@ -272,9 +273,8 @@ def add_render_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
                    help=f"WIDTHxHEIGHT of one panel in px (default {DEFAULT_SIZE})")
     p.add_argument("--max-frames", dest="max_frames", type=int, default=DEFAULT_MAX_FRAMES,
                    help=f"refuse longer videos (default {DEFAULT_MAX_FRAMES})")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a scene key, e.g. run.t_end_s=4 (repeatable)")
+    add_force_option(p)
+    add_set_option(p, help="override a scene key, e.g. run.t_end_s=4 (repeatable)")
     p.set_defaults(func=_cmd_render)
     return p
 

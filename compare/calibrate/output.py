@@ -106,7 +106,7 @@ def render_toml(report: dict[str, Any]) -> str:
     """The calibration file: a header comment, ``[settings]``, ``[provenance]``, residuals."""
     lines = [
         "# MuJoCo native-friction settings calibrated against the reference ODE.",
-        "# Written by `tippetop calibrate` (compare/calibrate.py); the [settings] are the",
+        "# Written by `tippetop calibrate` (compare/calibrate/); the [settings] are the",
         "# defaults of mujoco.friction=native for every key a scene does not set itself.",
         "# Reproduce with the [provenance] command. Residuals: role = \"holdout\" scenes were",
         "# not used by the fit; role = \"calibration\" scenes were.",
