@@ -77,6 +77,7 @@ MIN_FACTOR = 0.2  # largest allowed decrease of the step in one go
 MAX_FACTOR = 10.0  # largest allowed increase of the step in one go
 ERROR_EXPONENT = -1.0 / 8.0  # -1 / (error estimator order + 1)
 BISECTION_ITERS = 60  # event location on the dense output: 2^-60 of a step
+GUARD_SCAN = 32  # a guard that dipped at a stage is looked for at 32 points of the step
 STIFF_HLAMBDA = 6.1  # h lambda above this flags a step as stiff (Hairer's DOP853 threshold)
 MIN_STEP_ULPS = 10.0  # a step below this many ulp of t is an underflow (as scipy)
 
@@ -114,7 +115,7 @@ def new_stats() -> np.ndarray:
 
 
 # ---------------------------------------------------------------- one step
-@nb.njit(_F8(RHS_TYPE, _V, _V, _F8, _V, _M, _V, _V, _V), **_OPTS)
+@nb.njit(nb.types.UniTuple(_F8, 2)(RHS_TYPE, _V, _V, _F8, _V, _M, _V, _V, _V), **_OPTS)
 def rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp):
     """One DOP853 step of size ``h`` from ``y`` (with ``f = rhs(y)``); no step control.
 
@@ -126,72 +127,75 @@ def rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp):
     formed: a row view ``K[s]`` would cost two atomic reference-count updates per evaluation.
 
     Returns:
-        The guard value g(y_new) returned by ``rhs``.
+        (g(y_new), the smallest guard of the step's 12 stage evaluations and g(y_new)): the
+        guard ``rhs`` returned at the end, and its minimum, which shows whether the guard may
+        have dipped to <= 0 inside the step although it is > 0 at both ends.
     """
     n = y.size
+    gmin = np.inf
     for i in range(n):
         K[0, i] = f[i]
         ytmp[i] = y[i] + h * (A[1, 0] * f[i])
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[1, i] = k
         ytmp[i] = y[i] + h * (A[2, 0] * K[0, i] + A[2, 1] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[2, i] = k
         ytmp[i] = y[i] + h * (A[3, 0] * K[0, i] + A[3, 2] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[3, i] = k
         ytmp[i] = y[i] + h * (A[4, 0] * K[0, i] + A[4, 2] * K[2, i] + A[4, 3] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[4, i] = k
         ytmp[i] = y[i] + h * (A[5, 0] * K[0, i] + A[5, 3] * K[3, i] + A[5, 4] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[5, i] = k
         ytmp[i] = y[i] + h * (A[6, 0] * K[0, i] + A[6, 3] * K[3, i] + A[6, 4] * K[4, i]
                               + A[6, 5] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[6, i] = k
         ytmp[i] = y[i] + h * (A[7, 0] * K[0, i] + A[7, 3] * K[3, i] + A[7, 4] * K[4, i]
                               + A[7, 5] * K[5, i] + A[7, 6] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[7, i] = k
         ytmp[i] = y[i] + h * (A[8, 0] * K[0, i] + A[8, 3] * K[3, i] + A[8, 4] * K[4, i]
                               + A[8, 5] * K[5, i] + A[8, 6] * K[6, i] + A[8, 7] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[8, i] = k
         ytmp[i] = y[i] + h * (A[9, 0] * K[0, i] + A[9, 3] * K[3, i] + A[9, 4] * K[4, i]
                               + A[9, 5] * K[5, i] + A[9, 6] * K[6, i] + A[9, 7] * K[7, i]
                               + A[9, 8] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[9, i] = k
         ytmp[i] = y[i] + h * (A[10, 0] * K[0, i] + A[10, 3] * K[3, i] + A[10, 4] * K[4, i]
                               + A[10, 5] * K[5, i] + A[10, 6] * K[6, i] + A[10, 7] * K[7, i]
                               + A[10, 8] * K[8, i] + A[10, 9] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[10, i] = k
         ytmp[i] = y[i] + h * (A[11, 0] * K[0, i] + A[11, 3] * K[3, i] + A[11, 4] * K[4, i]
                               + A[11, 5] * K[5, i] + A[11, 6] * K[6, i] + A[11, 7] * K[7, i]
                               + A[11, 8] * K[8, i] + A[11, 9] * K[9, i] + A[11, 10] * k)
-    rhs(ytmp, p, f_new)
+    gmin = min(gmin, rhs(ytmp, p, f_new))
     for i in range(n):
         k = f_new[i]
         K[11, i] = k
@@ -201,7 +205,7 @@ def rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp):
     g = rhs(y_new, p, f_new)
     for i in range(n):
         K[N_STAGES, i] = f_new[i]
-    return g
+    return g, min(gmin, g)
 
 
 @nb.njit(_F8(_M, _F8, _V, _V, _F8, _F8), **_OPTS)
@@ -274,20 +278,18 @@ def dense_eval(F, y_old, x, out):
         out[i] = v + y_old[i]
 
 
-@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _V), **_OPTS)
-def locate(rhs, watch, use_guard, F, y_old, p, ytmp, dy):
+@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _V, _F8, _F8), **_OPTS)
+def locate(rhs, watch, use_guard, F, y_old, p, ytmp, dy, lo, hi):
     """Where in the step an event function falls from > 0 to <= 0, by bisection.
 
     The event function is the guard ``rhs(y, p, dy)`` if ``use_guard``, else the mark
     ``watch(y, p)[0]``, evaluated on the dense output ``F`` of the step from ``y_old``. The
-    caller has checked that it is > 0 at the step's start and <= 0 at its end.
+    caller has checked that it is > 0 at the fraction ``lo`` of the step and <= 0 at ``hi``.
 
     Returns:
-        The fraction x in (0, 1] of the step (within 2^-BISECTION_ITERS) at which the event
-        function is first found <= 0.
+        The fraction x in (lo, hi] of the step (within 2^-BISECTION_ITERS of the step) at which
+        the event function is found <= 0.
     """
-    lo = 0.0
-    hi = 1.0
     for _ in range(BISECTION_ITERS):
         mid = 0.5 * (lo + hi)
         dense_eval(F, y_old, mid, ytmp)
@@ -406,7 +408,7 @@ def dop853_run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monito
             if t_new > t_end:
                 t_new = t_end
             h = t_new - t
-            g_new = rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp)
+            g_new, g_min = rk_step(rhs, y, f, h, p, K, y_new, f_new, ytmp)
             stats[S_NRHS] += N_STAGES
             err = error_norm(K, h, y, y_new, rtol, atol)
             if err < 1.0:
@@ -444,18 +446,30 @@ def dop853_run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monito
         mark_new, monitor = watch(y_new, p)
         if monitor < stats[S_MONITOR_MIN]:
             stats[S_MONITOR_MIN] = monitor
-        guard_hit = not (g_new > 0.0)
+        # the guard may have dipped inside the step even if it is > 0 at its end: whenever a
+        # stage saw it <= 0, the dense output is scanned for the first point where it is
+        guard_dip = not (g_min > 0.0)
         mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
-        need_dense = guard_hit or mark_hit or (i_out < n_out and t_out[i_out] <= t_new)
+        need_dense = guard_dip or mark_hit or (i_out < n_out and t_out[i_out] <= t_new)
         t_final = t_new
+        guard_hit = False
         if need_dense:
             dense_coeffs(rhs, y, y_new, f_new, h, p, K, F, ytmp)
             stats[S_NRHS] += 3
-            if guard_hit:
-                t_final = t + h * locate(rhs, watch, True, F, y, p, ytmp, dy)
-                stats[S_NRHS] += BISECTION_ITERS
+            if guard_dip:
+                lo = 0.0
+                for k in range(1, GUARD_SCAN + 1):
+                    x = k / GUARD_SCAN
+                    dense_eval(F, y, x, ytmp)
+                    stats[S_NRHS] += 1
+                    if not (rhs(ytmp, p, dy) > 0.0):
+                        guard_hit = True
+                        t_final = t + h * locate(rhs, watch, True, F, y, p, ytmp, dy, lo, x)
+                        stats[S_NRHS] += BISECTION_ITERS
+                        break
+                    lo = x
             if mark_hit:
-                t_mark = t + h * locate(rhs, watch, False, F, y, p, ytmp, dy)
+                t_mark = t + h * locate(rhs, watch, False, F, y, p, ytmp, dy, 0.0, 1.0)
                 if t_mark <= t_final:
                     stats[S_T_MARK] = t_mark
             while i_out < n_out and t_out[i_out] <= t_final:

@@ -2,13 +2,14 @@
 
 The shipped file ``models/calibrated_native.toml`` is the default of ``mujoco.friction=native``.
 Every MuJoCo run here is at the calibration's own timestep (2e-4 s, RK4: about 0.3-0.5 s of
-wall per simulated second on one core), so the file-level tests take a few seconds each.
+wall per simulated second on one core; the timestep check also at half of it), so the
+file-level tests take a few seconds each. The numbers the file claims are recomputed: one
+held-out scene in the default suite, the whole calibration and held-out sets in the slow one.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import tomllib
 from pathlib import Path
 
@@ -16,6 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.conftest import run_scene_ode
 from tippetop.compare.calibrate import (
     MUJOCO_DEFAULTS,
     W_T,
@@ -28,7 +30,9 @@ from tippetop.compare.calibrate import (
     objective,
     parse_scene_list,
     residual,
+    timestep_check,
 )
+from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES
 from tippetop.compare.engines import run_engine
 from tippetop.compare.runner import TaskResult
 from tippetop.models.calibrated import CALIBRATION_FILE, calibrated_native_settings
@@ -53,11 +57,12 @@ def _sets(data: dict) -> tuple[set[str], set[str]]:
 
 # ---------------------------------------------------------------- the shipped file
 def test_shipped_file_has_settings_provenance_and_disjoint_residuals(shipped: dict) -> None:
+    # The file's structure only: what its numbers claim is recomputed below (fig4 here, the
+    # whole calibration and holdout sets in the slow tests).
     s = shipped["settings"]
     assert set(s) == SETTINGS_KEYS
     assert s["cone"] in ("pyramidal", "elliptic") and s["integrator"] == "RK4"
     assert len(s["solref"]) == 2 and len(s["solimp"]) == 5
-    assert 0 < s["mu"] < 1 and s["impratio"] > 0 and s["timestep_s"] > 0
     # MuJoCo clamps the solref time constant to >= 2 timesteps: the fit must not sit below
     assert s["solref"][0] >= 2 * s["timestep_s"]
     # the runner reads exactly these settings
@@ -69,7 +74,6 @@ def test_shipped_file_has_settings_provenance_and_disjoint_residuals(shipped: di
                 "grid", "bounds", "wall_s", "findings", "timestep_check"):
         assert key in prov, key
     assert prov["command"].startswith("tippetop calibrate ")
-    assert prov["objective"] < prov["objective_mujoco_defaults"]
     calib, hold = _sets(shipped)
     assert calib and hold and not calib & hold
 
@@ -78,16 +82,55 @@ def test_shipped_file_has_settings_provenance_and_disjoint_residuals(shipped: di
     for r in held:
         for key in ("rms_rad", "theta_asymp_err", "outcome_match", "J_rel_drift"):
             assert key in r, (r["scene"], key)
-        assert math.isfinite(r["rms_rad"])
-    # the fit's headline: every held-out scene ends in the reference's outcome class
-    assert all(r["outcome_match"] for r in held)
 
 
-def test_timestep_check_is_small(shipped: dict) -> None:
-    # the chosen settings at half the timestep change theta(t) by well under the residuals
-    check = shipped["provenance"]["timestep_check"]
-    assert check["max_rms_change_rad"] < 0.01
-    assert abs(check["objective_change"]) < 0.01
+def _shipped_candidate(settings: dict) -> Candidate:
+    return Candidate(cone=settings["cone"], impratio=settings["impratio"],
+                     timeconst_s=settings["solref"][0], d0=settings["solimp"][0],
+                     mu=settings["mu"], dampratio=settings["solref"][1],
+                     solimp_tail=tuple(settings["solimp"][1:]))
+
+
+def _same_mujoco(shipped: dict) -> bool:
+    """Whether this MuJoCo is the one the file was computed with (then its numbers reproduce
+    to rounding: every run is deterministic)."""
+    import mujoco
+
+    return shipped["provenance"].get("mujoco_version") == mujoco.__version__
+
+
+#: The README's claims for the calibrated native friction on the held-out scenes, against a
+#: fresh reference ODE: the final angle within 0.02 rad (measured at most 0.0197, fig11_n080),
+#: inversion times within 9 % (measured -8.7 % fig11_n050 ... +8.2 % fig8a; the README says
+#: "early by up to 9 %", but fig4, fig8a and fig11_n080 are late by 5.3, 8.2 and 3.1 %), and
+#: Jellett's constant to 1e-4 over a few seconds (measured at most 6.1e-5, fig11_n080 over
+#: 10 s). Over 30 s the README says 3e-4, but fig11_n050 drifts by 3.19e-4 (fig11_n060:
+#: 2.3e-4): the bound here is 4e-4, the measured value with a 25 % margin.
+README_THETA_ASYMP_RAD = 0.02
+README_T_INVERT_REL = 0.09
+README_J_DRIFT = 1e-4
+LONG_RUN_S = 30.0
+LONG_RUN_J_DRIFT = 4e-4
+
+
+def _check_against_readme(r) -> None:
+    assert r.outcome_mujoco == r.outcome_ode, r.scene
+    assert abs(r.theta_asymp_err) <= README_THETA_ASYMP_RAD, r.scene
+    assert (r.t_invert_ode is None) == (r.t_invert_mujoco is None), r.scene
+    if r.t_invert_ode is not None:
+        assert abs(r.t_invert_mujoco / r.t_invert_ode - 1.0) <= README_T_INVERT_REL, r.scene
+    bound = LONG_RUN_J_DRIFT if r.t_end_s >= LONG_RUN_S else README_J_DRIFT
+    assert r.J_rel_drift <= bound, r.scene
+
+
+def _check_reproduces(r, entry: dict) -> None:
+    # deterministic runs: the stored residual to rounding (measured <= 2e-14 rad), 1e-9
+    assert r.rms_rad == pytest.approx(entry["rms_rad"], rel=1e-9), r.scene
+    assert r.theta_asymp_err == pytest.approx(entry["theta_asymp_err"], rel=1e-9,
+                                              abs=1e-12), r.scene
+    assert r.t_invert_mujoco == entry.get("t_invert_mujoco"), r.scene  # a sample time
+    assert r.J_rel_drift == pytest.approx(entry["J_rel_drift"], rel=1e-9), r.scene
+    assert r.outcome_mujoco == entry["outcome_mujoco"], r.scene
 
 
 # ---------------------------------------------------------------- the shipped settings in MuJoCo
@@ -99,13 +142,21 @@ def fig3_native():
 
 
 def test_calibrated_native_inverts_fig3(fig3_native, shipped: dict) -> None:
-    # the reference inverts at 2.33 s; the calibrated native friction within 3 s
-    # (the shipped fit: 2.40 s), at the calibration's timestep
+    # Against the reference ODE (its event time, 2.329 s): the README's bound for the
+    # calibrated native friction, inversion times within 9 % (measured +2.9 %: 2.396 s, the
+    # first 1-ms sample past pi/2). theta(t) differs by at most 0.1-0.15 rad on Fig. 3 (README,
+    # the friction-model floor; measured 0.149 at the flip, where a 67-ms shift of a 2 rad/s
+    # rise shows): bound 0.2 rad. At 4 s both are turned over, 0.010 rad apart (bound 0.05).
     s = fig3_native.summary
     assert s["timestep_s"] == pytest.approx(shipped["settings"]["timestep_s"])
-    assert s["condim"] == 3
-    assert s["t_invert"] is not None and s["t_invert"] < 3.0
-    assert fig3_native.table["theta"].iloc[-1] > math.pi / 2
+    ref = run_scene_ode("fig3")
+    assert s["t_invert"] is not None
+    assert abs(s["t_invert"] / ref.t_invert - 1.0) <= README_T_INVERT_REL
+    t = fig3_native.table["t"].to_numpy()
+    theta_ref = np.interp(t, ref.table["t"].to_numpy(), ref.table["theta"].to_numpy())
+    gap = np.abs(fig3_native.table["theta"].to_numpy() - theta_ref)
+    assert gap.max() < 0.2
+    assert gap[-1] < 0.05
 
 
 def test_calibrated_native_conserves_jellett(fig3_native) -> None:
@@ -114,6 +165,7 @@ def test_calibrated_native_conserves_jellett(fig3_native) -> None:
     # P. With solref 2 ms the static sink is delta ~ (1 - d) g tc^2 ~ 4e-5 m (0.25 % of R), and
     # J drifts by ~ (delta / 2R) times the relative change of L_z, which the flip makes O(1):
     # ~1e-3 at worst; measured 1.5e-5 over 4 s with the flip (3e-4 over 30 s of Fig. 11).
+    assert fig3_native.summary["condim"] == 3  # the premise: sliding friction only
     assert fig3_native.summary["J_rel_drift"] < 1e-4
     z_centre = (fig3_native.table["z"] + 0.0015 * np.cos(fig3_native.table["theta"]))
     assert float((0.015 - z_centre).max()) < 1e-4  # measured 4.5e-5 m: the ball sinks < 0.1 mm
@@ -121,31 +173,82 @@ def test_calibrated_native_conserves_jellett(fig3_native) -> None:
 
 def test_mujoco_default_settings_do_not_invert_fig3(shipped: dict) -> None:
     # facts.md: with MuJoCo's defaults (set explicitly here, so the shipped file does not
-    # apply) the Fig. 3 top settles into rolling instead of turning over
+    # apply) the Fig. 3 top settles into rolling instead of turning over. The tilt never rises
+    # above its start (measured: the maximum is theta0 = 0.1 itself, 0.022 rad at 6 s), where
+    # the reference (same start, same mu) is past pi/2 by 2.33 s.
     d = MUJOCO_DEFAULTS
     over = ["mujoco.friction=native", "run.t_end_s=6", *d.overrides(
         shipped["settings"]["timestep_s"], "RK4")[1:]]
     assert "mujoco.solref=[0.02, 1.0]" in over and "mujoco.impratio=1.0" in over
-    run = run_engine(load_scene("fig3", over), "mujoco", progress=False)
+    scene = load_scene("fig3", over)
+    run = run_engine(scene, "mujoco", progress=False)
     assert run.summary["t_invert"] is None
-    assert float(run.table["theta"].max()) < 0.5
+    assert float(run.table["theta"].max()) <= scene.init.theta0 + 1e-6
+    assert run_scene_ode("fig3").t_invert < 6.0
 
 
-def test_holdout_residual_reproduces(shipped: dict, tmp_path: Path) -> None:
-    # runs are deterministic: recompute one held-out scene's residual from scratch (no cache)
+def test_holdout_residual_reproduces(shipped: dict) -> None:
+    # runs are deterministic: recompute one held-out scene's residual from scratch (no cache),
+    # against a fresh reference run, and hold it to the README's claims
     entry = next(r for r in shipped["residual"] if r["role"] == "holdout"
                  and r["scene"] == "fig4")
     s = shipped["settings"]
-    cand = Candidate(cone=s["cone"], impratio=s["impratio"], timeconst_s=s["solref"][0],
-                     d0=s["solimp"][0], mu=s["mu"], dampratio=s["solref"][1],
-                     solimp_tail=tuple(s["solimp"][1:]))
     ev = Evaluator([SceneSpec("fig4", entry["t_end_s"])], s["timestep_s"], s["integrator"],
                    run_options={"use_cache": False, "workers": 1})
-    r = ev.evaluate([cand])[0].residuals[0]
-    assert r.rms_rad == pytest.approx(entry["rms_rad"], abs=1e-5)
-    assert r.t_invert_mujoco == pytest.approx(entry["t_invert_mujoco"], abs=1e-9)
-    assert r.theta_asymp_err == pytest.approx(entry["theta_asymp_err"], abs=1e-5)
-    assert r.outcome_mujoco == entry["outcome_mujoco"]
+    r = ev.evaluate([_shipped_candidate(s)])[0].residuals[0]
+    _check_against_readme(r)
+    if _same_mujoco(shipped):
+        _check_reproduces(r, entry)
+
+
+@pytest.mark.slow
+def test_calibration_objective_reproduces_and_is_a_local_minimum(shipped: dict) -> None:
+    """The shipped settings on the calibration set, recomputed (about 20 s on 2 cores).
+
+    * The objective equals the stored one to 1e-9 relative (deterministic runs; measured
+      3e-14), with the MuJoCo version the file names.
+    * Fitted, not just written down: the 8 compass neighbours at the search's last step
+      sizes (the initial steps halved once per "shrink" of the stored search path: 0.0375
+      decade in impratio, time constant and d0, 0.019 in mu) all score higher. The search
+      stopped on its run budget, so this is not implied by the search itself; measured, the
+      best neighbour (mu 0.109) is 0.0125 rad above.
+    * Half the timestep changes each scene's theta RMS by well under the residuals: by less
+      than 0.01 rad (measured 5e-4 rad; the residuals are 0.033 and 0.051 rad).
+    """
+    s, prov = shipped["settings"], shipped["provenance"]
+    calib = parse_scene_list(",".join(prov["calibration_set"]), "--calibration")
+    ev = Evaluator(calib, s["timestep_s"], s["integrator"],
+                   run_options={"use_cache": False, "workers": 2})
+    best = _shipped_candidate(s)
+    shrinks = sum(1 for step in prov["search_path"] if step.startswith("shrink"))
+    steps = {k: v / 2**shrinks for k, v in INITIAL_STEPS_DECADES.items()}
+    assert steps["mu"] == pytest.approx(0.01875)
+    around = neighbours(best, steps, s["timestep_s"])
+    assert len(around) == 8
+    evals = ev.evaluate([best, *around])
+    if _same_mujoco(shipped):
+        assert evals[0].objective == pytest.approx(prov["objective"], rel=1e-9)
+    for e in evals[1:]:
+        assert e.objective > evals[0].objective, e.candidate.label()
+    check = timestep_check(ev, best)
+    assert check["timestep_s"] == s["timestep_s"] / 2
+    assert check["max_rms_change_rad"] < 0.01
+
+
+@pytest.mark.slow
+def test_every_holdout_scene_reproduces_within_the_readme_bounds(shipped: dict) -> None:
+    """All 8 held-out scenes (126 s simulated, about 14 s on 2 cores), recomputed from scratch
+    against fresh reference runs: each within the README's claims (``_check_against_readme``)
+    and, with the file's MuJoCo version, equal to its stored residual to rounding."""
+    s, prov = shipped["settings"], shipped["provenance"]
+    hold = parse_scene_list(",".join(prov["holdout_set"]), "--holdout")
+    ev = Evaluator(hold, s["timestep_s"], s["integrator"],
+                   run_options={"use_cache": False, "workers": 2})
+    stored = {r["scene"]: r for r in shipped["residual"] if r["role"] == "holdout"}
+    for r in ev.evaluate([_shipped_candidate(s)])[0].residuals:
+        _check_against_readme(r)
+        if _same_mujoco(shipped):
+            _check_reproduces(r, stored[r.scene])
 
 
 # ---------------------------------------------------------------- the command end to end

@@ -22,13 +22,17 @@ def _private_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_fig9a_n1_measured_in_the_reference() -> None:
     """The Fig. 9 (a) top (A/C = 1, a/R = 0.15) from theta0 = 0.01 over 60 s: the bisection on
-    n0 finds where theta = 0 turns unstable within 3 % of n1 = 34.35 rad/s (eq. 4.13). The
-    bracket is kept to 0.5 %; what remains is the horizon's bias (growth slows near n1)."""
+    n0 for where theta = 0 turns unstable lands on the paper's printed n1 = 34.4 rad/s, within
+    half a unit of its last digit (0.05 rad/s). Measured 34.384, bracket [34.352, 34.416]: 0.09 %
+    above the theory's 34.352 (eq. zeroStability4). The 60-s horizon's bias (the growth rate
+    vanishes at n1, so a run just above it may not leave the vertical in time) is smaller than
+    the bracket's 0.5 % width, not the 3 % once assumed; the bound on the relative difference
+    is that width."""
     res = measure_threshold(None, "ode", "n1")
-    assert res["theory"] == pytest.approx(theory.n1(load_scene("fig11_n060").top))
-    assert abs(res["rel_diff"]) < 0.03
+    assert abs(res["measured"] - 34.4) <= 0.05
     lo, hi = res["bracket"]
     assert lo <= res["measured"] <= hi and (hi - lo) / res["measured"] <= 0.005
+    assert abs(res["rel_diff"]) <= 0.005
     assert res["n_runs"] == len(res["runs"]) >= 4
 
 
@@ -38,9 +42,11 @@ def test_threshold_refuses_a_group_one_top() -> None:
 
 
 def test_fig9a_sweep_on_the_theory_curve() -> None:
-    """The Fig. 9 (a) sweep: theta_asymp falls on theta_s(n0) within 0.05 rad at every n0 at
+    """The Fig. 9 (a) sweep: theta_asymp falls on theta_s(n0) within 0.01 rad at every n0 at
     least 10 % away from n1 and n4; closer to them the approach to the steady state is slower
-    than the 60-s horizon (the paper: 'near n1 and n4 it takes longer')."""
+    than the 60-s horizon (the paper: 'near n1 and n4 it takes longer'; at 35 and 65 rad/s the
+    runs are 0.28 and 0.09 rad short). Measured at the checked points: at most 2.7e-3 rad (the
+    nutation left near pi at 70-85 rad/s; 7e-4 at the intermediate angles), as for Fig. 11."""
     top = load_scene("fig11_n060").top
     n1, n4 = theory.n1(top), theory.n4(top)
     res = run_sweep("fig11_n060", parse_range("25:85:5"), ["ode"])
@@ -48,7 +54,7 @@ def test_fig9a_sweep_on_the_theory_curve() -> None:
     for row in res["table"].itertuples():
         if min(abs(row.n0 / n1 - 1), abs(row.n0 / n4 - 1)) < 0.10:
             continue
-        assert row.theta_asymp == pytest.approx(theory.theta_s(top, row.n0), abs=0.05), row.n0
+        assert row.theta_asymp == pytest.approx(theory.theta_s(top, row.n0), abs=0.01), row.n0
         checked += 1
     assert checked >= 8
 

@@ -43,20 +43,37 @@ def _load_generic():
         return load_top(_GENERIC)
 
 
-def test_map_is_the_free_joint_convention() -> None:
+@pytest.mark.parametrize("init", STATES)
+def test_map_is_the_free_joint_convention(init: InitialState) -> None:
+    # The paper's start with phi = psi = 0 (Sec. 2), written out in closed form: the symmetry
+    # axis k = (sin th, 0, cos th) is e_z turned about e_y by th, so the quaternion is
+    # (cos th/2, 0, sin th/2, 0); omega = (0, th_dot, Omega) + (n - Omega cos th) k (the
+    # precession about e_z, the tilt rate about e_Y = e_y, the spin relative to the plane about
+    # k); the centre of mass O at height R - a cos th, velocity (uOX, uOY, a sin th th_dot);
+    # the sphere's centre S = O + a k.
     tm = load_top(make_mjcf(TOP))
-    init = STATES[1]
+    th, thd, Om, n = init.theta0, init.thetadot0, init.Omega0, init.n0
+    R, a = TOP.R_m, TOP.a_m
+    k = np.array([math.sin(th), 0.0, math.cos(th)])
+    omega = np.array([0.0, thd, Om]) + (n - Om * math.cos(th)) * k
+    com = np.array([0.0, 0.0, R - a * math.cos(th)])
+    v_com = np.array([init.uOX, init.uOY, a * math.sin(th) * thd])
     qpos, qvel = initial_qpos_qvel(tm, init)
-    rigid = initial_rigid_state(TOP, init)
-    # qpos[0:3]: the body origin, which is the sphere's centre; qpos[3:7]: world quaternion.
-    np.testing.assert_allclose(qpos[0:3], rigid.sphere_centre_m(TOP), atol=1e-18)
-    assert qpos[2] == pytest.approx(TOP.R_m, rel=1e-15)  # the ball touches the table
-    np.testing.assert_allclose(qpos[3:7], rigid.quat, atol=1e-16)
-    # qvel[0:3]: world velocity of the body origin; qvel[3:6]: body-frame angular velocity.
-    np.testing.assert_allclose(qvel[0:3], rigid.sphere_centre_velocity_mps(TOP), atol=1e-16)
+    # qpos[0:3]: the body origin, which is the sphere's centre, R above the table;
+    # qpos[3:7]: the world quaternion (w, x, y, z)
+    np.testing.assert_allclose(qpos[0:3], com + a * k, rtol=0, atol=1e-17)
+    assert qpos[2] == pytest.approx(R, rel=1e-15)
+    q = qpos[3:7] * np.sign(qpos[3])
+    np.testing.assert_allclose(q, [math.cos(th / 2), 0.0, math.sin(th / 2), 0.0], atol=1e-15)
+    # qvel[0:3]: world velocity of the body origin; qvel[3:6]: body-frame angular velocity,
+    # turned to the world by MuJoCo's own quaternion convention
+    scale = 1.0 + abs(n) + abs(Om)
+    np.testing.assert_allclose(qvel[0:3], v_com + np.cross(omega, a * k), rtol=0,
+                               atol=1e-15 * scale)
     rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, qpos[3:7])  # MuJoCo's own quaternion convention
-    np.testing.assert_allclose(rot.reshape(3, 3) @ qvel[3:6], rigid.omega_radps, atol=1e-13)
+    mujoco.mju_quat2Mat(rot, qpos[3:7])
+    np.testing.assert_allclose(rot.reshape(3, 3) @ qvel[3:6], omega, rtol=0,
+                               atol=1e-13 * scale)
 
 
 @pytest.mark.parametrize("init", STATES)

@@ -25,12 +25,22 @@ COLUMNS = ["theta", "theta_dot", "n", "J", "E", "N", "vPX", "vPY", "uOX", "uOY",
            "qw", "qx", "qy", "qz"]
 
 
+#: Bounds on max |vector - paper| relative to each column's scale over 5 s at rtol 1e-10, 10x
+#: the largest measured over the four laws. The state and what follows from it without a
+#: derivative (theta, n, J, E, N, x, y, the quaternion): measured <= 1.6e-9. Rates and
+#: velocities (theta_dot, uOX, uOY, vPY), which carry the error of the accelerations: <= 1.4e-8.
+#: The slip along e_X, vPX, a small difference of the centre's velocity and w x X_P
+#: (~ n R sin(theta), 0.75 m/s here): 8.2e-8.
+STATE_TOL = 1e-8
+RATE_TOL = 1e-7
+TOL = {"theta_dot": RATE_TOL, "uOX": RATE_TOL, "uOY": RATE_TOL, "vPY": RATE_TOL, "vPX": 1e-6}
+
+
 @pytest.mark.parametrize("law", ["modified_coulomb", "coulomb", "viscous", "coulomb_viscous"])
 def test_formulations_agree_away_from_theta_zero(law: str) -> None:
     """Started tilted (theta0 = 1, Omega0 = 5, n0 = 60) the run stays above theta = 0.25 for
     5 s (above 0.1 with the viscous laws). Both formulations integrate the same mechanics at
-    rtol 1e-10; the observed gap is about 1e-9 (theta) and 1e-7 (the fast spin n, 60 rad/s):
-    the bound 1e-6 relative to each column's scale leaves room for error growth, and a sign or
+    rtol 1e-10: they agree to the bounds of :data:`TOL` (10x what was measured), and a sign or
     factor slip in either set of equations shows at O(1)."""
     a = run_ode(1.0, 0.15, law=law, theta0=1.0, Omega0=5.0, n0=60.0).table
     b = run_ode(1.0, 0.15, law=law, theta0=1.0, Omega0=5.0, n0=60.0,
@@ -38,10 +48,11 @@ def test_formulations_agree_away_from_theta_zero(law: str) -> None:
     assert a["theta"].min() > 0.1
     for col in COLUMNS:
         scale = max(np.abs(a[col]).max(), 1e-12)
-        tol = 1e-6
+        tol = TOL.get(col, STATE_TOL)
         if col == "N" and law.startswith("coulomb"):
             # inside the exact law's ramp dF/dv_P = mu N / v_eps ~ 1.5e3 N s/m: a slip gap of
-            # 1e-9 m/s between the two runs moves F, and through the constraint N, by ~1e-6 N.
+            # 1e-9 m/s between the two runs moves F, and through the constraint N, by ~1e-6 N
+            # (measured 2.7e-6 of the scale)
             tol = 1e-5
         assert np.max(np.abs(a[col] - b[col])) < tol * scale, col
 
@@ -49,12 +60,13 @@ def test_formulations_agree_away_from_theta_zero(law: str) -> None:
 def test_paper_formulation_through_near_zero_fig3() -> None:
     """Fig. 3 passes close to theta = 0 while nutating (min sin theta ~ 1e-3). The paper's
     form is regular there, if stiff: it must agree with the vector form on the inversion time
-    (1e-6 s) and the final angle (1e-6 rad) at rtol 1e-10."""
+    and the final angle to 1e-8 (s, rad) at rtol 1e-10, as the formulations do elsewhere
+    (measured 9.9e-11 s and 2.2e-10 rad)."""
     a = run_ode(1.0, 0.1, t_end_s=6.0, theta0=0.1, n0=100.0)
     b = run_ode(1.0, 0.1, t_end_s=6.0, theta0=0.1, n0=100.0, formulation="paper")
     assert b.status == "ok" and a.min_sin_theta < 0.01
-    assert abs(a.t_invert - b.t_invert) < 1e-6
-    assert abs(a.table["theta"].iloc[-1] - b.table["theta"].iloc[-1]) < 1e-6
+    assert abs(a.t_invert - b.t_invert) < 1e-8
+    assert abs(a.table["theta"].iloc[-1] - b.table["theta"].iloc[-1]) < 1e-8
 
 
 def test_paper_formulation_refuses_theta_zero() -> None:
@@ -83,7 +95,9 @@ def test_paper_formulation_stops_at_the_singularity() -> None:
 def test_compiled_integrator_matches_scipy_dop853() -> None:
     """The compiled DOP853 is scipy's method with the same tableau and step control: on the
     same compiled right-hand side, 1 s of the Fig. 11 top at rtol 1e-10 must end in the same
-    state to 1e-9 relative (the step sequences coincide up to floating-point order)."""
+    state to 1e-9 relative (measured 2.5e-13: the step sequences coincide up to floating-point
+    order), with as many rhs evaluations up to two steps' worth (24; measured 7829 against
+    scipy's 7826)."""
     top = TopParams.from_ratios(1.0, 0.15)
     fr = FrictionParams()
     init = InitialState(theta0=0.01, n0=60.0)
@@ -94,7 +108,7 @@ def test_compiled_integrator_matches_scipy_dop853() -> None:
     ours = res.states[-1]
     scale = np.maximum(np.abs(sol.y[:, -1]), 1e-3)
     assert np.max(np.abs(ours - sol.y[:, -1]) / scale) < 1e-9
-    assert abs(res.n_rhs - sol.nfev) / sol.nfev < 0.01
+    assert abs(res.n_rhs - sol.nfev) <= 24
 
 
 def test_convergence_with_tolerance() -> None:
@@ -118,10 +132,13 @@ def test_deterministic() -> None:
 def test_contact_loss_is_detected_and_located() -> None:
     """A top thrown over fast (theta0 = 1.5, theta_dot0 = 80 rad/s, no spin): N = M (g + a
     theta_dot^2 cos theta + ...) reaches 0 once cos theta < -g / (a theta_dot^2). The run must
-    stop there with status contact_lost, the last row's N = 0 to 1e-9 N."""
+    stop there with status contact_lost, the last row's N = 0 to 1e-9 N, at the time the paper
+    formulation locates for the same start to 1e-8 s (measured 1.2e-13 s, at 0.0110932 s)."""
     res = run_ode(1.0, 0.15, t_end_s=1.0, theta0=1.5, thetadot0=80.0, n0=0.0)
-    assert res.status == "contact_lost"
-    assert 0 < res.t_final < 0.1
+    paper = run_ode(1.0, 0.15, t_end_s=1.0, theta0=1.5, thetadot0=80.0, n0=0.0,
+                    formulation="paper")
+    assert res.status == paper.status == "contact_lost"
+    assert abs(res.t_final - paper.t_final) < 1e-8
     assert abs(res.table["N"].iloc[-1]) < 1e-9
     assert (res.table["N"].iloc[:-1] > 0).all()
 

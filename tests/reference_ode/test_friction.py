@@ -8,6 +8,14 @@ import pytest
 
 from tippetop.models.params import FrictionParams, TopParams
 from tippetop.reference_ode.friction import LAW_TERMS, friction_terms
+from tippetop.reference_ode.params_array import (
+    P_CVISC,
+    P_LAM,
+    P_MU,
+    P_VEPS,
+    friction_law,
+    pack_params,
+)
 
 MU, LAM, C, VEPS = 0.3, 0.01, 2.5, 1e-5
 
@@ -46,8 +54,21 @@ def test_viscous_and_sum() -> None:
 
 
 def test_default_viscous_coefficient_matches_the_paper_law_slope() -> None:
-    """c defaults to mu M g / Lambda, the slope of the paper's law at v_P = 0 with N = M g."""
+    """The viscous law's default c is the slope of the paper's law at v_P = 0 with N = M g
+    (so that the laws agree for small slip): a central difference of the modified Coulomb
+    force through the reference's packed parameters, at h = 1e-6 m/s (truncation (h/Lambda)^2
+    / 2 = 5e-9 relative), equals the viscous law's slope to 1e-7."""
     top = TopParams.from_ratios(1.0, 0.1)
-    fr = FrictionParams()
-    assert fr.viscous_coefficient(top) == pytest.approx(
-        fr.mu * top.M_kg * top.g_mps2 / fr.Lambda_mps)
+    N = top.M_kg * top.g_mps2
+    h = 1e-6
+
+    def slope(law: str) -> float:
+        p = pack_params(top, FrictionParams(law=law))
+        ck, visc = friction_law(p)
+        plus = friction_terms(ck, visc, h, 0.0, p[P_MU], p[P_LAM], p[P_CVISC], p[P_VEPS])
+        minus = friction_terms(ck, visc, -h, 0.0, p[P_MU], p[P_LAM], p[P_CVISC], p[P_VEPS])
+        return (N * (plus[0] - minus[0]) + (plus[2] - minus[2])) / (2 * h)
+
+    paper, viscous = slope("modified_coulomb"), slope("viscous")
+    assert paper < 0.0
+    assert viscous == pytest.approx(paper, rel=1e-7)

@@ -8,7 +8,7 @@ import pytest
 from tests.conftest import run_ode
 from tippetop.compare import theory
 from tippetop.compare.metrics import energy_rise, jellett_drift
-from tippetop.models.params import InitialState, TopParams
+from tippetop.models.params import TopParams
 
 LAWS = ["modified_coulomb", "coulomb", "viscous", "coulomb_viscous"]
 
@@ -36,16 +36,16 @@ def test_jellett_initial_value_matches_the_paper() -> None:
 
 @pytest.mark.parametrize("law", LAWS)
 def test_energy_never_rises(law: str) -> None:
-    """dE/dt = F . v_P <= 0 (eq. 4.9): E is non-increasing on every sample, to 1e-12 relative.
+    """dE/dt = F . v_P <= 0 (eq. 4.9): E is non-increasing on every sample, to 1e-8 of E0.
 
     The bound is 100x the run's rtol (1e-10) times E0: what the integrator's local error can
-    show, far below the physical decrease (about 1e-3 of E0 per second).
+    show, far below the physical decrease (about 1e-3 of E0 per second). That the decrease is
+    the friction's work, and not a loss from anywhere else, is test_energy_balance's claim.
     """
     res = run_ode(1.0, 0.1, law=law, t_end_s=4.0, theta0=0.1, n0=100.0)
     E0 = res.table["E"].iloc[0]
     assert energy_rise(res.table) <= 100 * 1e-10 * E0
     assert res.table["E"].iloc[-1] < E0 * (1 - 1e-3)
-    assert (res.table["P_fric"] <= 0).all()
 
 
 @pytest.mark.parametrize("law", LAWS)
@@ -109,4 +109,3 @@ def test_initial_observables_match_the_initial_state() -> None:
         row = run_ode(1.0, 0.15, t_end_s=0.01, formulation=form, **init).table.iloc[0]
         got = [row["theta"], row["theta_dot"], row["Omega"], row["n"], row["uOX"], row["uOY"]]
         assert got == pytest.approx(list(init.values()), rel=1e-12, abs=1e-14), form
-    assert InitialState(**init).n0 == 55.0
