@@ -50,7 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "paper's top and Fig. 3 start)")
     s.add_argument("--engine", default="ode", help="ode (default) or mujoco")
     add_set_option(s, help="override a scene key, e.g. init.n0=60 (repeatable)")
-    s.add_argument("--mjcf", help="run a loaded MJCF top instead of the scene's")
+    s.add_argument("--mjcf", help="run a loaded MJCF top instead of the scene's: as its file "
+                   "says (options, contacts, first keyframe) unless --set says otherwise")
+    s.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
+                   "of the file (default: its first, unless --set init.* sets the state)")
     s.add_argument("--out", help="write the observables table (.csv or .parquet)")
     add_force_option(s)
     add_json_option(s)

@@ -61,6 +61,8 @@ def _load(args: argparse.Namespace):
     if getattr(args, "mjcf", None):
         # relative to the working folder, not to the scene file
         overrides.append(f"top.mjcf={json.dumps(os.path.abspath(args.mjcf))}")
+    if getattr(args, "keyframe", None):
+        overrides.append(f"init.keyframe={json.dumps(args.keyframe)}")
     return load_scene(args.scene, overrides)
 
 

@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import sys
+import warnings
 from collections.abc import Callable
 from typing import Any, NoReturn
 
@@ -38,14 +39,27 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
+                      lineno: int, file: Any = None, line: str | None = None) -> None:
+    """Show a warning as ``tippetop: warning: ...`` on one line (no source line)."""
+    text = " ".join(str(message).split())
+    sys.stderr.write(f"tippetop: warning: {text}\n")
+
+
 def run_command(args: argparse.Namespace) -> int:
-    """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2."""
+    """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2.
+
+    Warnings (a model that departs from the paper's top, say) are one line each, shown once.
+    """
     func: Callable[[argparse.Namespace], int] = args.func
-    try:
-        return func(args)
-    except TippetopError as exc:
-        sys.stderr.write(f"tippetop: error: {exc}\n")
-        return EXIT_BAD_INPUT
+    with warnings.catch_warnings():
+        warnings.simplefilter("once")
+        warnings.showwarning = _one_line_warning
+        try:
+            return func(args)
+        except TippetopError as exc:
+            sys.stderr.write(f"tippetop: error: {exc}\n")
+            return EXIT_BAD_INPUT
 
 
 # ---------------------------------------------------------------- types

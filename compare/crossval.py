@@ -44,6 +44,8 @@ MODE_NOTES: dict[str, str] = {
                     "one evaluation, soft contact)",
     "mujoco-native": "MuJoCo's own soft friction (calibrated), a steep viscous law below "
                      "saturation set by solref/impratio and dt",
+    "mujoco-file": "MuJoCo's own friction with the model's own settings (a loaded MJCF file "
+                   "as it says)",
     "mujoco-native-pyramidal": "pyramidal cone: the friction bound is per pyramid edge, up to "
                                "sqrt(2) mu N diagonally, and the friction is softer",
     "mujoco-native-elliptic": "elliptic cone: |F| <= mu N as in Coulomb's law",

@@ -86,12 +86,12 @@ def plan_for(scene: Scene, engine: str) -> RunPlan:
     engine, overrides = mode_engine(engine)
     if overrides:
         scene = scene.with_overrides(list(overrides))
-    file_top = None
+    loaded = None
     if scene.top_mjcf is not None:
-        from tippetop.mujoco_runner.model import load_top
+        from tippetop.mujoco_runner.state import file_top
 
-        file_top = load_top(scene.top_mjcf).top
-    return resolve_plan(scene, engine, file_top=file_top)
+        loaded = file_top(scene.top_mjcf)
+    return resolve_plan(scene, engine, file_top=loaded)
 
 
 @contextmanager

@@ -12,12 +12,18 @@ MODES: dict[str, tuple[str, tuple[str, ...]]] = {
     "ode-viscous": ("ode", ("friction.law=viscous",)),
     "ode-coulomb_viscous": ("ode", ("friction.law=coulomb_viscous",)),
     "mujoco-paper": ("mujoco", ("mujoco.friction=paper",)),
-    "mujoco-native": ("mujoco", ("mujoco.friction=native",)),
-    "mujoco-native-pyramidal": ("mujoco", ("mujoco.friction=native", "mujoco.cone=pyramidal")),
-    "mujoco-native-elliptic": ("mujoco", ("mujoco.friction=native", "mujoco.cone=elliptic")),
-    "mujoco-native-condim4": ("mujoco", ("mujoco.friction=native", "effects.torsional=true")),
-    "mujoco-native-condim6": ("mujoco", ("mujoco.friction=native", "effects.torsional=true",
-                                          "effects.rolling=true")),
+    "mujoco-native": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=true")),
+    "mujoco-native-pyramidal": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=true",
+                                           "mujoco.cone=pyramidal")),
+    "mujoco-native-elliptic": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=true",
+                                          "mujoco.cone=elliptic")),
+    "mujoco-native-condim4": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=true",
+                                         "effects.torsional=true")),
+    "mujoco-native-condim6": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=true",
+                                         "effects.torsional=true", "effects.rolling=true")),
+    # MuJoCo's own friction with the model's own settings: a loaded MJCF file as it says; a
+    # generated top with the scene's [mujoco] values (no calibration)
+    "mujoco-file": ("mujoco", ("mujoco.friction=native", "mujoco.calibrated=false")),
 }
 
 

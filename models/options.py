@@ -65,6 +65,10 @@ class MujocoOptions:
         solref: Contact solref (time constant s, damping ratio), native mode.
         solimp: Contact solimp (d0, dwidth, width m, midpoint, power).
         impratio: Ratio of frictional to normal constraint impedance (native, elliptic cone).
+        noslip_iterations: MuJoCo's noslip solver iterations (0: off; None: the model's).
+        calibrated: Native mode: take the calibrated settings (``models/calibrated_native.toml``)
+            for every key the scene does not set. None: yes for a generated top, no for a top
+            loaded from an MJCF file (which then runs with its own settings).
     """
 
     friction: str = "paper"
@@ -76,6 +80,8 @@ class MujocoOptions:
     solref: tuple[float, float] = (0.02, 1.0)
     solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
     impratio: float = 1.0
+    noslip_iterations: int | None = None
+    calibrated: bool | None = None
 
     def __post_init__(self) -> None:
         expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",
@@ -91,6 +97,9 @@ class MujocoOptions:
                "a finite number >= 0", self.mu)
         expect(_positive(self.impratio), "mujoco.impratio", "a finite number > 0",
                self.impratio)
+        expect(self.noslip_iterations is None or (
+            isinstance(self.noslip_iterations, int) and 0 <= self.noslip_iterations <= 10_000),
+               "mujoco.noslip_iterations", "an integer from 0 to 10000", self.noslip_iterations)
         expect(len(self.solref) == 2 and all(_finite(v) for v in self.solref),
                "mujoco.solref", "two finite numbers [timeconst, dampratio]", self.solref)
         expect(len(self.solimp) in (3, 5) and all(_finite(v) for v in self.solimp),

@@ -16,10 +16,16 @@ and initial state MuJoCo gets, and how often the run is sampled. The rules, in o
 * Native mode: MuJoCo's own friction. For a generated top every setting the scene does not
   set itself comes from the calibration shipped in ``models/calibrated_native.toml``; condim
   follows the effects (3 sliding, 4 with torsional, 6 with rolling, 1 with none).
-* A top loaded from an MJCF file runs as its file says: its timestep, integrator, cone,
-  impratio and contacts are kept (``None`` in the plan) unless the scene sets them
-  explicitly (a ``[mujoco]`` key; for condim, also effects other than plain sliding). Paper
-  mode makes its contacts frictionless (condim 1), which is what paper mode means.
+* A top loaded from an MJCF file runs as its file says: MuJoCo runs its own friction (native
+  mode) unless the scene sets ``mujoco.friction``; its timestep, integrator, cone, impratio,
+  noslip iterations and contacts are kept (``None`` in the plan) unless the scene sets them
+  explicitly (a ``[mujoco]`` key; for condim, also effects other than plain sliding), or asks
+  for the calibrated settings (``mujoco.calibrated = true``, the mode ``mujoco-native``). Paper
+  mode makes its contacts frictionless (condim 1), which is what paper mode means. It starts
+  from the file's first keyframe (or ``init.keyframe``) unless the scene sets ``init.*``; the
+  reference starts from the paper's state of that keyframe. The friction laws (the
+  reference's, paper mode's) take the ball's mu from the file unless the scene sets
+  ``friction.mu``.
 * Sampling: ``run.sample_dt_s`` if set, else :func:`default_sample_dt`; in MuJoCo it must be
   a whole number of timesteps (a set value that is not is an error; the default is rounded).
 
@@ -86,6 +92,28 @@ def sample_interval(t_end_s: float, requested_s: float | None, timestep_s: float
 
 
 @dataclass(frozen=True)
+class FileTop:
+    """What a plan needs to know of a top loaded from an MJCF file.
+
+    Read by :func:`tippetop.mujoco_runner.model.file_top` (this layer cannot compile MJCF).
+
+    Attributes:
+        top: R, a, A, C, M and g read from the compiled model.
+        keyframes: The file's keyframe names, in file order (``""`` for an unnamed one).
+        keyframe_inits: The paper's state of each keyframe, or None where it has none (the
+            ball off the table, say).
+        mu: The sliding friction coefficient of the ball's contact with the table, as MuJoCo
+            mixes it (the larger of the two geoms', or the contact pair's): the friction
+            laws' mu unless the scene sets ``friction.mu``. None: not known.
+    """
+
+    top: TopParams
+    keyframes: tuple[str, ...] = ()
+    keyframe_inits: tuple[InitialState | None, ...] = ()
+    mu: float | None = None
+
+
+@dataclass(frozen=True)
 class OdePlan:
     """What the reference ODE integrates.
 
@@ -132,6 +160,9 @@ class MujocoPlan:
         solimp: Contact solimp (d0, dwidth, width m[, midpoint, power]).
         torsional: Torsional coefficient (m), condim >= 4.
         rolling: Rolling coefficient (m), condim 6.
+        noslip_iterations: MuJoCo's noslip solver iterations.
+        keyframe: Start from this keyframe of the loaded file (its index), not from ``init``
+            (which then holds the keyframe's paper state, for the reference and the reports).
     """
 
     mode: str
@@ -152,6 +183,8 @@ class MujocoPlan:
     solimp: tuple[float, ...] | None
     torsional: float | None
     rolling: float | None
+    noslip_iterations: int | None = None
+    keyframe: int | None = None
 
 
 @dataclass(frozen=True)
@@ -242,36 +275,40 @@ def _refuse_torsion(scene: Scene, who: str, fix: str) -> None:
                             f"torsional = {e.torsional}, rolling = {e.rolling}")
 
 
-def _ode_plan(scene: Scene, top: TopParams) -> tuple[OdePlan, set[str]]:
+def _ode_plan(scene: Scene, top: TopParams, init: InitialState,
+              friction: FrictionParams) -> tuple[OdePlan, set[str]]:
     _refuse_torsion(scene, "the reference ODE", "")
     used = {"ode.formulation", "ode.rtol", "ode.atol", "ode.max_steps"}
     if scene.ode.formulation == "paper":
         used.add("ode.singular_sin")
-    friction = scene.friction
     if scene.effects.sliding:
         used |= friction_keys(friction)
     else:
         friction = replace(friction, law="none")
     t_end = scene.run.t_end_s
     dt = scene.run.sample_dt_s if scene.run.sample_dt_s is not None else default_sample_dt(t_end)
-    return OdePlan(top=top, friction=friction, init=scene.init, options=scene.ode,
+    return OdePlan(top=top, friction=friction, init=init, options=scene.ode,
                    t_end_s=t_end, sample_dt_s=dt), used
 
 
-def _mujoco_plan(scene: Scene, top: TopParams) -> tuple[MujocoPlan, set[str]]:
+def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int | None,
+                 friction: FrictionParams) -> tuple[MujocoPlan, set[str]]:
     mj = scene.mujoco
     loaded = scene.top_mjcf is not None
-    used = {"mujoco.friction"}
+    used = {"mujoco.friction", "mujoco.noslip_iterations"}
+    # a loaded file runs its own friction unless the scene picks a mode
+    mode = mj.friction if not loaded or scene.is_set("mujoco.friction") else "native"
 
     def own(key: str, value: Any) -> Any:
         """The scene's value; for a loaded top only when the scene sets it explicitly."""
         used.add(f"mujoco.{key}")
         return value if not loaded or scene.is_set(f"mujoco.{key}") else None
 
-    common = {"top": top, "mjcf": scene.top_mjcf, "init": scene.init,
+    common = {"top": top, "mjcf": scene.top_mjcf, "init": init, "keyframe": keyframe,
               "t_end_s": scene.run.t_end_s,
-              "requested_sample_dt_s": scene.run.sample_dt_s}
-    if mj.friction == "paper":
+              "requested_sample_dt_s": scene.run.sample_dt_s,
+              "noslip_iterations": mj.noslip_iterations}
+    if mode == "paper":
         _refuse_torsion(scene, "paper mode", " (use mujoco.friction=native)")
         expect(mj.condim in (None, 1), "mujoco.condim",
                "1 in paper mode (the harness applies the friction itself; frictionless "
@@ -280,7 +317,7 @@ def _mujoco_plan(scene: Scene, top: TopParams) -> tuple[MujocoPlan, set[str]]:
                  "mujoco.solimp"}
         law = None
         if scene.effects.sliding:
-            law = scene.friction
+            law = friction
             used |= friction_keys(law)
             if scene.is_set("mujoco.mu"):
                 law = replace(law, mu=float(mj.mu))
@@ -302,20 +339,23 @@ def _mujoco_plan(scene: Scene, top: TopParams) -> tuple[MujocoPlan, set[str]]:
         used.discard("mujoco.cone")
         used.discard("mujoco.impratio")
         return _with_sampling(plan, scene.run.sample_dt_s), used
-    # native: MuJoCo's own friction
+    # native: MuJoCo's own friction, the calibrated settings or the file's own
     e = scene.effects
-    calibrated = {} if loaded else calibrated_native_settings()
+    used.add("mujoco.calibrated")
+    use_calibration = mj.calibrated if mj.calibrated is not None else not loaded
+    calibrated = calibrated_native_settings() if use_calibration else {}
+    keep_file = loaded and not use_calibration
 
     def setting(key: str, value: Any) -> Any:
         used.add(f"mujoco.{key}")
         if scene.is_set(f"mujoco.{key}"):
             return value
-        if loaded:
+        if keep_file:
             return None
         return calibrated.get(key, value)
 
     # a loaded file keeps its contacts unless the effects ask for something else than sliding
-    effects_set = not e.sliding or e.torsional or e.rolling
+    effects_set = not e.sliding or e.torsional or e.rolling or not keep_file
     used.add("mujoco.condim")
     if scene.is_set("mujoco.condim"):
         condim = mj.condim
@@ -326,12 +366,12 @@ def _mujoco_plan(scene: Scene, top: TopParams) -> tuple[MujocoPlan, set[str]]:
     if scene.is_set("mujoco.mu"):
         mu = float(mj.mu)
         used.add("mujoco.mu")
-    elif loaded:
+    elif keep_file:
         mu = None
     elif "mu" in calibrated:
         mu = float(calibrated["mu"])
     else:
-        mu = scene.friction.mu
+        mu = friction.mu
         used.add("friction.mu")
     if not e.sliding:
         mu = 0.0
@@ -373,14 +413,44 @@ def _unused(set_keys: tuple[str, ...], used: set[str]) -> tuple[str, ...]:
                  if k not in used and not any(k.startswith(w) for w in wild))
 
 
-def resolve_plan(scene: Scene, engine: str, *, file_top: TopParams | None = None) -> RunPlan:
+_STATE_KEYS = ("theta0", "thetadot0", "Omega0", "n0", "uOX", "uOY")
+
+
+def _start(scene: Scene, file_top: FileTop | None) -> tuple[InitialState, int | None]:
+    """The initial state, and the loaded file's keyframe it comes from (None: the scene's)."""
+    state_set = [k for k in _STATE_KEYS if scene.is_set(f"init.{k}")]
+    if file_top is None or (scene.init_keyframe is None and (state_set or
+                                                              not file_top.keyframes)):
+        return scene.init, None
+    if scene.init_keyframe is not None:
+        expect(not state_set, "init", "either init.keyframe or the state (init.theta0, ...), "
+               "not both", f"init.keyframe and {', '.join('init.' + k for k in state_set)}")
+        names = file_top.keyframes
+        expect(scene.init_keyframe in names, "init.keyframe",
+               "the name of one of the file's keyframes (" + ", ".join(
+                   repr(n) for n in names if n) + ")" if any(names) else
+               "a file with named keyframes (this one has none)", scene.init_keyframe)
+        index = names.index(scene.init_keyframe)
+    else:
+        index = 0
+    init = file_top.keyframe_inits[index]
+    label = file_top.keyframes[index] or f"#{index}"
+    if init is None:
+        raise TippetopError(f"init.keyframe: expected a keyframe whose ball touches the table "
+                            f"(the paper's state of the top is defined there), got {label!r}; "
+                            "set the state with init.* instead")
+    return init, index
+
+
+def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) -> RunPlan:
     """The one resolution of a scene for an engine (see the module docstring).
 
     Args:
         scene: A validated scene.
-        engine: ``ode`` or ``mujoco`` (which MuJoCo mode: the scene's ``mujoco.friction``).
-        file_top: For a scene whose top is an MJCF file, its parameters as read from the file
-            (:func:`tippetop.mujoco_runner.model.load_top` reads them; this layer cannot).
+        engine: ``ode`` or ``mujoco`` (which MuJoCo mode: the scene's ``mujoco.friction``; the
+            file's own friction for a loaded top that does not set it).
+        file_top: For a scene whose top is an MJCF file, what the file says about it
+            (:func:`tippetop.mujoco_runner.model.file_top` reads it; this layer cannot).
 
     Raises:
         TippetopError: An unknown engine, or effects and settings the engine cannot run.
@@ -389,17 +459,22 @@ def resolve_plan(scene: Scene, engine: str, *, file_top: TopParams | None = None
     if scene.top_mjcf is not None:
         if file_top is None:
             raise TypeError("resolve_plan: a scene with top.mjcf needs file_top")
-        top = file_top
+        top = file_top.top
         used = {"top.mjcf"}
     else:
+        file_top = None
         top = scene.top
         used = {f"top.{k}" for k in SCHEMA["top"] if k != "mjcf"}
     used |= set(_ALWAYS_USED)
+    init, keyframe = _start(scene, file_top)
+    friction = scene.friction
+    if file_top is not None and file_top.mu is not None and not scene.is_set("friction.mu"):
+        friction = replace(friction, mu=file_top.mu)  # the law's mu: the file's, by default
     ode = mujoco = None
     if engine == "ode":
-        ode, more = _ode_plan(scene, top)
+        ode, more = _ode_plan(scene, top, init, friction)
     else:
-        mujoco, more = _mujoco_plan(scene, top)
+        mujoco, more = _mujoco_plan(scene, top, init, keyframe, friction)
     return RunPlan(scene=scene.name, engine=engine, ode=ode, mujoco=mujoco,
                    unused=_unused(scene.set_keys, used | more))
 
@@ -414,6 +489,7 @@ def mode_engine(mode: str) -> tuple[str, tuple[str, ...]]:
     return MODES[mode]
 
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "MujocoPlan", "OdePlan",
+__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "FileTop", "MujocoPlan",
+           "OdePlan",
            "PAPER_SOLREF", "RunPlan", "default_sample_dt", "friction_keys", "mode_engine",
            "native_condim", "resolve_plan", "sample_interval"]

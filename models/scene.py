@@ -30,6 +30,8 @@ Example (every key optional; the defaults are the paper's top and Fig. 3 start):
     [init]
     theta0 = 0.1
     n0 = 100.0
+    # keyframe = "spin"   # a loaded MJCF top: start from this keyframe of its file (by
+                          # default its first keyframe, unless [init] sets the state)
 
     [run]
     t_end_s = 8.0
@@ -73,11 +75,13 @@ SCHEMA: dict[str, dict[str, str]] = {
                  "coulomb_v_eps_mps": _F},
     "effects": {"sliding": _B, "torsional": _B, "rolling": _B, "torsional_mu": _F,
                 "rolling_mu": _F},
-    "init": {"theta0": _F, "thetadot0": _F, "Omega0": _F, "n0": _F, "uOX": _F, "uOY": _F},
+    "init": {"theta0": _F, "thetadot0": _F, "Omega0": _F, "n0": _F, "uOX": _F, "uOY": _F,
+             "keyframe": _S},
     "run": {"t_end_s": _F, "sample_dt_s": _F},
     "ode": {"formulation": _S, "rtol": _F, "atol": _F, "max_steps": _I, "singular_sin": _F},
     "mujoco": {"friction": _S, "timestep_s": _F, "integrator": _S, "cone": _S, "condim": _I,
-               "mu": _F, "solref": _L, "solimp": _L, "impratio": _F},
+               "mu": _F, "solref": _L, "solimp": _L, "impratio": _F, "noslip_iterations": _I,
+               "calibrated": _B},
     "outputs": {"table": _S, "summary": _B},
     "expect": {"outcome": _S, "theta_asymp": _F, "theta_asymp_tol": _F, "t_invert_max_s": _F,
                "note": _S},
@@ -159,6 +163,7 @@ class Scene:
     path: Path | None = None
     top_mjcf: Path | None = None
     set_keys: tuple[str, ...] = ()
+    init_keyframe: str | None = None
 
     def content_hash(self) -> str:
         """A hash of everything that defines the run (for caches), not of names or paths."""
@@ -326,6 +331,11 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
     top = TopParams.from_ratios(**top_d)
     friction = FrictionParams(**sec["friction"])
     effects = Effects(**sec["effects"])
+    keyframe = sec["init"].pop("keyframe", None)
+    if keyframe is not None:
+        expect(top_mjcf is not None, "init.keyframe",
+               "a top loaded from an MJCF file (top.mjcf or --mjcf), whose keyframe it names",
+               keyframe)
     init = InitialState(**sec["init"])
     run = RunSpec(**sec["run"])
     ode = OdeOptions(**sec["ode"])
@@ -356,4 +366,5 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
         path=path,
         top_mjcf=top_mjcf,
         set_keys=set_keys,
+        init_keyframe=keyframe,
     )

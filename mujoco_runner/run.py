@@ -185,7 +185,8 @@ def simulate_plan(plan: MujocoPlan, *,
     dt = float(top_model.model.opt.timestep)
     sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
     return simulate_top_model(top_model, plan.law, plan.init, t_end_s=plan.t_end_s,
-                              sample_dt_s=sample_dt, mode=plan.mode, progress=progress)
+                              sample_dt_s=sample_dt, mode=plan.mode, progress=progress,
+                              keyframe=plan.keyframe)
 
 
 def _check_paper_contacts(top_model: TopModel) -> None:
@@ -315,6 +316,7 @@ def simulate_top_model(
     mode: str = "paper",
     mu: float | None = None,
     progress: Callable[[float], None] | None = None,
+    keyframe: int | None = None,
 ) -> MujocoResult:
     """Simulate a compiled top as it is (integrator, timestep and contacts from its model).
 
@@ -330,6 +332,8 @@ def simulate_top_model(
         mu: Paper mode: overrides ``friction.mu``.
         progress: Called with the simulated time (s) now and then (at most every
             :data:`PROGRESS_INTERVAL_S` of wall time, and at the end).
+        keyframe: Start from this keyframe of the model exactly (``mj_resetDataKeyframe``),
+            not from ``init``.
 
     Returns:
         The run's :class:`MujocoResult`.
@@ -350,7 +354,10 @@ def simulate_top_model(
 
     data, scratch = mujoco.MjData(model), mujoco.MjData(model)
     qa, va = top_model.qpos_adr, top_model.dof_adr
-    data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(top_model, init)
+    if keyframe is None:
+        data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(top_model, init)
+    else:
+        mujoco.mj_resetDataKeyframe(model, data, keyframe)
     reader = _ContactReader(top_model)
     n_rows = n_intervals + 1
     qpos_s, qvel_s = np.empty((n_rows, 7)), np.empty((n_rows, 6))
@@ -373,6 +380,8 @@ def simulate_top_model(
     if law is not None:
         ran["law_mu"] = float(params["mu"])
     ran["sample_dt_s"] = steps * dt
+    ran["keyframe"] = None if keyframe is None else (
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, keyframe) or f"#{keyframe}")
     wall0 = time.perf_counter()
     next_report = wall0  # report t = 0 at once
     with callback:

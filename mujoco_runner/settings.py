@@ -38,7 +38,10 @@ def build_model(plan: MujocoPlan) -> TopModel:
                         solref=plan.solref, solimp=plan.solimp,
                         torsional=float(plan.torsional or 0.0),
                         rolling=float(plan.rolling or 0.0))
-        return load_top(xml)
+        top_model = load_top(xml)
+        if plan.noslip_iterations is not None:
+            top_model.model.opt.noslip_iterations = plan.noslip_iterations
+        return top_model
     top_model = load_top(plan.mjcf)
     apply_settings(top_model, plan)
     return top_model
@@ -86,6 +89,8 @@ def apply_settings(top_model: TopModel, plan: MujocoPlan) -> None:
                           else mujoco.mjtCone.mjCONE_ELLIPTIC)
     if plan.impratio is not None:
         model.opt.impratio = plan.impratio
+    if plan.noslip_iterations is not None:
+        model.opt.noslip_iterations = plan.noslip_iterations
     geoms, pairs = _contact_geoms(top_model), _top_pairs(top_model)
     for g in geoms:
         if plan.condim is not None:
@@ -131,6 +136,7 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
         else "elliptic",
         "impratio": float(opt.impratio),
         "noslip_iterations": int(opt.noslip_iterations),
+        "gravity_mps2": float(-opt.gravity[2]),
     }
     b = top_model.body_id
     for i in range(data.ncon):

@@ -13,15 +13,17 @@ rotating frame e_X = horizontal projection of k normalised, e_Y = e_Z x e_X).
 
 from __future__ import annotations
 
+import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from tippetop.models.errors import expect
 from tippetop.models.frames import initial_rigid_state, quat_mul, quat_to_mat
 from tippetop.models.observables import SIN_THETA_UNDEFINED
 from tippetop.models.params import InitialState
-from tippetop.mujoco_runner.model import TopModel
+from tippetop.models.plan import FileTop
+from tippetop.mujoco_runner.model import TopModel, load_top
 
 
 def initial_qpos_qvel(top_model: TopModel, init: InitialState) -> tuple[np.ndarray, np.ndarray]:
@@ -140,13 +142,23 @@ def initial_state_from_qpos_qvel(top_model: TopModel, qpos: np.ndarray,
                                  qvel: np.ndarray) -> InitialState:
     """The inverse of :func:`initial_qpos_qvel`: the paper's state of one (qpos, qvel).
 
-    Raises:
-        TippetopError: If the axis is vertical (|sin theta| < SIN_THETA_UNDEFINED), where Omega,
-            u_OX and u_OY are undefined.
+    With the axis vertical (|sin theta| < SIN_THETA_UNDEFINED) the paper's frame is not
+    defined by the tilt; it is then taken along the direction the axis starts to tilt in
+    (e_X = dk/dt / |dk/dt|; the world x axis if it does not tilt), where the paper's state is
+    (theta0 = 0 or pi, thetadot0 = |dk/dt|, Omega0 = 0, n0 = omega . k): the same motion,
+    turned about the vertical.
     """
     kin = kinematics(top_model, qpos, qvel)
-    expect(kin.sin_theta[0] >= SIN_THETA_UNDEFINED, "state", "a tilted axis (sin theta >= "
-           f"{SIN_THETA_UNDEFINED:g}) to define the paper's frame", float(kin.sin_theta[0]))
+    if kin.sin_theta[0] < SIN_THETA_UNDEFINED:
+        k = kin.k[0]
+        omega = kin.omega_radps[0]
+        k_dot = np.cross(omega, k)
+        rate = float(np.hypot(k_dot[0], k_dot[1]))
+        e_X = np.array([k_dot[0], k_dot[1], 0.0]) / rate if rate > 0 else np.array([1.0, 0, 0])
+        e_Y = np.cross([0.0, 0.0, 1.0], e_X)
+        v = kin.v_com_mps[0]
+        return InitialState(theta0=0.0 if k[2] > 0 else math.pi, thetadot0=rate, Omega0=0.0,
+                            n0=float(omega @ k), uOX=float(v @ e_X), uOY=float(v @ e_Y))
     ang = paper_angles(kin)
     return InitialState(
         theta0=float(ang["theta"][0]), thetadot0=float(ang["theta_dot"][0]),
@@ -156,9 +168,69 @@ def initial_state_from_qpos_qvel(top_model: TopModel, qpos: np.ndarray,
 
 
 __all__ = [
+    "KEYFRAME_TOUCH_R",
     "Kinematics",
+    "ball_table_mu",
+    "file_top",
     "initial_qpos_qvel",
     "initial_state_from_qpos_qvel",
+    "keyframe_state",
     "kinematics",
     "paper_angles",
 ]
+
+
+#: A keyframe's ball counts as on the table if its lowest point is within this of z = 0, in
+#: sphere radii (a file's keyframe may sit its ball a hair above or into the table).
+KEYFRAME_TOUCH_R = 0.05
+
+
+def keyframe_state(top_model: TopModel, index: int) -> InitialState | None:
+    """The paper's state of keyframe ``index`` of the model (None: its ball is off the table).
+
+    The paper's state assumes the ball on the table; a keyframe with the ball's lowest point
+    more than :data:`KEYFRAME_TOUCH_R` radii from z = 0 has none.
+    """
+    model = top_model.model
+    qa, va = top_model.qpos_adr, top_model.dof_adr
+    qpos = np.array(model.key_qpos[index][qa:qa + 7], dtype=float)
+    qvel = np.array(model.key_qvel[index][va:va + 6], dtype=float)
+    kin = kinematics(top_model, qpos, qvel)
+    gap = float(kin.centre_m[0, 2]) - top_model.top.R_m
+    if not (abs(gap) <= KEYFRAME_TOUCH_R * top_model.top.R_m and np.isfinite(qvel).all()):
+        return None
+    return initial_state_from_qpos_qvel(top_model, qpos, qvel)
+
+
+def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
+    """What a run plan needs of an MJCF top: its parameters and its keyframes' paper states."""
+    import mujoco
+
+    top_model = load_top(mjcf)
+    model = top_model.model
+    names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) or ""
+                  for i in range(model.nkey))
+    inits = tuple(keyframe_state(top_model, i) for i in range(model.nkey))
+    return FileTop(top=top_model.top, keyframes=names, keyframe_inits=inits,
+                   mu=ball_table_mu(top_model))
+
+
+def ball_table_mu(top_model: TopModel) -> float | None:
+    """The ball's sliding friction coefficient against the table, as MuJoCo mixes it.
+
+    A contact pair of the ball and a static geom gives its own; otherwise MuJoCo takes the
+    larger of the two geoms' coefficients (its default mixing), the table being the static
+    geoms the ball can collide with. None if the ball can touch no static geom.
+    """
+    model, ball = top_model.model, top_model.ball_geom_id
+    static = [g for g in range(model.ngeom)
+              if model.body_weldid[model.geom_bodyid[g]] == 0
+              and (model.geom_contype[g] & model.geom_conaffinity[ball]
+                   or model.geom_conaffinity[g] & model.geom_contype[ball])]
+    for p in range(model.npair):
+        if ball in (model.pair_geom1[p], model.pair_geom2[p]):
+            return float(model.pair_friction[p, 0])
+    if not static:
+        return None
+    return float(max(model.geom_friction[ball, 0], *(model.geom_friction[g, 0]
+                                                      for g in static)))

@@ -16,6 +16,7 @@ FRICTION_MODES: dict[str, str] = {
     "ode-coulomb_viscous": "reference ODE, Coulomb + viscous",
     "mujoco-paper": "MuJoCo, the paper's law applied at the contact point",
     "mujoco-native": "MuJoCo native friction, the calibrated settings",
+    "mujoco-file": "MuJoCo native friction, the model's own settings",
     "mujoco-native-elliptic": "MuJoCo native friction, elliptic cone",
     "mujoco-native-pyramidal": "MuJoCo native friction, pyramidal cone",
     "mujoco-native-condim4": "MuJoCo native friction + torsional (condim 4)",

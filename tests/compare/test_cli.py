@@ -128,12 +128,15 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
     """A loaded MJCF top: the theory keys plus its derived parameters, and a run in each engine
     (the ODE on the parameters derived from the file).
 
-    The file is written with paper mode's stiff contact (solref 0.5 ms, models.plan.PAPER_SOLREF;
-    a loaded top keeps its file's contact). Checks, 0.3 s from the Fig. 3 start:
+    The file is written with MuJoCo friction mu = 0.1 (the paper's, which the reference's law
+    then takes from the file) and paper mode's stiff contact (solref 0.5 ms,
+    models.plan.PAPER_SOLREF; a loaded top keeps its file's contact). Checks, 0.3 s from the
+    Fig. 3 start:
 
     * ODE: the parameters read back from the file are the top's, so theta_final equals the run
       of ``TopParams.from_ratios`` to 1e-8 rad (measured: identical).
-    * MuJoCo, paper mode, ``--set mujoco.timestep_s=1e-4``: 3000 steps (the set timestep ran,
+    * MuJoCo, ``--set mujoco.friction=paper`` (a loaded file runs its own friction unless told),
+      ``--set mujoco.timestep_s=1e-4``: 3000 steps (the set timestep ran,
       not the file's 2e-5 s), and theta_final within 2e-4 rad of the ODE's. Measured 3.9e-5 rad
       (1.9e-5 at 2e-5 s): the callback's one-evaluation lag of N, first order in dt. With the
       file's contact as soft as MuJoCo's default (solref 20 ms) the gap is 2.5e-3 rad.
@@ -144,7 +147,7 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
 
     top = TopParams.from_ratios(1.25, 0.15, 0.8)
     f = tmp_path / "top.xml"
-    f.write_text(make_mjcf(top, solref=PAPER_SOLREF))
+    f.write_text(make_mjcf(top, friction_mode="native", mu=0.1, solref=PAPER_SOLREF))
     d = json.loads(tippetop("theory", "--mjcf", str(f), "--json").stdout)
     assert THEORY_KEYS | {"R_m", "a_m", "A", "C", "M_kg", "A_over_C", "a_over_R"} <= set(d)
     assert d["group"] == "III" and d["A_over_C"] == pytest.approx(1.25, rel=1e-9)
@@ -152,7 +155,8 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
     runs = {}
     for engine in ("ode", "mujoco"):
         r = tippetop("simulate", "--mjcf", str(f), "--engine", engine, "--set",
-                     "run.t_end_s=0.3", "--set", "mujoco.timestep_s=1e-4", "--json")
+                     "run.t_end_s=0.3", "--set", "mujoco.timestep_s=1e-4", "--set",
+                     "mujoco.friction=paper", "--json")
         assert r.returncode == 0, r.stderr
         runs[engine] = json.loads(r.stdout)
     ref = simulate_ode(top, FrictionParams(), InitialState(), t_end_s=0.3)

@@ -12,13 +12,14 @@ from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING
 from tippetop.models.params import TopParams
 from tippetop.models.plan import (
     PAPER_SOLREF,
+    FileTop,
     default_sample_dt,
     resolve_plan,
     sample_interval,
 )
 from tippetop.models.scene import load_scene
 
-FILE_TOP = TopParams.from_ratios(1.0, 0.15)
+FILE_TOP = FileTop(TopParams.from_ratios(1.0, 0.15))
 
 
 def plan(engine: str, *overrides: str, scene: str | None = "fig3", file_top=None):
@@ -83,7 +84,7 @@ def test_native_mode_takes_the_calibration_for_what_the_scene_does_not_set() -> 
 def test_a_loaded_top_keeps_its_file_settings_unless_the_scene_sets_them() -> None:
     mjcf = "top.mjcf=\"/nonexistent/top.xml\""  # the plan does not open it: file_top is given
     p = plan("mujoco", mjcf, "mujoco.friction=native", file_top=FILE_TOP).mujoco
-    assert p.top == FILE_TOP and p.mjcf == Path("/nonexistent/top.xml")
+    assert p.top == FILE_TOP.top and p.mjcf == Path("/nonexistent/top.xml")
     assert (p.timestep_s, p.integrator, p.cone, p.impratio, p.condim, p.mu, p.solref,
             p.solimp, p.sample_dt_s) == (None,) * 9
     p = plan("mujoco", mjcf, "mujoco.friction=native", "mujoco.timestep_s=1e-4",
@@ -92,7 +93,7 @@ def test_a_loaded_top_keeps_its_file_settings_unless_the_scene_sets_them() -> No
     assert p.sample_dt_s == pytest.approx(1e-3, rel=1e-12)  # 10 steps: the timestep is known
     paper = plan("mujoco", mjcf, "mujoco.friction=paper", file_top=FILE_TOP).mujoco
     assert (paper.condim, paper.solref, paper.timestep_s) == (1, None, None)
-    assert plan("ode", mjcf, file_top=FILE_TOP).ode.top == FILE_TOP
+    assert plan("ode", mjcf, file_top=FILE_TOP).ode.top == FILE_TOP.top
 
 
 def test_a_loaded_top_needs_its_parameters() -> None:

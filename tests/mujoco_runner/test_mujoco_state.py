@@ -8,7 +8,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.models.errors import TippetopError
 from tippetop.models.frames import initial_rigid_state
 from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import InitialState, TopParams
@@ -115,5 +114,10 @@ def test_vertical_axis() -> None:
     assert ang["theta"][0] == 0.0 and ang["n"][0] == pytest.approx(50.0)
     assert math.isnan(ang["Omega"][0])
     assert ang["theta_dot"][0] == pytest.approx(0.5)  # leaving the pole
-    with pytest.raises(TippetopError, match="tilted axis"):
-        initial_state_from_qpos_qvel(tm, qpos, qvel)
+    # Upright, the paper's frame is the one the axis starts to tilt in (the initial state's
+    # phi = 0 frame), Omega0 = 0: the map back gives the state it came from (round-off only)
+    back = initial_state_from_qpos_qvel(tm, qpos, qvel)
+    assert (back.theta0, back.Omega0) == (0.0, 0.0)
+    assert (back.thetadot0, back.n0) == (pytest.approx(0.5, rel=1e-14), pytest.approx(50.0,
+                                                                                   rel=1e-14))
+    assert abs(back.uOX) < 1e-15 and abs(back.uOY) < 1e-15
