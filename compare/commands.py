@@ -79,7 +79,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             target = str(scene.path.parent / target)
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
     run = run_engine(scene, args.engine)
-    failed = run.status not in ("ok", "contact_lost")
+    failed = run.status not in ("ok", "contact_lost", "hop")
     if out_path is not None and not failed:
         write_table(run.table, out_path)
     if args.json:

@@ -19,7 +19,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.metrics import first_inversion_time, jellett_scale, summary
+from tippetop.compare.metrics import first_inversion_time, jellett_drift, jellett_scale, summary
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import ENGINES, RunPlan, mode_engine, resolve_plan
@@ -117,15 +117,23 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
     p = plan.ode
     assert p is not None
     res = simulate_ode(p.top, p.friction, p.init, t_end_s=p.t_end_s, sample_dt_s=p.sample_dt_s,
-                       options=p.options, progress=progress)
+                       options=p.options, progress=progress, stem=p.stem)
     top = p.top
     s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
-                contact_lost=res.status == "contact_lost", wall_s=res.wall_s,
+                contact_lost=res.status in ("contact_lost", "hop"), wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_rhs=res.n_rhs)
     s.update(status=res.status, message=res.message, friction_law=p.friction.law,
              formulation=p.options.formulation, rtol=p.options.rtol, atol=p.options.atol,
-             sample_dt_s=p.sample_dt_s, unused=list(plan.unused))
+             sample_dt_s=p.sample_dt_s, t_stem=res.t_stem,
+             phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
+                     for ph in res.phases], unused=list(plan.unused))
+    if p.stem is not None:
+        # Jellett's constant of each contact is conserved only within its phases
+        drifts = [ph["J_rel_drift"] for ph in res.phases if ph["J_rel_drift"] is not None]
+        s["J_rel_drift"] = max(drifts) if drifts else None
+        s["stem"] = {"kind": p.stem.kind, "offset_m": p.stem.offset_m,
+                     "radius_m": p.stem.radius_m}
     return EngineRun(res.table, s, res.status, res.message)
 
 
@@ -142,7 +150,7 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
              "contact_lost": "contact lost" in res.message, "wall_s": res.wall_s,
              "n_steps": res.n_steps}
         s.update(status=res.status, message=res.message, mode=p.mode, **ran,
-                 unused=list(plan.unused))
+                 t_stem=res.t_stem, phases=res.phases(), unused=list(plan.unused))
         return EngineRun(res.table.iloc[:0], s, res.status, res.message)
     top = p.top
     s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
@@ -150,8 +158,15 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
                 wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_steps=res.n_steps)
-    s.update(status=res.status, message=res.message, mode=p.mode, **ran,
-             unused=list(plan.unused))
+    t_stem = res.t_stem
+    if t_stem is not None:
+        # the table's J is the ball's (R L_z - a C n): conserved while the ball alone touches
+        before = res.table[res.table["t"] < t_stem]
+        s["J_rel_drift"] = (jellett_drift(before, jellett_scale(before, top.R_m, top.A_kgm2,
+                                                                top.C_kgm2))
+                            if len(before) > 1 else None)
+    s.update(status=res.status, message=res.message, mode=p.mode, **ran, t_stem=t_stem,
+             phases=res.phases(), unused=list(plan.unused))
     return EngineRun(res.table, s, res.status, res.message)
 
 

@@ -195,7 +195,7 @@ def render_scene(
     tables = {}
     for name in engines:
         run = run_plan(plans[name], progress=progress)
-        if run.status not in ("ok", "contact_lost") or len(run.table) == 0:
+        if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
             raise RunFailed(f"{name}: {run.message}")
         tables[name] = run.table
 

@@ -9,7 +9,8 @@ One template, filled by :func:`make_mjcf`. The model holds:
   geom also has mass 0), so the top is exactly the paper's loaded sphere.
 * ``ball``: the sphere geom of radius R, the only geom of the top that collides.
 * ``stem`` and ``spin_marker``: visual-only geoms (``contype = conaffinity = 0``, mass 0,
-  group 1) that make tilt and spin visible in renders.
+  group 1) that make tilt and spin visible in renders; with a ``stem`` argument, the stem
+  collides (a capsule or cylinder from S to its end, mass 0, the ball's contact settings).
 * ``<size nuserdata="HARNESS_USERDATA"/>``: room in ``mjData.userdata`` for the paper-mode
   callback's parameters (:mod:`mujoco_runner.friction_callback`), so the text works with it
   even when compiled by MuJoCo directly (:func:`mujoco_runner.model.load_model` appends its
@@ -26,7 +27,7 @@ import math
 from collections.abc import Sequence
 
 from tippetop.models.errors import expect
-from tippetop.models.params import TopParams
+from tippetop.models.params import StemParams, TopParams
 
 #: Friction modes: "paper" = frictionless contact plus the paper's law applied by the harness;
 #: "native" = MuJoCo's own contact friction.
@@ -44,7 +45,7 @@ MUJOCO_DEFAULT_ROLLING = 0.0001  # (m)
 
 #: Entries of ``mjData.userdata`` the paper-mode callback reserves at the END of the vector for
 #: its parameters and outputs (:mod:`mujoco_runner.friction_callback` defines their layout).
-HARNESS_USERDATA = 18
+HARNESS_USERDATA = 26
 
 #: Element names, shared with the runner (read quantities by name, never by index).
 TABLE_GEOM = "table"
@@ -134,6 +135,7 @@ def make_mjcf(
     solimp: Sequence[float] = (0.9, 0.95, 0.001, 0.5, 2.0),
     torsional: float = 0.0,
     rolling: float = 0.0,
+    stem: StemParams | None = None,
 ) -> str:
     """MJCF text of the loaded sphere on a table.
 
@@ -156,6 +158,9 @@ def make_mjcf(
             pass :data:`MUJOCO_DEFAULT_TORSIONAL` for MuJoCo's own default.
         rolling: Rolling friction coefficient (m), used when condim == 6. Zero by default:
             pass :data:`MUJOCO_DEFAULT_ROLLING` for MuJoCo's own default.
+        stem: A colliding stem with this end (a capsule for a rounded end, a cylinder for a
+            flat one, from the ball's centre to the end, massless, with the ball's contact
+            settings). None: the stem is visual only (the paper's loaded sphere).
 
     Returns:
         The MJCF document as text.
@@ -174,8 +179,16 @@ def make_mjcf(
         f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(solref)}" '
         f'solimp="{_nums(solimp)}"'
     )
-    stem_from, stem_to = _STEM_FROM_R * R, _STEM_TO_R * R
-    marker_pos = (_MARKER_HALF_R[0] * R + _STEM_RADIUS_R * R, 0.0, stem_to - _MARKER_HALF_R[2] * R)
+    stem_from, stem_to, stem_r = _STEM_FROM_R * R, _STEM_TO_R * R, _STEM_RADIUS_R * R
+    if stem is None:
+        stem_geom = (f'type="cylinder" fromto="0 0 {_num(stem_from)} 0 0 {_num(stem_to)}" '
+                     f'size="{_num(stem_r)}" mass="0" contype="0" conaffinity="0" group="1"')
+    else:
+        stem_to, stem_r = stem.offset_m, stem.radius_m
+        stem_geom = (f'type="{"capsule" if stem.kind == "sphere" else "cylinder"}" '
+                     f'fromto="0 0 0 0 0 {_num(stem_to)}" size="{_num(stem_r)}" mass="0" '
+                     f'{contact}')
+    marker_pos = (_MARKER_HALF_R[0] * R + stem_r, 0.0, stem_to - _MARKER_HALF_R[2] * R)
     marker_size = tuple(h * R for h in _MARKER_HALF_R)
     cam_dist = 12 * R
     return f"""<mujoco model="tippetop">
@@ -205,9 +218,7 @@ def make_mjcf(
                 diaginertia="{_nums((top.A_kgm2, top.A_kgm2, top.C_kgm2))}"/>
       <geom name="{BALL_GEOM}" type="sphere" size="{_num(R)}" mass="0" material="ball_mat"
             {contact}/>
-      <geom name="{STEM_GEOM}" type="cylinder" fromto="0 0 {_num(stem_from)} 0 0 {_num(stem_to)}"
-            size="{_num(_STEM_RADIUS_R * R)}" mass="0" contype="0" conaffinity="0" group="1"
-            material="stem_mat"/>
+      <geom name="{STEM_GEOM}" {stem_geom} material="stem_mat"/>
       <geom name="{MARKER_GEOM}" type="box" pos="{_nums(marker_pos)}" size="{_nums(marker_size)}"
             mass="0" contype="0" conaffinity="0" group="1" material="marker_mat"/>
     </body>

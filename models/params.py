@@ -184,6 +184,61 @@ class FrictionParams:
         return self.mu * top.M_kg * top.g_mps2 / self.Lambda_mps
 
 
+STEM_KINDS = ("sphere", "cylinder")
+#: A scene's default stem, in sphere radii: a rounded end 1.3 R from the ball's centre, of
+#: radius 0.2 R (it touches the table at theta = 2.23 rad, 128 degrees).
+DEFAULT_STEM_OFFSET_R = 1.3
+DEFAULT_STEM_RADIUS_R = 0.2
+
+
+@dataclass(frozen=True)
+class StemParams:
+    """The stem's end: a second contact surface on the symmetry axis, beyond the ball.
+
+    The stem points along +k from the ball's centre S (away from the centre of mass): a real
+    tippe top turns over onto it. Its end touches the table once the top has turned far enough.
+
+    Attributes:
+        kind: ``sphere`` (a rounded end: a sphere, or a capsule's cap) or ``cylinder`` (a flat
+            end that touches with its rim).
+        offset_m: Distance from S to the end's centre along k (m): the centre of the rounded
+            end's sphere, or of the flat end's disc.
+        radius_m: The rounded end's radius, or the flat end's rim radius (m).
+    """
+
+    kind: str
+    offset_m: float
+    radius_m: float
+
+    def __post_init__(self) -> None:
+        expect(self.kind in STEM_KINDS, "stem.kind", "|".join(STEM_KINDS), self.kind)
+        for name in ("offset_m", "radius_m"):
+            object.__setattr__(self, name, _finite_positive(f"stem.{name}", getattr(self, name)))
+
+    def touch_cos(self, R_m: float) -> float:
+        """The cosine of theta at which the end touches the table with the ball on it.
+
+        The end's lowest point is at height R + offset cos(theta) - r (rounded) or
+        R + offset cos(theta) - r sin(theta) (flat, rim) above the table.
+        """
+        l, r = self.offset_m, self.radius_m
+        if self.kind == "sphere":
+            return (r - R_m) / l
+        # R + l c = r sqrt(1 - c^2): squared, (l^2 + r^2) c^2 + 2 R l c + R^2 - r^2 = 0, whose
+        # larger root is the first touch as the tilt grows (the smaller one solves
+        # R + l c = -r sqrt(1 - c^2), the far side of the rim)
+        aa, bb, cc = l * l + r * r, 2.0 * R_m * l, R_m * R_m - r * r
+        disc = bb * bb - 4.0 * aa * cc
+        return (-bb + math.sqrt(max(disc, 0.0))) / (2.0 * aa)
+
+    def check_protrudes(self, R_m: float) -> None:
+        """Raise unless the end reaches beyond the ball (else it can never touch the table)."""
+        c = self.touch_cos(R_m)
+        expect(-1.0 < c < 1.0 and self.offset_m + self.radius_m > R_m, "stem",
+               f"an end that reaches beyond the ball of radius R = {R_m:g} m (offset + "
+               "radius > R)", f"offset {self.offset_m:g} m, radius {self.radius_m:g} m")
+
+
 @dataclass(frozen=True)
 class InitialState:
     """Initial state in the paper's variables (Sec. 2).
@@ -216,6 +271,8 @@ __all__ = [
     "FRICTION_LAWS",
     "FrictionParams",
     "InitialState",
+    "STEM_KINDS",
+    "StemParams",
     "TippetopError",
     "TopParams",
 ]

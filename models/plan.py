@@ -43,7 +43,7 @@ from tippetop.models.errors import TippetopError, expect
 from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL
 from tippetop.models.modes import MODES
 from tippetop.models.options import OdeOptions
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.models.scene import SCHEMA, Scene
 
 #: The engines a plan can be made for.
@@ -62,7 +62,7 @@ _GRID_RTOL = 1e-9
 
 #: Keys every engine reads.
 _ALWAYS_USED = ("scene.*", "outputs.*", "expect.*", "init.*", "run.*", "effects.sliding",
-                "effects.torsional", "effects.rolling")
+                "effects.torsional", "effects.rolling", "effects.stem")
 
 
 def default_sample_dt(t_end_s: float) -> float:
@@ -105,12 +105,17 @@ class FileTop:
         mu: The sliding friction coefficient of the ball's contact with the table, as MuJoCo
             mixes it (the larger of the two geoms', or the contact pair's): the friction
             laws' mu unless the scene sets ``friction.mu``. None: not known.
+        stem: The stem's end as the reference models it, from the file's colliding geoms
+            (None: the file has none the reference can model).
+        stem_note: One line on what was found (which geom, or why none).
     """
 
     top: TopParams
     keyframes: tuple[str, ...] = ()
     keyframe_inits: tuple[InitialState | None, ...] = ()
     mu: float | None = None
+    stem: StemParams | None = None
+    stem_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -124,6 +129,7 @@ class OdePlan:
         options: Formulation and tolerances.
         t_end_s: Simulated time (s).
         sample_dt_s: Row spacing of the observables table (s).
+        stem: The stem's end, a second contact surface (``effects.stem``), or None.
     """
 
     top: TopParams
@@ -132,6 +138,7 @@ class OdePlan:
     options: OdeOptions
     t_end_s: float
     sample_dt_s: float
+    stem: StemParams | None = None
 
 
 @dataclass(frozen=True)
@@ -163,6 +170,10 @@ class MujocoPlan:
         noslip_iterations: MuJoCo's noslip solver iterations.
         keyframe: Start from this keyframe of the loaded file (its index), not from ``init``
             (which then holds the keyframe's paper state, for the reference and the reports).
+        stem: The stem's end (``effects.stem``): a generated top gets a colliding stem of this
+            shape; for a loaded file, the reference's reading of the file's stem geom.
+        stem_collides: A loaded file's colliding geoms other than the ball: None keeps them,
+            False makes them non-colliding (``effects.stem = false``).
     """
 
     mode: str
@@ -185,6 +196,8 @@ class MujocoPlan:
     rolling: float | None
     noslip_iterations: int | None = None
     keyframe: int | None = None
+    stem: StemParams | None = None
+    stem_collides: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -275,8 +288,8 @@ def _refuse_torsion(scene: Scene, who: str, fix: str) -> None:
                             f"torsional = {e.torsional}, rolling = {e.rolling}")
 
 
-def _ode_plan(scene: Scene, top: TopParams, init: InitialState,
-              friction: FrictionParams) -> tuple[OdePlan, set[str]]:
+def _ode_plan(scene: Scene, top: TopParams, init: InitialState, friction: FrictionParams,
+              stem: StemParams | None) -> tuple[OdePlan, set[str]]:
     _refuse_torsion(scene, "the reference ODE", "")
     used = {"ode.formulation", "ode.rtol", "ode.atol", "ode.max_steps"}
     if scene.ode.formulation == "paper":
@@ -287,12 +300,17 @@ def _ode_plan(scene: Scene, top: TopParams, init: InitialState,
         friction = replace(friction, law="none")
     t_end = scene.run.t_end_s
     dt = scene.run.sample_dt_s if scene.run.sample_dt_s is not None else default_sample_dt(t_end)
+    if stem is not None:
+        expect(scene.ode.formulation == "vector", "ode.formulation",
+               "vector with a stem (effects.stem; the paper's equations have the ball only)",
+               scene.ode.formulation)
     return OdePlan(top=top, friction=friction, init=init, options=scene.ode,
-                   t_end_s=t_end, sample_dt_s=dt), used
+                   t_end_s=t_end, sample_dt_s=dt, stem=stem), used
 
 
 def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int | None,
-                 friction: FrictionParams) -> tuple[MujocoPlan, set[str]]:
+                 friction: FrictionParams, stem: StemParams | None
+                 ) -> tuple[MujocoPlan, set[str]]:
     mj = scene.mujoco
     loaded = scene.top_mjcf is not None
     used = {"mujoco.friction", "mujoco.noslip_iterations"}
@@ -304,7 +322,11 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         used.add(f"mujoco.{key}")
         return value if not loaded or scene.is_set(f"mujoco.{key}") else None
 
+    stem_collides = None
+    if loaded and scene.effects.stem is False:
+        stem_collides = False
     common = {"top": top, "mjcf": scene.top_mjcf, "init": init, "keyframe": keyframe,
+              "stem": stem, "stem_collides": stem_collides,
               "t_end_s": scene.run.t_end_s,
               "requested_sample_dt_s": scene.run.sample_dt_s,
               "noslip_iterations": mj.noslip_iterations}
@@ -470,11 +492,21 @@ def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) 
     friction = scene.friction
     if file_top is not None and file_top.mu is not None and not scene.is_set("friction.mu"):
         friction = replace(friction, mu=file_top.mu)  # the law's mu: the file's, by default
+    # the stem: a scene's own when effects.stem; a loaded file's unless effects.stem = false
+    if file_top is not None:
+        stem = file_top.stem if scene.effects.stem is not False else None
+        if scene.effects.stem and stem is None:
+            raise TippetopError(f"effects.stem: expected a file whose stem the reference can "
+                                f"model, got {file_top.stem_note}")
+    else:
+        stem = scene.stem if scene.effects.stem else None
+        if stem is not None:
+            used.add("stem.*")
     ode = mujoco = None
     if engine == "ode":
-        ode, more = _ode_plan(scene, top, init, friction)
+        ode, more = _ode_plan(scene, top, init, friction, stem)
     else:
-        mujoco, more = _mujoco_plan(scene, top, init, keyframe, friction)
+        mujoco, more = _mujoco_plan(scene, top, init, keyframe, friction, stem)
     return RunPlan(scene=scene.name, engine=engine, ode=ode, mujoco=mujoco,
                    unused=_unused(scene.set_keys, used | more))
 

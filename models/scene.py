@@ -26,6 +26,13 @@ Example (every key optional; the defaults are the paper's top and Fig. 3 start):
     sliding = true
     torsional = false     # MuJoCo only (condim 4)
     rolling = false       # MuJoCo only (condim 6)
+    stem = false          # the stem's end as a second contact (both engines); a loaded
+                          # MJCF top: on when its file has a colliding stem
+
+    [stem]                # the stem's end on the axis, beyond the ball (effects.stem)
+    kind = "sphere"       # sphere (rounded, or a capsule's cap) | cylinder (flat, rim contact)
+    offset_m = 0.0195     # from the ball's centre to the end's centre (default 1.3 R)
+    radius_m = 0.003      # the end's radius (default 0.2 R)
 
     [init]
     theta0 = 0.1
@@ -59,7 +66,14 @@ from typing import Any
 
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.options import MujocoOptions, OdeOptions
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.params import (
+    DEFAULT_STEM_OFFSET_R,
+    DEFAULT_STEM_RADIUS_R,
+    FrictionParams,
+    InitialState,
+    StemParams,
+    TopParams,
+)
 from tippetop.models.resources import data_path
 
 SCENES_DIR = data_path("tippetop.models", "scenes")
@@ -73,7 +87,8 @@ SCHEMA: dict[str, dict[str, str]] = {
             "g_mps2": _F, "mjcf": _S},
     "friction": {"law": _S, "mu": _F, "Lambda_mps": _F, "viscous_Nspm": _F,
                  "coulomb_v_eps_mps": _F},
-    "effects": {"sliding": _B, "torsional": _B, "rolling": _B, "torsional_mu": _F,
+    "stem": {"kind": _S, "offset_m": _F, "radius_m": _F},
+    "effects": {"sliding": _B, "torsional": _B, "rolling": _B, "stem": _B, "torsional_mu": _F,
                 "rolling_mu": _F},
     "init": {"theta0": _F, "thetadot0": _F, "Omega0": _F, "n0": _F, "uOX": _F, "uOY": _F,
              "keyframe": _S},
@@ -99,6 +114,9 @@ class Effects:
         sliding: Sliding friction at the contact point (both engines).
         torsional: Torsional friction about the contact normal (MuJoCo, condim 4).
         rolling: Rolling friction (MuJoCo, condim 6).
+        stem: The stem's end is a second contact surface (both engines): the top can turn
+            over onto it. Off: the paper's loaded sphere. None: off, except for a top loaded
+            from an MJCF file, which has a stem when its file does.
         torsional_mu: MuJoCo torsional coefficient (m); None keeps MuJoCo's default.
         rolling_mu: MuJoCo rolling coefficient (m); None keeps MuJoCo's default.
     """
@@ -106,6 +124,7 @@ class Effects:
     sliding: bool = True
     torsional: bool = False
     rolling: bool = False
+    stem: bool | None = None
     torsional_mu: float | None = None
     rolling_mu: float | None = None
 
@@ -163,6 +182,7 @@ class Scene:
     path: Path | None = None
     top_mjcf: Path | None = None
     set_keys: tuple[str, ...] = ()
+    stem: StemParams | None = None
     init_keyframe: str | None = None
 
     def content_hash(self) -> str:
@@ -344,6 +364,12 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
         if k in mj:
             mj[k] = tuple(mj[k])
     mujoco = MujocoOptions(**mj)
+    st = sec["stem"]
+    stem = StemParams(kind=st.get("kind", "sphere"),
+                      offset_m=st.get("offset_m", DEFAULT_STEM_OFFSET_R * top.R_m),
+                      radius_m=st.get("radius_m", DEFAULT_STEM_RADIUS_R * top.R_m))
+    if effects.stem and top_mjcf is None:
+        stem.check_protrudes(top.R_m)
     outputs = Outputs(**sec["outputs"])
     exp = sec["expect"]
     if "outcome" in exp:
@@ -367,4 +393,5 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
         top_mjcf=top_mjcf,
         set_keys=set_keys,
         init_keyframe=keyframe,
+        stem=stem,
     )

@@ -85,7 +85,7 @@ from numba.extending import intrinsic
 
 from tippetop.models.errors import expect
 from tippetop.models.mjcf import HARNESS_USERDATA
-from tippetop.models.params import FrictionParams
+from tippetop.models.params import FrictionParams, StemParams
 from tippetop.mujoco_runner.layout import StructLayout, StructLayoutError, struct_layout
 from tippetop.mujoco_runner.model import TopModel
 from tippetop.reference_ode.friction import LAW_TERMS, friction_terms
@@ -97,13 +97,16 @@ USERDATA_SIZE = HARNESS_USERDATA
 _U_MAGIC, _U_MODEL, _U_COULOMB, _U_VISC_ON, _U_MU, _U_LAMBDA, _U_VISCOUS, _U_VEPS = range(8)
 _U_R, _U_CENTRE = 8, 9  # centre: 9, 10, 11
 _U_QPOS_ADR, _U_DOF_ADR = 12, 13
-_U_LAST_FX, _U_LAST_FY, _U_LAST_N, _U_CALLS = 14, 15, 16, 17
+# the stem's end (a second contact point): kind 0 none, 1 rounded, 2 flat (rim); its offset
+# from S along the axis and its radius; the axis k in the body frame (17, 18, 19)
+_U_STEM_KIND, _U_STEM_L, _U_STEM_R, _U_AXIS = 14, 15, 16, 17
+_U_LAST_FX, _U_LAST_FY, _U_LAST_N, _U_LAST_POWER, _U_LAST_N2, _U_CALLS = 20, 21, 22, 23, 24, 25
 if _U_CALLS >= USERDATA_SIZE:  # pragma: no cover - a layout edit without the constant
     raise ImportError(f"the callback's block needs {_U_CALLS + 1} userdata entries, "
                       f"models.mjcf.HARNESS_USERDATA is {USERDATA_SIZE}")
-#: The marker's bits (ASCII "TTopCB01", little-endian: a normal float64, never NaN). The last
+#: The marker's bits (ASCII "TTopCB02", little-endian: a normal float64, never NaN). The last
 #: two characters version the block's layout.
-_MAGIC = int.from_bytes(b"TTopCB01", "little")
+_MAGIC = int.from_bytes(b"TTopCB02", "little")
 
 
 class StaleCallbackWarning(UserWarning):
@@ -216,22 +219,73 @@ def _passive(m, d):  # pragma: no cover - runs compiled, inside MuJoCo
     ax = r00 * cx + r01 * cy + r02 * cz
     ay = r10 * cx + r11 * cy + r12 * cz
     az = r20 * cx + r21 * cy + r22 * cz - u[_U_R]
-    # Velocity of the material point at P: v_origin + omega x arm.
-    vx = qvel[0] + oy * az - oz * ay
-    vy = qvel[1] + oz * ax - ox * az
     N = qcon[2]
     if N < 0.0:
         N = 0.0
-    fx, fy = friction_xy(vx, vy, N, np.int64(u[_U_COULOMB]), np.int64(u[_U_VISC_ON]),
-                         u[_U_MU], u[_U_LAMBDA], u[_U_VISCOUS], u[_U_VEPS])
-    # Torque about the body origin, arm x F with F = (fx, fy, 0), rotated into the body frame.
-    tx, ty, tz = -az * fy, az * fx, ax * fy - ay * fx
+    ck, visc = np.int64(u[_U_COULOMB]), np.int64(u[_U_VISC_ON])
+    mu, lam, cv, ve = u[_U_MU], u[_U_LAMBDA], u[_U_VISCOUS], u[_U_VEPS]
+    N1, N2 = N, 0.0
+    bx = by = bz = 0.0
+    stem = u[_U_STEM_KIND]
+    if stem != 0.0:
+        # the stem's end: Q = S + l k; its lowest point Q - r e_z (rounded) or Q + r u (rim)
+        kbx, kby, kbz = u[_U_AXIS], u[_U_AXIS + 1], u[_U_AXIS + 2]
+        kx = r00 * kbx + r01 * kby + r02 * kbz
+        ky = r10 * kbx + r11 * kby + r12 * kbz
+        kz = r20 * kbx + r21 * kby + r22 * kbz
+        sl, sr = u[_U_STEM_L], u[_U_STEM_R]
+        bx, by, bz = ax + sl * kx, ay + sl * ky, az + u[_U_R] + sl * kz - sr
+        if stem == 2.0:
+            s = np.sqrt(kx * kx + ky * ky)
+            if s > 0.0:
+                bx += sr * kz * kx / s
+                by += sr * kz * ky / s
+                bz += sr - sr * s
+            else:
+                bz += sr
+        # the normal force on each point: the constraint's force and torque (frictionless
+        # contacts: normal forces only) split between the two points that touch the table
+        z1, z2 = qpos[2] + az, qpos[2] + bz
+        if z1 <= 0.0 and z2 <= 0.0:
+            tx_b, ty_b, tz_b = qcon[3], qcon[4], qcon[5]
+            tx = r00 * tx_b + r01 * ty_b + r02 * tz_b
+            ty = r10 * tx_b + r11 * ty_b + r12 * tz_b
+            # torque = N1 (a x e_z) + N2 (b x e_z), (x, y) x e_z = (y, -x); N1 + N2 = N
+            ux, uy = by - ay, -(bx - ax)
+            rx, ry = tx - N * ay, ty + N * ax
+            den = ux * ux + uy * uy
+            N2 = (rx * ux + ry * uy) / den if den > 0.0 else 0.5 * N
+            N2 = min(max(N2, 0.0), N)
+            N1 = N - N2
+        elif z2 < z1:
+            N1, N2 = 0.0, N
+    # velocity of each material point: v_origin + omega x arm; F = law(v, N) at each
+    fx = fy = power = 0.0
+    tx = ty = tz = 0.0
+    for point in range(2):
+        if point == 0:
+            px, py, pz, Np = ax, ay, az, N1
+        else:
+            if stem == 0.0:
+                break
+            px, py, pz, Np = bx, by, bz, N2
+        vx = qvel[0] + oy * pz - oz * py
+        vy = qvel[1] + oz * px - ox * pz
+        Fx, Fy = friction_xy(vx, vy, Np, ck, visc, mu, lam, cv, ve)
+        fx += Fx
+        fy += Fy
+        power += Fx * vx + Fy * vy
+        # torque about the body origin: arm x F with F = (Fx, Fy, 0)
+        tx += -pz * Fy
+        ty += pz * Fx
+        tz += px * Fy - py * Fx
     qfrc[0] += fx
     qfrc[1] += fy
     qfrc[3] += r00 * tx + r10 * ty + r20 * tz
     qfrc[4] += r01 * tx + r11 * ty + r21 * tz
     qfrc[5] += r02 * tx + r12 * ty + r22 * tz
     u[_U_LAST_FX], u[_U_LAST_FY], u[_U_LAST_N] = fx, fy, N
+    u[_U_LAST_POWER], u[_U_LAST_N2] = power, N2
 
 
 _SIGNATURE = types.void(types.voidptr, types.voidptr)
@@ -303,7 +357,7 @@ def _check_userdata(model: mujoco.MjModel) -> None:
 
 
 def userdata_block(top_model: TopModel, friction: FrictionParams, *,
-                   mu: float | None = None) -> np.ndarray:
+                   mu: float | None = None, stem: StemParams | None = None) -> np.ndarray:
     """The :data:`USERDATA_SIZE` values that arm an mjData of ``top_model.model``.
 
     Write them into the LAST entries of its userdata (``data.userdata[-USERDATA_SIZE:]``, or
@@ -325,6 +379,10 @@ def userdata_block(top_model: TopModel, friction: FrictionParams, *,
     block[_U_R] = top_model.top.R_m
     block[_U_CENTRE:_U_CENTRE + 3] = top_model.centre_body_m
     block[_U_QPOS_ADR], block[_U_DOF_ADR] = top_model.qpos_adr, top_model.dof_adr
+    if stem is not None:
+        block[_U_STEM_KIND] = 2.0 if stem.kind == "cylinder" else 1.0
+        block[_U_STEM_L], block[_U_STEM_R] = stem.offset_m, stem.radius_m
+    block[_U_AXIS:_U_AXIS + 3] = top_model.axis_body
     return block
 
 
@@ -393,8 +451,12 @@ class PaperFriction:
     """
 
     def __init__(self, top_model: TopModel, data: mujoco.MjData, friction: FrictionParams,
-                 *, mu: float | None = None) -> None:
+                 *, mu: float | None = None, stem: StemParams | None = None) -> None:
         """Prepare (not install) the callback for ``data`` of ``top_model.model``.
+
+        With ``stem``, the law acts on the ball or on the stem's end, whichever touches the
+        table, or on both, each with its share of the normal force (the constraint's force
+        and torque on the top, split between the two points).
 
         Raises:
             TippetopError: If the model has fewer than :data:`USERDATA_SIZE` userdata entries.
@@ -403,7 +465,7 @@ class PaperFriction:
         self.top_model = top_model
         self.data = data
         self.params = law_parameters(friction, top_model, mu)
-        self._block = userdata_block(top_model, friction, mu=mu)
+        self._block = userdata_block(top_model, friction, mu=mu, stem=stem)
         model = top_model.model
         if data.userdata.size != model.nuserdata or data.qvel.size != model.nv:
             raise ValueError("data is not an mjData of top_model.model (sizes differ)")
@@ -443,6 +505,11 @@ class PaperFriction:
         """(Fx, Fy, N) of the callback's last call (N, N, N); zeros before the first."""
         u = self._userdata()
         return float(u[_U_LAST_FX]), float(u[_U_LAST_FY]), float(u[_U_LAST_N])
+
+    @property
+    def last_power(self) -> float:
+        """The friction power of the callback's last call (W), over both points."""
+        return float(self._userdata()[_U_LAST_POWER])
 
     def force(self, v_P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """The law's world force (n, 3) for slip velocities ``v_P`` (n, 3) and normal forces N."""

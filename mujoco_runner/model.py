@@ -35,7 +35,7 @@ import numpy as np
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import HARNESS_USERDATA
-from tippetop.models.params import TopParams
+from tippetop.models.params import StemParams, TopParams
 
 #: Relative tolerance for "A1 == A2" and for "the centre of mass is on the axis" (in units of R).
 AXISYMMETRY_RTOL = 1e-9
@@ -236,6 +236,60 @@ def _axisymmetric_about_k(top_model: TopModel, g: int) -> bool:
     return False
 
 
+def stem_geoms(top_model: TopModel) -> list[int]:
+    """The top's colliding geoms other than the ball (a stem, say), in id order."""
+    model, b = top_model.model, top_model.body_id
+    return [g for g in range(model.ngeom)
+            if g != top_model.ball_geom_id and model.geom_bodyid[g] == b
+            and (model.geom_contype[g] != 0 or model.geom_conaffinity[g] != 0)]
+
+
+def stem_from_model(top_model: TopModel) -> tuple[StemParams | None, str]:
+    """The stem's end as the reference models it, from the top's colliding geoms.
+
+    A sphere, capsule or cylinder on the symmetry axis and aligned with it, beyond the ball's
+    centre along k, gives the end: a sphere's centre and radius, a capsule's far cap, a
+    cylinder's far face and rim. Of several, the one that reaches the table first (the
+    smallest tilt). Other colliding geoms (a box, an off-axis geom) cannot be a stem of the
+    reference: their presence is said in the returned note.
+
+    Returns:
+        (the stem, or None; a one-line note on what was found).
+    """
+    model, k, S = top_model.model, top_model.axis_body, top_model.centre_body_m
+    R = top_model.top.R_m
+    found: list[tuple[float, StemParams, str]] = []
+    others: list[str] = []
+    for g in stem_geoms(top_model):
+        name = _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
+        kind = _SUPPORTED_TOUCH_TYPES.get(int(model.geom_type[g]))
+        if kind not in ("sphere", "capsule", "cylinder") or not _axisymmetric_about_k(
+                top_model, g):
+            others.append(name)
+            continue
+        along = float((np.array(model.geom_pos[g], dtype=float) - S) @ k)
+        r = float(model.geom_size[g, 0])
+        half = 0.0 if kind == "sphere" else float(model.geom_size[g, 1])
+        stem = StemParams(kind="cylinder" if kind == "cylinder" else "sphere",
+                          offset_m=along + half, radius_m=r) if along + half > 0 else None
+        if stem is None or not (stem.offset_m + stem.radius_m > R):
+            continue  # inside the ball, or on the ballast's side: never the stem
+        c = stem.touch_cos(R)
+        if -1.0 < c < 1.0:
+            found.append((math.acos(c), stem, name))
+    if not found:
+        note = "no stem: no colliding sphere, capsule or cylinder on the axis reaches beyond " \
+               "the ball" + (f" (other colliding geoms: {', '.join(others)})" if others else "")
+        return None, note
+    tilt, stem, name = min(found, key=lambda f: f[0])
+    note = (f"stem: geom '{name}', a {'flat' if stem.kind == 'cylinder' else 'rounded'} end "
+            f"{stem.offset_m * 1e3:.4g} mm from the ball's centre, radius "
+            f"{stem.radius_m * 1e3:.4g} mm, touching at theta = {tilt:.4f} rad")
+    if others:
+        note += f"; not modelled by the reference: {', '.join(others)}"
+    return stem, note
+
+
 def touch_tilt(top_model: TopModel, geom_id: int) -> float | None:
     """Smallest tilt theta (rad) at which a geom of the top touches the table.
 
@@ -300,8 +354,9 @@ def _extra_geom_warnings(top_model: TopModel) -> tuple[str, ...]:
                 msg = f"{head} ({kind}) but never touches the table at any tilt"
             else:
                 msg = (f"{head} ({kind}): it touches the table at tilt theta = {tilt:.4f} rad "
-                       f"({math.degrees(tilt):.1f} deg); the paper's loaded sphere has no such "
-                       "geom, so runs past that tilt are not comparable with the reference")
+                       f"({math.degrees(tilt):.1f} deg), where the paper's loaded sphere has "
+                       "nothing; the reference follows the top onto it only as a stem (a "
+                       "sphere, capsule or cylinder on the axis, effects.stem)")
         out.append(msg)
     return tuple(out)
 
@@ -372,6 +427,8 @@ __all__ = [
     "load_model",
     "load_top",
     "top_from_mjcf_file",
+    "stem_from_model",
+    "stem_geoms",
     "top_from_model",
     "touch_tilt",
 ]

@@ -34,6 +34,8 @@ def observables_table(
     N: np.ndarray,
     F_fric: np.ndarray,
     tau_fric: np.ndarray | None = None,
+    *,
+    power: np.ndarray | None = None,
 ) -> pd.DataFrame:
     """The observables table for n sampled states.
 
@@ -46,6 +48,8 @@ def observables_table(
         F_fric: Friction force on the top at P, world frame (N), shape (n, 3).
         tau_fric: Friction torque on the top (torsional and rolling, N m), world frame, shape
             (n, 3); None means zero.
+        power: The friction power (W), shape (n,), when it is known as applied (the paper
+            mode's callback, at each point it acted on); None: F . v_P at the ball's P.
 
     Returns:
         A DataFrame with exactly ``COLUMNS + EXTRA_COLUMNS``, one row per sample.
@@ -78,6 +82,8 @@ def observables_table(
     P_fric = np.einsum("ni,ni->n", np.asarray(F_fric, dtype=float), v_P)
     if tau_fric is not None:
         P_fric = P_fric + np.einsum("ni,ni->n", np.asarray(tau_fric, dtype=float), omega)
+    if power is not None:
+        P_fric = np.asarray(power, dtype=float)
     quat = qpos[:, 3:7] / np.linalg.norm(qpos[:, 3:7], axis=1, keepdims=True)
     columns = {
         "t": np.asarray(t_s, dtype=float),

@@ -32,19 +32,20 @@ import pandas as pd
 from tippetop.models.errors import expect
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import FRICTION_MODES
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.models.plan import MujocoPlan, sample_interval
 from tippetop.mujoco_runner.friction_callback import (
     PaperFriction,
     compiled_callback,
-    law_force,
     law_parameters,
 )
 from tippetop.mujoco_runner.model import TopModel
 from tippetop.mujoco_runner.observables import observables_table
 from tippetop.mujoco_runner.settings import build_model, integrator_name, settings_that_ran
-from tippetop.mujoco_runner.state import initial_qpos_qvel, kinematics
+from tippetop.mujoco_runner.state import initial_qpos_qvel
 
+#: The top's contacts at a sample: none, the ball, another geom (the stem), both.
+CONTACT_LABELS = ("none", "ball", "stem", "both")
 #: Deepest admissible penetration of the ball into the table, in radii (the soft contact sinks
 #: ~0.025 R at rest with the default solref; more than this means the contact failed).
 MAX_PENETRATION_R = 0.2
@@ -79,6 +80,8 @@ class MujocoResult:
         warnings: Warnings about the model (extra colliding geoms).
         ran: What ran, read back from the compiled model and the top's contact
             (:func:`settings_that_ran`), and the row spacing ``sample_dt_s``.
+        contacts: Per sample, which of the top's geoms touched the table (a code of
+            :data:`CONTACT_LABELS`).
     """
 
     table: pd.DataFrame
@@ -89,6 +92,28 @@ class MujocoResult:
     mode: str
     warnings: tuple[str, ...] = field(default=())
     ran: dict[str, Any] = field(default_factory=dict)
+    contacts: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+
+    def phases(self) -> list[dict[str, Any]]:
+        """The sampled contact phases: runs of samples with the same contacts.
+
+        Each is ``{"contact", "t_start", "t_end"}``, ``contact`` one of :data:`CONTACT_LABELS`.
+        """
+        t = self.table["t"].to_numpy()
+        out: list[dict[str, Any]] = []
+        for i, code in enumerate(self.contacts):
+            label = CONTACT_LABELS[int(code)]
+            if out and out[-1]["contact"] == label:
+                out[-1]["t_end"] = float(t[i])
+            else:
+                out.append({"contact": label, "t_start": float(t[i]), "t_end": float(t[i])})
+        return out
+
+    @property
+    def t_stem(self) -> float | None:
+        """First sampled time another geom of the top (the stem) touched the table, or None."""
+        hit = np.flatnonzero(self.contacts & 2)
+        return float(self.table["t"].iloc[hit[0]]) if hit.size else None
 
     @property
     def ok(self) -> bool:
@@ -186,7 +211,7 @@ def simulate_plan(plan: MujocoPlan, *,
     sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
     return simulate_top_model(top_model, plan.law, plan.init, t_end_s=plan.t_end_s,
                               sample_dt_s=sample_dt, mode=plan.mode, progress=progress,
-                              keyframe=plan.keyframe)
+                              keyframe=plan.keyframe, stem=plan.stem)
 
 
 def _check_paper_contacts(top_model: TopModel) -> None:
@@ -246,26 +271,45 @@ class _ContactReader:
     def __init__(self, top_model: TopModel) -> None:
         self.model = top_model.model
         self.body = top_model.body_id
+        self.ball = top_model.ball_geom_id
+        self.qpos_adr, self.dof_adr = top_model.qpos_adr, top_model.dof_adr
+        #: the friction power of the last :meth:`read` (W): each contact's tangential force
+        #: and torque on the material point it acts on
+        self.power = 0.0
         self._f6 = np.zeros(6)
+        #: which of the top's geoms touched at the last :meth:`read`: code of
+        #: :data:`CONTACT_LABELS` (0 none, 1 the ball, 2 another geom: the stem, 3 both)
+        self.touching = 0
 
     def read(self, data: mujoco.MjData) -> tuple[float, np.ndarray, np.ndarray]:
         """(N, F (3,), tau (3,)) on the top, world frame, summed over its contacts."""
         N, F, tau = 0.0, np.zeros(3), np.zeros(3)
+        self.touching = 0
+        self.power = 0.0
         if data.ncon == 0:
             return N, F, tau
+        qa, va = self.qpos_adr, self.dof_adr
+        rot = quat_to_mat(data.qpos[qa + 3:qa + 7])
+        origin, v_origin = data.qpos[qa:qa + 3], data.qvel[va:va + 3]
+        omega = rot @ data.qvel[va + 3:va + 6]
         geoms, frames = data.contact.geom, data.contact.frame
         for i in range(data.ncon):
             b1, b2 = self.model.geom_bodyid[geoms[i]]
             if self.body not in (b1, b2):
                 continue
+            self.touching |= 1 if self.ball in geoms[i] else 2
             mujoco.mj_contactForce(self.model, data, i, self._f6)
             frame = frames[i].reshape(3, 3)  # rows: normal (geom1 -> geom2), tangents
             sign = 1.0 if b2 == self.body else -1.0  # the force acts on geom2 along +normal
             force = sign * (frame.T @ self._f6[:3])
             normal = sign * frame[0]
             N += self._f6[0]
-            F += force - self._f6[0] * normal
-            tau += sign * (frame.T @ self._f6[3:])
+            friction = force - self._f6[0] * normal
+            torque = sign * (frame.T @ self._f6[3:])
+            F += friction
+            tau += torque
+            v_point = v_origin + np.cross(omega, data.contact.pos[i] - origin)
+            self.power += float(friction @ v_point + torque @ omega)
         return N, F, tau
 
 
@@ -277,8 +321,13 @@ class _SampleChecks:
         self.energy0: float | None = None
         self.airborne_since: float | None = None
 
-    def failure(self, t: float, gap: float, energy: float) -> str | None:
-        """A one-line reason if the sample at time t (s) shows a failed run, else None."""
+    def failure(self, t: float, gap: float, energy: float, other_touching: bool = False
+                ) -> str | None:
+        """A one-line reason if the sample at time t (s) shows a failed run, else None.
+
+        ``other_touching``: another geom of the top (a stem) is on the table: the ball may be
+        off it then (a real tippe top's stem takes over), and that is not a lost contact.
+        """
         if self.energy0 is None:
             self.energy0 = energy
         if gap < -MAX_PENETRATION_R * self.R_m:
@@ -287,14 +336,15 @@ class _SampleChecks:
         if energy - self.energy0 > MAX_ENERGY_RISE * abs(self.energy0):
             return (f"the energy rose {100 * (energy / self.energy0 - 1):.3g}% above its "
                     f"initial value (friction can only dissipate it); {self.fix}")
-        if gap <= CONTACT_GAP_M:
+        if gap <= CONTACT_GAP_M or other_touching:
             self.airborne_since = None
             return None
         if self.airborne_since is None:
             self.airborne_since = t
         if t - self.airborne_since > MAX_AIRBORNE_S:
-            return (f"contact lost: the ball left the table at t = {self.airborne_since:.6g} s "
-                    f"for more than {MAX_AIRBORNE_S:g} s (the paper assumes permanent contact)")
+            return (f"contact lost: the top left the table at t = {self.airborne_since:.6g} s "
+                    f"for more than {MAX_AIRBORNE_S:g} s (the model follows it on the table "
+                    "only)")
         return None
 
 
@@ -317,6 +367,7 @@ def simulate_top_model(
     mu: float | None = None,
     progress: Callable[[float], None] | None = None,
     keyframe: int | None = None,
+    stem: StemParams | None = None,
 ) -> MujocoResult:
     """Simulate a compiled top as it is (integrator, timestep and contacts from its model).
 
@@ -334,6 +385,7 @@ def simulate_top_model(
             :data:`PROGRESS_INTERVAL_S` of wall time, and at the end).
         keyframe: Start from this keyframe of the model exactly (``mj_resetDataKeyframe``),
             not from ``init``.
+        stem: Paper mode: the stem's end, where the law also acts when it touches the table.
 
     Returns:
         The run's :class:`MujocoResult`.
@@ -362,15 +414,19 @@ def simulate_top_model(
     n_rows = n_intervals + 1
     qpos_s, qvel_s = np.empty((n_rows, 7)), np.empty((n_rows, 6))
     N_s, F_s, tau_s = np.empty(n_rows), np.empty((n_rows, 3)), np.empty((n_rows, 3))
+    touching_s = np.zeros(n_rows, dtype=np.int8)
+    power_s = np.full(n_rows, np.nan)
 
     status, message, n_good, n_steps = "ok", "", 0, 0
     checks = _SampleChecks(top_model.top.R_m, fix)
     callback = contextlib.ExitStack()
+    scratch_law = None
     if law is not None:
         # the scratch copy is armed too: its forward passes then apply the same friction, so
         # the table's N (and F, P_fric) is the contact force with friction acting
-        callback.enter_context(PaperFriction(top_model, data, law, mu=mu))
-        callback.enter_context(PaperFriction(top_model, scratch, law, mu=mu))
+        callback.enter_context(PaperFriction(top_model, data, law, mu=mu, stem=stem))
+        scratch_law = callback.enter_context(PaperFriction(top_model, scratch, law, mu=mu,
+                                                           stem=stem))
     if law is not None:
         compiled_callback()  # compiled (or loaded) once per process; kept out of wall_s
     mujoco.mj_forward(model, data)
@@ -408,8 +464,15 @@ def simulate_top_model(
             for _ in range(_N_FORCE_PASSES if law is not None else 1):
                 mujoco.mj_forward(model, scratch)
             N_s[i], F_s[i], tau_s[i] = reader.read(scratch)
+            touching_s[i] = reader.touching
+            power_s[i] = reader.power
+            if scratch_law is not None:  # the law's force and power, as the callback applied
+                fx, fy, _n = scratch_law.last_force
+                F_s[i] = (fx, fy, 0.0)
+                power_s[i] = scratch_law.last_power
             qpos_s[i], qvel_s[i] = qpos, qvel
-            failure = checks.failure(t, *_gap_and_energy(top_model, qpos_s[i], qvel_s[i]))
+            failure = checks.failure(t, *_gap_and_energy(top_model, qpos_s[i], qvel_s[i]),
+                                     other_touching=bool(touching_s[i] & 2))
             if failure:
                 status, message = "diverged", failure
                 break
@@ -423,15 +486,14 @@ def simulate_top_model(
 
     t_s = np.arange(n_good) * (steps * dt)
     qpos_s, qvel_s, N_s = qpos_s[:n_good], qvel_s[:n_good], N_s[:n_good]
+    power = power_s[:n_good]  # as applied: the callback's, or each contact's
     if law is not None:
-        F_s = law_force(params, kinematics(top_model, qpos_s, qvel_s).v_P_mps, N_s) \
-            if n_good else F_s[:0]
-        tau = None
+        F_s, tau = F_s[:n_good], None
     elif mode == "paper":
-        F_s, tau = np.zeros((n_good, 3)), None
+        F_s, tau, power = np.zeros((n_good, 3)), None, np.zeros(n_good)
     else:
         F_s, tau = F_s[:n_good], tau_s[:n_good]
-    table = observables_table(top_model, t_s, qpos_s, qvel_s, N_s, F_s, tau)
+    table = observables_table(top_model, t_s, qpos_s, qvel_s, N_s, F_s, tau, power=power)
     if status == "ok":
         message = (f"{mode} mode: {n_steps} steps of {integrator} at dt = {dt:g} s to "
                    f"t = {n_intervals * steps * dt:g} s in {wall_s:.3g} s")
@@ -439,7 +501,8 @@ def simulate_top_model(
         t_fail = n_good * steps * dt
         message = f"diverged by t = {t_fail:.6g} s ({mode} mode): {message}"
     return MujocoResult(table=table, n_steps=n_steps, wall_s=wall_s, status=status,
-                        message=message, mode=mode, warnings=top_model.warnings, ran=ran)
+                        message=message, mode=mode, warnings=top_model.warnings, ran=ran,
+                        contacts=touching_s[:n_good].copy())
 
 
 __all__ = [

@@ -11,6 +11,7 @@ the two geoms' values into it), so a summary reports what ran, never what was as
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import mujoco
@@ -18,7 +19,7 @@ import mujoco
 from tippetop.models.errors import expect
 from tippetop.models.mjcf import CONES, INTEGRATORS, make_mjcf
 from tippetop.models.plan import MujocoPlan
-from tippetop.mujoco_runner.model import TopModel, load_top
+from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, stem_geoms
 
 
 def build_model(plan: MujocoPlan) -> TopModel:
@@ -37,13 +38,18 @@ def build_model(plan: MujocoPlan) -> TopModel:
                         integrator=plan.integrator, cone=plan.cone, impratio=plan.impratio,
                         solref=plan.solref, solimp=plan.solimp,
                         torsional=float(plan.torsional or 0.0),
-                        rolling=float(plan.rolling or 0.0))
-        top_model = load_top(xml)
+                        rolling=float(plan.rolling or 0.0), stem=plan.stem)
+        with warnings.catch_warnings():  # a generated stem is asked for: nothing to warn of
+            warnings.simplefilter("ignore", TopModelWarning)
+            top_model = load_top(xml)
         if plan.noslip_iterations is not None:
             top_model.model.opt.noslip_iterations = plan.noslip_iterations
         return top_model
     top_model = load_top(plan.mjcf)
     apply_settings(top_model, plan)
+    if plan.stem_collides is False:  # effects.stem = false: only the ball touches
+        for g in stem_geoms(top_model):
+            top_model.model.geom_contype[g] = top_model.model.geom_conaffinity[g] = 0
     return top_model
 
 

@@ -23,7 +23,7 @@ from tippetop.models.frames import initial_rigid_state, quat_mul, quat_to_mat
 from tippetop.models.observables import SIN_THETA_UNDEFINED
 from tippetop.models.params import InitialState
 from tippetop.models.plan import FileTop
-from tippetop.mujoco_runner.model import TopModel, load_top
+from tippetop.mujoco_runner.model import TopModel, load_top, stem_from_model
 
 
 def initial_qpos_qvel(top_model: TopModel, init: InitialState) -> tuple[np.ndarray, np.ndarray]:
@@ -211,8 +211,9 @@ def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) or ""
                   for i in range(model.nkey))
     inits = tuple(keyframe_state(top_model, i) for i in range(model.nkey))
+    stem, note = stem_from_model(top_model)
     return FileTop(top=top_model.top, keyframes=names, keyframe_inits=inits,
-                   mu=ball_table_mu(top_model))
+                   mu=ball_table_mu(top_model), stem=stem, stem_note=note)
 
 
 def ball_table_mu(top_model: TopModel) -> float | None:

@@ -25,7 +25,16 @@ P_VEPS = 9  # exact Coulomb ramp half-width (m/s)
 P_SING = 10  # paper formulation: |sin theta| below which it is declared singular
 P_COULOMB_KIND = 11  # the friction law's Coulomb part: friction.COULOMB_* code
 P_VISCOUS = 12  # the friction law's viscous part: 1.0 if present, else 0.0
-N_PARAMS = 13
+# The contact. P_R and P_A_OFF describe the ACTIVE contact, whose point is X_P = b k + c from
+# the centre of mass: b = P_A_OFF and, for a sphere, c = -P_R e_z (the ball: b = a, radius R;
+# a stem's rounded end: b = a + offset, its radius); for a rim (a stem's flat end), c = P_R u
+# with u the unit vector in the end's plane pointing most downward.
+P_RIM = 13  # 1.0: the active contact is a rim, 0.0: a sphere
+P_OTHER = 14  # the other contact surface: -1.0 none, 0.0 a sphere, 1.0 a rim
+P_OTHER_B = 15  # its b (m)
+P_OTHER_R = 16  # its radius (m)
+P_GAP_TOL = 17  # the other surface "touches" when its gap falls below -P_GAP_TOL (m)
+N_PARAMS = 18
 
 
 def pack_params(top: TopParams, friction: FrictionParams,
@@ -54,6 +63,9 @@ def pack_params(top: TopParams, friction: FrictionParams,
     p[P_VEPS] = friction.coulomb_v_eps_mps
     p[P_SING] = singular_sin
     p[P_COULOMB_KIND], p[P_VISCOUS] = friction_law_codes(friction)
+    p[P_RIM] = 0.0  # the ball, alone: the paper's loaded sphere
+    p[P_OTHER] = -1.0
+    p[P_OTHER_B] = p[P_OTHER_R] = p[P_GAP_TOL] = 0.0
     return p
 
 

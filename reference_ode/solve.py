@@ -15,16 +15,31 @@ from tippetop.models.frames import initial_rigid_state
 from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
 from tippetop.models.options import FORMULATIONS as _FORMULATION_NAMES
 from tippetop.models.options import OdeOptions
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.reference_ode import dop853 as _d
+from tippetop.reference_ode.contacts import (
+    GAP_TOL_R,
+    MAX_SWITCHES,
+    RIM_MIN_SIN,
+    ZENO_SPEED_MPS,
+    Contact,
+    ball_contact,
+    gap,
+    impact,
+    impact_both,
+    normal_velocity,
+    phase_params,
+    stem_contact,
+)
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
+    P_GAP_TOL,
     P_SING,
     P_VISCOUS,
     friction_law_codes,
     pack_params,
 )
-from tippetop.reference_ode.top import FORMULATIONS, Formulation
+from tippetop.reference_ode.top import FORMULATIONS, TWO_CONTACT, Formulation, two_contact_forces
 
 assert tuple(FORMULATIONS) == _FORMULATION_NAMES
 
@@ -72,6 +87,13 @@ class OdeResult:
             DOP853 test, see :mod:`reference_ode.dop853`): steps limited by stability, not by
             accuracy. A large share means the problem is stiff for an explicit method.
         h_lambda_max: The largest h lambda estimate of an accepted step.
+        phases: The contact phases, each ``{"contact", "t_start", "t_end", "J_rel_drift"}``:
+            ``contact`` is ``ball``, ``stem`` (its end alone) or ``both``. Jellett's constant
+            of a point's contact, R_c L_z - b_c C n, is conserved only while that point alone
+            touches, so ``J_rel_drift`` is that phase's own (None on both points, and on a
+            flat end's rim, which keeps none). Without a stem: one ball phase.
+        t_stem: First time the stem's end touched the table (s), or None.
+        impacts: The impacts at the switches, ``{"t", "to", "impulse_Ns", "approach_mps"}``.
     """
 
     table: pd.DataFrame
@@ -89,6 +111,9 @@ class OdeResult:
     engine: str = "ode"
     stiff_steps: int = 0
     h_lambda_max: float = 0.0
+    phases: list[dict] = field(default_factory=list)
+    t_stem: float | None = None
+    impacts: list[dict] = field(default_factory=list)
 
 
 def initial_state_vector(top: TopParams, init: InitialState) -> np.ndarray:
@@ -119,6 +144,17 @@ def sample_times(t_end_s: float, sample_dt_s: float | None) -> np.ndarray:
 def _message(status: str, t: float, min_sin: float, form: str) -> str:
     if status == "ok":
         return "completed"
+    if status == "hop":
+        return (f"at t = {t:.6g} s the stem's end struck the table and the top left it (a "
+                "hop: the point that took the impact carries no load after it); the model "
+                "does not follow a flight, so the run stopped there")
+    if status == "chatter":
+        return (f"by t = {t:.6g} s the contact had switched between the ball and the stem's "
+                "end too often (a chatter of ever shorter bounces): the run stopped there")
+    if status == "flat_end":
+        return (f"at t = {t:.6g} s the stem's flat end came to lie face down on the table "
+                f"(|sin theta| = {min_sin:.2e}): its rim contact degenerates there, so the run "
+                "stopped")
     if status == "contact_lost":
         return (f"contact lost at t = {t:.6g} s (the normal force reached 0): the model assumes "
                 "the sphere stays on the table, so the run stopped there")
@@ -140,6 +176,7 @@ def simulate_ode(
     sample_dt_s: float | None = None,
     options: OdeOptions | None = None,
     progress: Callable[[float], None] | None = None,
+    stem: StemParams | None = None,
 ) -> OdeResult:
     """Integrate the reference model from ``init`` to ``t_end_s``.
 
@@ -152,6 +189,9 @@ def simulate_ode(
             long runs so that the table has at most 20,000 rows.
         options: Integrator options (formulation, tolerances).
         progress: Called with the simulated time reached after each piece of the run.
+        stem: The stem's end, a second contact surface (vector formulation only): the run
+            switches between the ball and the stem's end as each reaches the table
+            (:mod:`reference_ode.contacts`). None: the paper's loaded sphere.
 
     Returns:
         The run, with its observables table sampled on the dense output.
@@ -163,6 +203,9 @@ def simulate_ode(
     form_name = options.formulation
     form = FORMULATIONS[form_name]
     p = pack_params(top, friction, options.singular_sin)
+    if stem is not None and form.singular:
+        raise TippetopError("ode.formulation: expected vector with a stem (effects.stem; the "
+                            "paper's equations have the ball only), got 'paper'")
     if form.singular:
         if abs(math.sin(init.theta0)) < options.singular_sin:
             raise TippetopError(
@@ -196,26 +239,36 @@ def simulate_ode(
     _d.dop853_run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
                   monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
     wall0 = time.perf_counter()
+    phases = _Phases(top, p, stem, form, y)
     status = _d.STATUS_RUNNING
+    status_name = ""
     n_chunks = N_CHUNKS if progress is not None else 1
     for k in range(1, n_chunks + 1):
         t_stop = t_end_s if k == n_chunks else t_end_s * k / n_chunks
-        if t >= t_stop:
-            continue
-        status, t, i_out = _d.dop853_run(form.rhs, form.watch, y, t, float(t_stop), t_end_s, p,
-                                         rtol, atol, max_steps, monitor_floor, t_out, Y, i_out,
-                                         stats)
+        while t < t_stop:
+            status, t, i_out = _d.dop853_run(phases.form.rhs, phases.form.watch, y, t,
+                                             float(t_stop), t_end_s, phases.p, rtol, atol,
+                                             max_steps, phases.monitor_floor(monitor_floor),
+                                             t_out, Y, i_out, stats)
+            if status == _d.STATUS_GUARD and phases.can_switch():
+                status_name = phases.on_guard(y, t, i_out, stats)
+                if status_name:
+                    break
+                status = _d.STATUS_RUNNING
+                continue
+            break
         if progress is not None:
             progress(t)
-        if status != _d.STATUS_RUNNING:
+        if status != _d.STATUS_RUNNING or status_name:
             break
     wall = time.perf_counter() - wall0
-    status_name = _status_name(form, status, y)
-    if status != _d.STATUS_OK:
+    if not status_name:
+        status_name = phases.status_name(phases.form, status, y)
+    if status != _d.STATUS_OK or status_name != "ok":
         # keep the samples reached and add the final state at the stopping time
         t_out = np.append(t_out[:i_out], t)
         Y = np.vstack([Y[:i_out], y[None, :]])
-    table = observables_table(form_name, friction, p, t_out, Y)
+    table = phases.table(friction, t_out, Y, t)
     t_inv = stats[_d.S_T_MARK]
     # the paper form's monitor is the signed sin theta: < 0 means the last step jumped across
     # theta = 0 (or pi), i.e. |sin theta| passed through 0
@@ -235,7 +288,147 @@ def simulate_ode(
         states=Y,
         stiff_steps=int(stats[_d.S_NSTIFF]),
         h_lambda_max=float(stats[_d.S_HLAMBDA_MAX]),
+        phases=phases.records,
+        t_stem=phases.t_stem,
+        impacts=phases.impacts,
     )
+
+
+class _Phases:
+    """The contact phases of a run: the ball alone, or the ball and the stem's end.
+
+    A phase is on one point (``ball`` or ``stem``: :func:`vector_rhs` with that contact
+    active, watching the other) or on both (``both``: :mod:`reference_ode.two_contact`).
+    :attr:`form` and :attr:`p` are the current phase's; :meth:`on_guard` decides what a guard
+    stop means and switches; :meth:`table` builds the observables phase by phase (each row
+    computed with its own phase: N, the height, the energy and Jellett's constant are its
+    contact's).
+    """
+
+    def __init__(self, top: TopParams, p: np.ndarray, stem: StemParams | None,
+                 form: Formulation, y: np.ndarray) -> None:
+        self.top = top
+        self.base_p = p
+        self.base_form = form
+        self.records: list[dict] = []
+        self.impacts: list[dict] = []
+        self.t_stem: float | None = None
+        self._bounds: list[int] = []
+        self._phases: list[tuple[Formulation, np.ndarray]] = []
+        self.surfaces: tuple[Contact, ...] = (ball_contact(top),)
+        self.active = 0
+        self.both = False
+        if stem is not None:
+            ball, end = ball_contact(top), stem_contact(top, stem)
+            self.surfaces = (ball, end)
+            tol = GAP_TOL_R * top.R_m
+            if gap(y, ball, end) < -tol:  # starting on the stem (the ball off the table)
+                if gap(y, end, ball) < -tol:
+                    raise TippetopError(
+                        "init: expected a start with the ball or the stem's end on the table, "
+                        f"got the stem's end {-1e3 * gap(y, ball, end):.3g} mm into it with "
+                        "the ball on it")
+                self.active = 1
+        self._begin(0.0, 0, y)
+
+    @property
+    def name(self) -> str:
+        """The current phase: ``ball``, ``stem`` or ``both``."""
+        return "both" if self.both else self.surfaces[self.active].name
+
+    def _begin(self, t: float, i_out: int, y: np.ndarray) -> None:
+        active = self.surfaces[self.active]
+        other = self.surfaces[1 - self.active] if len(self.surfaces) > 1 else None
+        self.p = (self.base_p if other is None
+                  else phase_params(self.base_p, active, other, self.top.R_m))
+        if other is not None and not self.both:
+            # the other point touches GAP_TOL below where it starts: a phase that begins
+            # with it at the table (just struck, or lifted off) must not stop at once
+            self.p[P_GAP_TOL] += max(0.0, -gap(y, active, other))
+        self.form = TWO_CONTACT if self.both else self.base_form
+        self._phases.append((self.form, self.p))
+        self._bounds.append(i_out)
+        if self.records:
+            self.records[-1]["t_end"] = t
+        self.records.append({"contact": self.name, "t_start": t})
+        if self.name != "ball" and self.t_stem is None:
+            self.t_stem = t
+
+    def monitor_floor(self, base: float) -> float:
+        """The run's monitor floor in this phase: a rim stops before lying face down."""
+        rim = self.surfaces[self.active].rim or (self.both and any(c.rim for c in
+                                                                   self.surfaces))
+        return RIM_MIN_SIN if rim else base
+
+    def can_switch(self) -> bool:
+        """Whether there is a second surface (a guard stop may then be a switch)."""
+        return len(self.surfaces) > 1
+
+    def on_guard(self, y: np.ndarray, t: float, i_out: int, stats: np.ndarray) -> str:
+        """What a guard stop at ``y`` means; switches the phase, or returns a status name.
+
+        On one point, either the other point reached the table (an impact: on it alone, or
+        on both) or the normal force fell to 0 (``contact_lost``). On both, the point whose
+        force fell to 0 lifts (no impact: the top goes on on the other).
+        """
+        a, b = self.surfaces[self.active], self.surfaces[1 - self.active]
+        if len(self.records) > MAX_SWITCHES:
+            return "chatter"
+        if self.both:
+            N1, N2 = two_contact_forces(y, self.p)
+            self.both = False
+            if N1 <= N2:  # the active point lifts
+                self.active = 1 - self.active
+            self._restart(t, i_out, stats, y)
+            return ""
+        if gap(y, a, b) > -0.5 * GAP_TOL_R * self.top.R_m:
+            if self.impacts and self.impacts[-1]["t"] == t:
+                return "hop"  # the impact just now left the new point without a load
+            return "contact_lost"
+        imp = impact(y, self.top, a, b)
+        if imp.both:
+            y[:] = impact_both(y, self.top, a, b)
+            self.both = True
+        else:
+            y[:] = imp.y
+            lift = normal_velocity(y, b, a)
+            if lift < ZENO_SPEED_MPS:
+                trial = phase_params(self.base_p, b, a, self.top.R_m)
+                if min(two_contact_forces(impact_both(y, self.top, b, a), trial)) > 0.0:
+                    y[:] = impact_both(y, self.top, b, a)
+                    self.both = True
+        self.impacts.append({"t": t, "to": b.name, "impulse_Ns": float(imp.impulse_Ns),
+                             "approach_mps": float(imp.approach_mps)})
+        self.active = 1 - self.active  # the new point is the active one (also on both)
+        self._restart(t, i_out, stats, y)
+        return ""
+
+    def _restart(self, t: float, i_out: int, stats: np.ndarray, y: np.ndarray) -> None:
+        self._begin(t, i_out, y)
+        stats[_d.S_H] = 0.0  # the motion changed abruptly: choose a new first step
+
+    def status_name(self, form: Formulation, status: int, y: np.ndarray) -> str:
+        """The run's status name (a rim's monitor stop is ``flat_end``)."""
+        if status == _d.STATUS_MONITOR and not form.singular:
+            return "flat_end"
+        return _status_name(form, status, y)
+
+    def table(self, friction: FrictionParams, t: np.ndarray, Y: np.ndarray,
+              t_final: float) -> pd.DataFrame:
+        """The observables, each phase's rows with its own contact; closes :attr:`records`."""
+        self.records[-1]["t_end"] = t_final
+        bounds = [*self._bounds, len(t)]
+        parts = [_observables(form, friction, q, t[i0:i1], Y[i0:i1])
+                 for (form, q), i0, i1 in zip(self._phases, bounds[:-1], bounds[1:],
+                                              strict=True) if i1 > i0]
+        table = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+        for rec, i0, i1 in zip(self.records, bounds[:-1], bounds[1:], strict=True):
+            J = table["J"].to_numpy()[i0:i1]
+            conserved = rec["contact"] != "both" and not any(
+                c.rim for c in self.surfaces if c.name == rec["contact"])
+            rec["J_rel_drift"] = (float(np.max(np.abs(J - J[0])) / abs(J[0]))
+                                  if conserved and len(J) and J[0] != 0 else None)
+        return table
 
 
 def _status_name(form: Formulation, status: int, y: np.ndarray) -> str:
@@ -274,6 +467,20 @@ def scipy_rhs(top: TopParams, friction: FrictionParams,
     return fun
 
 
+def _observables(form: Formulation, friction: FrictionParams, p: np.ndarray, t: np.ndarray,
+                 Y: np.ndarray) -> pd.DataFrame:
+    """:func:`observables_table` for a :class:`Formulation` (a run's phase)."""
+    if friction_law_codes(friction) != (p[P_COULOMB_KIND], p[P_VISCOUS]):
+        raise ValueError(f"observables_table: p was packed for another friction law than "
+                         f"{friction.law!r}")
+    names = COLUMNS[1:] + EXTRA_COLUMNS
+    out = np.empty((Y.shape[0], len(names)))
+    form.observe_all(np.ascontiguousarray(Y), p, SIN_THETA_UNDEFINED, out)
+    df = pd.DataFrame(out, columns=list(names))
+    df.insert(0, "t", t)
+    return df
+
+
 def observables_table(formulation: str, friction: FrictionParams, p: np.ndarray,
                       t: np.ndarray, Y: np.ndarray) -> pd.DataFrame:
     """The observables table for sampled states ``Y`` (rows) at times ``t``.
@@ -289,12 +496,4 @@ def observables_table(formulation: str, friction: FrictionParams, p: np.ndarray,
     Returns:
         ``t`` then ``models.observables.COLUMNS[1:] + EXTRA_COLUMNS``, one row per sample.
     """
-    if friction_law_codes(friction) != (p[P_COULOMB_KIND], p[P_VISCOUS]):
-        raise ValueError(f"observables_table: p was packed for another friction law than "
-                         f"{friction.law!r}")
-    names = COLUMNS[1:] + EXTRA_COLUMNS
-    out = np.empty((Y.shape[0], len(names)))
-    FORMULATIONS[formulation].observe_all(np.ascontiguousarray(Y), p, SIN_THETA_UNDEFINED, out)
-    df = pd.DataFrame(out, columns=list(names))
-    df.insert(0, "t", t)
-    return df
+    return _observables(FORMULATIONS[formulation], friction, p, t, Y)

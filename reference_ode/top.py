@@ -30,16 +30,41 @@ import numpy as np
 from tippetop.reference_ode import paper as _paper
 from tippetop.reference_ode import vector as _vector
 from tippetop.reference_ode.paper import paper_core, paper_observe
-from tippetop.reference_ode.params_array import friction_law
-from tippetop.reference_ode.vector import IQW, IQX, IQY, IQZ, vector_core, vector_observe
+from tippetop.reference_ode.params_array import P_GAP_TOL, P_OTHER, friction_law
+from tippetop.reference_ode.two_contact import two_contact_core, two_contact_observe
+from tippetop.reference_ode.vector import (
+    IQW,
+    IQX,
+    IQY,
+    IQZ,
+    contact_height,
+    other_gap,
+    vector_core,
+    vector_observe,
+)
 
 
 # ---------------------------------------------------------------- vector formulation
 @nb.njit(cache=True, error_model="numpy")
 def vector_rhs(y, p, dy):
-    """dy/dt of the vector formulation; returns the normal force N (the guard)."""
+    """dy/dt of the vector formulation; returns the guard.
+
+    The guard is the normal force N, or, with another contact surface (a stem), the smaller
+    of N and that surface's gap above the table plus ``P_GAP_TOL``: the run stops where
+    contact is lost or where the other surface touches.
+    """
     ck, visc = friction_law(p)
-    return vector_core(ck, visc, y, p, dy)[0]
+    N = vector_core(ck, visc, y, p, dy)[0]
+    if p[P_OTHER] < 0.0:
+        return N
+    qw, qx, qy, qz = y[IQW], y[IQX], y[IQY], y[IQZ]
+    inv = 1.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    kx = 2.0 * (qx * qz + qw * qy) * inv
+    ky = 2.0 * (qy * qz - qw * qx) * inv
+    kz = (qw * qw - qx * qx - qy * qy + qz * qz) * inv
+    s = math.sqrt(kx * kx + ky * ky)
+    gap = other_gap(p, kz, s, contact_height(p, kz, s)) + p[P_GAP_TOL]
+    return N if N < gap else gap
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -67,6 +92,41 @@ def vector_observe_all(Y, p, sin_undefined, out):
     scratch = np.empty(Y.shape[1])
     for i in range(Y.shape[0]):
         vector_observe(ck, visc, Y[i], p, sin_undefined, out[i], scratch)
+
+
+# ---------------------------------------------------------------- two points on the table
+@nb.njit(cache=True, error_model="numpy")
+def two_contact_rhs(y, p, dy):
+    """dy/dt with the ball and the stem's end both on the table; the guard is min(N1, N2)."""
+    ck, visc = friction_law(p)
+    N1, N2, _ = two_contact_core(ck, visc, y, p, dy)
+    return N1 if N1 < N2 else N2
+
+
+@nb.njit(cache=True, error_model="numpy")
+def two_contact_rhs_alloc(y, p):
+    """dy/dt of a two-point state in a new array."""
+    dy = np.empty_like(y)
+    two_contact_rhs(y, p, dy)
+    return dy
+
+
+@nb.njit(cache=True, error_model="numpy")
+def two_contact_forces(y, p):
+    """(N1, N2): the active and the other contact's normal forces of a two-point state (N)."""
+    ck, visc = friction_law(p)
+    dy = np.empty_like(y)
+    N1, N2, _ = two_contact_core(ck, visc, y, p, dy)
+    return N1, N2
+
+
+@nb.njit(cache=True, error_model="numpy")
+def two_contact_observe_all(Y, p, sin_undefined, out):
+    """Observables of the two-point states ``Y`` into ``out``."""
+    ck, visc = friction_law(p)
+    scratch = np.empty(Y.shape[1])
+    for i in range(Y.shape[0]):
+        two_contact_observe(ck, visc, Y[i], p, sin_undefined, out[i], scratch)
 
 
 # ---------------------------------------------------------------- paper formulation
@@ -124,6 +184,11 @@ class Formulation:
     observe_all: Callable
     singular: bool
 
+
+#: The vector formulation on two points at once (:mod:`reference_ode.two_contact`); not a
+#: formulation a scene picks, a phase of a run with a stem.
+TWO_CONTACT = Formulation("vector", _vector.N_STATE, two_contact_rhs, vector_watch,
+                          two_contact_rhs_alloc, two_contact_observe_all, singular=False)
 
 FORMULATIONS: dict[str, Formulation] = {
     "vector": Formulation("vector", _vector.N_STATE, vector_rhs, vector_watch, vector_rhs_alloc,

@@ -23,9 +23,15 @@ import numba as nb
 
 from tippetop.reference_ode.friction import friction_terms
 from tippetop.reference_ode.params_array import (
+    P_A_OFF,
     P_CVISC,
     P_LAM,
     P_MU,
+    P_OTHER,
+    P_OTHER_B,
+    P_OTHER_R,
+    P_R,
+    P_RIM,
     P_VEPS,
     top_params,
 )
@@ -46,6 +52,33 @@ def _axis(y):
 
 
 @nb.njit(cache=True, inline="always")
+def contact_height(p, kz, s):
+    """Height of the centre of mass above the table, from the active contact (m).
+
+    A sphere: z_O = R - a k_z; a rim: z_O = R s - a k_z (``P_R``, ``P_A_OFF``: the active
+    contact's radius and offset; s = sin theta).
+    """
+    if p[P_RIM] != 0.0:
+        return p[P_R] * s - p[P_A_OFF] * kz
+    return p[P_R] - p[P_A_OFF] * kz
+
+
+@nb.njit(cache=True, inline="always")
+def other_gap(p, kz, s, h):
+    """Height above the table of the other contact surface's lowest point (m); +inf if none.
+
+    ``h`` is the centre of mass's height. The other surface's point is X = b k + c: a sphere's
+    lowest point is at h + b k_z - r, a rim's at h + b k_z - r s.
+    """
+    kind = p[P_OTHER]
+    if kind < 0.0:
+        return math.inf
+    if kind == 0.0:
+        return h + p[P_OTHER_B] * kz - p[P_OTHER_R]
+    return h + p[P_OTHER_B] * kz - p[P_OTHER_R] * s
+
+
+@nb.njit(cache=True, inline="always")
 def vector_core(coulomb_kind, viscous, y, p, dy):
     """Write dy/dt into ``dy`` and return (N, Fx, Fy, vPx, vPy).
 
@@ -61,10 +94,19 @@ def vector_core(coulomb_kind, viscous, y, p, dy):
     kdx = wy * kz - wz * ky
     kdy = wz * kx - wx * kz
     kdz = wx * ky - wy * kx
-    # X_P = a k - R e_z; slip v_P = v + w x X_P (its z-component vanishes by the constraint)
-    px = a * kx
-    py = a * ky
-    pz = a * kz - R
+    # X_P = a k - R e_z (a sphere: the ball, or a stem's rounded end) or a k + R u (a rim);
+    # the slip v_P = v + w x X_P (its z-component vanishes by the constraint)
+    rim = p[P_RIM] != 0.0
+    if rim:
+        s = math.sqrt(kx * kx + ky * ky)
+        inv_s = 1.0 / s
+        px = a * kx + R * kz * kx * inv_s
+        py = a * ky + R * kz * ky * inv_s
+        pz = a * kz - R * s
+    else:
+        px = a * kx
+        py = a * ky
+        pz = a * kz - R
     vpx = y[IVX] + wy * pz - wz * py
     vpy = y[IVY] + wz * px - wx * pz
     phix, phiy, psix, psiy = friction_terms(
@@ -86,10 +128,18 @@ def vector_core(coulomb_kind, viscous, y, p, dy):
     k0 = dC * (kx * t0x + ky * t0y + kz * t0z)
     bx = iA * t0x + k0 * kx
     by = iA * t0y + k0 * ky
-    # z'' = -a (dw/dt x k + w x kd)_z, with dw/dt = N alpha + beta
+    # z'' = -a (dw/dt x k + w x kd)_z, with dw/dt = N alpha + beta. A rim: z_O = R s - a k_z,
+    # so z'' = extra - b_eff k_z'' with b_eff = a + R k_z / s and
+    # extra = -R (k_z'^2 + s'^2) / s, s' = -k_z k_z' / s
     wkd_z = wx * kdy - wy * kdx
-    denom = 1.0 + M * a * (ax_ * ky - ay_ * kx)
-    N = M * (g - a * ((bx * ky - by * kx) + wkd_z)) / denom
+    b_eff = a
+    extra = 0.0
+    if rim:
+        sd = -kz * kdz * inv_s
+        b_eff = a + R * kz * inv_s
+        extra = -R * (kdz * kdz + sd * sd) * inv_s
+    denom = 1.0 + M * b_eff * (ax_ * ky - ay_ * kx)
+    N = M * (g + extra - b_eff * ((bx * ky - by * kx) + wkd_z)) / denom
     Fx = N * phix + psix
     Fy = N * phiy + psiy
     wdx = N * ax_ + bx
@@ -123,7 +173,7 @@ def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     kdz = wx * ky - wy * kx
     s = math.sqrt(kx * kx + ky * ky)
     theta = math.atan2(s, kz)
-    h = R - a * kz
+    h = contact_height(p, kz, s)
     nan = math.nan
     if s > sin_undefined:
         theta_dot = -kdz / s
@@ -144,6 +194,8 @@ def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     Lz = A * wz + (C - A) * n * kz
     J = R * Lz - a * C * n
     vz = -a * kdz
+    if p[P_RIM] != 0.0 and s > 0.0:
+        vz += R * (kx * kdx + ky * kdy) / s
     E = (0.5 * M * (y[IVX] ** 2 + y[IVY] ** 2 + vz * vz)
          + 0.5 * (A * (wx * wx + wy * wy + wz * wz) + (C - A) * n * n) + M * g * h)
     xi_p, xi_m = xi_curves(J, kz, R, a, M, A, g)
