@@ -183,6 +183,30 @@ class FrictionParams:
             return self.viscous_Nspm
         return self.mu * top.M_kg * top.g_mps2 / self.Lambda_mps
 
+    def slip_relaxation_rate(self, top: TopParams, reach_m: float | None = None) -> float:
+        """How fast the law drives the contact point's slip to zero near v_P = 0 (1/s).
+
+        The law's slope at zero slip (N s/m: mu M g / Lambda for the paper's law, plus c for a
+        viscous term) times the contact point's response to a tangential force, bounded above
+        by 1/M + l^2 / A for a contact point at most l from G (``reach_m``; the ball's is
+        R + a, a stem's is farther), turning about an axis through G of moment A.
+
+        A law applied explicitly once per stage (MuJoCo's paper mode) follows the slip only
+        with steps below about 1/rate: beyond, the slip overshoots zero every step and the
+        force flips instead of relaxing (unstable for a viscous law, a chatter of amplitude
+        ~ dt mu g M (1/M + l^2 / A) for a Coulomb-type one). The exact Coulomb law's ramp is a
+        device of the reference's integrator, not of the law, and is left out. 0 for no
+        friction.
+        """
+        slope = 0.0
+        if self.law == "modified_coulomb":
+            slope += self.mu * top.M_kg * top.g_mps2 / self.Lambda_mps
+        if self.law in ("viscous", "coulomb_viscous"):
+            slope += self.viscous_coefficient(top)
+        reach = top.R_m + top.a_m if reach_m is None else max(reach_m, top.R_m + top.a_m)
+        inv_mass = 1.0 / top.M_kg + reach**2 / top.A_kgm2
+        return slope * inv_mass
+
 
 STEM_KINDS = ("sphere", "cylinder")
 #: A scene's default stem, in sphere radii: a rounded end 1.3 R from the ball's centre, of

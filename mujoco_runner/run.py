@@ -22,7 +22,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mujoco
@@ -61,6 +61,8 @@ PROGRESS_INTERVAL_S = 0.2
 #: Forward passes per sample in paper mode that bring the recorded normal force to the state's
 #: own (the callback uses the previous evaluation's N; see :mod:`.friction_callback`).
 _N_FORCE_PASSES = 3
+#: Paper mode's longest step, times the law's slip relaxation rate (see _check_law_resolved).
+PAPER_LAW_MAX_DT_RATE = 1.0
 #: Relative tolerance for "sample_dt_s is a whole number of timesteps".
 _GRID_RTOL = 1e-9
 
@@ -82,6 +84,11 @@ class MujocoResult:
             (:func:`settings_that_ran`), and the row spacing ``sample_dt_s``.
         contacts: Per sample, which of the top's geoms touched the table (a code of
             :data:`CONTACT_LABELS`).
+        max_penetration_m: The deepest penetration of the top's contacts over the samples (m).
+        contact_energy_bound_J: The most elastic energy the soft contacts held at a sample,
+            bounded by the normal force times the deepest contact's depth (J; the force grows
+            with depth). E, the rigid body's energy, leaves it out and may rise by it when a
+            contact springs back.
     """
 
     table: pd.DataFrame
@@ -93,6 +100,8 @@ class MujocoResult:
     warnings: tuple[str, ...] = field(default=())
     ran: dict[str, Any] = field(default_factory=dict)
     contacts: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    max_penetration_m: float = 0.0
+    contact_energy_bound_J: float = 0.0
 
     def phases(self) -> list[dict[str, Any]]:
         """The sampled contact phases: runs of samples with the same contacts.
@@ -229,6 +238,47 @@ def _check_paper_contacts(top_model: TopModel) -> None:
            "condim 1 (frictionless)", f"condims {sorted(dims)}")
 
 
+def contact_reach_m(top_model: TopModel) -> float:
+    """How far from the centre of mass a contact on the top can be (m).
+
+    Over its colliding geoms, the distance of the geom's centre from G plus its bounding radius.
+    """
+    model, b = top_model.model, top_model.body_id
+    reach = top_model.top.R_m + top_model.top.a_m
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] == b and (model.geom_contype[g] or model.geom_conaffinity[g]):
+            d = float(np.linalg.norm(model.geom_pos[g] - model.body_ipos[b]))
+            reach = max(reach, d + float(model.geom_rbound[g]))
+    return reach
+
+
+def paper_law_max_timestep(law: FrictionParams, top_model: TopModel) -> float | None:
+    """The longest step paper mode follows ``law`` with on this top (s); None: any step.
+
+    The callback applies the law once per stage from the state's slip: with a step longer than
+    the slip's relaxation time (:meth:`FrictionParams.slip_relaxation_rate`, with the top's
+    farthest contact point, a stem's, say) the slip overshoots zero every step and the force
+    flips instead of relaxing (a viscous law diverges; the paper's law chatters and drives the
+    top with the wrong force: on tests/data/tutorial_tippe_top.xml, mu = 1, at dt = 2e-3 s,
+    14x the limit, it turned over 20 % early, and at 2e-4 s, 1.4x, it stuck on ball and stem
+    where the reference rises onto the stem). At dt <= 1/rate both agree with the reference.
+    """
+    rate = law.slip_relaxation_rate(top_model.top, contact_reach_m(top_model))
+    return PAPER_LAW_MAX_DT_RATE / rate if rate > 0.0 else None
+
+
+def _check_law_resolved(law: FrictionParams, top_model: TopModel, dt: float) -> None:
+    """Refuse a timestep the paper-mode law cannot be followed with (fail loudly, not wrong)."""
+    limit = paper_law_max_timestep(law, top_model)
+    if limit is None:
+        return
+    expect(dt <= limit, "mujoco.timestep_s",
+           f"at most {limit:.3g} s for the paper's law on this top (law {law.law}, mu "
+           f"{law.mu:g}: its slip relaxes in {1e3 * limit / PAPER_LAW_MAX_DT_RATE:.3g} ms, "
+           "and a longer step makes the force flip instead of relax; set mujoco.timestep_s)",
+           dt)
+
+
 def _grid(sample_dt_s: float, t_end_s: float, timestep_s: float) -> tuple[int, int]:
     """(steps per sample, number of sample intervals)."""
     for name, value in (("sample_dt_s", sample_dt_s), ("t_end_s", t_end_s)):
@@ -280,12 +330,15 @@ class _ContactReader:
         #: which of the top's geoms touched at the last :meth:`read`: code of
         #: :data:`CONTACT_LABELS` (0 none, 1 the ball, 2 another geom: the stem, 3 both)
         self.touching = 0
+        #: the deepest penetration of the top's contacts at the last :meth:`read` (m, >= 0)
+        self.depth = 0.0
 
     def read(self, data: mujoco.MjData) -> tuple[float, np.ndarray, np.ndarray]:
         """(N, F (3,), tau (3,)) on the top, world frame, summed over its contacts."""
         N, F, tau = 0.0, np.zeros(3), np.zeros(3)
         self.touching = 0
         self.power = 0.0
+        self.depth = 0.0
         if data.ncon == 0:
             return N, F, tau
         qa, va = self.qpos_adr, self.dof_adr
@@ -298,6 +351,7 @@ class _ContactReader:
             if self.body not in (b1, b2):
                 continue
             self.touching |= 1 if self.ball in geoms[i] else 2
+            self.depth = max(self.depth, -float(data.contact.dist[i]))
             mujoco.mj_contactForce(self.model, data, i, self._f6)
             frame = frames[i].reshape(3, 3)  # rows: normal (geom1 -> geom2), tangents
             sign = 1.0 if b2 == self.body else -1.0  # the force acts on geom2 along +normal
@@ -400,6 +454,7 @@ def simulate_top_model(
         _check_paper_contacts(top_model)
     if law is not None:
         params = law_parameters(law, top_model, mu)
+        _check_law_resolved(law if mu is None else replace(law, mu=mu), top_model, dt)
     integrator = integrator_name(int(model.opt.integrator))
     fix = f"reduce timestep_s (now {dt:g} s)" + (
         "" if integrator == "RK4" else f" or use integrator RK4 (now {integrator})")
@@ -438,6 +493,7 @@ def simulate_top_model(
     ran["sample_dt_s"] = steps * dt
     ran["keyframe"] = None if keyframe is None else (
         mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, keyframe) or f"#{keyframe}")
+    max_depth = max_held = 0.0
     wall0 = time.perf_counter()
     next_report = wall0  # report t = 0 at once
     with callback:
@@ -465,6 +521,8 @@ def simulate_top_model(
                 mujoco.mj_forward(model, scratch)
             N_s[i], F_s[i], tau_s[i] = reader.read(scratch)
             touching_s[i] = reader.touching
+            max_depth = max(max_depth, reader.depth)
+            max_held = max(max_held, N_s[i] * reader.depth)
             power_s[i] = reader.power
             if scratch_law is not None:  # the law's force and power, as the callback applied
                 fx, fy, _n = scratch_law.last_force
@@ -502,7 +560,8 @@ def simulate_top_model(
         message = f"diverged by t = {t_fail:.6g} s ({mode} mode): {message}"
     return MujocoResult(table=table, n_steps=n_steps, wall_s=wall_s, status=status,
                         message=message, mode=mode, warnings=top_model.warnings, ran=ran,
-                        contacts=touching_s[:n_good].copy())
+                        contacts=touching_s[:n_good].copy(), max_penetration_m=max_depth,
+                        contact_energy_bound_J=float(max_held))
 
 
 __all__ = [
@@ -515,4 +574,6 @@ __all__ = [
     "simulate_mujoco",
     "simulate_plan",
     "simulate_top_model",
+    "paper_law_max_timestep",
+    "contact_reach_m",
 ]

@@ -227,21 +227,27 @@ def test_mujoco_euler_error_also_falls_with_dt() -> None:
 
 
 def test_too_large_euler_step_is_recorded_not_dropped() -> None:
-    """Euler at dt = 0.05 s (one step per 0.05-s sample): the ball sinks through the table
-    within the first sample; the row says 'diverged: ...' with the runner's reason and carries
-    no error numbers. At dt = 0.01 s it completes with a large error (measured 0.15 rad, 700x
-    the 2e-4 rad it has at 1e-4 s): recorded as it is."""
+    """Native Euler at dt = 0.05 s (one step per 0.05-s sample): the ball sinks through the
+    table within the first sample; the row says 'diverged: ...' with the runner's reason and
+    carries no error numbers. Paper mode refuses that step before running (longer than the
+    law's slip relaxation time, 2.54 ms on Fig. 3): 'failed: ...' with the reason. At
+    dt = 2e-3 s both complete and are recorded as they are."""
     from tippetop.models.scene import load_scene
 
     s = load_scene("fig3", ["run.t_end_s=0.5", "run.sample_dt_s=0.05"])
-    df = acc.mujoco_work_precision(s, integrators=("Euler",), modes=("paper",),
-                                   timesteps=(0.05, 0.01), workers=1)
-    assert df["timestep_s"].tolist() == [0.05, 0.01]
-    big, ok = df.iloc[0], df.iloc[1]
+    df = acc.mujoco_work_precision(s, integrators=("Euler",), modes=("native", "paper"),
+                                   timesteps=(0.05, 0.002), workers=1)
+    native, paper = df[df["formulation"] == "native"], df[df["formulation"] == "paper"]
+    assert native["timestep_s"].tolist() == [0.05, 0.002]
+    big, ok = native.iloc[0], native.iloc[1]
     assert big["status"].startswith("diverged: by t = 0.05 s"), big["status"]
     assert "sank" in big["status"] and "reduce timestep_s" in big["status"]
     assert math.isnan(big["theta_max_err"]) and big["n_steps"] >= 1
-    assert ok["status"] == "ok" and ok["theta_max_err"] > 0.05
+    assert ok["status"] == "ok" and ok["theta_max_err"] > 0
+    refused, ran = paper.iloc[0], paper.iloc[1]
+    assert refused["status"].startswith("failed: mujoco.timestep_s: expected at most 0.00254 s")
+    assert math.isnan(refused["theta_max_err"]) and refused["n_steps"] == 0
+    assert ran["status"] == "ok" and ran["theta_max_err"] > 0
 
 
 def test_mujoco_over_budget_points_are_recorded_not_dropped() -> None:

@@ -169,11 +169,22 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
 def test_diverged_mujoco_run_fails_loudly(tmp_path: Path) -> None:
     """A timestep far too large: one line on stderr, exit 1, no numbers, no table written."""
     out = tmp_path / "t.csv"
+    # without sliding friction: with it, paper mode refuses the step before running (exit 2)
     r = tippetop("simulate", "fig3", "--engine", "mujoco", "--set", "mujoco.integrator=Euler",
-                 "--set", "mujoco.timestep_s=0.02", "--set", "run.t_end_s=1", "--out", str(out),
-                 "--json", cwd=tmp_path)
+                 "--set", "mujoco.timestep_s=0.02", "--set", "run.t_end_s=1", "--set",
+                 "effects.sliding=false", "--out", str(out), "--json", cwd=tmp_path)
     assert r.returncode == 1
     d = json.loads(r.stdout)
     assert d["status"] == "diverged" and d["theta_asymp"] is None and d["theta_final"] is None
     assert len(r.stderr.strip().splitlines()) == 1 and "diverged" in r.stderr
     assert not out.exists()
+
+
+def test_paper_law_step_too_long_is_refused(tmp_path: Path) -> None:
+    """A step longer than the law's slip relaxation time: one line naming the limit, exit 2."""
+    out = tmp_path / "t.csv"
+    r = tippetop("simulate", "fig3", "--engine", "mujoco", "--set", "mujoco.timestep_s=0.02",
+                 "--out", str(out), cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == "" and not out.exists()
+    assert r.stderr.strip().count("\n") == 0
+    assert "mujoco.timestep_s: expected at most 0.00254 s" in r.stderr
