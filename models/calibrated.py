@@ -9,6 +9,9 @@ from typing import Any
 
 from tippetop.models.resources import data_path
 
+#: The reference's mu in every calibration scene (the paper's): the calibrated mu is the one
+#: that reproduces a law of this mu; for another, it is scaled in proportion.
+CALIBRATION_MU = 0.1
 #: Written by ``tippetop calibrate``; the defaults of ``mujoco.friction=native``.
 CALIBRATION_FILE: Path = data_path("tippetop.models", "calibrated_native.toml")
 

@@ -14,8 +14,9 @@ and initial state MuJoCo gets, and how often the run is sampled. The rules, in o
   mu. The generated top's contact is stiff (:data:`PAPER_SOLREF`) unless ``mujoco.solref`` is
   set: the paper's contact is rigid.
 * Native mode: MuJoCo's own friction. For a generated top every setting the scene does not
-  set itself comes from the calibration shipped in ``models/calibrated_native.toml``; condim
-  follows the effects (3 sliding, 4 with torsional, 6 with rolling, 1 with none).
+  set itself comes from the calibration shipped in ``models/calibrated_native.toml`` (its mu
+  scaled by friction.mu / 0.1: it was fitted for the paper's mu = 0.1); condim follows the
+  effects (3 sliding, 4 with torsional, 6 with rolling, 1 with none).
 * A top loaded from an MJCF file runs as its file says: MuJoCo runs its own friction (native
   mode) unless the scene sets ``mujoco.friction``; its timestep, integrator, cone, impratio,
   noslip iterations and contacts are kept (``None`` in the plan) unless the scene sets them
@@ -38,7 +39,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from tippetop.models.calibrated import calibrated_native_settings
+from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL
 from tippetop.models.modes import MODES
@@ -108,6 +109,7 @@ class FileTop:
         stem: The stem's end as the reference models it, from the file's colliding geoms
             (None: the file has none the reference can model).
         stem_note: One line on what was found (which geom, or why none).
+        timestep_s: The file's own timestep (s); None: not known.
     """
 
     top: TopParams
@@ -116,6 +118,7 @@ class FileTop:
     mu: float | None = None
     stem: StemParams | None = None
     stem_note: str = ""
+    timestep_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -391,7 +394,11 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     elif keep_file:
         mu = None
     elif "mu" in calibrated:
-        mu = float(calibrated["mu"])
+        # the calibration fitted MuJoCo's mu for the reference's mu = CALIBRATION_MU: another
+        # law's mu (a loaded file's, a scene's) is scaled by the same factor
+        mu = (float(calibrated["mu"]) if friction.mu == CALIBRATION_MU
+              else friction.mu * float(calibrated["mu"]) / CALIBRATION_MU)
+        used.add("friction.mu")
     else:
         mu = friction.mu
         used.add("friction.mu")

@@ -244,21 +244,17 @@ def stem_geoms(top_model: TopModel) -> list[int]:
             and (model.geom_contype[g] != 0 or model.geom_conaffinity[g] != 0)]
 
 
-def stem_from_model(top_model: TopModel) -> tuple[StemParams | None, str]:
-    """The stem's end as the reference models it, from the top's colliding geoms.
-
-    A sphere, capsule or cylinder on the symmetry axis and aligned with it, beyond the ball's
-    centre along k, gives the end: a sphere's centre and radius, a capsule's far cap, a
-    cylinder's far face and rim. Of several, the one that reaches the table first (the
-    smallest tilt). Other colliding geoms (a box, an off-axis geom) cannot be a stem of the
-    reference: their presence is said in the returned note.
+def _stem_search(top_model: TopModel) -> tuple[tuple[float, StemParams, str, int] | None,
+                                                 list[str]]:
+    """The stem the reference models and the colliding geoms that cannot be one.
 
     Returns:
-        (the stem, or None; a one-line note on what was found).
+        ((tilt, stem, geom name, geom id) or None; the names of the other colliding geoms
+        that cannot be a stem). See :func:`stem_from_model`.
     """
     model, k, S = top_model.model, top_model.axis_body, top_model.centre_body_m
     R = top_model.top.R_m
-    found: list[tuple[float, StemParams, str]] = []
+    found: list[tuple[float, StemParams, str, int]] = []
     others: list[str] = []
     for g in stem_geoms(top_model):
         name = _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
@@ -276,12 +272,28 @@ def stem_from_model(top_model: TopModel) -> tuple[StemParams | None, str]:
             continue  # inside the ball, or on the ballast's side: never the stem
         c = stem.touch_cos(R)
         if -1.0 < c < 1.0:
-            found.append((math.acos(c), stem, name))
-    if not found:
+            found.append((math.acos(c), stem, name, g))
+    return (min(found, key=lambda f: f[0]) if found else None), others
+
+
+def stem_from_model(top_model: TopModel) -> tuple[StemParams | None, str]:
+    """The stem's end as the reference models it, from the top's colliding geoms.
+
+    A sphere, capsule or cylinder on the symmetry axis and aligned with it, beyond the ball's
+    centre along k, gives the end: a sphere's centre and radius, a capsule's far cap, a
+    cylinder's far face and rim. Of several, the one that reaches the table first (the
+    smallest tilt). Other colliding geoms (a box, an off-axis geom) cannot be a stem of the
+    reference: their presence is said in the returned note.
+
+    Returns:
+        (the stem, or None; a one-line note on what was found).
+    """
+    best, others = _stem_search(top_model)
+    if best is None:
         note = "no stem: no colliding sphere, capsule or cylinder on the axis reaches beyond " \
                "the ball" + (f" (other colliding geoms: {', '.join(others)})" if others else "")
         return None, note
-    tilt, stem, name = min(found, key=lambda f: f[0])
+    tilt, stem, name, _g = best
     note = (f"stem: geom '{name}', a {'flat' if stem.kind == 'cylinder' else 'rounded'} end "
             f"{stem.offset_m * 1e3:.4g} mm from the ball's centre, radius "
             f"{stem.radius_m * 1e3:.4g} mm, touching at theta = {tilt:.4f} rad")
@@ -335,9 +347,11 @@ def touch_tilt(top_model: TopModel, geom_id: int) -> float | None:
 
 def _extra_geom_warnings(top_model: TopModel) -> tuple[str, ...]:
     model, b = top_model.model, top_model.body_id
+    best, _others = _stem_search(top_model)
+    stem_id = None if best is None else best[3]  # the stem the reference follows: expected
     out = []
     for g in range(model.ngeom):
-        if g == top_model.ball_geom_id or model.geom_bodyid[g] != b:
+        if g in (top_model.ball_geom_id, stem_id) or model.geom_bodyid[g] != b:
             continue
         if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
             continue
@@ -355,8 +369,8 @@ def _extra_geom_warnings(top_model: TopModel) -> tuple[str, ...]:
             else:
                 msg = (f"{head} ({kind}): it touches the table at tilt theta = {tilt:.4f} rad "
                        f"({math.degrees(tilt):.1f} deg), where the paper's loaded sphere has "
-                       "nothing; the reference follows the top onto it only as a stem (a "
-                       "sphere, capsule or cylinder on the axis, effects.stem)")
+                       "nothing, and the reference does not model it (only one sphere, "
+                       "capsule or cylinder on the axis, beyond the ball, is its stem)")
         out.append(msg)
     return tuple(out)
 

@@ -213,7 +213,8 @@ def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
     inits = tuple(keyframe_state(top_model, i) for i in range(model.nkey))
     stem, note = stem_from_model(top_model)
     return FileTop(top=top_model.top, keyframes=names, keyframe_inits=inits,
-                   mu=ball_table_mu(top_model), stem=stem, stem_note=note)
+                   mu=ball_table_mu(top_model), stem=stem, stem_note=note,
+                   timestep_s=float(model.opt.timestep))
 
 
 def ball_table_mu(top_model: TopModel) -> float | None:

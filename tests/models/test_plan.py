@@ -78,6 +78,9 @@ def test_native_mode_takes_the_calibration_for_what_the_scene_does_not_set() -> 
     assert p.solref == tuple(cal["solref"]) and p.solimp == tuple(cal["solimp"])
     p = plan("mujoco", "mujoco.friction=native", "mujoco.cone=elliptic", "mujoco.mu=0.5").mujoco
     assert (p.cone, p.mu, p.impratio) == ("elliptic", 0.5, cal["impratio"])
+    # the calibration fitted mu for the reference's mu = 0.1: another law's mu scales with it
+    p = plan("mujoco", "mujoco.friction=native", "friction.mu=0.3").mujoco
+    assert p.mu == pytest.approx(3.0 * cal["mu"], rel=1e-15)
 
 
 # ---------------------------------------------------------------- a loaded MJCF top
@@ -121,8 +124,8 @@ def test_sampling() -> None:
     ("ode", ("friction.law=coulomb", "friction.Lambda_mps=0.02"), ("friction.Lambda_mps",)),
     ("ode", ("effects.sliding=false", "friction.mu=0.3"), ("friction.mu",)),
     ("mujoco", ("mujoco.friction=paper", "mujoco.cone=pyramidal"), ("mujoco.cone",)),
-    # native mode takes the calibrated mu: the scene's friction.mu is not what runs
-    ("mujoco", ("mujoco.friction=native", "friction.mu=0.3"), ("friction.mu",)),
+    # native mode scales the calibrated mu by the scene's friction.mu: it is read
+    ("mujoco", ("mujoco.friction=native", "friction.mu=0.3"), ()),
     ("mujoco", ("mujoco.friction=native", "mujoco.mu=0.3"), ()),
     ("mujoco", ("mujoco.friction=native", "effects.torsional_mu=0.01"),
      ("effects.torsional_mu",)),
