@@ -39,10 +39,16 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+_SHOWN: set[str] = set()
+
+
 def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
                       lineno: int, file: Any = None, line: str | None = None) -> None:
     """Show a warning as ``tippetop: warning: ...`` on one line (no source line)."""
     text = " ".join(str(message).split())
+    if text in _SHOWN:
+        return
+    _SHOWN.add(text)
     sys.stderr.write(f"tippetop: warning: {text}\n")
 
 

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pandas as pd
@@ -31,6 +33,57 @@ def check_output_path(path: str | Path, *, force: bool, suffixes: tuple[str, ...
         raise TippetopError(f"--out: expected a path that does not exist yet (or --force to "
                             f"overwrite), got existing {str(path)!r}")
     return p
+
+
+def check_output_dir(path: str | Path, *, force: bool) -> Path:
+    """Validate an output folder before any work: new or empty, or ``force``.
+
+    Raises:
+        TippetopError: a file where a folder is needed, a non-empty folder without ``force``,
+            or a missing parent folder.
+    """
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise TippetopError(f"--out: expected a folder, got the file {str(p)!r}")
+    if p.is_dir() and any(p.iterdir()) and not force:
+        raise TippetopError(f"--out: expected a new or empty folder (or --force to write into "
+                            f"it), got {str(p)!r} which is not empty")
+    if not p.parent.is_dir():
+        raise TippetopError(f"--out: expected an existing parent folder, got "
+                            f"{str(p.parent)!r}")
+    return p
+
+
+@contextlib.contextmanager
+def staged_output_dir(out: Path) -> Iterator[Path]:
+    """Write a folder's files all or not at all: into a hidden sibling, then moved into ``out``.
+
+    Yields the staging folder. On success a new ``out`` is the staging folder renamed (one
+    atomic step); into an existing one (empty, or ``--force``) its files are moved, each by an
+    atomic rename, next to the folder's other files. On any error or Ctrl-C the staging folder
+    is removed and ``out`` is as it was.
+    """
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield stage
+        if not out.exists():
+            stage.chmod(0o777 & ~_umask())
+            os.rename(stage, out)
+            return
+        for src in sorted(stage.rglob("*")):
+            dst = out / src.relative_to(stage)
+            if src.is_dir():
+                dst.mkdir(exist_ok=True)
+            else:
+                os.replace(src, dst)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_atomic(path: Path, write: Callable[[Path], None]) -> None:

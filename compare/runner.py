@@ -16,7 +16,9 @@ import atexit
 import hashlib
 import json
 import os
+import signal
 import sys
+import warnings
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -110,10 +112,15 @@ def execute(task: Task) -> dict[str, Any]:
     Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
     in a sweep is reported with the others.
     """
-    try:
-        run = run_plan(task.plan(), progress=False)
-    except TippetopError as exc:
-        return {"error": str(exc)}
+    from tippetop.mujoco_runner.model import TopModelWarning
+
+    with warnings.catch_warnings():
+        # The main process resolved the same plan and said each model warning once already.
+        warnings.simplefilter("ignore", TopModelWarning)
+        try:
+            run = run_plan(task.plan(), progress=False)
+        except TippetopError as exc:
+            return {"error": str(exc)}
     return {"summary": run.summary, "table": _downsample(run.table)}
 
 
@@ -241,10 +248,28 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
         return
     pool = _local_pool(n)
     futures = {pool.submit(execute, task): key for key, task in unique}
-    for fut in as_completed(futures):
-        yield futures[fut], fut.result()
-        if bar is not None:
-            bar.update()
+    try:
+        for fut in as_completed(futures):
+            yield futures[fut], fut.result()
+            if bar is not None:
+                bar.update()
+    except BaseException:
+        _stop_pool(pool)  # Ctrl-C or an error: do not wait for the runs still going
+        raise
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: Ctrl-C is the main process's to handle (one line, no tracebacks)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started, end the workers now, and forget the pool."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # no public way to
+    pool.shutdown(wait=False, cancel_futures=True)  # stop them; shutdown forgets them
+    for proc in procs:
+        proc.terminate()
+    _local_pool.cache_clear()
 
 
 @lru_cache(maxsize=1)
@@ -253,7 +278,8 @@ def _local_pool(n: int) -> ProcessPoolExecutor:
 
     A bisection makes several rounds; fresh workers each round would cost seconds of imports.
     """
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"))
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
+                               initializer=_ignore_sigint)
     atexit.register(pool.shutdown, wait=False, cancel_futures=True)
     return pool
 
