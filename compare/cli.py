@@ -24,6 +24,7 @@ from tippetop.compare.common_args import (
 )
 from tippetop.compare.nightly.command import add_nightly_parser
 from tippetop.compare.render import add_render_parser
+from tippetop.compare.validate.command import add_validate_parser
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -113,6 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_nightly_parser(sub)
     add_calibrate_parser(sub)
     add_render_parser(sub)
+    add_validate_parser(sub)
     return p
 
 

@@ -30,7 +30,8 @@ from tippetop.models.scene import Scene
 #: at rest).
 MUJOCO_ENERGY_RTOL = 1e-6
 #: The summary keys of a failed run that would be numbers: a failed run reports none.
-RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone")
+RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone",
+               "energy_rise_rel")
 
 __all__ = ["ENGINES", "EngineRun", "describe_ran", "plan_for", "progress_bar", "run_engine",
            "run_plan"]
@@ -166,7 +167,8 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
                                                                 top.C_kgm2))
                             if len(before) > 1 else None)
     s.update(status=res.status, message=res.message, mode=p.mode, **ran, t_stem=t_stem,
-             phases=res.phases(), unused=list(plan.unused))
+             phases=res.phases(), max_penetration_m=res.max_penetration_m,
+             contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
     return EngineRun(res.table, s, res.status, res.message)
 
 

@@ -93,6 +93,7 @@ def summary(
         "t_invert": t_invert,
         "J_rel_drift": jellett_drift(table, J_scale),
         "energy_monotone": energy_monotone(table, rtol),
+        "energy_rise_rel": energy_rise(table) / max(abs(float(table["E"].iloc[0])), 1e-300),
         "contact_lost": bool(contact_lost),
         "wall_s": float(wall_s),
         **{k: int(v) for k, v in counters.items()},

@@ -62,7 +62,8 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
     import importlib
 
     for pkg in ("tippetop.compare.nightly", "tippetop.compare.calibrate",
-                "tippetop.compare.accuracy", "tippetop.compare.report"):
+                "tippetop.compare.accuracy", "tippetop.compare.report",
+                "tippetop.compare.validate"):
         mod = importlib.import_module(pkg)
         folder = Path(mod.__file__).parent
         submodules = {p.stem for p in folder.glob("*.py")}

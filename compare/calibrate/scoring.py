@@ -112,7 +112,7 @@ MUJOCO_DEFAULTS = Candidate(cone="elliptic", impratio=1.0, timeconst_s=0.02, d0=
 
 @dataclass(frozen=True)
 class SceneSpec:
-    """A catalogue scene and the horizon it is compared over."""
+    """A scene (a catalogue name or a scene file's path) and the horizon it is compared over."""
 
     name: str
     t_end_s: float
@@ -128,6 +128,8 @@ class SceneSpec:
 
 def parse_scene_list(text: str, option: str) -> list[SceneSpec]:
     """Parse ``fig3:6,fig11_n070`` (a missing horizon means the scene's own ``run.t_end_s``).
+
+    A name is a catalogue scene or a scene file (``my_top.toml:6``).
 
     Raises:
         TippetopError: An unknown scene, a bad horizon, a repeated or an empty list.
@@ -148,7 +150,8 @@ def parse_scene_list(text: str, option: str) -> list[SceneSpec]:
                                     f"got {item!r}")
         else:
             t_end = scene.run.t_end_s
-        out.append(SceneSpec(scene.name, t_end))
+        # the name as given: a scene file's path loads again in the workers
+        out.append(SceneSpec(name.strip(), t_end))
     if not out:
         raise TippetopError(f"{option}: expected a comma-separated list of scenes, got {text!r}")
     names = [s.name for s in out]

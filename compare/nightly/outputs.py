@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.models.errors import TippetopError
+from tippetop.compare.io import check_output_dir
 from tippetop.models.resources import data_path
 
 RESULTS_FORMAT = "tippetop-nightly-results/1"
@@ -199,18 +199,9 @@ def prepare_out_dir(out: str | None, force: bool) -> Path:
     folder only with ``force``.
     """
     if out is None:
-        p = Path.cwd() / f"nightly-{datetime.now():%Y%m%d-%H%M%S}"
-    else:
-        p = Path(out)
-    if p.exists() and not p.is_dir():
-        raise TippetopError(f"--out: expected a folder, got the file {str(p)!r}")
-    if p.is_dir() and any(p.iterdir()) and not force:
-        raise TippetopError(f"--out: expected a new or empty folder (or --force to write into "
-                            f"it), got {str(p)!r} which is not empty")
-    if not p.parent.is_dir():
-        raise TippetopError(f"--out: expected an existing parent folder, got "
-                            f"{str(p.parent)!r}")
-    return p
+        return check_output_dir(Path.cwd() / f"nightly-{datetime.now():%Y%m%d-%H%M%S}",
+                                force=force)
+    return check_output_dir(out, force=force)
 
 
 def downsample(table: pd.DataFrame, rows: int = TABLE_ROWS) -> pd.DataFrame:

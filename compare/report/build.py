@@ -16,7 +16,7 @@ from tippetop.compare.io import write_atomic
 from tippetop.compare.report.figures import sweeps_section, timeseries_section
 from tippetop.compare.report.friction import friction_section
 from tippetop.compare.report.groupmap import group_map_section
-from tippetop.compare.report.markup import CSS, esc
+from tippetop.compare.report.markup import page
 from tippetop.compare.report.sections import (
     accuracy_section,
     checks_section,
@@ -61,12 +61,7 @@ def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]
             threshold_section(results), accuracy_section(accuracy_dir),
             checks_section(results), environment_section(results)]
     title = f"tippetop report ({results.get('profile', '')}, {results.get('verdict', '')})"
-    return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-            "<meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; "
-            "img-src data:; style-src 'unsafe-inline'\">"
-            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
-            + "\n".join(body) + "</body></html>\n")
+    return page(title, body)
 
 
 def build_report(results: Mapping[str, Any] | str | Path, path: str | Path, *,

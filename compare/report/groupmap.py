@@ -15,7 +15,7 @@ _OUTCOME_COLOURS = {"upright": "#1f77b4", "intermediate": "#ff7f0e", "inverted":
 _ENGINE_MARKERS = {"ode": "o", "mujoco-paper": "s", "mujoco-native": "^"}
 
 
-def _draw_groups(ax: Any, xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
+def draw_groups(ax: Any, xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
     """Shade Groups I/II/III and draw the lines A/C = 1 - a/R and 1 + a/R."""
     xs = np.linspace(0.0, 1.0, 200)
     ax.fill_between(xs, 0.0, 1 - xs, color="#bbdefb", alpha=0.6, lw=0)
@@ -42,7 +42,7 @@ def group_map_section(results: Mapping[str, Any]) -> str:
         points.setdefault((round(p["a_over_R"], 6), round(p["A_over_C"], 6)), []).append(r)
     fig, (ax_all, ax_zoom) = plt.subplots(1, 2, figsize=(13, 5.4),
                                           gridspec_kw={"width_ratios": [1, 1.3]})
-    _draw_groups(ax_all, (0.0, 0.7), (0.5, 2.0))
+    draw_groups(ax_all, (0.0, 0.7), (0.5, 2.0))
     ax_all.text(0.55, 0.58, "I", fontsize=16, weight="bold")
     ax_all.text(0.6, 1.0, "II", fontsize=16, weight="bold")
     ax_all.text(0.05, 1.85, "III", fontsize=16, weight="bold")
@@ -52,7 +52,7 @@ def group_map_section(results: Mapping[str, Any]) -> str:
     ys = [y for _, y in points] or [1.0]
     zx = (max(0.0, min(xs) - 0.03), max(xs) + 0.03)
     zy = (min(ys) - 0.08, max(ys) + 0.08)
-    _draw_groups(ax_zoom, zx, zy)
+    draw_groups(ax_zoom, zx, zy)
     ax_all.add_patch(plt.Rectangle((zx[0], zy[0]), zx[1] - zx[0], zy[1] - zy[0], fill=False,
                                    ls="--", lw=0.8, color="0.3"))
     rows = []

@@ -86,3 +86,13 @@ def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
 
 class Html(str):
     """A table cell that is already HTML."""
+
+
+def page(title: str, body: Iterable[str]) -> str:
+    """A self-contained HTML page: inline CSS and data-URI images only (its CSP forbids more)."""
+    return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+            "<meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; "
+            "img-src data:; style-src 'unsafe-inline'\">"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
+            + "\n".join(body) + "</body></html>\n")

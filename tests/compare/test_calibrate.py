@@ -299,6 +299,14 @@ def test_parse_scene_list_horizons() -> None:
     assert specs == [SceneSpec("fig3", 6.0), SceneSpec("fig11_n070", 60.0)]
 
 
+def test_parse_scene_list_keeps_a_scene_files_path(tmp_path: Path) -> None:
+    # the workers load the scene again from the spec: a file must stay a path, not its name
+    scene = tmp_path / "my_top.toml"
+    scene.write_text('[scene]\nname = "mine"\n')
+    specs = parse_scene_list(f"{scene}:4", "--calibration")
+    assert specs == [SceneSpec(str(scene), 4.0)]
+
+
 # ---------------------------------------------------------------- objective and search pieces
 def _result(t: np.ndarray, theta: np.ndarray, t_invert: float | None,
             drift: float = 0.0) -> TaskResult:
