@@ -23,9 +23,14 @@ def theta_asymp(table: pd.DataFrame) -> float:
 
 
 def first_inversion_time(table: pd.DataFrame) -> float | None:
-    """First sampled time with theta > pi/2, or None (engines with events report it exactly)."""
-    above = np.flatnonzero(table["theta"].to_numpy() > math.pi / 2)
-    return float(table["t"].iloc[above[0]]) if above.size else None
+    """First sampled time theta crosses pi/2 from below, or None.
+
+    As the reference locates it (cos theta from > 0 to <= 0): a top that starts above pi/2 (a
+    file whose centre of mass lies above the ball's centre, say) has not turned over at t = 0.
+    """
+    above = table["theta"].to_numpy() >= math.pi / 2
+    up = np.flatnonzero(above[1:] & ~above[:-1]) + 1
+    return float(table["t"].iloc[up[0]]) if up.size else None
 
 
 def jellett_drift(table: pd.DataFrame, J_scale: float | None = None) -> float:

@@ -133,3 +133,44 @@ def test_the_cone_setting_takes_effect() -> None:
     assert _slide_deceleration("mujoco-native-pyramidal", 0.0) == pytest.approx(1.0, abs=0.03)
     assert _slide_deceleration("mujoco-native-pyramidal", 45.0) == pytest.approx(
         1.0 / math.sqrt(2.0), abs=0.03)
+
+
+def test_inversion_time_is_a_crossing_from_below() -> None:
+    """MuJoCo's sampled t_invert means what the reference's located one means: theta crossing
+    pi/2 upward. A start above pi/2 is not an inversion at t = 0."""
+    import pandas as pd
+
+    from tippetop.compare.metrics import first_inversion_time
+
+    t = np.arange(5) * 0.1
+    assert first_inversion_time(pd.DataFrame({"t": t, "theta": [0.1, 1.0, 1.6, 2.0, 3.0]})) \
+        == pytest.approx(0.2)
+    assert first_inversion_time(pd.DataFrame({"t": t, "theta": [3.1, 2.5, 2.0, 1.8, 1.8]})) \
+        is None
+    assert first_inversion_time(pd.DataFrame({"t": t, "theta": [3.1, 1.2, 1.4, 1.7, 1.8]})) \
+        == pytest.approx(0.3)
+
+
+@pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
+def test_a_top_heavy_at_the_stem_starts_inverted_in_both_engines(tmp_path: Path) -> None:
+    """A file whose centre of mass lies above the ball's centre (a heavy stem up, spun
+    upright): in the paper's frame the top starts at theta = pi. Neither engine reports an
+    inversion, and both start from the same paper state."""
+    f = tmp_path / "heavy_stem.xml"
+    f.write_text("""<mujoco>
+  <worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="top" pos="0 0 0.02">
+      <freejoint/>
+      <geom name="ball" type="sphere" size="0.02" mass="0.08"/>
+      <geom name="knob" type="cylinder" pos="0 0 0.021" size="0.003 0.009" mass="0.04"/>
+    </body>
+  </worldbody>
+  <keyframe><key qpos="0 0 0.02 1 0 0 0" qvel="0 0 0 0 0.5 150"/></keyframe>
+</mujoco>""")
+    scene = load_scene(None, [f"top.mjcf={str(f)!r}", "run.t_end_s=0.5"])
+    ode = run_plan(plan_for(scene, "ode"), progress=False)
+    mj = run_plan(plan_for(scene, "mujoco"), progress=False)
+    assert plan_for(scene, "ode").init.theta0 == pytest.approx(math.pi)
+    assert ode.summary["t_invert"] is None and mj.summary["t_invert"] is None
+    assert float(mj.table["theta"].iloc[0]) == pytest.approx(math.pi, abs=1e-9)
