@@ -280,7 +280,8 @@ def _local_pool(n: int) -> ProcessPoolExecutor:
     """
     pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
                                initializer=_ignore_sigint)
-    atexit.register(pool.shutdown, wait=False, cancel_futures=True)
+    # idle workers exit at once on shutdown: wait for them, so none outlives the command
+    atexit.register(pool.shutdown, wait=True, cancel_futures=True)
     return pool
 
 
