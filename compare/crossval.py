@@ -15,7 +15,7 @@ import pandas as pd
 
 from tippetop.compare import theory
 from tippetop.compare.engines import describe_ran
-from tippetop.compare.metrics import classify_outcome, outcome_of_angle
+from tippetop.compare.metrics import classify_outcome, outcome_of_angle, theta_trend
 from tippetop.compare.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES, mode_task_parts
@@ -31,6 +31,120 @@ TOLERANCES: dict[str, tuple[float, str]] = {
     "J_rel_drift": (1e-4, "relative; J is exact for any force through P (eq. 2.10)"),
 }
 
+#: A run matches the theory when it ends in the theory's outcome class AND its theta_asymp lies
+#: within this of theta_s (rad), with the reason the tolerance is what it is.
+THETA_S_TOL: tuple[float, str] = (
+    0.05, "rad; a run's theta_asymp is a mean over its last 10 %: the nutation left there after "
+    "a start at theta0 = 0.1 or 0.01 moves it by under 0.03 rad in the reference (Figs. 6-8, "
+    "11), and the paper prints Fig. 11's theta_asymp to 0.01 rad")
+
+
+def matches_theory(outcome: str | None, theta_asymp: float | None, theta_s: float | None,
+                   theory_outcome: str | None) -> bool:
+    """The outcome class is the theory's AND |theta_asymp - theta_s| <= ``THETA_S_TOL``.
+
+    A run still moving at its end (``inconclusive``) or one that failed never matches.
+    """
+    if outcome is None or outcome != theory_outcome or outcome in ("inconclusive", "failed"):
+        return False
+    if theta_asymp is None or theta_s is None:
+        return False
+    d = theta_asymp - theta_s
+    return math.isfinite(d) and abs(d) <= THETA_S_TOL[0]
+
+
+def _finite(x: float | None) -> float | None:
+    return x if x is not None and math.isfinite(x) else None
+
+
+def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: float | None,
+                 theta_s: float | None, theory_outcome: str | None, t_invert: float | None,
+                 t_invert_ref: float | None = None, J_rel_drift: float | None = None,
+                 trend: float | None = None, error: str | None = None,
+                 reference: bool = False) -> dict[str, Any]:
+    """One scene and mode against the theory (and its inversion time against the reference).
+
+    Args:
+        scene: The scene's name (with its overrides, if any).
+        mode: ``ode``, ``mujoco-paper``, ``mujoco-native``, ...
+        outcome: The run's outcome class (``failed`` if it did not run).
+        theta_asymp: Mean theta over the run's last 10 % (rad).
+        theta_s: The theory's asymptotic angle for the run's Jellett constant (rad).
+        theory_outcome: The theory's outcome class.
+        t_invert: The run's first inversion time (s), None if it never turns over.
+        t_invert_ref: The reference ODE's for the same scene, if known.
+        J_rel_drift: The run's Jellett drift (relative).
+        trend: How fast theta still moves at the end (rad/s), :func:`theta_trend`.
+        error: Why the run failed, if it did.
+        reference: This row is the reference ODE's (no inversion-time difference).
+
+    Returns:
+        ``scene, mode, outcome, theory_outcome, theta_asymp, theta_s, d_theta_asymp, t_invert,
+        d_t_invert, J_rel_drift, agrees`` (the contract), plus ``t_invert_ref``,
+        ``theta_trend_rad_s``, ``reasons`` (why it does not agree, in words), ``notes``
+        (differences from the reference beyond their tolerances) and ``error``.
+    """
+    theta_asymp, theta_s, J_rel_drift, trend = (_finite(theta_asymp), _finite(theta_s),
+                                                _finite(J_rel_drift), _finite(trend))
+    d_th = theta_asymp - theta_s if theta_asymp is not None and theta_s is not None else None
+    d_t = (t_invert - t_invert_ref if t_invert is not None and t_invert_ref is not None
+           and not reference else None)
+    agrees = error is None and matches_theory(outcome, theta_asymp, theta_s, theory_outcome)
+    reasons: list[str] = []
+    tol = THETA_S_TOL[0]
+    if error is not None:
+        outcome = "failed"
+        reasons.append(f"the run failed: {error}")
+    elif outcome == "inconclusive":
+        rate = f" at {trend:+.2g} rad/s" if trend is not None else ""
+        reasons.append(f"theta is still moving at the end{rate}: inconclusive, not "
+                       f"{theory_outcome}")
+    elif outcome != theory_outcome:
+        reasons.append(f"ends {outcome}, the theory {theory_outcome}")
+    if error is None and d_th is not None and abs(d_th) > tol:
+        reasons.append(f"theta_asymp {theta_asymp:.3f} rad against theta_s {theta_s:.3f} "
+                       f"({d_th:+.3f} rad, beyond {tol:g} rad)")
+    notes: list[str] = []
+    if error is None and not reference:
+        t_tol = TOLERANCES["t_invert"][0]
+        if d_t is not None and abs(d_t) > t_tol:
+            notes.append(f"turns over {abs(d_t):.2f} s {'later' if d_t > 0 else 'earlier'} "
+                         f"than the reference (beyond {t_tol:g} s)")
+        elif (t_invert is None) != (t_invert_ref is None) and t_invert_ref is not None:
+            notes.append("never turns over; the reference does")
+        elif (t_invert is None) != (t_invert_ref is None) and t_invert is not None:
+            notes.append("turns over; the reference does not")
+    j_tol = TOLERANCES["J_rel_drift"][0]
+    if error is None and J_rel_drift is not None and J_rel_drift > j_tol:
+        notes.append(f"Jellett's J drifts by {J_rel_drift:.1e} (beyond {j_tol:g})")
+    return {"scene": scene, "mode": mode, "outcome": outcome, "theory_outcome": theory_outcome,
+            "theta_asymp": theta_asymp, "theta_s": theta_s, "d_theta_asymp": d_th,
+            "t_invert": t_invert, "d_t_invert": d_t, "J_rel_drift": J_rel_drift,
+            "agrees": bool(agrees), "t_invert_ref": t_invert_ref,
+            "theta_trend_rad_s": trend, "reasons": reasons, "notes": notes, "error": error}
+
+
+#: A pyramidal friction cone bounds the force along each pyramid edge (the table's axes) by mu N,
+#: so along a diagonal the force is at most mu N times this (a box slid at 45 degrees decelerates
+#: at about 0.71 mu g; tests/mujoco_runner/test_mujoco_cone.py measures it).
+PYRAMIDAL_DIAGONAL = 1.0 / math.sqrt(2.0)
+
+
+def calibrated_native_text() -> str:
+    """The calibrated native settings, as shipped (cone, impratio, solref, mu)."""
+    from tippetop.models.calibrated import calibrated_native_settings
+
+    cal = calibrated_native_settings()
+    if not cal:
+        return "no calibration file: MuJoCo's own contact settings"
+    ref = cal.get("solref")
+    parts = [f"{cal.get('cone', '?')} cone", f"impratio {cal['impratio']:g}"
+             if "impratio" in cal else "",
+             f"solref [{ref[0]:g}, {ref[1]:g}]" if ref else "",
+             f"mu {cal['mu']:g}" if "mu" in cal else ""]
+    return ", ".join(p for p in parts if p)
+
+
 #: Why each mode departs from the paper's law where it does (the numbers say whether it does).
 MODE_NOTES: dict[str, str] = {
     "ode": "the reference: the paper's equations (Appendix A) with the scene's law",
@@ -42,13 +156,17 @@ MODE_NOTES: dict[str, str] = {
     "ode-coulomb_viscous": "Or's hybrid: exact Coulomb plus the viscous term",
     "mujoco-paper": "the paper's law applied by the harness in MuJoCo (normal force lagged by "
                     "one evaluation, soft contact)",
-    "mujoco-native": "MuJoCo's own soft friction (calibrated), a steep viscous law below "
-                     "saturation set by solref/impratio and dt",
+    "mujoco-native": f"MuJoCo's own soft friction with the calibrated settings "
+                     f"({calibrated_native_text()}), a steep viscous law below saturation set "
+                     f"by solref/impratio and dt",
     "mujoco-file": "MuJoCo's own friction with the model's own settings (a loaded MJCF file "
                    "as it says)",
-    "mujoco-native-pyramidal": "pyramidal cone: the friction bound is per pyramid edge, up to "
-                               "sqrt(2) mu N diagonally, and the friction is softer",
-    "mujoco-native-elliptic": "elliptic cone: |F| <= mu N as in Coulomb's law",
+    "mujoco-native-pyramidal": f"pyramidal cone: the friction bound mu N holds along each "
+                               f"pyramid edge (the table's axes), so along a diagonal the "
+                               f"force is at most mu N / sqrt(2) = {PYRAMIDAL_DIAGONAL:.2f} mu "
+                               f"N: the friction depends on the slip direction",
+    "mujoco-native-elliptic": "elliptic cone: |F| <= mu N in every direction, as in Coulomb's "
+                              "law",
     "mujoco-native-condim4": "torsional friction adds a torque about the normal that is not "
                              "through P: Jellett's constant is no longer conserved",
     "mujoco-native-condim6": "torsional and rolling friction add torques not through P: J is "
@@ -81,8 +199,11 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
 
     Returns:
         ``scene``, ``group``, ``theory`` (predicted theta_s and outcome), ``modes`` (per mode:
-        the simulate summary keys plus ``outcome``, ``matches_theory``, ``theta_rms_vs_ref``),
-        ``differences`` (mode, metric, value, reference, tolerance), ``tolerances``.
+        the simulate summary keys plus ``outcome``, ``matches_theory`` (outcome class and
+        theta_asymp within ``THETA_S_TOL`` of theta_s), ``d_theta_asymp``,
+        ``theta_trend_rad_s``, ``theta_rms_vs_ref``), ``crossval`` (one :func:`crossval_row`
+        per mode), ``differences`` (mode, metric, value, reference, tolerance, why),
+        ``tolerances``.
     """
     for m in modes:
         if m not in MODES:
@@ -105,6 +226,8 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
     th_pred, out_pred = predicted_outcome(top, J0)
     per_mode: dict[str, Any] = {}
     diffs: list[dict[str, Any]] = []
+    rows: list[dict[str, Any]] = []
+    ref_t = None if ref.summary.get("status") == "diverged" else ref.summary.get("t_invert")
     for m in modes:
         r = results[m]
         s = dict(r.summary)
@@ -114,9 +237,19 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
                           "reference": ref.summary.get("status", "ok"), "tolerance": None,
                           "note": s.get("message", "")})
             per_mode[m] = s
+            rows.append(crossval_row(sc.name, m, outcome="failed", theta_asymp=None,
+                                     theta_s=th_pred, theory_outcome=out_pred, t_invert=None,
+                                     error=s.get("message") or "diverged"))
             continue
         s["outcome"] = classify_outcome(r.table)
-        s["matches_theory"] = s["outcome"] == out_pred
+        s["theta_trend_rad_s"] = theta_trend(r.table)
+        row = crossval_row(sc.name, m, outcome=s["outcome"], theta_asymp=s["theta_asymp"],
+                           theta_s=th_pred, theory_outcome=out_pred, t_invert=s["t_invert"],
+                           t_invert_ref=ref_t, J_rel_drift=s["J_rel_drift"],
+                           trend=s["theta_trend_rad_s"], reference=m == REFERENCE_MODE)
+        rows.append(row)
+        s["matches_theory"] = row["agrees"]
+        s["d_theta_asymp"] = row["d_theta_asymp"]
         s["theta_rms_vs_ref"] = _theta_rms(r.table, ref.table) if m != REFERENCE_MODE else 0.0
         s["energy_dissipated_J"] = float(r.table["E"].iloc[0] - r.table["E"].iloc[-1])
         s["note"] = MODE_NOTES.get(m, "")
@@ -138,21 +271,23 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
         elif s["t_invert"] is not None:
             checks["t_invert"] = (s["t_invert"], ref_s["t_invert"])
         for metric, (v, rv) in checks.items():
-            tol = TOLERANCES[metric][0]
+            tol, why = TOLERANCES[metric]
             if not math.isfinite(v) or abs(v - rv) > tol:
                 diffs.append({"mode": m, "metric": metric, "value": v, "reference": rv,
-                              "tolerance": tol})
-        tol = TOLERANCES["J_rel_drift"][0]
+                              "tolerance": tol, "why": why})
+        tol, why = TOLERANCES["J_rel_drift"]
         if s["J_rel_drift"] > tol:
             diffs.append({"mode": m, "metric": "J_rel_drift", "value": s["J_rel_drift"],
-                          "reference": ref_s["J_rel_drift"], "tolerance": tol})
+                          "reference": ref_s["J_rel_drift"], "tolerance": tol, "why": why})
     return {
         "scene": sc.name,
         "group": theory.group(top),
-        "theory": {"theta_s": th_pred, "outcome": out_pred},
+        "theory": {"theta_s": th_pred, "outcome": out_pred, "theta_s_tol": THETA_S_TOL[0],
+                   "theta_s_tol_why": THETA_S_TOL[1]},
         "modes": per_mode,
+        "crossval": rows,
         "differences": diffs,
-        "tolerances": {k: v[0] for k, v in TOLERANCES.items()},
+        "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL[0]},
     }
 
 

@@ -138,6 +138,17 @@ def theta_drift(table: pd.DataFrame) -> float:
     return float(np.mean(th[last]) - np.mean(th[before]))
 
 
+def theta_trend(table: pd.DataFrame) -> float:
+    """How fast theta still moves at the end of the run (rad/s).
+
+    :func:`theta_drift` over the time between the centres of its two windows (5 % of the run).
+    """
+    t = table["t"].to_numpy()
+    span = float(t[-1] - t[0])
+    drift = theta_drift(table)
+    return drift / (0.05 * span) if span > 0 and math.isfinite(drift) else math.nan
+
+
 def classify_outcome(table: pd.DataFrame) -> str:
     """The run's final state.
 

@@ -68,12 +68,20 @@ def measure_threshold(
     scheduler: str | None = None,
     workers: int | None = None,
     use_cache: bool = True,
+    horizon_check: bool = True,
 ) -> dict[str, Any]:
     """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) in ``engine``.
 
+    With ``horizon_check``, the two ends of the final bracket are run again over twice the
+    scene's horizon; if either changes side, the answer depends on the run length: it is
+    reported with ``depends_on_horizon`` true, a ``warning``, and ``converged`` false.
+
     Returns:
         ``measured`` (bracket midpoint, rad/s), ``theory``, ``rel_diff`` (measured / theory - 1),
-        ``bracket`` [low, high], ``runs`` (each n0 with its result) and ``n_runs``.
+        ``bracket`` [low, high], ``runs`` (each n0 with its result), ``n_runs``,
+        ``horizon_s``, ``bracket_converged``, ``horizon_check`` ({horizon_s, low_crossed,
+        high_crossed, depends_on_horizon} or None), ``depends_on_horizon``, ``warning`` and
+        ``converged`` (the bracket is within rel_tol AND does not depend on the horizon).
     """
     if which not in WHICH:
         raise TippetopError(f"--which: expected n1|nc, got {which!r}")
@@ -84,8 +92,9 @@ def measure_threshold(
     k = points_per_round or max(2, workers or 2)
     runs: list[dict[str, Any]] = []
 
-    def evaluate(n0s: list[float]) -> list[bool]:
-        tasks = [Task(scene, (*overrides, f"init.n0={n0!r}"), engine) for n0 in n0s]
+    def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
+                 record: bool = True) -> list[bool]:
+        tasks = [Task(scene, (*overrides, *extra, f"init.n0={n0!r}"), engine) for n0 in n0s]
         out = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
                         label=f"{which} bisection")
         flags = []
@@ -96,9 +105,10 @@ def measure_threshold(
                 raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
                                     f"{res.summary['message']}")
             flag = crossed(which, res.table)
-            runs.append({"n0": n0, "crossed": flag,
-                         "theta_asymp": res.summary["theta_asymp"],
-                         "status": res.summary.get("status", "ok")})
+            if record:
+                runs.append({"n0": n0, "crossed": flag,
+                             "theta_asymp": res.summary["theta_asymp"],
+                             "status": res.summary.get("status", "ok")})
             flags.append(flag)
         return flags
 
@@ -125,6 +135,24 @@ def measure_threshold(
         lo, hi = grid[j - 1], grid[j]
         rounds += 1
     measured = 0.5 * (lo + hi)
+    bracket_ok = (hi - lo) / measured <= rel_tol
+    # Near a threshold the approach slows without bound: the ends of the final bracket run
+    # again over twice the horizon must keep their sides, or the answer is the horizon's
+    horizon = base.run.t_end_s
+    if horizon_check:
+        again = evaluate([lo, hi], (f"run.t_end_s={2.0 * horizon!r}",), record=False)
+        depends = again != [False, True]
+        check = {"horizon_s": 2.0 * horizon, "low_crossed": again[0],
+                 "high_crossed": again[1], "depends_on_horizon": depends}
+    else:
+        depends, check = False, None
+    warning = None
+    if depends:
+        moved = "the low end crosses" if check and check["low_crossed"] else \
+            "the high end no longer crosses"
+        warning = (f"the answer depends on the run length: over {2.0 * horizon:g} s instead of "
+                   f"{horizon:g} s {moved}, so {which} lies outside [{lo:.4g}, {hi:.4g}] rad/s "
+                   f"(a longer run.t_end_s moves it)")
     return {
         "which": which,
         "engine": engine,
@@ -135,8 +163,12 @@ def measure_threshold(
         "bracket": [lo, hi],
         "runs": sorted(runs, key=lambda r: r["n0"]),
         "n_runs": len(runs),
-        "horizon_s": base.run.t_end_s,
-        "converged": (hi - lo) / measured <= rel_tol,
+        "horizon_s": horizon,
+        "bracket_converged": bracket_ok,
+        "horizon_check": check,
+        "depends_on_horizon": depends,
+        "warning": warning,
+        "converged": bracket_ok and not depends,
     }
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from tippetop.compare.crossval import calibrated_native_text
 from tippetop.compare.engines import describe_ran
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 
@@ -15,7 +16,8 @@ FRICTION_MODES: dict[str, str] = {
     "ode-viscous": "reference ODE, viscous F = -c v_P",
     "ode-coulomb_viscous": "reference ODE, Coulomb + viscous",
     "mujoco-paper": "MuJoCo, the paper's law applied at the contact point",
-    "mujoco-native": "MuJoCo native friction, the calibrated settings",
+    "mujoco-native": f"MuJoCo native friction, the calibrated settings "
+                     f"({calibrated_native_text()})",
     "mujoco-file": "MuJoCo native friction, the model's own settings",
     "mujoco-native-elliptic": "MuJoCo native friction, elliptic cone",
     "mujoco-native-pyramidal": "MuJoCo native friction, pyramidal cone",

@@ -6,7 +6,16 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.crossval import compare_scene, friction_law_table
+import numpy as np
+import pandas as pd
+
+from tippetop.compare.crossval import (
+    THETA_S_TOL,
+    compare_scene,
+    crossval_row,
+    friction_law_table,
+)
+from tippetop.compare.metrics import classify_outcome, theta_trend
 from tippetop.models.errors import TippetopError
 
 SUMMARY_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
@@ -35,6 +44,12 @@ def test_fig3_modes_and_differences() -> None:
     flagged = {(d["mode"], d["metric"]) for d in res["differences"]}
     assert ("ode-coulomb", "outcome") in flagged
     assert not any(m == "mujoco-paper" for m, _ in flagged)
+    rows = {r["mode"]: r for r in res["crossval"]}
+    assert set(rows) == {"ode", "ode-coulomb", "mujoco-paper"}
+    # the theory says theta_s = pi; both inverting runs end within THETA_S_TOL of it
+    assert rows["ode"]["agrees"] and abs(rows["ode"]["d_theta_asymp"]) <= THETA_S_TOL[0]
+    assert rows["mujoco-paper"]["agrees"] and rows["mujoco-paper"]["d_t_invert"] is not None
+    assert not rows["ode-coulomb"]["agrees"] and rows["ode-coulomb"]["reasons"]
     table = friction_law_table(res)
     assert list(table["mode"]) == ["ode", "ode-coulomb", "mujoco-paper"]
     row = table.set_index("mode").loc["ode-coulomb"]
@@ -44,3 +59,31 @@ def test_fig3_modes_and_differences() -> None:
 def test_unknown_mode() -> None:
     with pytest.raises(TippetopError, match="--modes"):
         compare_scene("fig3", ["bullet"])
+
+
+def test_matching_the_theory_needs_the_angle_too() -> None:
+    # the case: a native elliptic-cone run ending 'inverted' at 2.600 rad where the
+    # theory's theta_s is 2.752 (also 'inverted' by class) does not match the theory
+    row = crossval_row("fig11_n070", "mujoco-native-elliptic", outcome="inverted",
+                       theta_asymp=2.600, theta_s=2.752, theory_outcome="inverted",
+                       t_invert=3.0, t_invert_ref=2.9, J_rel_drift=1e-6)
+    assert not row["agrees"]
+    assert row["d_theta_asymp"] == pytest.approx(-0.152)
+    assert "beyond 0.05 rad" in row["reasons"][0]
+    near = crossval_row("x", "ode", outcome="inverted", theta_asymp=2.73, theta_s=2.752,
+                        theory_outcome="inverted", t_invert=3.0, reference=True)
+    assert near["agrees"] and near["d_t_invert"] is None
+
+
+def test_a_run_still_moving_is_inconclusive_with_its_trend() -> None:
+    # theta creeping up from 0.05 rad at 0.01 rad/s over 10 s: its mean over the last 10 % is
+    # 0.145 ('upright' by angle), but it is still moving; it is inconclusive, never upright,
+    # and the trend is the slope itself
+    t = np.linspace(0.0, 10.0, 2001)
+    table = pd.DataFrame({"t": t, "theta": 0.05 + 0.01 * t})
+    assert classify_outcome(table) == "inconclusive"
+    assert theta_trend(table) == pytest.approx(0.01, rel=0.01)  # windows of 100 samples: 1 %
+    row = crossval_row("x", "mujoco-paper", outcome="inconclusive", theta_asymp=0.145,
+                       theta_s=0.0, theory_outcome="upright", t_invert=None,
+                       trend=theta_trend(table))
+    assert not row["agrees"] and "+0.01 rad/s" in row["reasons"][0]

@@ -34,6 +34,22 @@ def test_fig9a_n1_measured_in_the_reference() -> None:
     assert lo <= res["measured"] <= hi and (hi - lo) / res["measured"] <= 0.005
     assert abs(res["rel_diff"]) <= 0.005
     assert res["n_runs"] == len(res["runs"]) >= 4
+    # the bracket's ends keep their sides over 120 s: the answer is not the horizon's
+    assert res["horizon_check"]["low_crossed"] is False
+    assert res["horizon_check"]["high_crossed"] is True
+    assert res["converged"] and not res["depends_on_horizon"] and res["warning"] is None
+
+
+def test_a_threshold_that_depends_on_the_run_length_says_so() -> None:
+    """n_c of the Fig. 6 top over its 12-s horizon: the bisection lands at 72.7 rad/s against
+    the theory's 54.3 (a run just above n_c inverts too slowly to finish in 12 s). Over 24 s
+    the bracket's low end inverts as well: the answer moves with the horizon, so it is not
+    'converged' and says why. (Measured: bracket [72.57, 72.78]; 57.3 with a 60-s horizon.)"""
+    res = measure_threshold("fig6", "ode", "nc")
+    assert res["bracket_converged"]
+    assert res["depends_on_horizon"] and not res["converged"]
+    assert res["horizon_check"]["horizon_s"] == 24.0 and res["horizon_check"]["low_crossed"]
+    assert "depends on the run length" in res["warning"]
 
 
 def test_threshold_refuses_a_group_one_top() -> None:

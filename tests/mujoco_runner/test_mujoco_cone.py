@@ -59,3 +59,27 @@ def test_box_slid_along_an_axis_and_a_diagonal(cone: str, angle_deg: float,
     decel, heading = _deceleration(cone, angle_deg)
     assert decel == pytest.approx(expected, abs=0.03)
     assert heading == pytest.approx(angle_deg, abs=1e-6)
+
+
+def test_the_harness_says_what_the_pyramidal_cone_does() -> None:
+    # The sentence the compare and report tables show for the pyramidal cone must state the
+    # diagonal bound that MuJoCo gives (measured above: 0.709 mu g), not sqrt(2) mu N.
+    from tippetop.compare.crossval import MODE_NOTES, PYRAMIDAL_DIAGONAL
+
+    decel, _ = _deceleration("pyramidal", 45.0)
+    assert decel == pytest.approx(PYRAMIDAL_DIAGONAL, abs=0.03)
+    note = MODE_NOTES["mujoco-native-pyramidal"]
+    assert f"{PYRAMIDAL_DIAGONAL:.2f} mu N" in note
+    assert "sqrt(2) mu N" not in note.replace("mu N / sqrt(2)", "")
+
+
+def test_the_calibrated_row_names_its_cone() -> None:
+    # models/calibrated_native.toml is the truth about mode mujoco-native's cone
+    from tippetop.compare.crossval import MODE_NOTES
+    from tippetop.compare.report.friction import FRICTION_MODES
+    from tippetop.models.calibrated import calibrated_native_settings
+
+    cone = calibrated_native_settings()["cone"]
+    other = {"pyramidal": "elliptic", "elliptic": "pyramidal"}[cone]
+    for text in (MODE_NOTES["mujoco-native"], FRICTION_MODES["mujoco-native"]):
+        assert f"{cone} cone" in text and other not in text
