@@ -8,6 +8,10 @@ at a fixed integrator and timestep) that make native runs follow the reference O
 modified Coulomb law) on a *calibration* set of scenes, and then measures how well the chosen
 settings do on *held-out* scenes that the fit never saw.
 
+MuJoCo's defaults, against which the result is reported, are read from a fresh MuJoCo model
+(:func:`.scoring.mujoco_defaults`: pyramidal cone, impratio 1, solref (0.02 s, 1), solimp
+(0.9, 0.95, 1 mm, 0.5, 2) in MuJoCo 4.0.0), at the paper's mu = 0.1 rather than MuJoCo's 1.
+
 The solref damping ratio (1), the solimp tail (dmax 0.95, width 1 mm, midpoint 0.5, power 2),
 the integrator and the timestep are fixed during the search and written with the settings.
 MuJoCo's ``solreffriction`` is not fitted: :func:`models.mjcf.make_mjcf` does not write it, so
@@ -38,6 +42,8 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "FAIL_COST": "scoring",
     "J_MAX": "scoring",
     "MUJOCO_DEFAULTS": "scoring",
+    "mujoco_defaults": "scoring",
+    "mujoco_defaults_label": "scoring",
     "W_J": "scoring",
     "W_T": "scoring",
     "Candidate": "scoring",
@@ -62,6 +68,6 @@ __all__ = [
     "DEFAULT_OUT", "DEFAULT_TIMESTEP_S", "FAIL_COST", "GRID", "J_MAX", "MUJOCO_DEFAULTS", "W_J",
     "W_T", "CalibrateConfig", "Candidate", "Evaluation", "Evaluator", "Residual", "SceneSpec",
     "add_calibrate_parser", "calibrate", "cmd_calibrate", "findings", "grid_candidates",
-    "neighbours", "objective", "parse_scene_list", "render_toml", "reproduce_command",
-    "residual", "search", "timestep_check",
+    "mujoco_defaults", "mujoco_defaults_label", "neighbours", "objective", "parse_scene_list",
+    "render_toml", "reproduce_command", "residual", "search", "timestep_check",
 ]

@@ -26,10 +26,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from tippetop.compare.calibrate.scoring import (
-    MUJOCO_DEFAULTS,
     Candidate,
     Residual,
     SceneSpec,
+    mujoco_defaults,
     objective,
     residual,
 )
@@ -240,10 +240,15 @@ def timestep_check(ev: Evaluator, best: Candidate) -> dict[str, Any]:
 
 
 def objective_of_defaults(ev: Evaluator) -> float:
-    """MuJoCo's default settings scored on the calibration set (outside the search's budget)."""
+    """MuJoCo's default settings scored on the calibration set (outside the search's budget).
+
+    The defaults are :func:`.scoring.mujoco_defaults`: read from MuJoCo itself, at the
+    paper's mu, at the calibration's own timestep and integrator.
+    """
     other = Evaluator(ev.scenes, ev.timestep_s, ev.integrator, None, ev.run_options)
     other._ode = ev.reference()
-    value = other.evaluate([MUJOCO_DEFAULTS], label="defaults", budgeted=False)[0].objective
+    value = other.evaluate([mujoco_defaults()], label="defaults",
+                           budgeted=False)[0].objective
     ev.computed_runs += other.computed_runs
     ev.cached_runs += other.cached_runs
     return value

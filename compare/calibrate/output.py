@@ -138,6 +138,7 @@ def print_report(report: dict[str, Any]) -> None:
     print(f"objective {p['objective']:.4f} rad on {', '.join(p['calibration_set'])} "
           f"(MuJoCo defaults {p['objective_mujoco_defaults']:.4f}); {p['runs_used']} runs, "
           f"{p['candidates_evaluated']} candidates, stop: {p['stop_reason']}")
+    print(f"MuJoCo defaults: {p['mujoco_defaults']}")
     hdr = (f"{'scene':<12} {'role':<11} {'rms':>7} {'t_inv ode':>9} {'t_inv mj':>9} "
            f"{'asymp ode':>9} {'asymp mj':>9} {'outcome':<24} {'J drift':>8}")
     print(hdr)

@@ -1,8 +1,10 @@
 """The calibration itself: :func:`calibrate` for a :class:`CalibrateConfig`.
 
-After the search, the held-out scenes: the chosen settings and MuJoCo's defaults (both written
-out explicitly) against the reference: theta(t) RMS, inversion-time error, theta_asymp error,
-outcome match, Jellett drift. Behaviour that no setting reproduces is listed in ``findings``.
+After the search, the held-out scenes: the chosen settings and MuJoCo's defaults (read from a
+fresh MuJoCo model at the paper's mu, :func:`.scoring.mujoco_defaults`; both written out
+explicitly, and the defaults' label into the provenance) against the reference: theta(t) RMS,
+inversion-time error, theta_asymp error, outcome match, Jellett drift. Behaviour that no
+setting reproduces is listed in ``findings``.
 """
 
 from __future__ import annotations
@@ -42,10 +44,11 @@ from tippetop.compare.calibrate.scoring import (
     DAMPRATIO,
     GRID_DT_S,
     J_MAX,
-    MUJOCO_DEFAULTS,
     SOLIMP_TAIL,
     W_J,
     W_T,
+    mujoco_defaults,
+    mujoco_defaults_label,
     parse_scene_list,
 )
 from tippetop.compare.io import check_output_path, write_atomic
@@ -100,7 +103,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
     best = result.best
     dt_check = timestep_check(ev, best.candidate)
     hold_ev = Evaluator(hold, config.timestep_s, config.integrator, None, run_options)
-    hold_best, hold_default = hold_ev.evaluate([best.candidate, MUJOCO_DEFAULTS],
+    hold_best, hold_default = hold_ev.evaluate([best.candidate, mujoco_defaults()],
                                                label="held-out")
     ev.computed_runs += hold_ev.computed_runs
     ev.cached_runs += hold_ev.cached_runs
@@ -124,6 +127,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
             f"mean over calibration scenes of [RMS_t(theta_mujoco - theta_ode) on a "
             f"{GRID_DT_S:g} s grid + {W_T:g} rad/s * |inversion-time error|] + {W_J:g} rad per "
             f"decade of worst Jellett drift above {J_MAX:g} (rad)"),
+        "mujoco_defaults": mujoco_defaults_label(),
         "objective_mujoco_defaults": calib_default,
         "holdout_objective": hold_best.objective,
         "holdout_objective_mujoco_defaults": hold_default.objective,

@@ -27,12 +27,14 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
 
 from tippetop.compare.metrics import classify_outcome, theta_asymp
 from tippetop.compare.runner import TaskResult
+from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 
@@ -106,8 +108,56 @@ class Candidate:
                 f"{self.dampratio:g}] d0={self.d0:g} mu={self.mu:g}")
 
 
-#: MuJoCo's own defaults (``mujoco.friction=native`` before calibration), at the paper's mu.
-MUJOCO_DEFAULTS = Candidate(cone="elliptic", impratio=1.0, timeconst_s=0.02, d0=0.9, mu=0.1)
+#: A model with one geom and nothing set: everything in it is MuJoCo's default.
+_BARE_MJCF = '<mujoco><worldbody><geom size="1"/></worldbody></mujoco>'
+
+
+@lru_cache(maxsize=8)
+def mujoco_defaults(mu: float = CALIBRATION_MU) -> Candidate:
+    """MuJoCo's own contact settings, read from a freshly compiled model, at friction ``mu``.
+
+    The cone and ``impratio`` are the compiled model's ``opt`` (MuJoCo's default cone is
+    pyramidal); ``solref`` (time constant, damping ratio) and ``solimp`` (d0 and its tail) are
+    those of its one geom, to which nothing was set. Nothing is written down here: a MuJoCo
+    with other defaults gives other values.
+
+    The friction coefficient is not MuJoCo's (its default sliding friction is 1): the
+    calibration compares every candidate with the reference at the paper's mu
+    (:data:`models.calibrated.CALIBRATION_MU` = 0.1), and so are MuJoCo's defaults compared.
+
+    Args:
+        mu: Sliding friction coefficient; the paper's 0.1 by default.
+
+    Returns:
+        The defaults as a :class:`Candidate`.
+    """
+    import mujoco  # lazily: building the parser must not import MuJoCo
+
+    model = mujoco.MjModel.from_xml_string(_BARE_MJCF)
+    cone = mujoco.mjtCone(int(model.opt.cone)).name.removeprefix("mjCONE_").lower()
+    solref = [float(x) for x in model.geom_solref[0]]
+    solimp = [float(x) for x in model.geom_solimp[0]]
+    return Candidate(cone=cone, impratio=float(model.opt.impratio), timeconst_s=solref[0],
+                     d0=solimp[0], mu=float(mu), dampratio=solref[1],
+                     solimp_tail=(solimp[1], solimp[2], solimp[3], solimp[4]))
+
+
+def mujoco_defaults_label(mu: float = CALIBRATION_MU) -> str:
+    """What :func:`mujoco_defaults` is, in words, with the MuJoCo version it was read from."""
+    import mujoco
+
+    d = mujoco_defaults(mu)
+    tail = ", ".join(f"{x:g}" for x in d.solimp_tail)
+    mu_note = "mu is the paper's" if mu == CALIBRATION_MU else "mu as given"
+    return (f"{d.label()} solimp tail=[{tail}] (read from MuJoCo {mujoco.__version__}; "
+            f"{mu_note})")
+
+
+def __getattr__(name: str) -> Candidate:
+    """``MUJOCO_DEFAULTS``: :func:`mujoco_defaults` at the paper's mu, read from MuJoCo."""
+    if name == "MUJOCO_DEFAULTS":
+        return mujoco_defaults()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)

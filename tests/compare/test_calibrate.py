@@ -10,6 +10,7 @@ held-out scene in the default suite, the whole calibration and held-out sets in 
 from __future__ import annotations
 
 import argparse
+import json
 import tomllib
 from pathlib import Path
 
@@ -19,23 +20,28 @@ import pytest
 
 from tests.conftest import run_scene_ode
 from tippetop.compare.calibrate import (
-    MUJOCO_DEFAULTS,
     W_T,
     Candidate,
     Evaluator,
     SceneSpec,
     add_calibrate_parser,
     grid_candidates,
+    mujoco_defaults,
+    mujoco_defaults_label,
     neighbours,
     objective,
     parse_scene_list,
     residual,
     timestep_check,
 )
-from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES
+from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
 from tippetop.compare.engines import run_engine
 from tippetop.compare.runner import TaskResult
-from tippetop.models.calibrated import CALIBRATION_FILE, calibrated_native_settings
+from tippetop.models.calibrated import (
+    CALIBRATION_FILE,
+    CALIBRATION_MU,
+    calibrated_native_settings,
+)
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 
@@ -171,20 +177,108 @@ def test_calibrated_native_conserves_jellett(fig3_native) -> None:
     assert float((0.015 - z_centre).max()) < 1e-4  # measured 4.5e-5 m: the ball sinks < 0.1 mm
 
 
+# ---------------------------------------------------------------- MuJoCo's defaults
+def _bare_mujoco() -> tuple:
+    """MuJoCo's own defaults, read here independently of :func:`mujoco_defaults`: a fresh
+    ``MjOption`` and a geom added to an empty ``MjSpec`` with nothing set, compiled."""
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(size=[0.01, 0.0, 0.0])
+    model = spec.compile()
+    return mujoco, mujoco.MjOption(), model
+
+
+def test_mujoco_defaults_are_what_mujoco_says() -> None:
+    mujoco, opt, model = _bare_mujoco()
+    d = mujoco_defaults()
+    # MuJoCo's default friction cone is pyramidal, not elliptic
+    assert opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL and model.opt.cone == opt.cone
+    assert d.cone == "pyramidal"
+    assert d.impratio == opt.impratio == 1.0
+    assert d.solref == model.geom_solref[0].tolist()
+    assert d.solimp == model.geom_solimp[0].tolist()  # d0 and the tail
+    # the one setting not MuJoCo's (its sliding friction is 1): the paper's mu, at which the
+    # calibration compares everything
+    assert model.geom_friction[0, 0] == 1.0
+    assert d.mu == CALIBRATION_MU == 0.1
+    assert mujoco_defaults(0.3).mu == 0.3 and mujoco_defaults(0.3).solref == d.solref
+    # the overrides select exactly these, nothing left to the harness's own defaults
+    over = d.overrides(2e-4, "RK4")
+    assert {"mujoco.cone=pyramidal", f"mujoco.impratio={opt.impratio!r}", "mujoco.mu=0.1",
+            f"mujoco.solref={json.dumps(model.geom_solref[0].tolist())}",
+            f"mujoco.solimp={json.dumps(model.geom_solimp[0].tolist())}"} <= set(over)
+    label = mujoco_defaults_label()
+    assert label.startswith(f"{d.label()} ") and label.startswith("pyramidal ")
+    assert f"read from MuJoCo {mujoco.__version__}" in label and "mu is the paper's" in label
+
+
+def test_the_old_name_is_read_from_mujoco_too() -> None:
+    import tippetop.compare.calibrate as cal
+    from tippetop.compare.calibrate import scoring
+
+    assert cal.MUJOCO_DEFAULTS == scoring.MUJOCO_DEFAULTS == mujoco_defaults()
+
+
+def test_shipped_file_names_the_defaults_it_scored(shipped: dict) -> None:
+    # the default fields of the file were computed with the defaults its label names
+    prov = shipped["provenance"]
+    assert prov["mujoco_defaults"].startswith("pyramidal ")
+    if _same_mujoco(shipped):
+        assert prov["mujoco_defaults"] == mujoco_defaults_label()
+    for line in prov["findings"]:
+        assert "(MuJoCo defaults: RMS " in line
+
+
 def test_mujoco_default_settings_do_not_invert_fig3(shipped: dict) -> None:
-    # facts.md: with MuJoCo's defaults (set explicitly here, so the shipped file does not
-    # apply) the Fig. 3 top settles into rolling instead of turning over. The tilt never rises
-    # above its start (measured: the maximum is theta0 = 0.1 itself, 0.022 rad at 6 s), where
-    # the reference (same start, same mu) is past pi/2 by 2.33 s.
-    d = MUJOCO_DEFAULTS
+    # facts.md: with MuJoCo's defaults (read from MuJoCo: pyramidal cone, impratio 1, solref
+    # 20 ms, solimp d0 0.9; set explicitly here, so the shipped file does not apply) the Fig. 3
+    # top settles into rolling instead of turning over. The tilt never rises above its start
+    # (measured: the maximum is theta0 = 0.1 itself, at t = 0; 0.014 rad at 6 s), where the
+    # reference (same start, same mu) is past pi/2 by 2.33 s.
+    d = mujoco_defaults()
     over = ["mujoco.friction=native", "run.t_end_s=6", *d.overrides(
         shipped["settings"]["timestep_s"], "RK4")[1:]]
+    assert "mujoco.cone=pyramidal" in over
     assert "mujoco.solref=[0.02, 1.0]" in over and "mujoco.impratio=1.0" in over
     scene = load_scene("fig3", over)
     run = run_engine(scene, "mujoco", progress=False)
+    # what ran, as MuJoCo compiled it
+    assert run.summary["cone"] == "pyramidal" and run.summary["solref"] == [0.02, 1.0]
     assert run.summary["t_invert"] is None
     assert float(run.table["theta"].max()) <= scene.init.theta0 + 1e-6
     assert run_scene_ode("fig3").t_invert < 6.0
+
+
+@pytest.mark.slow
+def test_shipped_default_fields_reproduce(shipped: dict) -> None:
+    """MuJoCo's defaults on the calibration and held-out sets (138 simulated s, about 70 s on 2
+    cores), recomputed from scratch: the file's ``objective_mujoco_defaults``,
+    ``holdout_objective_mujoco_defaults`` and every held-out ``default_*`` field, to rounding
+    with the file's MuJoCo version."""
+    s, prov = shipped["settings"], shipped["provenance"]
+    opts = {"use_cache": False, "workers": 2}
+    calib = parse_scene_list(",".join(prov["calibration_set"]), "--calibration")
+    hold = parse_scene_list(",".join(prov["holdout_set"]), "--holdout")
+    calib_obj = objective_of_defaults(Evaluator(calib, s["timestep_s"], s["integrator"],
+                                                run_options=opts))
+    held = Evaluator(hold, s["timestep_s"], s["integrator"],
+                     run_options=opts).evaluate([mujoco_defaults()])[0]
+    stored = {r["scene"]: r for r in shipped["residual"] if r["role"] == "holdout"}
+    # the defaults do not turn over Fig. 4, Fig. 11 at 50-80 rad/s: far worse than calibrated
+    assert calib_obj > 2.0 and held.objective > 2.0
+    assert held.objective > 5 * prov["holdout_objective"]
+    if not _same_mujoco(shipped):
+        return
+    assert calib_obj == pytest.approx(prov["objective_mujoco_defaults"], rel=1e-9)
+    assert held.objective == pytest.approx(prov["holdout_objective_mujoco_defaults"], rel=1e-9)
+    for r in held.residuals:
+        entry = stored[r.scene]
+        assert r.rms_rad == pytest.approx(entry["default_rms_rad"], rel=1e-9), r.scene
+        assert r.theta_asymp_mujoco == pytest.approx(entry["default_theta_asymp_mujoco"],
+                                                     rel=1e-9), r.scene
+        assert r.t_invert_mujoco == entry.get("default_t_invert_mujoco"), r.scene
+        assert r.outcome_mujoco == entry["default_outcome_mujoco"], r.scene
 
 
 def test_holdout_residual_reproduces(shipped: dict) -> None:
@@ -271,6 +365,8 @@ def test_tiny_calibration_writes_a_valid_file_and_refuses_to_overwrite(
     assert set(data["settings"]) == SETTINGS_KEYS
     assert data["provenance"]["calibration_set"] == ["fig3:1"]
     assert data["provenance"]["runs_used"] == 2 and data["provenance"]["stop_reason"] == "budget"
+    # the defaults it scored, read from MuJoCo and named
+    assert data["provenance"]["mujoco_defaults"] == mujoco_defaults_label()
     assert [r["scene"] for r in data["residual"] if r["role"] == "holdout"] == ["fig7a"]
     before = out.read_text()
     with pytest.raises(TippetopError, match="--force"):
