@@ -61,7 +61,7 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
                  theta_s: float | None, theory_outcome: str | None, t_invert: float | None,
                  t_invert_ref: float | None = None, J_rel_drift: float | None = None,
                  trend: float | None = None, error: str | None = None,
-                 reference: bool = False) -> dict[str, Any]:
+                 reference: bool = False, t_span_s: float | None = None) -> dict[str, Any]:
     """One scene and mode against the theory (and its inversion time against the reference).
 
     Args:
@@ -77,11 +77,15 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
         trend: How fast theta still moves at the end (rad/s), :func:`theta_trend`.
         error: Why the run failed, if it did.
         reference: This row is the reference ODE's (no inversion-time difference).
+        t_span_s: The run's length (s). A run whose theta_asymp misses theta_s while theta
+            still moves towards it fast enough to close the gap within one more run length
+            is ``still_moving``: not settled, so neither agreeing nor departing.
 
     Returns:
         ``scene, mode, outcome, theory_outcome, theta_asymp, theta_s, d_theta_asymp, t_invert,
         d_t_invert, J_rel_drift, agrees`` (the contract), plus ``t_invert_ref``,
-        ``theta_trend_rad_s``, ``reasons`` (why it does not agree, in words), ``notes``
+        ``theta_trend_rad_s``, ``still_moving``, ``reasons`` (why it does not agree, in
+        words), ``notes``
         (differences from the reference beyond their tolerances) and ``error``.
     """
     theta_asymp, theta_s, J_rel_drift, trend = (_finite(theta_asymp), _finite(theta_s),
@@ -101,9 +105,18 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
                        f"{theory_outcome}")
     elif outcome != theory_outcome:
         reasons.append(f"ends {outcome}, the theory {theory_outcome}")
+    still_moving = outcome == "inconclusive"
     if error is None and d_th is not None and abs(d_th) > tol:
-        reasons.append(f"theta_asymp {theta_asymp:.3f} rad against theta_s {theta_s:.3f} "
-                       f"({d_th:+.3f} rad, beyond {tol:g} rad)")
+        closing = (trend is not None and t_span_s is not None and trend * d_th < 0
+                   and abs(trend) * t_span_s >= abs(d_th) - tol)
+        if closing and outcome == theory_outcome:
+            still_moving = True
+            reasons.append(f"not settled: theta_asymp {theta_asymp:.3f} rad is {abs(d_th):.3f} "
+                           f"rad short of theta_s {theta_s:.3f} and still moving towards it "
+                           f"at {trend:+.2g} rad/s (a longer run would tell)")
+        else:
+            reasons.append(f"theta_asymp {theta_asymp:.3f} rad against theta_s "
+                           f"{theta_s:.3f} ({d_th:+.3f} rad, beyond {tol:g} rad)")
     notes: list[str] = []
     if error is None and not reference:
         t_tol = TOLERANCES["t_invert"][0]
@@ -121,7 +134,8 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
             "theta_asymp": theta_asymp, "theta_s": theta_s, "d_theta_asymp": d_th,
             "t_invert": t_invert, "d_t_invert": d_t, "J_rel_drift": J_rel_drift,
             "agrees": bool(agrees), "t_invert_ref": t_invert_ref,
-            "theta_trend_rad_s": trend, "reasons": reasons, "notes": notes, "error": error}
+            "theta_trend_rad_s": trend, "still_moving": bool(still_moving and error is None),
+            "reasons": reasons, "notes": notes, "error": error}
 
 
 #: A pyramidal friction cone bounds the force along each pyramid edge (the table's axes) by mu N,
@@ -246,7 +260,8 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
         row = crossval_row(sc.name, m, outcome=s["outcome"], theta_asymp=s["theta_asymp"],
                            theta_s=th_pred, theory_outcome=out_pred, t_invert=s["t_invert"],
                            t_invert_ref=ref_t, J_rel_drift=s["J_rel_drift"],
-                           trend=s["theta_trend_rad_s"], reference=m == REFERENCE_MODE)
+                           trend=s["theta_trend_rad_s"], reference=m == REFERENCE_MODE,
+                           t_span_s=float(r.table["t"].iloc[-1] - r.table["t"].iloc[0]))
         rows.append(row)
         s["matches_theory"] = row["agrees"]
         s["d_theta_asymp"] = row["d_theta_asymp"]

@@ -183,13 +183,33 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
                      f"dropped)")
     else:
         lines.append(f"baseline: {results['baseline_file']}")
+    block("AGAINST THE THEORY (outcome and theta_asymp; the report's verdict table):",
+          crossval_lines(results.get("crossval", [])))
     if results.get("videos", {}).get("requested"):
         lines.append(f"videos: {results['videos']['status']}")
+        block("VIDEOS FAILED:", [f"{k}: {v}" for k, v in
+                                 sorted((results["videos"].get("failed") or {}).items())])
     if results.get("report_error"):
         lines.append(f"REPORT FAILED: {results['report_error']}")
     lines.append(f"output: {out_dir}")
     lines.append(f"result: {results['verdict']}")
     return "\n".join(lines)
+
+
+def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Per mode, how many runs agree with the theory; then each run that does not, and why."""
+    from tippetop.compare.nightly.verdict import agreement_counts, cell_class, mode_order
+
+    counts = agreement_counts(rows)
+    out = []
+    for m in mode_order(rows):
+        k = counts[m]
+        rest = ", ".join(f"{k[c]} {c}" for c in ("depart", "inconclusive", "failed") if k[c])
+        out.append(f"{m}: {k['agree']} of {k['runs']} agree" + (f" ({rest})" if rest else ""))
+    for r in rows:
+        if cell_class(r) != "agree":
+            out.append(f"  {r['scene']} [{r['mode']}]: {'; '.join(r['reasons'])}")
+    return out
 
 
 def prepare_out_dir(out: str | None, force: bool) -> Path:

@@ -11,7 +11,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.metrics import classify_outcome, theta_trend
 from tippetop.compare.nightly.catalogue import ENGINES, Case
 from tippetop.compare.runner import Task, TaskResult, run_tasks
 from tippetop.compare.threshold import measure_threshold
@@ -178,6 +178,8 @@ def _collect(cr: CaseRun, scene: Scene, n0: float | None, res: TaskResult | str)
         small = slip[slip.notna()] < 0.1 * scene.friction.Lambda_mps
         cr.detail = {"summary": s, "cached": res.cached,
                      "E0": float(res.table["E"].iloc[0]),
+                     "J0": float(res.table["J"].iloc[0]),
+                     "theta_trend_rad_s": theta_trend(res.table),
                      "slip_small_frac": float(small.mean()) if len(small) else None}
         cr.table = res.table
         return

@@ -36,6 +36,7 @@ from tippetop.compare.nightly.outputs import (
 )
 from tippetop.compare.nightly.running import error_text, run_cases
 from tippetop.compare.nightly.tolerances import TOLERANCES
+from tippetop.compare.nightly.verdict import crossval_rows
 from tippetop.compare.nightly.videos import render_videos
 from tippetop.compare.runner import default_cache_dir
 from tippetop.models.errors import TippetopError
@@ -129,6 +130,7 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
         "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
                            "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
         "cases": records,
+        "crossval": crossval_rows(records),
     }
     results["counts"] = count(records)
     if opts.update_baseline:
@@ -136,9 +138,12 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
         results["baseline_update"] = update_baseline(bfile, opts.profile, records,
                                                      profile_ids, env)
     c = results["counts"]
-    failed = c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
+    videos_failed = bool(results["videos"].get("failed"))
+    failed = (c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
+              or videos_failed)
     results["verdict"] = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
-                          else "ERROR" if c["cases_error"] else "OK")
+                          else "ERROR" if c["cases_error"] else
+                          "ERROR (videos failed)" if videos_failed else "OK")
     results["finished"] = timestamp()
     results["wall_s"] = time.perf_counter() - t0
 

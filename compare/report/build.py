@@ -20,15 +20,18 @@ from tippetop.compare.report.markup import page
 from tippetop.compare.report.sections import (
     accuracy_section,
     checks_section,
+    crossval_section,
     environment_section,
     header,
+    run_facts,
     scenes_section,
     threshold_section,
     verdict_section,
 )
 from tippetop.models.errors import TippetopError
 
-_NAV = ("<nav><ul><li><a href='#checks'>Regression checks</a></li>"
+_NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"
+        "<li><a href='#checks'>Regression checks</a></li>"
         "<li><a href='#scenes'>Scenes and groups</a></li>"
         "<li><a href='#timeseries'>theta(t), xi(t), slip (Figs. 3-8)</a></li>"
         "<li><a href='#sweeps'>theta_asymp against n0 (Figs. 9, 10)</a></li>"
@@ -55,7 +58,8 @@ def _load_tables(results: Mapping[str, Any], base_dir: Path,
 def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame],
                   accuracy_dir: Path | None = None) -> str:
     """The report's HTML text."""
-    body = [header(results), _NAV, verdict_section(results), scenes_section(results),
+    body = [header(results), crossval_section(results), _NAV, run_facts(results),
+            verdict_section(results), scenes_section(results),
             timeseries_section(results, tables), sweeps_section(results),
             group_map_section(results), friction_section(results),
             threshold_section(results), accuracy_section(accuracy_dir),

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tippetop.compare.nightly.verdict import scene_key
 from tippetop.compare.report.markup import esc, html_table, png, pyplot
-from tippetop.compare.report.sections import scene_key
 
 _LABEL_MARKERS = {"(a)": "o", "(b)": "s", "(c)": "D", "(d)": "X"}
 #: Rows of a run's table drawn in its figures.
@@ -45,17 +45,41 @@ def _xi_limits(frames: Sequence[pd.DataFrame]) -> tuple[float, float]:
 
 def _timeseries_figure(key: str, recs: Sequence[Mapping[str, Any]],
                        tables: Mapping[str, pd.DataFrame]) -> str:
+    """theta(t) with a difference panel under it, xi(t), and the slip speed on a log scale.
+
+    The first record is the reference the differences are taken against (the ``ode`` run when
+    the scene has one). Legends sit outside the data, above the panels.
+    """
     plt = pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(13.5, 3.6), gridspec_kw={"width_ratios": [4, 4, 3]})
-    ax_t, ax_x, ax_s = axes
+    from matplotlib.ticker import MaxNLocator
+
+    fig = plt.figure(figsize=(13.5, 4.6))
+    gs = fig.add_gridspec(2, 3, height_ratios=[3, 1.25], width_ratios=[4, 4, 3], hspace=0.08,
+                          wspace=0.27, left=0.055, right=0.99, bottom=0.11, top=0.80)
+    ax_t = fig.add_subplot(gs[0, 0])
+    ax_d = fig.add_subplot(gs[1, 0], sharex=ax_t)
+    ax_x = fig.add_subplot(gs[:, 1])
+    ax_s = fig.add_subplot(gs[:, 2])
     frames = [_thin(tables[r["id"]]) for r in recs]
+    ref_rec, ref = recs[0], frames[0]
     scale = 1e6  # xi in 1e-6 kg m^2/s
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (r, f) in enumerate(zip(recs, frames, strict=True)):
+        c = colours[i % len(colours)]
         lw = 1.4 if i == 0 else 1.0
-        ax_t.plot(f["t"], f["theta"], lw=lw, label=r["mode"])
-        ax_x.plot(f["t"], f["xi"] * scale, lw=lw, label=f"xi [{r['mode']}]")
-        ax_s.plot(f["vPX"], f["vPY"], lw=0.7, label=r["mode"])
-    ref = frames[0]
+        ax_t.plot(f["t"], f["theta"], lw=lw, color=c, label=r["mode"])
+        ax_x.plot(f["t"], f["xi"] * scale, lw=lw, color=c)
+        slip = np.hypot(f["vPX"].to_numpy(dtype=float), f["vPY"].to_numpy(dtype=float))
+        ok = np.isfinite(slip) & (slip > 0)
+        # points, not lines: no straight segments between sparse samples
+        ax_s.plot(f["t"].to_numpy()[ok], slip[ok], ".", ms=1.6, color=c, alpha=0.7)
+        if i > 0:
+            th = np.interp(ref["t"], f["t"], f["theta"], right=np.nan)
+            ax_d.plot(ref["t"], th - ref["theta"].to_numpy(), lw=1.0, color=c)
+    ax_d.axhline(0.0, color="0.3", lw=0.6)
+    if len(recs) == 1:
+        ax_d.text(0.5, 0.5, "no other engine in this scene", transform=ax_d.transAxes,
+                  ha="center", va="center", fontsize=8, color="0.4")
     lo, hi = _xi_limits(frames)
     for col, style in (("xi_plus", "k--"), ("xi_minus", "k:")):
         # xi_+- diverge where R cos(theta) = a: break the line there instead of drawing the jump
@@ -65,46 +89,74 @@ def _timeseries_figure(key: str, recs: Sequence[Mapping[str, Any]],
         y[jump] = np.nan
         ax_x.plot(ref["t"], y * scale, style, lw=0.9, label=col)
     ax_x.set_ylim(lo * scale, hi * scale)
-    th = recs[0].get("theory", {})
-    p = recs[0]["params"]
+    th = ref_rec.get("theory", {})
+    p = ref_rec["params"]
     if th.get("theta_s") is not None and p["theta0"] <= 0.1:
-        ax_t.axhline(th["theta_s"], color="0.4", ls=":", lw=1,
+        ax_t.axhline(th["theta_s"], color="0.4", ls=":", lw=1.2,
                      label=f"theory theta_s = {th['theta_s']:.3g}")
+    printed = (ref_rec.get("expect") or {}).get("theta_asymp")
+    if printed is not None:
+        ax_t.axhline(printed, color="#d62728", ls=(0, (1, 3)), lw=2.0,
+                     label=f"paper's printed {printed:g}")
+    lam = p.get("Lambda_mps")
+    if lam:
+        ax_s.axhline(lam, color="0.3", ls="--", lw=0.8, label=f"Lambda = {lam:g} m/s")
+        ax_s.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.02), frameon=False)
     ax_t.set_ylim(-0.05, math.pi + 0.1)
-    ax_t.set_xlabel("t (s)")
+    ax_t.tick_params(labelbottom=False)
     ax_t.set_ylabel("theta (rad)")
+    ax_d.set_xlabel("t (s)")
+    ax_d.set_ylabel("minus ref.", fontsize=8)
+    ax_d.yaxis.set_major_locator(MaxNLocator(3))
     ax_x.set_xlabel("t (s)")
     ax_x.set_ylabel("xi (1e-6 kg m^2/s)")
-    ax_s.set_xlabel("vPX (m/s)")
-    ax_s.set_ylabel("vPY (m/s)")
-    ax_t.set_title("theta(t)", fontsize=9)
-    ax_x.set_title("xi(t) with xi_plus, xi_minus", fontsize=9)
-    ax_s.set_title("slip of the contact point", fontsize=9)
-    for ax, loc in zip(axes, ("center right", "upper right", "upper right"), strict=True):
+    ax_s.set_xlabel("t (s)")
+    ax_s.set_ylabel("|v_P| (m/s)")
+    ax_s.set_yscale("log")
+    ax_s.xaxis.set_major_locator(MaxNLocator(5))
+    ax_t.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.02), ncol=3,
+                frameon=False)
+    ax_x.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.02), ncol=2,
+                frameon=False)
+    for ax in (ax_t, ax_d, ax_x, ax_s):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc=loc)  # a fixed place: loc="best" costs seconds per figure
-    fig.suptitle(key, fontsize=10)
-    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.14, top=0.86, wspace=0.25)
+    fig.text(0.01, 0.97, f"{key}: theta(t) and theta - theta[{ref_rec['mode']}]; xi(t) with "
+             "xi_plus, xi_minus; slip speed of the contact point", fontsize=9, va="top")
     return png(fig)
 
 
 def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
-    """theta(t), xi(t) and the slip, one figure per scene (every engine/mode overlaid)."""
+    """theta(t), xi(t) and the slip, one figure per scene: the main modes, the rest folded."""
+    from tippetop.compare.nightly.verdict import MAIN_MODES
+
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in results.get("cases", []):
         if r["kind"] == "run" and r["id"] in tables:
             groups.setdefault(scene_key(r), []).append(r)
     parts = ["<h2 id='timeseries'>theta(t), xi(t) and the slip (Figs. 3-8)</h2>",
-             "<p class='note'>Every engine/mode run of a scene is overlaid. xi = 0 is the "
-             "gyroscopic balance condition; xi_plus and xi_minus are its two steady values "
-             "(N = M g) along the first run's trajectory. The right panel is the slip velocity "
-             "of the contact point (the paper's Fig. 5).</p>"]
+             "<p class='note'>The main modes (the reference ODE, MuJoCo with the paper's law, "
+             "MuJoCo's calibrated native friction) are overlaid; under theta(t), each one's "
+             "difference from the reference. Other modes of a scene are one click away. xi = 0 "
+             "is the gyroscopic balance condition; xi_plus and xi_minus are its two steady "
+             "values (N = M g) along the reference's trajectory. Right: the slip speed of the "
+             "contact point (the paper's Fig. 5) on a log scale, each sample a dot.</p>"]
     if not groups:
         parts.append("<p>No run tables in these results.</p>")
     for key, recs in groups.items():
+        recs = sorted(recs, key=lambda r: (r["mode"] != "ode",))
+        main = [r for r in recs if r["mode"] in MAIN_MODES]
+        rest = [r for r in recs if r["mode"] not in MAIN_MODES]
         desc = recs[0].get("description", "")
-        parts.append(f"<figure>{_timeseries_figure(key, recs, tables)}"
+        first = main or rest[:1]
+        parts.append(f"<figure>{_timeseries_figure(key, first, tables)}"
                      f"<figcaption><b>{esc(key)}</b>: {esc(desc)}</figcaption></figure>")
+        others = [r for r in rest if r not in first]
+        if others:
+            ref = [r for r in first if r["mode"] == "ode"]
+            parts.append(f"<details><summary>{esc(key)}: {len(others)} more modes ("
+                         f"{esc(', '.join(r['mode'] for r in others))})</summary>"
+                         f"<figure>{_timeseries_figure(key, [*ref, *others], tables)}"
+                         "</figure></details>")
     return "".join(parts)
 
 

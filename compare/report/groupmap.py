@@ -10,17 +10,20 @@ import numpy as np
 
 from tippetop.compare.report.markup import html_table, png, pyplot
 
-_OUTCOME_COLOURS = {"upright": "#1f77b4", "intermediate": "#ff7f0e", "inverted": "#2ca02c",
-                    "inconclusive": "#7f7f7f", None: "#d62728"}
+#: Groups are shaded in pale neutral tints and outcomes drawn in saturated colours that none
+#: of the tints resembles, so a marker never disappears into its group.
+GROUP_COLOURS = {"I": "#e6e6e6", "II": "#fff5cc", "III": "#ecdff5"}
+_OUTCOME_COLOURS = {"upright": "#1565c0", "intermediate": "#e65100", "inverted": "#1b5e20",
+                    "inconclusive": "#9e9e9e", None: "#c62828"}
 _ENGINE_MARKERS = {"ode": "o", "mujoco-paper": "s", "mujoco-native": "^"}
 
 
 def draw_groups(ax: Any, xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
     """Shade Groups I/II/III and draw the lines A/C = 1 - a/R and 1 + a/R."""
     xs = np.linspace(0.0, 1.0, 200)
-    ax.fill_between(xs, 0.0, 1 - xs, color="#bbdefb", alpha=0.6, lw=0)
-    ax.fill_between(xs, 1 - xs, 1 + xs, color="#ffe0b2", alpha=0.6, lw=0)
-    ax.fill_between(xs, 1 + xs, 5.0, color="#c8e6c9", alpha=0.6, lw=0)
+    for lo, hi, colour in zip((0.0 * xs, 1 - xs, 1 + xs), (1 - xs, 1 + xs, 5.0 + 0 * xs),
+                              GROUP_COLOURS.values(), strict=True):
+        ax.fill_between(xs, lo, hi, color=colour, lw=0)
     ax.plot(xs, 1 - xs, "k-", lw=1, label="_A/C = 1 - a/R")
     ax.plot(xs, 1 + xs, "k-", lw=1, label="_A/C = 1 + a/R")
     ax.set_xlim(*xlim)
@@ -91,10 +94,12 @@ def group_map_section(results: Mapping[str, Any]) -> str:
     ax_zoom.set_title("the catalogue's tops (runs of one top spread around its point)",
                       fontsize=10)
     fig.subplots_adjust(left=0.06, right=0.89, bottom=0.1, top=0.93, wspace=0.18)
-    return ("<h2 id='groups'>Group map</h2><p class='note'>Group I (A/C &lt; 1 - a/R, blue): "
-            "theta = 0 is stable for every spin; Group II (between the lines, orange): the top "
-            "can turn over; Group III (A/C &gt; 1 + a/R, green): it rises to an intermediate "
-            "angle below theta_f. Marker colour: the simulated outcome; shape: the engine/mode. "
+    return ("<h2 id='groups'>Group map</h2><p class='note'>Background: Group I (A/C &lt; 1 - a/R, "
+            "grey): theta = 0 is stable for every spin; Group II (between the lines, pale "
+            "yellow): the top can turn over; Group III (A/C &gt; 1 + a/R, pale lilac): it rises "
+            "to an intermediate angle below theta_f. Markers: colour the simulated outcome "
+            "(blue upright, orange intermediate, dark green inverted, grey inconclusive), "
+            "shape the engine/mode. "
             "Numbers refer to the table below.</p>"
             f"<figure>{png(fig)}</figure>"
             + html_table(["#", "a/R", "A/C", "group", "cases and simulated outcomes"], rows))

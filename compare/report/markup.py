@@ -25,7 +25,20 @@ th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
 display:inline-block;border-radius:4px}.ok{background:#c8e6c9}.bad{background:#ffcdd2}
 img{max-width:100%;height:auto;display:block;margin:.5em 0}figure{margin:1em 0}
 figcaption{font-size:.88em;color:#444}code{background:#f5f5f5;padding:0 .2em}
-.note{font-size:.9em;color:#333;max-width:40em}nav ul{columns:2}
+.note{font-size:.9em;color:#333;max-width:40em}nav ul{columns:3;font-size:.9em;margin:.3em 0}
+h1{margin:.1em 0;font-size:1.35em}h1 small{font-size:.6em;font-weight:normal;color:#555}
+.badge{margin:.3em 0}.badge .verdict{font-size:1em;padding:.1em .5em}
+section#verdict h2{margin:.3em 0 .1em;font-size:1.2em;border:0}.legend{font-size:.75em;color:#333;margin:.2em 0}
+table.verdict-table{font-size:10.5px;line-height:1.15;margin:.3em 0;display:table}
+table.verdict-table td{padding:.1em .35em;white-space:nowrap}
+table.verdict-table th{padding:.1em .35em}
+table.verdict-table thead th{font-size:10.5px;vertical-align:bottom}
+table.verdict-table tbody th{max-width:10.5em;font-weight:600}
+table.verdict-table td:nth-child(2){padding:.1em .35em;background:#f7f7f7}
+.j{color:#555;font-size:.92em}
+.agree{background:#c8e6c9}.depart{background:#ffcdd2;font-weight:600}
+.inconclusive{background:#fff3c4}.failed{background:#f8bbd0;font-weight:600}
+td.na{background:repeating-linear-gradient(45deg,#fafafa,#fafafa 4px,#eee 4px,#eee 8px)}
 """
 
 

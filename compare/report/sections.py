@@ -7,40 +7,130 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.nightly.verdict import scene_key
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 
 
-def scene_key(rec: Mapping[str, Any]) -> str:
-    """Runs of the same scene with the same ``set`` overrides share their figures."""
-    extra = ", ".join(rec.get("set") or [])
-    return f"{rec['scene']}" + (f" ({extra})" if extra else "")
-
-
 def header(results: Mapping[str, Any]) -> str:
-    """The title, the verdict and the counts, and where and how the nightly ran."""
-    env = results.get("environment", {})
+    """The title and the regression badge (against the stored baseline), on two short lines."""
     c = results.get("counts", {})
     verdict = results.get("verdict", "?")
     cls = "ok" if verdict == "OK" else "bad"
+    return (
+        f"<h1>tippetop model-validation report <small>{esc(results.get('profile'))} profile, "
+        f"{esc(results.get('started'))}</small></h1>"
+        f'<p class="badge">Regression against the stored baseline: '
+        f'<span class="verdict {cls}">{esc(verdict)}</span> {c.get("checks", 0)} checks: '
+        f"{c.get('checks_pass', 0)} pass, {c.get('checks_fail', 0)} fail, "
+        f"{c.get('checks_new', 0)} new, {c.get('checks_error', 0)} error "
+        f"(<a href='#checks'>details</a>)</p>")
+
+
+def run_facts(results: Mapping[str, Any]) -> str:
+    """Where and how the nightly ran: profile, counts, git commit, MuJoCo, Python, baseline."""
+    env = results.get("environment", {})
+    c = results.get("counts", {})
     pk = env.get("packages", {})
     commit = env.get("git_commit") or "unknown"
     if env.get("git_dirty"):
         commit += " (with uncommitted changes)"
-    return (
-        f"<h1>tippetop model-validation report</h1>"
-        f'<p><span class="verdict {cls}">{esc(verdict)}</span> '
-        f"profile <b>{esc(results.get('profile'))}</b>: {c.get('cases', 0)} cases, "
-        f"{c.get('checks', 0)} checks: {c.get('checks_pass', 0)} pass, "
-        f"{c.get('checks_fail', 0)} fail, {c.get('checks_new', 0)} new, "
-        f"{c.get('checks_error', 0)} error; {results.get('wall_s', 0):.0f} s.</p>"
-        f"<p class='note'>{esc(results.get('profile_description', ''))}</p>"
-        f"<p>Started {esc(results.get('started'))}; git {esc(commit)}; MuJoCo "
-        f"{esc(pk.get('mujoco'))}; Python {esc(env.get('python'))} on {esc(env.get('platform'))}"
-        f"; baseline <code>{esc(results.get('baseline_file'))}</code>.</p>")
+    return (f"<p class='note'>Profile <b>{esc(results.get('profile'))}</b>: "
+            f"{esc(results.get('profile_description', ''))} {c.get('cases', 0)} cases in "
+            f"{results.get('wall_s', 0):.0f} s. Started {esc(results.get('started'))}; git "
+            f"{esc(commit)}; MuJoCo {esc(pk.get('mujoco'))}; Python {esc(env.get('python'))} on "
+            f"{esc(env.get('platform'))}; baseline <code>{esc(results.get('baseline_file'))}"
+            f"</code>.</p>")
+
+
+def _exp(x: float) -> str:
+    """1.3e-09 -> 1e-9: a compact drift."""
+    m, e = f"{x:.0e}".split("e")
+    return f"{m}e{int(e)}"
+
+
+_SHORT = {"intermediate": "intermed.", "inconclusive": "inconcl."}
+_MARK = {"agree": "", "depart": "&ne; ", "inconclusive": "? ", "failed": "&#x2716; "}
+
+
+def _cell(row: Mapping[str, Any]) -> Html:
+    """A verdict ``<td>``: the outcome (marked where it departs) and J; the differences below."""
+    from tippetop.compare.nightly.verdict import cell_class
+
+    cls = cell_class(row)
+    outcome = row.get("outcome") or "-"
+    line1 = f"{_MARK[cls]}{esc(_SHORT.get(outcome, outcome))}"
+    if row.get("J_rel_drift") is not None:
+        line1 += f" <span class='j'>J{_exp(row['J_rel_drift'])}</span>"
+    nums = []
+    if row.get("d_theta_asymp") is not None:
+        nums.append(f"&Delta;&theta;{row['d_theta_asymp']:+.2f}")
+    if row.get("d_t_invert") is not None:
+        nums.append(f"&Delta;t{row['d_t_invert']:+.2f}")
+    elif row.get("t_invert") is not None and row.get("mode") == "ode":
+        nums.append(f"t {row['t_invert']:.2f}")
+    if row.get("notes"):
+        nums.append("*")
+    tip = "; ".join([*row.get("reasons", []), *row.get("notes", [])]) or "agrees"
+    return Html(f"<td class='{cls}' title='{esc(tip)}'>{line1}<br>{' '.join(nums)}</td>")
+
+
+def crossval_section(results: Mapping[str, Any]) -> str:
+    """``<section id="verdict">``: every scene (rows) in every mode (columns) against the theory.
+
+    A cell agrees when the outcome class is the theory's and theta_asymp is within the stated
+    tolerance of theta_s; it shows the differences and the Jellett drift, and (as a tooltip and
+    in the list below the table) why it departs.
+    """
+    from tippetop.compare.crossval import THETA_S_TOL, TOLERANCES
+    from tippetop.compare.nightly.verdict import agreement_counts, cell_class, mode_order
+
+    rows = results.get("crossval") or []
+    head = "<section id='verdict'><h2>Does each engine agree with the theory?</h2>"
+    if not rows:
+        return head + "<p>No runs in these results.</p></section>"
+    modes = mode_order(rows)
+    counts = agreement_counts(rows)
+    summary = "; ".join(f"{esc(m)} {counts[m]['agree']}/{counts[m]['runs']}" for m in modes)
+    legend = (f"<p class='legend'><span class='agree'>&nbsp;agrees&nbsp;</span>: the theory's "
+              f"outcome and |theta_asymp - theta_s| &le; {THETA_S_TOL[0]:g} rad; "
+              f"<span class='depart'>&nbsp;&ne; departs&nbsp;</span> "
+              f"<span class='inconclusive'>&nbsp;? still moving&nbsp;</span> "
+              f"<span class='failed'>&nbsp;failed&nbsp;</span>. "
+              f"&Delta;&theta; = theta_asymp - theta_s (rad); &Delta;t = t_invert - the reference "
+              f"ODE's (s); J: Jellett drift; *: &Delta;t beyond {TOLERANCES['t_invert'][0]:g} s "
+              f"or J beyond {TOLERANCES['J_rel_drift'][0]:g}. Hover a cell, or open the list "
+              f"below, for why. Agreeing: {summary}.</p>")
+    by_scene: dict[str, dict[str, Mapping[str, Any]]] = {}
+    first: dict[str, Mapping[str, Any]] = {}
+    for r in rows:
+        by_scene.setdefault(r["scene"], {})[r["mode"]] = r
+        first.setdefault(r["scene"], r)
+    body = []
+    for scene, cells in by_scene.items():
+        t = first[scene]
+        name = t.get("name") or scene
+        paper = (f" <span class='j'>paper {t['paper_theta_asymp']:.3g}</span>"
+                 if t.get("paper_theta_asymp") is not None else "")
+        th = (f"{esc(_SHORT.get(t.get('theory_outcome') or '-', t.get('theory_outcome')))}<br>"
+              f"&theta;<sub>s</sub> {fmt_num(t.get('theta_s'), '.2f')}{paper}")
+        tds = "".join(_cell(cells[m]) if m in cells else "<td class='na'></td>"
+                      for m in modes)
+        label = esc(name).replace("-", "-<wbr>").replace("_", "_<wbr>")
+        body.append(f"<tr><th scope='row' title='{esc(scene)}'>{label}</th><td>{th}</td>"
+                    f"{tds}</tr>")
+    table = ("<table class='verdict-table'><thead><tr><th>scene</th><th>theory</th>"
+             + "".join(f"<th>{esc(m).replace('-', '-<wbr>')}</th>" for m in modes)
+             + "</tr></thead><tbody>" + "".join(body) + "</tbody></table>")
+    where = [f"<li><b>{esc(r.get('name') or r['scene'])}</b> [{esc(r['mode'])}]: "
+             f"{esc('; '.join([*r['reasons'], *r['notes']]))}</li>"
+             for r in rows if cell_class(r) != "agree" or r.get("notes")]
+    where_html = (f"<details><summary>Where not, and why ({len(where)})</summary>"
+                  f"<ul>{''.join(where)}</ul></details>" if where else "")
+    return head + legend + table + where_html + "</section>"
 
 
 def verdict_section(results: Mapping[str, Any]) -> str:
-    """Regressions, cases that did not run, new metrics and the videos."""
+    """The regression checks: regressions, cases that did not run, new metrics, the videos."""
     recs = results.get("cases", [])
     parts = ["<h2 id='checks'>Regression checks</h2>"]
     fails = [(r, ch) for r in recs for ch in r["checks"] if ch["status"] == "fail"]
@@ -71,34 +161,46 @@ def verdict_section(results: Mapping[str, Any]) -> str:
                         for name, rel in sorted(videos.get("files", {}).items()))
         parts.append(f"<p>Videos (MuJoCo left, the reference ODE replayed right): "
                      f"{esc(videos['status'])}.</p>" + (f"<ul>{links}</ul>" if links else ""))
+        failed = videos.get("failed") or {}
+        if failed:
+            parts.append("<h3>Videos that failed</h3>" + html_table(
+                ["scene", "why"], sorted(failed.items()), ["error"] * len(failed)))
     return "".join(parts)
 
 
 def scenes_section(results: Mapping[str, Any]) -> str:
-    """One row per scene: parameters, group, the theory's numbers, outcomes."""
+    """One row per scene: the key columns; every parameter behind a disclosure."""
     runs = [r for r in results.get("cases", []) if r["kind"] == "run"]
     by_scene: dict[str, list[Mapping[str, Any]]] = {}
     for r in runs:
         by_scene.setdefault(scene_key(r), []).append(r)
-    rows = []
+    key_rows, all_rows = [], []
     for key, recs in by_scene.items():
         p, th = recs[0]["params"], recs[0].get("theory", {})
         outcomes = "; ".join(f"{r['mode']}: {r['values'].get('outcome', 'error')}"
                              for r in recs)
+        key_rows.append((key, th.get("group", "-"), p["A_over_C"], p["a_over_R"], p["theta0"],
+                         p["n0"], p["t_end_s"], th.get("theta_s"), th.get("outcome", "-"),
+                         (recs[0].get("expect") or {}).get("outcome", "-"), outcomes))
         desc = Html(f"<div style='min-width:16em'>{esc(recs[0].get('description', ''))}</div>")
-        rows.append((
+        all_rows.append((
             key, desc, th.get("group", "-"), p["A_over_C"],
             p["a_over_R"], p["C_factor"], p["R_m"], p["a_m"], p["M_kg"], p["law"], p["mu"],
             p["Lambda_mps"], p["theta0"], p["n0"], p["t_end_s"], th.get("n1"), th.get("n4"),
             th.get("nc"), th.get("theta_s"), th.get("outcome", "-"),
             (recs[0].get("expect") or {}).get("outcome", "-"), outcomes))
     return ("<h2 id='scenes'>Scenes, parameters and groups</h2>"
-            "<p class='note'>SI units: R, a in m, M in kg, Lambda in m/s, angles in rad, spins "
-            "in rad/s. n1, n4, n_c and theta_s(n0) are the theory's (eq. 4.13, Sec. 4.3, "
-            "F(x) = kappa); theta_s assumes a start near theta = 0.</p>"
-            + html_table(["scene", "description", "group", "A/C", "a/R", "C factor", "R", "a", "M",
-                          "law", "mu", "Lambda", "theta0", "n0", "t_end (s)", "n1", "n4", "n_c",
-                          "theta_s(n0)", "theory outcome", "expected", "simulated"], rows))
+            "<p class='note'>SI units: angles in rad, spins in rad/s, times in s. theta_s(n0) "
+            "is the theory's (F(x) = kappa) for a start near theta = 0.</p>"
+            + html_table(["scene", "group", "A/C", "a/R", "theta0", "n0", "t_end", "theta_s(n0)",
+                          "theory", "expected", "simulated"], key_rows)
+            + "<details><summary>Every parameter of every scene (R, a, M, law, mu, Lambda, "
+              "n1, n4, n_c, description)</summary>"
+            + html_table(["scene", "description", "group", "A/C", "a/R", "C factor", "R (m)",
+                          "a (m)", "M (kg)", "law", "mu", "Lambda (m/s)", "theta0", "n0",
+                          "t_end (s)", "n1", "n4", "n_c", "theta_s(n0)", "theory outcome",
+                          "expected", "simulated"], all_rows)
+            + "</details>")
 
 
 def threshold_section(results: Mapping[str, Any]) -> str:
@@ -106,8 +208,11 @@ def threshold_section(results: Mapping[str, Any]) -> str:
     recs = [r for r in results.get("cases", []) if r["kind"] == "threshold"]
     parts = ["<h2 id='thresholds'>Thresholds: theory against measured</h2>",
              "<p class='note'>Critical spins found by bisection on n0 (n1: theta = 0 turns "
-             "unstable; n_c: full inversion), each run over the scene's horizon. The measured "
-             "value is the final bracket's midpoint.</p>"]
+             "unstable; n_c: full inversion), each run over the scene's horizon; the ends of "
+             "the final bracket are run again over twice the horizon. The measured value is "
+             "the final bracket's midpoint. A bracket agrees with the theory only if the "
+             "theory's value lies inside it; a bracket whose ends change side over the longer "
+             "horizon measures the horizon, not the threshold.</p>"]
     if not recs:
         parts.append("<p>No threshold cases in this profile.</p>")
         return "".join(parts)
@@ -119,15 +224,28 @@ def threshold_section(results: Mapping[str, Any]) -> str:
                          "-", f"error: {r.get('error')}"))
             classes.append("error")
             continue
-        rows.append((r["scene_name"], th["which"], r["mode"], th["theory"], th["measured"],
-                     Html(f"{100 * th['rel_diff']:+.2f} %"),
-                     Html(f"[{th['bracket'][0]:.4g}, {th['bracket'][1]:.4g}]"),
-                     th.get("rel_tol"), th["n_runs"], th.get("horizon_s"),
-                     "converged" if th.get("converged") else "not converged"))
-        classes.append(r["status"])
-    parts.append(html_table(["scene", "which", "mode", "theory (rad/s)", "measured (rad/s)",
-                             "measured / theory - 1", "bracket", "rel_tol", "runs", "horizon (s)",
-                             "bisection"], rows, classes))
+        lo, hi = th["bracket"]
+        if th.get("depends_on_horizon"):
+            verdict, cls = "depends on the horizon: " + (th.get("warning") or ""), "depart"
+        elif lo <= th["theory"] <= hi:
+            verdict, cls = "the theory lies inside the bracket", "agree"
+        else:
+            below = th["theory"] < lo
+            end = lo if below else hi
+            verdict = (f"the theory lies {'below' if below else 'above'} the bracket, "
+                       f"{100 * abs(th['theory'] / end - 1):.2f} % from its "
+                       f"{'low' if below else 'high'} end")
+            cls = "depart"
+        rows.append((r["scene_name"], th["which"], r["mode"], th["theory"],
+                     Html(f"[{lo:.4g}, {hi:.4g}]"), th["measured"],
+                     Html(f"{100 * th['rel_diff']:+.2f} %"), th["n_runs"], th.get("horizon_s"),
+                     "yes" if th.get("bracket_converged", th.get("converged")) else "no",
+                     verdict))
+        classes.append(cls)
+    parts.append(html_table(["scene", "which", "mode", "theory (rad/s)", "bracket (rad/s)",
+                             "midpoint (rad/s)", "midpoint / theory - 1", "runs",
+                             "horizon (s)", "bracket within rel_tol", "against the theory"],
+                            rows, classes))
     return "".join(parts)
 
 

@@ -80,8 +80,9 @@ modes = ["ode"]
 profiles = ["tiny"]
 metrics = ["theta_asymp_vs_n0"]
 """
-#: Figures of the tiny report: 2 time-series groups, 1 sweep figure, 1 group map.
-N_FIGURES = 4
+#: Figures of the tiny report: fig3's main modes (the reference only), its other modes (folded),
+#: fig7b, 1 sweep figure, 1 group map.
+N_FIGURES = 5
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
 
@@ -139,9 +140,9 @@ def test_report_is_self_contained(nightly_out: Path) -> None:
 def test_report_has_every_section(nightly_out: Path) -> None:
     text = (nightly_out / "report.html").read_text()
     ids = {a.get("id") for _, a in _parse(nightly_out / "report.html").tags}
-    assert {"checks", "scenes", "timeseries", "sweeps", "groups", "friction", "thresholds",
-            "accuracy", "all", "env"} <= ids
-    for needle in ("xi_plus", "slip velocity of the contact point", "1 - a/R", "1 + a/R",
+    assert {"verdict", "checks", "scenes", "timeseries", "sweeps", "groups", "friction",
+            "thresholds", "accuracy", "all", "env"} <= ids
+    for needle in ("xi_plus", "slip speed of the contact point", "1 - a/R", "1 + a/R",
                    "theta_s(n0)", "No accuracy-versus-cost figures"):
         assert needle in text, needle
     # the friction-law table: a row per mode, with its sentence written from the numbers
@@ -307,3 +308,66 @@ def test_report_renders_in_headless_chromium(nightly_out: Path, tmp_path: Path) 
     rgb = np.asarray(pixels)[..., :3]
     assert float(rgb.std()) > 0.05  # not a blank page
     assert float((rgb.mean(axis=2) < 0.5).mean()) > 0.01  # text and figures drawn in dark ink
+
+
+def test_the_verdict_is_on_the_first_screen(nightly_out: Path, tmp_path: Path) -> None:
+    """At 1280x900, the verdict table (every scene in every mode against the theory) lies
+    wholly inside the first screen, above every figure, and the page does not scroll
+    sideways."""
+    exe = _find_chromium()
+    if exe is None:
+        pytest.skip("chromium is not installed (apt-get install -y chromium); CI installs it")
+    report = (nightly_out / "report.html").resolve()
+    browser = _DevTools(exe, tmp_path / "chromium-profile")
+    try:
+        target = browser.call("Target.createTarget", url="about:blank")["targetId"]
+        session = browser.call("Target.attachToTarget", targetId=target,
+                               flatten=True)["sessionId"]
+        browser.call("Page.enable", session)
+        browser.call("Emulation.setDeviceMetricsOverride", session, width=1280, height=900,
+                     deviceScaleFactor=1, mobile=False)
+        browser.call("Page.navigate", session, url=report.as_uri())
+        browser.wait_for("Page.loadEventFired")
+        geo = browser.call("Runtime.evaluate", session, returnByValue=True, expression="""(() => {
+            const t = document.querySelector('section#verdict table');
+            const r = t.getBoundingClientRect();
+            const imgs = Array.from(document.images).map(i => i.getBoundingClientRect().top);
+            return {top: r.top, bottom: r.bottom, right: r.right, rows: t.rows.length,
+                    firstImg: Math.min(...imgs), scrollW: document.documentElement.scrollWidth,
+                    cells: Array.from(t.querySelectorAll('tbody td'))
+                                .map(d => d.className).filter(c => c && c !== 'na')};
+        })()""")["result"]["value"]
+        shot = browser.call("Page.captureScreenshot", session, format="png")
+    finally:
+        browser.close()
+    (tmp_path / "first-screen.png").write_bytes(base64.b64decode(shot["data"]))
+    assert 0 <= geo["top"] < geo["bottom"] <= 900, geo
+    assert geo["right"] <= 1280 and geo["scrollW"] <= 1280, geo
+    assert geo["bottom"] <= geo["firstImg"], geo
+    res = json.loads((nightly_out / "results.json").read_text())
+    scenes = {r["scene"] for r in res["crossval"]}
+    assert geo["rows"] == 1 + len(scenes)  # the header row and a row per scene
+    assert len(geo["cells"]) == len(res["crossval"])
+    assert set(geo["cells"]) <= {"agree", "depart", "inconclusive", "failed"}
+
+
+def test_results_crossval_rows(nightly_out: Path) -> None:
+    """results.json's crossval: a row per run case with the contract's keys; the reference's
+    Fig. 3 run agrees with the theory (inverted, theta_asymp within 0.05 rad of pi) and exact
+    Coulomb departs from it (the top sticks into rolling and stays upright)."""
+    res = json.loads((nightly_out / "results.json").read_text())
+    keys = {"scene", "mode", "outcome", "theory_outcome", "theta_asymp", "theta_s",
+            "d_theta_asymp", "t_invert", "d_t_invert", "J_rel_drift", "agrees"}
+    runs = [r for r in res["cases"] if r["kind"] == "run"]
+    assert len(res["crossval"]) == len(runs)
+    rows = {(r["scene"], r["mode"]): r for r in res["crossval"]}
+    for r in rows.values():
+        assert keys <= set(r)
+    ode = rows[("fig3", "ode")]
+    assert ode["agrees"] and ode["theory_outcome"] == "inverted"
+    assert abs(ode["theta_s"] - np.pi) < 1e-9 and abs(ode["d_theta_asymp"]) <= 0.05
+    coulomb = rows[("fig3", "ode-coulomb")]
+    assert not coulomb["agrees"] and coulomb["outcome"] == "upright"
+    assert coulomb["d_t_invert"] is None
+    viscous = rows[("fig3", "ode-viscous")]
+    assert viscous["d_t_invert"] == pytest.approx(viscous["t_invert"] - ode["t_invert"])
