@@ -4,8 +4,9 @@ Two kinds of test. The checks and findings are tested on hand-made runs, where t
 verdict follows from the tolerances stated in :mod:`tippetop.compare.validate.run`. The command
 is tested end to end on ``examples/paper_loaded_sphere.xml``, the paper's Fig. 3 top written as
 a user would: there the reference, the paper's law in MuJoCo and the calibrated native settings
-must agree with each other and with the theory (inverted, Group II), and MuJoCo's own default
-contact (soft, elliptic, the file's) must be found not to turn the top over within the run.
+must agree with each other and with the theory (inverted, Group II), and the file's own contact
+(MuJoCo's default softness with the file's elliptic cone) must be found not to turn the top over
+within the run.
 """
 
 from __future__ import annotations
@@ -215,8 +216,9 @@ def test_validate_verdict_on_the_paper_top(paper_example: tuple[Any, Path, int])
         mine = [c for c in res["verdict"] if c["mode"] == mode]
         assert mine and all(c["passed"] for c in mine), mine
     assert abs(res["runs"]["mujoco-paper"]["t_invert"] - res["runs"]["ode"]["t_invert"]) < 0.05
-    # MuJoCo's default contact (the file's: solref 0.02 s, elliptic cone) does not turn the
-    # paper's top over within 8 s: the validator must say so, and suggest the calibration
+    # the file's own contact (MuJoCo's default solref 0.02 s, the file's elliptic cone) does not
+    # turn the paper's top over within 8 s: the validator must say so, and suggest the
+    # calibration
     assert not by[("outcome", "mujoco-file")]["passed"]
     assert res["agrees"] is False and paper_example[2] == 1
     assert any("only the reference turns the top over" in f for f in res["findings"])
