@@ -19,19 +19,21 @@ import os
 import signal
 import sys
 import warnings
-from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import metadata
 from multiprocessing import get_context
 from pathlib import Path
+from queue import Empty, Full
 from typing import Any
 
 import pandas as pd
 
 from tippetop.compare.engines import plan_for, run_plan
 from tippetop.compare.io import write_atomic
+from tippetop.compare.terminal import WorkProgress, expected_cost_s
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import ENGINES, RunPlan
@@ -106,11 +108,22 @@ def _downsample(table: pd.DataFrame, rows: int = CACHED_TABLE_ROWS) -> pd.DataFr
     return out.reset_index(drop=True)
 
 
-def execute(task: Task) -> dict[str, Any]:
+#: Where a run going in this process says how far it got, ``(report_key, fraction)``: the
+#: progress bar's in the main process, a queue to it in a worker; None: nobody is listening.
+_REPORTER: Callable[[str, float], None] | None = None
+
+
+def execute(task: Task, report_key: str | None = None) -> dict[str, Any]:
     """Run one task in this process; returns its summary and a downsampled table.
 
     Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
     in a sweep is reported with the others.
+
+    Args:
+        task: The run.
+        report_key: With a progress bar listening, a MuJoCo run reports the fraction of its
+            simulated time done under this key now and then (the reference ODE is too quick to
+            bother; the results are the same either way).
     """
     from tippetop.mujoco_runner.model import TopModelWarning
 
@@ -118,7 +131,17 @@ def execute(task: Task) -> dict[str, Any]:
         # The main process resolved the same plan and said each model warning once already.
         warnings.simplefilter("ignore", TopModelWarning)
         try:
-            run = run_plan(task.plan(), progress=False)
+            plan = task.plan()
+            progress: bool | Callable[[float], None] = False
+            reporter = _REPORTER
+            if report_key is not None and reporter is not None and plan.engine != "ode" \
+                    and plan.t_end_s > 0:
+                t_end = plan.t_end_s
+
+                def progress(t: float) -> None:
+                    reporter(report_key, t / t_end)
+
+            run = run_plan(plan, progress=progress)
         except TippetopError as exc:
             return {"error": str(exc)}
     return {"summary": run.summary, "table": _downsample(run.table)}
@@ -164,12 +187,20 @@ class ResultCache:
         write_atomic(js, lambda tmp: tmp.write_text(json.dumps(summary)))
 
 
-def _progress(total: int, label: str):
-    if not sys.stderr.isatty() or total == 0:
+def _progress(plans: list[RunPlan], label: str, slots: int, cached: int) -> WorkProgress | None:
+    """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal."""
+    if not sys.stderr.isatty() or not plans:
         return None
-    from tqdm import tqdm
+    return WorkProgress(label, [expected_cost_s(p) for p in plans], slots=slots,
+                        note=f"{cached} from the cache" if cached else "")
 
-    return tqdm(total=total, desc=label, unit="run", leave=False)
+
+def _slots(scheduler: str | None, workers: int | None, n_tasks: int) -> int:
+    """Runs going at once: the local workers, or (a Dask cluster) every task."""
+    if scheduler:
+        return max(1, n_tasks)
+    n = workers or os.cpu_count() or 1
+    return 1 if n_tasks <= 1 else min(n, n_tasks)
 
 
 def run_tasks(
@@ -217,7 +248,8 @@ def run_tasks(
         else:
             todo.setdefault(key, []).append(i)
     unique = [(key, tasks[idx[0]]) for key, idx in todo.items()]
-    bar = _progress(len(unique), label)
+    bar = _progress([plans[idx[0]] for idx in todo.values()], label,
+                    _slots(scheduler, workers, len(unique)), len(tasks) - len(unique))
     for key, out in _dispatch(unique, scheduler, workers, bar):
         if "error" in out:
             res_summary, table, err = None, None, out["error"]
@@ -233,29 +265,84 @@ def run_tasks(
 
 
 def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: int | None,
-              bar: Any) -> Iterable[tuple[str, dict[str, Any]]]:
+              bar: WorkProgress | None) -> Iterable[tuple[str, dict[str, Any]]]:
     if not unique:
         return
+    index = {key: i for i, (key, _) in enumerate(unique)}
+
+    def report(key: str, fraction: float) -> None:
+        if bar is not None and key in index:
+            bar.reached(index[key], fraction)
+
+    def done(key: str) -> None:
+        if bar is not None:
+            bar.finished(index[key])
+
     if scheduler:
-        yield from _dispatch_dask(unique, scheduler, bar)
+        for key, out in _dispatch_dask(unique, scheduler):
+            yield key, out
+            done(key)
         return
     n = workers or os.cpu_count() or 1
     if n == 1 or len(unique) == 1:
+        global _REPORTER
         for key, task in unique:
-            yield key, execute(task)
-            if bar is not None:
-                bar.update()
+            _REPORTER, before = (report if bar is not None else None), _REPORTER
+            try:
+                out = execute(task, key)
+            finally:
+                _REPORTER = before
+            yield key, out
+            done(key)
         return
-    pool = _local_pool(n)
-    futures = {pool.submit(execute, task): key for key, task in unique}
+    pool, queue = _local_pool(n)
+    futures = {pool.submit(execute, task, key if bar is not None else None): key
+               for key, task in unique}
+    waiting = set(futures)
     try:
-        for fut in as_completed(futures):
-            yield futures[fut], fut.result()
+        while waiting:
+            finished, waiting = wait(waiting, timeout=_TICK_S, return_when=FIRST_COMPLETED)
+            _drain(queue, report)
+            for fut in finished:
+                yield futures[fut], fut.result()
+                done(futures[fut])
             if bar is not None:
-                bar.update()
+                bar.tick()
     except BaseException:
         _stop_pool(pool)  # Ctrl-C or an error: do not wait for the runs still going
         raise
+
+
+#: How often the main process reads the workers' reports and redraws the bar (s).
+_TICK_S = 0.25
+
+
+def _drain(queue: Any, report: Callable[[str, float], None]) -> None:
+    """Pass on every report the workers have queued (``(key, fraction)``)."""
+    while True:
+        try:
+            key, fraction = queue.get_nowait()
+        except (Empty, OSError, ValueError, EOFError):
+            return
+        report(key, fraction)
+
+
+def _queue_reporter(queue: Any) -> Callable[[str, float], None]:
+    def put(key: str, fraction: float) -> None:
+        try:
+            queue.put_nowait((key, fraction))
+        except (Full, OSError, ValueError):  # a report lost is only a bar that lags
+            pass
+
+    return put
+
+
+def _init_worker(queue: Any) -> None:
+    """Worker initializer: runs report to ``queue``; Ctrl-C is the main process's to handle."""
+    global _REPORTER
+    _ignore_sigint()
+    queue.cancel_join_thread()  # never wait at exit for reports nobody reads
+    _REPORTER = _queue_reporter(queue)
 
 
 def _ignore_sigint() -> None:
@@ -273,20 +360,22 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
 
 
 @lru_cache(maxsize=1)
-def _local_pool(n: int) -> ProcessPoolExecutor:
-    """One pool of worker processes per process, kept for later calls.
+def _local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
+    """One pool of worker processes per process, kept for later calls, and its report queue.
 
     A bisection makes several rounds; fresh workers each round would cost seconds of imports.
     """
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
-                               initializer=_ignore_sigint)
+    ctx = get_context("spawn")
+    queue = ctx.Queue()
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_worker,
+                               initargs=(queue,))
     # idle workers exit at once on shutdown: wait for them, so none outlives the command
     atexit.register(pool.shutdown, wait=True, cancel_futures=True)
-    return pool
+    return pool, queue
 
 
-def _dispatch_dask(unique: list[tuple[str, Task]], scheduler: str,
-                   bar: Any) -> Iterable[tuple[str, dict[str, Any]]]:
+def _dispatch_dask(unique: list[tuple[str, Task]],
+                   scheduler: str) -> Iterable[tuple[str, dict[str, Any]]]:
     try:
         from distributed import Client
         from distributed import as_completed as dask_as_completed
@@ -305,8 +394,6 @@ def _dispatch_dask(unique: list[tuple[str, Task]], scheduler: str,
         keys = {f.key: k for f, (k, _) in zip(futures, unique, strict=True)}
         for fut in dask_as_completed(futures):
             yield keys[fut.key], fut.result()
-            if bar is not None:
-                bar.update()
 
 
 def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
