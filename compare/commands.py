@@ -9,20 +9,39 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
+import re
 import sys
 from typing import Any
 
 from tippetop.compare.common_args import EXIT_RUN_FAILED, comma_list, print_json
+from tippetop.compare.terminal import (
+    MISSING,
+    fmt,
+    fmt_percent,
+    fmt_value,
+    key_values,
+    labelled,
+    table,
+)
 from tippetop.models.errors import TippetopError
 
 
 def _print_human(d: dict[str, Any]) -> None:
-    width = max(len(k) for k in d)
-    for k, v in d.items():
-        if isinstance(v, float):
-            v = f"{v:.6g}"
-        print(f"{k:<{width}}  {v}")
+    """``key  value unit`` lines (:func:`tippetop.compare.terminal.key_values`)."""
+    print(key_values(d))
+
+
+def _cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str:
+    """Where the runs went: ``runs: 6 computed, 2 from the cache in /root/.cache/tippetop``."""
+    from tippetop.models.resources import user_cache_dir
+
+    counts = f"{computed} computed, {cached} from the cache" if computed is not None else ""
+    if not use_cache:
+        return f"runs: {counts or 'computed'}; the cache was not used (--no-cache)"
+    where = f"{user_cache_dir()} ($TIPPETOP_CACHE)"
+    return f"runs: {counts} in {where}" if counts else f"runs: cached in {where}"
 
 
 # ---------------------------------------------------------------- theory
@@ -49,8 +68,39 @@ def cmd_theory(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
     else:
-        _print_human(out)
+        _print_theory(out, top, args.n0)
     return 0
+
+
+#: What each number of ``tippetop theory`` is (the paper's names in brackets).
+THEORY_MEANINGS: dict[str, str] = {
+    "group": "the paper's classification by A/C and a/R (Sec. 4)",
+    "n1": "spin above which the vertical state theta = 0 is unstable (eq. 4.13)",
+    "n2": "spin below which no precession exists at theta = pi",
+    "n3": "spin at theta = pi above which the inverted state is stable",
+    "n4": "spin at theta = 0 that leaves n3 after inversion",
+    "nc": "spin above which a Group II top inverts fully (Sec. 4.3)",
+    "rc": "A/C at which F(-1) = F(1) (depends on a/R only)",
+    "theta_c": "Group I: critical angle (below it theta falls back to 0)",
+    "theta_f": "Group III: the fixed point theta settles at",
+    "theta_d": "Group II (rc < A/C < 1): the jump angle",
+    "theta_s": "asymptotic angle predicted for the start near theta = 0",
+}
+
+
+def _print_theory(out: dict[str, Any], top: Any, n0: float | None) -> None:
+    """The theory's numbers with units and what each one is; ``-`` where it does not exist."""
+    print(f"Group {out['group']} top: A/C = {fmt(top.A_over_C)}, a/R = {fmt(top.a_over_R)}, "
+          f"R = {fmt(top.R_m, 'm')}, M = {fmt(top.M_kg, 'kg')}")
+    rows = []
+    for k, v in out.items():
+        meaning = THEORY_MEANINGS.get(k, "")
+        if k == "theta_s" and n0 is not None:
+            meaning = f"{meaning} at n0 = {fmt(n0, 'rad/s')}"
+        if v is None:
+            meaning = f"{meaning}; none for this top" if meaning else "none for this top"
+        rows.append((k, fmt_value(k, v), meaning))
+    print(table(("quantity", "value", "meaning"), rows))
 
 
 # ---------------------------------------------------------------- simulate
@@ -85,11 +135,35 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.json:
         print_json(run.summary)
     else:
-        _print_human({"scene": scene.name, **run.summary})
+        _print_summary(scene.name, run.summary, out_path if not failed else None)
     if failed:
         sys.stderr.write(f"tippetop: run failed: {run.message}\n")
         return EXIT_RUN_FAILED
     return 0
+
+
+#: Summary keys that say what ran (settings read back from the engine), listed apart.
+RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
+            "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
+            "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
+
+
+def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) -> None:
+    """A run's summary: the results, then what ran, then the unused ``--set`` keys."""
+    ran = [(k, summary[k]) for k in RAN_KEYS if k in summary]
+    rest = [(k, v) for k, v in summary.items() if k not in RAN_KEYS and k != "unused"]
+    pairs = [("scene", scene), *rest]
+    width = max(len(k) for k, _ in [*pairs, *ran, ("unused", 0)])
+    print("\n".join(f"{k:<{width}}  {fmt_value(k, v)}" for k, v in pairs))
+    if ran:
+        print("what ran:")
+        print("\n".join(f"  {k:<{width - 2}}  {fmt_value(k, v)}" for k, v in ran))
+    unused = summary.get("unused")
+    if unused is not None:
+        print(f"{'unused':<{width}}  {', '.join(unused) if unused else 'none'} (--set keys "
+              "the engine did not read)")
+    if table_path is not None:
+        print(f"wrote {table_path}")
 
 
 # ---------------------------------------------------------------- bench
@@ -131,7 +205,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------- compare
 def cmd_compare(args: argparse.Namespace) -> int:
     """``tippetop compare``: one scene in several engines/modes, against the theory."""
-    from tippetop.compare.crossval import compare_scene, friction_law_table
+    from tippetop.compare.crossval import compare_scene
     from tippetop.models.modes import parse_modes
 
     res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
@@ -140,31 +214,222 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.json:
         print_json(res)
     else:
-        print(f"scene {res['scene']} (Group {res['group']}): theory predicts "
-              f"{res['theory']['outcome']} (theta_s = {res['theory']['theta_s']:.3f} rad)")
-        import pandas as pd
-
-        with pd.option_context("display.width", 200, "display.max_colwidth", 120):
-            print(friction_law_table(res).to_string(index=False))
-        for d in res["differences"]:
-            print(f"  differs: {d['mode']} {d['metric']} = {d['value']} "
-                  f"(reference {d['reference']}, tolerance {d['tolerance']})")
+        print_compare(res)
     return 0
+
+
+#: Unit of each metric ``compare`` checks against the reference.
+METRIC_UNITS = {"theta_asymp": "rad", "theta_rms": "rad", "t_invert": "s",
+                "J_rel_drift": "relative", "d_theta_asymp": "rad"}
+
+
+def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
+    """Why a tolerance is what it is: the difference's own ``why``, else crossval's table."""
+    why = d.get("why")
+    if not why:
+        try:
+            from tippetop.compare.crossval import TOLERANCES
+
+            why = TOLERANCES.get(metric, (None, ""))[1]
+        except ImportError:  # pragma: no cover - crossval is part of the package
+            why = ""
+    # the table's reasons start with the unit ("s; 1 ms sampling ..."): the unit is shown
+    head, sep, tail = str(why or "").partition("; ")
+    return tail if sep and len(head) <= 12 else str(why or "")
+
+
+def difference_text(d: dict[str, Any]) -> str:
+    """One difference from the reference in words, naming the tolerance it broke.
+
+    Example: ``t_invert 2.496 s against the reference's 2.329 s: 0.167 s apart, over the
+    t_invert tolerance of 0.1 s (1 ms sampling plus ...)``.
+    """
+    metric = str(d.get("metric", "?"))
+    unit = METRIC_UNITS.get(metric, "")
+    value, ref, tol = d.get("value"), d.get("reference"), d.get("tolerance")
+    if metric == "status":
+        note = d.get("note") or value
+        return f"the run failed ({note}); the reference's status is {fmt(ref)}"
+    if metric == "outcome":
+        return f"ends {fmt(value)} where the reference ends {fmt(ref)} (a different outcome)"
+    if metric == "t_invert" and (value is None) != (ref is None):
+        if value is None:
+            return f"never turns over; the reference does at {fmt(ref, 's')}"
+        return f"turns over at {fmt(value, 's')}; the reference never does"
+    text = f"{metric} {fmt(value, unit)}"
+    if metric == "theta_rms":
+        text = f"theta(t) departs from the reference's by {fmt(value, 'rad')} RMS"
+    elif ref is not None:
+        text += f" against the reference's {fmt(ref, unit)}"
+    if tol is None:
+        return text
+    if isinstance(value, (int, float)) and isinstance(ref, (int, float)) and metric not in (
+            "J_rel_drift", "theta_rms"):
+        text += f": {fmt(abs(value - ref), unit)} apart"
+    why = _tolerance_why(metric, d)
+    limit = "limit" if metric == "J_rel_drift" else "tolerance"
+    return f"{text}, over the {metric} {limit} of {fmt(tol, unit)}" + (
+        f" ({why})" if why else "")
+
+
+def print_compare(res: dict[str, Any]) -> None:
+    """``tippetop compare`` for a person: the theory, one line per mode, what differs and why.
+
+    Robust to the keys a result has: a missing value is ``-``.
+    """
+    th = res.get("theory") or {}
+    theta_s = th.get("theta_s")
+    tol_s = th.get("theta_s_tol")
+    print(f"{res.get('scene', '?')} (Group {res.get('group', '?')}): the theory predicts "
+          f"{th.get('outcome', '?')}, theta_s = {fmt(theta_s, 'rad')}")
+    modes: dict[str, dict[str, Any]] = res.get("modes") or {}
+    rows = []
+    for m, s in modes.items():
+        matches = s.get("matches_theory")
+        if s.get("outcome") == "failed":
+            rows.append((m, "failed", "DIFFERS" if matches is False else MISSING,
+                         *[MISSING] * 5))
+            continue
+        rows.append((
+            m + (" (reference)" if m == "ode" else ""),
+            fmt(s.get("outcome")),
+            {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches)),
+            fmt_value("t_invert", s.get("t_invert")).split(" (")[0],
+            fmt(s.get("theta_asymp"), "rad"),
+            fmt(s.get("J_rel_drift"), "relative"),
+            fmt(s.get("energy_dissipated_J"), "J"),
+            MISSING if m == "ode" else fmt(s.get("theta_rms_vs_ref"), "rad"),
+        ))
+    if rows:
+        print()
+        print(table(("mode", "outcome", "theory", "t_invert", "theta_asymp", "J drift",
+                     "energy lost", "theta RMS vs ref"), rows))
+    agree_rule = (f"agrees: the theory's outcome, and theta_asymp within "
+                  f"{fmt(tol_s, 'rad')} of theta_s" if tol_s is not None else
+                  "agrees: the theory's outcome")
+    print(f"  ({agree_rule}; J drift: Jellett's constant, relative)")
+    against = [(str(r.get("mode")), r.get("reasons") or []) for r in res.get("crossval") or []
+               if not r.get("agrees", True)]
+    if against:
+        print("\nagainst the theory:")
+        width = max(len(m) for m, _ in against)
+        for m, reasons in against:
+            print(labelled(m, "; ".join(reasons) if reasons else "does not agree", width))
+    diffs = res.get("differences") or []
+    print()
+    if not diffs:
+        print("differences from the reference beyond their tolerances: none")
+    else:
+        print("differences from the reference beyond their tolerances:")
+        width = max(len(str(d.get("mode", ""))) for d in diffs)
+        for d in diffs:
+            print(labelled(str(d.get("mode", "?")), difference_text(d), width))
+    ran = []
+    for m, s in modes.items():
+        if "engine" not in s:
+            continue
+        try:
+            from tippetop.compare.engines import describe_ran
+
+            text = describe_ran(s)
+        except (KeyError, TypeError, ValueError):
+            text = MISSING
+        ran.append((m, re.sub(r"\b(None|nan)\b", MISSING, text)))
+    if ran:
+        print("\nwhat ran:")
+        width = max(len(m) for m, _ in ran)
+        for m, text in ran:
+            print(labelled(m, text, width))
+    notes = [(m, str(s.get("note"))) for m, s in modes.items() if s.get("note") and m != "ode"]
+    if notes:
+        print("\nwhy a mode may depart from the paper's law:")
+        width = max(len(m) for m, _ in notes)
+        for m, note in notes:
+            print(labelled(m, note, width))
 
 
 # ---------------------------------------------------------------- threshold
 def cmd_threshold(args: argparse.Namespace) -> int:
-    """``tippetop threshold``: n1 or nc by bisection on n0."""
+    """``tippetop threshold``: n1 or nc by bisection on n0; ``--out`` writes the runs."""
     from tippetop.compare.threshold import measure_threshold
 
+    out_dir = None
+    if getattr(args, "out", None):
+        from tippetop.compare.io import check_output_dir
+
+        out_dir = check_output_dir(args.out, force=args.force)
     res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
                             workers=args.workers, use_cache=not args.no_cache)
+    files = _write_threshold(res, out_dir) if out_dir is not None else []
     if args.json:
         print_json(res)
     else:
-        _print_human({k: v for k, v in res.items() if k != "runs"})
+        print_threshold(res)
+        print(_cache_line(None, None, not args.no_cache))
+        if files:
+            print("wrote " + ", ".join(str(f) for f in files))
     return 0
+
+
+def _write_threshold(res: dict[str, Any], out: Any) -> list[Any]:
+    """``threshold.json`` (the ``--json`` result) and ``runs.csv`` (every n0 run) into ``out``."""
+    import csv
+
+    from tippetop.compare.common_args import json_text
+    from tippetop.compare.io import staged_output_dir
+
+    names = ["threshold.json", "runs.csv"]
+    with staged_output_dir(out) as stage:  # all files or none
+        (stage / names[0]).write_text(json_text(res, indent=1) + "\n", "utf-8")
+        runs = res.get("runs") or []
+        cols = list(dict.fromkeys(k for r in runs for k in r)) or ["n0"]
+        with open(stage / names[1], "w", newline="", encoding="utf-8") as f:
+            w = csv.DictWriter(f, fieldnames=cols)
+            w.writeheader()
+            w.writerows(runs)
+    return [out / n for n in names]
+
+
+def print_threshold(res: dict[str, Any]) -> None:
+    """A bisection's answer for a person.
+
+    The measured spin against the theory's, the bracket, the check at twice the horizon, and
+    a warning when the answer is not to be trusted.
+    """
+    which = res.get("which", "?")
+    horizon = res.get("horizon_s")
+    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}, by bisection on n0 "
+          f"over runs of {fmt(horizon, 's')}:")
+    bracket = res.get("bracket") or [None, None]
+    runs = res.get("runs") or []
+    rows = [
+        ("measured", fmt(res.get("measured"), "rad/s"),
+         f"bracket {fmt(bracket[0])} to {fmt(bracket[-1], 'rad/s')}, "
+         f"{res.get('n_runs', len(runs))} runs"),
+        ("theory", fmt(res.get("theory"), "rad/s"),
+         "eq. 4.13" if which == "n1" else "Sec. 4.3"),
+        ("difference", fmt_percent(res.get("rel_diff")), "measured / theory - 1"),
+    ]
+    print(table(("", "value", ""), rows, indent="  ", header=False))
+    check = res.get("horizon_check")
+    if isinstance(check, dict):
+        h2 = fmt(check.get("horizon_s"), "s")
+        if check.get("depends_on_horizon"):
+            print(f"  horizon check: over {h2} the bracket's ends change side")
+        else:
+            print(f"  horizon check: over {h2} the bracket's ends keep their side")
+    conv = res.get("converged")
+    if conv is not None:
+        why = []
+        if res.get("bracket_converged") is False:
+            why.append("the bracket is wider than --rel-tol after the rounds allowed")
+        if res.get("depends_on_horizon"):
+            why.append("the answer depends on the run length")
+        print(f"  converged: {fmt(conv)}" + (f" ({'; '.join(why)})" if why and not conv
+                                              else ""))
+    if res.get("warning"):
+        print(f"  warning: {res['warning']}")
 
 
 # ---------------------------------------------------------------- sweep
@@ -196,6 +461,34 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print_json({"scene": res["scene"], "computed": res["computed"], "cached": res["cached"],
                     "rows": res["table"].to_dict(orient="records")})
     else:
-        print(res["table"].to_string(index=False))
-        print(f"{res['computed']} computed, {res['cached']} from the cache")
+        print_sweep(res)
+        print(_cache_line(res.get("computed"), res.get("cached"), not args.no_cache))
+        if out_dir is not None:
+            print("wrote " + ", ".join(str(f) for f in files))
+        else:
+            print("not written: --out DIR writes sweep.csv, theory.csv and sweep.png")
     return 0
+
+
+def print_sweep(res: dict[str, Any]) -> None:
+    """A sweep for a person: per mode and n0, theta_asymp against the theory's theta_s(n0)."""
+    import numpy as np
+
+    rows_in = res["table"].to_dict(orient="records")
+    th = res.get("theory")
+    print(f"{res.get('scene', '?')}: theta_asymp against n0, with the theory's theta_s(n0)")
+    rows = []
+    for r in rows_in:
+        t_inv = r.get("t_invert")
+        if isinstance(t_inv, float) and math.isnan(t_inv):
+            r["t_invert"] = None  # pandas holds "never turned over" as NaN
+        theta_s = None
+        if th is not None and len(th):
+            theta_s = float(np.interp(r["n0"], th["n0"], th["theta_s"]))
+        rows.append((r.get("mode"), fmt(r.get("n0"), "rad/s"), fmt(r.get("theta_asymp"), "rad"),
+                     fmt(theta_s, "rad"), fmt(r.get("outcome")),
+                     fmt_value("t_invert", r.get("t_invert")).split(" (")[0],
+                     fmt(r.get("J_rel_drift"), "relative"), fmt(r.get("status")),
+                     "cache" if r.get("cached") else "run"))
+    print(table(("mode", "n0", "theta_asymp", "theta_s", "outcome", "t_invert", "J drift",
+                 "status", "from"), rows))

@@ -20,18 +20,47 @@ from typing import Any, NoReturn
 
 from tippetop.models.errors import TippetopError
 
-EXIT_BAD_INPUT = 2
+EXIT_OK = 0
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130  # Ctrl-C: one line, the runs going are stopped
+
+#: Every exit status of ``tippetop`` and what it means (``tippetop --help`` lists them).
+EXIT_STATUSES: dict[int, str] = {
+    EXIT_OK: "done: the run finished, the nightly found no regression, validate agrees",
+    EXIT_RUN_FAILED: "a run failed (diverged; one line says why), the nightly found a "
+                     "regression, or a validate check departs",
+    EXIT_BAD_INPUT: "bad input: one line on stderr, nothing written",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C): the runs going are stopped, nothing half-written",
+}
 
 #: Help of the shared options, where every command words them the same.
-SCHEDULER_HELP = "tcp://HOST:PORT of a Dask scheduler (default: local processes)"
+SCHEDULER_HELP = "tcp://HOST:PORT of a Dask scheduler to run on (default: local processes)"
 WORKERS_HELP = "local worker processes (default: all cores)"
-NO_CACHE_HELP = "neither read nor write the cache"
+NO_CACHE_HELP = ("neither read nor write the run cache ($TIPPETOP_CACHE; default: reuse runs "
+                 "already made with the same physics and code)")
 FORCE_HELP = "overwrite an existing --out file"
+SET_HELP = ("override a scene key, e.g. init.n0=60 or run.t_end_s=4; units as the key's name "
+            "says (_s seconds, _m metres, n0 rad/s); repeatable (default: the scene as written)")
+JSON_HELP = "print one JSON object on stdout instead of text (the keys are a contract)"
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Help at the terminal's width (at most 100 columns), the options' help beside them."""
+
+    def __init__(self, prog: str) -> None:
+        import shutil
+
+        width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns) - 2)
+        super().__init__(prog, max_help_position=30, width=width)
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line and exit 2."""
+    """argparse, but a usage error is one line and exit 2, and help as wide as the terminal."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         """Write ``tippetop: error: MESSAGE (see 'PROG --help')`` and exit 2."""
@@ -119,20 +148,25 @@ def _clean(obj: Any) -> Any:
     return obj
 
 
+def json_text(obj: Any, indent: int | None = None) -> str:
+    """One JSON object as text: NaN and inf as null, numpy scalars as numbers."""
+    return json.dumps(_clean(obj), default=_json_default, indent=indent)
+
+
 def print_json(obj: Any) -> None:
     """Print one JSON object on stdout."""
-    print(json.dumps(_clean(obj), default=_json_default))
+    print(json_text(obj))
 
 
 # ---------------------------------------------------------------- options
 def add_scheduler_option(p: argparse.ArgumentParser) -> None:
     """``--scheduler ADDRESS`` (dest ``scheduler``, default None: local processes)."""
-    p.add_argument("--scheduler", help=SCHEDULER_HELP)
+    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
 
 
 def add_workers_option(p: argparse.ArgumentParser, help: str = WORKERS_HELP) -> None:
     """``--workers N`` (dest ``workers``, default None: all cores), checked to be >= 1."""
-    p.add_argument("--workers", type=worker_count, help=help)
+    p.add_argument("--workers", type=worker_count, metavar="N", help=help)
 
 
 def add_parallel_options(p: argparse.ArgumentParser, *, no_cache: bool = True) -> None:
@@ -143,7 +177,7 @@ def add_parallel_options(p: argparse.ArgumentParser, *, no_cache: bool = True) -
         p.add_argument("--no-cache", action="store_true", help=NO_CACHE_HELP)
 
 
-def add_set_option(p: argparse.ArgumentParser, help: str | None = None) -> None:
+def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
     """``--set KEY=VALUE``, repeatable (dest ``set``: a list, or None when not given)."""
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help=help)
 
@@ -153,6 +187,6 @@ def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None
     p.add_argument("--force", action="store_true", help=help)
 
 
-def add_json_option(p: argparse.ArgumentParser, help: str | None = None) -> None:
+def add_json_option(p: argparse.ArgumentParser, help: str = JSON_HELP) -> None:
     """``--json`` (dest ``json``): print one JSON object instead of text."""
     p.add_argument("--json", action="store_true", help=help)

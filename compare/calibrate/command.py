@@ -59,21 +59,24 @@ def add_calibrate_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit mu, cone, impratio, solref and solimp of MuJoCo's native friction to "
         "the reference ODE on calibration scenes, report residuals on held-out scenes, and "
         "write the settings with their provenance.")
-    c.add_argument("--calibration", default=DEFAULT_CALIBRATION,
-                   help=f"scenes fitted, NAME[:T_END_S],... (default {DEFAULT_CALIBRATION})")
-    c.add_argument("--holdout", default=DEFAULT_HOLDOUT,
+    c.add_argument("--calibration", default=DEFAULT_CALIBRATION, metavar="SCENES",
+                   help=f"scenes fitted, NAME[:T_END_S],... with T_END_S the simulated time "
+                   f"(s) (default {DEFAULT_CALIBRATION})")
+    c.add_argument("--holdout", default=DEFAULT_HOLDOUT, metavar="SCENES",
                    help=f"scenes only reported, NAME[:T_END_S],... (default {DEFAULT_HOLDOUT})")
-    c.add_argument("--out", default=str(DEFAULT_OUT),
+    c.add_argument("--out", default=str(DEFAULT_OUT), metavar="FILE",
                    help="the calibration file (.toml; default models/calibrated_native.toml)")
     add_force_option(c)
     c.add_argument("--budget-runs", dest="budget_runs", type=int, default=DEFAULT_BUDGET_RUNS,
-                   help=f"candidate x scene runs the search may use (default "
-                   f"{DEFAULT_BUDGET_RUNS})")
+                   metavar="N", help=f"runs the search may use, candidates times scenes "
+                   f"(default {DEFAULT_BUDGET_RUNS})")
     c.add_argument("--timestep-s", dest="timestep_s", type=number, default=DEFAULT_TIMESTEP_S,
-                   help=f"MuJoCo timestep of the fit (default {DEFAULT_TIMESTEP_S:g} s)")
-    c.add_argument("--integrator", default=DEFAULT_INTEGRATOR,
-                   help=f"MuJoCo integrator of the fit (default {DEFAULT_INTEGRATOR})")
+                   metavar="S", help=f"MuJoCo timestep of the fit (s; default "
+                   f"{DEFAULT_TIMESTEP_S:g})")
+    c.add_argument("--integrator", default=DEFAULT_INTEGRATOR, metavar="NAME",
+                   help=f"MuJoCo integrator of the fit: Euler, implicit, implicitfast or RK4 "
+                   f"(default {DEFAULT_INTEGRATOR})")
     add_parallel_options(c)
-    add_json_option(c, help="print the report as JSON")
+    add_json_option(c, help="print the report as one JSON object instead of text")
     c.set_defaults(func=cmd_calibrate)
     return c

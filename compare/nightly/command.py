@@ -45,8 +45,9 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Run the nightly catalogue (models/nightly.toml), compare every metric with "
         "the stored baselines, write results.json, junit.xml and report.html into --out, and "
         "exit 1 on any regression.")
-    p.add_argument("--profile", default="quick", help="quick (default, a few minutes), full "
-                   "(up to an hour) or stress")
+    p.add_argument("--profile", default="quick", help="a profile of the catalogue: quick, "
+                   "every paper scene, a few minutes on 2 cores; full, both MuJoCo modes and "
+                   "every sweep, up to an hour; stress, hard cases (default quick)")
     p.add_argument("--baseline", metavar="DIR", help="folder of <profile>.json baselines "
                    "(default: compare/baselines in the repository)")
     p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
@@ -55,9 +56,10 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "nightly-YYYYMMDD-HHMMSS in the current folder)")
     add_force_option(p, help="write into a non-empty --out")
     p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines to "
-                   "run (default: ode,mujoco)")
+                   f"run (default: {','.join(ENGINES)})")
     p.add_argument("--cases", metavar="GLOBS", help="only case ids matching these "
-                   "comma-separated globs, e.g. 'paper/*[ode]'")
+                   "comma-separated globs, e.g. 'paper/*[ode]' (default: every case of the "
+                   "profile)")
     p.add_argument("--catalogue", metavar="FILE", help="catalogue file (default: "
                    "models/nightly.toml)")
     add_scheduler_option(p)
@@ -67,7 +69,8 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--videos", action="store_true", help="also render a short side-by-side "
                    "video of each paper scene (MuJoCo | reference), linked from the report")
     p.add_argument("--accuracy-dir", dest="accuracy_dir", metavar="DIR", help="folder of "
-                   "accuracy-versus-cost PNG figures to embed in the report")
+                   "accuracy-versus-cost figures and Pareto tables to embed in the report, as "
+                   "'tippetop bench accuracy --out DIR' writes them (default: none)")
     p.set_defaults(func=cmd_nightly)
     return p
 

@@ -104,11 +104,12 @@ def add_validate_parser(subparsers: Any) -> argparse.ArgumentParser:
         "mu and stem), with the paper's law in the same model, and with the calibrated native "
         "settings; check each against the theory and the reference; write report.html, "
         "results.json and the tables into --out. Exit 1 if a check departs.")
-    p.add_argument("model", help="the MJCF file of the top")
+    p.add_argument("model", help="the MJCF file of the top (required)")
     p.add_argument("--out", metavar="DIR", help="folder for report.html, results.json and "
-                   "tables/ (new or empty, or --force)")
+                   "tables/ (new or empty, or --force; default: none, printed only)")
     p.add_argument("--t-end-s", dest="t_end_s", type=finite_float, default=DEFAULT_T_END_S,
-                   help=f"simulated seconds of every run (default {DEFAULT_T_END_S:g})")
+                   metavar="S", help=f"simulated time of every run (s; default "
+                   f"{DEFAULT_T_END_S:g})")
     p.add_argument("--keyframe", metavar="NAME", help="start from this keyframe of the file "
                    "(default: its first)")
     add_force_option(p, help="write into a non-empty --out")
