@@ -262,19 +262,23 @@ def add_render_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
         "(MUJOCO_GL=egl or osmesa; unset picks one).")
     p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
                    "paper's top and Fig. 3 start)")
-    p.add_argument("--engine", default="mujoco", help="mujoco (default), ode or both")
-    p.add_argument("--out", help="the .mp4 file (default: <scene name>.mp4 here)")
-    p.add_argument("--fps", type=float, default=DEFAULT_FPS,
+    p.add_argument("--engine", default="mujoco", help="mujoco, ode (the reference replayed "
+                   "in the same MJCF) or both, side by side (default mujoco)")
+    p.add_argument("--out", metavar="FILE", help="the .mp4 file (default: <scene name>.mp4 "
+                   "in the current folder)")
+    p.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="FPS",
                    help=f"frames per second of video (default {DEFAULT_FPS:g})")
-    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
-                   help="simulated seconds per second of video: 0.25 (default) is quarter-speed "
-                   "slow motion, 1 real time")
-    p.add_argument("--size", default=DEFAULT_SIZE,
+    p.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="X",
+                   help="simulated seconds per second of video: 0.25 is quarter-speed slow "
+                   f"motion, 1 real time (default {DEFAULT_SPEED:g})")
+    p.add_argument("--size", default=DEFAULT_SIZE, metavar="WxH",
                    help=f"WIDTHxHEIGHT of one panel in px (default {DEFAULT_SIZE})")
     p.add_argument("--max-frames", dest="max_frames", type=int, default=DEFAULT_MAX_FRAMES,
-                   help=f"refuse longer videos (default {DEFAULT_MAX_FRAMES})")
+                   metavar="N", help=f"refuse a video of more frames than this, before "
+                   f"simulating (default {DEFAULT_MAX_FRAMES})")
     add_force_option(p)
-    add_set_option(p, help="override a scene key, e.g. run.t_end_s=4 (repeatable)")
+    add_set_option(p, help="override a scene key, e.g. run.t_end_s=4; units as the key's "
+                   "name says; repeatable (default: the scene as written)")
     p.set_defaults(func=_cmd_render)
     return p
 
