@@ -14,12 +14,20 @@ Usage::
   ``--speed 0.25`` is quarter-speed slow motion (4 s of video per simulated second), ``1`` is
   real time. Poses between the table's samples are interpolated (position linearly, orientation
   by slerp); the physics steps are not drawn one by one.
-* Frames: ``floor(t_end * fps / speed) + 1``; more than ``--max-frames`` (default 3000) is an
-  error raised before anything is simulated, which says which --speed would fit.
-* Picture: the MJCF's checker table and light, a camera that follows the top's centre of mass
-  from a fixed bearing, looking down at 25 degrees; the ball has a two-colour checker texture
-  (visual only) so that spin and tilt show, besides the MJCF's stem and spin marker; top left
-  of each panel, the engine, t (s), theta (rad) and n (rad/s).
+* Frames: ``floor(t_end * fps / speed) + 1`` (the last at or just before t_end); more than
+  ``--max-frames`` (default 3000) is an error raised before anything is simulated, which says
+  which --speed would fit (:func:`speed_to_fit` gives the slowest speed that does).
+* Picture: the MJCF's checker table (drawn translucent) and light, a camera that follows the
+  top's centre of mass from a fixed bearing, low over the table (10 degrees) and to the side,
+  so that the stem shows while the top turns over (and through the table once it points into
+  it); the ball has a two-colour checker texture (visual only) so that spin and tilt show,
+  besides the MJCF's stem and spin marker; top left of each panel, the engine, t (s), theta
+  (rad) and n (rad/s). With ``both``, an inset at the bottom, across the seam, shows delta
+  theta (MuJoCo's theta minus the reference's) at each frame and theta(t) of both engines up
+  to the frame's time.
+* Progress: one line on stderr before each step ("simulating fig3 in MuJoCo (8 s
+  simulated)...", "replaying ..."), then a bar over the frames on a terminal (or a line every
+  15 s elsewhere).
 * Output: ``<scene name>.mp4`` in the working folder unless ``--out`` says otherwise; written
   to a temporary file and renamed, never over an existing file without ``--force``. Sizes are
   rounded down to even numbers (H.264 with yuv420p needs them).
@@ -38,6 +46,7 @@ import argparse
 import math
 import re
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -55,6 +64,10 @@ if TYPE_CHECKING:
 RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode", "both")
 #: Panel titles.
 ENGINE_LABELS = {"mujoco": "MuJoCo", "ode": "reference ODE"}
+#: The engines in the progress lines.
+_ENGINE_NAMES = {"mujoco": "MuJoCo", "ode": "the reference ODE"}
+#: Wall time between progress lines over the frames when stderr is not a terminal (s).
+_FRAME_REPORT_S = 15.0
 DEFAULT_FPS = 30.0  # (frames per second of video)
 DEFAULT_SPEED = 0.25  # (simulated seconds per second of video: quarter-speed slow motion)
 DEFAULT_SIZE = "640x480"  # (px, one panel)
@@ -91,6 +104,45 @@ def frame_count(t_end_s: float, fps: float, speed: float) -> int:
     return int(math.floor(t_end_s * fps / speed * (1 + _FRAME_SLACK))) + 1
 
 
+def speed_to_fit(t_end_s: float, fps: float, max_frames: int, *,
+                 min_speed: float = 0.0) -> float:
+    """The playback speed at which ``max_frames`` frames show the whole run, end included.
+
+    The frames are those of :func:`frame_count`, the last one included: ``max_frames`` frames
+    span ``max_frames - 1`` intervals, so the speed is ``t_end_s * fps / (max_frames - 1)``
+    (or ``min_speed`` if that is faster): the video has at most ``max_frames`` frames, and its
+    last frame shows ``t_end_s`` itself. (Taking ``t_end_s * fps / max_frames`` instead, the
+    cap counted as intervals, gives one frame too many.)
+
+    Args:
+        t_end_s: Simulated time of the run (s), > 0.
+        fps: Frames per second of the video, > 0.
+        max_frames: The most frames allowed, >= 2.
+        min_speed: Never slower than this (simulated seconds per second of video).
+
+    Returns:
+        Simulated seconds per second of video.
+
+    Raises:
+        ValueError: If ``max_frames < 2`` (one frame cannot show a run that lasts) or
+            ``t_end_s`` or ``fps`` is not a finite number > 0.
+    """
+    if not max_frames >= 2:
+        raise ValueError(f"max_frames: expected at least 2, got {max_frames!r}")
+    if not (math.isfinite(t_end_s) and t_end_s > 0 and math.isfinite(fps) and fps > 0):
+        raise ValueError(f"expected t_end_s and fps finite and > 0, got {t_end_s!r}, {fps!r}")
+    speed = max(float(min_speed), t_end_s * fps / (max_frames - 1))
+    while frame_count(t_end_s, fps, speed) > max_frames:  # rounding; never more than a step
+        speed = math.nextafter(speed, math.inf)
+    return speed
+
+
+def _round_up(x: float, digits: int = 2) -> float:
+    """``x`` > 0 rounded up to ``digits`` significant digits."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return math.ceil(x / scale * (1 - 1e-12)) * scale
+
+
 def _check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> int:
     """Validate --fps, --speed and --max-frames; return the frame count."""
     expect(isinstance(fps, (int, float)) and math.isfinite(fps) and 0 < fps <= 1000, "--fps",
@@ -101,12 +153,16 @@ def _check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> 
            max_frames)
     n = frame_count(t_end_s, fps, speed)
     if n > max_frames:
-        fits = t_end_s * fps / (max_frames - 1) if max_frames > 1 else math.inf
+        fits = "a larger --max-frames"
+        if max_frames > 1:
+            fit = _round_up(speed_to_fit(t_end_s, fps, max_frames))
+            while frame_count(t_end_s, fps, fit) > max_frames:
+                fit = _round_up(fit * (1 + 1e-3))
+            fits = f"--speed {fit:g} or more, a larger --max-frames"
         raise TippetopError(
             f"--max-frames: expected at most {max_frames} frames, got {n} for "
             f"run.t_end_s = {t_end_s:g} s at --fps {fps:g} and --speed {speed:g} (video "
-            f"{t_end_s / speed:g} s); use --speed {math.ceil(fits * 100) / 100:g} or more, a "
-            "shorter --set run.t_end_s=..., or a larger --max-frames")
+            f"{t_end_s / speed:g} s); use {fits} or a shorter --set run.t_end_s=...")
     return n
 
 
@@ -156,6 +212,7 @@ def render_scene(
     max_frames: int = DEFAULT_MAX_FRAMES,
     force: bool = False,
     progress: bool = True,
+    say: Callable[[str], None] | None = None,
 ) -> RenderResult:
     """Simulate ``scene`` in the engine(s) and write an MP4 of the run.
 
@@ -171,6 +228,8 @@ def render_scene(
         max_frames: Refuse to make more frames than this.
         force: Overwrite an existing ``out``.
         progress: Show progress bars on stderr when it is a terminal.
+        say: Called with one line before each step (each engine's run, the frames) and, when
+            stderr is not a terminal, every 15 s of drawing; None says nothing.
 
     Returns:
         The file written and its frame count, size and render time.
@@ -192,8 +251,11 @@ def render_scene(
 
     engines = ("mujoco", "ode") if engine == "both" else (engine,)
     plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
+    tell = say or (lambda _line: None)
     tables = {}
     for name in engines:
+        tell(f"simulating {scene.name} in {_ENGINE_NAMES[name]} "
+             f"({plans[name].t_end_s:g} s simulated)...")
         run = run_plan(plans[name], progress=progress)
         if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
             raise RunFailed(f"{name}: {run.message}")
@@ -207,8 +269,13 @@ def render_scene(
     tracks = [video.Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
                                      paper_frame=name == "ode") for name in engines]
     times = video.frame_times(n_frames, fps, speed)
+    runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
+                        for name in engines)
+    tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
+         f"{height}, {n_frames / fps:.3g} s of video at speed {speed:.3g} ({backend})...")
     stats: list[video.VideoStats] = []
-    with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video") as tick:
+    with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
+                    say) as tick:
         write_atomic(path, lambda tmp: stats.append(video.write_video(
             tmp, tracks, times, fps=fps, width=width, height=height, backend=backend,
             on_frame=tick)))
@@ -219,10 +286,31 @@ def render_scene(
 
 
 @contextmanager
-def _frame_bar(total: int, label: str) -> Iterator[Callable[[], None] | None]:
-    """A tqdm bar over frames on stderr when it is a terminal; yields its tick, or None."""
-    if total <= 0 or not sys.stderr.isatty():
+def _frame_bar(total: int, label: str, say: Callable[[str], None] | None = None
+               ) -> Iterator[Callable[[], None] | None]:
+    """Progress over the frames; yields its tick (call once a frame), or None.
+
+    A tqdm bar on stderr when it is a terminal; otherwise, with ``say``, a line every
+    ``_FRAME_REPORT_S`` seconds of wall time.
+    """
+    if total <= 0:
         yield None
+        return
+    if not sys.stderr.isatty():
+        if say is None:
+            yield None
+            return
+        start = time.perf_counter()
+        state = {"done": 0, "next": start + _FRAME_REPORT_S}
+
+        def tick() -> None:
+            state["done"] += 1
+            now = time.perf_counter()
+            if now >= state["next"] and state["done"] < total:
+                state["next"] = now + _FRAME_REPORT_S
+                say(f"  {state['done']}/{total} frames drawn ({now - start:.0f} s)")
+
+        yield tick
         return
     from tqdm import tqdm
 
@@ -231,6 +319,12 @@ def _frame_bar(total: int, label: str) -> Iterator[Callable[[], None] | None]:
 
 
 # ---------------------------------------------------------------- command line
+def _say(line: str) -> None:
+    """A progress line on stderr, at once."""
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     """Run ``tippetop render``; returns the exit status (0, or 1 for a failed run)."""
     from tippetop.models.scene import load_scene
@@ -239,7 +333,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     out = args.out if args.out else f"{scene.name}.mp4"
     try:
         res = render_scene(scene, out, engine=args.engine, fps=args.fps, speed=args.speed,
-                           size=args.size, max_frames=args.max_frames, force=args.force)
+                           size=args.size, max_frames=args.max_frames, force=args.force,
+                           say=_say)
     except RunFailed as exc:
         sys.stderr.write(f"tippetop: run failed: {exc}\n")
         return 1
@@ -296,4 +391,5 @@ __all__ = [
     "frame_count",
     "parse_size",
     "render_scene",
+    "speed_to_fit",
 ]

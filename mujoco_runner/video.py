@@ -1,6 +1,6 @@
 """Offscreen frames of a run and their H.264 MP4: the drawing half of ``tippetop render``.
 
-Imported only when a video is asked for: :mod:`mujoco_runner.render` chooses the OpenGL backend
+Imported only when a video is asked for: :mod:`compare.render` chooses the OpenGL backend
 (``MUJOCO_GL``) first, and this module creates the context of that backend explicitly, so it
 works even when ``mujoco`` was imported earlier in the process with another ``MUJOCO_GL``.
 
@@ -12,19 +12,33 @@ works even when ``mujoco`` was imported earlier in the process with another ``MU
   interpolated at any time (position linearly, orientation by slerp) and mapped to the free
   joint's qpos. Replaying a track is kinematic: qpos is set, then ``mj_forward``.
 * :class:`OffscreenRenderer`: a context-managed EGL or OSMesa renderer of one model.
-* :func:`write_video`: frames at the given simulated times, one panel per track side by side,
-  each with a text overlay (engine, t, theta, n), encoded by imageio-ffmpeg's bundled ffmpeg
-  (libx264, yuv420p).
+* :func:`render_frames`: frames at the given simulated times, one panel per track side by
+  side, each with a text overlay (engine, t, theta, n); with two tracks (MuJoCo | reference) a
+  comparison inset straddles the seam at the bottom: the readout of delta theta (first track's
+  theta minus the second's) at that frame, and a small plot of theta(t) of both up to it.
+* :func:`write_video`: those frames encoded by imageio-ffmpeg's bundled ffmpeg (libx264,
+  yuv420p).
+
+The picture: a camera low over the table (10 degrees) and to the side, following the top, so
+that the stem shows beside the ball while the top turns over instead of hiding under it; the
+table is drawn translucent, so that the stem still shows once it points into the table (the
+paper's loaded sphere has no stem: the drawn one is a visual marker of the axis, 1.55 R long,
+and the turned-over top's marker pokes through the table). Poses are set, never simulated, so
+none of this touches the physics.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib.util
+import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -37,10 +51,19 @@ from tippetop.models.params import TopParams
 from tippetop.mujoco_runner.gl import BACKEND_PACKAGES
 from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, top_from_model
 
+if TYPE_CHECKING:
+    from PIL.ImageFont import FreeTypeFont, ImageFont
+
 # The camera follows the top's centre of mass at a fixed bearing (it translates, never turns).
+# Low and to the side: from above (25 degrees, as before) the stem of a top that turns over
+# hides under the ball; from 10 degrees it shows beside it.
 _CAM_DISTANCE_R = 9.0  # (sphere radii) from the centre of mass
-_CAM_ELEVATION_DEG = -25.0  # looking down at the table
-_CAM_AZIMUTH_DEG = 120.0
+_CAM_ELEVATION_DEG = -10.0  # looking down at the table, just
+_CAM_AZIMUTH_DEG = 60.0
+# The table is translucent (visual only), so that a stem pointing into it still shows; the
+# emission makes up for the light a translucent plane loses.
+_TABLE_ALPHA = 0.5
+_TABLE_EMISSION = 0.6
 # The ball's checker texture, so that spin shows in any orientation (visual only).
 _BALL_TEXTURE = "render_ball_checks"
 _BALL_RGB = ((0.85, 0.3, 0.15), (0.96, 0.92, 0.82))
@@ -60,6 +83,15 @@ _FONT_FRACTION = 1 / 22  # font size
 _MIN_FONT_PX = 9
 _TEXT_MARGIN_FRACTION = 1 / 60
 _TEXT_BOX_OPACITY = 0.55  # the text's box darkens what is behind it
+# The comparison inset of two tracks, centred on the seam between the panels, at the bottom.
+_INSET_WIDTH_FRACTION = 0.75  # of a panel's width
+_INSET_HEIGHT_FRACTION = 0.42  # of the height (at least what its text and a plot need)
+_INSET_MIN_PLOT_PX = 24  # plot height
+_INSET_OPACITY = 0.65  # its box darkens what is behind it
+_TRACE_RGB = ((255, 150, 40), (90, 200, 255))  # first track (MuJoCo), second (reference)
+# Matplotlib's DejaVu Sans has the Greek letters; Pillow's default font does not.
+_FONT_FILE = ("mpl-data", "fonts", "ttf", "DejaVuSans.ttf")
+_ASCII = {"Δθ": "dtheta", "θ": "theta", "π": "pi", "−": "-", "■": "#"}
 # H.264 settings: constant quality (x264's CRF, lower is better) and the encoder's speed preset.
 _CRF = 20
 _X264_PRESET = "veryfast"
@@ -101,12 +133,27 @@ def render_model(top: TopParams, mjcf: Path | None, width: int, height: int) -> 
     with warnings.catch_warnings():  # load_top has warned about this top already
         warnings.simplefilter("ignore", TopModelWarning)
         top_model = top_from_model(spec.compile())
+    _translucent_table(top_model.model)
     top_model.model.vis.quality.shadowsize = _SHADOW_PX
     top_model.model.vis.quality.offsamples = _OFFSAMPLES
     vis = top_model.model.vis.global_
     vis.offwidth = max(int(vis.offwidth), width)
     vis.offheight = max(int(vis.offheight), height)
     return top_model
+
+
+def _translucent_table(model: mujoco.MjModel) -> None:
+    """Make the world's planes (the table) translucent, in place: a stem below shows through."""
+    planes = np.flatnonzero((model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
+                            & (model.geom_bodyid == 0))
+    for g in planes:
+        mat = int(model.geom_matid[g])
+        if mat >= 0:
+            model.mat_rgba[mat, 3] = _TABLE_ALPHA
+            model.mat_reflectance[mat] = 0.0  # a mirror under a translucent plane: confusing
+            model.mat_emission[mat] = max(float(model.mat_emission[mat]), _TABLE_EMISSION)
+        else:
+            model.geom_rgba[g, 3] = _TABLE_ALPHA
 
 
 # ---------------------------------------------------------------- poses from a table
@@ -345,25 +392,56 @@ def tracking_camera(top_model: TopModel) -> mujoco.MjvCamera:
 
 
 # ---------------------------------------------------------------- overlay
+@functools.cache
+def _font(size_px: int) -> tuple[FreeTypeFont | ImageFont, bool]:
+    """DejaVu Sans (matplotlib's copy) at ``size_px``, and whether it has Greek letters.
+
+    Falls back to Pillow's default font (no Greek: the text is then spelled in ASCII).
+    """
+    from PIL import ImageFont
+
+    spec = importlib.util.find_spec("matplotlib")
+    if spec is not None and spec.origin is not None:
+        path = Path(spec.origin).parent.joinpath(*_FONT_FILE)
+        if path.is_file():
+            return ImageFont.truetype(str(path), size_px), True
+    return ImageFont.load_default(size=size_px), False
+
+
+def _spell(text: str, greek: bool) -> str:
+    """``text`` as is when the font has Greek letters, else with them spelled in ASCII."""
+    if not greek:
+        for symbol, word in _ASCII.items():
+            text = text.replace(symbol, word)
+    return text
+
+
+def _font_px(height: int) -> int:
+    """The overlay's font size (px) for a panel ``height`` px high."""
+    return max(_MIN_FONT_PX, round(height * _FONT_FRACTION))
+
+
+def _margin_px(height: int) -> int:
+    """The overlay's margin (px) for a panel ``height`` px high."""
+    return max(2, round(height * _TEXT_MARGIN_FRACTION))
+
+
 class _Overlay:
     """Draws a panel's title and t, theta and n into the top-left corner of a frame."""
 
     def __init__(self, height: int) -> None:
-        from PIL import ImageFont
-
-        self._size = max(_MIN_FONT_PX, round(height * _FONT_FRACTION))
-        self._font = ImageFont.load_default(size=self._size)
-        self._margin = max(2, round(height * _TEXT_MARGIN_FRACTION))
+        self._font, self._greek = _font(_font_px(height))
+        self._margin = _margin_px(height)
 
     def draw(self, rgb: np.ndarray, label: str, s: TrackSample) -> np.ndarray:
         """A copy of ``rgb`` (h, w, 3) with the text drawn on a darkened box."""
         from PIL import Image, ImageDraw
 
-        lines = [label, f"t = {s.t_s:.3f} s", f"theta = {s.theta:.3f} rad",
+        lines = [label, f"t = {s.t_s:.3f} s", f"θ = {s.theta:.3f} rad",
                  f"n = {s.n:.1f} rad/s"]
         if s.ended:
             lines.append("(run ended)")
-        text = "\n".join(lines)
+        text = _spell("\n".join(lines), self._greek)
         m = self._margin
         box = ImageDraw.Draw(Image.new("L", (1, 1))).multiline_textbbox(
             (2 * m, 2 * m), text, font=self._font, spacing=m)
@@ -376,6 +454,175 @@ class _Overlay:
                                              fill=(255, 255, 255), spacing=m)
         out[:y1, :x1] = np.asarray(image)
         return out
+
+
+@dataclass(frozen=True)
+class InsetLayout:
+    """Where the comparison inset of two panels sits, in the side-by-side frame (px).
+
+    Attributes:
+        box: (x0, y0, x1, y1) of the inset's darkened box (x1, y1 exclusive).
+        plot: (x0, y0, x1, y1) of its theta(t) plot: x from t = 0 to the last frame's time,
+            y from theta = pi (top) to 0 (bottom).
+        header_lines: Text lines above the plot (the delta-theta readout, the legend).
+    """
+
+    box: tuple[int, int, int, int]
+    plot: tuple[int, int, int, int]
+    header_lines: int = 2
+
+
+def inset_layout(width: int, height: int) -> InsetLayout:
+    """The comparison inset of two panels of ``width x height`` px, centred on their seam.
+
+    Its height is a fraction of the panel's, or what its two lines of text, a plot of at least
+    ``_INSET_MIN_PLOT_PX`` and the time labels need, whichever is more.
+    """
+    font_px, m = _font_px(height), _margin_px(height)
+    line = font_px + m
+    w = max(4 * line, round(width * _INSET_WIDTH_FRACTION))
+    h = min(height - 2 * m, max(round(height * _INSET_HEIGHT_FRACTION),
+                                2 * line + _INSET_MIN_PLOT_PX + line + 3 * m))
+    x0, y1 = width - w // 2, height - m
+    x1, y0 = x0 + w, y1 - h
+    label_w = round(2.2 * font_px)  # "π/2" (or "pi/2") and a gap
+    plot = (x0 + m + label_w, y0 + 2 * m + 2 * line, x1 - 2 * m, y1 - line - m)
+    return InsetLayout(box=(x0, y0, x1, y1), plot=plot)
+
+
+class ThetaInset:
+    """The comparison of two tracks drawn into a side-by-side frame (:func:`render_frames`).
+
+    At the bottom, centred on the seam between the panels: "delta theta" (the first track's
+    theta minus the second's, at the frame's time) and theta(t) of both tracks from t = 0 up to
+    the frame's time, on fixed axes (t from 0 to ``t_axis_s``, theta from 0 to pi). The traces
+    are drawn as the band between each pixel column's least and greatest theta, so a nutation
+    faster than a pixel shows as a band, not as a sampled line; the second track's trace is
+    drawn wider, the first's over it, so both show where they agree.
+
+    Args:
+        tracks: The two tracks: the first (left panel, e.g. MuJoCo) and the second (right
+            panel, e.g. the reference).
+        t_axis_s: The end of the time axis (s): the last frame's time.
+        width: Panel width (px).
+        height: Panel height (px).
+
+    Attributes:
+        layout: Where the inset sits in the side-by-side frame.
+    """
+
+    def __init__(self, tracks: Sequence[Track], t_axis_s: float, width: int, height: int
+                 ) -> None:
+        from PIL import Image, ImageDraw
+
+        self.layout = inset_layout(width, height)
+        self._labels = (tracks[0].label, tracks[1].label)
+        font_px = _font_px(height)
+        self._font, self._greek = _font(font_px)
+        self._m = _margin_px(height)
+        self._line = font_px + self._m
+        bx0, by0, bx1, by1 = self.layout.box
+        px0, py0, px1, py1 = self.layout.plot
+        self._pw, self._ph = px1 - px0, py1 - py0
+        self._t_axis = t_axis_s if t_axis_s > 0 else 1.0
+        # plot offsets inside the box
+        self._pox, self._poy = px0 - bx0, py0 - by0
+        wide = max(1, round(height / 240))  # half-width (px) of the second track's trace
+        self._half = (wide - 1, wide)
+        self._masks = [self._trace_mask(tr, half) for tr, half in zip(tracks, self._half,
+                                                                      strict=True)]
+        # The static layer: grid, axis labels, legend (RGBA over the darkened box).
+        static = Image.new("RGBA", (bx1 - bx0, by1 - by0), (0, 0, 0, 0))
+        d = ImageDraw.Draw(static)
+        ox, oy, pw, ph = self._pox, self._poy, self._pw, self._ph
+        for frac, label in ((1.0, "π"), (0.5, "π/2"), (0.0, "0")):
+            y = oy + self._y_of(frac * math.pi)
+            d.line([(ox, y), (ox + pw - 1, y)], fill=(255, 255, 255, 70 if frac == 0.5 else 110))
+            d.text((ox - self._m, y), _spell(label, self._greek), font=self._font,
+                   fill=(255, 255, 255, 230), anchor="rm")
+        d.line([(ox, oy), (ox, oy + ph - 1)], fill=(255, 255, 255, 110))
+        y_t = oy + ph + self._m // 2
+        d.text((ox, y_t), "0", font=self._font, fill=(255, 255, 255, 230), anchor="lt")
+        d.text((ox + pw - 1, y_t), f"{self._t_axis:.3g} s", font=self._font,
+               fill=(255, 255, 255, 230), anchor="rt")
+        d.text((ox + pw // 2, y_t), "t", font=self._font, fill=(255, 255, 255, 230),
+               anchor="mt")
+        # The legend and the readout: the longest forms that fit the box.
+        room = bx1 - bx0 - 3 * self._m
+        a, b = self._labels
+        a1, b1 = a.split()[0], b.split()[0]  # "reference ODE" -> "reference"
+        legends = [("θ(t):", f"■ {a}", f"■ {b}"), ("θ(t):", f"■ {a1}", f"■ {b1}"),
+                   ("", f"■ {a1}", f"■ {b1}")]
+        legend = next((pieces for pieces in legends if self._font.getlength(
+            _spell("  ".join(pieces), self._greek)) <= room), legends[-1])
+        x = 2 * self._m
+        y_legend = self._m + self._line
+        for i, piece in enumerate(legend):
+            text = _spell(piece, self._greek) + "  " if piece else ""
+            colour = (255, 255, 255, 230) if i == 0 else (*_TRACE_RGB[i - 1], 255)
+            d.text((x, y_legend), text, font=self._font, fill=colour)
+            x += round(self._font.getlength(text))
+        arr = np.asarray(static, dtype=np.float32)
+        self._static_rgb, self._static_a = arr[..., :3], arr[..., 3:] / 255.0
+        forms = [f"Δθ = θ {a} − θ {b} = {{}}", f"{a} − {b}: Δθ = {{}}",
+                 f"Δθ ({a1} − {b1}) = {{}}", "Δθ = {}"]
+        widest = "−8.8888 rad"
+        self._readout = next((f for f in forms if self._font.getlength(
+            _spell(f.format(widest), self._greek)) <= room), forms[-1])
+
+    def _y_of(self, theta: np.ndarray | float) -> np.ndarray | float:
+        """Row (px, in the plot) of theta: pi at the top row, 0 at the bottom row."""
+        frac = np.clip(np.asarray(theta, dtype=float) / math.pi, 0.0, 1.0)
+        return np.rint((1.0 - frac) * (self._ph - 1)).astype(int)
+
+    def _trace_mask(self, track: Track, half: int) -> np.ndarray:
+        """Pixels (ph, pw) of a track's theta(t) band, ``half`` px thicker on each side."""
+        pw, ph = self._pw, self._ph
+        sub = int(np.clip(2 * math.ceil(len(track.t_s) * self._t_axis
+                                        / max(track.t_end_s, 1e-12) / pw), 4, 64))
+        tt = np.linspace(0.0, self._t_axis, pw * sub + 1)
+        v = np.interp(tt, track.t_s, track.theta)
+        v[tt > track.t_end_s * (1 + 1e-12) + 1e-12] = np.nan  # nothing past the run's end
+        # column c spans samples c*sub ... (c+1)*sub: the shared edge joins the columns
+        cols = np.stack([v[c * sub:(c + 1) * sub + 1] for c in range(pw)])
+        present = ~np.all(np.isnan(cols), axis=1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns
+            lo, hi = np.nanmin(cols, axis=1), np.nanmax(cols, axis=1)
+        top = np.where(present, self._y_of(np.nan_to_num(hi)) - half, ph)
+        bottom = np.where(present, self._y_of(np.nan_to_num(lo)) + half, -1)
+        rows = np.arange(ph)[:, None]
+        return (rows >= top[None, :]) & (rows <= bottom[None, :])
+
+    def draw(self, frame: np.ndarray, samples: Sequence[TrackSample]) -> None:
+        """Draw the inset into ``frame`` (the side-by-side RGB frame), in place."""
+        from PIL import Image, ImageDraw
+
+        bx0, by0, bx1, by1 = self.layout.box
+        box = frame[by0:by1, bx0:bx1].astype(np.float32) * (1.0 - _INSET_OPACITY)
+        box = box * (1.0 - self._static_a) + self._static_rgb * self._static_a
+        region = box.clip(0, 255).astype(np.uint8)
+        t = samples[0].t_s
+        ncol = int(np.clip(math.floor(t / self._t_axis * self._pw) + 1, 0, self._pw))
+        ox, oy, pw, ph = self._pox, self._poy, self._pw, self._ph
+        plot = region[oy:oy + ph, ox:ox + pw]
+        for i in (1, 0):  # the second track's wider trace first, the first's over it
+            view = plot[:, :ncol]
+            view[self._masks[i][:, :ncol]] = _TRACE_RGB[i]
+        x_now = min(ncol, pw) - 1
+        for i in (1, 0):  # the current point of each
+            if x_now < 0 or samples[i].ended:
+                continue
+            y = int(self._y_of(samples[i].theta))
+            r = self._half[i] + 1
+            plot[max(0, y - r):y + r + 1, max(0, x_now - r):x_now + r + 1] = _TRACE_RGB[i]
+        delta = round(samples[0].theta - samples[1].theta, 4) + 0.0  # no "-0.0000"
+        value = f"{delta:+.4f} rad".replace("-", "−")  # (a run that ended holds its last pose)
+        image = Image.fromarray(region)
+        ImageDraw.Draw(image).text((2 * self._m, self._m),
+                                   _spell(self._readout.format(value), self._greek),
+                                   font=self._font, fill=(255, 255, 255))
+        frame[by0:by1, bx0:bx1] = np.asarray(image)
 
 
 # ---------------------------------------------------------------- encoder
@@ -424,6 +671,53 @@ class VideoStats:
         return 1e3 * self.wall_s / max(1, self.n_frames)
 
 
+def render_frames(
+    tracks: Sequence[Track],
+    times_s: np.ndarray,
+    *,
+    width: int,
+    height: int,
+    backend: str,
+    inset: bool = True,
+) -> Iterator[np.ndarray]:
+    """Draw every track at every time: the frames, panels side by side, one at a time.
+
+    Args:
+        tracks: One panel each, left to right; all share one drawn model (that of the first).
+        times_s: Simulated time of each frame (s), shape (n_frames,).
+        width: Panel width (px).
+        height: Panel height (px).
+        backend: ``"egl"`` or ``"osmesa"``.
+        inset: With two tracks, draw the comparison inset (delta theta, theta(t) of both;
+            :func:`inset_layout` says where).
+
+    Yields:
+        uint8 RGB frames of shape (height, width * len(tracks), 3). The OpenGL context lives
+        while the generator does: exhaust or close it.
+    """
+    top_model = tracks[0].top_model
+    model = top_model.model
+    datas = [mujoco.MjData(model) for _ in tracks]
+    cameras = [tracking_camera(top_model) for _ in tracks]
+    samples = [track.at(times_s) for track in tracks]
+    overlay = _Overlay(height)
+    t_axis = float(times_s[-1]) if len(times_s) else 0.0
+    compare = (ThetaInset(tracks, t_axis, width, height)
+               if inset and len(tracks) == 2 else None)
+    with OffscreenRenderer(model, width, height, backend) as renderer:
+        for f in range(len(times_s)):
+            panels = []
+            for track, data, cam, track_samples in zip(tracks, datas, cameras, samples,
+                                                        strict=True):
+                s = track_samples[f]
+                set_pose(top_model, data, s.qpos)
+                panels.append(overlay.draw(renderer.render(data, cam), track.label, s))
+            frame = np.concatenate(panels, axis=1)
+            if compare is not None:
+                compare.draw(frame, [track_samples[f] for track_samples in samples])
+            yield frame
+
+
 def write_video(
     path: Path,
     tracks: Sequence[Track],
@@ -434,6 +728,7 @@ def write_video(
     height: int,
     backend: str,
     on_frame: Callable[[], None] | None = None,
+    inset: bool = True,
 ) -> VideoStats:
     """Draw every track at every time and encode the frames side by side into ``path``.
 
@@ -446,32 +741,23 @@ def write_video(
         height: Panel height (px), even.
         backend: ``"egl"`` or ``"osmesa"``.
         on_frame: Called after each frame (for a progress bar).
+        inset: With two tracks, draw the comparison inset (:func:`render_frames`).
 
     Returns:
         Frame count, size and wall time.
     """
-    top_model = tracks[0].top_model
-    model = top_model.model
-    datas = [mujoco.MjData(model) for _ in tracks]
-    cameras = [tracking_camera(top_model) for _ in tracks]
-    samples = [track.at(times_s) for track in tracks]
-    overlay = _Overlay(height)
     start = time.perf_counter()
-    with OffscreenRenderer(model, width, height, backend) as renderer:
-        writer = _Mp4Writer(path, width * len(tracks), height, fps)
-        try:
-            for f in range(len(times_s)):
-                panels = []
-                for track, data, cam, track_samples in zip(tracks, datas, cameras, samples,
-                                                            strict=True):
-                    s = track_samples[f]
-                    set_pose(top_model, data, s.qpos)
-                    panels.append(overlay.draw(renderer.render(data, cam), track.label, s))
-                writer.write(np.concatenate(panels, axis=1))
-                if on_frame is not None:
-                    on_frame()
-        finally:
-            writer.close()
+    frames = render_frames(tracks, times_s, width=width, height=height, backend=backend,
+                           inset=inset)
+    writer = _Mp4Writer(path, width * len(tracks), height, fps)
+    try:
+        for frame in frames:
+            writer.write(frame)
+            if on_frame is not None:
+                on_frame()
+    finally:
+        frames.close()  # frees the OpenGL context even when a frame failed
+        writer.close()
     return VideoStats(len(times_s), width * len(tracks), height, time.perf_counter() - start)
 
 
@@ -481,12 +767,16 @@ def frame_times(n_frames: int, fps: float, speed: float) -> np.ndarray:
 
 
 __all__ = [
+    "InsetLayout",
     "OffscreenRenderer",
     "Track",
+    "ThetaInset",
     "TrackSample",
     "VideoStats",
     "backend_error",
     "frame_times",
+    "inset_layout",
+    "render_frames",
     "render_model",
     "set_pose",
     "tracking_camera",

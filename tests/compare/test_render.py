@@ -15,7 +15,9 @@ import subprocess
 import sys
 import textwrap
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import imageio.v3 as iio
 import mujoco
@@ -28,7 +30,10 @@ from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import gl
-from tippetop.mujoco_runner.model import TopModelWarning
+from tippetop.mujoco_runner.model import TopModel, TopModelWarning
+
+if TYPE_CHECKING:
+    from tippetop.mujoco_runner.video import InsetLayout, Track
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
@@ -67,6 +72,10 @@ def test_frame_times_and_sizes() -> None:
     # the default: 8 s at quarter speed and 30 fps is 32 s of video
     assert render.frame_count(8.0, 30.0, 0.25) == 961
     assert render.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
+    # 240 frames show 239 intervals: 8 s at 15 fps fits at 8 * 15 / 239, not 8 * 15 / 240
+    assert render.frame_count(8.0, 15.0, 8.0 * 15.0 / 240) == 241
+    assert render.frame_count(8.0, 15.0, render.speed_to_fit(8.0, 15.0, 240)) == 240
+    assert render.speed_to_fit(8.0, 15.0, 240, min_speed=1.0) == 1.0
 
 
 def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Path]) -> None:
@@ -80,15 +89,34 @@ def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Pa
 
 
 def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
+    from tippetop.mujoco_runner.video import inset_layout
+
     frames = _frames(videos["both"])
     assert frames.shape == (N_FRAMES, H, 2 * W, 3)
     left, right = frames[:, :, :W].astype(int), frames[:, :, W:].astype(int)
     # Same camera, same times, and the engines agree to ~1e-4 rad over 0.5 s: below the text
-    # box the two panels are nearly the same picture, while each changes from frame to frame.
-    below_text = slice(H // 2, H)
-    between_panels = np.abs(left[:, below_text] - right[:, below_text]).mean()
-    over_time = np.abs(left[-1, below_text] - left[0, below_text]).mean()
+    # box, in the middle of each panel (the comparison inset straddles the seam) the two
+    # panels are nearly the same picture, while each changes from frame to frame.
+    x0, _, x1, _ = inset_layout(W, H).box
+    rows, cols = slice(H // 3, H), slice(x1 - W, x0)  # clear of the inset in both panels
+    assert x0 - (x1 - W) >= W // 6
+    between_panels = np.abs(left[:, rows, cols] - right[:, rows, cols]).mean()
+    over_time = np.abs(left[-1, rows, cols] - left[0, rows, cols]).mean()
     assert between_panels < 0.25 * over_time, (between_panels, over_time)
+
+
+def test_both_has_the_comparison_inset_and_nothing_else_added(
+        videos: dict[str, Path]) -> None:
+    """The left panel of ``both`` is the MuJoCo-only video, but for the inset's box."""
+    from tippetop.mujoco_runner.video import inset_layout
+
+    both = _frames(videos["both"])[:, :, :W].astype(int)
+    alone = _frames(videos["mujoco"]).astype(int)
+    x0, y0, _, y1 = inset_layout(W, H).box
+    inside = np.abs(both[:, y0:y1, x0:W] - alone[:, y0:y1, x0:W]).mean()
+    outside = np.abs(both[:, :y0] - alone[:, :y0]).mean()
+    assert outside < 2.0, outside  # H.264 noise only
+    assert inside > 20.0, inside  # the darkened box, its text and the plot
 
 
 def _pose_check(scene, engine: str, paper_frame: bool) -> None:
@@ -169,6 +197,122 @@ def test_interpolation_between_samples_is_on_the_way() -> None:
     assert not mid.ended and track.at([0.6])[0].ended
 
 
+# ---------------------------------------------------------------- the comparison inset, the camera
+def _synthetic_track(top_model: TopModel, label: str,
+                     theta_of_t: Callable[[np.ndarray], np.ndarray],
+                     t_end_s: float = 1.0) -> Track:
+    """A track whose axis tilts about x by theta(t), the ball's centre fixed at (0, 0, R)."""
+    from tippetop.mujoco_runner import video
+
+    t = np.linspace(0.0, t_end_s, 101)
+    theta = theta_of_t(t)
+    zero = np.zeros_like(t)
+    quat = np.stack([np.cos(theta / 2), np.sin(theta / 2), zero, zero], axis=1)
+    k = np.stack([zero, -np.sin(theta), np.cos(theta)], axis=1)  # R_x(theta) e_z
+    com = np.array([0.0, 0.0, top_model.top.R_m]) - top_model.top.a_m * k
+    return video.Track(label=label, t_s=t, com_m=com, quat=quat, theta=theta,
+                       n=np.full_like(t, 100.0), top_model=top_model)
+
+
+def _ramp(t: np.ndarray) -> np.ndarray:
+    return 0.1 + 2.9 * t
+
+
+@pytest.fixture(scope="module")
+def inset_tracks() -> dict[str, Track]:
+    from tippetop.mujoco_runner import video
+
+    top_model = video.render_model(load_scene("fig3").top, None, 320, 240)
+    return {"mujoco": _synthetic_track(top_model, "MuJoCo", _ramp),
+            "same": _synthetic_track(top_model, "reference ODE", _ramp),
+            "off": _synthetic_track(top_model, "reference ODE", lambda t: _ramp(t) - 0.5)}
+
+
+def _draw_inset(first: Track, second: Track, t: float) -> tuple[np.ndarray, InsetLayout]:
+    """The inset of (first, second) at time t on a flat grey 2 x 320 x 240 frame."""
+    from tippetop.mujoco_runner import video
+
+    inset = video.ThetaInset([first, second], 1.0, 320, 240)
+    frame = np.full((240, 640, 3), 128, dtype=np.uint8)
+    inset.draw(frame, [first.at([t])[0], second.at([t])[0]])
+    return frame, inset.layout
+
+
+def test_inset_readout_changes_with_delta_theta_only(inset_tracks: dict[str, Track]) -> None:
+    same, layout = _draw_inset(inset_tracks["mujoco"], inset_tracks["same"], 0.5)
+    off, _ = _draw_inset(inset_tracks["mujoco"], inset_tracks["off"], 0.5)
+    x0, y0, x1, y1 = layout.box
+    px0, py0, px1, py1 = layout.plot
+    outside = np.ones(same.shape[:2], bool)
+    outside[y0:y1, x0:x1] = False
+    assert np.all(same[outside] == 128) and np.all(off[outside] == 128)  # only in its box
+    line = (py0 - y0) // 2  # two lines of text above the plot: the readout, the legend
+    readout = (slice(y0, y0 + line), slice(x0, x1))
+    legend = (slice(y0 + line, py0 - 2), slice(x0, x1))
+    assert np.abs(same[readout].astype(int) - off[readout]).sum() > 255 * 20  # +0.0000, +0.5000
+    assert np.array_equal(same[legend], off[legend])
+    assert (same[readout] > 200).sum() > 50  # white text on the dark box
+
+
+def test_inset_traces_both_engines_up_to_the_frame_time_only(
+        inset_tracks: dict[str, Track]) -> None:
+    from tippetop.mujoco_runner.video import _TRACE_RGB
+
+    for t in (0.25, 0.5, 1.0):
+        frame, layout = _draw_inset(inset_tracks["mujoco"], inset_tracks["off"], t)
+        px0, py0, px1, py1 = layout.plot
+        plot = frame[py0:py1, px0:px1]
+        now = t * (px1 - px0)  # the frame time's column
+        for rgb in _TRACE_RGB:
+            rows, cols = np.nonzero(np.all(plot == rgb, axis=2))
+            assert len(cols) > now  # a trace, at least a pixel a column
+            assert cols.min() <= 1 and now - 3 <= cols.max() <= now + 3, (t, rgb, cols.max())
+        # theta rises from 0.1 (bottom) to 3.0 (top): the trace's last column is higher
+        rows, cols = np.nonzero(np.all(plot == _TRACE_RGB[0], axis=2))
+        assert rows[cols == cols.min()].mean() > rows[cols == cols.max()].mean() + 5 * t
+
+
+def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
+                                                         inset_tracks: dict[str, Track]) -> None:
+    from tippetop.mujoco_runner import video
+
+    tracks = [inset_tracks["mujoco"], inset_tracks["off"]]
+    times = np.array([0.0, 0.5])
+
+    def frames(tracks: list[Track], inset: bool) -> np.ndarray:
+        return np.stack(list(video.render_frames(tracks, times, width=320, height=240,
+                                                 backend=backend, inset=inset)))
+
+    plain, with_inset = frames(tracks, False), frames(tracks, True)
+    assert plain.shape == with_inset.shape == (2, 240, 640, 3)
+    x0, y0, x1, y1 = video.inset_layout(320, 240).box
+    inside = np.zeros(plain.shape[1:3], bool)
+    inside[y0:y1, x0:x1] = True
+    assert np.array_equal(plain[:, ~inside], with_inset[:, ~inside])
+    assert np.abs(plain[:, inside].astype(int) - with_inset[:, inside]).mean() > 30
+    # one track: one panel, no inset
+    assert np.array_equal(frames(tracks[:1], True), plain[:, :, :320])
+
+
+def test_the_stem_of_a_turned_over_top_shows(backend: str, inset_tracks: dict[str, Track]) -> None:
+    """theta = pi - 0.05: the drawn stem (1.55 R) points into the table; the camera is low and
+    the table translucent, so it shows below the ball (and the marker with it)."""
+    from tippetop.mujoco_runner import video
+
+    top_model = inset_tracks["mujoco"].top_model
+    track = _synthetic_track(top_model, "x", lambda t: np.full_like(t, np.pi - 0.05))
+    data = mujoco.MjData(top_model.model)
+    video.set_pose(top_model, data, track.at([0.0])[0].qpos)
+    camera = video.tracking_camera(top_model)
+    with video.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
+        shown = renderer.render(data, camera).astype(int)
+        renderer._option.geomgroup[1] = 0  # the stem and the marker are visual, group 1
+        hidden = renderer.render(data, camera).astype(int)
+    rows, cols = np.nonzero(np.abs(shown - hidden).sum(axis=2) > 40)
+    assert len(rows) > 60, len(rows)
+    assert rows.min() > 120  # all of it below the ball's centre (the middle of the picture)
+
+
 # ---------------------------------------------------------------- bad input
 def _main(argv: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
     """``tippetop`` with the render subcommand (added here until compare.cli registers it)."""
@@ -230,7 +374,13 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
     argv = ["render", "fig3", "--engine", "ode", "--set", "run.t_end_s=0.2", "--speed", "1",
             "--fps", "20", "--size", "96x64"]
     assert _main(argv, monkeypatch) == 0
-    assert "wrote fig3.mp4: 5 frames 96x64" in capsys.readouterr().out
+    out, err = capsys.readouterr()
+    assert "wrote fig3.mp4: 5 frames 96x64" in out
+    # what it is doing, one line a step, while it does it
+    assert err.splitlines() == [
+        "simulating fig3 in the reference ODE (0.2 s simulated)...",
+        "replaying the reference's in the MJCF: 5 frames of 96x64, 0.25 s of video at "
+        f"speed 1 ({backend})..."], err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig3.mp4"]
     assert _frames(tmp_path / "fig3.mp4").shape == (5, 64, 96, 3)
     assert _main(argv, monkeypatch) == 2
