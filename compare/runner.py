@@ -250,17 +250,19 @@ def run_tasks(
     unique = [(key, tasks[idx[0]]) for key, idx in todo.items()]
     bar = _progress([plans[idx[0]] for idx in todo.values()], label,
                     _slots(scheduler, workers, len(unique)), len(tasks) - len(unique))
-    for key, out in _dispatch(unique, scheduler, workers, bar):
-        if "error" in out:
-            res_summary, table, err = None, None, out["error"]
-        else:
-            res_summary, table, err = out["summary"], out["table"], None
-            if cache:
-                cache.put(key, res_summary, table)
-        for i in todo[key]:
-            results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
-    if bar is not None:
-        bar.close()
+    try:
+        for key, out in _dispatch(unique, scheduler, workers, bar):
+            if "error" in out:
+                res_summary, table, err = None, None, out["error"]
+            else:
+                res_summary, table, err = out["summary"], out["table"], None
+                if cache:
+                    cache.put(key, res_summary, table)
+            for i in todo[key]:
+                results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
+    finally:  # erased on Ctrl-C too, so that 'tippetop: interrupted' starts its own line
+        if bar is not None:
+            bar.close()
     return [r for r in results if r is not None]
 
 

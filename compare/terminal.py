@@ -452,6 +452,8 @@ class WorkProgress:
         pct = 100.0 * self.fraction()
         elapsed = self._last_t - self.t0
         eta = "done" if n == total else f"about {_clock_text(self.eta_s())} left"
+        if n < total and not self._measuring and elapsed >= 1.0:
+            eta = f"starting, then about {_clock_text(self.eta_s())}"  # workers importing
         note = f" ({self.note})" if self.note else ""
         tail = f" {pct:3.0f}%  {n}/{total} runs{note}  {_clock_text(elapsed)} elapsed, {eta}"
         room = width - len(self.label) - len(tail) - 3

@@ -171,6 +171,7 @@ def test_worker_start_up_does_not_count_as_slow_work() -> None:
     clock.t = 8.0  # workers importing their engines: nothing reported yet
     p.tick()
     assert p.eta_s() == pytest.approx(10)
+    assert "starting, then about 0:10" in p.line()
     clock.t = 9.0
     p.reached(0, 0.1)
     p.reached(1, 0.1)
