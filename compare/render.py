@@ -16,7 +16,8 @@ Usage::
   by slerp); the physics steps are not drawn one by one.
 * Frames: ``floor(t_end * fps / speed) + 1`` (the last at or just before t_end); more than
   ``--max-frames`` (default 3000) is an error raised before anything is simulated, which says
-  which --speed would fit (:func:`speed_to_fit` gives the slowest speed that does).
+  which --speed would fit (:func:`speed_to_fit`: the speed at which that many frames show
+  the whole run, the last one on t_end).
 * Picture: the MJCF's checker table (drawn translucent) and light, a camera that follows the
   top's centre of mass from a fixed bearing, low over the table (10 degrees) and to the side,
   so that the stem shows while the top turns over (and through the table once it points into
