@@ -24,7 +24,9 @@ from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asy
 from tippetop.compare.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 
-WHICH = ("n1", "nc")
+WHICH = ("n1", "n4", "nc")
+#: ``growth`` (the default for every threshold: :mod:`tippetop.compare.growth`) or ``bisect``.
+METHODS = ("growth", "bisect")
 #: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.
 DEFAULT_SCENE = "fig11_n060"
 
@@ -62,6 +64,66 @@ def measure_threshold(
     which: str,
     overrides: tuple[str, ...] = (),
     *,
+    method: str | None = None,
+    rel_tol: float | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    use_cache: bool = True,
+    **bisect_options: Any,
+) -> dict[str, Any]:
+    """Measure the critical spin ``which`` of a scene's top in ``engine``.
+
+    Args:
+        scene: A scene name or file (default: the Fig. 9 (a) top, ``DEFAULT_SCENE``).
+        engine: ``ode``, ``mujoco`` or a mode name.
+        which: ``n1``, ``n4`` or ``nc``.
+        overrides: Scene overrides.
+        method: ``growth`` (default: the zero of a steady state's growth rate, from short
+            runs; :func:`tippetop.compare.growth.measure_growth`) or ``bisect`` (the outcome
+            of full runs over the scene's horizon, :func:`bisect_threshold`; n1 and nc).
+        rel_tol: Relative tolerance (default 1e-5 for growth, 0.005 for bisect).
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes.
+        use_cache: Read and write the run cache.
+        **bisect_options: ``max_rounds``, ``points_per_round``, ``horizon_check`` (bisect).
+
+    Returns:
+        ``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs, horizon_s,
+        converged`` and ``method``, ``rates`` (growth: each {n0, state, rate_per_s}; bisect:
+        []), ``settled`` (growth: every fit clean; bisect: no run still moving and the answer
+        does not depend on the horizon), and each method's own keys.
+    """
+    from tippetop.compare.growth import measure_growth
+
+    if which not in WHICH:
+        raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
+    method = method or "growth"
+    if method not in METHODS:
+        raise TippetopError(f"--method: expected one of {', '.join(METHODS)}, got {method!r}")
+    if method == "growth":
+        if bisect_options:
+            raise TippetopError(f"--method growth: {', '.join(bisect_options)} apply to "
+                                f"--method bisect only")
+        res = measure_growth(scene, engine, which, overrides,
+                             **({"rel_tol": rel_tol} if rel_tol else {}),
+                             scheduler=scheduler, workers=workers, use_cache=use_cache)
+        if res["measured"] is None:
+            raise TippetopError(f"threshold: {res['warning']}")
+        return res
+    if which == "n4":
+        raise TippetopError("--method bisect: expected --which n1 or nc (n4 is measured from "
+                            "growth rates), got n4")
+    return bisect_threshold(scene, engine, which, overrides, rel_tol=rel_tol or 0.005,
+                            scheduler=scheduler, workers=workers, use_cache=use_cache,
+                            **bisect_options)
+
+
+def bisect_threshold(
+    scene: str | None,
+    engine: str,
+    which: str,
+    overrides: tuple[str, ...] = (),
+    *,
     rel_tol: float = 0.005,
     max_rounds: int = 10,
     points_per_round: int | None = None,
@@ -83,7 +145,7 @@ def measure_threshold(
         high_crossed, depends_on_horizon} or None), ``depends_on_horizon``, ``warning`` and
         ``converged`` (the bracket is within rel_tol AND does not depend on the horizon).
     """
-    if which not in WHICH:
+    if which not in ("n1", "nc"):
         raise TippetopError(f"--which: expected n1|nc, got {which!r}")
     scene = scene or DEFAULT_SCENE
     task = Task(scene, overrides, engine)
@@ -91,6 +153,7 @@ def measure_threshold(
     n_th = theory_value(which, task.plan(base).top)
     k = points_per_round or max(2, workers or 2)
     runs: list[dict[str, Any]] = []
+    unsettled: list[float] = []
 
     def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
                  record: bool = True) -> list[bool]:
@@ -105,6 +168,8 @@ def measure_threshold(
                 raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
                                     f"{res.summary['message']}")
             flag = crossed(which, res.table)
+            if classify_outcome(res.table) == "inconclusive":
+                unsettled.append(n0)
             if record:
                 runs.append({"n0": n0, "crossed": flag,
                              "theta_asymp": res.summary["theta_asymp"],
@@ -169,6 +234,10 @@ def measure_threshold(
         "depends_on_horizon": depends,
         "warning": warning,
         "converged": bracket_ok and not depends,
+        "method": "bisect",
+        "rates": [],
+        "settled": not depends and not unsettled,
+        "unsettled_n0": sorted(unsettled),
     }
 
 

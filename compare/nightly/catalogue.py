@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from tippetop.compare.sweep import parse_range
-from tippetop.compare.threshold import WHICH
+from tippetop.compare.threshold import METHODS, WHICH
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.resources import data_path
@@ -46,6 +46,7 @@ class Case:
     set: tuple[str, ...] = ()
     description: str = ""
     which: str | None = None
+    method: str = "growth"
     rel_tol: float | None = None
     max_rounds: int = 10
     points_per_round: int = 2
@@ -75,7 +76,8 @@ class Catalogue:
 
 _COMMON_KEYS = {"name", "category", "kind", "scene", "set", "modes", "profiles", "metrics",
                 "description"}
-_KIND_KEYS = {"run": set(), "threshold": {"which", "rel_tol", "max_rounds", "points_per_round"},
+_KIND_KEYS = {"run": set(), "threshold": {"which", "method", "rel_tol", "max_rounds",
+                                          "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
 
 
@@ -139,11 +141,21 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
         which = _req(entry, "which", str, where)
         if which not in WHICH:
             raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}")
-        extra = {"which": which, "rel_tol": float(_req(entry, "rel_tol", float, where)),
+        # a case that sets bisection's own keys is a bisection unless it says otherwise
+        method = entry.get("method") or ("bisect" if {"max_rounds", "points_per_round"}
+                                         & set(entry) else "growth")
+        if method not in METHODS:
+            raise TippetopError(f"{where}.method: expected {'|'.join(METHODS)}, got "
+                                f"{method!r}")
+        extra = {"which": which, "method": method,
+                 "rel_tol": (float(_req(entry, "rel_tol", float, where))
+                             if method == "bisect" or "rel_tol" in entry else None),
                  "max_rounds": entry.get("max_rounds", 10),
                  "points_per_round": entry.get("points_per_round", 2)}
         for key in ("max_rounds", "points_per_round"):
             if key in entry:
+                if method != "bisect":
+                    raise TippetopError(f"{where}.{key}: applies to method = 'bisect' only")
                 _req(entry, key, int, where)
     elif kind == "sweep":
         extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),

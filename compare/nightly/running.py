@@ -193,12 +193,15 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
                    use_cache: bool, log: Callable[[str], None]) -> None:
     c = cr.case
     t0 = time.perf_counter()
-    log(f"nightly: threshold {c.id} (rel_tol {c.rel_tol:g})")
+    log(f"nightly: threshold {c.id} ({c.method}"
+        + (f", rel_tol {c.rel_tol:g})" if c.rel_tol else ")"))
     try:
+        options: dict[str, Any] = ({"max_rounds": c.max_rounds,
+                                    "points_per_round": c.points_per_round}
+                                   if c.method == "bisect" else {})
         res = measure_threshold(c.scene, c.engine, c.which or "n1", c.overrides,
-                                rel_tol=c.rel_tol or 0.005, max_rounds=c.max_rounds,
-                                points_per_round=c.points_per_round, scheduler=scheduler,
-                                workers=workers, use_cache=use_cache)
+                                method=c.method, rel_tol=c.rel_tol, scheduler=scheduler,
+                                workers=workers, use_cache=use_cache, **options)
     except Exception as exc:  # noqa: BLE001 - a failed bisection is that case's error
         cr.error = error_text(exc)
         cr.wall_s = time.perf_counter() - t0

@@ -28,7 +28,8 @@ figcaption{font-size:.88em;color:#444}code{background:#f5f5f5;padding:0 .2em}
 .note{font-size:.9em;color:#333;max-width:40em}nav ul{columns:3;font-size:.9em;margin:.3em 0}
 h1{margin:.1em 0;font-size:1.35em}h1 small{font-size:.6em;font-weight:normal;color:#555}
 .badge{margin:.3em 0}.badge .verdict{font-size:1em;padding:.1em .5em}
-section#verdict h2{margin:.3em 0 .1em;font-size:1.2em;border:0}.legend{font-size:.75em;color:#333;margin:.2em 0}
+section#verdict h2{margin:.3em 0 .1em;font-size:1.2em;border:0}
+.legend{font-size:.75em;color:#333;margin:.2em 0}
 table.verdict-table{font-size:10.5px;line-height:1.15;margin:.3em 0;display:table}
 table.verdict-table td{padding:.1em .35em;white-space:nowrap}
 table.verdict-table th{padding:.1em .35em}

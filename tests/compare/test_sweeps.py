@@ -28,7 +28,7 @@ def test_fig9a_n1_measured_in_the_reference() -> None:
     vanishes at n1, so a run just above it may not leave the vertical in time) is smaller than
     the bracket's 0.5 % width, not the 3 % once assumed; the bound on the relative difference
     is that width."""
-    res = measure_threshold(None, "ode", "n1")
+    res = measure_threshold(None, "ode", "n1", method="bisect")
     assert abs(res["measured"] - 34.4) <= 0.05
     lo, hi = res["bracket"]
     assert lo <= res["measured"] <= hi and (hi - lo) / res["measured"] <= 0.005
@@ -45,7 +45,7 @@ def test_a_threshold_that_depends_on_the_run_length_says_so() -> None:
     the theory's 54.3 (a run just above n_c inverts too slowly to finish in 12 s). Over 24 s
     the bracket's low end inverts as well: the answer moves with the horizon, so it is not
     'converged' and says why. (Measured: bracket [72.57, 72.78]; 57.3 with a 60-s horizon.)"""
-    res = measure_threshold("fig6", "ode", "nc")
+    res = measure_threshold("fig6", "ode", "nc", method="bisect")
     assert res["bracket_converged"]
     assert res["depends_on_horizon"] and not res["converged"]
     assert res["horizon_check"]["horizon_s"] == 24.0 and res["horizon_check"]["low_crossed"]

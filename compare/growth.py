@@ -1,0 +1,275 @@
+"""Critical spins from growth rates: the spin where a steady state's tilt stops decaying.
+
+Near the spinning upright state (``theta = 0``) or the spinning inverted state (``theta = pi``)
+the motion is linear in the tilt. The horizontal components of the symmetry axis,
+``z = k_x + i k_y``, are then a sum of damped or growing rotating modes ``A e^{(s + i w) t}``:
+after the contact slip has relaxed (within about 4 ms on the paper's top, so the first
+``SKIP_S`` are left out) two remain, the slow precession and the nutation. A matrix-pencil fit
+of ``z(t)`` over a short run (``RUN_S``) gives both complex exponents; the growth rate of the
+state is the largest real part. It is negative where the state is stable and crosses zero at
+the critical spin, so a threshold is a root of ``rate(n)``, found by a secant (Illinois) search
+on a handful of short runs. Every engine and mode is measured the same way, in its own dynamics.
+
+* ``n1``: the upright state's rate crosses zero from below (unstable above n1).
+* ``n4``: the inverted state's rate crosses zero from above at ``|n(pi)| = n3``; Jellett's
+  constant, ``J = C n (R - a cos theta)``, carries it to the spin at ``theta = 0``:
+  ``n4 = n3 (R + a) / (R - a)``.
+* ``nc`` (Group II, full inversion, Sec. 4.3): the intermediate states exist between n1 and n4
+  and join ``theta = pi`` at the larger one, so ``nc = max(n1, n4)``, both measured.
+
+Measured on the paper's Fig. 9 (a) top in the reference at the theory's n1 (2-s runs): the
+nutation's rate is -6e-5 1/s where its slope is 0.03 1/s per rad/s, i.e. n1 to 2e-6 relative.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tippetop.compare import theory
+from tippetop.compare.runner import Task, run_tasks
+from tippetop.models.errors import TippetopError
+from tippetop.models.params import TopParams
+
+WHICH = ("n1", "n4", "nc")
+#: Initial tilt from the steady state (rad): linear, yet well above MuJoCo's contact jitter.
+TILT_RAD = 0.01
+#: Length of each growth-rate run (s), and the start left out of the fit (s).
+RUN_S = 2.0
+SKIP_S = 0.1
+#: Samples of z(t) the pencil uses, and the number of modes fitted.
+FIT_POINTS = 1500
+FIT_MODES = 2
+#: A fit is clean when the first singular value left out is below this fraction of the
+#: largest: two modes describe the run (measured 3e-6 in the reference, 7e-6 in MuJoCo).
+CLEAN_FIT = 1e-3
+#: Default relative tolerance on the threshold (the secant steps).
+REL_TOL = 1e-5
+#: Spins scanned (rad/s) when the theory has no value to start from (Group I's n1, III's n4).
+SCAN_SPINS = (5.0, 15.0, 40.0, 100.0, 250.0, 600.0)
+
+
+def tilt_signal(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Times and ``z = k_x + i k_y``, the symmetry axis' horizontal components.
+
+    From the orientation quaternion (body to world) that every engine records.
+    """
+    qw, qx, qy, qz = (table[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz"))
+    z = 2.0 * (qx * qz + qw * qy) + 1j * 2.0 * (qy * qz - qw * qx)
+    return table["t"].to_numpy(dtype=float), z
+
+
+def _pencil(z: np.ndarray, dt: float, modes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Matrix-pencil fit of ``z_k = sum_j A_j exp(p_j k dt)``.
+
+    Returns the poles, the amplitudes and the singular values of the Hankel matrix.
+    """
+    n = len(z)
+    lag = n // 3
+    hankel = np.lib.stride_tricks.sliding_window_view(z, lag + 1)
+    _, sv, vh = np.linalg.svd(hankel, full_matrices=False)
+    v = vh[:modes].T  # rows of Vh span the shifts of z (no conjugate)
+    lam = np.linalg.eigvals(np.linalg.pinv(v[:-1]) @ v[1:])
+    poles = np.log(lam.astype(complex)) / dt
+    basis = np.power.outer(lam, np.arange(n)).T
+    amps = np.linalg.lstsq(basis, z, rcond=None)[0]
+    return poles, amps, sv
+
+
+def growth_fit(table: pd.DataFrame, skip_s: float = SKIP_S,
+               modes: int = FIT_MODES) -> dict[str, Any]:
+    """The growth rate of a run started near a steady state.
+
+    Returns:
+        ``rate_per_s`` (the largest real part of the fitted exponents, 1/s), ``modes`` (each
+        ``{rate_per_s, omega_rad_s, amplitude}``), ``residual`` (the first singular value left
+        out over the largest) and ``clean`` (``residual < CLEAN_FIT``).
+    """
+    t, z = tilt_signal(table)
+    keep = t >= t[0] + skip_s
+    t, z = t[keep], z[keep]
+    if len(t) < 8 * modes or not np.all(np.isfinite(z)):
+        raise TippetopError(f"growth rate: expected a finite run of at least {8 * modes} "
+                            f"samples after {skip_s:g} s, got {len(t)}")
+    step = max(1, len(t) // FIT_POINTS)
+    z = z[::step]
+    poles, amps, sv = _pencil(z, float(t[step] - t[0]), modes)
+    residual = float(sv[modes] / sv[0]) if len(sv) > modes and sv[0] > 0 else 0.0
+    order = np.argsort(-np.abs(amps))
+    return {
+        "rate_per_s": float(np.max(poles.real)),
+        "modes": [{"rate_per_s": float(poles[i].real), "omega_rad_s": float(poles[i].imag),
+                   "amplitude": float(abs(amps[i]))} for i in order],
+        "residual": residual,
+        "clean": residual < CLEAN_FIT,
+    }
+
+
+def state_overrides(state: str, n: float, run_s: float = RUN_S) -> tuple[str, ...]:
+    """Scene overrides for a run started ``TILT_RAD`` from the upright or inverted state."""
+    theta0 = TILT_RAD if state == "upright" else math.pi - TILT_RAD
+    return (f"init.theta0={theta0!r}", "init.thetadot0=0.0", "init.Omega0=0.0",
+            f"init.n0={n!r}", "init.uOX=0.0", "init.uOY=0.0", f"run.t_end_s={run_s!r}")
+
+
+def jellett_pi_to_zero(top: TopParams, n_pi: float) -> float:
+    """The spin at ``theta = 0`` with the same Jellett constant as ``n_pi`` at ``theta = pi``."""
+    return abs(n_pi) * (top.R_m + top.a_m) / (top.R_m - top.a_m)
+
+
+class _Rates:
+    """rate(n) for one state of one scene and engine, each run once (and cached on disk)."""
+
+    def __init__(self, scene: str | None, engine: str, overrides: tuple[str, ...], state: str,
+                 run_s: float, run: Callable[[list[Task]], list[Any]]) -> None:
+        self.scene, self.engine, self.overrides = scene, engine, overrides
+        self.state, self.run_s, self._run = state, run_s, run
+        self.points: dict[float, dict[str, Any]] = {}
+
+    def __call__(self, spins: list[float]) -> list[float]:
+        todo = [n for n in dict.fromkeys(spins) if n not in self.points]
+        if todo:
+            tasks = [Task(self.scene, (*self.overrides, *state_overrides(self.state, n,
+                                                                          self.run_s)),
+                          self.engine) for n in todo]
+            for n, res in zip(todo, self._run(tasks), strict=True):
+                if res.error:
+                    raise TippetopError(f"growth rate at n0 = {n:.6g} rad/s: {res.error}")
+                if res.summary.get("status") == "diverged":
+                    raise TippetopError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
+                                        f"{res.summary.get('message')}")
+                fit = growth_fit(res.table)
+                self.points[n] = {"n0": n, "state": self.state, **fit,
+                                  "wall_s": res.summary.get("wall_s")}
+        return [self.points[n]["rate_per_s"] for n in spins]
+
+
+def _find_root(rates: _Rates, start: tuple[float, float] | None, rel_tol: float,
+               max_runs: int) -> tuple[float | None, list[float]]:
+    """The spin where ``rates`` changes sign, and the final bracket (None if none found).
+
+    A bracket around ``start`` (widened if needed) or from a scan, then Illinois false
+    position until a step is below ``rel_tol``.
+    """
+    if start is not None:
+        lo, hi = start
+        r_lo, r_hi = rates([lo, hi])
+        for _ in range(4):  # widen until the ends disagree
+            if r_lo * r_hi < 0:
+                break
+            lo, hi = lo * 0.6, hi * 1.6
+            r_lo, r_hi = rates([lo, hi])
+        else:
+            start = None
+    if start is None:
+        spins = list(SCAN_SPINS)
+        rs = rates(spins)
+        pairs = [(spins[i], spins[i + 1], rs[i], rs[i + 1]) for i in range(len(spins) - 1)
+                 if rs[i] * rs[i + 1] < 0]
+        if not pairs:
+            return None, [spins[0], spins[-1]]
+        lo, hi, r_lo, r_hi = pairs[0]
+    side, prev = 0, None
+    for _ in range(max_runs):
+        root = lo - r_lo * (hi - lo) / (r_hi - r_lo)
+        if prev is not None and abs(root - prev) <= rel_tol * root:
+            break
+        prev = root
+        (r,) = rates([root])
+        if r == 0.0:
+            return root, [root, root]
+        if r * r_lo > 0:  # Illinois: halve the far end's value when one side repeats
+            lo, r_lo = root, r
+            if side == -1:
+                r_hi *= 0.5
+            side = -1
+        else:
+            hi, r_hi = root, r
+            if side == 1:
+                r_lo *= 0.5
+            side = 1
+    else:
+        root = lo - r_lo * (hi - lo) / (r_hi - r_lo)
+    return root, [lo, hi]
+
+
+def measure_growth(scene: str | None, engine: str, which: str,
+                   overrides: tuple[str, ...] = (), *, rel_tol: float = REL_TOL,
+                   run_s: float = RUN_S, max_runs: int = 12, scheduler: str | None = None,
+                   workers: int | None = None, use_cache: bool = True,
+                   label: str = "growth rates") -> dict[str, Any]:
+    """Measure ``n1``, ``n4`` or ``nc`` of a scene's top in ``engine`` from growth rates.
+
+    Returns:
+        The threshold keys of :func:`tippetop.compare.threshold.measure_threshold`
+        (``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs,
+        horizon_s, converged``) plus ``method`` ("growth"), ``rates`` (each ``{n0, state,
+        rate_per_s}``), ``settled`` (every fit clean: two modes describe every run), and
+        ``n1``/``n4`` (each measured or None) and ``n3`` (the inverted state's spin).
+    """
+    if which not in WHICH:
+        raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
+    task = Task(scene or "fig11_n060", overrides, engine)
+    top = task.plan(task.load()).top
+    th_value = {"n1": theory.n1, "n4": theory.n4, "nc": theory.n_c}[which](top)
+    if which == "nc" and th_value is None:
+        raise TippetopError(f"--which: nc exists for Group II tops only, got a Group "
+                            f"{theory.group(top)} top")
+
+    def run(tasks: list[Task]) -> list[Any]:
+        return list(run_tasks(tasks, scheduler=scheduler, workers=workers,
+                              use_cache=use_cache, label=label))
+
+    states = {"n1": ("upright",), "n4": ("inverted",), "nc": ("upright", "inverted")}[which]
+    found: dict[str, float | None] = {}
+    brackets: dict[str, list[float]] = {}
+    rates_by_state: dict[str, _Rates] = {}
+    for state in states:
+        rates = _Rates(task.scene, engine, overrides, state, run_s, run)
+        rates_by_state[state] = rates
+        guess = theory.n1(top) if state == "upright" else theory.n3(top)
+        start = (0.9 * guess, 1.1 * guess) if guess else None
+        root, bracket = _find_root(rates, start, rel_tol, max_runs)
+        found[state] = root
+        brackets[state] = bracket
+    n1 = found.get("upright")
+    n3 = found.get("inverted")
+    n4 = jellett_pi_to_zero(top, n3) if n3 is not None else None
+    if which == "n1":
+        measured, bracket = n1, brackets["upright"]
+    elif which == "n4":
+        measured = n4
+        bracket = [jellett_pi_to_zero(top, b) for b in brackets["inverted"]]
+    else:
+        measured = max(n1, n4) if n1 is not None and n4 is not None else None
+        bracket = (brackets["upright"] if measured == n1 else
+                   [jellett_pi_to_zero(top, b) for b in brackets["inverted"]])
+    points = [p for r in rates_by_state.values() for p in r.points.values()]
+    points.sort(key=lambda p: (p["state"], p["n0"]))
+    out: dict[str, Any] = {
+        "which": which, "engine": engine, "scene": task.load().name, "method": "growth",
+        "measured": measured, "theory": th_value,
+        "rel_diff": (measured / th_value - 1.0) if measured and th_value else None,
+        "bracket": bracket,
+        "runs": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"],
+                  "crossed": (p["rate_per_s"] > 0) == (p["state"] == "upright"),
+                  "clean": p["clean"], "residual": p["residual"], "modes": p["modes"]}
+                 for p in points],
+        "rates": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"]}
+                  for p in points],
+        "n_runs": len(points),
+        "horizon_s": run_s,
+        "settled": all(p["clean"] for p in points),
+        "converged": measured is not None and all(p["clean"] for p in points),
+        "n1": n1, "n3": n3, "n4": n4,
+    }
+    if measured is None:
+        out["warning"] = (f"no sign change of the growth rate found for {which}: the "
+                          f"{'upright' if which == 'n1' else 'inverted'} state is "
+                          f"{'stable' if which == 'n1' else 'unstable'} at every spin tried "
+                          f"({', '.join(f'{n:g}' for n in SCAN_SPINS)} rad/s)")
+    return out
