@@ -233,21 +233,29 @@ def build_parser() -> argparse.ArgumentParser:
     add_json_option(cp)
     cp.set_defaults(func=commands.cmd_compare)
 
-    th = sub.add_parser("threshold", help="measure n1 or nc by bisection on n0",
-                        description="Measure a critical spin by bisection on the initial spin "
-                        "n0 and compare it with the theory; the bracket's ends are run again "
-                        "over twice the horizon to check that the answer does not depend on it.")
+    th = sub.add_parser("threshold", help="measure n1, n4 or nc in an engine, against the "
+                        "theory",
+                        description="Measure a critical spin in an engine's own dynamics and "
+                        "compare it with the theory: by default from growth rates (short runs "
+                        "started 0.01 rad from the upright or inverted state; the spin where "
+                        "the tilt stops decaying), or by bisection on n0 over full runs (their "
+                        "final states; the bracket's ends are rerun over twice the horizon).")
     th.add_argument("scene", nargs="?", help="scene (default: fig11_n060, the Fig. 9 (a) top "
                     "from theta0 = 0.01 over 60 s)")
     th.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
                     "(default ode)")
-    th.add_argument("--which", required=True, choices=("n1", "nc"),
-                    help="n1: the spin above which theta = 0 is unstable; nc: the spin above "
-                    "which a Group II top inverts fully (no default: required)")
+    th.add_argument("--which", required=True, choices=("n1", "n4", "nc"),
+                    help="n1: the spin above which theta = 0 is unstable; n4: the spin at "
+                    "theta = 0 that keeps the inverted state stable; nc: the spin above which "
+                    "a Group II top inverts fully, max(n1, n4) (no default: required)")
+    th.add_argument("--method", choices=("growth", "bisect"), default=None,
+                    help="growth: the zero of the steady state's growth rate, from 2-s runs "
+                    "(any of n1, n4, nc); bisect: the outcome of runs over the scene's "
+                    "run.t_end_s (n1 or nc) (default growth)")
     add_set_option(th)
-    th.add_argument("--rel-tol", dest="rel_tol", type=finite_float, default=0.005,
-                    metavar="REL", help="stop when the bracket is this narrow, relative to "
-                    "its middle (default 0.005, i.e. 0.5 %%)")
+    th.add_argument("--rel-tol", dest="rel_tol", type=finite_float, default=None,
+                    metavar="REL", help="stop when the spin is known to this, relative "
+                    "(default 1e-5 for growth, 0.005, i.e. 0.5 %%, for bisect)")
     th.add_argument("--out", metavar="DIR", help="folder for threshold.json (the --json "
                     "result) and runs.csv (every n0 run), new or empty, or --force (default: "
                     "none, printed only)")

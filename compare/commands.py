@@ -358,9 +358,10 @@ def cmd_threshold(args: argparse.Namespace) -> int:
         from tippetop.compare.io import check_output_dir
 
         out_dir = check_output_dir(args.out, force=args.force)
+    method = {"method": args.method} if getattr(args, "method", None) else {}
     res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
-                            workers=args.workers, use_cache=not args.no_cache)
+                            workers=args.workers, use_cache=not args.no_cache, **method)
     files = _write_threshold(res, out_dir) if out_dir is not None else []
     if args.json:
         print_json(res)
@@ -373,7 +374,7 @@ def cmd_threshold(args: argparse.Namespace) -> int:
 
 
 def _write_threshold(res: dict[str, Any], out: Any) -> list[Any]:
-    """``threshold.json`` (the ``--json`` result) and ``runs.csv`` (every n0 run) into ``out``."""
+    """``threshold.json`` (the ``--json`` result) and ``runs.csv`` (every run) into ``out``."""
     import csv
 
     from tippetop.compare.common_args import json_text
@@ -382,7 +383,8 @@ def _write_threshold(res: dict[str, Any], out: Any) -> list[Any]:
     names = ["threshold.json", "runs.csv"]
     with staged_output_dir(out) as stage:  # all files or none
         (stage / names[0]).write_text(json_text(res, indent=1) + "\n", "utf-8")
-        runs = res.get("runs") or []
+        runs = [{k: v for k, v in r.items() if not isinstance(v, (list, dict))}
+                for r in res.get("runs") or []]  # nested values stay in threshold.json
         cols = list(dict.fromkeys(k for r in runs for k in r)) or ["n0"]
         with open(stage / names[1], "w", newline="", encoding="utf-8") as f:
             w = csv.DictWriter(f, fieldnames=cols)
@@ -391,26 +393,38 @@ def _write_threshold(res: dict[str, Any], out: Any) -> list[Any]:
     return [out / n for n in names]
 
 
-def print_threshold(res: dict[str, Any]) -> None:
-    """A bisection's answer for a person.
+#: Where the theory's value of each threshold comes from.
+THRESHOLD_THEORY = {"n1": "eq. 4.13", "n4": "n3 (1 + a/R) / (1 - a/R)",
+                    "nc": "Sec. 4.3: n4, or n1 for A/C <= rc"}
 
-    The measured spin against the theory's, the bracket, the check at twice the horizon, and
-    a warning when the answer is not to be trusted.
+
+def print_threshold(res: dict[str, Any]) -> None:
+    """A measured critical spin for a person.
+
+    The measured spin against the theory's, how it was measured (growth rates or a
+    bisection), the check at twice the horizon (bisection), and a warning when the answer is
+    not to be trusted.
     """
     which = res.get("which", "?")
     horizon = res.get("horizon_s")
-    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}, by bisection on n0 "
-          f"over runs of {fmt(horizon, 's')}:")
-    bracket = res.get("bracket") or [None, None]
+    method = res.get("method", "bisect")
     runs = res.get("runs") or []
+    n_runs = res.get("n_runs", len(runs))
+    if method == "growth":
+        how = f"from growth rates of {n_runs} runs of {fmt(horizon, 's')} near the steady state"
+    else:
+        how = f"by bisection on n0 over {n_runs} runs of {fmt(horizon, 's')}"
+    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}, {how}:")
+    bracket = res.get("bracket") or [None, None]
     rows = [
         ("measured", fmt(res.get("measured"), "rad/s"),
-         f"bracket {fmt(bracket[0])} to {fmt(bracket[-1], 'rad/s')}, "
-         f"{res.get('n_runs', len(runs))} runs"),
-        ("theory", fmt(res.get("theory"), "rad/s"),
-         "eq. 4.13" if which == "n1" else "Sec. 4.3"),
+         f"bracket {fmt(bracket[0])} to {fmt(bracket[-1], 'rad/s')}"),
+        ("theory", fmt(res.get("theory"), "rad/s"), THRESHOLD_THEORY.get(which, "")),
         ("difference", fmt_percent(res.get("rel_diff")), "measured / theory - 1"),
     ]
+    if which == "nc" and method == "growth":
+        rows += [(k, fmt(res.get(k), "rad/s"), "measured") for k in ("n1", "n4")
+                 if k in res]
     print(table(("", "value", ""), rows, indent="  ", header=False))
     check = res.get("horizon_check")
     if isinstance(check, dict):
@@ -419,6 +433,12 @@ def print_threshold(res: dict[str, Any]) -> None:
             print(f"  horizon check: over {h2} the bracket's ends change side")
         else:
             print(f"  horizon check: over {h2} the bracket's ends keep their side")
+    if method == "growth" and "settled" in res:
+        print("  fits: " + ("every run is two modes, cleanly" if res["settled"] else
+                            "some runs are not two clean modes (see runs in --json)"))
+    elif res.get("unsettled_n0"):
+        print("  still moving at the end of their runs: n0 = "
+              + ", ".join(fmt(n) for n in res["unsettled_n0"]) + " rad/s")
     conv = res.get("converged")
     if conv is not None:
         why = []
@@ -426,6 +446,8 @@ def print_threshold(res: dict[str, Any]) -> None:
             why.append("the bracket is wider than --rel-tol after the rounds allowed")
         if res.get("depends_on_horizon"):
             why.append("the answer depends on the run length")
+        if method == "growth" and res.get("settled") is False:
+            why.append("a fit is not clean")
         print(f"  converged: {fmt(conv)}" + (f" ({'; '.join(why)})" if why and not conv
                                               else ""))
     if res.get("warning"):

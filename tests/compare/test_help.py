@@ -225,6 +225,19 @@ def test_threshold_prints_units_a_percentage_and_the_horizon_check(
     assert "warning: the answer depends" in out
 
 
+def test_threshold_by_growth_rates_says_so(capsys: pytest.CaptureFixture) -> None:
+    commands.print_threshold({
+        "which": "nc", "engine": "ode", "scene": "fig6", "method": "growth",
+        "measured": 54.3431234, "theory": 54.341, "rel_diff": 3.81e-5,
+        "bracket": [54.3431, 54.87], "runs": [{}] * 16, "n_runs": 16, "horizon_s": 2.0,
+        "settled": False, "converged": False, "n1": 36.3812, "n3": 40.2, "n4": 54.3431})
+    out = capsys.readouterr().out
+    _assert_readable(out)
+    assert "from growth rates of 16 runs of 2 s" in out and "bisection" not in out
+    assert re.search(r"^  n1\s+36\.38 rad/s", out, re.M) and "+0.00381 %" in out
+    assert "converged: no (a fit is not clean)" in out
+
+
 def test_sweep_prints_theta_s_beside_each_point(capsys: pytest.CaptureFixture) -> None:
     table = pd.DataFrame({"mode": ["ode", "ode"], "n0": [40.0, 60.0],
                           "theta_asymp": [0.0123456789, 1.45342], "outcome": ["upright", "x"],
@@ -244,9 +257,10 @@ def test_threshold_and_sweep_say_where_their_files_went(tmp_path: Path) -> None:
     r = tippetop("threshold", "--which", "n1", "--rel-tol", "0.05", "--workers", "1",
                  "--no-cache", "--out", str(out))
     assert r.returncode == 0, r.stderr
-    assert json.loads((out / "threshold.json").read_text())["which"] == "n1"
+    res = json.loads((out / "threshold.json").read_text())
+    assert res["which"] == "n1"
     runs = pd.read_csv(out / "runs.csv")
-    assert len(runs) >= 4 and {"n0", "crossed"} <= set(runs.columns)
+    assert len(runs) == res["n_runs"] >= 2 and {"n0", "crossed"} <= set(runs.columns)
     assert f"wrote {out / 'threshold.json'}, {out / 'runs.csv'}" in r.stdout
     assert "the cache was not used" in r.stdout
     _assert_readable(r.stdout)
