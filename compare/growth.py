@@ -24,7 +24,8 @@ nutation's rate is -6e-5 1/s where its slope is 0.03 1/s per rad/s, i.e. n1 to 2
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Generator
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -42,8 +43,10 @@ TILT_RAD = 0.01
 RUN_S = 2.0
 SKIP_S = 0.1
 #: Samples of z(t) the pencil uses, and the number of modes fitted.
-FIT_POINTS = 1500
+FIT_POINTS = 600
 FIT_MODES = 2
+#: Columns of the Hankel matrix (the pencil's lag).
+FIT_LAG = 100
 #: A fit is clean when the first singular value left out is below this fraction of the
 #: largest: two modes describe the run (measured 3e-6 in the reference, 7e-6 in MuJoCo).
 CLEAN_FIT = 1e-3
@@ -69,10 +72,15 @@ def _pencil(z: np.ndarray, dt: float, modes: int) -> tuple[np.ndarray, np.ndarra
     Returns the poles, the amplitudes and the singular values of the Hankel matrix.
     """
     n = len(z)
-    lag = n // 3
+    lag = min(n // 3, FIT_LAG)
     hankel = np.lib.stride_tricks.sliding_window_view(z, lag + 1)
-    _, sv, vh = np.linalg.svd(hankel, full_matrices=False)
-    v = vh[:modes].T  # rows of Vh span the shifts of z (no conjugate)
+    # the right singular vectors from the small Gram matrix (lag+1 square): milliseconds,
+    # where a full SVD of the Hankel matrix costs a second and more under a threaded BLAS
+    gram = hankel.conj().T @ hankel
+    w, vecs = np.linalg.eigh(gram)
+    order = np.argsort(w)[::-1]
+    sv = np.sqrt(np.clip(w[order], 0.0, None))
+    v = vecs[:, order[:modes]].conj()  # the shifts of z are spanned by conj(V)
     lam = np.linalg.eigvals(np.linalg.pinv(v[:-1]) @ v[1:])
     poles = np.log(lam.astype(complex)) / dt
     basis = np.power.outer(lam, np.arange(n)).T
@@ -121,53 +129,30 @@ def jellett_pi_to_zero(top: TopParams, n_pi: float) -> float:
     return abs(n_pi) * (top.R_m + top.a_m) / (top.R_m - top.a_m)
 
 
-class _Rates:
-    """rate(n) for one state of one scene and engine, each run once (and cached on disk)."""
-
-    def __init__(self, scene: str | None, engine: str, overrides: tuple[str, ...], state: str,
-                 run_s: float, run: Callable[[list[Task]], list[Any]]) -> None:
-        self.scene, self.engine, self.overrides = scene, engine, overrides
-        self.state, self.run_s, self._run = state, run_s, run
-        self.points: dict[float, dict[str, Any]] = {}
-
-    def __call__(self, spins: list[float]) -> list[float]:
-        todo = [n for n in dict.fromkeys(spins) if n not in self.points]
-        if todo:
-            tasks = [Task(self.scene, (*self.overrides, *state_overrides(self.state, n,
-                                                                          self.run_s)),
-                          self.engine) for n in todo]
-            for n, res in zip(todo, self._run(tasks), strict=True):
-                if res.error:
-                    raise TippetopError(f"growth rate at n0 = {n:.6g} rad/s: {res.error}")
-                if res.summary.get("status") == "diverged":
-                    raise TippetopError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
-                                        f"{res.summary.get('message')}")
-                fit = growth_fit(res.table)
-                self.points[n] = {"n0": n, "state": self.state, **fit,
-                                  "wall_s": res.summary.get("wall_s")}
-        return [self.points[n]["rate_per_s"] for n in spins]
+RootSteps = Generator[list[float], list[float], tuple[float | None, list[float]]]
 
 
-def _find_root(rates: _Rates, start: tuple[float, float] | None, rel_tol: float,
-               max_runs: int) -> tuple[float | None, list[float]]:
-    """The spin where ``rates`` changes sign, and the final bracket (None if none found).
+def _root_steps(start: tuple[float, float] | None, rel_tol: float, max_runs: int) -> RootSteps:
+    """The spin where the rate changes sign, as a coroutine.
 
-    A bracket around ``start`` (widened if needed) or from a scan, then Illinois false
-    position until a step is below ``rel_tol``.
+    It yields the spins it needs, is sent their rates, and returns (the root or None, the
+    final bracket). A bracket around ``start`` (widened if its ends agree) or a scan of
+    ``SCAN_SPINS``, then Illinois false position until a step is below ``rel_tol`` of the
+    root.
     """
     if start is not None:
         lo, hi = start
-        r_lo, r_hi = rates([lo, hi])
+        r_lo, r_hi = yield [lo, hi]
         for _ in range(4):  # widen until the ends disagree
             if r_lo * r_hi < 0:
                 break
             lo, hi = lo * 0.6, hi * 1.6
-            r_lo, r_hi = rates([lo, hi])
+            r_lo, r_hi = yield [lo, hi]
         else:
             start = None
     if start is None:
         spins = list(SCAN_SPINS)
-        rs = rates(spins)
+        rs = yield spins
         pairs = [(spins[i], spins[i + 1], rs[i], rs[i + 1]) for i in range(len(spins) - 1)
                  if rs[i] * rs[i + 1] < 0]
         if not pairs:
@@ -179,7 +164,7 @@ def _find_root(rates: _Rates, start: tuple[float, float] | None, rel_tol: float,
         if prev is not None and abs(root - prev) <= rel_tol * root:
             break
         prev = root
-        (r,) = rates([root])
+        (r,) = yield [root]
         if r == 0.0:
             return root, [root, root]
         if r * r_lo > 0:  # Illinois: halve the far end's value when one side repeats
@@ -195,6 +180,81 @@ def _find_root(rates: _Rates, start: tuple[float, float] | None, rel_tol: float,
     else:
         root = lo - r_lo * (hi - lo) / (r_hi - r_lo)
     return root, [lo, hi]
+
+
+@dataclass
+class Search:
+    """The growth-rate zero of one steady state of one top in one engine.
+
+    Attributes:
+        scene: Scene name or file.
+        engine: ``ode``, ``mujoco`` or a mode name.
+        overrides: Scene overrides (the top, the engine's settings).
+        state: ``upright`` or ``inverted``.
+        start: A first bracket for the spin at the state (rad/s), or None to scan.
+        rel_tol: Relative tolerance of the false-position steps.
+        max_runs: False-position steps at most.
+        run_s: Length of each run (s).
+    """
+
+    scene: str | None
+    engine: str
+    overrides: tuple[str, ...]
+    state: str
+    start: tuple[float, float] | None
+    rel_tol: float = REL_TOL
+    max_runs: int = 12
+    run_s: float = RUN_S
+    points: dict[float, dict[str, Any]] = field(default_factory=dict)
+    root: float | None = None
+    bracket: list[float] = field(default_factory=list)
+    done: bool = False
+
+    def task(self, n: float) -> Task:
+        """The run at spin ``n`` near the state."""
+        return Task(self.scene, (*self.overrides, *state_overrides(self.state, n, self.run_s)),
+                    self.engine)
+
+
+def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]]) -> None:
+    """Advance every search together: each round runs what all of them need in one batch."""
+    steps: dict[int, RootSteps] = {}
+    wanted: dict[int, list[float]] = {}
+    for i, s in enumerate(searches):
+        steps[i] = _root_steps(s.start, s.rel_tol, s.max_runs)
+        wanted[i] = next(steps[i])
+    while wanted:
+        batch: list[tuple[int, float]] = [(i, n) for i, spins in wanted.items()
+                                          for n in dict.fromkeys(spins)
+                                          if n not in searches[i].points]
+        results = run([searches[i].task(n) for i, n in batch]) if batch else []
+        for (i, n), res in zip(batch, results, strict=True):
+            s = searches[i]
+            if res.error:
+                raise TippetopError(f"growth rate at n0 = {n:.6g} rad/s: {res.error}")
+            if res.summary.get("status") == "diverged":
+                raise TippetopError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
+                                    f"{res.summary.get('message')}")
+            s.points[n] = {"n0": n, "state": s.state, **growth_fit(res.table),
+                           "wall_s": res.summary.get("wall_s")}
+        for i in list(wanted):
+            s = searches[i]
+            try:
+                wanted[i] = steps[i].send([s.points[n]["rate_per_s"] for n in wanted[i]])
+            except StopIteration as stop:
+                s.root, s.bracket = stop.value
+                s.done = True
+                del wanted[i]
+
+
+def state_start(top: TopParams, state: str) -> tuple[float, float] | None:
+    """A first bracket for a state's critical spin: the theory's value +- 10 %, if it has one.
+
+    Only a starting point: the bracket is widened, or the spins scanned, until the measured
+    rates change sign.
+    """
+    guess = theory.n1(top) if state == "upright" else theory.n3(top)
+    return (0.9 * guess, 1.1 * guess) if guess else None
 
 
 def measure_growth(scene: str | None, engine: str, which: str,
@@ -225,17 +285,11 @@ def measure_growth(scene: str | None, engine: str, which: str,
                               use_cache=use_cache, label=label))
 
     states = {"n1": ("upright",), "n4": ("inverted",), "nc": ("upright", "inverted")}[which]
-    found: dict[str, float | None] = {}
-    brackets: dict[str, list[float]] = {}
-    rates_by_state: dict[str, _Rates] = {}
-    for state in states:
-        rates = _Rates(task.scene, engine, overrides, state, run_s, run)
-        rates_by_state[state] = rates
-        guess = theory.n1(top) if state == "upright" else theory.n3(top)
-        start = (0.9 * guess, 1.1 * guess) if guess else None
-        root, bracket = _find_root(rates, start, rel_tol, max_runs)
-        found[state] = root
-        brackets[state] = bracket
+    searches = {state: Search(task.scene, engine, overrides, state, state_start(top, state),
+                              rel_tol, max_runs, run_s) for state in states}
+    run_searches(list(searches.values()), run)
+    found = {state: s.root for state, s in searches.items()}
+    brackets = {state: s.bracket for state, s in searches.items()}
     n1 = found.get("upright")
     n3 = found.get("inverted")
     n4 = jellett_pi_to_zero(top, n3) if n3 is not None else None
@@ -248,7 +302,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
         measured = max(n1, n4) if n1 is not None and n4 is not None else None
         bracket = (brackets["upright"] if measured == n1 else
                    [jellett_pi_to_zero(top, b) for b in brackets["inverted"]])
-    points = [p for r in rates_by_state.values() for p in r.points.values()]
+    points = [p for sr in searches.values() for p in sr.points.values()]
     points.sort(key=lambda p: (p["state"], p["n0"]))
     out: dict[str, Any] = {
         "which": which, "engine": engine, "scene": task.load().name, "method": "growth",
