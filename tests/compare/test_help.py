@@ -69,7 +69,7 @@ def _default_texts(default: object) -> set[str]:
 
 def test_the_walk_finds_every_subcommand_and_option() -> None:
     names = {n.split()[0] for n, _ in OPTIONS}
-    assert names == {"theory", "simulate", "compare", "threshold", "sweep", "bench", "nightly",
+    assert names >= {"theory", "simulate", "compare", "threshold", "sweep", "bench", "nightly",
                      "calibrate", "render", "validate"}
     assert len(OPTIONS) > 80
 
