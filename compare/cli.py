@@ -13,6 +13,7 @@ import sys
 from typing import Any
 
 from tippetop.compare import commands
+from tippetop.compare.atlas_command import add_atlas_parser
 from tippetop.compare.calibrate.command import add_calibrate_parser
 from tippetop.compare.common_args import (
     EXIT_INTERRUPTED,
@@ -312,6 +313,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_calibrate_parser(sub)
     add_render_parser(sub)
     add_validate_parser(sub)
+    add_atlas_parser(sub)
     return p
 
 

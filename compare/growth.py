@@ -52,6 +52,8 @@ FIT_LAG = 100
 CLEAN_FIT = 1e-3
 #: Default relative tolerance on the threshold (the secant steps).
 REL_TOL = 1e-5
+#: A bracket wider than this ratio is bisected geometrically before false position starts.
+WIDE_BRACKET = 1.25
 #: Spins scanned (rad/s) when the theory has no value to start from (Group I's n1, III's n4).
 SCAN_SPINS = (5.0, 15.0, 40.0, 100.0, 250.0, 600.0)
 
@@ -161,7 +163,9 @@ def _root_steps(start: tuple[float, float] | None, rel_tol: float, max_runs: int
     side, prev = 0, None
     for _ in range(max_runs):
         root = lo - r_lo * (hi - lo) / (r_hi - r_lo)
-        if prev is not None and abs(root - prev) <= rel_tol * root:
+        if hi > WIDE_BRACKET * lo:  # a scan's wide bracket: halve it geometrically first
+            root, side = math.sqrt(lo * hi), 0
+        elif prev is not None and abs(root - prev) <= rel_tol * root:
             break
         prev = root
         (r,) = yield [root]
@@ -247,6 +251,18 @@ def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]])
                 del wanted[i]
 
 
+def settled(points: list[dict[str, Any]], roots: list[float | None],
+            near: float = 0.1) -> bool:
+    """Whether every fit within ``near`` (relative) of a root found is clean.
+
+    Far from a threshold a state grows or decays fast and its tilt leaves the linear range
+    within the run (a worse fit, the sign still plain); the answer rests on the runs near it.
+    """
+    found = [r for r in roots if r is not None]
+    return all(p["clean"] for p in points
+               if any(abs(p["n0"] / r - 1.0) <= near for r in found))
+
+
 def state_start(top: TopParams, state: str) -> tuple[float, float] | None:
     """A first bracket for a state's critical spin: the theory's value +- 10 %, if it has one.
 
@@ -317,8 +333,8 @@ def measure_growth(scene: str | None, engine: str, which: str,
                   for p in points],
         "n_runs": len(points),
         "horizon_s": run_s,
-        "settled": all(p["clean"] for p in points),
-        "converged": measured is not None and all(p["clean"] for p in points),
+        "settled": settled(points, [n1, n3]),
+        "converged": measured is not None and settled(points, [n1, n3]),
         "n1": n1, "n3": n3, "n4": n4,
     }
     if measured is None:

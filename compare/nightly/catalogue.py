@@ -19,7 +19,7 @@ from tippetop.models.resources import data_path
 #: The catalogue shipped with the package.
 CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
 PROFILES = ("quick", "full", "stress")
-KINDS = ("run", "threshold", "sweep")
+KINDS = ("run", "threshold", "sweep", "atlas")
 ENGINES = ("ode", "mujoco")
 
 #: Metrics each kind of case can check.
@@ -28,6 +28,7 @@ KIND_METRICS: dict[str, tuple[str, ...]] = {
             "energy_monotone", "energy_lost", "contact_lost", "status"),
     "threshold": ("measured", "converged"),
     "sweep": ("theta_asymp_vs_n0", "outcomes_vs_n0"),
+    "atlas": ("groups_measured", "agreement", "n1_measured", "n4_measured"),
 }
 
 
@@ -53,6 +54,8 @@ class Case:
     n0: tuple[float, ...] = ()
     figure: str = ""
     label: str = ""
+    A_over_C: str = ""
+    a_over_R: str = ""
 
     @property
     def engine(self) -> str:
@@ -76,8 +79,8 @@ class Catalogue:
 
 _COMMON_KEYS = {"name", "category", "kind", "scene", "set", "modes", "profiles", "metrics",
                 "description"}
-_KIND_KEYS = {"run": set(), "threshold": {"which", "method", "rel_tol", "max_rounds",
-                                          "points_per_round"},
+_KIND_KEYS = {"run": set(), "atlas": {"A_over_C", "a_over_R"},
+              "threshold": {"which", "method", "rel_tol", "max_rounds", "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
 
 
@@ -157,6 +160,13 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
                 if method != "bisect":
                     raise TippetopError(f"{where}.{key}: applies to method = 'bisect' only")
                 _req(entry, key, int, where)
+    elif kind == "atlas":
+        from tippetop.compare.atlas import parse_grid
+
+        extra = {"A_over_C": _req(entry, "A_over_C", str, where),
+                 "a_over_R": _req(entry, "a_over_R", str, where)}
+        parse_grid(extra["A_over_C"], f"{where}.A_over_C")
+        parse_grid(extra["a_over_R"], f"{where}.a_over_R")
     elif kind == "sweep":
         extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
                  "figure": entry.get("figure", ""), "label": entry.get("label", "")}

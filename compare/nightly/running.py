@@ -152,6 +152,10 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
             if c.kind == "threshold":
                 _run_threshold(out[c.id], scheduler=scheduler, workers=workers,
                                use_cache=shared_cache, log=log)
+        for c in cases:
+            if c.kind == "atlas":
+                _run_atlas(out[c.id], scheduler=scheduler, workers=workers,
+                           use_cache=shared_cache, log=log)
     for c in cases:
         if c.kind == "sweep" and out[c.id].error is None:
             pts = sorted(out[c.id].detail.get("points", []), key=lambda p: p["n0"])
@@ -213,3 +217,37 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
     log(f"  {res['measured']:.4g} rad/s (theory {res['theory']:.4g}), {res['n_runs']} runs, "
         f"{cr.wall_s:.1f} s")
 
+
+
+def point_key(p: Mapping[str, Any]) -> str:
+    """An atlas point's key in the metric dictionaries: ``A/C=0.8,a/R=0.05``."""
+    return f"A/C={p['A_over_C']:.4g},a/R={p['a_over_R']:.4g}"
+
+
+def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
+               use_cache: bool, log: Callable[[str], None]) -> None:
+    from tippetop.compare.atlas import parse_grid, run_atlas
+
+    c = cr.case
+    t0 = time.perf_counter()
+    log(f"nightly: atlas {c.id} (A/C {c.A_over_C}, a/R {c.a_over_R})")
+    try:
+        res = run_atlas(parse_grid(c.A_over_C, "A_over_C"), parse_grid(c.a_over_R, "a_over_R"),
+                        (c.mode,), tuple(c.set), scheduler=scheduler, workers=workers,
+                        use_cache=use_cache)
+    except Exception as exc:  # noqa: BLE001 - a failed atlas is that case's error
+        cr.error = error_text(exc)
+        cr.wall_s = time.perf_counter() - t0
+        log(f"  failed: {cr.error}")
+        return
+    cr.wall_s = time.perf_counter() - t0
+    pts = res["points"]
+    cr.values = {
+        "groups_measured": {point_key(p): p["group_measured"] for p in pts},
+        "agreement": res["agreement"][c.mode],
+        "n1_measured": {point_key(p): p["n1_measured"] for p in pts},
+        "n4_measured": {point_key(p): p["n4_measured"] for p in pts},
+    }
+    cr.detail = {"atlas": res}
+    log(f"  groups agree at {100 * res['agreement'][c.mode]:.0f} % of {len(pts)} points, "
+        f"{res['n_runs']} runs, {cr.wall_s:.1f} s")

@@ -13,6 +13,7 @@ import pandas as pd
 
 from tippetop.compare.common_args import EXIT_BAD_INPUT, add_force_option
 from tippetop.compare.io import write_atomic
+from tippetop.compare.report.atlas import atlas_section
 from tippetop.compare.report.figures import sweeps_section, timeseries_section
 from tippetop.compare.report.friction import friction_section
 from tippetop.compare.report.groupmap import group_map_section
@@ -35,7 +36,9 @@ _NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"
         "<li><a href='#scenes'>Scenes and groups</a></li>"
         "<li><a href='#timeseries'>theta(t), xi(t), slip (Figs. 3-8)</a></li>"
         "<li><a href='#sweeps'>theta_asymp against n0 (Figs. 9, 10)</a></li>"
-        "<li><a href='#groups'>Group map</a></li><li><a href='#friction'>Friction laws</a></li>"
+        "<li><a href='#groups'>Group map</a></li>"
+        "<li><a href='#atlas'>Group diagram measured</a></li>"
+        "<li><a href='#friction'>Friction laws</a></li>"
         "<li><a href='#thresholds'>Thresholds</a></li>"
         "<li><a href='#accuracy'>Accuracy against cost</a></li>"
         "<li><a href='#all'>Every check</a></li><li><a href='#env'>Environment</a></li>"
@@ -61,7 +64,7 @@ def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]
     body = [header(results), crossval_section(results), _NAV, run_facts(results),
             verdict_section(results), scenes_section(results),
             timeseries_section(results, tables), sweeps_section(results),
-            group_map_section(results), friction_section(results),
+            group_map_section(results), atlas_section(results), friction_section(results),
             threshold_section(results), accuracy_section(accuracy_dir),
             checks_section(results), environment_section(results)]
     title = f"tippetop report ({results.get('profile', '')}, {results.get('verdict', '')})"
