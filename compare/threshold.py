@@ -25,6 +25,9 @@ from tippetop.compare.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 
 WHICH = ("n1", "n4", "nc")
+#: A bisection run for n_c that is still moving at its end is continued over twice, then four
+#: times its horizon until it settles (``classify_outcome`` not ``inconclusive``).
+SETTLE_DOUBLINGS = 2
 #: ``growth`` (the default for every threshold: :mod:`tippetop.compare.growth`) or ``bisect``.
 METHODS = ("growth", "bisect")
 #: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.
@@ -157,22 +160,42 @@ def bisect_threshold(
 
     def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
                  record: bool = True) -> list[bool]:
-        tasks = [Task(scene, (*overrides, *extra, f"init.n0={n0!r}"), engine) for n0 in n0s]
-        out = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
-                        label=f"{which} bisection")
+        def batch(spins: list[float], more: tuple[str, ...]) -> list[Any]:
+            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine)
+                     for n0 in spins]
+            out = run_tasks(tasks, scheduler=scheduler, workers=workers,
+                            use_cache=use_cache, label=f"{which} bisection")
+            for n0, res in zip(spins, out, strict=True):
+                if res.error:
+                    raise TippetopError(res.error)
+                if res.summary.get("status") == "diverged":
+                    raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
+                                        f"{res.summary['message']}")
+            return list(out)
+
+        results = dict(zip(n0s, batch(n0s, extra), strict=True))
+        horizon_here = next((float(x.split("=", 1)[1]) for x in reversed(extra)
+                             if x.startswith("run.t_end_s=")), base.run.t_end_s)
+        # n_c: a run whose final state is still moving is continued (the horizon doubled, at
+        # most SETTLE_DOUBLINGS times) until it settles; one that never does stays unsettled
+        for k in range(1, SETTLE_DOUBLINGS + 1 if which == "nc" else 1):
+            moving = [n0 for n0, r in results.items()
+                      if classify_outcome(r.table) == "inconclusive"]
+            if not moving:
+                break
+            longer = (*extra, f"run.t_end_s={horizon_here * 2**k!r}")
+            results.update(zip(moving, batch(moving, longer), strict=True))
         flags = []
-        for n0, res in zip(n0s, out, strict=True):
-            if res.error:
-                raise TippetopError(res.error)
-            if res.summary.get("status") == "diverged":
-                raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
-                                    f"{res.summary['message']}")
+        for n0 in n0s:
+            res = results[n0]
             flag = crossed(which, res.table)
             if classify_outcome(res.table) == "inconclusive":
                 unsettled.append(n0)
             if record:
                 runs.append({"n0": n0, "crossed": flag,
                              "theta_asymp": res.summary["theta_asymp"],
+                             "t_end_s": float(res.table["t"].iloc[-1]),
+                             "settled": classify_outcome(res.table) != "inconclusive",
                              "status": res.summary.get("status", "ok")})
             flags.append(flag)
         return flags
