@@ -264,22 +264,33 @@ class _DevTools:
         os.close(self._r)
 
 
-def test_report_renders_in_headless_chromium(nightly_out: Path, tmp_path: Path) -> None:
+def _browser(tmp_path: Path) -> _DevTools:
+    """Headless chromium on a DevTools pipe (the test is skipped without chromium)."""
     exe = _find_chromium()
     if exe is None:
         pytest.skip("chromium is not installed (apt-get install -y chromium); CI installs it")
-    report = (nightly_out / "report.html").resolve()
-    browser = _DevTools(exe, tmp_path / "chromium-profile")
+    return _DevTools(exe, tmp_path / "chromium-profile")
+
+
+def _open(browser: _DevTools, page: Path, width: int, height: int,
+          domains: tuple[str, ...]) -> str:
+    """A new tab of ``width`` x ``height`` CSS pixels showing ``page``; its session id."""
+    target = browser.call("Target.createTarget", url="about:blank")["targetId"]
+    session = browser.call("Target.attachToTarget", targetId=target, flatten=True)["sessionId"]
+    for domain in domains:
+        browser.call(f"{domain}.enable", session)
+    browser.call("Emulation.setDeviceMetricsOverride", session, width=width, height=height,
+                 deviceScaleFactor=1, mobile=False)
+    browser.call("Page.navigate", session, url=page.resolve().as_uri())
+    browser.wait_for("Page.loadEventFired")
+    return session
+
+
+def test_report_renders_in_headless_chromium(nightly_out: Path, tmp_path: Path) -> None:
+    browser = _browser(tmp_path)
     try:
-        target = browser.call("Target.createTarget", url="about:blank")["targetId"]
-        session = browser.call("Target.attachToTarget", targetId=target,
-                               flatten=True)["sessionId"]
-        for domain in ("Page", "Runtime", "Log"):
-            browser.call(f"{domain}.enable", session)
-        browser.call("Emulation.setDeviceMetricsOverride", session, width=1300, height=1000,
-                     deviceScaleFactor=1, mobile=False)
-        browser.call("Page.navigate", session, url=report.as_uri())
-        browser.wait_for("Page.loadEventFired")
+        session = _open(browser, nightly_out / "report.html", 1300, 1000,
+                        ("Page", "Runtime", "Log"))
         images = browser.call(
             "Runtime.evaluate", session, returnByValue=True,
             expression="Array.from(document.images).map(i => [i.complete, i.naturalWidth, "
@@ -314,20 +325,9 @@ def test_the_verdict_is_on_the_first_screen(nightly_out: Path, tmp_path: Path) -
     """At 1280x900, the verdict table (every scene in every mode against the theory) lies
     wholly inside the first screen, above every figure, and the page does not scroll
     sideways."""
-    exe = _find_chromium()
-    if exe is None:
-        pytest.skip("chromium is not installed (apt-get install -y chromium); CI installs it")
-    report = (nightly_out / "report.html").resolve()
-    browser = _DevTools(exe, tmp_path / "chromium-profile")
+    browser = _browser(tmp_path)
     try:
-        target = browser.call("Target.createTarget", url="about:blank")["targetId"]
-        session = browser.call("Target.attachToTarget", targetId=target,
-                               flatten=True)["sessionId"]
-        browser.call("Page.enable", session)
-        browser.call("Emulation.setDeviceMetricsOverride", session, width=1280, height=900,
-                     deviceScaleFactor=1, mobile=False)
-        browser.call("Page.navigate", session, url=report.as_uri())
-        browser.wait_for("Page.loadEventFired")
+        session = _open(browser, nightly_out / "report.html", 1280, 900, ("Page",))
         geo = browser.call("Runtime.evaluate", session, returnByValue=True, expression="""(() => {
             const t = document.querySelector('section#verdict table');
             const r = t.getBoundingClientRect();
