@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-import math
+import sys
 from dataclasses import dataclass
 
 from tippetop.models.errors import expect
 
 FORMULATIONS = ("vector", "paper")
+
+#: The largest ode.max_steps: the compiled integrator counts steps in a signed 64-bit integer.
+MAX_STEPS_LIMIT = 2**63 - 1
 
 #: The paper formulation divides by sin(theta); below this it stops and says so.
 DEFAULT_SINGULAR_SIN = 1e-7
@@ -36,12 +39,12 @@ class OdeOptions:
                self.formulation)
         for name in ("rtol", "atol", "singular_sin"):
             v = getattr(self, name)
-            expect(isinstance(v, (int, float)) and math.isfinite(v) and v > 0, f"ode.{name}",
-                   "a finite number > 0", v)
+            expect(_positive(v), f"ode.{name}", "a finite number > 0", v)
         expect(self.rtol >= 1e-14, "ode.rtol", "a tolerance >= 1e-14 (double precision)",
                self.rtol)
-        expect(isinstance(self.max_steps, int) and self.max_steps > 0, "ode.max_steps",
-               "a positive integer", self.max_steps)
+        expect(isinstance(self.max_steps, int) and not isinstance(self.max_steps, bool)
+               and 0 < self.max_steps <= MAX_STEPS_LIMIT, "ode.max_steps",
+               f"a positive integer <= {MAX_STEPS_LIMIT}", self.max_steps)
 
 
 MUJOCO_FRICTION_MODES = ("paper", "native")
@@ -108,7 +111,9 @@ class MujocoOptions:
 
 
 def _finite(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """A real number a float can hold: not NaN, not inf, not an int like 10**400."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) \
+        and -sys.float_info.max <= v <= sys.float_info.max
 
 
 def _positive(v: object) -> bool:

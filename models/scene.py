@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -209,16 +209,24 @@ class Scene:
 
 
 def _is_num(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """A finite number a float can hold (an int like 10**400 is not one)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) \
+        and -sys.float_info.max <= v <= sys.float_info.max
 
 
 def _check_type(key: str, kind: str, value: Any) -> Any:
     if kind == _F:
         ok = isinstance(value, (int, float)) and not isinstance(value, bool)
         expect(ok, key, "a number", value)
+        # an int too large for a float: say so here, not as float()'s OverflowError
+        expect(not isinstance(value, int) or _is_num(value), key,
+               "a number a float can hold (|x| <= 1.8e308)", value)
         return float(value)
     if kind == _I:
         expect(isinstance(value, int) and not isinstance(value, bool), key, "an integer", value)
+        # every integer key reaches compiled code or MuJoCo as a signed 64-bit integer
+        expect(-2**63 <= value < 2**63, key, "an integer within 64 bits (|n| < 9.2e18)",
+               value)
         return value
     if kind == _S:
         expect(isinstance(value, str), key, "a string", value)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import fnmatch
-import math
+import sys
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -89,8 +89,9 @@ def _req(entry: dict[str, Any], key: str, kind: type, where: str) -> Any:
         raise TippetopError(f"{where}: expected a '{key}' key, got none")
     v = entry[key]
     if kind is float:
-        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) \
-            and v > 0
+        # finite and > 0; an int too large for a float (10**400) fails the bound, not float()
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) \
+            and 0 < v <= sys.float_info.max
     elif kind is int:
         ok = isinstance(v, int) and not isinstance(v, bool) and v > 0
     elif kind is list:
@@ -195,12 +196,19 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
             raise TippetopError(f"catalogue {p.name}: unknown top-level key {key!r} (expected "
                                 f"[profiles.NAME] and [[case]])")
     prof_raw = data.get("profiles", {})
+    if not isinstance(prof_raw, dict):
+        raise TippetopError(f"catalogue {p.name}: profiles: expected a table of "
+                            f"[profiles.NAME], got {prof_raw!r}")
     profiles = {name: str(body.get("description", "")) if isinstance(body, dict) else ""
                 for name, body in prof_raw.items()}
     if not profiles:
         raise TippetopError(f"catalogue {p.name}: expected at least one [profiles.NAME]")
+    case_raw = data.get("case", [])
+    if not isinstance(case_raw, list):
+        raise TippetopError(f"catalogue {p.name}: case: expected [[case]] tables, got "
+                            f"{case_raw!r}")
     cases: list[Case] = []
-    for i, entry in enumerate(data.get("case", [])):
+    for i, entry in enumerate(case_raw):
         label = entry.get("name", i) if isinstance(entry, dict) else i
         cases.extend(_entry_cases(entry, f"catalogue {p.name}: case {label!r}", profiles))
     for prof in profiles:

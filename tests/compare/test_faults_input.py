@@ -1,0 +1,86 @@
+"""Bad input and failed runs end in one line, never a traceback (tracker issue 13).
+
+Each case runs ``python -m tippetop.compare.cli`` in a subprocess and checks the exit status
+(2 for bad input, 1 for a failed run), that stderr is exactly one line starting with
+``tippetop: error:`` or ``tippetop: run failed:`` with no traceback, and that no output file
+was written. Every run is tiny (``run.t_end_s=0.05``) or stops before any work.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BIG_INT = "1" + "0" * 400  # an integer no float can hold
+SHORT = ("--set", "run.t_end_s=0.05")
+
+
+def _run(*args: str, env: dict[str, str] | None = None, cwd: Path | None = None,
+         stdout: object = subprocess.PIPE, timeout: float = 60) -> subprocess.CompletedProcess:
+    """``python -m tippetop.compare.cli ARGS`` with text output captured."""
+    full_env = dict(os.environ)
+    full_env.update(env or {})
+    return subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *args], cwd=cwd,
+                          env=full_env, stdout=stdout, stderr=subprocess.PIPE, text=True,
+                          timeout=timeout, check=False)
+
+
+def _one_line(stderr: str, prefix: str) -> str:
+    """The single line of ``stderr``, checked to start with ``prefix`` and hold no traceback."""
+    assert "Traceback" not in stderr, stderr
+    lines = stderr.splitlines()
+    assert len(lines) == 1, stderr
+    assert lines[0].startswith(prefix), stderr
+    return lines[0]
+
+
+def _bad_input(*args: str, **kw: object) -> str:
+    """Run, expect exit 2 and one ``tippetop: error:`` line; return the line."""
+    r = _run(*args, **kw)  # type: ignore[arg-type]
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert not r.stdout, r.stdout
+    return _one_line(r.stderr, "tippetop: error:")
+
+
+# ---------------------------------------------------------------- numbers too large
+@pytest.mark.parametrize("override, key", [
+    ("init.n0=1e400", "init.n0"),
+    (f"init.n0={BIG_INT}", "init.n0"),
+    (f"ode.rtol={BIG_INT}", "ode.rtol"),
+    ("ode.max_steps=99999999999999999999999999", "ode.max_steps"),
+    (f"mujoco.solref=[{BIG_INT}, 1]", "mujoco.solref"),
+])
+def test_set_number_too_large(tmp_path: Path, override: str, key: str) -> None:
+    out = tmp_path / "t.csv"
+    line = _bad_input("simulate", "fig3", "--set", override, *SHORT, "--out", str(out))
+    assert key in line
+    assert not out.exists()
+
+
+def test_scene_file_integer_too_large(tmp_path: Path) -> None:
+    scene = tmp_path / "big.toml"
+    scene.write_text(f"[init]\nn0 = {BIG_INT}\n[run]\nt_end_s = 0.05\n")
+    line = _bad_input("simulate", str(scene))
+    assert "init.n0" in line
+
+
+# ---------------------------------------------------------------- the nightly catalogue
+@pytest.mark.parametrize("text, says", [
+    ("case = 3\n[profiles.quick]\n", "case"),
+    ("case = [1, 2]\n[profiles.quick]\n", "expected a table"),
+    ("profiles = 3\n", "profiles"),
+    ('[profiles.quick]\n[[case]]\nname = "a"\ncategory = "c"\nkind = "threshold"\n'
+     'scene = "fig3"\nmodes = ["ode"]\nprofiles = ["quick"]\nmetrics = ["measured"]\n'
+     f'which = "n1"\nmethod = "bisect"\nrel_tol = {BIG_INT}\n', "rel_tol"),
+])
+def test_catalogue_of_the_wrong_shape(tmp_path: Path, text: str, says: str) -> None:
+    cat = tmp_path / "cat.toml"
+    cat.write_text(text)
+    out = tmp_path / "report"
+    line = _bad_input("nightly", "--catalogue", str(cat), "--out", str(out))
+    assert says in line
+    assert not out.exists()
