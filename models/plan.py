@@ -35,6 +35,8 @@ A ``--set`` key that the chosen engine does not read is listed in :attr:`RunPlan
 
 from __future__ import annotations
 
+import math
+import os
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -60,6 +62,17 @@ DEFAULT_SAMPLE_DT_S = 1e-3
 DEFAULT_MAX_SAMPLES = 20_000
 #: Relative tolerance for "a whole number of timesteps".
 _GRID_RTOL = 1e-9
+#: Largest observables table a run may need, in GiB (2**30 bytes), unless
+#: :data:`SAMPLE_BUDGET_ENV` says otherwise: a tiny ``run.sample_dt_s`` over a long run is
+#: refused before it starts instead of failing to allocate.
+SAMPLE_BUDGET_GIB = 4.0
+#: Environment variable that sets the samples budget (GiB, a number > 0).
+SAMPLE_BUDGET_ENV = "TIPPETOP_MAX_SAMPLES_GIB"
+#: Values per row the engines hold for a sample (the table's columns and the extra ones).
+SAMPLE_COLUMNS = 23
+#: Most MuJoCo steps a run may take: MuJoCo counts them in a C int
+#: (``mjData.timer[mjTIMER_STEP].number``), and ``mj_step``'s ``nstep`` is one too.
+MUJOCO_MAX_STEPS = 2**31 - 1
 
 #: Keys every engine reads.
 _ALWAYS_USED = ("scene.*", "outputs.*", "expect.*", "init.*", "run.*", "effects.sliding",
@@ -90,6 +103,69 @@ def sample_interval(t_end_s: float, requested_s: float | None, timestep_s: float
            "run.sample_dt_s", f"a whole multiple of the timestep {timestep_s:g} s",
            requested_s)
     return steps * timestep_s
+
+
+def samples_budget_gib() -> float:
+    """The samples budget (GiB): ``$TIPPETOP_MAX_SAMPLES_GIB``, else :data:`SAMPLE_BUDGET_GIB`.
+
+    Raises:
+        TippetopError: If the variable is set to something other than a number > 0.
+    """
+    raw = os.environ.get(SAMPLE_BUDGET_ENV, "").strip()
+    if not raw:
+        return SAMPLE_BUDGET_GIB
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    expect(math.isfinite(value) and value > 0, SAMPLE_BUDGET_ENV,
+           "a number of GiB > 0", raw)
+    return value
+
+
+def check_samples(t_end_s: float, sample_dt_s: float) -> None:
+    """Refuse a run whose samples would need more memory than the budget.
+
+    The estimate: ``t_end / sample_dt + 1`` rows of :data:`SAMPLE_COLUMNS` float64 values.
+
+    Args:
+        t_end_s: Simulated time (s).
+        sample_dt_s: Row spacing (s).
+
+    Raises:
+        TippetopError: Over :func:`samples_budget_gib`.
+    """
+    if not (t_end_s > 0 and sample_dt_s > 0):
+        return  # the engines say what is wrong with these
+    rows = t_end_s / sample_dt_s + 1
+    gib = rows * SAMPLE_COLUMNS * 8 / 2**30
+    budget = samples_budget_gib()
+    if gib > budget:
+        raise TippetopError(
+            f"run.sample_dt_s: expected at most {budget:g} GiB of samples (the budget, "
+            f"settable by {SAMPLE_BUDGET_ENV}), got an estimated {gib:.3g} GiB ({rows:.3g} "
+            f"rows of {SAMPLE_COLUMNS} values: run.t_end_s = {t_end_s:g} s every "
+            f"{sample_dt_s:g} s); set a longer run.sample_dt_s or a shorter run.t_end_s")
+
+
+def check_mujoco_steps(t_end_s: float, timestep_s: float) -> None:
+    """Refuse a MuJoCo run of more steps than MuJoCo's step counter holds.
+
+    Args:
+        t_end_s: Simulated time (s).
+        timestep_s: The timestep that runs (s).
+
+    Raises:
+        TippetopError: Over :data:`MUJOCO_MAX_STEPS` steps.
+    """
+    if not (t_end_s > 0 and timestep_s > 0):
+        return
+    steps = t_end_s / timestep_s
+    if steps > MUJOCO_MAX_STEPS:
+        raise TippetopError(
+            f"run.t_end_s: expected at most {MUJOCO_MAX_STEPS} MuJoCo steps (its step counter "
+            f"is a C int), got an estimated {steps:.3g} ({t_end_s:g} s at a timestep of "
+            f"{timestep_s:g} s); set a shorter run.t_end_s or a longer mujoco.timestep_s")
 
 
 @dataclass(frozen=True)
@@ -307,6 +383,7 @@ def _ode_plan(scene: Scene, top: TopParams, init: InitialState, friction: Fricti
         expect(scene.ode.formulation == "vector", "ode.formulation",
                "vector with a stem (effects.stem; the paper's equations have the ball only)",
                scene.ode.formulation)
+    check_samples(t_end, dt)
     return OdePlan(top=top, friction=friction, init=init, options=scene.ode,
                    t_end_s=t_end, sample_dt_s=dt, stem=stem), used
 
@@ -429,9 +506,16 @@ def _tuple(v: Any) -> tuple[float, ...] | None:
 
 
 def _with_sampling(plan: MujocoPlan, requested_s: float | None) -> MujocoPlan:
-    """Resolve the row spacing where the timestep is known (every generated top)."""
+    """Resolve the row spacing where the timestep is known (every generated top).
+
+    Also refuses a run over the samples budget or MuJoCo's step counter (with the file's own
+    timestep, :mod:`tippetop.mujoco_runner.run` checks the steps when it knows it).
+    """
+    check_samples(plan.t_end_s, requested_s if requested_s is not None
+                  else default_sample_dt(plan.t_end_s))
     if plan.timestep_s is None:
         return plan
+    check_mujoco_steps(plan.t_end_s, plan.timestep_s)
     return replace(plan, sample_dt_s=sample_interval(plan.t_end_s, requested_s,
                                                      plan.timestep_s))
 
@@ -528,7 +612,8 @@ def mode_engine(mode: str) -> tuple[str, tuple[str, ...]]:
     return MODES[mode]
 
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "FileTop", "MujocoPlan",
+__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "MUJOCO_MAX_STEPS",
+           "SAMPLE_BUDGET_ENV", "SAMPLE_BUDGET_GIB", "SAMPLE_COLUMNS", "FileTop", "MujocoPlan",
            "OdePlan",
-           "PAPER_SOLREF", "RunPlan", "default_sample_dt", "friction_keys", "mode_engine",
-           "native_condim", "resolve_plan", "sample_interval"]
+           "PAPER_SOLREF", "RunPlan", "check_mujoco_steps", "check_samples", "default_sample_dt",
+           "friction_keys", "mode_engine", "native_condim", "resolve_plan", "sample_interval"]

@@ -33,7 +33,7 @@ from tippetop.models.errors import expect
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import FRICTION_MODES
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
-from tippetop.models.plan import MujocoPlan, sample_interval
+from tippetop.models.plan import MujocoPlan, check_mujoco_steps, sample_interval
 from tippetop.mujoco_runner.friction_callback import (
     PaperFriction,
     compiled_callback,
@@ -289,6 +289,7 @@ def _grid(sample_dt_s: float, t_end_s: float, timestep_s: float) -> tuple[int, i
            "sample_dt_s", f"a whole multiple of the timestep {timestep_s:g} s", sample_dt_s)
     n_intervals = math.floor(t_end_s / sample_dt_s * (1 + _GRID_RTOL))
     expect(n_intervals >= 1, "t_end_s", f">= sample_dt_s = {sample_dt_s:g} s", t_end_s)
+    check_mujoco_steps(t_end_s, timestep_s)  # a loaded file's timestep is known only here
     return steps, n_intervals
 
 
