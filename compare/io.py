@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import errno
+import fcntl
 import os
 import shutil
 import tempfile
@@ -107,6 +109,74 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+#: The name of the lock file of an output folder (beside it: ``.<folder>.tippetop.lock``).
+LOCK_SUFFIX = ".tippetop.lock"
+
+
+def lock_path(folder: str | Path) -> Path:
+    """The lock file of an output folder: ``.<name>.tippetop.lock`` beside it.
+
+    Beside, not inside, so that a folder that does not exist yet can be locked and an empty
+    one stays empty.
+    """
+    p = Path(folder).resolve()
+    return p.parent / f".{p.name}{LOCK_SUFFIX}"
+
+
+@contextlib.contextmanager
+def locked_output_dir(folder: str | Path, *, option: str = "--out") -> Iterator[Path]:
+    """Hold an exclusive lock on an output folder for as long as the ``with`` block runs.
+
+    The lock is ``fcntl.flock`` on :func:`lock_path`, which records the holder's pid; it is
+    released (and the lock file removed) on exit, and by the system if the process dies. Take
+    it before any work, so that two runs never write into one folder at the same time.
+
+    Args:
+        folder: The output folder (need not exist yet; its parent must).
+        option: The option named in the error message.
+
+    Yields:
+        The lock file's path.
+
+    Raises:
+        TippetopError: Another process holds the lock (the message names the folder and that
+            process's pid), or the lock file cannot be created.
+    """
+    path = lock_path(folder)
+    while True:
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            raise TippetopError(f"{option}: expected a folder that can be locked, got "
+                                f"{str(folder)!r} ({path}: {exc.strerror})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+                os.close(fd)
+                raise
+            holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() or "unknown"
+            os.close(fd)
+            raise TippetopError(f"{option}: expected a folder no other run is writing into, got "
+                                f"{str(folder)!r}, in use by another tippetop run (pid "
+                                f"{holder}; lock {path})") from None
+        try:  # the holder may have removed the file between our open and our lock: retry
+            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+        yield path
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(path)  # while still locked: a waiting opener sees the inode change
+        os.close(fd)
 
 
 def write_table(table: pd.DataFrame, path: Path) -> None:

@@ -22,10 +22,24 @@ def baseline_file(directory: Path, profile: str) -> Path:
     return directory / f"{profile}.json"
 
 
-def load_baseline(path: Path) -> dict[str, dict[str, Any]]:
-    """Case id -> metric -> baseline value; empty when the file does not exist."""
+def load_baseline(path: Path, *, missing_ok: bool = False) -> dict[str, dict[str, Any]]:
+    """Case id -> metric -> baseline value.
+
+    Args:
+        path: The baseline file (``DIR/<profile>.json``).
+        missing_ok: A missing file is an empty baseline (``--update-baseline`` creates it);
+            otherwise it is bad input.
+
+    Raises:
+        TippetopError: The file is missing (unless ``missing_ok``), unreadable, or not a
+            baseline.
+    """
     if not path.is_file():
-        return {}
+        if missing_ok:
+            return {}
+        raise TippetopError(f"--baseline: expected a baseline file {str(path)!r} (or "
+                            f"--no-baseline to run with none, --update-baseline to create "
+                            f"it), got none")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (ValueError, OSError) as exc:
@@ -48,7 +62,7 @@ def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
         Counts: ``written`` (cases whose values were stored), ``added`` (new ids), ``dropped``
         and ``kept``.
     """
-    old = load_baseline(path)
+    old = load_baseline(path, missing_ok=True)
     cases = {k: v for k, v in old.items() if k in profile_ids}
     written = added = 0
     for rec in records:

@@ -29,7 +29,8 @@ def cmd_nightly(args: argparse.Namespace) -> int:
     opts = NightlyOptions(
         profile=args.profile, catalogue=Path(args.catalogue) if args.catalogue else None,
         baseline_dir=Path(args.baseline) if args.baseline else BASELINE_DIR,
-        update_baseline=args.update_baseline, out=args.out, force=args.force,
+        update_baseline=args.update_baseline, no_baseline=args.no_baseline, out=args.out,
+        force=args.force,
         engines=comma_list(args.engines), cases=comma_list(args.cases or ""),
         scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
         accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
@@ -52,6 +53,9 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "(default: compare/baselines in the repository)")
     p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
                    help="store this run's values as the baselines (the only way they change)")
+    p.add_argument("--no-baseline", dest="no_baseline", action="store_true",
+                   help="run with no baseline on purpose: every check is new, nothing is "
+                   "compared (default: off; a missing baseline file is an error, exit 2)")
     p.add_argument("--out", metavar="DIR", help="output folder (default: a new "
                    "nightly-YYYYMMDD-HHMMSS in the current folder)")
     add_force_option(p, help="write into a non-empty --out")

