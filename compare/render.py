@@ -30,7 +30,10 @@ Usage::
   simulated)...", "replaying ..."), then a bar over the frames on a terminal (or a line every
   15 s elsewhere).
 * Output: ``<scene name>.mp4`` in the working folder unless ``--out`` says otherwise; written
-  to a temporary file and renamed, never over an existing file without ``--force``. Sizes are
+  to a temporary file beside it, decoded back (every frame, of the expected size) and only then
+  renamed over it, never over an existing file without ``--force``. A write error (a full disk)
+  or a file that does not decode is one line and exit 1; the temporary file is removed and an
+  old video is left as it was. Sizes are
   rounded down to even numbers (H.264 with yuv420p needs them).
 
 OpenGL: rendering needs an offscreen backend (:mod:`tippetop.mujoco_runner.gl`). ``MUJOCO_GL``
@@ -83,6 +86,13 @@ _FRAME_SLACK = 1e-9  # relative: a frame time within this of t_end still counts
 
 class RunFailed(RuntimeError):
     """An engine's run diverged or stopped short: there is nothing (complete) to draw."""
+
+
+class VideoWriteFailed(RuntimeError):
+    """The MP4 could not be written, or does not decode to the frames drawn.
+
+    A full disk or an encoder error; the output file, if there was one, is as it was.
+    """
 
 
 # ---------------------------------------------------------------- arguments
@@ -239,6 +249,9 @@ def render_scene(
         TippetopError: For bad arguments, an existing ``out`` without ``force``, or no working
             OpenGL backend (no file is written).
         RunFailed: If an engine's run diverged or stopped short (no file is written).
+        VideoWriteFailed: If writing failed (OSError: a full disk, say) or the file written
+            does not decode to ``n_frames`` frames: the temporary file is removed and an
+            existing ``out`` is left as it was.
     """
     from tippetop.compare.io import check_output_path
 
@@ -275,11 +288,23 @@ def render_scene(
     tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
          f"{height}, {n_frames / fps:.3g} s of video at speed {speed:.3g} ({backend})...")
     stats: list[video.VideoStats] = []
-    with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
-                    say) as tick:
-        write_atomic(path, lambda tmp: stats.append(video.write_video(
-            tmp, tracks, times, fps=fps, width=width, height=height, backend=backend,
-            on_frame=tick)))
+
+    def write_checked(tmp: Path) -> None:
+        """Encode into ``tmp``, then decode it: only a complete video replaces ``path``."""
+        stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
+                                       height=height, backend=backend, on_frame=tick))
+        video.verify_video(tmp, n_frames, width * len(engines), height)
+
+    try:
+        with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
+                        say) as tick:
+            write_atomic(path, write_checked)
+    except (OSError, video.VideoCheckFailed) as exc:
+        what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
+            else str(exc)
+        kept = "left as it was" if path.exists() else "not written"
+        raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
+            from exc
     s = stats[0]
     return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
                         width=s.width, height=s.height, fps=float(fps), speed=float(speed),
@@ -339,6 +364,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     except RunFailed as exc:
         sys.stderr.write(f"tippetop: run failed: {exc}\n")
         return 1
+    except VideoWriteFailed as exc:
+        sys.stderr.write(f"tippetop: video failed: {exc}\n")
+        return 1
     print(f"wrote {res.path}: {res.n_frames} frames {res.width}x{res.height}, "
           f"{res.video_s:.3g} s of video at {res.fps:g} fps for {scene.run.t_end_s:g} s "
           f"simulated (--speed {res.speed:g}); {res.backend}, "
@@ -388,6 +416,7 @@ __all__ = [
     "RENDER_ENGINES",
     "RenderResult",
     "RunFailed",
+    "VideoWriteFailed",
     "add_render_parser",
     "frame_count",
     "parse_size",

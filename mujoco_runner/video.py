@@ -29,9 +29,12 @@ none of this touches the physics.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
 import math
+import os
+import re
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -627,25 +630,57 @@ class ThetaInset:
 
 # ---------------------------------------------------------------- encoder
 class _Mp4Writer:
-    """Streams RGB frames to ffmpeg (imageio-ffmpeg's bundled binary): H.264, yuv420p, MP4."""
+    """Streams RGB frames to ffmpeg (imageio-ffmpeg's bundled binary): H.264, yuv420p, MP4.
+
+    ffmpeg's own messages go to a temporary file, not to our stderr: :meth:`reason` gives the
+    gist of them when the encoder fails (``No space left on device``, say).
+    """
 
     def __init__(self, path: Path, width: int, height: int, fps: float) -> None:
+        import tempfile
+
         import imageio_ffmpeg
 
+        self._log = tempfile.TemporaryFile()
         self._gen = imageio_ffmpeg.write_frames(
             str(path), (width, height), pix_fmt_in="rgb24", pix_fmt_out="yuv420p", fps=fps,
             codec="libx264", quality=None, macro_block_size=1, ffmpeg_log_level="error",
             output_params=["-crf", str(_CRF), "-preset", _X264_PRESET,
                            "-movflags", "+faststart", "-f", "mp4"])
-        self._gen.send(None)
+        saved = os.dup(2)  # ffmpeg (started by the first send) inherits stderr: its log file
+        try:
+            os.dup2(self._log.fileno(), 2)
+            self._gen.send(None)
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+    def reason(self) -> str:
+        """What ffmpeg said went wrong, on one line ("" if nothing)."""
+        self._log.seek(0)
+        lines = [re.sub(r"^\[[^]]*\]\s*", "", ln).strip()
+                 for ln in self._log.read().decode("utf-8", "replace").splitlines()]
+        lines = [ln for ln in lines if ln]
+        for ln in lines:
+            if "No space left on device" in ln:
+                return "No space left on device"
+        return lines[0][:200] if lines else ""
 
     def write(self, rgb: np.ndarray) -> None:
         """Append one frame, uint8 RGB of shape (height, width, 3)."""
         self._gen.send(np.ascontiguousarray(rgb))
 
     def close(self) -> None:
-        """Finish the file (waits for ffmpeg)."""
-        self._gen.close()
+        """Finish the file (waits for ffmpeg); once only, later calls do nothing."""
+        gen, self._gen = self._gen, None
+        if gen is not None:
+            gen.close()
+
+    def release(self) -> None:
+        """Stop ffmpeg if it still runs (its errors already reported) and drop its log."""
+        with contextlib.suppress(OSError):
+            self.close()
+        self._log.close()
 
 
 # ---------------------------------------------------------------- the video
@@ -751,14 +786,60 @@ def write_video(
                            inset=inset)
     writer = _Mp4Writer(path, width * len(tracks), height, fps)
     try:
-        for frame in frames:
-            writer.write(frame)
-            if on_frame is not None:
-                on_frame()
-    finally:
-        frames.close()  # frees the OpenGL context even when a frame failed
+        try:
+            for frame in frames:
+                writer.write(frame)
+                if on_frame is not None:
+                    on_frame()
+        finally:
+            frames.close()  # frees the OpenGL context even when a frame failed
         writer.close()
+    except OSError as exc:  # a full disk: ffmpeg stops, its pipe breaks; say why it stopped
+        raise OSError(exc.errno, writer.reason() or exc.strerror or str(exc)) from exc
+    finally:
+        writer.release()
     return VideoStats(len(times_s), width * len(tracks), height, time.perf_counter() - start)
+
+
+class VideoCheckFailed(RuntimeError):
+    """A written MP4 does not decode, or does not hold the frames that were drawn."""
+
+
+def verify_video(path: Path, n_frames: int, width: int, height: int) -> None:
+    """Decode ``path`` with imageio; check it holds ``n_frames`` frames of width x height.
+
+    What a full disk or a killed encoder leaves (a truncated file) fails. The frames are
+    decoded one at a time (a long video never sits in memory).
+
+    Args:
+        path: The MP4 file.
+        n_frames: The frames that were drawn.
+        width: Video width (px).
+        height: Video height (px).
+
+    Raises:
+        VideoCheckFailed: The file does not decode, or has other frames or another size.
+    """
+    import imageio.v3 as iio
+
+    count = 0
+    try:  # (imageio-ffmpeg leaves its pipes to ffmpeg for the collector at the file's end)
+        with warnings.catch_warnings(), iio.imopen(path, "r", plugin="FFMPEG",
+                                                   extension=".mp4") as reader:
+            warnings.simplefilter("ignore", ResourceWarning)
+            for frame in reader.iter():
+                if frame.shape[:2] != (height, width):
+                    raise VideoCheckFailed(f"expected frames of {width}x{height}, got "
+                                           f"{frame.shape[1]}x{frame.shape[0]}")
+                count += 1
+    except VideoCheckFailed:
+        raise
+    except Exception as exc:  # noqa: BLE001 - whatever the decoder says, the file is bad
+        first = (str(exc).split("===")[0].strip().splitlines() or [""])[0]  # not ffmpeg's log
+        text = first.strip()[:200] or type(exc).__name__
+        raise VideoCheckFailed(f"the file does not decode ({text})") from exc
+    if count != n_frames:
+        raise VideoCheckFailed(f"expected {n_frames} frames, decoded {count}")
 
 
 def frame_times(n_frames: int, fps: float, speed: float) -> np.ndarray:
@@ -772,6 +853,7 @@ __all__ = [
     "Track",
     "ThetaInset",
     "TrackSample",
+    "VideoCheckFailed",
     "VideoStats",
     "backend_error",
     "frame_times",
@@ -780,6 +862,7 @@ __all__ = [
     "render_model",
     "set_pose",
     "tracking_camera",
+    "verify_video",
     "write_video",
 ]
 

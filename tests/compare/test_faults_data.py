@@ -17,9 +17,11 @@ import sys
 import textwrap
 from pathlib import Path
 
+import imageio.v3 as iio
+import numpy as np
 import pytest
 
-from tippetop.compare import nightly
+from tippetop.compare import cli, nightly
 from tippetop.compare.io import lock_path, locked_output_dir
 from tippetop.models.errors import TippetopError
 
@@ -148,4 +150,78 @@ def test_no_baseline_help_says_its_default() -> None:
     assert "(default: off; a missing baseline file is an error, exit 2)" in flat
 
 
-_ = errno  # used by the render tests below
+# ---------------------------------------------------------------- render on a full disk
+RENDER = ["render", "fig3", "--engine", "ode", "--set", "run.t_end_s=0.2", "--speed", "1",
+          "--fps", "20", "--size", "96x64"]
+
+
+@pytest.fixture
+def good_video(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A good 5-frame video at ``tmp_path/v.mp4``, made by the command itself."""
+    from tippetop.mujoco_runner import gl
+
+    monkeypatch.setenv("MUJOCO_GL", gl.choose_gl_backend())
+    monkeypatch.chdir(tmp_path)
+    assert cli.main([*RENDER, "--out", "v.mp4"]) == 0
+    return tmp_path / "v.mp4"
+
+
+def _fails_and_keeps(good: Path, capsys: pytest.CaptureFixture[str], says: str) -> None:
+    before = good.read_bytes()
+    capsys.readouterr()
+    assert cli.main([*RENDER, "--out", good.name, "--force"]) == 1
+    out, err = capsys.readouterr()
+    last = err.splitlines()[-1]
+    assert "wrote" not in out and err.count("tippetop:") == 1, err
+    assert last.startswith("tippetop: video failed: could not write v.mp4: "), err
+    assert says in last and last.endswith("v.mp4 left as it was"), err
+    assert good.read_bytes() == before  # the old video is intact
+    assert sorted(p.name for p in good.parent.iterdir()) == ["v.mp4"]  # no temporary left
+    assert iio.imread(good, index=None, plugin="FFMPEG").shape == (5, 64, 96, 3)
+
+
+def test_disk_full_midway_keeps_the_old_video_and_exits_1(
+        good_video: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from tippetop.mujoco_runner import video
+
+    real_write = video._Mp4Writer.write
+    written = []
+
+    def write(self: video._Mp4Writer, rgb: np.ndarray) -> None:
+        if len(written) == 2:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        written.append(1)
+        real_write(self, rgb)
+
+    monkeypatch.setattr(video._Mp4Writer, "write", write)
+    _fails_and_keeps(good_video, capsys, "No space left on device")
+
+
+def test_truncated_video_is_never_put_in_place(
+        good_video: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The encoder reports success but the file is cut short (a full disk that ffmpeg did not
+    notice): the check after writing catches it before anything is replaced."""
+    from tippetop.mujoco_runner import video
+
+    real = video.write_video
+
+    def write_truncated(path: Path, *args: object, **kwargs: object) -> video.VideoStats:
+        stats = real(path, *args, **kwargs)
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+        return stats
+
+    monkeypatch.setattr(video, "write_video", write_truncated)
+    _fails_and_keeps(good_video, capsys, "the file does not decode (")
+
+
+def test_video_with_too_few_frames_is_refused(good_video: Path) -> None:
+    from tippetop.mujoco_runner import video
+
+    video.verify_video(good_video, 5, 96, 64)
+    with pytest.raises(video.VideoCheckFailed, match="expected 6 frames, decoded 5"):
+        video.verify_video(good_video, 6, 96, 64)
+    with pytest.raises(video.VideoCheckFailed, match="expected frames of 64x96"):
+        video.verify_video(good_video, 5, 64, 96)
