@@ -160,7 +160,18 @@ class TaskResult:
 
 
 class ResultCache:
-    """One JSON summary and one Parquet table per task key, written atomically."""
+    """One JSON entry and one Parquet table per task key, written atomically and checksummed.
+
+    The JSON file is ``{"format", "key", "summary", "summary_sha256", "table_sha256"}``: the
+    task's summary, the key it was computed for, and the sha256 of the summary (as canonical
+    JSON) and of the Parquet file's bytes. An entry that does not verify (a number edited, a
+    file cut short or swapped, JSON of another shape such as ``{}`` or ``[]``, another key, or
+    an entry written before checksums) is a miss: the task runs again and the entry is
+    rewritten. The checksums catch accidents and edits, not an attacker (who can rehash).
+    """
+
+    #: The entry format; an entry of any other (or none) is recomputed.
+    FORMAT = "tippetop-cache/2"
 
     def __init__(self, root: Path) -> None:
         self.root = root
@@ -169,22 +180,48 @@ class ResultCache:
         d = self.root / key[:2]
         return d / f"{key}.json", d / f"{key}.parquet"
 
+    @staticmethod
+    def _digest(summary: dict[str, Any]) -> str:
+        """sha256 of the summary as canonical JSON (sorted keys)."""
+        return hashlib.sha256(json.dumps(summary, sort_keys=True).encode("utf-8")).hexdigest()
+
     def get(self, key: str) -> tuple[dict[str, Any], pd.DataFrame] | None:
-        """The cached summary and table, or None."""
+        """The cached summary and table if the entry verifies, else None (recompute)."""
+        import io
+
         js, pq = self._paths(key)
-        if not (js.is_file() and pq.is_file()):
+        try:
+            entry = json.loads(js.read_text(encoding="utf-8"))
+            data = pq.read_bytes()
+        except (ValueError, OSError):  # missing, unreadable, not JSON (or not UTF-8)
+            return None
+        if not (isinstance(entry, dict) and entry.get("format") == self.FORMAT
+                and entry.get("key") == key and isinstance(entry.get("summary"), dict)):
+            return None
+        summary = entry["summary"]
+        if (entry.get("summary_sha256") != self._digest(summary)
+                or entry.get("table_sha256") != hashlib.sha256(data).hexdigest()):
             return None
         try:
-            return json.loads(js.read_text()), pd.read_parquet(pq)
-        except (ValueError, OSError):
+            return summary, pd.read_parquet(io.BytesIO(data))
+        except (ValueError, OSError):  # (cannot happen to bytes that verify, but never fail)
             return None
 
     def put(self, key: str, summary: dict[str, Any], table: pd.DataFrame) -> None:
-        """Store a task's results."""
+        """Store a task's results: the table, then the entry that vouches for it."""
+        import io
+
         js, pq = self._paths(key)
         js.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(pq, lambda tmp: table.to_parquet(tmp, index=False))
-        write_atomic(js, lambda tmp: tmp.write_text(json.dumps(summary)))
+        buf = io.BytesIO()
+        table.to_parquet(buf, index=False)
+        data = buf.getvalue()
+        entry = {"format": self.FORMAT, "key": key, "summary": summary,
+                 "summary_sha256": self._digest(summary),
+                 "table_sha256": hashlib.sha256(data).hexdigest()}
+        text = json.dumps(entry)
+        write_atomic(pq, lambda tmp: tmp.write_bytes(data))
+        write_atomic(js, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int) -> WorkProgress | None:

@@ -19,10 +19,12 @@ from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+import pandas as pd
 import pytest
 
 from tippetop.compare import cli, nightly
 from tippetop.compare.io import lock_path, locked_output_dir
+from tippetop.compare.runner import ResultCache, Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 
 TINY = """
@@ -225,3 +227,82 @@ def test_video_with_too_few_frames_is_refused(good_video: Path) -> None:
         video.verify_video(good_video, 6, 96, 64)
     with pytest.raises(video.VideoCheckFailed, match="expected frames of 64x96"):
         video.verify_video(good_video, 5, 64, 96)
+
+
+# ---------------------------------------------------------------- cache entries that lie
+def _tiny_task() -> Task:
+    return Task("fig3", ("run.t_end_s=0.05",), "ode")
+
+
+def _entry_paths(cache: Path, key: str) -> tuple[Path, Path]:
+    return cache / key[:2] / f"{key}.json", cache / key[:2] / f"{key}.parquet"
+
+
+@pytest.fixture
+def fresh(tmp_path: Path) -> TaskResult:
+    """One tiny reference run, computed and cached in ``tmp_path/cache``."""
+    res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert res.error is None and not res.cached
+    again = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert again.cached and again.summary == res.summary  # a verified entry is served
+    return res
+
+
+def _same(a: TaskResult, b: TaskResult) -> None:
+    assert a.summary is not None and b.summary is not None
+    drop = {"wall_s"}  # the one thing a rerun may change
+    assert {k: v for k, v in a.summary.items() if k not in drop} == \
+        {k: v for k, v in b.summary.items() if k not in drop}
+    pd.testing.assert_frame_equal(a.table, b.table)
+
+
+def test_edited_number_in_a_cache_entry_is_recomputed(fresh: TaskResult,
+                                                      tmp_path: Path) -> None:
+    js, _ = _entry_paths(tmp_path / "cache", fresh.key)
+    entry = json.loads(js.read_text())
+    assert entry["key"] == fresh.key and len(entry["summary_sha256"]) == 64
+    entry["summary"]["theta_final"] += 0.5  # the checksums left as they were
+    js.write_text(json.dumps(entry))
+    res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert not res.cached
+    _same(res, fresh)
+    assert json.loads(js.read_text())["summary"]["theta_final"] == fresh.summary["theta_final"]
+    assert run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0].cached
+
+
+def test_edited_table_in_a_cache_entry_is_recomputed(fresh: TaskResult,
+                                                     tmp_path: Path) -> None:
+    _, pq = _entry_paths(tmp_path / "cache", fresh.key)
+    table = pd.read_parquet(pq)
+    table.loc[len(table) // 2, "theta"] += 0.5
+    table.to_parquet(pq, index=False)
+    res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert not res.cached
+    _same(res, fresh)
+
+
+@pytest.mark.parametrize("text", ["{}", "[]", "null", '"x"', "3", '{"summary": []}', "{",
+                                  "\udcff"])
+def test_cache_entry_of_the_wrong_shape_is_recomputed(text: str, fresh: TaskResult,
+                                                      tmp_path: Path) -> None:
+    js, _ = _entry_paths(tmp_path / "cache", fresh.key)
+    js.write_bytes(text.encode("utf-8", "surrogateescape"))
+    res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert not res.cached
+    _same(res, fresh)
+
+
+def test_old_entry_without_checksums_or_for_another_key_is_recomputed(
+        fresh: TaskResult, tmp_path: Path) -> None:
+    js, _ = _entry_paths(tmp_path / "cache", fresh.key)
+    entry = json.loads(js.read_text())
+    js.write_text(json.dumps(entry["summary"]))  # the format before checksums: the bare summary
+    assert ResultCache(tmp_path / "cache").get(fresh.key) is None
+    js.write_text(json.dumps({**entry, "key": "0" * 64}))  # vouches for another key
+    assert ResultCache(tmp_path / "cache").get(fresh.key) is None
+    js.write_text(json.dumps(entry))
+    assert ResultCache(tmp_path / "cache").get(fresh.key) is not None
+    js.write_text(json.dumps(entry["summary"]))
+    res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
+    assert not res.cached
+    _same(res, fresh)
