@@ -118,7 +118,7 @@ def _load(args: argparse.Namespace):
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
-    from tippetop.compare.engines import run_engine
+    from tippetop.compare.engines import run_engine, run_failed
     from tippetop.compare.io import TABLE_SUFFIXES, check_output_path, write_table
 
     scene = _load(args)
@@ -129,7 +129,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             target = str(scene.path.parent / target)
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
     run = run_engine(scene, args.engine)
-    failed = run.status not in ("ok", "contact_lost", "hop")
+    failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)
     if args.json:
@@ -215,6 +215,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print_json(res)
     else:
         print_compare(res)
+    # a failed run is reported in its row (the others kept), and the command exits 1
+    failed = [m for m, s in res["modes"].items() if s.get("outcome") == "failed"]
+    if failed:
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['modes'])} runs "
+                         f"failed ({', '.join(failed)}); the reasons are in the output\n")
+        return EXIT_RUN_FAILED
     return 0
 
 
@@ -489,6 +495,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             print("wrote " + ", ".join(str(f) for f in files))
         else:
             print("not written: --out DIR writes sweep.csv, theory.csv and sweep.png")
+    # a failed run is a row with its status (the others kept), and the command exits 1
+    table = res["table"]
+    failed = table[table["outcome"] == "failed"] if len(table) else table
+    if len(failed):
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(table)} runs failed "
+                         f"({', '.join(sorted(set(failed['status'])))}); each is a row with "
+                         "its status\n")
+        return EXIT_RUN_FAILED
     return 0
 
 

@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any, NoReturn
 
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import RunFailedError, TippetopError
 
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
@@ -84,17 +84,25 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 def run_command(args: argparse.Namespace) -> int:
     """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2.
 
+    A failed run (:class:`RunFailedError`) becomes one ``tippetop: run failed:`` line and
+    exit 1.
+
     Warnings (a model that departs from the paper's top, say) are one line each, shown once.
     """
     func: Callable[[argparse.Namespace], int] = args.func
     with warnings.catch_warnings():
-        warnings.simplefilter("once")
+        # ours (and libraries' user-facing ones) once each; Python's ResourceWarning and
+        # DeprecationWarning stay at their defaults (hidden): they are not the user's business
+        warnings.simplefilter("once", UserWarning)
         warnings.showwarning = _one_line_warning
         try:
             return func(args)
         except TippetopError as exc:
             sys.stderr.write(f"tippetop: error: {exc}\n")
             return EXIT_BAD_INPUT
+        except RunFailedError as exc:
+            sys.stderr.write(f"tippetop: run failed: {exc}\n")
+            return EXIT_RUN_FAILED
 
 
 # ---------------------------------------------------------------- types

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
-from tippetop.compare.engines import describe_ran
+from tippetop.compare.engines import describe_ran, run_failed
 from tippetop.compare.metrics import classify_outcome, outcome_of_angle, theta_trend
 from tippetop.compare.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
@@ -236,24 +236,27 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
     sc = tasks[0].load()
     top = tasks[0].plan(sc).top  # for an MJCF top, the parameters read from its file
     ref = results[REFERENCE_MODE]
-    J0 = float(ref.table["J"].iloc[0])
-    th_pred, out_pred = predicted_outcome(top, J0)
+    ref_failed = run_failed(ref.summary)
+    # Jellett's constant at t = 0 from a run that has a table (a failed run has none)
+    tables = [r.table for r in results.values() if not run_failed(r.summary) and len(r.table)]
+    th_pred, out_pred = (predicted_outcome(top, float(tables[0]["J"].iloc[0])) if tables
+                         else (math.nan, None))
     per_mode: dict[str, Any] = {}
     diffs: list[dict[str, Any]] = []
     rows: list[dict[str, Any]] = []
-    ref_t = None if ref.summary.get("status") == "diverged" else ref.summary.get("t_invert")
+    ref_t = None if ref_failed else ref.summary.get("t_invert")
     for m in modes:
         r = results[m]
         s = dict(r.summary)
-        if s.get("status") == "diverged":
+        if run_failed(s):
             s.update(outcome="failed", matches_theory=False, theta_rms_vs_ref=None)
-            diffs.append({"mode": m, "metric": "status", "value": "diverged",
+            diffs.append({"mode": m, "metric": "status", "value": s.get("status"),
                           "reference": ref.summary.get("status", "ok"), "tolerance": None,
                           "note": s.get("message", "")})
             per_mode[m] = s
             rows.append(crossval_row(sc.name, m, outcome="failed", theta_asymp=None,
                                      theta_s=th_pred, theory_outcome=out_pred, t_invert=None,
-                                     error=s.get("message") or "diverged"))
+                                     error=s.get("message") or str(s.get("status"))))
             continue
         s["outcome"] = classify_outcome(r.table)
         s["theta_trend_rad_s"] = theta_trend(r.table)
@@ -265,11 +268,12 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
         rows.append(row)
         s["matches_theory"] = row["agrees"]
         s["d_theta_asymp"] = row["d_theta_asymp"]
-        s["theta_rms_vs_ref"] = _theta_rms(r.table, ref.table) if m != REFERENCE_MODE else 0.0
+        s["theta_rms_vs_ref"] = (0.0 if m == REFERENCE_MODE else None if ref_failed
+                                 else _theta_rms(r.table, ref.table))
         s["energy_dissipated_J"] = float(r.table["E"].iloc[0] - r.table["E"].iloc[-1])
         s["note"] = MODE_NOTES.get(m, "")
         per_mode[m] = s
-        if m == REFERENCE_MODE:
+        if m == REFERENCE_MODE or ref_failed:  # nothing to compare with a failed reference
             continue
         ref_s = ref.summary
         ref_out = classify_outcome(ref.table)

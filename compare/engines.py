@@ -32,9 +32,18 @@ MUJOCO_ENERGY_RTOL = 1e-6
 #: The summary keys of a failed run that would be numbers: a failed run reports none.
 RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone",
                "energy_rise_rel")
+#: The statuses of a run that ended as the physics says (the sphere leaving the table is an
+#: end the model reports); any other status (MuJoCo's ``diverged``, the reference's
+#: ``max_steps``, ``step_too_small``, ``singular``, ``chatter``, ``flat_end``) is a failed run.
+FINISHED_STATUSES = ("ok", "contact_lost", "hop")
 
-__all__ = ["ENGINES", "EngineRun", "describe_ran", "plan_for", "progress_bar", "run_engine",
-           "run_plan"]
+
+def run_failed(summary: dict[str, Any]) -> bool:
+    """Whether a run's summary is a failed run's (it carries no numbers, only the reason)."""
+    return summary.get("status", "ok") not in FINISHED_STATUSES
+
+__all__ = ["ENGINES", "FINISHED_STATUSES", "EngineRun", "describe_ran", "plan_for",
+           "progress_bar", "run_engine", "run_failed", "run_plan"]
 
 
 @dataclass
@@ -119,14 +128,24 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
     assert p is not None
     res = simulate_ode(p.top, p.friction, p.init, t_end_s=p.t_end_s, sample_dt_s=p.sample_dt_s,
                        options=p.options, progress=progress, stem=p.stem)
+    ran = {"friction_law": p.friction.law, "formulation": p.options.formulation,
+           "rtol": p.options.rtol, "atol": p.options.atol, "sample_dt_s": p.sample_dt_s}
+    if res.status not in FINISHED_STATUSES:
+        # a run that stopped short (max_steps, a step-size underflow, ...) is a failed run
+        # with its reason, never numbers, as a diverged MuJoCo run; its table keeps the
+        # samples before the stop (at least t = 0), which the runner's cache needs
+        s = {"engine": "ode", **dict.fromkeys(RESULT_KEYS), "contact_lost": False,
+             "wall_s": res.wall_s, "n_rhs": res.n_rhs}
+        s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
+                 phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
+                         for ph in res.phases], unused=list(plan.unused))
+        return EngineRun(res.table, s, res.status, res.message)
     top = p.top
     s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
                 contact_lost=res.status in ("contact_lost", "hop"), wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_rhs=res.n_rhs)
-    s.update(status=res.status, message=res.message, friction_law=p.friction.law,
-             formulation=p.options.formulation, rtol=p.options.rtol, atol=p.options.atol,
-             sample_dt_s=p.sample_dt_s, t_stem=res.t_stem,
+    s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
              phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
                      for ph in res.phases], unused=list(plan.unused))
     if p.stem is not None:
@@ -185,6 +204,10 @@ def run_plan(plan: RunPlan, *,
     if callable(progress):
         run = _run_ode if plan.engine == "ode" else _run_mujoco
         return run(plan, progress)
+    if progress:  # a run for a person: say first when it will take long (stderr only)
+        from tippetop.compare.cost_note import say_long_run
+
+        say_long_run([plan])
     label = f"{plan.scene} [{plan.engine}]"
     with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:
         if plan.engine == "ode":

@@ -32,8 +32,9 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
+from tippetop.compare.engines import run_failed
 from tippetop.compare.runner import Task, run_tasks
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import RunFailedError, TippetopError
 from tippetop.models.params import TopParams
 
 WHICH = ("n1", "n4", "nc")
@@ -236,8 +237,8 @@ def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]])
             s = searches[i]
             if res.error:
                 raise TippetopError(f"growth rate at n0 = {n:.6g} rad/s: {res.error}")
-            if res.summary.get("status") == "diverged":
-                raise TippetopError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
+            if run_failed(res.summary):
+                raise RunFailedError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
                                     f"{res.summary.get('message')}")
             s.points[n] = {"n0": n, "state": s.state, **growth_fit(res.table),
                            "wall_s": res.summary.get("wall_s")}

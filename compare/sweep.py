@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
+from tippetop.compare.engines import run_failed
 from tippetop.compare.io import write_atomic
 from tippetop.compare.metrics import classify_outcome
 from tippetop.compare.runner import Task, run_tasks
@@ -53,7 +54,7 @@ def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
         if res.error:
             raise TippetopError(res.error)
         s = res.summary
-        failed = s.get("status") == "diverged"
+        failed = run_failed(s)
         rows.append({"mode": mode, "n0": n0, "theta_asymp": s["theta_asymp"],
                      "outcome": "failed" if failed else classify_outcome(res.table),
                      "t_invert": s["t_invert"],

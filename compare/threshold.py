@@ -20,9 +20,10 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
+from tippetop.compare.engines import run_failed
 from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
 from tippetop.compare.runner import Task, run_tasks
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import RunFailedError, TippetopError
 
 WHICH = ("n1", "n4", "nc")
 #: A bisection run for n_c that is still moving at its end is continued over twice, then four
@@ -168,8 +169,8 @@ def bisect_threshold(
             for n0, res in zip(spins, out, strict=True):
                 if res.error:
                     raise TippetopError(res.error)
-                if res.summary.get("status") == "diverged":
-                    raise TippetopError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
+                if run_failed(res.summary):
+                    raise RunFailedError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
                                         f"{res.summary['message']}")
             return list(out)
 

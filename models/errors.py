@@ -23,3 +23,10 @@ def expect(condition: bool, what: str, expected: str, got: object) -> None:
     """
     if not condition:
         raise TippetopError(f"{what}: expected {expected}, got {got!r}")
+
+
+class RunFailedError(RuntimeError):
+    """A valid run that failed (diverged, stopped short): the message says why.
+
+    The command line prints it as one line, ``tippetop: run failed: ...``, and exits 1.
+    """

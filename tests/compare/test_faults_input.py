@@ -8,6 +8,7 @@ was written. Every run is tiny (``run.t_end_s=0.05``) or stops before any work.
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -84,3 +85,46 @@ def test_catalogue_of_the_wrong_shape(tmp_path: Path, text: str, says: str) -> N
     line = _bad_input("nightly", "--catalogue", str(cat), "--out", str(out))
     assert says in line
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- failed reference-ODE runs
+STOP_SHORT = ("--set", "ode.max_steps=10", "--set", "run.t_end_s=0.05", "--no-cache", "--workers",
+              "1")
+
+
+def test_failed_ode_run_prints_no_numbers(tmp_path: Path) -> None:
+    """max_steps reached: null results in --json, one 'run failed' line, exit 1, no table."""
+    out = tmp_path / "t.csv"
+    r = _run("simulate", "fig3", *STOP_SHORT[:4], "--json", "--out", str(out))
+    assert r.returncode == 1, r.stderr
+    line = _one_line(r.stderr, "tippetop: run failed:")
+    assert "ode.max_steps" in line
+    d = json.loads(r.stdout)
+    assert d["status"] == "max_steps"
+    assert all(d[k] is None for k in ("theta_final", "theta_asymp", "t_invert", "J_rel_drift"))
+    assert not out.exists()
+
+
+def test_failed_runs_inside_compare_are_reported_per_run() -> None:
+    r = _run("compare", "fig3", "--modes", "ode,ode-coulomb", *STOP_SHORT, "--json")
+    assert r.returncode == 1, r.stderr
+    _one_line(r.stderr, "tippetop: run failed:")
+    modes = json.loads(r.stdout)["modes"]
+    assert set(modes) == {"ode", "ode-coulomb"}  # every run kept, each with its reason
+    assert all(s["outcome"] == "failed" and s["status"] == "max_steps" and
+               s["theta_asymp"] is None for s in modes.values())
+
+
+def test_failed_runs_inside_sweep_are_rows(tmp_path: Path) -> None:
+    r = _run("sweep", "fig3", "--n0", "50:60:10", *STOP_SHORT, "--json")
+    assert r.returncode == 1, r.stderr
+    _one_line(r.stderr, "tippetop: run failed:")
+    rows = json.loads(r.stdout)["rows"]
+    assert [row["status"] for row in rows] == ["max_steps", "max_steps"]
+
+
+def test_failed_run_inside_threshold_is_a_failed_run() -> None:
+    r = _run("threshold", "fig3", "--which", "n1", *STOP_SHORT)
+    assert r.returncode == 1, r.stderr
+    assert "max_steps" in _one_line(r.stderr, "tippetop: run failed:")
+    assert r.stdout == ""
