@@ -138,6 +138,22 @@ def worker_count(text: str) -> int:
     return n
 
 
+def scheduler_address(text: str) -> str:
+    """An argparse type: ``tcp://HOST:PORT`` (or ``tls://``), the port an integer 1-65535.
+
+    Checked as the option is read, before any work: a bad port would otherwise surface deep
+    in Dask as a traceback (``notaport``) or after a 10-s connection timeout (``99999``).
+    """
+    scheme, sep, rest = text.partition("://")
+    host, colon, port = rest.rpartition(":")
+    ok = (sep and scheme in ("tcp", "tls") and colon and host.strip("[]")
+          and port.isascii() and port.isdigit() and 1 <= int(port) <= 65535)
+    if not ok:
+        raise argparse.ArgumentTypeError(
+            f"expected tcp://HOST:PORT with a port from 1 to 65535, got {text!r}")
+    return text
+
+
 # ---------------------------------------------------------------- output
 def _json_default(o: Any) -> Any:
     if hasattr(o, "item"):
@@ -169,7 +185,8 @@ def print_json(obj: Any) -> None:
 # ---------------------------------------------------------------- options
 def add_scheduler_option(p: argparse.ArgumentParser) -> None:
     """``--scheduler ADDRESS`` (dest ``scheduler``, default None: local processes)."""
-    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
+    p.add_argument("--scheduler", type=scheduler_address, metavar="ADDRESS",
+                   help=SCHEDULER_HELP)
 
 
 def add_workers_option(p: argparse.ArgumentParser, help: str = WORKERS_HELP) -> None:

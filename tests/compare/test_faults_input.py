@@ -128,3 +128,20 @@ def test_failed_run_inside_threshold_is_a_failed_run() -> None:
     assert r.returncode == 1, r.stderr
     assert "max_steps" in _one_line(r.stderr, "tippetop: run failed:")
     assert r.stdout == ""
+
+
+# ---------------------------------------------------------------- command-line options
+@pytest.mark.parametrize("address", ["tcp://localhost:99999", "tcp://host:notaport",
+                                     "tcp://host:", "localhost:8786"])
+def test_scheduler_with_a_bad_port_is_refused_before_any_work(tmp_path: Path,
+                                                              address: str) -> None:
+    out = tmp_path / "sweep"
+    line = _bad_input("sweep", "fig3", "--n0", "50:60:10", "--scheduler", address,
+                      "--out", str(out))
+    assert "--scheduler" in line and address in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("n", ["0", "-1"])
+def test_workers_below_one_is_refused(n: str) -> None:
+    assert "--workers" in _bad_input("compare", "fig3", "--workers", n)
