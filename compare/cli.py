@@ -28,6 +28,7 @@ from tippetop.compare.common_args import (
     finite_float,
     run_command,
 )
+from tippetop.compare.interrupt import install_sigterm_handler
 from tippetop.compare.nightly.command import add_nightly_parser
 from tippetop.compare.render import add_render_parser
 from tippetop.compare.validate.command import add_validate_parser
@@ -321,6 +322,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tippetop`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
     try:
         return run_command(args)
     except KeyboardInterrupt:

@@ -18,6 +18,8 @@ import json
 import os
 import signal
 import sys
+import threading
+import time
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -31,8 +33,10 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.cost_note import say_long_run
 from tippetop.compare.engines import plan_for, run_plan
 from tippetop.compare.io import write_atomic
+from tippetop.compare.leftovers import clean_cache_leftovers
 from tippetop.compare.terminal import WorkProgress, expected_cost_s
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
@@ -263,6 +267,8 @@ def run_tasks(
         One result per task, in order.
     """
     cache = ResultCache(cache_dir or default_cache_dir()) if use_cache else None
+    if cache is not None:
+        _clean_cache_once(str(cache.root))  # what a killed run left (SIGKILL)
     for t in tasks:  # validate everything before any work
         if t.engine not in ENGINES and t.engine not in MODES:
             raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, "
@@ -285,8 +291,10 @@ def run_tasks(
         else:
             todo.setdefault(key, []).append(i)
     unique = [(key, tasks[idx[0]]) for key, idx in todo.items()]
-    bar = _progress([plans[idx[0]] for idx in todo.values()], label,
-                    _slots(scheduler, workers, len(unique)), len(tasks) - len(unique))
+    slots = _slots(scheduler, workers, len(unique))
+    say_long_run([plans[idx[0]] for idx in todo.values()], slots)  # stderr, above a minute
+    bar = _progress([plans[idx[0]] for idx in todo.values()], label, slots,
+                    len(tasks) - len(unique))
     try:
         for key, out in _dispatch(unique, scheduler, workers, bar):
             if "error" in out:
@@ -376,12 +384,51 @@ def _queue_reporter(queue: Any) -> Callable[[str, float], None]:
     return put
 
 
-def _init_worker(queue: Any) -> None:
-    """Worker initializer: runs report to ``queue``; Ctrl-C is the main process's to handle."""
+def _init_worker(queue: Any, parent: int | None = None) -> None:
+    """Worker initializer: runs report to ``queue``; Ctrl-C is the main process's to handle.
+
+    Args:
+        queue: Where runs report their progress.
+        parent: The main process's pid: the worker dies with it (:func:`_die_with_parent`).
+    """
     global _REPORTER
     _ignore_sigint()
+    if parent is not None:
+        _die_with_parent(parent)
     queue.cancel_join_thread()  # never wait at exit for reports nobody reads
     _REPORTER = _queue_reporter(queue)
+
+
+#: Linux's prctl option that signals a process when its parent dies.
+_PR_SET_PDEATHSIG = 1
+#: How often a worker's watchdog looks whether its parent is still there (s).
+_WATCHDOG_S = 0.5
+
+
+def _die_with_parent(parent: int) -> None:
+    """End this worker when the main process ``parent`` dies, however it dies (SIGKILL too).
+
+    On Linux the kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``);
+    everywhere a daemon thread checks every :data:`_WATCHDOG_S` that the parent is still this
+    process's parent and exits the process at once when it is not (re-parented to init).
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL),
+                                                    0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: the watchdog does
+            pass
+    if os.getppid() != parent:  # the parent died before the kernel could be told
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(_WATCHDOG_S)
+        os._exit(1)  # no cleanup: the main process that would read the results is gone
+
+    threading.Thread(target=watch, name="tippetop-parent-watchdog", daemon=True).start()
 
 
 def _ignore_sigint() -> None:
@@ -398,6 +445,17 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
     _local_pool.cache_clear()
 
 
+#: Age past which a temporary file in the cache is a killed run's leftover (s): a cache
+#: write (a summary, a table of at most CACHED_TABLE_ROWS rows) takes well under a second.
+_CACHE_LEFTOVER_AGE_S = 600.0
+
+
+@lru_cache(maxsize=8)
+def _clean_cache_once(root: str) -> None:
+    """Remove a killed run's temporary files from the cache at ``root``, once per process."""
+    clean_cache_leftovers(root, min_age_s=_CACHE_LEFTOVER_AGE_S)
+
+
 @lru_cache(maxsize=1)
 def _local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
     """One pool of worker processes per process, kept for later calls, and its report queue.
@@ -407,7 +465,7 @@ def _local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
     ctx = get_context("spawn")
     queue = ctx.Queue()
     pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_worker,
-                               initargs=(queue,))
+                               initargs=(queue, os.getpid()))
     # idle workers exit at once on shutdown: wait for them, so none outlives the command
     atexit.register(pool.shutdown, wait=True, cancel_futures=True)
     return pool, queue

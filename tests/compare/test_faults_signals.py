@@ -1,0 +1,233 @@
+"""Faults and signals: a real process tree stopped by Ctrl-C and SIGTERM, runs too big refused.
+
+The signal tests start ``python -m tippetop.compare.cli`` in a session of its own, wait until
+its pool's workers exist (children in /proc), send the signal, and check that within
+:data:`STOP_S` no process of the session is left running, the exit status and that no
+traceback reached stderr. The budget tests check that a run that would need more memory or
+more MuJoCo steps than it may is refused up front: one line, exit 2, nothing written.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tippetop.compare.leftovers import clean_cache_leftovers, clean_leftovers
+from tippetop.models.errors import TippetopError
+from tippetop.models.plan import (
+    MUJOCO_MAX_STEPS,
+    SAMPLE_BUDGET_ENV,
+    check_mujoco_steps,
+    check_samples,
+)
+from tippetop.reference_ode import NUMBA_CACHE_DIR
+
+ROOT = Path(__file__).resolve().parents[2]
+#: The issue's limit: every process of the tree gone this long after the signal (s).
+STOP_S = 5.0
+#: Longest wait for the workers to appear (imports on 2 busy cores) (s).
+START_S = 60.0
+
+
+def _session(sid: int) -> dict[int, tuple[int, str]]:
+    """Processes of session ``sid`` that are not zombies: pid -> (ppid, state)."""
+    found = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # gone while we looked
+            continue
+        # fields: state, ppid, pgrp, session, ...
+        if int(fields[3]) == sid and fields[0] != "Z":
+            found[int(stat.parent.name)] = (int(fields[1]), fields[0])
+    return found
+
+
+def _start(args: list[str], tmp_path: Path) -> subprocess.Popen[str]:
+    env = {**os.environ, "TIPPETOP_CACHE": str(tmp_path / "cache")}
+    if NUMBA_CACHE_DIR is not None:  # the compiled code of this session's cache: no compiling
+        env["NUMBA_CACHE_DIR"] = str(NUMBA_CACHE_DIR)
+    return subprocess.Popen([sys.executable, "-m", "tippetop.compare.cli", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=tmp_path, env=env, start_new_session=True)
+
+
+def _wait_for_workers(proc: subprocess.Popen[str], n: int) -> None:
+    """Until ``proc`` has ``n`` worker children (the pool's, not the resource tracker)."""
+    deadline = time.monotonic() + START_S
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()[1]
+        children = [pid for pid, (ppid, _) in _session(proc.pid).items() if ppid == proc.pid]
+        workers = [pid for pid in children
+                   if b"resource_tracker" not in Path(f"/proc/{pid}/cmdline").read_bytes()]
+        if len(workers) >= n:
+            time.sleep(1.0)  # the workers have taken their first runs
+            return
+        time.sleep(0.1)
+    pytest.fail(f"no {n} workers within {START_S} s")
+
+
+def _stopped_within(proc: subprocess.Popen[str], limit_s: float) -> tuple[float, str]:
+    """Seconds until no process of the session is left, and the main process's stderr."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < limit_s + 5.0:
+        if proc.poll() is not None and not _session(proc.pid):
+            break
+        time.sleep(0.05)
+    elapsed = time.monotonic() - t0
+    left = _session(proc.pid)
+    if left:  # do not leave them behind for the next test
+        for pid in left:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    _, stderr = proc.communicate(timeout=30)
+    assert not left, f"still running after {elapsed:.1f} s: {left}"
+    return elapsed, stderr
+
+
+SWEEP = ["sweep", "fig3", "--n0", "40:100:10", "--modes", "ode,mujoco-paper"]
+THRESHOLD = ["threshold", "--engine", "mujoco", "--which", "n1", "--set",
+             "mujoco.friction=paper"]
+
+
+@pytest.mark.parametrize("args", [SWEEP, THRESHOLD], ids=["sweep", "threshold"])
+def test_ctrl_c_to_the_group_stops_every_process(tmp_path: Path, args: list[str]) -> None:
+    proc = _start(args, tmp_path)
+    _wait_for_workers(proc, 2)
+    os.killpg(proc.pid, signal.SIGINT)
+    elapsed, stderr = _stopped_within(proc, STOP_S)
+    assert elapsed < STOP_S, f"stopped in {elapsed:.1f} s"
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr, stderr
+    assert stderr.strip().splitlines()[-1] == "tippetop: interrupted"
+
+
+def test_sigterm_to_the_main_process_leaves_no_worker(tmp_path: Path) -> None:
+    proc = _start(SWEEP, tmp_path)
+    _wait_for_workers(proc, 2)
+    os.kill(proc.pid, signal.SIGTERM)
+    elapsed, stderr = _stopped_within(proc, STOP_S)
+    assert elapsed < STOP_S, f"stopped in {elapsed:.1f} s"
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr, stderr
+
+
+def test_sigkill_to_the_main_process_takes_the_workers_with_it(tmp_path: Path) -> None:
+    proc = _start(SWEEP, tmp_path)
+    _wait_for_workers(proc, 2)
+    os.kill(proc.pid, signal.SIGKILL)
+    elapsed, _ = _stopped_within(proc, STOP_S)
+    assert elapsed < STOP_S, f"stopped in {elapsed:.1f} s"
+    # what the killed run left in the cache is complete: every summary has its table
+    cache = tmp_path / "cache"
+    for js in cache.glob("??/*.json"):
+        assert js.with_suffix(".parquet").is_file()
+
+
+# ---------------------------------------------------------------- budgets
+def _cli(args: list[str], tmp_path: Path, **env: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *args],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120,
+                          env={**os.environ, "TIPPETOP_CACHE": str(tmp_path / "cache"),
+                               **env})
+
+
+def test_a_run_over_the_samples_budget_is_refused_up_front(tmp_path: Path) -> None:
+    out = tmp_path / "run.parquet"
+    proc = _cli(["simulate", "fig3", "--engine", "mujoco", "--set", "run.t_end_s=1e6",
+                 "--set", "run.sample_dt_s=2e-5", "--out", str(out)], tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tippetop: error: "), proc.stderr
+    assert "expected at most 4 GiB of samples" in lines[0] and SAMPLE_BUDGET_ENV in lines[0]
+    assert "got an estimated" in lines[0]
+    assert proc.stdout == "" and not out.exists()
+
+
+def test_the_samples_budget_is_settable_and_covers_the_reference(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    check_samples(10.0, 1e-3)  # 10,001 rows: far under 4 GiB
+    with pytest.raises(TippetopError, match="got an estimated 1.71e"):
+        check_samples(1e9, 1e-3)  # the reference's table too (resolve_plan checks both)
+    monkeypatch.setenv(SAMPLE_BUDGET_ENV, "0.001")
+    with pytest.raises(TippetopError, match="at most 0.001 GiB"):
+        check_samples(1000.0, 1e-3)  # 1e6 rows x 23 x 8 bytes = 0.17 GiB
+    monkeypatch.setenv(SAMPLE_BUDGET_ENV, "lots")
+    with pytest.raises(TippetopError, match=SAMPLE_BUDGET_ENV):
+        check_samples(1.0, 1e-3)
+
+
+def test_the_reference_refuses_a_table_over_the_budget(tmp_path: Path) -> None:
+    proc = _cli(["simulate", "fig3", "--engine", "ode", "--set", "run.t_end_s=100",
+                 "--set", "run.sample_dt_s=1e-3", "--json"], tmp_path,
+                **{SAMPLE_BUDGET_ENV: "0.001"})
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert len(proc.stderr.strip().splitlines()) == 1 and "0.001 GiB" in proc.stderr
+
+
+def test_more_mujoco_steps_than_its_counter_holds_are_refused(tmp_path: Path) -> None:
+    check_mujoco_steps(8.0, 1e-4)
+    with pytest.raises(TippetopError, match=f"at most {MUJOCO_MAX_STEPS} MuJoCo steps"):
+        check_mujoco_steps(1e6, 1e-4)  # 1e10 steps
+    # a coarse table keeps it under the samples budget: the step count is what is refused
+    proc = _cli(["simulate", "fig3", "--engine", "mujoco", "--set", "run.t_end_s=1e6",
+                 "--set", "run.sample_dt_s=100"], tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "MuJoCo steps" in lines[0] and "Traceback" not in proc.stderr
+
+
+# ---------------------------------------------------------------- leftovers
+def test_leftovers_of_a_killed_run_are_cleaned(tmp_path: Path) -> None:
+    old = time.time() - 7200
+    keep = [tmp_path / "table.parquet", tmp_path / ".out.tippetop.lock",
+            tmp_path / ".table.parquet.abcd1234.tmp.done"]
+    fresh = tmp_path / ".table.parquet.zzzz9999.tmp"  # a run writing it now
+    gone = [tmp_path / ".table.parquet.k3j_x9a1.tmp", tmp_path / ".out.q1w2e3r4"]
+    full_stage = tmp_path / ".out.a1b2c3d4"  # not empty: never removed
+    for p in keep + [fresh, gone[0]]:
+        p.write_text("x")
+    gone[1].mkdir()
+    full_stage.mkdir()
+    (full_stage / "f").write_text("x")
+    for p in keep + gone + [full_stage]:
+        os.utime(p, (old, old))
+    assert sorted(clean_leftovers(tmp_path)) == sorted(gone)
+    assert all(p.exists() for p in keep + [fresh, full_stage])
+    # a cache: its root and its two-character key folders
+    sub = tmp_path / "ab"
+    sub.mkdir()
+    tmp = sub / ".abcdef.json.x1y2z3w4.tmp"
+    tmp.write_text("{")
+    os.utime(tmp, (old, old))
+    assert clean_cache_leftovers(tmp_path) == [tmp]
+
+
+# ---------------------------------------------------------------- how long
+def test_a_long_run_says_how_long_first_on_stderr_only(tmp_path: Path) -> None:
+    from tippetop.compare.cost_note import long_run_note
+    from tippetop.compare.engines import plan_for
+    from tippetop.models.scene import load_scene
+
+    assert long_run_note([plan_for(load_scene("fig3", []), "mujoco")]) is None  # 8 s: quiet
+    long = plan_for(load_scene("fig3", ["run.t_end_s=200"]), "mujoco")
+    note = long_run_note([long, long], slots=2)
+    assert note is not None and note.startswith("tippetop: about 11 min of computing (")
+    assert "2.0e+07 MuJoCo steps at ~65 us" in note and "on 2 workers" in note
+    # the command line says it before the run starts, on stderr; SIGTERM then stops it
+    proc = _start(["simulate", "fig3", "--engine", "mujoco", "--set", "run.t_end_s=200",
+                   "--json"], tmp_path)
+    assert proc.stderr is not None
+    first = proc.stderr.readline()
+    os.kill(proc.pid, signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=30)
+    assert first.startswith("tippetop: about 11 min of computing (1.0e+07 MuJoCo steps")
+    assert proc.returncode == 130 and stdout == "" and "Traceback" not in stderr
