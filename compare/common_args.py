@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import warnings
 from collections.abc import Callable
@@ -81,11 +82,56 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
     sys.stderr.write(f"tippetop: warning: {text}\n")
 
 
+class StdoutFailedError(Exception):
+    """Writing to stdout failed (a closed pipe, a full disk, a closed descriptor)."""
+
+
+class _GuardedStdout:
+    """``sys.stdout`` whose failed writes raise :class:`StdoutFailedError` (one line, exit 1).
+
+    Without it a full disk (``> /dev/full``) ends in an ``OSError`` traceback, and a reader
+    that went away (``| head -c 10``) in a ``BrokenPipeError``.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _guard(self, method: str, *a: Any) -> Any:
+        if self._stream is None:
+            raise StdoutFailedError("stdout is closed")
+        try:
+            return getattr(self._stream, method)(*a)
+        except (OSError, ValueError) as exc:  # ValueError: a closed file
+            raise StdoutFailedError(getattr(exc, "strerror", None) or str(exc)) from None
+
+    def write(self, text: str) -> int:
+        """Write ``text``; a failure raises :class:`StdoutFailedError`."""
+        return self._guard("write", text)
+
+    def flush(self) -> None:
+        """Flush; a failure raises :class:`StdoutFailedError`."""
+        self._guard("flush")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _silence_stdout(stream: Any) -> None:
+    """Point a failed stdout at /dev/null, so the flush at exit cannot fail a second time."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, stream.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2.
 
     A failed run (:class:`RunFailedError`) becomes one ``tippetop: run failed:`` line and
-    exit 1.
+    exit 1; so does stdout that cannot be written (``tippetop: failed: ...``: a closed pipe,
+    a full disk).
 
     Warnings (a model that departs from the paper's top, say) are one line each, shown once.
     """
@@ -95,14 +141,25 @@ def run_command(args: argparse.Namespace) -> int:
         # DeprecationWarning stay at their defaults (hidden): they are not the user's business
         warnings.simplefilter("once", UserWarning)
         warnings.showwarning = _one_line_warning
+        real_stdout = sys.stdout
+        sys.stdout = _GuardedStdout(real_stdout)
         try:
-            return func(args)
+            status = func(args)
+            sys.stdout.flush()  # a full disk may say so only here
+            return status
         except TippetopError as exc:
             sys.stderr.write(f"tippetop: error: {exc}\n")
             return EXIT_BAD_INPUT
         except RunFailedError as exc:
             sys.stderr.write(f"tippetop: run failed: {exc}\n")
             return EXIT_RUN_FAILED
+        except StdoutFailedError as exc:
+            _silence_stdout(real_stdout)
+            sys.stderr.write(f"tippetop: failed: could not write the output to stdout "
+                             f"({exc})\n")
+            return EXIT_RUN_FAILED
+        finally:
+            sys.stdout = real_stdout
 
 
 # ---------------------------------------------------------------- types

@@ -145,3 +145,27 @@ def test_scheduler_with_a_bad_port_is_refused_before_any_work(tmp_path: Path,
 @pytest.mark.parametrize("n", ["0", "-1"])
 def test_workers_below_one_is_refused(n: str) -> None:
     assert "--workers" in _bad_input("compare", "fig3", "--workers", n)
+
+
+# ---------------------------------------------------------------- stdout full or closed
+THEORY = ("theory", "--A-over-C", "0.8", "--a-over-R", "0.3", "--json")
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_stdout_full_is_one_line_exit_1() -> None:
+    with open("/dev/full", "w") as full:
+        r = _run(*THEORY, stdout=full)
+    assert r.returncode == 1
+    assert "No space left" in _one_line(r.stderr, "tippetop: failed:")
+
+
+def test_stdout_closed_pipe_is_one_line_exit_1() -> None:
+    """The reader went away before the output (``| head -c 10`` that already exited)."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        r = _run(*THEORY, stdout=write)
+    finally:
+        os.close(write)
+    assert r.returncode == 1
+    _one_line(r.stderr, "tippetop: failed:")
