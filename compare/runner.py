@@ -384,17 +384,18 @@ def _queue_reporter(queue: Any) -> Callable[[str, float], None]:
     return put
 
 
-def _init_worker(queue: Any, parent: int | None = None) -> None:
+def _init_worker(queue: Any, parent: int | None = None, pdeathsig: bool = False) -> None:
     """Worker initializer: runs report to ``queue``; Ctrl-C is the main process's to handle.
 
     Args:
         queue: Where runs report their progress.
         parent: The main process's pid: the worker dies with it (:func:`_die_with_parent`).
+        pdeathsig: Ask the kernel too (the pool was made in the main thread; see there).
     """
     global _REPORTER
     _ignore_sigint()
     if parent is not None:
-        _die_with_parent(parent)
+        _die_with_parent(parent, pdeathsig=pdeathsig)
     queue.cancel_join_thread()  # never wait at exit for reports nobody reads
     _REPORTER = _queue_reporter(queue)
 
@@ -405,14 +406,16 @@ _PR_SET_PDEATHSIG = 1
 _WATCHDOG_S = 0.5
 
 
-def _die_with_parent(parent: int) -> None:
+def _die_with_parent(parent: int, *, pdeathsig: bool = True) -> None:
     """End this worker when the main process ``parent`` dies, however it dies (SIGKILL too).
 
     On Linux the kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``);
     everywhere a daemon thread checks every :data:`_WATCHDOG_S` that the parent is still this
     process's parent and exits the process at once when it is not (re-parented to init).
+    The kernel's signal comes when the *thread* that started the worker ends, so it is asked
+    for only when the pool lives in the main thread (``pdeathsig``).
     """
-    if sys.platform.startswith("linux"):
+    if pdeathsig and sys.platform.startswith("linux"):
         try:
             import ctypes
 
@@ -465,7 +468,8 @@ def _local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
     ctx = get_context("spawn")
     queue = ctx.Queue()
     pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_worker,
-                               initargs=(queue, os.getpid()))
+                               initargs=(queue, os.getpid(),
+                                         threading.current_thread() is threading.main_thread()))
     # idle workers exit at once on shutdown: wait for them, so none outlives the command
     atexit.register(pool.shutdown, wait=True, cancel_futures=True)
     return pool, queue
