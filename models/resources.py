@@ -10,6 +10,8 @@ import os
 from importlib.resources import files
 from pathlib import Path
 
+from tippetop.models.errors import TippetopError
+
 
 def data_path(package: str, *parts: str) -> Path:
     """The file-system path of a data file or folder shipped in ``package``.
@@ -29,6 +31,17 @@ def data_path(package: str, *parts: str) -> Path:
 
 
 def user_cache_dir() -> Path:
-    """``$TIPPETOP_CACHE``, else ``~/.cache/tippetop``: cached runs and compiled code."""
+    """``$TIPPETOP_CACHE``, else ``~/.cache/tippetop``: cached runs and compiled code.
+
+    Raises:
+        TippetopError: The path, or the nearest of its parents that exists, is not a folder
+            (``TIPPETOP_CACHE`` pointing at a file), so no cache folder can be made there.
+    """
     env = os.environ.get("TIPPETOP_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "tippetop"
+    folder = Path(env) if env else Path.home() / ".cache" / "tippetop"
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), None)
+    if existing is not None and not existing.is_dir():
+        what = "$TIPPETOP_CACHE" if env else "the cache folder ~/.cache/tippetop"
+        raise TippetopError(f"{what}: expected a folder (or a path where one can be made), "
+                            f"got {str(folder)!r}, where {str(existing)!r} is a file")
+    return folder

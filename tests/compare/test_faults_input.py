@@ -169,3 +169,16 @@ def test_stdout_closed_pipe_is_one_line_exit_1() -> None:
         os.close(write)
     assert r.returncode == 1
     _one_line(r.stderr, "tippetop: failed:")
+
+
+# ---------------------------------------------------------------- the cache folder
+@pytest.mark.parametrize("command", [("simulate", "fig3", *SHORT),
+                                     ("sweep", "fig3", "--n0", "50:60:10", *SHORT)])
+def test_cache_pointing_at_a_file_is_bad_input(tmp_path: Path, command: tuple[str, ...]) -> None:
+    cache = tmp_path / "cache"
+    cache.write_text("not a folder")
+    out = tmp_path / "out"
+    line = _bad_input(*command, "--out", str(out) + (".csv" if command[0] == "simulate" else ""),
+                      env={"TIPPETOP_CACHE": str(cache)})
+    assert "TIPPETOP_CACHE" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"]
