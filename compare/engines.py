@@ -171,7 +171,8 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
              "n_steps": res.n_steps}
         s.update(status=res.status, message=res.message, mode=p.mode, **ran,
                  t_stem=res.t_stem, phases=res.phases(), unused=list(plan.unused))
-        return EngineRun(res.table.iloc[:0], s, res.status, res.message)
+        # the table keeps the samples before the failure (the runner's cache needs a row)
+        return EngineRun(res.table, s, res.status, res.message)
     top = p.top
     s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
                 t_invert=first_inversion_time(res.table), contact_lost=False,

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import mujoco
@@ -36,6 +37,17 @@ from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import HARNESS_USERDATA
 from tippetop.models.params import StemParams, TopParams
+
+#: MuJoCo's own warning texts in this process, newest last. MuJoCo would print each as
+#: ``WARNING: ...`` lines on stderr, beside the run's one-line message; a run reports the
+#: warning in that message instead (from ``mjData.warning``, :mod:`mujoco_runner.run`).
+MUJOCO_WARNINGS: deque[str] = deque(maxlen=20)
+
+
+def _keep_mujoco_warning(message: str) -> None:
+    """MuJoCo's warning handler: keep the text (one line) instead of printing it."""
+    MUJOCO_WARNINGS.append(" ".join(str(message).split()))
+
 
 #: Relative tolerance for "A1 == A2" and for "the centre of mass is on the axis" (in units of R).
 AXISYMMETRY_RTOL = 1e-9
@@ -107,6 +119,7 @@ def load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
     Raises:
         TippetopError: If the file is missing or MuJoCo rejects the document.
     """
+    mujoco.set_mju_user_warning(_keep_mujoco_warning)  # every run loads its model here
     is_text = isinstance(mjcf, str) and mjcf.lstrip().startswith("<")
     try:
         if is_text:
@@ -408,6 +421,9 @@ def top_from_model(model: mujoco.MjModel) -> TopModel:
            f"body '{body}'", "a colliding sphere geom (the ball; the largest if several)",
            [_name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in spheres])
     ball = radii[-1][1]
+    timestep = float(model.opt.timestep)  # MuJoCo compiles 0 (or less); no run can take it
+    expect(np.isfinite(timestep) and timestep > 0, "mjcf option timestep",
+           "a step in seconds > 0", timestep)
     gravity = np.array(model.opt.gravity, dtype=float)
     expect(gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0, "mjcf option gravity",
            "(0, 0, -g) with g > 0 (the table is the plane z = 0)", tuple(gravity))

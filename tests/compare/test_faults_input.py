@@ -182,3 +182,46 @@ def test_cache_pointing_at_a_file_is_bad_input(tmp_path: Path, command: tuple[st
                       env={"TIPPETOP_CACHE": str(cache)})
     assert "TIPPETOP_CACHE" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cache"]
+
+
+# ---------------------------------------------------------------- an MJCF with timestep 0
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "paper_loaded_sphere.xml"
+
+
+@pytest.mark.parametrize("command", [("simulate", "--engine", "mujoco", *SHORT, "--mjcf"),
+                                     ("theory", "--mjcf"),
+                                     ("validate", "--t-end-s", "0.05", "--out", "OUT")])
+def test_mjcf_with_timestep_0_is_bad_input(tmp_path: Path, command: tuple[str, ...]) -> None:
+    text = EXAMPLE.read_text()
+    assert 'timestep="0.0002"' in text
+    xml = tmp_path / "ts0.xml"
+    xml.write_text(text.replace('timestep="0.0002"', 'timestep="0"'))
+    out = tmp_path / "out"
+    args = [str(out) if a == "OUT" else a for a in command]
+    line = _bad_input(*args, str(xml)) if command[0] != "validate" else \
+        _bad_input("validate", str(xml), *args[1:])
+    assert "timestep" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ts0.xml"]
+
+
+# ---------------------------------------------------------------- MuJoCo's own warnings
+def test_mujoco_warning_is_folded_into_the_one_line() -> None:
+    """MuJoCo's 'WARNING: Nan, Inf or huge value in QVEL ...' is not printed beside the line."""
+    r = _run("simulate", "fig3", "--engine", "mujoco-native", "--set", "init.n0=1e150",
+             *SHORT, "--json")
+    assert r.returncode == 1, r.stderr
+    line = _one_line(r.stderr, "tippetop: run failed:")
+    assert "mjWARN_BADQVEL" in line
+    assert json.loads(r.stdout)["theta_final"] is None
+
+
+def test_diverged_mujoco_run_inside_compare_keeps_the_others() -> None:
+    r = _run("compare", "fig3", "--modes", "ode,mujoco-native", "--set",
+             "mujoco.integrator=Euler", "--set", "mujoco.timestep_s=0.02", "--set",
+             "run.t_end_s=0.3", "--no-cache", "--workers", "1", "--json")
+    assert r.returncode == 1, r.stderr
+    assert "mujoco-native" in _one_line(r.stderr, "tippetop: run failed:")
+    modes = json.loads(r.stdout)["modes"]
+    assert modes["mujoco-native"]["outcome"] == "failed"
+    assert modes["mujoco-native"]["status"] == "diverged"
+    assert modes["ode"]["outcome"] != "failed" and modes["ode"]["theta_final"] is not None
