@@ -102,7 +102,10 @@ def run_nightly(*args: str) -> tuple[int, str, str]:
     """``tippetop nightly ARGS`` in this process: (exit status, stdout, stderr)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = nightly.main(list(args))
+        try:
+            code = nightly.main(list(args))
+        except SystemExit as exc:  # an option refused by the parser (--scheduler's port)
+            code = int(exc.code or 0)
     return code, out.getvalue(), err.getvalue()
 
 
