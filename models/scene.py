@@ -274,7 +274,7 @@ def parse_override(item: str) -> tuple[str, str, Any]:
     text = text.strip()
     try:
         value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except ValueError:  # not TOML (a bare word), or an integer of over 4300 digits
         value = text
     if SCHEMA[section][name] == _S and not isinstance(value, str):
         value = text
@@ -295,6 +295,9 @@ def read_scene_file(path: str | Path) -> dict[str, Any]:
     except UnicodeDecodeError:
         msg = f"scene {p.name}: expected a UTF-8 TOML text file, got binary data"
         raise TippetopError(msg) from None
+    except ValueError as exc:  # Python's limit on an integer's digits (4300)
+        raise TippetopError(f"scene {p.name}: expected numbers Python can read, got: "
+                            f"{exc}") from None
 
 
 def resolve_scene_path(name_or_path: str) -> Path:

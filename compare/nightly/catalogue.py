@@ -189,7 +189,7 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
         raise TippetopError(f"--catalogue: expected an existing .toml file, got {str(p)!r}")
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:  # TOML, UTF-8, or an integer of over 4300 digits
         raise TippetopError(f"catalogue {p.name}: expected valid TOML, got: {exc}") from None
     for key in data:
         if key not in ("profiles", "case"):

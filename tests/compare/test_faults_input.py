@@ -62,11 +62,18 @@ def test_set_number_too_large(tmp_path: Path, override: str, key: str) -> None:
     assert not out.exists()
 
 
-def test_scene_file_integer_too_large(tmp_path: Path) -> None:
+@pytest.mark.parametrize("digits, says", [(BIG_INT, "init.n0"),
+                                          ("1" * 5000, "4300 digits")])
+def test_scene_file_integer_too_large(tmp_path: Path, digits: str, says: str) -> None:
+    """400 digits: no float holds it; 5000: past Python's limit on reading an integer."""
     scene = tmp_path / "big.toml"
-    scene.write_text(f"[init]\nn0 = {BIG_INT}\n[run]\nt_end_s = 0.05\n")
+    scene.write_text(f"[init]\nn0 = {digits}\n[run]\nt_end_s = 0.05\n")
     line = _bad_input("simulate", str(scene))
-    assert "init.n0" in line
+    assert says in line
+
+
+def test_set_integer_past_pythons_digit_limit() -> None:
+    assert "init.n0" in _bad_input("simulate", "fig3", "--set", "init.n0=" + "1" * 5000, *SHORT)
 
 
 # ---------------------------------------------------------------- the nightly catalogue
@@ -77,6 +84,7 @@ def test_scene_file_integer_too_large(tmp_path: Path) -> None:
     ('[profiles.quick]\n[[case]]\nname = "a"\ncategory = "c"\nkind = "threshold"\n'
      'scene = "fig3"\nmodes = ["ode"]\nprofiles = ["quick"]\nmetrics = ["measured"]\n'
      f'which = "n1"\nmethod = "bisect"\nrel_tol = {BIG_INT}\n', "rel_tol"),
+    ("[profiles.quick]\nx = " + "1" * 5000 + "\n", "4300 digits"),
 ])
 def test_catalogue_of_the_wrong_shape(tmp_path: Path, text: str, says: str) -> None:
     cat = tmp_path / "cat.toml"
