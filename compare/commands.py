@@ -286,8 +286,12 @@ def print_compare(res: dict[str, Any]) -> None:
     th = res.get("theory") or {}
     theta_s = th.get("theta_s")
     tol_s = th.get("theta_s_tol")
-    print(f"{res.get('scene', '?')} (Group {res.get('group', '?')}): the theory predicts "
-          f"{th.get('outcome', '?')}, theta_s = {fmt(theta_s, 'rad')}")
+    head = f"{res.get('scene', '?')} (Group {res.get('group', '?')}): "
+    if "outcome" in th and th["outcome"] is None:  # needs a run's Jellett constant at t = 0
+        print(head + "no prediction from the theory: every run failed")
+    else:
+        print(head + f"the theory predicts {th.get('outcome', '?')}, theta_s = "
+              f"{fmt(theta_s, 'rad')}")
     modes: dict[str, dict[str, Any]] = res.get("modes") or {}
     rows = []
     for m, s in modes.items():

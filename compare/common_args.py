@@ -29,8 +29,9 @@ EXIT_INTERRUPTED = 130  # Ctrl-C: one line, the runs going are stopped
 #: Every exit status of ``tippetop`` and what it means (``tippetop --help`` lists them).
 EXIT_STATUSES: dict[int, str] = {
     EXIT_OK: "done: the run finished, the nightly found no regression, validate agrees",
-    EXIT_RUN_FAILED: "a run failed (diverged; one line says why), the nightly found a "
-                     "regression, or a validate check departs",
+    EXIT_RUN_FAILED: "a run failed (diverged or stopped short; one line says why), stdout "
+                     "could not be written, the nightly found a regression, or a validate "
+                     "check departs",
     EXIT_BAD_INPUT: "bad input: one line on stderr, nothing written",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C): the runs going are stopped, nothing half-written",
 }
