@@ -41,6 +41,8 @@ ENVIRONMENT: dict[str, str] = {
                  "OSMesa)",
     "NUMBA_CACHE_DIR": "where numba caches the compiled code instead (default: "
                        "$TIPPETOP_CACHE/numba/<key>)",
+    "TIPPETOP_MAX_SAMPLES_GIB": "the most memory a run's table of samples may take, in GiB "
+                                "(default 4); a larger run is refused before it starts",
 }
 
 

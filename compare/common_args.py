@@ -33,7 +33,8 @@ EXIT_STATUSES: dict[int, str] = {
                      "could not be written, the nightly found a regression, or a validate "
                      "check departs",
     EXIT_BAD_INPUT: "bad input: one line on stderr, nothing written",
-    EXIT_INTERRUPTED: "interrupted (Ctrl-C): the runs going are stopped, nothing half-written",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C, or SIGTERM to tippetop): the runs going are "
+                      "stopped, nothing half-written",
 }
 
 #: Help of the shared options, where every command words them the same.

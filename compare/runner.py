@@ -105,6 +105,8 @@ def default_cache_dir() -> Path:
 
 
 def _downsample(table: pd.DataFrame, rows: int = CACHED_TABLE_ROWS) -> pd.DataFrame:
+    if table.empty:  # a run that failed before its first sample
+        return table.reset_index(drop=True)
     step = max(1, len(table) // rows)
     out = table.iloc[::step]
     if out.index[-1] != table.index[-1]:
