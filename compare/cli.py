@@ -16,7 +16,6 @@ from tippetop.compare import commands
 from tippetop.compare.atlas_command import add_atlas_parser
 from tippetop.compare.calibrate.command import add_calibrate_parser
 from tippetop.compare.common_args import (
-    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_STATUSES,
     Parser,
@@ -26,9 +25,8 @@ from tippetop.compare.common_args import (
     add_set_option,
     add_workers_option,
     finite_float,
-    run_command,
+    run_main,
 )
-from tippetop.compare.interrupt import install_sigterm_handler
 from tippetop.compare.nightly.command import add_nightly_parser
 from tippetop.compare.render import add_render_parser
 from tippetop.compare.validate.command import add_validate_parser
@@ -324,15 +322,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tippetop`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
-    try:
-        return run_command(args)
-    except KeyboardInterrupt:
-        sys.stderr.write("tippetop: interrupted\n")
-        return EXIT_INTERRUPTED
-    except BrokenPipeError:  # e.g. piped into head
-        sys.stderr.close()
-        return EXIT_OK
+    return run_main(args)
 
 
 if __name__ == "__main__":

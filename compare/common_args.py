@@ -164,6 +164,21 @@ def run_command(args: argparse.Namespace) -> int:
             sys.stdout = real_stdout
 
 
+def run_main(args: argparse.Namespace) -> int:
+    """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
+    from tippetop.compare.interrupt import install_sigterm_handler
+
+    install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
+    try:
+        return run_command(args)
+    except KeyboardInterrupt:
+        sys.stderr.write("tippetop: interrupted\n")
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return EXIT_OK
+
+
 # ---------------------------------------------------------------- types
 def number(text: str) -> float:
     """An argparse type: any float (the command checks the range, NaN included)."""

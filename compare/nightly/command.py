@@ -16,7 +16,7 @@ from tippetop.compare.common_args import (
     add_scheduler_option,
     add_workers_option,
     comma_list,
-    run_command,
+    run_main,
 )
 from tippetop.models.plan import ENGINES
 
@@ -87,4 +87,4 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(["nightly", *argv])
     args._argv = argv
-    return run_command(args)
+    return run_main(args)
