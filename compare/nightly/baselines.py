@@ -48,7 +48,37 @@ def load_baseline(path: Path, *, missing_ok: bool = False) -> dict[str, dict[str
     if not isinstance(data, dict) or not isinstance(data.get("cases"), dict):
         raise TippetopError(f"--baseline: expected a baseline file with a 'cases' object, got "
                             f"{str(path)!r} without one")
+    for case_id, entry in data["cases"].items():
+        _check_entry(path, case_id, entry)
     return data["cases"]
+
+
+def _number(v: Any) -> bool:
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+def _check_entry(path: Path, case_id: str, entry: Any) -> None:
+    """A case's entry: metric -> value, a number where its tolerance compares numbers.
+
+    Checked as the file is read, so that a hand-edited entry of the wrong type is one line
+    and exit 2 before any run, not a traceback after them.
+    """
+    from tippetop.compare.nightly.tolerances import TOLERANCES
+
+    where = f"--baseline {str(path)!r}, case {case_id!r}"
+    if not isinstance(entry, dict):
+        raise TippetopError(f"{where}: expected an object of metric values, got "
+                            f"{type(entry).__name__} {json.dumps(entry)[:60]}")
+    for metric, v in entry.items():
+        tol = TOLERANCES.get(metric)
+        if tol is None or tol.kind == "exact":
+            continue
+        values = v.values() if isinstance(v, dict) else [v]
+        bad = next((x for x in values if not _number(x)), None)
+        if bad is not None or isinstance(v, list):
+            shown = json.dumps(bad if bad is not None else v)[:60]
+            raise TippetopError(f"{where}: expected a number (or null) for {metric!r}, got "
+                                f"{shown}")
 
 
 def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],

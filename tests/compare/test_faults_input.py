@@ -233,3 +233,22 @@ def test_diverged_mujoco_run_inside_compare_keeps_the_others() -> None:
     assert modes["mujoco-native"]["outcome"] == "failed"
     assert modes["mujoco-native"]["status"] == "diverged"
     assert modes["ode"]["outcome"] != "failed" and modes["ode"]["theta_final"] is not None
+
+
+@pytest.mark.parametrize(("entry", "says"), [
+    ([1, 2], "expected an object of metric values"),
+    ({"theta_asymp": "3.1"}, "expected a number (or null) for 'theta_asymp'"),
+    ({"theta_asymp": [3.1]}, "expected a number (or null) for 'theta_asymp'"),
+])
+def test_baseline_entry_of_the_wrong_type(tmp_path: Path, entry: object, says: str) -> None:
+    # a hand-edited baseline is refused as it is read, before the nightly runs anything
+    from tippetop.compare.nightly.baselines import BASELINE_DIR
+
+    data = json.loads((BASELINE_DIR / "quick.json").read_text())
+    data["cases"]["paper/fig3[ode]"] = entry
+    (tmp_path / "base").mkdir()
+    (tmp_path / "base" / "quick.json").write_text(json.dumps(data))
+    line = _bad_input("nightly", "--baseline", str(tmp_path / "base"), "--cases",
+                      "paper/fig3[ode]", "--out", str(tmp_path / "out"))
+    assert says in line and "paper/fig3[ode]" in line
+    assert not (tmp_path / "out").exists()
