@@ -469,7 +469,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
-    from tippetop.compare.io import write_atomic
+    from tippetop.compare.io import check_writable, write_atomic
     from tippetop.compare.sweep import parse_range, run_sweep, sweep_figure
     from tippetop.models.modes import parse_modes
 
@@ -479,9 +479,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.out:
         out_dir = Path(args.out)
         files = [out_dir / "sweep.csv", out_dir / "theory.csv", out_dir / "sweep.png"]
+        if out_dir.exists() and not out_dir.is_dir():
+            raise TippetopError(f"--out: expected a folder, got the file {str(out_dir)!r}")
         if any(f.exists() for f in files) and not args.force:
             raise TippetopError(f"--out: expected a folder without sweep results (or --force), "
                                 f"got {str(out_dir)!r} which has them")
+        base = out_dir if out_dir.is_dir() else out_dir.parent
+        if not base.is_dir():
+            raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
+        check_writable(base)  # before the runs, not after them
     res = run_sweep(args.scene, n0s, modes, tuple(args.set or []), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     if out_dir is not None:

@@ -31,10 +31,31 @@ def check_output_path(path: str | Path, *, force: bool, suffixes: tuple[str, ...
     if not p.parent.is_dir():
         raise TippetopError(f"--out: expected an existing folder for the file, got "
                             f"{str(p.parent)!r}")
+    if p.exists() and p.is_dir():
+        raise TippetopError(f"--out: expected a file, got the folder {str(path)!r}")
     if p.exists() and not force:
         raise TippetopError(f"--out: expected a path that does not exist yet (or --force to "
                             f"overwrite), got existing {str(path)!r}")
+    check_writable(p.parent)
     return p
+
+
+def check_writable(folder: Path) -> None:
+    """A file can be made in ``folder`` (checked by making one): before the work, not after.
+
+    A killed run's temporary files older than any live write are removed on the way
+    (:func:`tippetop.compare.leftovers.clean_leftovers`).
+    """
+    from tippetop.compare.leftovers import clean_leftovers
+
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".tippetop-probe.", dir=folder)
+    except OSError as exc:
+        raise TippetopError(f"--out: expected a folder tippetop can write into, got "
+                            f"{str(folder)!r} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+    clean_leftovers(folder)
 
 
 def check_output_dir(path: str | Path, *, force: bool) -> Path:
@@ -53,6 +74,7 @@ def check_output_dir(path: str | Path, *, force: bool) -> Path:
     if not p.parent.is_dir():
         raise TippetopError(f"--out: expected an existing parent folder, got "
                             f"{str(p.parent)!r}")
+    check_writable(p if p.is_dir() else p.parent)
     return p
 
 

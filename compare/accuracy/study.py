@@ -33,7 +33,7 @@ from tippetop.compare.accuracy.ode_study import (
     ode_work_precision,
 )
 from tippetop.compare.accuracy.pareto import mujoco_pareto_markdown, pareto_markdown, pareto_table
-from tippetop.compare.io import write_atomic
+from tippetop.compare.io import check_writable, write_atomic
 from tippetop.models.errors import TippetopError, expect
 
 ENGINES: tuple[str, ...] = ("ode", "mujoco")
@@ -118,6 +118,10 @@ def run_accuracy(
             if p.exists() and not force:
                 raise TippetopError(f"--out: expected a folder without {p.name} (or --force to "
                                     f"overwrite), got existing {str(p)!r}")
+    base = out if out.is_dir() else out.parent
+    if not base.is_dir():
+        raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
+    check_writable(base)  # before the runs, not after them
     out.mkdir(parents=True, exist_ok=True)
     refs = [reference_run(s) for s in scenes]
     references: dict[str, dict] = {}

@@ -252,3 +252,24 @@ def test_baseline_entry_of_the_wrong_type(tmp_path: Path, entry: object, says: s
                       "paper/fig3[ode]", "--out", str(tmp_path / "out"))
     assert says in line and "paper/fig3[ode]" in line
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("args", [
+    ("simulate", "fig3", "--out", "/proc/tippetop-x.csv"),
+    ("sweep", "fig3", "--n0", "40:50:10", "--modes", "ode", "--out", "/proc/tippetop-x"),
+    ("threshold", "--which", "n1", "--out", "/proc/tippetop-x"),
+    ("atlas", "--engines", "ode", "--out", "/proc/tippetop-x"),
+    ("render", "fig3", "--out", "/proc/tippetop-x.mp4"),
+    ("bench", "accuracy", "--out", "/proc/tippetop-x"),
+    ("nightly", "--out", "/proc/tippetop-x"),
+])
+def test_out_in_a_place_no_file_can_be_made(args: tuple[str, ...]) -> None:
+    # /proc takes no new files: refused before any run (each of these would run for minutes)
+    line = _bad_input(*args, timeout=60)
+    assert "expected a folder tippetop can write into" in line and "'/proc'" in line
+
+
+def test_out_naming_a_folder_where_a_file_is_needed(tmp_path: Path) -> None:
+    (tmp_path / "t.csv").mkdir()
+    line = _bad_input("simulate", "fig3", "--out", str(tmp_path / "t.csv"))
+    assert "expected a file, got the folder" in line
