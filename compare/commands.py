@@ -380,6 +380,9 @@ def cmd_threshold(args: argparse.Namespace) -> int:
         print(_cache_line(None, None, not args.no_cache))
         if files:
             print("wrote " + ", ".join(str(f) for f in files))
+    if res.get("failed_runs"):  # every run is reported above; the failure in one line
+        sys.stderr.write(f"tippetop: run failed: {res['warning']}\n")
+        return EXIT_RUN_FAILED
     return 0
 
 

@@ -34,7 +34,7 @@ import pandas as pd
 from tippetop.compare import theory
 from tippetop.compare.engines import run_failed
 from tippetop.compare.runner import Task, run_tasks
-from tippetop.models.errors import RunFailedError, TippetopError
+from tippetop.models.errors import TippetopError
 from tippetop.models.params import TopParams
 
 WHICH = ("n1", "n4", "nc")
@@ -214,6 +214,7 @@ class Search:
     root: float | None = None
     bracket: list[float] = field(default_factory=list)
     done: bool = False
+    failed: str | None = None
 
     def task(self, n: float) -> Task:
         """The run at spin ``n`` near the state."""
@@ -237,13 +238,21 @@ def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]])
             s = searches[i]
             if res.error:
                 raise TippetopError(f"growth rate at n0 = {n:.6g} rad/s: {res.error}")
-            if run_failed(res.summary):
-                raise RunFailedError(f"growth rate: the run at n0 = {n:.6g} rad/s failed: "
-                                    f"{res.summary.get('message')}")
+            if run_failed(res.summary):  # kept as a failed point; its search stops there
+                s.failed = (f"the {s.state} run at n0 = {n:.6g} rad/s failed: "
+                            f"{res.summary.get('message') or res.summary.get('status')}")
+                s.points[n] = {"n0": n, "state": s.state, "rate_per_s": math.nan,
+                               "modes": [], "residual": math.nan, "clean": False,
+                               "failed": s.failed, "wall_s": res.summary.get("wall_s")}
+                continue
             s.points[n] = {"n0": n, "state": s.state, **growth_fit(res.table),
                            "wall_s": res.summary.get("wall_s")}
         for i in list(wanted):
             s = searches[i]
+            if s.failed is not None:
+                s.root, s.bracket, s.done = None, [], True
+                del wanted[i]
+                continue
             try:
                 wanted[i] = steps[i].send([s.points[n]["rate_per_s"] for n in wanted[i]])
             except StopIteration as stop:
@@ -328,7 +337,8 @@ def measure_growth(scene: str | None, engine: str, which: str,
         "bracket": bracket,
         "runs": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"],
                   "crossed": (p["rate_per_s"] > 0) == (p["state"] == "upright"),
-                  "clean": p["clean"], "residual": p["residual"], "modes": p["modes"]}
+                  "clean": p["clean"], "residual": p["residual"], "modes": p["modes"],
+                  **({"failed": p["failed"]} if p.get("failed") else {})}
                  for p in points],
         "rates": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"]}
                   for p in points],
@@ -338,7 +348,14 @@ def measure_growth(scene: str | None, engine: str, which: str,
         "converged": measured is not None and settled(points, [n1, n3]),
         "n1": n1, "n3": n3, "n4": n4,
     }
-    if measured is None:
+    failures = [sr.failed for sr in searches.values() if sr.failed is not None]
+    if failures:
+        out["failed_runs"] = [{"n0": p["n0"], "state": p["state"], "message": p["failed"]}
+                              for p in points if p.get("failed")]
+        out["warning"] = "; ".join(failures) + " (the runs before it are kept)"
+        out["measured"], out["converged"], out["rel_diff"] = None, False, None
+        out["settled"] = False
+    elif measured is None:
         out["warning"] = (f"no sign change of the growth rate found for {which}: the "
                           f"{'upright' if which == 'n1' else 'inverted'} state is "
                           f"{'stable' if which == 'n1' else 'unstable'} at every spin tried "

@@ -111,9 +111,9 @@ def measure_threshold(
         res = measure_growth(scene, engine, which, overrides,
                              **({"rel_tol": rel_tol} if rel_tol else {}),
                              scheduler=scheduler, workers=workers, use_cache=use_cache)
-        if res["measured"] is None:
+        if res["measured"] is None and not res.get("failed_runs"):
             raise TippetopError(f"threshold: {res['warning']}")
-        return res
+        return res  # with failed_runs: the caller reports them (exit 1), the others kept
     if which == "n4":
         raise TippetopError("--method bisect: expected --which n1 or nc (n4 is measured from "
                             "growth rates), got n4")

@@ -212,6 +212,10 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
         log(f"  failed: {cr.error}")
         return
     cr.wall_s = time.perf_counter() - t0
+    if res.get("failed_runs"):
+        cr.error = f"RunFailedError: {res['warning']}"
+        log(f"  failed: {cr.error}")
+        return
     cr.values = {"measured": res["measured"], "converged": bool(res["converged"])}
     cr.detail = {"threshold": {**res, "rel_tol": c.rel_tol}}
     log(f"  {res['measured']:.4g} rad/s (theory {res['theory']:.4g}), {res['n_runs']} runs, "

@@ -132,10 +132,12 @@ def test_failed_runs_inside_sweep_are_rows(tmp_path: Path) -> None:
 
 
 def test_failed_run_inside_threshold_is_a_failed_run() -> None:
+    # the runs are reported (the failed ones said so), no threshold is claimed: '-'
     r = _run("threshold", "fig3", "--which", "n1", *STOP_SHORT)
     assert r.returncode == 1, r.stderr
     assert "max_steps" in _one_line(r.stderr, "tippetop: run failed:")
-    assert r.stdout == ""
+    measured = next(x for x in r.stdout.splitlines() if x.strip().startswith("measured"))
+    assert measured.split()[1] == "-" and "failed" in r.stdout
 
 
 # ---------------------------------------------------------------- command-line options
@@ -273,3 +275,16 @@ def test_out_naming_a_folder_where_a_file_is_needed(tmp_path: Path) -> None:
     (tmp_path / "t.csv").mkdir()
     line = _bad_input("simulate", "fig3", "--out", str(tmp_path / "t.csv"))
     assert "expected a file, got the folder" in line
+
+
+def test_failed_runs_inside_threshold_are_reported_per_run() -> None:
+    # every growth-rate run stops at max_steps: each is listed (JSON keeps them), no
+    # threshold is claimed, and the failure is one line with exit 1
+    r = _run("threshold", "--which", "n1", "--set", "ode.max_steps=10", "--json",
+             "--no-cache")
+    assert r.returncode == 1, r.stderr
+    _one_line(r.stderr, "tippetop: run failed:")
+    data = json.loads(r.stdout)
+    assert data["measured"] is None and not data["converged"] and not data["settled"]
+    assert len(data["failed_runs"]) == 2 and all(x.get("failed") for x in data["runs"])
+    assert "max_steps" in data["failed_runs"][0]["message"]
