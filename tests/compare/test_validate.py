@@ -284,14 +284,20 @@ def test_ctrl_c_leaves_no_partial_output_and_no_traceback(tmp_path: Path) -> Non
     assert stderr.strip().splitlines()[-1] == "tippetop: interrupted"
     assert "Traceback" not in stderr and stdout == ""
     assert not out.exists() and list(tmp_path.iterdir()) == []
-    # the session's workers are gone: none left running (a terminated one may linger as a
-    # zombie until init reaps it)
-    states = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:  # gone while we looked
-            continue
-        if int(fields[3]) == proc.pid:  # fields: state, ppid, pgrp, session, ...
-            states.append(fields[0])
+    # the session's workers are gone within 5 s (the bound): none left running (a
+    # terminated one may linger as a zombie until init reaps it; the workers die with the
+    # main process, and multiprocessing's resource tracker a few ms after it)
+    deadline = time.monotonic() + 5.0
+    while True:
+        states = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:  # gone while we looked
+                continue
+            if int(fields[3]) == proc.pid:  # fields: state, ppid, pgrp, session, ...
+                states.append(fields[0])
+        if all(state == "Z" for state in states) or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
     assert all(state == "Z" for state in states), states
