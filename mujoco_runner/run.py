@@ -39,7 +39,7 @@ from tippetop.mujoco_runner.friction_callback import (
     compiled_callback,
     law_parameters,
 )
-from tippetop.mujoco_runner.model import TopModel
+from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
 from tippetop.mujoco_runner.observables import observables_table
 from tippetop.mujoco_runner.settings import build_model, integrator_name, settings_that_ran
 from tippetop.mujoco_runner.state import initial_qpos_qvel
@@ -408,7 +408,9 @@ def _warning_message(data: mujoco.MjData) -> str | None:
     if not counts.any():
         return None
     i = int(np.flatnonzero(counts)[0])
-    return f"MuJoCo warning {mujoco.mjtWarning(i).name} ({int(counts[i])}x)"
+    # MuJoCo's own text, kept by the warning handler instead of printed beside this line
+    text = f": {MUJOCO_WARNINGS[-1].removeprefix('WARNING: ')}" if MUJOCO_WARNINGS else ""
+    return f"MuJoCo warning {mujoco.mjtWarning(i).name} ({int(counts[i])}x){text}"
 
 
 def simulate_top_model(
