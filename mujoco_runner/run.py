@@ -218,9 +218,12 @@ def simulate_plan(plan: MujocoPlan, *,
     top_model = build_model(plan)
     dt = float(top_model.model.opt.timestep)
     sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
-    return simulate_top_model(top_model, plan.law, plan.init, t_end_s=plan.t_end_s,
-                              sample_dt_s=sample_dt, mode=plan.mode, progress=progress,
-                              keyframe=plan.keyframe, stem=plan.stem)
+    # a run that blows up says so in its status and one-line message; numpy's overflow
+    # warnings on the way (energies of a diverging state) would only add a second line
+    with np.errstate(over="ignore", invalid="ignore"):
+        return simulate_top_model(top_model, plan.law, plan.init, t_end_s=plan.t_end_s,
+                                  sample_dt_s=sample_dt, mode=plan.mode, progress=progress,
+                                  keyframe=plan.keyframe, stem=plan.stem)
 
 
 def _check_paper_contacts(top_model: TopModel) -> None:

@@ -288,3 +288,13 @@ def test_failed_runs_inside_threshold_are_reported_per_run() -> None:
     assert data["measured"] is None and not data["converged"] and not data["settled"]
     assert len(data["failed_runs"]) == 2 and all(x.get("failed") for x in data["runs"])
     assert "max_steps" in data["failed_runs"][0]["message"]
+
+
+def test_a_start_too_fast_for_double_precision_is_one_line() -> None:
+    # the reference refuses it as bad input; MuJoCo runs it and it diverges at once: one line
+    # each, without numpy's overflow warnings beside it
+    line = _bad_input("simulate", "fig3", "--set", "init.uOX=1e200", *SHORT)
+    assert "too large for double precision" in line
+    r = _run("simulate", "fig3", "--engine", "mujoco", "--set", "init.uOX=1e200", *SHORT)
+    assert r.returncode == 1
+    assert "diverged" in _one_line(r.stderr, "tippetop: run failed:")
