@@ -59,9 +59,10 @@ def cmd_atlas(args: argparse.Namespace) -> int:
     engines = comma_list(args.engines)
     out_dir = None
     if args.out:
-        from tippetop.compare.io import check_output_dir
+        from tippetop.compare.io import check_output_dir, hold_output_lock
 
         out_dir = check_output_dir(args.out, force=args.force)  # before any run
+        hold_output_lock(out_dir)
     res = run_atlas(ac, ar, engines, tuple(args.set or []), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     files = write_atlas(res, out_dir) if out_dir is not None else []

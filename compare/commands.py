@@ -365,9 +365,10 @@ def cmd_threshold(args: argparse.Namespace) -> int:
 
     out_dir = None
     if getattr(args, "out", None):
-        from tippetop.compare.io import check_output_dir
+        from tippetop.compare.io import check_output_dir, hold_output_lock
 
         out_dir = check_output_dir(args.out, force=args.force)
+        hold_output_lock(out_dir)  # a second run into it is refused now, not mixed in later
     method = {"method": args.method} if getattr(args, "method", None) else {}
     res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
@@ -472,7 +473,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
-    from tippetop.compare.io import check_writable, write_atomic
+    from tippetop.compare.io import check_writable, hold_output_lock, write_atomic
     from tippetop.compare.sweep import parse_range, run_sweep, sweep_figure
     from tippetop.models.modes import parse_modes
 
@@ -491,6 +492,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if not base.is_dir():
             raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
         check_writable(base)  # before the runs, not after them
+        hold_output_lock(out_dir)  # a second sweep into it is refused now
     res = run_sweep(args.scene, n0s, modes, tuple(args.set or []), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     if out_dir is not None:

@@ -207,3 +207,31 @@ def write_table(table: pd.DataFrame, path: Path) -> None:
         write_atomic(path, lambda tmp: table.to_parquet(tmp, index=False))
     else:
         write_atomic(path, lambda tmp: table.to_csv(tmp, index=False, float_format="%.17g"))
+
+
+_HELD: dict[str, contextlib.ExitStack] = {}
+
+
+def hold_output_lock(folder: str | Path, *, option: str = "--out") -> None:
+    """Take :func:`locked_output_dir`'s lock on ``folder`` for the rest of this command.
+
+    For commands that check their ``--out`` folder first and write it at the end: a second
+    run into the same folder is refused at its start instead of mixing its files into the
+    first's. Released when the process exits (by the system, if it is killed).
+    """
+    key = str(Path(folder).resolve())
+    if key in _HELD:
+        return
+    stack = contextlib.ExitStack()
+    stack.enter_context(locked_output_dir(folder, option=option))
+    _HELD[key] = stack
+    if len(_HELD) == 1:
+        import atexit
+
+        atexit.register(_release_all)
+
+
+def _release_all() -> None:
+    for stack in _HELD.values():
+        stack.close()
+    _HELD.clear()

@@ -33,7 +33,7 @@ from tippetop.compare.accuracy.ode_study import (
     ode_work_precision,
 )
 from tippetop.compare.accuracy.pareto import mujoco_pareto_markdown, pareto_markdown, pareto_table
-from tippetop.compare.io import check_writable, write_atomic
+from tippetop.compare.io import check_writable, hold_output_lock, write_atomic
 from tippetop.models.errors import TippetopError, expect
 
 ENGINES: tuple[str, ...] = ("ode", "mujoco")
@@ -122,6 +122,7 @@ def run_accuracy(
     if not base.is_dir():
         raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
     check_writable(base)  # before the runs, not after them
+    hold_output_lock(out)  # a second study into it is refused now
     out.mkdir(parents=True, exist_ok=True)
     refs = [reference_run(s) for s in scenes]
     references: dict[str, dict] = {}

@@ -71,6 +71,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from tippetop.compare.validate.run import ValidateConfig, validate
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
+    if out is not None:
+        from tippetop.compare.io import hold_output_lock
+
+        hold_output_lock(out)
     config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,
                             keyframe=args.keyframe, scheduler=args.scheduler,
                             workers=args.workers, use_cache=not args.no_cache)

@@ -306,3 +306,34 @@ def test_old_entry_without_checksums_or_for_another_key_is_recomputed(
     res = run_tasks([_tiny_task()], workers=1, cache_dir=tmp_path / "cache")[0]
     assert not res.cached
     _same(res, fresh)
+
+
+@pytest.mark.parametrize("command", [
+    ("atlas", "--engines", "ode", "--A-over-C", "1:1:1", "--a-over-R", "0.1:0.1:1"),
+    ("threshold", "--which", "n1"),
+    ("sweep", "fig3", "--n0", "40:50:10", "--modes", "ode"),
+    ("validate", str(Path(__file__).resolve().parents[2] / "examples"
+                     / "paper_loaded_sphere.xml")),
+])
+def test_every_out_folder_is_locked_while_a_command_writes_it(
+        tmp_path: Path, command: tuple[str, ...]) -> None:
+    """A second command into a folder another run holds is refused at its start (exit 2,
+    one line naming the holder), before any run: its files are never mixed into the first's."""
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys
+            from tippetop.compare.io import locked_output_dir
+            with locked_output_dir({str(out)!r}):
+                print("locked", flush=True)
+                sys.stdin.read()
+            """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        r = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *command, "--out",
+                            str(out)], capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2, r.stderr
+        assert r.stderr.count("\n") == 1 and f"pid {holder.pid}" in r.stderr, r.stderr
+        assert not out.exists()
+    finally:
+        holder.communicate("", timeout=30)
