@@ -14,6 +14,7 @@ cached, and keeps the sub-bracket where the outcome changes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -23,7 +24,7 @@ from tippetop.compare import theory
 from tippetop.compare.engines import run_failed
 from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
 from tippetop.compare.runner import Task, run_tasks
-from tippetop.models.errors import RunFailedError, TippetopError
+from tippetop.models.errors import TippetopError
 
 WHICH = ("n1", "n4", "nc")
 #: A bisection run for n_c that is still moving at its end is continued over twice, then four
@@ -166,15 +167,22 @@ def bisect_threshold(
                      for n0 in spins]
             out = run_tasks(tasks, scheduler=scheduler, workers=workers,
                             use_cache=use_cache, label=f"{which} bisection")
-            for n0, res in zip(spins, out, strict=True):
+            for res in out:
                 if res.error:
                     raise TippetopError(res.error)
-                if run_failed(res.summary):
-                    raise RunFailedError(f"threshold: the run at n0 = {n0:.6g} rad/s failed: "
-                                        f"{res.summary['message']}")
             return list(out)
 
         results = dict(zip(n0s, batch(n0s, extra), strict=True))
+        failed = [(n0, r) for n0, r in results.items() if run_failed(r.summary)]
+        if failed:
+            for n0, r in results.items():
+                ok = not run_failed(r.summary)
+                runs.append({"n0": n0, "crossed": crossed(which, r.table) if ok else None,
+                             "status": r.summary.get("status", "ok"),
+                             **({} if ok else {"failed": r.summary.get("message")})})
+            raise _Failed([{"n0": n0, "message": f"the run at n0 = {n0:.6g} rad/s failed: "
+                                                 f"{r.summary.get('message')}"}
+                           for n0, r in failed])
         horizon_here = next((float(x.split("=", 1)[1]) for x in reversed(extra)
                              if x.startswith("run.t_end_s=")), base.run.t_end_s)
         # n_c: a run whose final state is still moving is continued (the horizon doubled, at
@@ -201,6 +209,35 @@ def bisect_threshold(
             flags.append(flag)
         return flags
 
+    try:
+        return _bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
+                       rel_tol=rel_tol, max_rounds=max_rounds, k=k,
+                       horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
+                       unsettled=unsettled)
+    except _Failed as exc:  # every run so far is kept; no threshold is claimed
+        return {"which": which, "engine": engine, "scene": base.name, "measured": None,
+                "theory": n_th, "rel_diff": None, "bracket": [],
+                "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),
+                "horizon_s": base.run.t_end_s, "converged": False, "method": "bisect",
+                "rates": [], "settled": False, "unsettled_n0": sorted(unsettled),
+                "failed_runs": exc.runs,
+                "warning": "; ".join(r["message"] for r in exc.runs)
+                + " (the runs before it are kept)"}
+
+
+class _Failed(Exception):
+    """A bisection run failed: the bisection stops, what ran is reported."""
+
+    def __init__(self, runs: list[dict[str, Any]]) -> None:
+        super().__init__(runs[0]["message"])
+        self.runs = runs
+
+
+def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str, engine: str,
+            n_th: float, rel_tol: float, max_rounds: int, k: int, horizon: float,
+            horizon_check: bool, runs: list[dict[str, Any]],
+            unsettled: list[float]) -> dict[str, Any]:
+    """The bisection itself, on ``evaluate`` (True where a run is above the threshold)."""
     lo, hi = 0.8 * n_th, 1.25 * n_th
     for _ in range(4):  # widen the bracket until its ends disagree
         f_lo, f_hi = evaluate([lo, hi])
@@ -227,7 +264,6 @@ def bisect_threshold(
     bracket_ok = (hi - lo) / measured <= rel_tol
     # Near a threshold the approach slows without bound: the ends of the final bracket run
     # again over twice the horizon must keep their sides, or the answer is the horizon's
-    horizon = base.run.t_end_s
     if horizon_check:
         again = evaluate([lo, hi], (f"run.t_end_s={2.0 * horizon!r}",), record=False)
         depends = again != [False, True]
@@ -245,7 +281,7 @@ def bisect_threshold(
     return {
         "which": which,
         "engine": engine,
-        "scene": base.name,
+        "scene": scene_name,
         "measured": measured,
         "theory": n_th,
         "rel_diff": measured / n_th - 1.0,

@@ -298,3 +298,13 @@ def test_a_start_too_fast_for_double_precision_is_one_line() -> None:
     r = _run("simulate", "fig3", "--engine", "mujoco", "--set", "init.uOX=1e200", *SHORT)
     assert r.returncode == 1
     assert "diverged" in _one_line(r.stderr, "tippetop: run failed:")
+
+
+def test_failed_runs_inside_a_bisection_are_reported_per_run() -> None:
+    r = _run("threshold", "--which", "n1", "--method", "bisect", "--set", "ode.max_steps=10",
+             "--json", "--no-cache")
+    assert r.returncode == 1, r.stderr
+    _one_line(r.stderr, "tippetop: run failed:")
+    data = json.loads(r.stdout)
+    assert data["measured"] is None and data["method"] == "bisect" and not data["converged"]
+    assert data["failed_runs"] and all(x.get("failed") for x in data["runs"])
