@@ -11,6 +11,7 @@ the command line stays cheap.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -160,8 +161,22 @@ def run_command(args: argparse.Namespace) -> int:
             sys.stderr.write(f"tippetop: failed: could not write the output to stdout "
                              f"({exc})\n")
             return EXIT_RUN_FAILED
+        except OSError as exc:
+            if exc.errno not in _WRITE_ERRNOS:
+                raise
+            where = f" {exc.filename}" if exc.filename else ""
+            sys.stderr.write(f"tippetop: failed: could not write{where} ({exc.strerror}); "
+                             f"no partial file was left\n")
+            return EXIT_RUN_FAILED
         finally:
             sys.stdout = real_stdout
+
+
+#: Errors of a write that the disk or the system refused (full, read-only, no permission,
+#: over quota, too large): one line and exit 1, not a traceback. Outputs are written
+#: atomically, so none is left half-written.
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM,
+                 errno.EIO, errno.EFBIG}
 
 
 def run_main(args: argparse.Namespace) -> int:

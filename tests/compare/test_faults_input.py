@@ -308,3 +308,25 @@ def test_failed_runs_inside_a_bisection_are_reported_per_run() -> None:
     data = json.loads(r.stdout)
     assert data["measured"] is None and data["method"] == "bisect" and not data["converged"]
     assert data["failed_runs"] and all(x.get("failed") for x in data["runs"])
+
+
+def test_a_full_disk_while_writing_an_output_is_one_line(tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    # the table's writer hits ENOSPC: one line, exit 1, no file and no temporary file left
+    import errno
+
+    import pandas as pd
+
+    from tippetop.compare.cli import main
+
+    def full(self: object, path: object, *a: object, **k: object) -> None:
+        Path(str(path)).write_bytes(b"partial")
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "fig3", *SHORT, "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("tippetop: failed: could not write")
+    assert "No space left on device" in err and list(tmp_path.iterdir()) == []
