@@ -13,7 +13,12 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import check_output_dir, locked_output_dir, write_atomic
+from tippetop.compare.io import (
+    check_output_dir,
+    locked_output_dir,
+    staged_output_dir,
+    write_atomic,
+)
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
     baseline_file,
@@ -130,70 +135,72 @@ def _run_locked(opts: NightlyOptions, log: Callable[[str], None], echo: Callable
                      shared_cache=opts.cache, log=log)
     records = [case_record(cr, check_case(cr, baseline)) for cr in runs]
     env = environment()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tables: dict[str, pd.DataFrame] = {}
-    (out_dir / "tables").mkdir(exist_ok=True)
-    for cr, rec in zip(runs, records, strict=True):
-        if cr.table is not None:
-            tab = downsample(cr.table)
-            rel = f"tables/{slug(cr.case.id)}.parquet"
-            write_atomic(out_dir / rel, lambda tmp, t=tab: t.to_parquet(tmp, index=False))
-            rec["table"] = rel
-            tables[cr.case.id] = tab
-    results: dict[str, Any] = {
-        "format": RESULTS_FORMAT,
-        "profile": opts.profile,
-        "profile_description": catalogue.profiles[opts.profile],
-        "catalogue": str(catalogue.path),
-        "engines": list(opts.engines),
-        "case_patterns": list(opts.cases),
-        "command": ["tippetop", "nightly", *opts.argv],
-        "started": started,
-        "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
-                          else str(bfile)),
-        "no_baseline": opts.no_baseline,
-        "baseline_update": None,
-        "videos": (render_videos(cases, out_dir, log) if opts.videos
-                   else {"requested": False, "status": "not requested", "files": {}}),
-        "environment": env,
-        "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
-                           "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
-        "cases": records,
-        "crossval": crossval_rows(records),
-    }
-    results["counts"] = count(records)
-    if opts.update_baseline:
-        profile_ids = {c.id for c in catalogue.cases if opts.profile in c.profiles}
-        results["baseline_update"] = update_baseline(bfile, opts.profile, records,
-                                                     profile_ids, env)
-    c = results["counts"]
-    videos_failed = bool(results["videos"].get("failed"))
-    failed = (c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
-              or videos_failed)
-    results["verdict"] = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
-                          else "ERROR" if c["cases_error"] else
-                          "ERROR (videos failed)" if videos_failed else "OK")
-    results["finished"] = timestamp()
-    results["wall_s"] = time.perf_counter() - t0
+    # everything goes into a hidden staging folder that becomes --out at the end: a run
+    # stopped on the way (Ctrl-C during the videos, say) leaves no half-written folder
+    with staged_output_dir(out_dir) as stage:
+        tables: dict[str, pd.DataFrame] = {}
+        (stage / "tables").mkdir(exist_ok=True)
+        for cr, rec in zip(runs, records, strict=True):
+            if cr.table is not None:
+                tab = downsample(cr.table)
+                rel = f"tables/{slug(cr.case.id)}.parquet"
+                write_atomic(stage / rel, lambda tmp, t=tab: t.to_parquet(tmp, index=False))
+                rec["table"] = rel
+                tables[cr.case.id] = tab
+        results: dict[str, Any] = {
+            "format": RESULTS_FORMAT,
+            "profile": opts.profile,
+            "profile_description": catalogue.profiles[opts.profile],
+            "catalogue": str(catalogue.path),
+            "engines": list(opts.engines),
+            "case_patterns": list(opts.cases),
+            "command": ["tippetop", "nightly", *opts.argv],
+            "started": started,
+            "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
+                              else str(bfile)),
+            "no_baseline": opts.no_baseline,
+            "baseline_update": None,
+            "videos": (render_videos(cases, stage, log) if opts.videos
+                       else {"requested": False, "status": "not requested", "files": {}}),
+            "environment": env,
+            "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
+                               "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
+            "cases": records,
+            "crossval": crossval_rows(records),
+        }
+        results["counts"] = count(records)
+        if opts.update_baseline:
+            profile_ids = {c.id for c in catalogue.cases if opts.profile in c.profiles}
+            results["baseline_update"] = update_baseline(bfile, opts.profile, records,
+                                                         profile_ids, env)
+        c = results["counts"]
+        videos_failed = bool(results["videos"].get("failed"))
+        failed = (c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
+                  or videos_failed)
+        results["verdict"] = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
+                              else "ERROR" if c["cases_error"] else
+                              "ERROR (videos failed)" if videos_failed else "OK")
+        results["finished"] = timestamp()
+        results["wall_s"] = time.perf_counter() - t0
 
-    def write_results() -> None:
-        text = json.dumps(json_ready(results), indent=1) + "\n"
-        write_atomic(out_dir / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
-        xml = junit_xml(json_ready(results))
-        write_atomic(out_dir / "junit.xml", lambda tmp: tmp.write_bytes(xml))
+        def write_results() -> None:
+            text = json.dumps(json_ready(results), indent=1) + "\n"
+            write_atomic(stage / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
+            xml = junit_xml(json_ready(results))
+            write_atomic(stage / "junit.xml", lambda tmp: tmp.write_bytes(xml))
 
-    write_results()
-    try:
-        from tippetop.compare.report.build import build_report
-
-        build_report(json_ready(results), out_dir / "report.html", tables=tables,
-                     accuracy_dir=opts.accuracy_dir)
-    except Exception as exc:  # noqa: BLE001 - the verdict is written; the report is part of it
-        traceback.print_exc(file=sys.stderr)
-        results["report_error"] = error_text(exc)
-        results["verdict"] = ("ERROR" if results["verdict"] == "OK" else results["verdict"]) \
-            + " (report failed)"
-        failed = True
         write_results()
+        try:
+            from tippetop.compare.report.build import build_report
+
+            build_report(json_ready(results), stage / "report.html", tables=tables,
+                         accuracy_dir=opts.accuracy_dir)
+        except Exception as exc:  # noqa: BLE001 - the verdict is written; the report is part of it
+            traceback.print_exc(file=sys.stderr)
+            results["report_error"] = error_text(exc)
+            results["verdict"] = ("ERROR" if results["verdict"] == "OK" else results["verdict"]) \
+                + " (report failed)"
+            failed = True
+            write_results()
     echo(summary_text(results, out_dir))
     return EXIT_REGRESSION if failed else EXIT_OK

@@ -337,3 +337,25 @@ def test_every_out_folder_is_locked_while_a_command_writes_it(
         assert not out.exists()
     finally:
         holder.communicate("", timeout=30)
+
+
+def test_a_nightly_stopped_while_writing_leaves_no_folder(
+        tiny: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C while the nightly writes its folder (here: during the report): no --out folder,
+    no staging folder, no lock file; the same command then runs without --force."""
+    from tippetop.compare.report import build as report_build
+
+    def interrupted(*a: object, **k: object) -> None:
+        raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(report_build, "build_report", interrupted)
+    code, _, err = run_nightly(*_args(tiny, out, "--no-baseline"))
+    assert code == 130 and err.splitlines()[-1] == "tippetop: interrupted", err
+    assert not out.exists()
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".out")]
+    monkeypatch.undo()
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    code, stdout, err = run_nightly(*_args(tiny, out, "--no-baseline"))
+    assert code == 0, stdout + err
+    assert (out / "report.html").is_file() and (out / "results.json").is_file()
