@@ -9,20 +9,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.nightly.verdict import scene_key
+from tippetop.compare.nightly.verdict import scene_key, top_of
 from tippetop.compare.report.markup import esc, html_table, png, pyplot
 
 _LABEL_MARKERS = {"(a)": "o", "(b)": "s", "(c)": "D", "(d)": "X"}
 #: Rows of a run's table drawn in its figures.
 PLOT_ROWS = 1500
-
-
-def _top(params: Mapping[str, Any]):
-    from tippetop.models.params import TopParams
-
-    return TopParams(R_m=params["R_m"], a_m=params["a_m"], M_kg=params["M_kg"],
-                     A_kgm2=params["A_kgm2"], C_kgm2=params["C_kgm2"],
-                     g_mps2=params["g_mps2"])
 
 
 def _thin(table: pd.DataFrame, rows: int = PLOT_ROWS) -> pd.DataFrame:
@@ -182,7 +174,7 @@ def sweeps_section(results: Mapping[str, Any]) -> str:
         rows = []
         for r in recs:
             label = r.get("label") or r["name"]
-            top = _top(r["params"])
+            top = top_of(r["params"])
             n0s = [p["n0"] for p in r["points"]]
             if label not in drawn:
                 grid = np.linspace(min(n0s), max(n0s), 300)

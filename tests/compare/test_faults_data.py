@@ -67,6 +67,21 @@ def _args(t: dict[str, Path], out: Path, *extra: str) -> list[str]:
 
 
 # ---------------------------------------------------------------- the output folder's lock
+def _hold_lock(out: Path) -> subprocess.Popen[str]:
+    """Another process holding ``out``'s lock (as a running command does) until its stdin
+    closes; returned once it holds it."""
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys
+            from tippetop.compare.io import locked_output_dir
+            with locked_output_dir({str(out)!r}):
+                print("locked", flush=True)
+                sys.stdin.read()
+            """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+    return holder
+
+
 def test_lock_helper_refuses_a_second_holder_and_names_the_pid(tmp_path: Path) -> None:
     out = tmp_path / "out"
     with locked_output_dir(out) as lock:
@@ -86,16 +101,8 @@ def test_second_nightly_into_a_locked_folder_exits_2_and_leaves_it_alone(
         tiny: dict[str, Path], tmp_path: Path) -> None:
     """Another process holds the folder's lock (as a running nightly does): refused, exit 2."""
     out = tmp_path / "out"
-    holder = subprocess.Popen(
-        [sys.executable, "-c", textwrap.dedent(f"""
-            import sys, time
-            from tippetop.compare.io import locked_output_dir
-            with locked_output_dir({str(out)!r}):
-                print("locked", flush=True)
-                sys.stdin.read()
-            """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    holder = _hold_lock(out)
     try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
         code, stdout, err = run_nightly(*_args(tiny, out, "--no-baseline"))
         assert code == 2, stdout + err
         assert err.count("\n") == 1 and err.startswith("tippetop: error: --out:"), err
@@ -320,16 +327,8 @@ def test_every_out_folder_is_locked_while_a_command_writes_it(
     """A second command into a folder another run holds is refused at its start (exit 2,
     one line naming the holder), before any run: its files are never mixed into the first's."""
     out = tmp_path / "out"
-    holder = subprocess.Popen(
-        [sys.executable, "-c", textwrap.dedent(f"""
-            import sys
-            from tippetop.compare.io import locked_output_dir
-            with locked_output_dir({str(out)!r}):
-                print("locked", flush=True)
-                sys.stdin.read()
-            """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    holder = _hold_lock(out)
     try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
         r = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *command, "--out",
                             str(out)], capture_output=True, text=True, timeout=60)
         assert r.returncode == 2, r.stderr
