@@ -300,7 +300,8 @@ def measure_growth(scene: str | None, engine: str, which: str,
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
     task = Task(scene or "fig11_n060", overrides, engine)
-    top = task.plan(task.load()).top
+    scene_obj = task.load()
+    top = task.plan(scene_obj).top
     th_value = {"n1": theory.n1, "n4": theory.n4, "nc": theory.n_c}[which](top)
     if which == "nc" and th_value is None:
         raise TippetopError(f"--which: nc exists for Group II tops only, got a Group "
@@ -331,7 +332,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
     points = [p for sr in searches.values() for p in sr.points.values()]
     points.sort(key=lambda p: (p["state"], p["n0"]))
     out: dict[str, Any] = {
-        "which": which, "engine": engine, "scene": task.load().name, "method": "growth",
+        "which": which, "engine": engine, "scene": scene_obj.name, "method": "growth",
         "measured": measured, "theory": th_value,
         "rel_diff": (measured / th_value - 1.0) if measured and th_value else None,
         "bracket": bracket,
