@@ -7,8 +7,10 @@ one giving the same results (tests/mujoco_runner/test_batch.py checks ==):
 
 * single: a loop of :func:`mujoco_runner.run.simulate_plan` in this process (the baseline;
   what a sweep costs on one core);
-* batch: :func:`mujoco_runner.batch.simulate_plans` on ``--threads`` threads (persistent
-  ``mujoco.batch.Batch``; what ``tippetop sweep`` and the other many-run commands now do);
+* batch: :func:`mujoco_runner.batch.simulate_plans` on ``--threads`` threads (what ``tippetop
+  sweep`` and the other many-run commands do): paper mode's runs step together in a persistent
+  ``mujoco.batch.Batch``; native mode's, which read their contacts from their own steps, each
+  on the compiled stepper on a thread of their own (``batch._run_threads``);
 * pool (``--pool``): the old path for reference, :func:`compare.runner.execute` of each run on
   a pool of ``--threads`` worker processes, already started and warm (its start-up is left
   out, which favours it); cold: the same on a pool started for the sweep, as a command paid

@@ -1,9 +1,21 @@
 """Many MuJoCo runs stepped together on threads, each equal to its single run bit for bit.
 
-:func:`iter_simulate_plans` runs many :class:`~tippetop.models.plan.MujocoPlan` in persistent
-``mujoco.batch.Batch`` objects (one mjData per simulation) on ``nthread`` threads, and gives
-each run's :class:`~tippetop.mujoco_runner.run.MujocoResult` as soon as it is done, the same
-one :func:`~tippetop.mujoco_runner.run.simulate_plan` gives:
+:func:`iter_simulate_plans` runs many :class:`~tippetop.models.plan.MujocoPlan` on ``nthread``
+threads and gives each run's :class:`~tippetop.mujoco_runner.run.MujocoResult` as soon as it
+is done, the same one :func:`~tippetop.mujoco_runner.run.simulate_plan` gives. Two ways:
+
+* Runs that read each sample's contacts from their own steps (native mode, or paper mode
+  without a law: :func:`~tippetop.mujoco_runner.run.contacts_from_steps`) run whole on
+  :func:`_run_threads`: a worker thread steps each as the single run does, in the compiled
+  stepper, which releases the GIL (:mod:`.stepper`), and the caller's thread turns the
+  records into results while the workers step the next runs. A ``Batch`` would lose those
+  contacts (they are not among its bindable fields), and forward passes to compute them
+  again afterwards cost the sweep a fifth of its rate.
+* The others (paper mode's law, whose N and forces need forward passes afterwards whichever
+  way a run is stepped; or when the compiled stepper is not usable) step in persistent
+  ``mujoco.batch.Batch`` objects (one mjData per simulation).
+
+In a batch:
 
 * Plans whose compiled models give MjData the same layout (every size of the model equal: the
   same scene with other spins, tops, contact settings, friction laws, modes or timesteps)
@@ -30,15 +42,21 @@ one :func:`~tippetop.mujoco_runner.run.simulate_plan` gives:
 
 The calls come back to Python at least once per sample and per :data:`MAX_CALL_STEPS` steps,
 so Ctrl-C is seen within about a second, and the caller's ``tick`` runs at least every
-:data:`TICK_S` (to redraw a progress bar, collect other work). The main thread drives the
-batch; do not run two batches from two Python threads (paper mode's callback is installed
-process-wide from the main thread, see :mod:`.friction_callback`).
+:data:`TICK_S` (to redraw a progress bar, collect other work). On threads the caller's thread
+waits for results at most :data:`TICK_S` at a time (Ctrl-C is seen there), and a worker stops
+at its next progress report (every :data:`~.run.PROGRESS_INTERVAL_S` of its stepping) once the
+caller stops; the workers are joined before the caller sees the interruption. The main
+thread drives the runs; do not run :func:`iter_simulate_plans` from two Python threads at once
+(paper mode's callback is installed process-wide from the main thread, see
+:mod:`.friction_callback`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import queue
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -51,6 +69,7 @@ from tippetop.models.errors import TippetopError
 from tippetop.models.params import FrictionParams
 from tippetop.models.plan import MujocoPlan, sample_interval, samples_budget_gib
 from tippetop.mujoco_runner import run as single
+from tippetop.mujoco_runner import stepper
 from tippetop.mujoco_runner.friction_callback import (
     USERDATA_SIZE,
     callback_installed,
@@ -200,8 +219,13 @@ def iter_simulate_plans(
             sims.append(_prepare(i, plan, models))
         except TippetopError as exc:
             yield i, exc
+    own = [_steps_own_contacts(sim) for sim in sims]
+    threaded = [sim for sim, yes in zip(sims, own, strict=True) if yes]
+    if threaded:
+        yield from _run_threads(threaded, nthread, progress, tick)
     budget = samples_budget_gib() * 2**30
-    for group in _groups(sims, budget):
+    rest = [sim for sim, yes in zip(sims, own, strict=True) if not yes]
+    for group in _groups(rest, budget):
         yield from _run_group(group, nthread, progress, tick)
 
 
@@ -333,6 +357,128 @@ def _run_group(group: list[_Sim], nthread: int, progress: Callable[[int, float],
                         progress(group[j].index, row[j] / n_intervals[j])
                 if tick is not None:
                     tick()
+
+def _steps_own_contacts(sim: _Sim) -> bool:
+    """Whether ``sim`` runs on :func:`_run_threads`: it reads its contacts from its own steps.
+
+    Such a run (native mode, or paper mode without a law, on a model whose ``mj_step``
+    splits) reads each sample's contacts from the forward pass that starts the next step, in
+    the compiled stepper. A ``Batch`` cannot give them (mjData's contacts are not among its
+    bindable fields, and ``get_data`` copies a whole mjData: 14 us a sample), so in a batch
+    the post-processing would run those forward passes again, serially: 1.6x the single
+    loop's rate on 2 cores for the 64-run sweep, against 2.0x on threads (benchmarks/
+    bench_mujoco_batch.py).
+    """
+    return (single.contacts_from_steps(sim.top_model.model, sim.law)
+            and stepper.load())
+
+
+class _Stopped(Exception):
+    """Raised in a worker's progress report when the runs are being stopped."""
+
+
+def _run_threads(sims: list[_Sim], nthread: int,
+                 progress: Callable[[int, float], None] | None,
+                 tick: Callable[[], None] | None
+                 ) -> Iterator[tuple[int, single.MujocoResult | TippetopError]]:
+    """Step each sim whole on one of ``nthread`` threads; finish them here, as they come.
+
+    Each worker takes the longest sim not yet taken and steps it as the single run does
+    (:func:`~.run.step_top_model`: the compiled stepper, which releases the GIL, on the
+    sim's own mjData), so its record is the single run's; this thread (the caller's) turns
+    the records into results (:func:`~.run.result_from_samples`, with the GIL) while the
+    workers step the next ones, reports progress and calls ``tick`` every :data:`TICK_S`.
+    When the caller stops (Ctrl-C, or it stops iterating), the workers stop at their next
+    progress report (every :data:`~.run.PROGRESS_INTERVAL_S`) and are joined before this
+    returns or raises.
+    """
+    order = sorted(sims, key=lambda s: -(s.n_rows * s.steps))
+    pending = iter(order)
+    take = threading.Lock()
+    done: queue.SimpleQueue[tuple[_Sim, Any] | None] = queue.SimpleQueue()
+    stop = threading.Event()
+    done_t: dict[int, float] = {}  # sim index -> simulated time stepped (workers write)
+
+    def work() -> None:
+        while not stop.is_set():
+            with take:
+                sim = next(pending, None)
+            if sim is None:
+                break
+            try:
+                out: Any = _step_sim(sim, stop, done_t)
+            except _Stopped:
+                break
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                out = exc
+            done.put((sim, out))
+        done.put(None)
+
+    workers = [threading.Thread(target=work, name=f"tippetop-mujoco-{k}", daemon=True)
+               for k in range(max(1, min(nthread, len(order))))]
+    running = {sim.index: sim for sim in order}
+    try:
+        for w in workers:
+            w.start()
+        live, last_tick = len(workers), time.perf_counter()
+        while live:
+            try:
+                item = done.get(timeout=TICK_S)
+            except queue.Empty:
+                item = ()
+            if item is None:
+                live -= 1
+            elif item:
+                sim, out = item
+                running.pop(sim.index, None)
+                if isinstance(out, TippetopError):
+                    yield sim.index, out
+                elif isinstance(out, BaseException):
+                    raise out
+                else:
+                    yield sim.index, _finish_stepped(sim, *out)
+            now = time.perf_counter()
+            if now - last_tick >= TICK_S:
+                last_tick = now
+                if progress is not None:
+                    for index, t in list(done_t.items()):
+                        if index in running:
+                            progress(index, t / running[index].plan.t_end_s)
+                if tick is not None:
+                    tick()
+    finally:
+        stop.set()
+        for w in workers:
+            w.join()
+
+
+def _step_sim(sim: _Sim, stop: threading.Event, done_t: dict[int, float]) -> tuple[Any, ...]:
+    """The single run's stepping of ``sim`` (in a worker thread): its record, as a tuple."""
+    plan = sim.plan
+
+    def report(t: float) -> None:
+        if stop.is_set():
+            raise _Stopped
+        done_t[sim.index] = t
+
+    return single.step_top_model(sim.top_model, sim.law, plan.init, steps=sim.steps,
+                                 n_intervals=sim.n_intervals, mode=plan.mode,
+                                 progress=report, keyframe=plan.keyframe, stem=plan.stem)
+
+
+def _finish_stepped(sim: _Sim, record: single.SampleRecord, failure: str | None,
+                    wall_s: float, ran: dict[str, Any]
+                    ) -> single.MujocoResult | TippetopError:
+    """A threaded sim's result from its record, as the single run makes it."""
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            return single.result_from_samples(
+                sim.top_model, record, mode=sim.plan.mode, law=sim.law, steps=sim.steps,
+                n_intervals=sim.n_intervals, stem=sim.plan.stem, failure=failure,
+                wall_s=wall_s, ran=ran)
+    except TippetopError as exc:
+        return exc
+
 
 def _run_alone(plan: MujocoPlan) -> single.MujocoResult | TippetopError:
     try:

@@ -110,7 +110,13 @@ def observables_table(
         "qz": quat[:, 3],
         "P_fric": P_fric,
     }
-    return pd.DataFrame({name: columns[name] for name in COLUMNS + EXTRA_COLUMNS})
+    names = COLUMNS + EXTRA_COLUMNS
+    # one float block, as the reference's table (a frame from a dict of 23 columns costs
+    # ~1 ms of pandas per table: a third of a short run's post-processing)
+    block = np.empty((len(names), n_rows))
+    for i, name in enumerate(names):
+        block[i] = columns[name]
+    return pd.DataFrame(block.T, columns=list(names))
 
 
 __all__ = ["observables_table"]

@@ -906,6 +906,41 @@ def simulate_top_model(
     """
     steps, n_intervals, law = run_grid(top_model, friction, mode=mode, t_end_s=t_end_s,
                                        sample_dt_s=sample_dt_s, mu=mu)
+    record, failure, wall_s, ran = step_top_model(
+        top_model, law, init, steps=steps, n_intervals=n_intervals, mode=mode, mu=mu,
+        progress=progress, keyframe=keyframe, stem=stem)
+    result = result_from_samples(top_model, record, mode=mode, law=law, steps=steps,
+                                 n_intervals=n_intervals, mu=mu, stem=stem, failure=failure,
+                                 wall_s=wall_s, ran=ran)
+    if progress is not None and len(result.table):
+        progress(float(result.table["t"].iloc[-1]))
+    return result
+
+
+def step_top_model(
+    top_model: TopModel,
+    law: FrictionParams | None,
+    init: InitialState,
+    *,
+    steps: int,
+    n_intervals: int,
+    mode: str,
+    mu: float | None = None,
+    progress: Callable[[float], None] | None = None,
+    keyframe: int | None = None,
+    stem: StemParams | None = None,
+) -> tuple[SampleRecord, str | None, float, dict[str, Any]]:
+    """The stepping half of :func:`simulate_top_model`, after :func:`run_grid`.
+
+    Starts a new mjData as the run does (initial state or keyframe, the callback armed with
+    ``law``, a forward pass for what ran) and steps it sample by sample. Touches nothing
+    shared but the process-wide callback, so runs of a thread pool may each call it on
+    their own mjData (the compiled stepper runs without the GIL).
+
+    Returns:
+        ``(record, failure, wall_s, ran)``: the samples, why the stepping stopped early
+        (None), its wall time and :func:`ran_settings`, for :func:`result_from_samples`.
+    """
     model = top_model.model
     data = mujoco.MjData(model)
     qa, va = top_model.qpos_adr, top_model.dof_adr
@@ -923,12 +958,17 @@ def simulate_top_model(
     with callback:
         record, failure, wall_s = _step_and_record(model, data, steps, n_intervals, progress,
                                                    contacts=law is None)
-    result = result_from_samples(top_model, record, mode=mode, law=law, steps=steps,
-                                 n_intervals=n_intervals, mu=mu, stem=stem, failure=failure,
-                                 wall_s=wall_s, ran=ran)
-    if progress is not None and len(result.table):
-        progress(float(result.table["t"].iloc[-1]))
-    return result
+    return record, failure, wall_s, ran
+
+
+def contacts_from_steps(model: mujoco.MjModel, law: FrictionParams | None) -> bool:
+    """Whether a run reads each sample's contacts from its own steps (no passes afterwards).
+
+    True for a run without paper mode's law on a model whose ``mj_step`` is known to split
+    after its forward pass (:func:`_integrator_split`); the others' contacts come from
+    forward passes at the recorded states in :func:`result_from_samples`.
+    """
+    return law is None and _integrator_split(model) is not None
 
 
 def _integrator_split(model: mujoco.MjModel) -> tuple[int, str] | None:
@@ -1137,6 +1177,8 @@ __all__ = [
     "simulate_mujoco",
     "simulate_plan",
     "simulate_top_model",
+    "step_top_model",
+    "contacts_from_steps",
     "run_grid",
     "paper_law_max_timestep",
     "contact_reach_m",

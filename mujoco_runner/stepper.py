@@ -7,7 +7,9 @@ of a sample's physics when a sample is only a few RK4 steps (native mode: 5 step
 calls MuJoCo's own functions (``mj_step``, ``mj_forward``, ``mj_getState``, ...) by their
 addresses in the very ``libmujoco`` the Python bindings use, on the bindings' ``mjModel*`` and
 ``mjData*``: the same C calls on the same structs, so the same numbers, without Python between
-them.
+them. Both loops release the GIL (numba's ``nogil``): steppers of other mjData run on other
+threads at once (:mod:`.batch`), and Python (the post-processing of finished runs) goes on
+beside them.
 
 What the loop reads that the bindings give only as views: ``qfrc_constraint`` and the warning
 counters (addresses of the bindings' own arrays, fixed for an mjData's life), ``ncon`` (the int
@@ -304,13 +306,13 @@ def _passes(fns, m, d, row0, spec, passes, skip, state, con, con_addr, law_addr,
 @functools.cache
 def _compiled_passes():
     """:func:`_passes` compiled (or loaded from numba's disk cache) on first use."""
-    return nb.njit(_PASSES_SIG, cache=True, error_model="numpy")(_passes)
+    return nb.njit(_PASSES_SIG, cache=True, error_model="numpy", nogil=True)(_passes)
 
 
 @functools.cache
 def _compiled_advance():
     """:func:`_advance` compiled (or loaded from numba's disk cache) on first use."""
-    return nb.njit(_ADVANCE_SIG, cache=True, error_model="numpy")(_advance)
+    return nb.njit(_ADVANCE_SIG, cache=True, error_model="numpy", nogil=True)(_advance)
 
 
 @functools.cache
@@ -407,6 +409,19 @@ def available() -> tuple[bool, str]:
     """Whether :func:`advance` can run in this process, and if not, why."""
     layout, why = _checked()
     return layout is not None, why
+
+
+def load() -> bool:
+    """Check the layout and compile (or load) both loops now, in this thread; True if usable.
+
+    Call it before steppers are made on other threads: each of these is done once per
+    process, and two threads doing it at once would do it twice.
+    """
+    if not available()[0]:
+        return False
+    _compiled_advance()
+    _compiled_passes()
+    return True
 
 
 class CompiledStepper:

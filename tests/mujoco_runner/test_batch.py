@@ -41,6 +41,17 @@ def _no_leftover_callback():
     assert friction_callback._install_count == 0, "a batch left the callback installed"
 
 
+@pytest.fixture(params=["threads", "batch"])
+def native_path(request, monkeypatch) -> str:
+    """Runs that read their contacts from their own steps: on threads (the default), or made
+    to run in a ``Batch`` as runs whose contacts need forward passes afterwards do."""
+    from tippetop.mujoco_runner import batch as mjb
+
+    if request.param == "batch":
+        monkeypatch.setattr(mjb, "_steps_own_contacts", lambda sim: False)
+    return request.param
+
+
 def _plan(scene: str, *overrides: str, engine: str = "mujoco"):
     return plan_for(load_scene(scene, [*T_END, *overrides]), engine).mujoco
 
@@ -65,7 +76,7 @@ def _assert_same(batched: MujocoResult, alone: MujocoResult) -> None:
 
 
 @pytest.mark.parametrize("friction", ["paper", "native"])
-def test_a_batch_on_two_threads_equals_single_runs(friction: str) -> None:
+def test_a_batch_on_two_threads_equals_single_runs(friction: str, native_path: str) -> None:
     # fig3's top at four spins and, in paper mode, another mu (another law in one batch)
     overrides = [(f"init.n0={n0}",) for n0 in (40.0, 75.0, 100.0, 140.0)]
     overrides.append(("init.n0=90.0", "friction.mu=0.3"))
@@ -143,8 +154,8 @@ def test_tops_of_one_layout_share_a_batch_and_each_runs_on_its_own_model() -> No
         _assert_same(res, simulate_plan(plan))
 
 
-def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path,
-                                                                   monkeypatch) -> None:
+def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path, monkeypatch,
+                                                                   native_path) -> None:
     monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
     plans = [
         _plan("fig3", "mujoco.friction=paper"),
@@ -174,8 +185,10 @@ def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path,
     assert [out[i].ok for i in (0, 1, 2, 4, 5)] == [True, False, False, True, False]
 
 
-def test_progress_reports_each_simulation() -> None:
-    plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", "run.t_end_s=0.4")
+def test_progress_reports_each_simulation(native_path: str) -> None:
+    # on threads a run reports every PROGRESS_INTERVAL_S of its stepping: 2 s is ~0.3 s
+    t_end = "run.t_end_s=2.0" if native_path == "threads" else "run.t_end_s=0.4"
+    plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", t_end)
              for n0 in (60.0, 90.0)]
     seen: dict[int, list[float]] = {}
     ticks = []
@@ -192,14 +205,16 @@ def test_progress_reports_each_simulation() -> None:
     assert sorted(results) == [0, 1] and all(r.ok for r in results.values())
     assert sorted(seen) == [0, 1] and ticks
     for fractions in seen.values():
-        assert fractions == sorted(fractions) and 0.0 < fractions[0] and fractions[-1] <= 1.0
+        assert fractions == sorted(fractions) and 0.0 <= fractions[0]
+        assert 0.0 < fractions[-1] <= 1.0
 
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.xml"))
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
-def test_loaded_tops_with_keyframes_and_stems_equal_single_runs(path: Path) -> None:
+def test_loaded_tops_with_keyframes_and_stems_equal_single_runs(path: Path,
+                                                                native_path: str) -> None:
     # The example tops: a file's keyframe as the start (mj_resetDataKeyframe) or the scene's
     # spin, a stem the law also acts at (paper mode) or MuJoCo's contact (native), in one call.
     plans = []
@@ -229,7 +244,7 @@ def test_a_sample_interval_split_into_several_calls_changes_nothing(monkeypatch)
         _assert_same(res, simulate_plan(plan))
 
 
-def test_runs_of_other_timesteps_and_samplings_share_one_batch() -> None:
+def test_runs_of_other_timesteps_and_samplings_share_one_batch(native_path: str) -> None:
     # compare's modes: paper at dt = 2e-5 s (50 steps a sample), native at 2e-4 s (5 steps),
     # native elliptic sampled every 2 ms (10 steps): one batch, stepped 5 steps a call
     from tippetop.mujoco_runner import batch as mjb
@@ -242,3 +257,80 @@ def test_runs_of_other_timesteps_and_samplings_share_one_batch() -> None:
     assert len(mjb._groups(sims, 2.0**30)) == 1
     for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
         _assert_same(res, simulate_plan(plan))
+
+
+def test_runs_that_read_their_contacts_from_their_steps_run_on_threads(monkeypatch) -> None:
+    # Native mode and paper mode without a law read each sample's contacts from their own
+    # steps: they run on the compiled stepper's threads; paper mode's law needs forward passes
+    # afterwards whichever way it runs, and runs in a Batch.
+    from tippetop.mujoco_runner import batch as mjb
+
+    seen: dict[str, list[int]] = {"threads": [], "batch": []}
+    run_threads, run_group = mjb._run_threads, mjb._run_group
+
+    def threads(sims, *args):
+        seen["threads"] += [s.index for s in sims]
+        return run_threads(sims, *args)
+
+    def group(sims, *args):
+        seen["batch"] += [s.index for s in sims]
+        return run_group(sims, *args)
+
+    monkeypatch.setattr(mjb, "_run_threads", threads)
+    monkeypatch.setattr(mjb, "_run_group", group)
+    plans = [_plan("fig3", "mujoco.friction=native"), _plan("fig3", "mujoco.friction=paper"),
+             _plan("fig3", "mujoco.friction=paper", "effects.sliding=false"),
+             _plan("fig3", "mujoco.friction=native", "mujoco.integrator=implicitfast")]
+    out = simulate_plans(plans, nthread=2)
+    assert sorted(seen["threads"]) == [0, 2, 3] and seen["batch"] == [1]
+    for plan, res in zip(plans, out, strict=True):
+        _assert_same(res, simulate_plan(plan))
+
+
+def _workers_alive() -> list[str]:
+    import threading
+
+    return [t.name for t in threading.enumerate() if t.name.startswith("tippetop-mujoco-")]
+
+
+def test_stopping_the_runs_stops_and_joins_the_threads() -> None:
+    # The caller stops after the first result (a command that failed fast, or Ctrl-C between
+    # results): the workers stop at their next progress report and are joined at once.
+    import time
+
+    plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", "run.t_end_s=0.2")
+             for n0 in (60.0, 70.0)]
+    plans += [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", "run.t_end_s=30")
+              for n0 in (80.0, 90.0)]
+    runs = iter_simulate_plans(plans, nthread=2)
+    next(runs)
+    start = time.perf_counter()
+    runs.close()
+    # a 30-s run takes ~4 s; stopped, it ends within a progress interval (0.2 s) and a chunk
+    assert time.perf_counter() - start < 1.5
+    assert _workers_alive() == []
+
+
+def test_ctrl_c_while_the_threads_step_is_raised_and_they_are_joined() -> None:
+    plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", "run.t_end_s=30")
+             for n0 in (80.0, 90.0)]
+
+    def interrupt() -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        list(iter_simulate_plans(plans, nthread=2, tick=interrupt))
+    assert _workers_alive() == []
+
+
+def test_an_error_in_a_thread_is_raised_in_the_caller(monkeypatch) -> None:
+    from tippetop.mujoco_runner import run as single
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("out of memory, say")
+
+    monkeypatch.setattr(single, "step_top_model", broken)
+    plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}") for n0 in (60.0, 70.0)]
+    with pytest.raises(RuntimeError, match="out of memory, say"):
+        simulate_plans(plans, nthread=2)
+    assert _workers_alive() == []
