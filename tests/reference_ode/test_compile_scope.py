@@ -1,0 +1,50 @@
+"""A first run compiles only what it runs (issue 14: a fresh checkout's first ``simulate``).
+
+Each case runs ``tippetop simulate`` in a fresh process on an empty compile cache and reads
+back which functions numba compiled (one index file per compiled function in the cache
+folder). What a run needs is the integrator's kernel and the functions of the one formulation
+(and contact phase) it integrates; nothing of the other formulation, the two-point phase of a
+stem it does not have, the rolling phases of a stiff law it does not meet, MuJoCo's stepper or
+callback, or the benchmark's peers. Slow: each case compiles the kernel (10-20 s).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+KERNEL = {"dop853._kernel", "dop853.dense_coeffs", "dop853.dense_eval", "dop853.locate",
+          "dop853.initial_step"}
+VECTOR = {"top.vector_rhs", "top.vector_watch", "top.vector_observe_all",
+          "vector.vector_observe"}
+PAPER = {"top.paper_rhs", "top.paper_watch", "top.paper_observe_all", "paper.paper_observe"}
+TWO_POINTS = {"top.two_contact_rhs", "top.two_contact_forces", "top.two_contact_observe_all",
+              "two_contact.two_contact_observe"}
+
+
+def _compiled(tmp_path: Path, *overrides: str) -> set[str]:
+    env = dict(os.environ, TIPPETOP_CACHE=str(tmp_path))
+    env.pop("NUMBA_CACHE_DIR", None)
+    args = [sys.executable, "-m", "tippetop.compare.cli", "simulate", "fig3", "--json"]
+    for o in overrides:
+        args += ["--set", o]
+    subprocess.run(args, env=env, check=True, capture_output=True, text=True)
+    names = {re.sub(r"-\d+\.py\d+\.nbi$", "", p.name) for p in tmp_path.rglob("*.nbi")}
+    assert names, "nothing was cached: the run did not use the cache folder it was given"
+    return names
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("overrides", "expected"), [
+    ((), KERNEL | VECTOR),
+    (("ode.formulation=paper",), KERNEL | PAPER),
+    (("effects.stem=true",), KERNEL | VECTOR | TWO_POINTS),
+], ids=["vector", "paper", "stem"])
+def test_a_first_run_compiles_only_what_it_runs(tmp_path: Path, overrides: tuple[str, ...],
+                                                expected: set[str]) -> None:
+    assert _compiled(tmp_path, *overrides) == expected
