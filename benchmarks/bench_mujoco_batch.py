@@ -18,7 +18,9 @@ one giving the same results (tests/mujoco_runner/test_batch.py checks ==):
 
 Each round times every variant once, in turn; the best round of each counts (the machine is
 shared). Everything is compiled and loaded before the first round. The ratio printed is the
-batch's runs per second over the single loop's; the target is >= 1.8 on 2 cores. Beside each,
+batch's runs per second over the single loop's (best rounds); the target is >= 1.8 on 2 cores.
+Beside it, each round's own ratio and their median (a shared machine's speed drifts from one
+minute to the next, by up to 1.6x here, for both variants). Beside each,
 the cores the process got (its CPU time over the wall time): on a machine other processes keep
 busy the batch cannot get two, and the ratio says so rather than the batch's own speed; a
 line also says how many cores two threads of plain C work (sha256) get at that moment.
@@ -132,16 +134,25 @@ def main() -> None:
             variants["pool"](plans[:args.threads], args.threads)  # start and warm the workers
         simulate_plans(plans[:2], nthread=args.threads)  # warm: imports, first batch
         best = dict.fromkeys(variants, (math.inf, math.nan))
+        rounds: dict[str, list[float]] = {name: [] for name in variants}
         for _ in range(args.rounds):
             for name, run in variants.items():
-                best[name] = min(best[name], run(plans, args.threads))
+                took = run(plans, args.threads)
+                rounds[name].append(took[0])
+                best[name] = min(best[name], took)
         base = args.runs / best["single"][0]
         print(f"  (load average now {os.getloadavg()[0]:.2f}; {args.threads} threads of plain "
               f"C work get {cores_free(args.threads):.2f} cores now)")
         for name, (seconds, cpu) in best.items():
             rate = args.runs / seconds
+            # the machine's speed drifts between rounds: each round's ratio against the single
+            # loop timed just before it, and their median, say how steady the best one is
+            paired = [one / other for one, other in zip(rounds["single"], rounds[name],
+                                                          strict=True)]
             print(f"  {mode:6s} {name:6s} {rate:8.2f} runs/s  ({seconds:.2f} s; cores this "
-                  f"process got: {cpu / seconds:.2f})  {rate / base:.2f}x single")
+                  f"process got: {cpu / seconds:.2f})  {rate / base:.2f}x single (best "
+                  f"rounds); round by round {' '.join(f'{r:.2f}' for r in paired)}, median "
+                  f"{float(np.median(paired)):.2f}x")
 
 
 if __name__ == "__main__":

@@ -59,6 +59,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -311,11 +312,16 @@ def _run_group(group: list[_Sim], nthread: int, progress: Callable[[int, float],
         last_tick = time.perf_counter()
         while True:
             ended = running & (stopped | (row == n_intervals))
+            done = []
             for j in np.flatnonzero(ended).tolist():
                 running[j] = False
                 sim = group[j]
                 sim.row, sim.wall_s = int(row[j]), float(wall[j])
-                yield sim.index, _finish(sim)
+                done.append(sim)
+            # runs that end together are finished on the batch's threads: their forward
+            # passes (paper mode's N and forces, three a sample) release the GIL
+            for sim, res in zip(done, _finish_all(done, nthread), strict=True):
+                yield sim.index, res
             ids = np.flatnonzero(running)
             if not ids.size:
                 break
@@ -478,6 +484,14 @@ def _finish_stepped(sim: _Sim, record: single.SampleRecord, failure: str | None,
                 wall_s=wall_s, ran=ran)
     except TippetopError as exc:
         return exc
+
+
+def _finish_all(sims: list[_Sim], nthread: int) -> list[single.MujocoResult | TippetopError]:
+    """:func:`_finish` of each sim, on up to ``nthread`` threads when there are several."""
+    if len(sims) < 2 or nthread < 2:
+        return [_finish(sim) for sim in sims]
+    with ThreadPoolExecutor(min(nthread, len(sims)), thread_name_prefix="tippetop-finish") as pool:
+        return list(pool.map(_finish, sims))
 
 
 def _run_alone(plan: MujocoPlan) -> single.MujocoResult | TippetopError:
