@@ -20,7 +20,10 @@ Each round times every variant once, in turn; the best round of each counts (the
 shared). Everything is compiled and loaded before the first round. The ratio printed is the
 batch's runs per second over the single loop's (best rounds); the target is >= 1.8 on 2 cores.
 Beside it, each round's own ratio and their median (a shared machine's speed drifts from one
-minute to the next, by up to 1.6x here, for both variants). Beside each,
+minute to the next, by up to 1.6x here, for both variants), and what the machine gives
+MuJoCo itself at that moment: plain ``mj_step`` on ``--threads`` threads against one thread,
+in every round (:func:`ceiling`; 2.0 on a machine that gives every core its full speed,
+1.3-2.2 here). Beside each,
 the cores the process got (its CPU time over the wall time): on a machine other processes keep
 busy the batch cannot get two, and the ratio says so rather than the batch's own speed; a
 line also says how many cores two threads of plain C work (sha256) get at that moment.
@@ -63,6 +66,45 @@ def cores_free(threads: int) -> float:
     for w in workers:
         w.join()
     return (time.process_time() - cpu) / (time.perf_counter() - start)
+
+
+def ceiling(plan, threads: int, steps: int = 80_000) -> float:
+    """How much faster ``threads`` threads step MuJoCo now than one, with no tippetop code.
+
+    ``threads`` plain ``mj_step(model, data, steps)`` calls (the bindings release the GIL) on
+    their own mjData of ``plan``'s model, one after another and then on as many threads: the
+    serial time over the threaded. On a machine that gives two cores their full speed this
+    is 2.0; a shared one gives less, and what it gives moves from minute to minute (the
+    batch's rounds move with it; a round of the batch can beat the reference taken after it).
+    """
+    import threading
+
+    import mujoco
+
+    from tippetop.mujoco_runner.settings import build_model
+    from tippetop.mujoco_runner.state import initial_qpos_qvel
+
+    top_model = build_model(plan)
+
+    def data() -> mujoco.MjData:
+        d = mujoco.MjData(top_model.model)
+        d.qpos[:7], d.qvel[:6] = initial_qpos_qvel(top_model, plan.init)
+        return d
+
+    def step(d: mujoco.MjData) -> None:
+        mujoco.mj_step(top_model.model, d, steps)
+
+    start = time.perf_counter()
+    for d in [data() for _ in range(threads)]:
+        step(d)
+    serial = time.perf_counter() - start
+    workers = [threading.Thread(target=step, args=(data(),)) for _ in range(threads)]
+    start = time.perf_counter()
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    return serial / (time.perf_counter() - start)
 
 
 def _overrides(mode: str, n0: float, t_end: float) -> list[str]:
@@ -135,14 +177,20 @@ def main() -> None:
         simulate_plans(plans[:2], nthread=args.threads)  # warm: imports, first batch
         best = dict.fromkeys(variants, (math.inf, math.nan))
         rounds: dict[str, list[float]] = {name: [] for name in variants}
+        ceilings = []
         for _ in range(args.rounds):
             for name, run in variants.items():
                 took = run(plans, args.threads)
                 rounds[name].append(took[0])
                 best[name] = min(best[name], took)
+            ceilings.append(ceiling(plans[0], args.threads))
         base = args.runs / best["single"][0]
         print(f"  (load average now {os.getloadavg()[0]:.2f}; {args.threads} threads of plain "
-              f"C work get {cores_free(args.threads):.2f} cores now)")
+              f"C work get {cores_free(args.threads):.2f} cores now; plain mj_step on "
+              f"{args.threads} threads against one, what this machine gives MuJoCo, round by "
+              f"round: "
+              f"{' '.join(f'{c:.2f}' for c in ceilings)}, median "
+              f"{float(np.median(ceilings)):.2f}x)")
         for name, (seconds, cpu) in best.items():
             rate = args.runs / seconds
             # the machine's speed drifts between rounds: each round's ratio against the single
