@@ -442,7 +442,7 @@ def _run_threads(sims: list[_Sim], nthread: int,
                 elif isinstance(out, BaseException):
                     raise out
                 else:
-                    yield sim.index, _finish_stepped(sim, *out)
+                    yield sim.index, _result(sim, *out)
             now = time.perf_counter()
             if now - last_tick >= TICK_S:
                 last_tick = now
@@ -472,10 +472,9 @@ def _step_sim(sim: _Sim, stop: threading.Event, done_t: dict[int, float]) -> tup
                                  progress=report, keyframe=plan.keyframe, stem=plan.stem)
 
 
-def _finish_stepped(sim: _Sim, record: single.SampleRecord, failure: str | None,
-                    wall_s: float, ran: dict[str, Any]
-                    ) -> single.MujocoResult | TippetopError:
-    """A threaded sim's result from its record, as the single run makes it."""
+def _result(sim: _Sim, record: single.SampleRecord, failure: str | None, wall_s: float,
+            ran: dict[str, Any]) -> single.MujocoResult | TippetopError:
+    """A sim's result from its record: the single run's own post-processing (both ways)."""
     try:
         with np.errstate(over="ignore", invalid="ignore"):
             return single.result_from_samples(
@@ -502,15 +501,8 @@ def _run_alone(plan: MujocoPlan) -> single.MujocoResult | TippetopError:
 
 
 def _finish(sim: _Sim) -> single.MujocoResult | TippetopError:
-    """The sim's result from its record: the single run's own post-processing."""
-    try:
-        with np.errstate(over="ignore", invalid="ignore"):
-            res: single.MujocoResult | TippetopError = single.result_from_samples(
-                sim.top_model, sim.record(), mode=sim.plan.mode, law=sim.law, steps=sim.steps,
-                n_intervals=sim.n_intervals, stem=sim.plan.stem, failure=sim.failure,
-                wall_s=sim.wall_s, ran=sim.ran)
-    except TippetopError as exc:
-        res = exc
+    """A batch sim's result from the rows it recorded."""
+    res = _result(sim, sim.record(), sim.failure, sim.wall_s, sim.ran)
     sim.arrays = {}  # its memory is the table's now
     return res
 

@@ -444,8 +444,7 @@ class CompiledStepper:
         layout, why = _checked()
         if layout is None:
             raise RuntimeError(why)
-        _compiled_advance()  # compiled or loaded before any clock runs, and the passes' too
-        _compiled_passes()
+        load()  # both loops compiled or loaded before any clock runs
         self.model, self.data = model, data
         self.steps, self.integrator, self.spec = steps, integrator, int(spec)
         self.fns = _function_addresses()

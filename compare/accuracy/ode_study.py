@@ -91,6 +91,8 @@ NOMINAL_ORDER = {"dop853-compiled/vector": 8, "dop853-compiled/paper": 8,
 def default_methods() -> tuple[str, ...]:
     """:data:`DEFAULT_METHODS`, and the numbalsoda peers when numbalsoda is installed."""
     return DEFAULT_METHODS + (() if numbalsoda_missing() else tuple(PEER_METHODS))
+
+
 #: The stiff case (:func:`stiff_work_precision`): the scene, its Lambda (m/s), the methods.
 STIFF_SCENE = "fig3"
 STIFF_LAMBDA_MPS = 1e-6
