@@ -12,6 +12,7 @@ import ctypes
 import os
 
 from tippetop.models.errors import TippetopError, expect
+from tippetop.mujoco_runner import gl_requested
 
 #: Offscreen OpenGL backends, in the order they are tried, with the Debian packages they need.
 OFFSCREEN_BACKENDS: tuple[str, ...] = ("egl", "osmesa")
@@ -73,7 +74,7 @@ def choose_gl_backend() -> str:
         TippetopError: If ``MUJOCO_GL`` names something other than egl or osmesa, or neither
             works; the message names the Debian packages to install.
     """
-    requested = os.environ.get("MUJOCO_GL", "").strip().lower()
+    requested = gl_requested()
     if requested:
         expect(requested in OFFSCREEN_BACKENDS, "MUJOCO_GL",
                "egl or osmesa (offscreen rendering), or unset to pick one", requested)

@@ -146,6 +146,38 @@ def test_sigkill_to_the_main_process_takes_the_workers_with_it(tmp_path: Path) -
         assert js.with_suffix(".parquet").is_file()
 
 
+_RECORD_SUBPROCESSES = """
+import subprocess
+started = []
+_init = subprocess.Popen.__init__
+def _record(self, args, *a, **k):
+    started.append(args)
+    return _init(self, args, *a, **k)
+subprocess.Popen.__init__ = _record
+from tippetop.compare import cli
+assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set", "run.t_end_s=0.01",
+                 "--json"]) == 0
+print("STARTED", len(started), [str(a)[:60] for a in started])
+"""
+
+
+def test_a_mujoco_run_starts_no_subprocess(tmp_path: Path) -> None:
+    """The traceback a process of the tree printed after ``tippetop: interrupted`` (issue 20)
+    came from a subprocess that ``import mujoco`` starts when MUJOCO_GL is unset: the glfw
+    bindings ask each GLFW library's version in a fresh Python over pipes, and one cut off by
+    the signal printed ``EOFError`` or ``BrokenPipeError`` from its ``<string>``. Whether the
+    signal met one was luck; that a run starts none is not: with MUJOCO_GL unset, a process
+    that imports MuJoCo through tippetop and runs it starts no subprocess at all."""
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    env["TIPPETOP_CACHE"] = str(tmp_path / "cache")
+    if NUMBA_CACHE_DIR is not None:
+        env["NUMBA_CACHE_DIR"] = str(NUMBA_CACHE_DIR)
+    out = subprocess.run([sys.executable, "-c", _RECORD_SUBPROCESSES], capture_output=True,
+                         text=True, cwd=tmp_path, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "STARTED 0 []" in out.stdout, out.stdout
+
+
 # ---------------------------------------------------------------- budgets
 def _cli(args: list[str], tmp_path: Path, **env: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *args],

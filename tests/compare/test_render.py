@@ -389,16 +389,19 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 
 
 # ---------------------------------------------------------------- OpenGL only when asked
-_GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "tippetop.mujoco_runner.video", "imageio",
-               "imageio_ffmpeg", "PIL")
+_GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
+               "tippetop.mujoco_runner.video", "imageio", "imageio_ffmpeg", "PIL")
 
 
 def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     """In a fresh process: importing the simulation, building the command line, a simulate run
-    and a rejected render leave MUJOCO_GL unset and import no GL backend or video code.
+    and a rejected render import no GL backend or video code, and leave MUJOCO_GL at "disable".
 
-    (``import mujoco`` itself imports its default windowed backend's module, ``mujoco.glfw``,
-    when MUJOCO_GL is unset; it creates no context. The offscreen backends are ours to pick.)
+    (With MUJOCO_GL unset, ``import mujoco`` imports its windowed backend, the glfw bindings,
+    which start a Python subprocess per GLFW library they find; stopped midway, such a
+    subprocess printed a traceback into the user's terminal. tippetop sets MUJOCO_GL=disable
+    before MuJoCo is imported when the user has not set it: no OpenGL at all, and no
+    subprocess. The offscreen backends are ours to pick, and only render picks one.)
     """
     code = textwrap.dedent(f"""
         import argparse, os, sys
@@ -421,5 +424,5 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert "LOADED [] None None" in out.stdout, out.stdout
+    assert "LOADED [] disable None" in out.stdout, out.stdout
     assert list(tmp_path.iterdir()) == []

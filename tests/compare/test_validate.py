@@ -273,11 +273,15 @@ def test_ctrl_c_leaves_no_partial_output_and_no_traceback(tmp_path: Path) -> Non
     import time
 
     out = tmp_path / "out"
+    # 600 s of simulated time (the most validate takes): the runs go on for tens of seconds,
+    # so the signal comes while they run whatever the machine's speed (with the default 8 s a
+    # fast machine had finished by then, and the signal hit a process on its way out)
     proc = subprocess.Popen(
         [sys.executable, "-m", "tippetop.compare.cli", "validate", str(EXAMPLE), "--no-cache",
-         "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        cwd=ROOT, start_new_session=True)
-    time.sleep(4.0)  # the workers have started their runs (8 s of simulated time each)
+         "--t-end-s", "600", "--out", str(out)], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, cwd=ROOT, start_new_session=True)
+    time.sleep(4.0)  # imported, and the runs started (or starting: the same one line either way)
+    assert proc.poll() is None, proc.communicate()
     os.killpg(proc.pid, signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
