@@ -101,6 +101,12 @@ _U_QPOS_ADR, _U_DOF_ADR = 12, 13
 # from S along the axis and its radius; the axis k in the body frame (17, 18, 19)
 _U_STEM_KIND, _U_STEM_L, _U_STEM_R, _U_AXIS = 14, 15, 16, 17
 _U_LAST_FX, _U_LAST_FY, _U_LAST_N, _U_LAST_POWER, _U_LAST_N2, _U_CALLS = 20, 21, 22, 23, 24, 25
+#: Where the callback leaves what it applied last in its block: Fx, Fy, N and the power, the
+#: four entries from here (paper mode's compiled forward passes read Fx, Fy and the power).
+LAST_OUTPUT = _U_LAST_FX
+if (_U_LAST_FY, _U_LAST_N, _U_LAST_POWER) != (LAST_OUTPUT + 1, LAST_OUTPUT + 2,
+                                               LAST_OUTPUT + 3):  # pragma: no cover
+    raise ImportError("the callback's outputs must be Fx, Fy, N and the power in a row")
 if _U_CALLS >= USERDATA_SIZE:  # pragma: no cover - a layout edit without the constant
     raise ImportError(f"the callback's block needs {_U_CALLS + 1} userdata entries, "
                       f"models.mjcf.HARNESS_USERDATA is {USERDATA_SIZE}")
@@ -529,6 +535,7 @@ def law_force(params: dict[str, float | int], v_P: np.ndarray, N: np.ndarray) ->
 
 
 __all__ = [
+    "LAST_OUTPUT",
     "PaperFriction",
     "StaleCallbackWarning",
     "StructLayout",

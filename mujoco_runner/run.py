@@ -44,10 +44,8 @@ from tippetop.models.mjcf import FRICTION_MODES
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.models.plan import MujocoPlan, check_mujoco_steps, sample_interval
 from tippetop.mujoco_runner import stepper
-from tippetop.mujoco_runner.friction_callback import (  # the callback's block layout
-    _U_LAST_FX,
-    _U_LAST_FY,
-    _U_LAST_POWER,
+from tippetop.mujoco_runner.friction_callback import (
+    LAST_OUTPUT,
     USERDATA_SIZE,
     PaperFriction,
     compiled_callback,
@@ -56,7 +54,7 @@ from tippetop.mujoco_runner.friction_callback import (  # the callback's block l
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
 from tippetop.mujoco_runner.observables import observables_table
 from tippetop.mujoco_runner.settings import build_model, integrator_name, settings_that_ran
-from tippetop.mujoco_runner.state import _rotations, initial_qpos_qvel
+from tippetop.mujoco_runner.state import initial_qpos_qvel, rotations
 
 #: The top's contacts at a sample: none, the ball, another geom (the stem), both.
 CONTACT_LABELS = ("none", "ball", "stem", "both")
@@ -579,7 +577,7 @@ def _scratch_contacts(top_model: TopModel, record: SampleRecord, law: FrictionPa
         if compiled:
             law_index = None
             if law is not None:  # the callback's block: the last USERDATA_SIZE entries
-                law_index = model.nuserdata - USERDATA_SIZE + _U_LAST_FX
+                law_index = model.nuserdata - USERDATA_SIZE + LAST_OUTPUT
             sample, rows, force, out = stepper.forward_passes(
                 model, scratch, state, record.qfrc_constraint, spec=int(spec), passes=passes,
                 law_index=law_index)
@@ -603,10 +601,6 @@ def _scratch_contacts(top_model: TopModel, record: SampleRecord, law: FrictionPa
                 law_power[i] = scratch_law.last_power
     return log.record(), law_xy, law_power
 
-
-# the compiled passes read the callback's last (Fx, Fy) and power at these offsets
-if (_U_LAST_FY, _U_LAST_POWER) != (_U_LAST_FX + 1, _U_LAST_FX + 3):  # pragma: no cover
-    raise ImportError("friction_callback's block layout changed: update forward_passes")
 
 #: What a run records of mjData's state per sample (with qfrc_constraint beside it).
 _STATE_SPEC = (mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS
@@ -648,7 +642,7 @@ def _contact_sums(top_model: TopModel, contacts: ContactRecord, qpos: np.ndarray
     torque = sign * _matvec(frame_t, f6[:, 3:])
     # the same operations as one sample's (matrix products, 3-term sums left to right), so
     # the same numbers to the last bit
-    rot = _rotations(qpos[s, 3:7])
+    rot = rotations(qpos[s, 3:7])
     origin, v_origin = qpos[s, 0:3], qvel[s, 0:3]
     omega = _matvec(rot, qvel[s, 3:6])
     v_point = v_origin + np.cross(omega, pos - origin)
@@ -679,7 +673,7 @@ def _gap_energy_many(top_model: TopModel, qpos: np.ndarray, qvel: np.ndarray
     """
     top = top_model.top
     n = len(qpos)
-    rot = _rotations(qpos[:, 3:7])
+    rot = rotations(qpos[:, 3:7])
     k = _matvec(rot, np.broadcast_to(top_model.axis_body, (n, 3)))
     arm = _matvec(rot, np.broadcast_to(top_model.centre_body_m, (n, 3)))  # S - body origin
     o = _matvec(rot, qvel[:, 3:6])

@@ -73,7 +73,7 @@ class Kinematics:
     sin_theta: np.ndarray
 
 
-def _rotations(quat: np.ndarray) -> np.ndarray:
+def rotations(quat: np.ndarray) -> np.ndarray:
     """Rotation matrices (n, 3, 3) of (n, 4) quaternions (w, x, y, z), normalised here."""
     q = quat / np.linalg.norm(quat, axis=1, keepdims=True)
     w, x, y, z = q.T
@@ -95,7 +95,7 @@ def kinematics(top_model: TopModel, qpos: np.ndarray, qvel: np.ndarray) -> Kinem
     top = top_model.top
     qpos = np.atleast_2d(np.asarray(qpos, dtype=float))
     qvel = np.atleast_2d(np.asarray(qvel, dtype=float))
-    rot = _rotations(qpos[:, 3:7])
+    rot = rotations(qpos[:, 3:7])
     k = rot @ top_model.axis_body
     arm = rot @ top_model.centre_body_m  # S - body origin
     centre = qpos[:, 0:3] + arm
@@ -177,6 +177,7 @@ __all__ = [
     "keyframe_state",
     "kinematics",
     "paper_angles",
+    "rotations",
 ]
 
 

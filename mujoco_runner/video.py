@@ -91,7 +91,8 @@ _INSET_WIDTH_FRACTION = 0.75  # of a panel's width
 _INSET_HEIGHT_FRACTION = 0.42  # of the height (at least what its text and a plot need)
 _INSET_MIN_PLOT_PX = 24  # plot height
 _INSET_OPACITY = 0.65  # its box darkens what is behind it
-_TRACE_RGB = ((255, 150, 40), (90, 200, 255))  # first track (MuJoCo), second (reference)
+#: The theta(t) inset's trace colours (RGB): the first track (MuJoCo), the second (reference).
+TRACE_RGB = ((255, 150, 40), (90, 200, 255))
 # Matplotlib's DejaVu Sans has the Greek letters; Pillow's default font does not.
 _FONT_FILE = ("mpl-data", "fonts", "ttf", "DejaVuSans.ttf")
 _ASCII = {"Δθ": "dtheta", "θ": "theta", "π": "pi", "−": "-", "■": "#"}
@@ -562,7 +563,7 @@ class ThetaInset:
         y_legend = self._m + self._line
         for i, piece in enumerate(legend):
             text = _spell(piece, self._greek) + "  " if piece else ""
-            colour = (255, 255, 255, 230) if i == 0 else (*_TRACE_RGB[i - 1], 255)
+            colour = (255, 255, 255, 230) if i == 0 else (*TRACE_RGB[i - 1], 255)
             d.text((x, y_legend), text, font=self._font, fill=colour)
             x += round(self._font.getlength(text))
         arr = np.asarray(static, dtype=np.float32)
@@ -611,14 +612,14 @@ class ThetaInset:
         plot = region[oy:oy + ph, ox:ox + pw]
         for i in (1, 0):  # the second track's wider trace first, the first's over it
             view = plot[:, :ncol]
-            view[self._masks[i][:, :ncol]] = _TRACE_RGB[i]
+            view[self._masks[i][:, :ncol]] = TRACE_RGB[i]
         x_now = min(ncol, pw) - 1
         for i in (1, 0):  # the current point of each
             if x_now < 0 or samples[i].ended:
                 continue
             y = int(self._y_of(samples[i].theta))
             r = self._half[i] + 1
-            plot[max(0, y - r):y + r + 1, max(0, x_now - r):x_now + r + 1] = _TRACE_RGB[i]
+            plot[max(0, y - r):y + r + 1, max(0, x_now - r):x_now + r + 1] = TRACE_RGB[i]
         delta = round(samples[0].theta - samples[1].theta, 4) + 0.0  # no "-0.0000"
         value = f"{delta:+.4f} rad".replace("-", "−")  # (a run that ended holds its last pose)
         image = Image.fromarray(region)
@@ -850,6 +851,7 @@ def frame_times(n_frames: int, fps: float, speed: float) -> np.ndarray:
 __all__ = [
     "InsetLayout",
     "OffscreenRenderer",
+    "TRACE_RGB",
     "Track",
     "ThetaInset",
     "TrackSample",

@@ -256,19 +256,19 @@ def test_inset_readout_changes_with_delta_theta_only(inset_tracks: dict[str, Tra
 
 def test_inset_traces_both_engines_up_to_the_frame_time_only(
         inset_tracks: dict[str, Track]) -> None:
-    from tippetop.mujoco_runner.video import _TRACE_RGB
+    from tippetop.mujoco_runner.video import TRACE_RGB
 
     for t in (0.25, 0.5, 1.0):
         frame, layout = _draw_inset(inset_tracks["mujoco"], inset_tracks["off"], t)
         px0, py0, px1, py1 = layout.plot
         plot = frame[py0:py1, px0:px1]
         now = t * (px1 - px0)  # the frame time's column
-        for rgb in _TRACE_RGB:
+        for rgb in TRACE_RGB:
             rows, cols = np.nonzero(np.all(plot == rgb, axis=2))
             assert len(cols) > now  # a trace, at least a pixel a column
             assert cols.min() <= 1 and now - 3 <= cols.max() <= now + 3, (t, rgb, cols.max())
         # theta rises from 0.1 (bottom) to 3.0 (top): the trace's last column is higher
-        rows, cols = np.nonzero(np.all(plot == _TRACE_RGB[0], axis=2))
+        rows, cols = np.nonzero(np.all(plot == TRACE_RGB[0], axis=2))
         assert rows[cols == cols.min()].mean() > rows[cols == cols.max()].mean() + 5 * t
 
 
