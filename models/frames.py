@@ -95,3 +95,25 @@ def initial_rigid_state(top: TopParams, init: InitialState) -> RigidState:
     com = np.array([0.0, 0.0, top.R_m - top.a_m * c])
     return RigidState(com_m=com, quat=euler_zyz_quat(0.0, th, 0.0), omega_radps=omega,
                       v_com_mps=v)
+
+
+def free_joint_start(top: TopParams, init: InitialState, paper_from_body_quat: np.ndarray,
+                     centre_body_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """MuJoCo's free-joint qpos (7,) and qvel (6,) for the paper's initial state.
+
+    The top starts with phi = psi = 0 and its centre of mass above the origin, the ball just
+    touching the table (S at height R), as in :func:`initial_rigid_state`. The body frame is
+    the model's: ``paper_from_body_quat`` rotates body-frame vectors into the paper's body
+    frame (whose z axis is k) and ``centre_body_m`` is S in the body frame (identity and zero
+    for :func:`tippetop.models.mjcf.make_mjcf` tops). qpos is the body origin and its world
+    quaternion; qvel the origin's world velocity and the body-frame angular velocity.
+    """
+    rigid = initial_rigid_state(top, init)
+    quat = quat_mul(rigid.quat, paper_from_body_quat)
+    quat /= np.linalg.norm(quat)
+    rot = quat_to_mat(quat)
+    origin = rigid.sphere_centre_m(top) - rot @ centre_body_m
+    v_origin = rigid.v_com_mps + np.cross(rigid.omega_radps, origin - rigid.com_m)
+    qpos = np.concatenate([origin, quat])
+    qvel = np.concatenate([v_origin, rot.T @ rigid.omega_radps])
+    return qpos, qvel

@@ -27,7 +27,11 @@ import math
 from collections.abc import Sequence
 
 from tippetop.models.errors import expect
+from tippetop.models.options import GENERATED_NOSLIP_ITERATIONS, MujocoOptions
 from tippetop.models.params import StemParams, TopParams
+
+#: The scene's MuJoCo defaults, the one place they are written (:class:`MujocoOptions`).
+_DEFAULT = MujocoOptions()
 
 #: Friction modes: "paper" = frictionless contact plus the paper's law applied by the harness;
 #: "native" = MuJoCo's own contact friction.
@@ -127,15 +131,16 @@ def make_mjcf(
     friction_mode: str = "paper",
     condim: int | None = None,
     mu: float = 0.1,
-    timestep_s: float = 2e-5,
-    integrator: str = "RK4",
-    cone: str = "elliptic",
-    impratio: float = 1.0,
-    solref: Sequence[float] = (0.02, 1.0),
-    solimp: Sequence[float] = (0.9, 0.95, 0.001, 0.5, 2.0),
+    timestep_s: float = _DEFAULT.timestep_s,
+    integrator: str = _DEFAULT.integrator,
+    cone: str = _DEFAULT.cone,
+    impratio: float = _DEFAULT.impratio,
+    solref: Sequence[float] = _DEFAULT.solref,
+    solimp: Sequence[float] = _DEFAULT.solimp,
     torsional: float = 0.0,
     rolling: float = 0.0,
     stem: StemParams | None = None,
+    noslip_iterations: int = GENERATED_NOSLIP_ITERATIONS,
 ) -> str:
     """MJCF text of the loaded sphere on a table.
 
@@ -161,6 +166,7 @@ def make_mjcf(
         stem: A colliding stem with this end (a capsule for a rounded end, a cylinder for a
             flat one, from the ball's centre to the end, massless, with the ball's contact
             settings). None: the stem is visual only (the paper's loaded sphere).
+        noslip_iterations: MuJoCo's noslip solver iterations (0: none).
 
     Returns:
         The MJCF document as text.
@@ -170,6 +176,9 @@ def make_mjcf(
     """
     condim = _validate(friction_mode, condim, mu, timestep_s, integrator, cone, impratio,
                        solref, solimp, torsional, rolling)
+    expect(isinstance(noslip_iterations, int) and not isinstance(noslip_iterations, bool)
+           and noslip_iterations >= 0, "noslip_iterations", "an integer >= 0",
+           noslip_iterations)
     R, a = top.R_m, top.a_m
     if friction_mode == "paper":
         friction = (0.0, 0.0, 0.0)
@@ -195,7 +204,8 @@ def make_mjcf(
   <compiler angle="radian" inertiafromgeom="false"/>
   <size nuserdata="{HARNESS_USERDATA}"/>
   <option timestep="{_num(timestep_s)}" integrator="{integrator}" cone="{cone}"
-          impratio="{_num(impratio)}" gravity="0 0 {_num(-top.g_mps2)}"/>
+          impratio="{_num(impratio)}" noslip_iterations="{int(noslip_iterations)}"
+          gravity="0 0 {_num(-top.g_mps2)}"/>
   <visual>
     <global offwidth="1280" offheight="720"/>
     <headlight ambient="0.3 0.3 0.3" diffuse="0.6 0.6 0.6"/>

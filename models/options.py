@@ -47,6 +47,9 @@ class OdeOptions:
                f"a positive integer <= {MAX_STEPS_LIMIT}", self.max_steps)
 
 
+#: A generated top's noslip iterations unless the scene sets them: none (MuJoCo's own default).
+GENERATED_NOSLIP_ITERATIONS = 0
+
 MUJOCO_FRICTION_MODES = ("paper", "native")
 MUJOCO_INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4")
 MUJOCO_CONES = ("pyramidal", "elliptic")
@@ -68,10 +71,14 @@ class MujocoOptions:
         solref: Contact solref (time constant s, damping ratio), native mode.
         solimp: Contact solimp (d0, dwidth, width m, midpoint, power).
         impratio: Ratio of frictional to normal constraint impedance (native, elliptic cone).
-        noslip_iterations: MuJoCo's noslip solver iterations (0: off; None: the model's).
+        noslip_iterations: MuJoCo's noslip solver iterations (0: off; None: the model's: a
+            loaded file's own, :data:`GENERATED_NOSLIP_ITERATIONS` for a generated top).
         calibrated: Native mode: take the calibrated settings (``models/calibrated_native.toml``)
             for every key the scene does not set. None: yes for a generated top, no for a top
             loaded from an MJCF file (which then runs with its own settings).
+        fit_paper_timestep: Paper mode: when the timestep the scene does not set itself (a
+            loaded file's own, say) is longer than the law can follow, run at the largest
+            1-2-5 step below that limit and say so in the plan, instead of refusing the run.
     """
 
     friction: str = "paper"
@@ -85,6 +92,7 @@ class MujocoOptions:
     impratio: float = 1.0
     noslip_iterations: int | None = None
     calibrated: bool | None = None
+    fit_paper_timestep: bool = False
 
     def __post_init__(self) -> None:
         expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",

@@ -96,7 +96,7 @@ SCHEMA: dict[str, dict[str, str]] = {
     "ode": {"formulation": _S, "rtol": _F, "atol": _F, "max_steps": _I, "singular_sin": _F},
     "mujoco": {"friction": _S, "timestep_s": _F, "integrator": _S, "cone": _S, "condim": _I,
                "mu": _F, "solref": _L, "solimp": _L, "impratio": _F, "noslip_iterations": _I,
-               "calibrated": _B},
+               "calibrated": _B, "fit_paper_timestep": _B},
     "outputs": {"table": _S, "summary": _B},
     "expect": {"outcome": _S, "theta_asymp": _F, "theta_asymp_tol": _F, "t_invert_max_s": _F,
                "note": _S},

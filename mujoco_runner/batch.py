@@ -1,11 +1,11 @@
 """Many MuJoCo runs stepped together on threads, each equal to its single run bit for bit.
 
 :func:`iter_simulate_plans` runs many :class:`~tippetop.models.plan.MujocoPlan` on ``nthread``
-threads and gives each run's :class:`~tippetop.mujoco_runner.run.MujocoResult` as soon as it
+threads and gives each run's :class:`~tippetop.mujoco_runner.results.MujocoResult` as soon as it
 is done, the same one :func:`~tippetop.mujoco_runner.run.simulate_plan` gives. Two ways:
 
 * Runs that read each sample's contacts from their own steps (native mode, or paper mode
-  without a law: :func:`~tippetop.mujoco_runner.run.contacts_from_steps`) run whole on
+  without a law: :func:`~tippetop.mujoco_runner.stepping.contacts_from_steps`) run whole on
   :func:`_run_threads`: a worker thread steps each as the single run does, in the compiled
   stepper, which releases the GIL (:mod:`.stepper`), and the caller's thread turns the
   records into results while the workers step the next runs. A ``Batch`` would lose those
@@ -28,11 +28,11 @@ In a batch:
   next samples (runs of different timesteps or sample intervals share a batch), and at most
   :data:`MAX_CALL_STEPS` over all simulations. At each of its samples a simulation's state
   is recorded (the single run's
-  :class:`~tippetop.mujoco_runner.run.SampleRecord`); a simulation whose state is not finite,
+  :class:`~tippetop.mujoco_runner.record.SampleRecord`); a simulation whose state is not finite,
   or that raised a MuJoCo warning or error, stops there, as the single run does. The
   per-sample checks (penetration, energy, lost contact), the contact forces and the
   observables are then computed from the record by the single run's own code
-  (:func:`~tippetop.mujoco_runner.run.result_from_samples`), so both give the same result.
+  (:func:`~tippetop.mujoco_runner.results.result_from_samples`), so both give the same result.
 * A batch's forward pass checks the state as ``mj_step`` does (``mj_forward`` does not): a
   run whose initial state MuJoCo finds bad (|qvel| > 1e10, say) is warned of and reset there,
   so it is run alone instead (it fails at its first step either way).
@@ -44,7 +44,7 @@ The calls come back to Python at least once per sample and per :data:`MAX_CALL_S
 so Ctrl-C is seen within about a second, and the caller's ``tick`` runs at least every
 :data:`TICK_S` (to redraw a progress bar, collect other work). On threads the caller's thread
 waits for results at most :data:`TICK_S` at a time (Ctrl-C is seen there), and a worker stops
-at its next progress report (every :data:`~.run.PROGRESS_INTERVAL_S` of its stepping) once the
+at its next progress report (every :data:`~.stepping.PROGRESS_INTERVAL_S` of its stepping) once the
 caller stops; the workers are joined before the caller sees the interruption. The main
 thread drives the runs; do not run :func:`iter_simulate_plans` from two Python threads at once
 (paper mode's callback is installed process-wide from the main thread, see
@@ -68,8 +68,7 @@ import numpy as np
 
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import FrictionParams
-from tippetop.models.plan import MujocoPlan, sample_interval, samples_budget_gib
-from tippetop.mujoco_runner import run as single
+from tippetop.models.plan import MujocoPlan, samples_budget_gib
 from tippetop.mujoco_runner import stepper
 from tippetop.mujoco_runner.friction_callback import (
     USERDATA_SIZE,
@@ -78,8 +77,16 @@ from tippetop.mujoco_runner.friction_callback import (
     userdata_block,
 )
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
+from tippetop.mujoco_runner.record import SampleRecord
+from tippetop.mujoco_runner.results import MujocoResult, result_from_samples
+from tippetop.mujoco_runner.run import simulate_plan
 from tippetop.mujoco_runner.settings import build_model
-from tippetop.mujoco_runner.state import initial_qpos_qvel
+from tippetop.mujoco_runner.stepping import (
+    contacts_from_steps,
+    ran_settings,
+    start_data,
+    step_top_model,
+)
 
 #: Least wall time between the caller's ticks and progress reports (s).
 TICK_S = 0.2
@@ -118,11 +125,11 @@ class _Sim:
         m = self.top_model.model
         return self.n_rows * 8 * (1 + m.nq + 3 * m.nv + int(mujoco.mjtWarning.mjNWARNING))
 
-    def record(self) -> single.SampleRecord:
-        """The recorded rows as the single run's :class:`~.run.SampleRecord`."""
+    def record(self) -> SampleRecord:
+        """The recorded rows as the single run's :class:`~.record.SampleRecord`."""
         n = self.row + 1
         a = {k: v[:n] for k, v in self.arrays.items()}
-        return single.SampleRecord(time=a["time"], qpos=a["qpos"], qvel=a["qvel"],
+        return SampleRecord(time=a["time"], qpos=a["qpos"], qvel=a["qvel"],
                                    qacc_warmstart=a["qacc_warmstart"],
                                    qfrc_constraint=a["qfrc_constraint"],
                                    warnings=a["warnings"], warning_text=self.warning_text)
@@ -147,32 +154,20 @@ def default_threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-#: The plan's fields :func:`~tippetop.mujoco_runner.settings.build_model` reads: plans equal in
-#: these share one compiled model (a sweep over the start compiles its top once).
-_MODEL_FIELDS = ("mode", "top", "mjcf", "condim", "mu", "timestep_s", "integrator", "cone",
-                 "impratio", "solref", "solimp", "torsional", "rolling", "noslip_iterations",
-                 "stem", "stem_collides")
-
-
 def _prepare(index: int, plan: MujocoPlan,
-             models: dict[tuple[Any, ...], TopModel] | None = None) -> _Sim:
-    """Build a plan's model and check it as the single run does (raises TippetopError).
+             models: dict[str, TopModel] | None = None) -> _Sim:
+    """Compile a plan's model (raises TippetopError as the single run does).
 
-    ``models``: models already built, by the fields that define them (reused, and added to).
+    ``models``: models already compiled, by the MJCF text that defines them (plans that
+    differ only in their start, length or sampling share one: a sweep compiles its top once).
     """
-    key = tuple(getattr(plan, name) for name in _MODEL_FIELDS)
-    top_model = models.get(key) if models is not None else None
+    top_model = models.get(plan.mjcf) if models is not None else None
     if top_model is None:
         top_model = build_model(plan)
         if models is not None:
-            models[key] = top_model
-    dt = float(top_model.model.opt.timestep)
-    sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
-    # the single run's own checks (nothing is simulated when one fails)
-    steps, n_intervals, law = single.run_grid(top_model, plan.law, mode=plan.mode,
-                                              t_end_s=plan.t_end_s, sample_dt_s=sample_dt)
-    return _Sim(index=index, plan=plan, top_model=top_model, steps=steps,
-                n_intervals=n_intervals, law=law)
+            models[plan.mjcf] = top_model
+    return _Sim(index=index, plan=plan, top_model=top_model, steps=plan.steps_per_sample,
+                n_intervals=plan.n_intervals, law=plan.law)
 
 
 def _groups(sims: list[_Sim], budget_bytes: float) -> list[list[_Sim]]:
@@ -200,7 +195,7 @@ def iter_simulate_plans(
     nthread: int | None = None,
     progress: Callable[[int, float], None] | None = None,
     tick: Callable[[], None] | None = None,
-) -> Iterator[tuple[int, single.MujocoResult | TippetopError]]:
+) -> Iterator[tuple[int, MujocoResult | TippetopError]]:
     """Run plans on a thread pool; yield ``(index, result)`` as each run ends.
 
     A plan that cannot run (bad settings for its model) yields its :class:`TippetopError`
@@ -214,7 +209,7 @@ def iter_simulate_plans(
     """
     nthread = nthread or default_threads()
     sims = []
-    models: dict[tuple[Any, ...], TopModel] = {}
+    models: dict[str, TopModel] = {}
     for i, plan in enumerate(plans):
         try:
             sims.append(_prepare(i, plan, models))
@@ -231,9 +226,9 @@ def iter_simulate_plans(
 
 
 def simulate_plans(plans: Sequence[MujocoPlan], *, nthread: int | None = None
-                   ) -> list[single.MujocoResult | TippetopError]:
+                   ) -> list[MujocoResult | TippetopError]:
     """Run plans on a thread pool (:func:`iter_simulate_plans`); results in the plans' order."""
-    out: list[single.MujocoResult | TippetopError | None] = [None] * len(plans)
+    out: list[MujocoResult | TippetopError | None] = [None] * len(plans)
     for i, res in iter_simulate_plans(plans, nthread=nthread):
         out[i] = res
     return [r for r in out if r is not None]
@@ -245,12 +240,7 @@ def _start(batch: Any, group: list[_Sim]) -> bool:
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     any_law = False
     for j, sim in enumerate(group):
-        tm, data = sim.top_model, mujoco.MjData(sim.top_model.model)
-        if sim.plan.keyframe is None:
-            qa, va = tm.qpos_adr, tm.dof_adr
-            data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(tm, sim.plan.init)
-        else:
-            mujoco.mj_resetDataKeyframe(tm.model, data, sim.plan.keyframe)
+        tm, data = sim.top_model, start_data(sim.top_model, sim.plan)
         if sim.law is not None:
             any_law = True
             data.userdata[-USERDATA_SIZE:] = userdata_block(tm, sim.law, stem=sim.plan.stem)
@@ -261,7 +251,7 @@ def _start(batch: Any, group: list[_Sim]) -> bool:
 
 def _run_group(group: list[_Sim], nthread: int, progress: Callable[[int, float], None] | None,
                tick: Callable[[], None] | None
-               ) -> Iterator[tuple[int, single.MujocoResult | TippetopError]]:
+               ) -> Iterator[tuple[int, MujocoResult | TippetopError]]:
     """Step one batch of sims to their ends, yielding each result as it is finished."""
     from mujoco import batch as mjbatch
 
@@ -298,9 +288,7 @@ def _run_group(group: list[_Sim], nthread: int, progress: Callable[[int, float],
     with callback_installed() if any_law else contextlib.nullcontext():
         batch.forward()  # the single run's forward pass for what ran ...
         for j, sim in enumerate(group):
-            sim.ran = single.ran_settings(sim.top_model, batch.get_data(j), mode=sim.plan.mode,
-                                          law=sim.law, steps=sim.steps,
-                                          keyframe=sim.plan.keyframe)
+            sim.ran = ran_settings(sim.top_model, batch.get_data(j), sim.plan)
         batch.forward()  # ... and the one that gives N at t = 0
         # A batch's forward pass checks the state as mj_step does (mj_forward does not): an
         # initial state MuJoCo finds bad (|qvel| > 1e10, say) is reset there and warned of.
@@ -375,8 +363,7 @@ def _steps_own_contacts(sim: _Sim) -> bool:
     loop's rate on 2 cores for the 64-run sweep, against 2.0x on threads (benchmarks/
     bench_mujoco_batch.py).
     """
-    return (single.contacts_from_steps(sim.top_model.model, sim.law)
-            and stepper.load())
+    return contacts_from_steps(sim.top_model.model, sim.law) and stepper.load()
 
 
 class _Stopped(Exception):
@@ -386,16 +373,16 @@ class _Stopped(Exception):
 def _run_threads(sims: list[_Sim], nthread: int,
                  progress: Callable[[int, float], None] | None,
                  tick: Callable[[], None] | None
-                 ) -> Iterator[tuple[int, single.MujocoResult | TippetopError]]:
+                 ) -> Iterator[tuple[int, MujocoResult | TippetopError]]:
     """Step each sim whole on one of ``nthread`` threads; finish them here, as they come.
 
     Each worker takes the longest sim not yet taken and steps it as the single run does
-    (:func:`~.run.step_top_model`: the compiled stepper, which releases the GIL, on the
+    (:func:`~.stepping.step_top_model`: the compiled stepper, which releases the GIL, on the
     sim's own mjData), so its record is the single run's; this thread (the caller's) turns
-    the records into results (:func:`~.run.result_from_samples`, with the GIL) while the
+    the records into results (:func:`~.results.result_from_samples`, with the GIL) while the
     workers step the next ones, reports progress and calls ``tick`` every :data:`TICK_S`.
     When the caller stops (Ctrl-C, or it stops iterating), the workers stop at their next
-    progress report (every :data:`~.run.PROGRESS_INTERVAL_S`) and are joined before this
+    progress report (every :data:`~.stepping.PROGRESS_INTERVAL_S`) and are joined before this
     returns or raises.
     """
     order = sorted(sims, key=lambda s: -(s.n_rows * s.steps))
@@ -467,25 +454,21 @@ def _step_sim(sim: _Sim, stop: threading.Event, done_t: dict[int, float]) -> tup
             raise _Stopped
         done_t[sim.index] = t
 
-    return single.step_top_model(sim.top_model, sim.law, plan.init, steps=sim.steps,
-                                 n_intervals=sim.n_intervals, mode=plan.mode,
-                                 progress=report, keyframe=plan.keyframe, stem=plan.stem)
+    return step_top_model(sim.top_model, plan, progress=report)
 
 
-def _result(sim: _Sim, record: single.SampleRecord, failure: str | None, wall_s: float,
-            ran: dict[str, Any]) -> single.MujocoResult | TippetopError:
+def _result(sim: _Sim, record: SampleRecord, failure: str | None, wall_s: float,
+            ran: dict[str, Any]) -> MujocoResult | TippetopError:
     """A sim's result from its record: the single run's own post-processing (both ways)."""
     try:
         with np.errstate(over="ignore", invalid="ignore"):
-            return single.result_from_samples(
-                sim.top_model, record, mode=sim.plan.mode, law=sim.law, steps=sim.steps,
-                n_intervals=sim.n_intervals, stem=sim.plan.stem, failure=failure,
-                wall_s=wall_s, ran=ran)
+            return result_from_samples(sim.top_model, record, sim.plan, failure=failure,
+                                       wall_s=wall_s, ran=ran)
     except TippetopError as exc:
         return exc
 
 
-def _finish_all(sims: list[_Sim], nthread: int) -> list[single.MujocoResult | TippetopError]:
+def _finish_all(sims: list[_Sim], nthread: int) -> list[MujocoResult | TippetopError]:
     """:func:`_finish` of each sim, on up to ``nthread`` threads when there are several."""
     if len(sims) < 2 or nthread < 2:
         return [_finish(sim) for sim in sims]
@@ -493,14 +476,14 @@ def _finish_all(sims: list[_Sim], nthread: int) -> list[single.MujocoResult | Ti
         return list(pool.map(_finish, sims))
 
 
-def _run_alone(plan: MujocoPlan) -> single.MujocoResult | TippetopError:
+def _run_alone(plan: MujocoPlan) -> MujocoResult | TippetopError:
     try:
-        return single.simulate_plan(plan)
+        return simulate_plan(plan)
     except TippetopError as exc:
         return exc
 
 
-def _finish(sim: _Sim) -> single.MujocoResult | TippetopError:
+def _finish(sim: _Sim) -> MujocoResult | TippetopError:
     """A batch sim's result from the rows it recorded."""
     res = _result(sim, sim.record(), sim.failure, sim.wall_s, sim.ran)
     sim.arrays = {}  # its memory is the table's now

@@ -40,7 +40,7 @@ from tippetop.models.params import StemParams, TopParams
 
 #: MuJoCo's own warning texts in this process, newest last. MuJoCo would print each as
 #: ``WARNING: ...`` lines on stderr, beside the run's one-line message; a run reports the
-#: warning in that message instead (from ``mjData.warning``, :mod:`mujoco_runner.run`).
+#: warning in that message instead (from ``mjData.warning``, :mod:`mujoco_runner.checks`).
 MUJOCO_WARNINGS: deque[str] = deque(maxlen=20)
 
 

@@ -1,132 +1,71 @@
 """The MuJoCo model a plan runs, and what it runs, read back from the compiled model.
 
-:func:`build_model` makes a :class:`~tippetop.models.plan.MujocoPlan`'s model: the generated top
-(:func:`tippetop.models.mjcf.make_mjcf` with every setting of the plan), or a loaded MJCF file
-with the settings the plan gives applied on the compiled model (:func:`apply_settings`; a
-``None`` keeps the file's). :func:`settings_that_ran` reads back what runs: the options from
-``model.opt`` and the contact settings from the top's contact in an mjData (MuJoCo has mixed
-the two geoms' values into it), so a summary reports what ran, never what was asked for.
+:func:`build_model` compiles a :class:`~tippetop.models.plan.MujocoPlan`'s MJCF text (every
+option and contact setting is written in it) and checks that the compiled model holds the
+plan's values. :func:`settings_that_ran` reads back what runs: the options from ``model.opt``
+and the contact settings from the top's contact in an mjData (MuJoCo has mixed the two geoms'
+values into it), so a summary reports what ran, never what was asked for.
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import Any
 
 import mujoco
+import numpy as np
 
-from tippetop.models.errors import expect
-from tippetop.models.mjcf import CONES, INTEGRATORS, make_mjcf
+from tippetop.models.errors import TippetopError
+from tippetop.models.mjcf import CONES, INTEGRATORS
 from tippetop.models.plan import MujocoPlan
-from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, stem_geoms
-
-
-def generated_mjcf(plan: MujocoPlan) -> str:
-    """The MJCF of a plan's generated top (``plan.mjcf`` is None): every setting of the plan."""
-    return make_mjcf(plan.top, friction_mode=plan.mode, condim=plan.condim,
-                     mu=float(plan.mu or 0.0), timestep_s=plan.timestep_s,
-                     integrator=plan.integrator, cone=plan.cone, impratio=plan.impratio,
-                     solref=plan.solref, solimp=plan.solimp,
-                     torsional=float(plan.torsional or 0.0),
-                     rolling=float(plan.rolling or 0.0), stem=plan.stem)
+from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top
 
 
 def build_model(plan: MujocoPlan) -> TopModel:
-    """The compiled top of a plan: generated from its parameters, or loaded and adjusted.
-
-    A generated top is :func:`~tippetop.models.mjcf.make_mjcf` with every setting of the plan.
-    A loaded file keeps everything the plan leaves ``None``; the rest is set on the compiled
-    model (:func:`apply_settings`).
+    """The compiled top of a plan: its MJCF text, compiled, checked against the plan.
 
     Raises:
-        TippetopError: For settings MuJoCo cannot take (nothing is simulated then).
+        TippetopError: For MJCF MuJoCo rejects, or a compiled model that does not hold the
+            plan's values (this MuJoCo compiles the text otherwise); nothing is simulated then.
     """
-    if plan.mjcf is None:
-        xml = generated_mjcf(plan)
+    if plan.source is None:
         with warnings.catch_warnings():  # a generated stem is asked for: nothing to warn of
             warnings.simplefilter("ignore", TopModelWarning)
-            top_model = load_top(xml)
-        if plan.noslip_iterations is not None:
-            top_model.model.opt.noslip_iterations = plan.noslip_iterations
-        return top_model
-    top_model = load_top(plan.mjcf)
-    apply_settings(top_model, plan)
-    if plan.stem_collides is False:  # effects.stem = false: only the ball touches
-        for g in stem_geoms(top_model):
-            top_model.model.geom_contype[g] = top_model.model.geom_conaffinity[g] = 0
+            top_model = load_top(plan.mjcf)
+    else:
+        top_model = load_top(plan.mjcf)
+    differ = plan_differences(plan, top_model.model)
+    if differ:
+        raise TippetopError("mjcf: expected the compiled model to hold the plan's values, got "
+                            + "; ".join(differ[:4]))
     return top_model
 
 
-def _contact_geoms(top_model: TopModel) -> list[int]:
-    """The colliding geoms of the top and of the static world (the table)."""
-    model, b = top_model.model, top_model.body_id
+def plan_differences(plan: MujocoPlan, model: mujoco.MjModel) -> list[str]:
+    """Where a compiled model's options and contact settings differ from the plan's."""
+    opt = model.opt
     out = []
-    for g in range(model.ngeom):
-        collides = model.geom_contype[g] != 0 or model.geom_conaffinity[g] != 0
-        static = model.body_weldid[model.geom_bodyid[g]] == 0
-        if collides and (model.geom_bodyid[g] == b or static):
-            out.append(g)
+    have = {"timestep_s": float(opt.timestep), "integrator": integrator_name(int(opt.integrator)),
+            "cone": cone_name(int(opt.cone)), "impratio": float(opt.impratio),
+            "noslip_iterations": int(opt.noslip_iterations),
+            "gravity_mps2": tuple(float(g) for g in opt.gravity)}
+    for key, value in have.items():
+        if value != getattr(plan, key):
+            out.append(f"{key} {value!r}, the plan's {getattr(plan, key)!r}")
+    for c in plan.contacts:
+        if c.element == "geom":
+            got = (int(model.geom_condim[c.index]), model.geom_friction[c.index],
+                   model.geom_solref[c.index], model.geom_solimp[c.index],
+                   int(model.geom_contype[c.index]), int(model.geom_conaffinity[c.index]))
+            want = (c.condim, c.friction, c.solref, c.solimp, c.contype, c.conaffinity)
+        else:
+            got = (int(model.pair_dim[c.index]), model.pair_friction[c.index],
+                   model.pair_solref[c.index], model.pair_solimp[c.index])
+            want = (c.condim, c.friction, c.solref, c.solimp)
+        if not all(np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+                   for a, b in zip(got, want, strict=True)):
+            out.append(f"{c.element} {c.name}'s contact settings")
     return out
-
-
-def _top_pairs(top_model: TopModel) -> list[int]:
-    model, b = top_model.model, top_model.body_id
-    bodies = model.geom_bodyid
-    return [p for p in range(model.npair)
-            if b in (bodies[model.pair_geom1[p]], bodies[model.pair_geom2[p]])]
-
-
-def apply_settings(top_model: TopModel, plan: MujocoPlan) -> None:
-    """Set on a compiled model every setting the plan gives (``None`` keeps the model's).
-
-    Options go to ``model.opt``; contact settings to every colliding geom of the top and of
-    the static world and to every explicit contact pair of the top, so that MuJoCo's mixing
-    (max for condim and friction, a solmix-weighted mean for solref and solimp) yields exactly
-    the plan's values.
-    """
-    model = top_model.model
-    if plan.timestep_s is not None:
-        expect(math.isfinite(plan.timestep_s) and plan.timestep_s > 0, "mujoco.timestep_s",
-               "a finite number > 0 (seconds)", plan.timestep_s)
-        model.opt.timestep = plan.timestep_s
-    if plan.integrator is not None:
-        expect(plan.integrator in INTEGRATORS, "mujoco.integrator", "|".join(INTEGRATORS),
-               plan.integrator)
-        model.opt.integrator = _integrator_code(plan.integrator)
-    if plan.cone is not None:
-        expect(plan.cone in CONES, "mujoco.cone", "|".join(CONES), plan.cone)
-        model.opt.cone = (mujoco.mjtCone.mjCONE_PYRAMIDAL if plan.cone == "pyramidal"
-                          else mujoco.mjtCone.mjCONE_ELLIPTIC)
-    if plan.impratio is not None:
-        model.opt.impratio = plan.impratio
-    if plan.noslip_iterations is not None:
-        model.opt.noslip_iterations = plan.noslip_iterations
-    geoms, pairs = _contact_geoms(top_model), _top_pairs(top_model)
-    for g in geoms:
-        if plan.condim is not None:
-            model.geom_condim[g] = plan.condim
-        for i, v in enumerate((plan.mu, plan.torsional, plan.rolling)):
-            if v is not None:
-                model.geom_friction[g, i] = v
-        if plan.solref is not None:
-            model.geom_solref[g] = plan.solref
-        if plan.solimp is not None:
-            model.geom_solimp[g, :len(plan.solimp)] = plan.solimp
-    for p in pairs:
-        if plan.condim is not None:
-            model.pair_dim[p] = plan.condim
-        for idx, v in (((0, 1), plan.mu), ((2,), plan.torsional), ((3, 4), plan.rolling)):
-            if v is not None:
-                model.pair_friction[p, list(idx)] = v
-        if plan.solref is not None:
-            model.pair_solref[p] = plan.solref
-        if plan.solimp is not None:
-            model.pair_solimp[p, :len(plan.solimp)] = plan.solimp
-
-
-def _integrator_code(name: str) -> int:
-    return int(getattr(mujoco.mjtIntegrator, f"mjINT_{name.upper()}"))
 
 
 def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any]:
@@ -143,8 +82,7 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
     out: dict[str, Any] = {
         "timestep_s": float(opt.timestep),
         "integrator": integrator_name(int(opt.integrator)),
-        "cone": "pyramidal" if int(opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
-        else "elliptic",
+        "cone": cone_name(int(opt.cone)),
         "impratio": float(opt.impratio),
         "noslip_iterations": int(opt.noslip_iterations),
         "gravity_mps2": float(-opt.gravity[2]),
@@ -181,4 +119,11 @@ def integrator_name(code: int) -> str:
     return next((s for s in INTEGRATORS if s.upper() == name), name.lower())
 
 
-__all__ = ["apply_settings", "build_model", "integrator_name", "settings_that_ran"]
+def cone_name(code: int) -> str:
+    """MJCF spelling of a friction cone code (``pyramidal``, ``elliptic``)."""
+    name = mujoco.mjtCone(code).name.removeprefix("mjCONE_").lower()
+    return next((s for s in CONES if s == name), name)
+
+
+__all__ = ["build_model", "cone_name", "integrator_name", "plan_differences",
+           "settings_that_ran"]

@@ -16,32 +16,26 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from tippetop.models.frames import initial_rigid_state, quat_mul, quat_to_mat
+from tippetop.models.contacts import ContactSetting
+from tippetop.models.frames import free_joint_start
 from tippetop.models.observables import SIN_THETA_UNDEFINED
 from tippetop.models.params import InitialState
 from tippetop.models.plan import FileTop
-from tippetop.mujoco_runner.model import TopModel, load_top, stem_from_model
+from tippetop.mujoco_runner.model import TopModel, load_top, stem_from_model, stem_geoms
+from tippetop.mujoco_runner.settings import cone_name, integrator_name
 
 
 def initial_qpos_qvel(top_model: TopModel, init: InitialState) -> tuple[np.ndarray, np.ndarray]:
     """The free joint's qpos (7,) and qvel (6,) for the paper's initial state.
 
-    The top starts with phi = psi = 0 and its centre of mass above the origin, the ball just
-    touching the table (S at height R), as in :func:`models.frames.initial_rigid_state`.
+    :func:`tippetop.models.frames.free_joint_start` in this model's body frame.
     """
-    top = top_model.top
-    rigid = initial_rigid_state(top, init)
-    quat = quat_mul(rigid.quat, top_model.paper_from_body_quat)
-    quat /= np.linalg.norm(quat)
-    rot = quat_to_mat(quat)
-    origin = rigid.sphere_centre_m(top) - rot @ top_model.centre_body_m
-    v_origin = rigid.v_com_mps + np.cross(rigid.omega_radps, origin - rigid.com_m)
-    qpos = np.concatenate([origin, quat])
-    qvel = np.concatenate([v_origin, rot.T @ rigid.omega_radps])
-    return qpos, qvel
+    return free_joint_start(top_model.top, init, top_model.paper_from_body_quat,
+                            top_model.centre_body_m)
 
 
 @dataclass(frozen=True)
@@ -171,6 +165,8 @@ __all__ = [
     "KEYFRAME_TOUCH_R",
     "Kinematics",
     "ball_table_mu",
+    "contact_reach_m",
+    "contact_settings",
     "file_top",
     "initial_qpos_qvel",
     "initial_state_from_qpos_qvel",
@@ -204,18 +200,87 @@ def keyframe_state(top_model: TopModel, index: int) -> InitialState | None:
 
 
 def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
-    """What a run plan needs of an MJCF top: its parameters and its keyframes' paper states."""
+    """Everything a run plan reads of an MJCF top: parameters, options, contacts, keyframes."""
     import mujoco
 
-    top_model = load_top(mjcf)
+    path = Path(os.fspath(mjcf))
+    top_model = load_top(path)
     model = top_model.model
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) or ""
                   for i in range(model.nkey))
     inits = tuple(keyframe_state(top_model, i) for i in range(model.nkey))
     stem, note = stem_from_model(top_model)
-    return FileTop(top=top_model.top, keyframes=names, keyframe_inits=inits,
-                   mu=ball_table_mu(top_model), stem=stem, stem_note=note,
-                   timestep_s=float(model.opt.timestep))
+    opt = model.opt
+    return FileTop(
+        top=top_model.top, path=path.resolve(), text=path.read_text(encoding="utf-8"),
+        timestep_s=float(opt.timestep), integrator=integrator_name(int(opt.integrator)),
+        cone=cone_name(int(opt.cone)), impratio=float(opt.impratio),
+        noslip_iterations=int(opt.noslip_iterations),
+        gravity_mps2=tuple(float(g) for g in opt.gravity), contacts=contact_settings(top_model),
+        ngeom=int(model.ngeom), npair=int(model.npair),
+        contact_reach_m=contact_reach_m(top_model),
+        centre_body_m=tuple(float(v) for v in top_model.centre_body_m),
+        paper_from_body_quat=tuple(float(v) for v in top_model.paper_from_body_quat),
+        keyframes=names, keyframe_inits=inits, mu=ball_table_mu(top_model), stem=stem,
+        stem_note=note)
+
+
+def contact_settings(top_model: TopModel) -> tuple[ContactSetting, ...]:
+    """The model's contact settings, as a plan lists them.
+
+    The colliding geoms of the top and of the static world (the ball; the top's others as
+    ``stem``; the static ones as ``table``), then the contact pairs that involve the top.
+    """
+    import mujoco
+
+    model, b = top_model.model, top_model.body_id
+    stems = set(stem_geoms(top_model))
+
+    def name(g: int) -> str:
+        return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
+
+    out = []
+    for g in range(model.ngeom):
+        if g == top_model.ball_geom_id:
+            role = "ball"
+        elif g in stems:
+            role = "stem"
+        elif model.body_weldid[model.geom_bodyid[g]] == 0 and (
+                model.geom_contype[g] or model.geom_conaffinity[g]):
+            role = "table"
+        else:
+            continue
+        out.append(ContactSetting(
+            "geom", g, name(g), role, int(model.geom_condim[g]),
+            tuple(float(v) for v in model.geom_friction[g]),
+            tuple(float(v) for v in model.geom_solref[g]),
+            tuple(float(v) for v in model.geom_solimp[g]),
+            contype=int(model.geom_contype[g]), conaffinity=int(model.geom_conaffinity[g]),
+            priority=int(model.geom_priority[g]), solmix=float(model.geom_solmix[g])))
+    for p in range(model.npair):
+        g1, g2 = int(model.pair_geom1[p]), int(model.pair_geom2[p])
+        if b not in (model.geom_bodyid[g1], model.geom_bodyid[g2]):
+            continue
+        out.append(ContactSetting(
+            "pair", p, f"{name(g1)} {name(g2)}", "pair", int(model.pair_dim[p]),
+            tuple(float(v) for v in model.pair_friction[p]),
+            tuple(float(v) for v in model.pair_solref[p]),
+            tuple(float(v) for v in model.pair_solimp[p]), geoms=(g1, g2)))
+    return tuple(out)
+
+
+def contact_reach_m(top_model: TopModel) -> float:
+    """How far from the centre of mass a contact on the top can be (m).
+
+    Over its colliding geoms, the distance of the geom's centre from G plus its bounding radius.
+    """
+    model, b = top_model.model, top_model.body_id
+    reach = top_model.top.R_m + top_model.top.a_m
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] == b and (model.geom_contype[g] or model.geom_conaffinity[g]):
+            d = float(np.linalg.norm(model.geom_pos[g] - model.body_ipos[b]))
+            reach = max(reach, d + float(model.geom_rbound[g]))
+    return reach
 
 
 def ball_table_mu(top_model: TopModel) -> float | None:

@@ -1,0 +1,184 @@
+"""The contact settings a run plan writes on a top's geoms and pairs, and how MuJoCo mixes them.
+
+Every colliding geom of the top and of the static world (the table), and every explicit contact
+pair of the top, is one :class:`ContactSetting` of the plan. MuJoCo makes a contact's condim,
+friction, solref and solimp from the two geoms' (:func:`mix`, its ``mj_contactParam``), or takes
+an explicit pair's as they are; :func:`ball_table_contact` is the ball's contact with the table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+#: The roles of a plan's contact elements.
+ROLES = ("ball", "stem", "table", "pair")
+#: MuJoCo's smallest solmix that counts (``mjMINVAL``).
+_MINVAL = 1e-15
+#: MuJoCo's smallest friction coefficient in a contact (``mjMINMU``).
+_MINMU = 1e-5
+
+
+@dataclass(frozen=True)
+class ContactSetting:
+    """The contact parameters of one colliding geom or contact pair, as the plan writes them.
+
+    Attributes:
+        element: ``geom`` or ``pair``.
+        index: The geom's (pair's) id in the compiled model: its place in the document.
+        name: The geom's name (``#id`` if it has none); a pair's geoms' names.
+        role: ``ball``, ``stem`` (another colliding geom of the top: the stem, say), ``table``
+            (a colliding geom of the static world) or ``pair``.
+        condim: Contact dimensionality.
+        friction: A geom's (sliding, torsional m, rolling m); a pair's five coefficients.
+        solref: (time constant s, damping ratio), or (-stiffness, -damping).
+        solimp: (d0, dwidth, width m, midpoint, power).
+        contype: A geom's contact type bits (a pair: 0).
+        conaffinity: A geom's contact affinity bits (a pair: 0).
+        priority: A geom's contact priority (a pair: 0).
+        solmix: A geom's solver mixing weight (a pair: 1).
+        geoms: A pair's two geom ids; () for a geom.
+    """
+
+    element: str
+    index: int
+    name: str
+    role: str
+    condim: int
+    friction: tuple[float, ...]
+    solref: tuple[float, ...]
+    solimp: tuple[float, ...]
+    contype: int = 0
+    conaffinity: int = 0
+    priority: int = 0
+    solmix: float = 1.0
+    geoms: tuple[int, ...] = ()
+
+    @property
+    def collides(self) -> bool:
+        """A pair always; a geom with any contact type or affinity bit."""
+        return self.element == "pair" or bool(self.contype or self.conaffinity)
+
+    def with_values(self, *, condim: int | None = None, mu: float | None = None,
+                    torsional: float | None = None, rolling: float | None = None,
+                    solref: Sequence[float] | None = None,
+                    solimp: Sequence[float] | None = None) -> ContactSetting:
+        """This setting with the values given (None keeps its own).
+
+        A geom's friction is (mu, torsional, rolling); a pair's (mu, mu, torsional, rolling,
+        rolling). A solimp of three numbers replaces the first three.
+        """
+        fr = list(self.friction)
+        slots = ({"mu": (0,), "torsional": (1,), "rolling": (2,)} if self.element == "geom"
+                 else {"mu": (0, 1), "torsional": (2,), "rolling": (3, 4)})
+        for key, value in (("mu", mu), ("torsional", torsional), ("rolling", rolling)):
+            if value is not None:
+                for i in slots[key]:
+                    fr[i] = float(value)
+        imp = list(self.solimp)
+        if solimp is not None:
+            imp[:len(solimp)] = [float(v) for v in solimp]
+        return replace(self, condim=self.condim if condim is None else int(condim),
+                       friction=tuple(fr),
+                       solref=self.solref if solref is None else tuple(float(v) for v in solref),
+                       solimp=tuple(imp))
+
+    def to_attributes(self) -> dict[str, str]:
+        """MJCF attributes of the element (numbers at full precision)."""
+        from tippetop.models.mjcf_document import fmt
+
+        out = {"condim": str(self.condim), "friction": fmt(self.friction),
+               "solref": fmt(self.solref), "solimp": fmt(self.solimp)}
+        if self.element == "geom":
+            out.update(contype=str(self.contype), conaffinity=str(self.conaffinity))
+        return out
+
+
+@dataclass(frozen=True)
+class MixedContact:
+    """The parameters of a contact between two geoms, as MuJoCo makes them.
+
+    Attributes:
+        condim: Contact dimensionality.
+        friction: The five coefficients (sliding twice, torsional, rolling twice).
+        solref: (time constant s, damping ratio), or (-stiffness, -damping).
+        solimp: (d0, dwidth, width m, midpoint, power).
+        source: Which elements gave them (``geoms ball and table``, ``pair ball table``).
+    """
+
+    condim: int
+    friction: tuple[float, ...]
+    solref: tuple[float, ...]
+    solimp: tuple[float, ...]
+    source: str
+
+    def acting(self) -> dict[str, Any]:
+        """condim, and the coefficients it uses (None where it has no friction row).
+
+        The keys of a summary's ``what ran``: ``condim``, ``mu``, ``torsional``, ``rolling``,
+        ``solref``, ``solimp``.
+        """
+        c = self.condim
+        return {"condim": c, "mu": self.friction[0] if c >= 3 else None,
+                "torsional": self.friction[2] if c >= 4 else None,
+                "rolling": self.friction[3] if c >= 6 else None,
+                "solref": list(self.solref), "solimp": list(self.solimp)}
+
+
+def mix(a: ContactSetting, b: ContactSetting) -> MixedContact:
+    """The contact of geoms ``a`` and ``b``: MuJoCo's ``mj_contactParam``.
+
+    The geom of higher priority gives everything; at equal priority condim and friction are
+    the larger of the two, solref and solimp their solmix-weighted mean (solref the smaller of
+    each when either is given directly, negative). Friction is at least ``mjMINMU``.
+    """
+    if a.priority != b.priority:
+        g = a if a.priority > b.priority else b
+        condim, fri = g.condim, g.friction
+        solref, solimp = g.solref, g.solimp
+    else:
+        condim = max(a.condim, b.condim)
+        s1, s2 = a.solmix, b.solmix
+        if s1 >= _MINVAL and s2 >= _MINVAL:
+            w = s1 / (s1 + s2)
+        elif s1 < _MINVAL and s2 < _MINVAL:
+            w = 0.5
+        else:
+            w = 0.0 if s1 < _MINVAL else 1.0
+        if a.solref[0] > 0 and b.solref[0] > 0:
+            solref = tuple(w * x + (1 - w) * y for x, y in zip(a.solref, b.solref, strict=True))
+        else:
+            solref = tuple(min(x, y) for x, y in zip(a.solref, b.solref, strict=True))
+        solimp = tuple(w * x + (1 - w) * y for x, y in zip(a.solimp, b.solimp, strict=True))
+        fri = tuple(max(x, y) for x, y in zip(a.friction, b.friction, strict=True))
+    five = (fri[0], fri[0], fri[1], fri[2], fri[2])
+    return MixedContact(condim, tuple(max(_MINMU, f) for f in five), tuple(solref),
+                        tuple(solimp), f"geoms {a.name} and {b.name}")
+
+
+def _can_collide(a: ContactSetting, b: ContactSetting) -> bool:
+    return bool(a.contype & b.conaffinity or b.contype & a.conaffinity)
+
+
+def ball_table_contact(contacts: Sequence[ContactSetting]) -> MixedContact | None:
+    """The ball's contact with the table: an explicit pair's, else the two geoms' mixed.
+
+    The table is the first static geom the ball can collide with. None: the ball touches no
+    static geom.
+    """
+    ball = next((c for c in contacts if c.role == "ball"), None)
+    if ball is None:
+        return None
+    tables = {c.index: c for c in contacts if c.role == "table"}
+    for c in contacts:
+        if c.element == "pair" and ball.index in c.geoms and any(g in tables for g in c.geoms):
+            return MixedContact(c.condim, tuple(max(_MINMU, f) for f in c.friction), c.solref,
+                                c.solimp, f"pair {c.name}")
+    for table in tables.values():
+        if _can_collide(ball, table):
+            return mix(table, ball)
+    return None
+
+
+__all__ = ["ROLES", "ContactSetting", "MixedContact", "ball_table_contact", "mix"]

@@ -1,0 +1,207 @@
+"""An MJCF document as text: its elements in MuJoCo's order, and values written into them.
+
+A run plan carries the MJCF text that will be compiled (:class:`~tippetop.models.plan.
+MujocoPlan`): for a loaded file, the file's own document with the plan's options and contact
+settings written into its elements (numbers at full precision: ``repr`` parses back to the same
+double), its ``<include>`` elements inlined and its asset folders made absolute, so that any
+process can compile it from the text alone. Only the standard library is used.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from tippetop.models.errors import TippetopError
+
+#: The attributes of ``<compiler>`` that name folders of asset files.
+_ASSET_DIRS = ("assetdir", "meshdir", "texturedir")
+#: Elements whose ``file`` attribute names an asset file.
+_ASSET_TAGS = ("mesh", "texture", "hfield", "skin")
+
+
+def fmt(values: Any) -> str:
+    """Numbers as MJCF text that parses back to the same doubles (``repr``)."""
+    if isinstance(values, (int, float)):
+        values = (values,)
+    flat = []
+    for v in values:
+        if isinstance(v, (list, tuple)):
+            flat.extend(v)
+        elif hasattr(v, "ravel"):
+            flat.extend(v.ravel().tolist())
+        else:
+            flat.append(v)
+    return " ".join(repr(float(v)) for v in flat)
+
+
+def parse(text: str) -> ET.Element:
+    """The document's element tree, its comments kept.
+
+    Raises:
+        TippetopError: The text is not XML.
+    """
+    # MuJoCo's parser takes "--" inside a comment (strict XML does not): keep such comments
+    text = re.sub(r"<!--(.*?)-->", lambda m: "<!--" + m.group(1).replace("--", "- -") + "-->",
+                  text, flags=re.DOTALL)
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+    try:
+        return ET.fromstring(text, parser=parser)
+    except ET.ParseError as exc:
+        raise TippetopError(f"mjcf: expected an MJCF (XML) document, got: {exc}") from None
+
+
+def to_text(root: ET.Element, header: str = "") -> str:
+    """The document as text, indented, after ``header`` (a comment, or nothing)."""
+    ET.indent(root, space="  ")
+    return header + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def comment(text: str) -> str:
+    """``text`` as an XML comment on lines of its own (``--`` is not allowed inside one)."""
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return f"<!--\n{text}\n-->\n"
+
+
+def _children(el: ET.Element, tag: str) -> list[ET.Element]:
+    """``el``'s ``tag`` children, also those inside ``<frame>`` elements, in order."""
+    out = []
+    for child in el:
+        if child.tag == tag:
+            out.append(child)
+        elif child.tag == "frame":
+            out.extend(_children(child, tag))
+    return out
+
+
+def body_elements(root: ET.Element) -> list[ET.Element]:
+    """``<worldbody>`` and the ``<body>`` elements, in MuJoCo's body order (depth first)."""
+    world = root.find("worldbody")
+    out: list[ET.Element] = []
+
+    def walk(el: ET.Element) -> None:
+        out.append(el)
+        for child in _children(el, "body"):
+            walk(child)
+
+    if world is not None:
+        walk(world)
+    return out
+
+
+def geom_elements(root: ET.Element) -> list[ET.Element]:
+    """Every ``<geom>`` element in MuJoCo's geom order (by body, then as written)."""
+    return [g for body in body_elements(root) for g in _children(body, "geom")]
+
+
+def pair_elements(root: ET.Element) -> list[ET.Element]:
+    """Every ``<contact><pair>`` element, in MuJoCo's pair order."""
+    return [p for c in root.findall("contact") for p in c.findall("pair")]
+
+
+def inline_includes(root: ET.Element, folder: Path) -> None:
+    """Replace every ``<include file=...>`` by the children of the file's ``<mujoco>`` root.
+
+    MuJoCo's own rule; a relative name is relative to ``folder`` (the including file's). The
+    included files' own includes are inlined too.
+
+    Raises:
+        TippetopError: An included file is missing or not MJCF.
+    """
+    for parent in list(root.iter()):
+        for i, child in reversed(list(enumerate(list(parent)))):
+            if child.tag != "include":
+                continue
+            name = child.get("file", "")
+            path = Path(name) if os.path.isabs(name) else folder / name
+            try:
+                sub = parse(path.read_text(encoding="utf-8"))
+            except OSError as exc:
+                raise TippetopError(f"mjcf: expected the included file {str(path)!r}, got "
+                                    f"{type(exc).__name__}: {exc.strerror}") from None
+            inline_includes(sub, path.parent)
+            parent.remove(child)
+            for j, el in enumerate(list(sub)):
+                parent.insert(i + j, el)
+
+
+def absolute_asset_dirs(root: ET.Element, folder: Path) -> None:
+    """Make the document's asset files resolve from ``folder`` wherever it is compiled.
+
+    MuJoCo looks for an asset file (a mesh, a texture, ...) named by a relative path in the
+    model file's folder joined with ``meshdir``/``texturedir``/``assetdir``. Compiled from
+    text there is no model file: each of those attributes that is relative is joined to
+    ``folder``, and ``assetdir`` is set to ``folder`` where it is missing. A document that
+    names no asset file is left as it is.
+    """
+    if not any(el.get("file") for tag in _ASSET_TAGS for el in root.iter(tag)):
+        return
+    compiler = root.find("compiler")
+    if compiler is None:
+        compiler = ET.Element("compiler")
+        root.insert(0, compiler)
+    for key in _ASSET_DIRS:
+        value = compiler.get(key)
+        if value is not None and not os.path.isabs(value):
+            compiler.set(key, str(folder / value))
+    if compiler.get("assetdir") is None:
+        compiler.set("assetdir", str(folder))
+
+
+def set_attributes(el: ET.Element, values: Mapping[str, str]) -> None:
+    """Set ``values`` (attribute -> text) on one element."""
+    for key, value in values.items():
+        el.set(key, value)
+
+
+def write_values(root: ET.Element, *, option: Mapping[str, str],
+                 geoms: Mapping[int, Mapping[str, str]], pairs: Mapping[int, Mapping[str, str]],
+                 ngeom: int, npair: int) -> None:
+    """Write option attributes and per-geom and per-pair attributes into the document.
+
+    Args:
+        root: The document.
+        option: Attributes of ``<option>`` (made if missing).
+        geoms: Geom id -> attributes, ids in MuJoCo's geom order.
+        pairs: Pair id -> attributes.
+        ngeom: The model's geom count (the document's ``<geom>`` elements must be as many).
+        npair: Its pair count.
+
+    Raises:
+        TippetopError: The document's geoms or pairs do not map one to one onto the model's (a
+            ``<replicate>`` or a composite makes some elsewhere).
+    """
+    el = root.find("option")
+    if el is None:
+        el = ET.Element("option")
+        root.insert(0, el)
+    set_attributes(el, option)
+    geom_els, pair_els = geom_elements(root), pair_elements(root)
+    if len(geom_els) != ngeom or len(pair_els) != npair:
+        raise TippetopError(
+            f"mjcf: expected a document whose <geom> and <pair> elements are the model's "
+            f"({ngeom} geoms, {npair} pairs), got {len(geom_els)} and {len(pair_els)} (a "
+            "<replicate> or composite makes others): its settings cannot be written exactly")
+    for i, values in geoms.items():
+        set_attributes(geom_els[i], values)
+    for i, values in pairs.items():
+        set_attributes(pair_els[i], values)
+
+
+def add_keyframe(root: ET.Element, name: str, values: Iterable[tuple[str, Any]]) -> None:
+    """Append ``<key name=...>`` with ``values`` ((attribute, numbers) pairs) to the document."""
+    frames = root.findall("keyframe")
+    parent = frames[-1] if frames else ET.SubElement(root, "keyframe")
+    key = ET.SubElement(parent, "key", name=name)
+    for attr, numbers in values:
+        key.set(attr, fmt(numbers))
+
+
+__all__ = ["absolute_asset_dirs", "add_keyframe", "body_elements", "comment", "fmt",
+           "geom_elements", "inline_includes", "pair_elements", "parse", "set_attributes",
+           "to_text", "write_values"]

@@ -1,0 +1,107 @@
+"""The checks that end a MuJoCo run, each with its one-line reason and what to change.
+
+A state that is not finite, a MuJoCo warning, the ball sinking into the table, the energy
+rising, the contact lost.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
+from tippetop.mujoco_runner.record import SampleRecord
+from tippetop.mujoco_runner.settings import integrator_name
+
+#: Deepest admissible penetration of the ball into the table, in radii (the soft contact sinks
+#: ~0.025 R at rest with the default solref; more than this means the contact failed).
+MAX_PENETRATION_R = 0.2
+#: The ball's lowest point more than this above the table counts as "no contact" (m).
+CONTACT_GAP_M = 1e-6
+#: Longer than this without contact is "contact lost" (s); the paper assumes permanent contact.
+MAX_AIRBORNE_S = 0.05
+#: A rise of the mechanical energy by more than this fraction of its initial value marks an
+#: unstable integration (friction and the contact can only dissipate energy).
+MAX_ENERGY_RISE = 0.1
+#: The failure reason of a sample whose qpos or qvel is not finite (``; fix`` follows).
+NONFINITE_REASON = "NaN or Inf in qpos/qvel"
+
+
+def warning_reason(counts: np.ndarray, text: str | None = None) -> str:
+    """The failure reason for MuJoCo's warning counters ``counts`` (``mjData.warning.number``).
+
+    ``text``: MuJoCo's own text of the warning (default: the last one the warning handler kept,
+    :data:`~mujoco_runner.model.MUJOCO_WARNINGS`).
+    """
+    counts = np.asarray(counts)
+    i = int(np.flatnonzero(counts)[0])
+    if text is None:
+        text = MUJOCO_WARNINGS[-1] if MUJOCO_WARNINGS else ""
+    text = f": {text.removeprefix('WARNING: ')}" if text else ""
+    return (f"MuJoCo warning {mujoco.mjtWarning(i).name} ({int(counts[i])}x){text}, "
+            "the integration is unstable")
+
+
+def divergence_fix(model: mujoco.MjModel) -> str:
+    """What to change when a run diverges."""
+    dt = float(model.opt.timestep)
+    integrator = integrator_name(int(model.opt.integrator))
+    return f"reduce timestep_s (now {dt:g} s)" + (
+        "" if integrator == "RK4" else f" or use integrator RK4 (now {integrator})")
+
+
+def step_failure(record: SampleRecord) -> tuple[int, str | None]:
+    """(first sample that failed while stepping, its reason) or (len(record), None)."""
+    n = len(record)
+    bad = ~(np.isfinite(record.qpos).all(axis=1) & np.isfinite(record.qvel).all(axis=1))
+    warned = (np.zeros(n, dtype=bool) if record.warnings is None
+              else np.asarray(record.warnings).any(axis=1))
+    hits = np.flatnonzero(bad | warned)
+    if not hits.size:
+        return n, None
+    i = int(hits[0])
+    if bad[i]:
+        return i, NONFINITE_REASON
+    return i, warning_reason(record.warnings[i], record.warning_text)
+
+
+def check_failure(top_model: TopModel, t: np.ndarray, gap: np.ndarray, energy: np.ndarray,
+                   other_touching: np.ndarray, fix: str) -> tuple[int, str | None]:
+    """The divergence checks over all samples: (first failing sample, reason) or (n, None).
+
+    A sample fails when the ball sank more than :data:`MAX_PENETRATION_R` R into the table,
+    when the energy rose more than :data:`MAX_ENERGY_RISE` above the first sample's, or when
+    the ball has been off the table (gap above :data:`CONTACT_GAP_M`, no other geom of the top
+    touching) for more than :data:`MAX_AIRBORNE_S`.
+    """
+    n = len(t)
+    if not n:
+        return 0, None
+    R = top_model.top.R_m
+    e0 = energy[0]
+    sink = gap < -MAX_PENETRATION_R * R
+    with np.errstate(invalid="ignore"):
+        rise = energy - e0 > MAX_ENERGY_RISE * abs(e0)
+    ok = (gap <= CONTACT_GAP_M) | other_touching
+    idx = np.arange(n)
+    last_ok = np.maximum.accumulate(np.where(ok, idx, -1))
+    start = np.minimum(last_ok + 1, n - 1)
+    since = t[start]
+    lost = ~ok & (t - since > MAX_AIRBORNE_S)
+    hits = np.flatnonzero(sink | rise | lost)
+    if not hits.size:
+        return n, None
+    i = int(hits[0])
+    if sink[i]:
+        return i, (f"the ball sank {-gap[i] * 1e3:.3g} mm into the table (bound "
+                   f"{MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
+    if rise[i]:
+        return i, (f"the energy rose {100 * (energy[i] / e0 - 1):.3g}% above its "
+                   f"initial value (friction can only dissipate it); {fix}")
+    return i, (f"contact lost: the top left the table at t = {since[i]:.6g} s "
+               f"for more than {MAX_AIRBORNE_S:g} s (the model follows it on the table only)")
+
+
+__all__ = ["CONTACT_GAP_M", "MAX_AIRBORNE_S", "MAX_ENERGY_RISE", "MAX_PENETRATION_R",
+           "NONFINITE_REASON", "check_failure", "divergence_fix", "step_failure",
+           "warning_reason"]

@@ -1,0 +1,292 @@
+"""Stepping a MuJoCo run sample by sample and recording each sample (:mod:`.record`).
+
+In :mod:`.stepper`'s compiled loop when it is available, else from Python: the same C calls.
+Without paper mode's callback each sample's contacts are read from the forward pass that begins
+the next step (``mj_step`` taken apart, bit for bit), so they cost no extra pass.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from tippetop.models.params import FrictionParams
+from tippetop.models.plan import MujocoPlan
+from tippetop.mujoco_runner import stepper
+from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
+from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
+from tippetop.mujoco_runner.record import STATE_SPEC, ContactLog, ContactRecord, SampleRecord
+from tippetop.mujoco_runner.settings import settings_that_ran
+
+#: Wall time between calls of the progress callback (s).
+PROGRESS_INTERVAL_S = 0.2
+
+
+def ran_settings(top_model: TopModel, data: mujoco.MjData, plan: MujocoPlan) -> dict[str, Any]:
+    """The ``ran`` dict of a run (:attr:`~.results.MujocoResult.ran`).
+
+    :func:`~.settings.settings_that_ran` of ``data`` at t = 0 (after a forward pass), plus
+    the friction law, its mu, the row spacing and the keyframe.
+    """
+    model = top_model.model
+    ran = settings_that_ran(top_model, data)
+    law = plan.law
+    ran["friction_law"] = ("mujoco-native" if plan.mode == "native"
+                           else law.law if law is not None else "none")
+    if law is not None:
+        ran["law_mu"] = float(law.mu)
+    ran["sample_dt_s"] = plan.steps_per_sample * float(model.opt.timestep)
+    ran["keyframe"] = None if plan.keyframe is None else (
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, plan.keyframe) or f"#{plan.keyframe}")
+    return ran
+
+
+def start_data(top_model: TopModel, plan: MujocoPlan) -> mujoco.MjData:
+    """A new mjData at the plan's start: its keyframe, or its free joint's qpos and qvel."""
+    model = top_model.model
+    data = mujoco.MjData(model)
+    if plan.keyframe is None:
+        qa, va = top_model.qpos_adr, top_model.dof_adr
+        data.qpos[qa:qa + 7], data.qvel[va:va + 6] = plan.start_qpos, plan.start_qvel
+    else:
+        mujoco.mj_resetDataKeyframe(model, data, plan.keyframe)
+    return data
+
+
+def step_top_model(top_model: TopModel, plan: MujocoPlan, *,
+                   progress: Callable[[float], None] | None = None,
+                   ) -> tuple[SampleRecord, str | None, float, dict[str, Any]]:
+    """Step a plan's run on its compiled model and record its samples.
+
+    Starts a new mjData as the plan says (:func:`start_data`; the callback armed with the
+    plan's law, a forward pass for what ran) and steps it sample by sample. Touches nothing
+    shared but the process-wide callback, so runs of a thread pool may each call it on
+    their own mjData (the compiled stepper runs without the GIL).
+
+    Returns:
+        ``(record, failure, wall_s, ran)``: the samples, why the stepping stopped early
+        (None), its wall time and :func:`ran_settings`, for
+        :func:`~.results.result_from_samples`.
+    """
+    model = top_model.model
+    data = start_data(top_model, plan)
+    callback = contextlib.ExitStack()
+    if plan.law is not None:
+        callback.enter_context(PaperFriction(top_model, data, plan.law, stem=plan.stem))
+        compiled_callback()  # compiled (or loaded) once per process; kept out of wall_s
+    mujoco.mj_forward(model, data)
+    ran = ran_settings(top_model, data, plan)
+    with callback:
+        record, failure, wall_s = step_and_record(
+            model, data, plan.steps_per_sample, plan.n_intervals, progress,
+            contacts=plan.law is None)
+    return record, failure, wall_s, ran
+
+
+def contacts_from_steps(model: mujoco.MjModel, law: FrictionParams | None) -> bool:
+    """Whether a run reads each sample's contacts from its own steps (no passes afterwards).
+
+    True for a run without paper mode's law on a model whose ``mj_step`` is known to split
+    after its forward pass (:func:`integrator_split`); the others' contacts come from
+    forward passes at the recorded states in :func:`result_from_samples`.
+    """
+    return law is None and integrator_split(model) is not None
+
+
+def integrator_split(model: mujoco.MjModel) -> tuple[int, str] | None:
+    """How ``mj_step`` ends after its forward pass, for this model; None: not known.
+
+    ``mj_step`` is ``mj_checkPos``, ``mj_checkVel``, ``mj_forward``, ``mj_checkAcc``, then the
+    integrator (tests/mujoco_runner/test_record.py checks the split is bit-identical): a
+    :mod:`.stepper` integrator code and the C name of a (m, d) integrator.
+    """
+    enabled = int(model.opt.enableflags)
+    if enabled & (int(mujoco.mjtEnableBit.mjENBL_FWDINV) | int(mujoco.mjtEnableBit.mjENBL_SLEEP)):
+        return None
+    kind = int(model.opt.integrator)
+    if kind == int(mujoco.mjtIntegrator.mjINT_RK4):
+        return stepper.INTEG_RK4, "mj_Euler"
+    if kind == int(mujoco.mjtIntegrator.mjINT_EULER):
+        return stepper.INTEG_PLAIN, "mj_Euler"
+    if kind in (int(mujoco.mjtIntegrator.mjINT_IMPLICIT),
+                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST)):
+        return stepper.INTEG_PLAIN, "mj_implicit"
+    return None
+
+
+def integrator_step(model: mujoco.MjModel) -> Callable[[mujoco.MjModel, mujoco.MjData],
+                                                       None] | None:
+    """:func:`integrator_split` as a Python call; None: not known."""
+    split = integrator_split(model)
+    if split is None:
+        return None
+    if split[0] == stepper.INTEG_RK4:
+        return lambda m, d: mujoco.mj_RungeKutta(m, d, 4)
+    return getattr(mujoco, split[1])
+
+
+def step_and_record(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
+                     progress: Callable[[float], None] | None, *, contacts: bool = False,
+                     compiled: bool | None = None
+                     ) -> tuple[SampleRecord, str | None, float]:
+    """Step ``data`` sample by sample, recording each; (record, failure, wall time).
+
+    In :mod:`.stepper`'s compiled loop when it is available (``compiled``: None, the
+    default), else (or with ``compiled=False``) from Python: the same C calls either way.
+    """
+    if compiled is None:
+        compiled = stepper.available()[0]
+    if compiled:
+        return step_compiled(model, data, steps, n_intervals, progress, contacts=contacts)
+    return step_python(model, data, steps, n_intervals, progress, contacts=contacts)
+
+
+def chunk_failure(state: np.ndarray, warn: np.ndarray, nq: int, nv: int) -> int | None:
+    """The first of these rows whose qpos/qvel is not finite or that has a warning, or None."""
+    good = np.isfinite(state[:, 1:1 + nq + nv]).all(axis=1) & ~warn.any(axis=1)
+    bad = np.flatnonzero(~good)
+    return int(bad[0]) if bad.size else None
+
+
+def step_compiled(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
+                   progress: Callable[[float], None] | None, *, contacts: bool
+                   ) -> tuple[SampleRecord, str | None, float]:
+    """:func:`step_python` in :class:`.stepper.CompiledStepper` calls of many samples each.
+
+    Each call lasts about half of :data:`PROGRESS_INTERVAL_S` (its length adapts), so the
+    checks and the progress reports keep the single loop's pace.
+    """
+    n_rows = n_intervals + 1
+    split = integrator_split(model) if contacts else None
+    integ, plain = split if split is not None else (stepper.INTEG_STEP, "mj_Euler")
+    run = stepper.CompiledStepper(model, data, steps=steps, n_rows=n_rows, integrator=integ,
+                                  plain=plain, spec=int(STATE_SPEC))
+    nq, nv = model.nq, model.nv
+    dt = float(model.opt.timestep)
+    text = None
+    wall0 = time.perf_counter()
+    next_report = wall0  # report t = 0 at once
+    mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
+    n, chunk, first = 0, 1, True
+    while n < n_rows:
+        k = min(chunk, n_rows - n)
+        start = time.perf_counter()
+        run.advance(n, k, first=first)
+        elapsed = time.perf_counter() - start
+        first = False
+        bad = chunk_failure(run.state[n:n + k], run.warn[n:n + k], nq, nv)
+        if bad is not None:
+            n += bad + 1
+            if MUJOCO_WARNINGS:
+                text = MUJOCO_WARNINGS[-1]
+            break
+        n += k
+        now = time.perf_counter()
+        if progress is not None and now >= next_report and n < n_rows:
+            progress((n - 1) * steps * dt)
+            next_report = time.perf_counter() + PROGRESS_INTERVAL_S
+        chunk = max(1, min(4 * k, int(k * 0.5 * PROGRESS_INTERVAL_S / max(elapsed, 1e-9))))
+    wall_s = time.perf_counter() - wall0
+    state = run.state[:n]
+    record_contacts = None
+    if run.contacts:
+        sample, rows, force = run.contact_rows()
+        keep = sample < n
+        rows = rows[keep]
+        record_contacts = ContactRecord(sample[keep], rows["geom"].astype(np.int64),
+                                        rows["dist"].copy(), rows["pos"].copy(),
+                                        rows["frame"].copy(), force[keep])
+    record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
+                          qvel=state[:, 1 + nq:1 + nq + nv],
+                          qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=run.con[:n],
+                          warnings=run.warn[:n], warning_text=text, contacts=record_contacts)
+    return record, None, wall_s
+
+
+def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
+                 progress: Callable[[float], None] | None, *, contacts: bool = False
+                 ) -> tuple[SampleRecord, str | None, float]:
+    """Step ``data`` sample by sample from Python, recording each.
+
+    The state (time, qpos, qvel, warm start), qfrc_constraint and the warning counters
+    are copied at each sample; once per :data:`PROGRESS_INTERVAL_S` of wall time the new rows
+    are checked (finite, no warning) and the stepping stops at the first failed one, which is
+    kept in the record (:func:`result_from_samples` ends the run there).
+
+    With ``contacts`` (for a model without the paper-mode callback, whose forward pass at a
+    state depends on nothing the record leaves out), each sample interval's first step is
+    ``mj_step`` taken apart: its forward pass at the sample's state is the one the table's
+    contacts need, so they are read from ``data`` there (:attr:`SampleRecord.contacts`) and
+    the run needs no second forward pass per sample. Models whose ``mj_step`` is not known to
+    split so are stepped whole (then ``contacts`` is None and the post-processing computes
+    them).
+    """
+    n_rows = n_intervals + 1
+    spec = STATE_SPEC
+    state = np.empty((n_rows, mujoco.mj_stateSize(model, spec)))
+    con = np.empty((n_rows, model.nv))
+    counts = data.warning.number  # a live view of the counters
+    warn = np.zeros((n_rows, counts.size), dtype=counts.dtype)
+    nq, nv = model.nq, model.nv
+    data_con = data.qfrc_constraint
+    integrate = integrator_step(model) if contacts else None
+    log = ContactLog(model, data) if integrate is not None else None
+    wall0 = time.perf_counter()
+    next_report = wall0  # report t = 0 at once
+    n = 0  # rows recorded
+    checked = 0  # rows checked
+    text = None
+    mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
+    get_state, step, forward = mujoco.mj_getState, mujoco.mj_step, mujoco.mj_forward
+    check_pos, check_vel, check_acc = mujoco.mj_checkPos, mujoco.mj_checkVel, mujoco.mj_checkAcc
+    while True:
+        get_state(model, data, state[n], spec)
+        con[n] = data_con
+        warn[n] = counts
+        if log is not None:  # the next step's own start: its forward pass at this state
+            check_pos(model, data)
+            check_vel(model, data)
+            forward(model, data)
+            check_acc(model, data)
+            log.add(n, data)
+        n += 1
+        now = time.perf_counter()
+        if n == n_rows or now >= next_report:
+            rows = state[checked:n]
+            good = (np.isfinite(rows[:, 1:1 + nq + nv]).all(axis=1)
+                    & ~warn[checked:n].any(axis=1))
+            bad = np.flatnonzero(~good)
+            if bad.size:
+                n = checked + int(bad[0]) + 1
+                if MUJOCO_WARNINGS:
+                    text = MUJOCO_WARNINGS[-1]
+                break
+            checked = n
+            if n == n_rows:
+                break
+            if progress is not None:
+                progress((n - 1) * steps * float(model.opt.timestep))
+            next_report = time.perf_counter() + PROGRESS_INTERVAL_S
+        if integrate is not None:
+            integrate(model, data)  # the rest of the step begun above
+            if steps > 1:
+                step(model, data, steps - 1)
+        else:
+            step(model, data, steps)
+    wall_s = time.perf_counter() - wall0
+    state = state[:n]
+    record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
+                          qvel=state[:, 1 + nq:1 + nq + nv],
+                          qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=con[:n],
+                          warnings=warn[:n], warning_text=text,
+                          contacts=None if log is None else log.record())
+    return record, None, wall_s
+
+
+__all__ = ["PROGRESS_INTERVAL_S", "chunk_failure", "contacts_from_steps", "integrator_split",
+           "ran_settings", "start_data", "step_and_record", "step_top_model"]
