@@ -79,24 +79,27 @@ def _children(el: ET.Element, tag: str) -> list[ET.Element]:
     return out
 
 
-def body_elements(root: ET.Element) -> list[ET.Element]:
-    """``<worldbody>`` and the ``<body>`` elements, in MuJoCo's body order (depth first)."""
-    world = root.find("worldbody")
-    out: list[ET.Element] = []
+def body_elements(root: ET.Element) -> list[list[ET.Element]]:
+    """The bodies in MuJoCo's body order (depth first), each as the elements that make it.
 
-    def walk(el: ET.Element) -> None:
-        out.append(el)
-        for child in _children(el, "body"):
-            walk(child)
+    The world body is every ``<worldbody>`` element of the document (an included file adds
+    one), in order; every other body is one ``<body>`` element.
+    """
+    out: list[list[ET.Element]] = []
 
-    if world is not None:
-        walk(world)
+    def walk(els: list[ET.Element]) -> None:
+        out.append(els)
+        for el in els:
+            for child in _children(el, "body"):
+                walk([child])
+
+    walk(root.findall("worldbody"))
     return out
 
 
 def geom_elements(root: ET.Element) -> list[ET.Element]:
     """Every ``<geom>`` element in MuJoCo's geom order (by body, then as written)."""
-    return [g for body in body_elements(root) for g in _children(body, "geom")]
+    return [g for body in body_elements(root) for el in body for g in _children(el, "geom")]
 
 
 def pair_elements(root: ET.Element) -> list[ET.Element]:

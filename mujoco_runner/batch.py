@@ -80,7 +80,7 @@ from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
 from tippetop.mujoco_runner.record import SampleRecord
 from tippetop.mujoco_runner.results import MujocoResult, result_from_samples
 from tippetop.mujoco_runner.run import simulate_plan
-from tippetop.mujoco_runner.settings import build_model
+from tippetop.mujoco_runner.settings import build_model, check_model
 from tippetop.mujoco_runner.stepping import (
     contacts_from_steps,
     ran_settings,
@@ -166,6 +166,8 @@ def _prepare(index: int, plan: MujocoPlan,
         top_model = build_model(plan)
         if models is not None:
             models[plan.mjcf] = top_model
+    else:
+        check_model(plan, top_model.model)  # as build_model checks a model it compiles
     return _Sim(index=index, plan=plan, top_model=top_model, steps=plan.steps_per_sample,
                 n_intervals=plan.n_intervals, law=plan.law)
 
@@ -217,12 +219,16 @@ def iter_simulate_plans(
             yield i, exc
     own = [_steps_own_contacts(sim) for sim in sims]
     threaded = [sim for sim, yes in zip(sims, own, strict=True) if yes]
-    if threaded:
-        yield from _run_threads(threaded, nthread, progress, tick)
     budget = samples_budget_gib() * 2**30
     rest = [sim for sim, yes in zip(sims, own, strict=True) if not yes]
-    for group in _groups(rest, budget):
-        yield from _run_group(group, nthread, progress, tick)
+    runs = [_run_threads(threaded, nthread, progress, tick)] if threaded else []
+    runs += [_run_group(group, nthread, progress, tick) for group in _groups(rest, budget)]
+    for run in runs:
+        for i, res in run:
+            if progress is not None and isinstance(res, MujocoResult) and len(res.table):
+                # at the end too, as the single run reports (a run may end between two ticks)
+                progress(i, min(1.0, float(res.table["t"].iloc[-1]) / plans[i].t_end_s))
+            yield i, res
 
 
 def simulate_plans(plans: Sequence[MujocoPlan], *, nthread: int | None = None

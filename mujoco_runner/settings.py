@@ -34,11 +34,20 @@ def build_model(plan: MujocoPlan) -> TopModel:
             top_model = load_top(plan.mjcf)
     else:
         top_model = load_top(plan.mjcf)
-    differ = plan_differences(plan, top_model.model)
+    check_model(plan, top_model.model)
+    return top_model
+
+
+def check_model(plan: MujocoPlan, model: mujoco.MjModel) -> None:
+    """Refuse a compiled model that does not hold the plan's options and contact settings.
+
+    Raises:
+        TippetopError: Naming the first values that differ.
+    """
+    differ = plan_differences(plan, model)
     if differ:
         raise TippetopError("mjcf: expected the compiled model to hold the plan's values, got "
                             + "; ".join(differ[:4]))
-    return top_model
 
 
 def plan_differences(plan: MujocoPlan, model: mujoco.MjModel) -> list[str]:
@@ -125,5 +134,5 @@ def cone_name(code: int) -> str:
     return next((s for s in CONES if s == name), name)
 
 
-__all__ = ["build_model", "cone_name", "integrator_name", "plan_differences",
+__all__ = ["build_model", "check_model", "cone_name", "integrator_name", "plan_differences",
            "settings_that_ran"]

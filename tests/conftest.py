@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.plan import MujocoPlan
+from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
 from tippetop.reference_ode.solve import OdeResult, simulate_ode
+
+if TYPE_CHECKING:
+    from tippetop.mujoco_runner.results import MujocoResult
 
 
 @functools.cache
@@ -28,3 +35,23 @@ def run_ode(A_over_C: float, a_over_R: float, C_factor: float = 1.0, *, law: str
                         FrictionParams(law=law), InitialState(**init), t_end_s=t_end_s,
                         sample_dt_s=sample_dt_s,
                         options=OdeOptions(formulation=formulation, rtol=rtol))
+
+
+def mujoco_plan(*overrides: str, scene: str | None = None) -> MujocoPlan:
+    """The MuJoCo plan of a scene (default: the paper's top from the Fig. 3 start) with
+    ``section.key=value`` overrides, as every command makes it (a loaded top's file read)."""
+    from tippetop.mujoco_runner.state import file_top
+
+    s = load_scene(scene, list(overrides))
+    loaded = file_top(s.top_mjcf) if s.top_mjcf is not None else None
+    plan = resolve_plan(s, "mujoco", file_top=loaded).mujoco
+    assert plan is not None
+    return plan
+
+
+def run_mujoco(*overrides: str, scene: str | None = None,
+               progress: Callable[[float], None] | None = None) -> MujocoResult:
+    """Run :func:`mujoco_plan` of the same arguments in MuJoCo."""
+    from tippetop.mujoco_runner.run import simulate_plan
+
+    return simulate_plan(mujoco_plan(*overrides, scene=scene), progress=progress)

@@ -143,7 +143,7 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
     """
     from tippetop.models.mjcf import make_mjcf
     from tippetop.models.params import FrictionParams, InitialState, TopParams
-    from tippetop.models.plan import PAPER_SOLREF
+    from tippetop.models.resolve import PAPER_SOLREF
 
     top = TopParams.from_ratios(1.25, 0.15, 0.8)
     f = tmp_path / "top.xml"

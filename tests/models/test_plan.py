@@ -9,21 +9,30 @@ import pytest
 from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING
-from tippetop.models.params import TopParams
-from tippetop.models.plan import (
-    PAPER_SOLREF,
-    FileTop,
-    default_sample_dt,
-    resolve_plan,
-    sample_interval,
-)
+from tippetop.models.plan import default_sample_dt, sample_grid
+from tippetop.models.resolve import PAPER_SOLREF, resolve_plan
 from tippetop.models.scene import load_scene
+from tippetop.mujoco_runner.state import file_top
 
-FILE_TOP = FileTop(TopParams.from_ratios(1.0, 0.15))
+ROOT = Path(__file__).resolve().parents[2]
+#: examples/paper_loaded_sphere.xml: the paper's Fig. 3 top written by hand (RK4 at 2e-4 s,
+#: an elliptic cone, MuJoCo's default contact softness, mu 0.1 on the ball and the floor)
+FILE = ROOT / "examples" / "paper_loaded_sphere.xml"
+MJCF = f"top.mjcf={str(FILE)!r}"
+
+
+@pytest.fixture(scope="module")
+def loaded():
+    return file_top(FILE)
 
 
 def plan(engine: str, *overrides: str, scene: str | None = "fig3", file_top=None):
     return resolve_plan(load_scene(scene, list(overrides)), engine, file_top=file_top)
+
+
+def ball(p):
+    """The ball's contact with the table as MuJoCo makes it, as a summary reports it."""
+    return p.ball_contact.acting()
 
 
 # ---------------------------------------------------------------- effects
@@ -31,9 +40,9 @@ def test_sliding_off_removes_friction_in_every_engine() -> None:
     off = "effects.sliding=false"
     assert plan("ode", off).ode.friction.law == "none"
     paper = plan("mujoco", off, "mujoco.friction=paper").mujoco
-    assert paper.law is None and paper.condim == 1
+    assert paper.law is None and ball(paper)["condim"] == 1
     native = plan("mujoco", off, "mujoco.friction=native").mujoco
-    assert native.mu == 0.0 and native.condim == 1
+    assert {c.friction[0] for c in native.contacts} == {0.0} and ball(native)["condim"] == 1
     # and with sliding on, each engine gets the scene's law
     assert plan("ode").ode.friction.law == "modified_coulomb"
     assert plan("mujoco", "mujoco.friction=paper").mujoco.law.law == "modified_coulomb"
@@ -47,22 +56,23 @@ def test_torsion_is_refused_where_it_cannot_run(engine: str, mode: str) -> None:
 
 def test_native_condim_follows_the_effects() -> None:
     nat = "mujoco.friction=native"
-    assert plan("mujoco", nat).mujoco.condim == 3
-    p = plan("mujoco", nat, "effects.torsional=true").mujoco
-    assert (p.condim, p.rolling) == (4, 0.0) and p.torsional > 0
-    p = plan("mujoco", nat, "effects.torsional=true", "effects.rolling=true",
-             "effects.rolling_mu=0.002").mujoco
-    assert (p.condim, p.rolling) == (6, 0.002)
-    p = plan("mujoco", nat, "effects.rolling=true").mujoco
-    assert p.rolling == MUJOCO_DEFAULT_ROLLING
+    assert ball(plan("mujoco", nat).mujoco)["condim"] == 3
+    p = ball(plan("mujoco", nat, "effects.torsional=true").mujoco)
+    assert (p["condim"], p["rolling"]) == (4, None) and p["torsional"] > 0
+    p = ball(plan("mujoco", nat, "effects.torsional=true", "effects.rolling=true",
+                  "effects.rolling_mu=0.002").mujoco)
+    assert (p["condim"], p["rolling"]) == (6, 0.002)
+    p = ball(plan("mujoco", nat, "effects.rolling=true").mujoco)
+    assert p["rolling"] == MUJOCO_DEFAULT_ROLLING
 
 
 # ---------------------------------------------------------------- paper and native settings
 def test_paper_mode_is_frictionless_and_stiff_unless_told() -> None:
     p = plan("mujoco", "mujoco.friction=paper").mujoco
-    assert (p.condim, p.mu, p.solref) == (1, 0.0, PAPER_SOLREF)
-    assert plan("mujoco", "mujoco.friction=paper",
-                "mujoco.solref=[0.01, 1]").mujoco.solref == (0.01, 1.0)
+    assert {(c.condim, c.friction, c.solref) for c in p.contacts} == {
+        (1, (0.0, 0.0, 0.0), PAPER_SOLREF)}
+    assert ball(plan("mujoco", "mujoco.friction=paper",
+                     "mujoco.solref=[0.01, 1]").mujoco)["solref"] == [0.01, 1.0]
     # mujoco.mu replaces the law's mu in paper mode
     assert plan("mujoco", "mujoco.friction=paper", "mujoco.mu=0.3").mujoco.law.mu == 0.3
     with pytest.raises(TippetopError, match="^mujoco.condim: expected 1 in paper mode"):
@@ -73,30 +83,37 @@ def test_native_mode_takes_the_calibration_for_what_the_scene_does_not_set() -> 
     cal = calibrated_native_settings()
     assert cal, "models/calibrated_native.toml must ship [settings]"
     p = plan("mujoco", "mujoco.friction=native").mujoco
-    assert (p.cone, p.impratio, p.mu, p.timestep_s, p.integrator) == (
+    assert (p.cone, p.impratio, ball(p)["mu"], p.timestep_s, p.integrator) == (
         cal["cone"], cal["impratio"], cal["mu"], cal["timestep_s"], cal["integrator"])
-    assert p.solref == tuple(cal["solref"]) and p.solimp == tuple(cal["solimp"])
+    assert ball(p)["solref"] == list(cal["solref"]) and ball(p)["solimp"] == list(cal["solimp"])
     p = plan("mujoco", "mujoco.friction=native", "mujoco.cone=elliptic", "mujoco.mu=0.5").mujoco
-    assert (p.cone, p.mu, p.impratio) == ("elliptic", 0.5, cal["impratio"])
+    assert (p.cone, ball(p)["mu"], p.impratio) == ("elliptic", 0.5, cal["impratio"])
     # the calibration fitted mu for the reference's mu = 0.1: another law's mu scales with it
     p = plan("mujoco", "mujoco.friction=native", "friction.mu=0.3").mujoco
-    assert p.mu == pytest.approx(3.0 * cal["mu"], rel=1e-15)
+    assert ball(p)["mu"] == pytest.approx(3.0 * cal["mu"], rel=1e-15)
 
 
 # ---------------------------------------------------------------- a loaded MJCF top
-def test_a_loaded_top_keeps_its_file_settings_unless_the_scene_sets_them() -> None:
-    mjcf = "top.mjcf=\"/nonexistent/top.xml\""  # the plan does not open it: file_top is given
-    p = plan("mujoco", mjcf, "mujoco.friction=native", file_top=FILE_TOP).mujoco
-    assert p.top == FILE_TOP.top and p.mjcf == Path("/nonexistent/top.xml")
-    assert (p.timestep_s, p.integrator, p.cone, p.impratio, p.condim, p.mu, p.solref,
-            p.solimp, p.sample_dt_s) == (None,) * 9
-    p = plan("mujoco", mjcf, "mujoco.friction=native", "mujoco.timestep_s=1e-4",
-             "mujoco.integrator=Euler", "effects.torsional=true", file_top=FILE_TOP).mujoco
-    assert (p.timestep_s, p.integrator, p.condim, p.cone) == (1e-4, "Euler", 4, None)
-    assert p.sample_dt_s == pytest.approx(1e-3, rel=1e-12)  # 10 steps: the timestep is known
-    paper = plan("mujoco", mjcf, "mujoco.friction=paper", file_top=FILE_TOP).mujoco
-    assert (paper.condim, paper.solref, paper.timestep_s) == (1, None, None)
-    assert plan("ode", mjcf, file_top=FILE_TOP).ode.top == FILE_TOP.top
+def test_a_loaded_top_keeps_its_file_settings_unless_the_scene_sets_them(loaded) -> None:
+    p = plan("mujoco", MJCF, "mujoco.friction=native", file_top=loaded).mujoco
+    assert p.top == loaded.top and p.source == str(FILE)
+    # every value resolved: the file's own, read into the plan (impratio, noslip and gravity
+    # are MuJoCo's defaults, which the file leaves: 1, 0 and 9.81 m/s^2)
+    assert (p.timestep_s, p.integrator, p.cone, p.impratio, p.noslip_iterations,
+            p.gravity_mps2) == (2e-4, "RK4", "elliptic", 1.0, 0, (0.0, 0.0, -9.81))
+    assert p.contacts == loaded.contacts
+    assert ball(p) == {"condim": 3, "mu": 0.1, "torsional": None, "rolling": None,
+                       "solref": [0.02, 1.0], "solimp": [0.9, 0.95, 0.001, 0.5, 2.0]}
+    assert p.sample_dt_s == pytest.approx(1e-3, rel=1e-12) and p.steps_per_sample == 5
+    p = plan("mujoco", MJCF, "mujoco.friction=native", "mujoco.timestep_s=1e-4",
+             "mujoco.integrator=Euler", "effects.torsional=true", file_top=loaded).mujoco
+    assert (p.timestep_s, p.integrator, ball(p)["condim"], p.cone) == (
+        1e-4, "Euler", 4, "elliptic")
+    assert p.steps_per_sample == 10
+    paper = plan("mujoco", MJCF, "mujoco.friction=paper", file_top=loaded).mujoco
+    assert (ball(paper)["condim"], ball(paper)["solref"], paper.timestep_s) == (
+        1, [0.02, 1.0], 2e-4)
+    assert plan("ode", MJCF, file_top=loaded).ode.top == loaded.top
 
 
 def test_a_loaded_top_needs_its_parameters() -> None:
@@ -108,11 +125,13 @@ def test_a_loaded_top_needs_its_parameters() -> None:
 def test_sampling() -> None:
     assert default_sample_dt(8.0) == 1e-3
     assert default_sample_dt(60.0) == 60.0 / 20_000
-    assert sample_interval(8.0, None, 3e-4) == pytest.approx(9e-4)  # nearest whole number
-    assert sample_interval(8.0, 2e-3, 2e-4) == pytest.approx(2e-3)
+    assert sample_grid(8.0, None, 3e-4) == (pytest.approx(9e-4), 3, 8888)  # nearest whole
+    assert sample_grid(8.0, 2e-3, 2e-4) == (pytest.approx(2e-3), 10, 4000)
     with pytest.raises(TippetopError, match="^run.sample_dt_s: expected a whole multiple of "
                        "the timestep 0.002 s, got 0.001"):
-        sample_interval(8.0, 1e-3, 2e-3)
+        sample_grid(8.0, 1e-3, 2e-3)
+    with pytest.raises(TippetopError, match="^run.t_end_s: expected >= the sample interval"):
+        sample_grid(1e-4, None, 2e-4)
     assert plan("ode").ode.sample_dt_s == 1e-3
     assert plan("ode", "run.sample_dt_s=0.01").ode.sample_dt_s == 0.01
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from dataclasses import replace
 from importlib.util import find_spec
 from pathlib import Path
 
@@ -18,13 +19,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for
+from tests.conftest import mujoco_plan
 from tippetop.models.errors import TippetopError
-from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import friction_callback
 from tippetop.mujoco_runner.batch import iter_simulate_plans, layout_key, simulate_plans
 from tippetop.mujoco_runner.friction_callback import PaperFriction
-from tippetop.mujoco_runner.run import MujocoResult, simulate_plan
+from tippetop.mujoco_runner.results import MujocoResult
+from tippetop.mujoco_runner.run import simulate_plan
 from tippetop.mujoco_runner.settings import build_model
 from tippetop.mujoco_runner.state import initial_qpos_qvel
 
@@ -52,8 +53,8 @@ def native_path(request, monkeypatch) -> str:
     return request.param
 
 
-def _plan(scene: str, *overrides: str, engine: str = "mujoco"):
-    return plan_for(load_scene(scene, [*T_END, *overrides]), engine).mujoco
+def _plan(scene: str, *overrides: str):
+    return mujoco_plan(*T_END, *overrides, scene=scene)
 
 
 def _timing_free(message: str) -> str:
@@ -130,6 +131,8 @@ def test_recorded_states_equal_a_loop_over_mjdata(monkeypatch) -> None:
         tm = build_model(plans[i])
         data = mujoco.MjData(tm.model)
         data.qpos[:7], data.qvel[:6] = initial_qpos_qvel(tm, plans[i].init)
+        assert (tuple(data.qpos[:7]), tuple(data.qvel[:6])) == (plans[i].start_qpos,
+                                                                plans[i].start_qvel)
         qpos, qvel = [], []
         with PaperFriction(tm, data, plans[i].law):
             mujoco.mj_forward(tm.model, data)
@@ -164,8 +167,10 @@ def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path, mo
         # a step at the contact's time constant: the ball sinks (found by the sample checks)
         _plan("fig3", "mujoco.friction=paper", "effects.sliding=false",
               "mujoco.integrator=Euler", "mujoco.timestep_s=0.02", "run.t_end_s=1"),
-        # the paper's law cannot be followed at this step: refused before running
-        _plan("fig3", "mujoco.friction=paper", "mujoco.timestep_s=0.01"),
+        # a plan this MuJoCo cannot run as it says (its text and its values disagree; a step
+        # the law cannot follow is refused earlier, when the plan is made): refused before
+        # running, as alone
+        replace(_plan("fig3", "mujoco.friction=paper"), timestep_s=1e-4),
         _plan("fig3", "mujoco.friction=native", "init.n0=70.0"),
         # explicit Euler on an A != C top: unstable, it keeps stepping past the energy check
         _plan("fig3", "mujoco.friction=paper", "effects.sliding=false", "top.A_over_C=1.25",
@@ -222,11 +227,10 @@ def test_loaded_tops_with_keyframes_and_stems_equal_single_runs(path: Path,
         # paper mode on a stemmed top needs a step its law can follow (the files' are longer)
         step = ["mujoco.timestep_s=0.0002"] if mode == "paper" and "stem" in path.stem else []
         for start in ([], ["init.n0=120.0"]):
-            scene = load_scene(None, [f"top.mjcf={str(path)!r}", "run.t_end_s=0.3",
-                                      f"mujoco.friction={mode}", *step, *start])
             with warnings.catch_warnings():  # the files' stems and origins: warned of
                 warnings.simplefilter("ignore")
-                plans.append(plan_for(scene, "mujoco").mujoco)
+                plans.append(mujoco_plan(f"top.mjcf={str(path)!r}", "run.t_end_s=0.3",
+                                         f"mujoco.friction={mode}", *step, *start))
     assert plans[0].keyframe is not None and plans[1].keyframe is None
     for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
         _assert_same(res, simulate_plan(plan))
@@ -324,12 +328,12 @@ def test_ctrl_c_while_the_threads_step_is_raised_and_they_are_joined() -> None:
 
 
 def test_an_error_in_a_thread_is_raised_in_the_caller(monkeypatch) -> None:
-    from tippetop.mujoco_runner import run as single
+    from tippetop.mujoco_runner import batch as mjb
 
     def broken(*args, **kwargs):
         raise RuntimeError("out of memory, say")
 
-    monkeypatch.setattr(single, "step_top_model", broken)
+    monkeypatch.setattr(mjb, "step_top_model", broken)
     plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}") for n0 in (60.0, 70.0)]
     with pytest.raises(RuntimeError, match="out of memory, say"):
         simulate_plans(plans, nthread=2)

@@ -19,7 +19,7 @@ import pytest
 from tippetop.models.errors import TippetopError
 from tippetop.models.mjcf import HARNESS_USERDATA, make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.models.plan import PAPER_SOLREF
+from tippetop.models.resolve import PAPER_SOLREF
 from tippetop.mujoco_runner import friction_callback
 from tippetop.mujoco_runner.friction_callback import (
     USERDATA_SIZE,

@@ -1,9 +1,9 @@
-"""simulate_mujoco: the observables table, Jellett's constant, inversion, energy, divergence.
+"""A MuJoCo run: the observables table, Jellett's constant, inversion, energy, divergence.
 
-The Fig. 3 scene: top = TopParams.from_ratios(1.0, 0.1), theta0 = 0.1, n0 = 100 rad/s,
-mu = 0.1, Lambda = 0.01 m/s, at dt = 2e-5 s with RK4, on paper mode's stiff contact (solref
-0.5 ms, ``models.plan.PAPER_SOLREF``: the ball sinks 0.27 um at rest), against the reference
-ODE (rtol 1e-10) sampled at the same 1-ms times.
+The default scene, the paper's Fig. 3 top (TopParams.from_ratios(1.0, 0.1), theta0 = 0.1,
+n0 = 100 rad/s, mu = 0.1, Lambda = 0.01 m/s) at dt = 2e-5 s with RK4, on paper mode's stiff
+contact (solref 0.5 ms, ``models.resolve.PAPER_SOLREF``: the ball sinks 0.27 um at rest),
+against the reference ODE (rtol 1e-10) sampled at the same 1-ms times.
 """
 
 from __future__ import annotations
@@ -15,28 +15,26 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.conftest import run_ode
+from tests.conftest import run_mujoco, run_ode
 from tippetop.models.errors import TippetopError
-from tippetop.models.mjcf import MUJOCO_DEFAULT_ROLLING, MUJOCO_DEFAULT_TORSIONAL, make_mjcf
 from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS
-from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.models.plan import PAPER_SOLREF
-from tippetop.mujoco_runner.model import load_top
-from tippetop.mujoco_runner.run import MAX_ENERGY_RISE, simulate_mujoco, simulate_top_model
+from tippetop.models.params import TopParams
+from tippetop.mujoco_runner.checks import MAX_ENERGY_RISE
 
 FIG3_TOP = TopParams.from_ratios(1.0, 0.1)
-FIG3_INIT = InitialState(theta0=0.1, n0=100.0)
-FRICTION = FrictionParams(law="modified_coulomb", mu=0.1, Lambda_mps=0.01)
-NO_FRICTION = FrictionParams(law="none")
 DT = 2e-5
 # The paper-mode run to 3.5 s is shared by the J, inversion and energy tests (about 7 s wall).
 PAPER_T_END = 3.5
+PAPER = ("mujoco.friction='paper'", "run.sample_dt_s=1e-3", f"mujoco.timestep_s={DT!r}")
+#: MuJoCo's own friction with the scene's settings (elliptic cone, solref 0.02 s), uncalibrated
+NATIVE = ("mujoco.friction='native'", "mujoco.calibrated=false", "run.sample_dt_s=1e-3",
+          f"mujoco.timestep_s={DT!r}")
+NO_FRICTION = ("mujoco.friction='paper'", "effects.sliding=false")
 
 
 @pytest.fixture(scope="module")
 def paper_fig3():
-    return simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, t_end_s=PAPER_T_END, sample_dt_s=1e-3,
-                           mode="paper", timestep_s=DT, solref=PAPER_SOLREF)
+    return run_mujoco(*PAPER, f"run.t_end_s={PAPER_T_END!r}")
 
 
 def _ode_fig3(t_end_s: float):
@@ -152,8 +150,7 @@ def test_native_condim3_conserves_jellett() -> None:
     # ~ (delta/2R) * (relative change of L_z): measured 6.3e-7 over 2 s (no flip yet, L_z
     # changes little). Bound 1e-5: 16x the measurement, and far below what a torque off P
     # does (the torsional and rolling runs below drift by ~1).
-    result = simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, t_end_s=2.0, sample_dt_s=1e-3,
-                             mode="native", condim=3, timestep_s=DT)
+    result = run_mujoco(*NATIVE, "mujoco.condim=3", "run.t_end_s=2.0")
     assert result.ok, result.message
     assert _J_drift(result.table) < 1e-5
 
@@ -162,9 +159,9 @@ def test_native_condim3_conserves_jellett() -> None:
 def test_native_torsional_rolling_break_jellett(condim: int) -> None:
     # Torsional/rolling torques are not through P: with MuJoCo's default coefficients the spin,
     # and J with it, is gone within 0.5 s (measured relative drift ~1.0).
-    result = simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, t_end_s=0.5, sample_dt_s=1e-3,
-                             mode="native", condim=condim, timestep_s=DT,
-                             torsional=MUJOCO_DEFAULT_TORSIONAL, rolling=MUJOCO_DEFAULT_ROLLING)
+    effects = ("effects.torsional=true",) + (("effects.rolling=true",) if condim == 6 else ())
+    result = run_mujoco(*NATIVE, *effects, "run.t_end_s=0.5")
+    assert result.ran["condim"] == condim
     assert result.ok, result.message
     assert _J_drift(result.table) > 0.1
 
@@ -174,9 +171,10 @@ def test_too_large_timestep_is_reported_as_diverged() -> None:
     # A != C is unstable (the A = C Fig. 3 top has none, and Euler merely loses accuracy).
     # No sliding friction: paper mode refuses a step its law cannot follow (see
     # test_paper_timestep.py), and this failure is the integrator's, not the law's.
-    top = TopParams.from_ratios(1.25, 0.15, 0.8)
-    result = simulate_mujoco(top, NO_FRICTION, InitialState(theta0=0.1, n0=1000.0), t_end_s=2.0,
-                             sample_dt_s=5e-3, mode="paper", timestep_s=5e-3, integrator="Euler")
+    result = run_mujoco(*NO_FRICTION, "top.A_over_C=1.25", "top.a_over_R=0.15",
+                        "top.C_factor=0.8", "init.n0=1000.0", "run.t_end_s=2.0",
+                        "run.sample_dt_s=5e-3", "mujoco.timestep_s=5e-3",
+                        "mujoco.integrator='Euler'", "mujoco.solref=[0.02, 1.0]")
     assert result.status == "diverged" and not result.ok
     assert result.message.startswith("diverged by t = ")
     assert "timestep_s" in result.message and "\n" not in result.message
@@ -189,58 +187,53 @@ def test_too_large_timestep_is_reported_as_diverged() -> None:
 
 
 @pytest.mark.parametrize(
-    ("top", "n0", "dt", "integrator", "fragment", "rows"),
+    ("A_over_C", "n0", "dt", "integrator", "fragment", "rows"),
     [
         # |qvel| above MuJoCo's 1e10 bound: MuJoCo warns and resets the state.
-        (FIG3_TOP, 1e11, DT, "RK4", "MuJoCo warning mjWARN_BADQVEL", 1),
+        (1.0, 1e11, DT, "RK4", "MuJoCo warning mjWARN_BADQVEL", 1),
         # Euler makes an A != C top hop off the table.
-        (TopParams.from_ratios(0.95, 0.1), 1000.0, 5e-3, "Euler", "contact lost", 300),
+        (0.95, 1000.0, 5e-3, "Euler", "contact lost", 300),
         # dt at the contact's time constant: the ball falls through.
-        (FIG3_TOP, 100.0, 2e-2, "Euler", "the ball sank", 1),
+        (1.0, 100.0, 2e-2, "Euler", "the ball sank", 1),
     ],
 )
-def test_failures_are_reported_not_tabulated(top, n0, dt, integrator, fragment, rows,
+def test_failures_are_reported_not_tabulated(A_over_C, n0, dt, integrator, fragment, rows,
                                              tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
     # no sliding friction: these failures are the integration's and the contact's (paper mode
-    # refuses a step its law cannot follow before running, test_paper_timestep.py)
-    result = simulate_mujoco(top, NO_FRICTION, InitialState(theta0=0.1, n0=n0), t_end_s=2.0,
-                             sample_dt_s=dt if dt > 1e-3 else 1e-3, timestep_s=dt,
-                             integrator=integrator)
+    # refuses a step its law cannot follow before running, test_paper_timestep.py); the
+    # scene's contact (solref 0.02 s), not paper mode's stiff one
+    result = run_mujoco(*NO_FRICTION, f"top.A_over_C={A_over_C!r}", f"init.n0={n0!r}",
+                        "run.t_end_s=2.0", f"run.sample_dt_s={max(dt, 1e-3)!r}",
+                        f"mujoco.timestep_s={dt!r}", f"mujoco.integrator={integrator!r}",
+                        "mujoco.solref=[0.02, 1.0]")
     assert result.status == "diverged", result.message
     assert fragment in result.message and "\n" not in result.message
     assert 1 <= len(result.table) <= rows
 
 
 def test_deterministic_and_reports_progress() -> None:
-    kwargs = {"t_end_s": 0.05, "sample_dt_s": 1e-3, "mode": "paper", "timestep_s": DT}
     reported: list[float] = []
-    a = simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, progress=reported.append, **kwargs)
-    b = simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, **kwargs)
+    a = run_mujoco(*PAPER, "run.t_end_s=0.05", progress=reported.append)
+    b = run_mujoco(*PAPER, "run.t_end_s=0.05")
     pd.testing.assert_frame_equal(a.table, b.table, check_exact=True)
     assert reported[0] == 0.0 and reported[-1] == pytest.approx(0.05)
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "what"),
+    ("overrides", "what"),
     [
-        ({"sample_dt_s": 1.5e-5}, "run.sample_dt_s"),
-        ({"sample_dt_s": 1.00001e-3}, "run.sample_dt_s"),
-        ({"t_end_s": -1.0}, "t_end_s"),
-        ({"mode": "exact"}, "mode"),
-        ({"condim": 3}, "condim"),
+        (("run.sample_dt_s=1.5e-5",), "run.sample_dt_s"),
+        (("run.sample_dt_s=1.00001e-3",), "run.sample_dt_s"),
+        (("run.t_end_s=-1.0",), "run.t_end_s"),
+        (("run.t_end_s=1e-5",), "run.t_end_s"),
+        (("mujoco.friction='exact'",), "mujoco.friction"),
+        (("mujoco.condim=3",), "mujoco.condim"),
     ],
 )
-def test_bad_run_arguments(kwargs: dict, what: str) -> None:
-    args = {"t_end_s": 0.01, "sample_dt_s": 1e-3, "mode": "paper"} | kwargs
+def test_bad_run_arguments(overrides: tuple[str, ...], what: str) -> None:
     with pytest.raises(TippetopError, match=f"^{re.escape(what)}: expected "):
-        simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, **args)
-
-
-def test_paper_mode_refuses_frictional_contacts() -> None:
-    tm = load_top(make_mjcf(FIG3_TOP, friction_mode="native"))
-    with pytest.raises(TippetopError, match="condim 1"):
-        simulate_top_model(tm, FRICTION, FIG3_INIT, t_end_s=0.01, sample_dt_s=1e-3, mode="paper")
+        run_mujoco(*PAPER, "run.t_end_s=0.01", *overrides)
 
 
 @pytest.mark.slow
@@ -251,8 +244,8 @@ def test_paper_mode_inverts_and_stays_inverted(dt: float) -> None:
     # the contact's floor, and 1.3e-5 / 4.4e-6 rad at 8 s), the crossing of pi/2 within 5e-4 s
     # of the reference's event time (measured 1.1e-5 s and 5.0e-5 s; see
     # test_paper_mode_inverts_fig3 for the bound), and J exact (torques through P only).
-    result = simulate_mujoco(FIG3_TOP, FRICTION, FIG3_INIT, t_end_s=8.0, sample_dt_s=1e-3,
-                             mode="paper", timestep_s=dt, solref=PAPER_SOLREF)
+    result = run_mujoco("mujoco.friction='paper'", "run.sample_dt_s=1e-3",
+                        f"mujoco.timestep_s={dt!r}", "run.t_end_s=8.0")
     assert result.ok, result.message
     table = result.table
     ode = _ode_fig3(8.0)

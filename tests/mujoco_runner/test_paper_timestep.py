@@ -18,9 +18,10 @@ import pytest
 from tippetop.compare.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import FrictionParams, TopParams
+from tippetop.models.resolve import paper_max_timestep
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner.model import load_top
-from tippetop.mujoco_runner.run import contact_reach_m, paper_law_max_timestep
+from tippetop.mujoco_runner.state import contact_reach_m
 
 FILE = Path(__file__).resolve().parents[1] / "data" / "tutorial_tippe_top.xml"
 
@@ -61,7 +62,8 @@ def test_the_files_timestep_is_refused_for_the_paper_law() -> None:
 
 @pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
 def test_below_the_limit_the_paper_law_follows_the_reference() -> None:
-    limit = paper_law_max_timestep(FrictionParams(mu=1.0), load_top(FILE))
+    tm = load_top(FILE)
+    limit = paper_max_timestep(FrictionParams(mu=1.0), tm.top, contact_reach_m(tm))
     assert limit is not None and limit > 1e-4
     mj = run_plan(plan_for(_scene("mujoco.timestep_s=1e-4"), "mujoco"), progress=False)
     ode = run_plan(plan_for(_scene(), "ode"), progress=False)

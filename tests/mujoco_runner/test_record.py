@@ -1,8 +1,8 @@
 """A run records states and computes the rest afterwards: the same numbers as sample by sample.
 
-``simulate_top_model`` records the state at each sample (in :mod:`mujoco_runner.stepper`'s
-compiled loop, or from Python) and :func:`result_from_samples` computes contacts, forces, checks
-and the table afterwards, vectorised. Every comparison here is exact (``==`` on float64): the
+A run (:func:`mujoco_runner.run.run_compiled`) records the state at each sample (in
+:mod:`mujoco_runner.stepper`'s compiled loop, or from Python) and :func:`result_from_samples`
+computes contacts, forces, checks and the table afterwards, vectorised. Every comparison here is exact (``==`` on float64): the
 same C calls on the same states, and the same floating-point operations in the same order, give
 the same bits; any tolerance would hide a change of what is computed. One exception: the
 per-sample contact reader kept as the oracle of the vectorised contact sums computes with
@@ -22,15 +22,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for
+from tests.conftest import mujoco_plan
 from tippetop.models.frames import quat_to_mat
-from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.models.plan import PAPER_SOLREF
-from tippetop.models.scene import load_scene
-from tippetop.mujoco_runner import run, stepper
+from tippetop.mujoco_runner import checks, results, run, stepper, stepping
 from tippetop.mujoco_runner.friction_callback import PaperFriction
 from tippetop.mujoco_runner.model import TopModel, load_top
+from tippetop.mujoco_runner.record import SampleRecord
 from tippetop.mujoco_runner.settings import build_model
 from tippetop.mujoco_runner.state import initial_qpos_qvel
 
@@ -42,15 +40,24 @@ CAPSULE = Path(__file__).resolve().parents[2] / "examples" / "capsule_stem_top.x
 pytestmark = pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
 
 
+def _native_plan(integrator: str = "RK4", dt: float = 2e-4, *more: str):
+    """The Fig. 3 top with MuJoCo's own friction (condim 3, mu 0.1, the scene's contact)."""
+    return mujoco_plan("mujoco.friction='native'", "mujoco.calibrated=false", "mujoco.condim=3",
+                       "mujoco.mu=0.1", f"mujoco.integrator={integrator!r}",
+                       f"mujoco.timestep_s={dt!r}", *more)
+
+
+def _paper_plan(dt: float = 2e-5, *more: str):
+    """The Fig. 3 top in paper mode (its stiff contact)."""
+    return mujoco_plan("mujoco.friction='paper'", f"mujoco.timestep_s={dt!r}", *more)
+
+
 def _native(integrator: str = "RK4", dt: float = 2e-4):
-    """The Fig. 3 top with MuJoCo's own friction (condim 3)."""
-    return load_top(make_mjcf(FIG3_TOP, friction_mode="native", timestep_s=dt,
-                              integrator=integrator,
-                              condim=3, mu=0.1))
+    return build_model(_native_plan(integrator, dt))
 
 
 def _paper(dt: float = 2e-5):
-    return load_top(make_mjcf(FIG3_TOP, friction_mode="paper", timestep_s=dt, solref=PAPER_SOLREF))
+    return build_model(_paper_plan(dt))
 
 
 def _start(tm, init=FIG3_INIT) -> mujoco.MjData:
@@ -65,7 +72,7 @@ def test_mj_step_taken_apart_is_mj_step(integrator: str) -> None:
     # mj_step split into its checks, mj_forward and the integrator must be mj_step exactly
     tm = _native(integrator)
     whole, split = _start(tm), _start(tm)
-    finish = run._integrator_step(tm.model)
+    finish = stepping.integrator_step(tm.model)
     assert finish is not None
     for _ in range(200):
         mujoco.mj_step(tm.model, whole, 5)
@@ -93,9 +100,9 @@ def test_compiled_and_python_loops_record_the_same(mode: str) -> None:
         armed = (PaperFriction(tm, data, LAW) if mode == "paper" else contextlib.nullcontext())
         with armed:
             mujoco.mj_forward(tm.model, data)
-            rec, failure, _ = run._step_and_record(tm.model, data, steps, 300, None,
-                                                   contacts=mode == "native",
-                                                   compiled=compiled)
+            rec, failure, _ = stepping.step_and_record(tm.model, data, steps, 300, None,
+                                                       contacts=mode == "native",
+                                                       compiled=compiled)
         assert failure is None
         records.append(rec)
     a, b = records
@@ -114,12 +121,13 @@ def test_compiled_and_python_loops_record_the_same(mode: str) -> None:
 def test_a_record_from_a_plain_loop_gives_the_run(mode: str) -> None:
     # SampleRecord's contract, as a batch would fill it: the state after each sample
     # interval's mj_step (row 0: after two forward passes), nothing else
-    tm = _paper() if mode == "paper" else _native()
     steps, n_intervals = (50, 200) if mode == "paper" else (5, 400)
-    dt = float(tm.model.opt.timestep)
-    law = LAW if mode == "paper" else None
-    result = run.simulate_top_model(tm, law, FIG3_INIT, t_end_s=n_intervals * steps * dt,
-                                    sample_dt_s=steps * dt, mode=mode)
+    over = ("run.sample_dt_s=1e-3", f"run.t_end_s={n_intervals * 1e-3!r}")
+    plan = _paper_plan(2e-5, *over) if mode == "paper" else _native_plan("RK4", 2e-4, *over)
+    assert (plan.steps_per_sample, plan.n_intervals) == (steps, n_intervals)
+    tm = build_model(plan)
+    law = plan.law
+    result = run.run_compiled(tm, plan)
     data = _start(tm)
     rows = {k: [] for k in ("time", "qpos", "qvel", "qacc_warmstart", "qfrc_constraint")}
     armed = PaperFriction(tm, data, law) if law is not None else contextlib.nullcontext()
@@ -131,9 +139,8 @@ def test_a_record_from_a_plain_loop_gives_the_run(mode: str) -> None:
                 mujoco.mj_step(tm.model, data, steps)
             for key, value in rows.items():
                 value.append(np.copy(getattr(data, key)))
-    record = run.SampleRecord(**{k: np.array(v) for k, v in rows.items()})
-    again = run.result_from_samples(tm, record, mode=mode, law=law, steps=steps,
-                                    n_intervals=n_intervals, ran=result.ran)
+    record = SampleRecord(**{k: np.array(v) for k, v in rows.items()})
+    again = results.result_from_samples(tm, record, plan, ran=result.ran)
     assert again.ok and result.ok, (again.message, result.message)
     assert again.table.equals(result.table)
     assert np.array_equal(again.contacts, result.contacts)
@@ -149,11 +156,12 @@ def test_contact_sums_are_the_per_sample_reader() -> None:
     data = mujoco.MjData(tm.model)
     mujoco.mj_resetDataKeyframe(tm.model, data, 0)
     mujoco.mj_forward(tm.model, data)
-    rec, _, _ = run._step_and_record(tm.model, data, steps, n_intervals, None, contacts=True)
+    rec, _, _ = stepping.step_and_record(tm.model, data, steps, n_intervals, None,
+                                         contacts=True)
     qa, va = tm.qpos_adr, tm.dof_adr
     n = len(rec)
-    sums = run._contact_sums(tm, rec.contacts, rec.qpos[:, qa:qa + 7], rec.qvel[:, va:va + 6],
-                             n)
+    sums = results.contact_sums(tm, rec.contacts, rec.qpos[:, qa:qa + 7],
+                                rec.qvel[:, va:va + 6], n)
     assert set(np.unique(sums["touching"])) >= {1, 2, 3}
     assert np.bincount(rec.contacts.sample).max() >= 2
     reader = _ContactReader(tm)
@@ -187,7 +195,7 @@ _GAMMA_16 = 16 * 2.0**-53 / (1 - 16 * 2.0**-53)
 
 class _ContactReader:
     """The per-sample contact reader the run used before its contacts were summed afterwards
-    (kept here as the oracle of :func:`run._contact_sums`): normal force, friction force and
+    (kept here as the oracle of :func:`results.contact_sums`): normal force, friction force and
     friction torque on the top, from one mjData; beside them the same expressions evaluated on
     absolute values (the scale of their rounding errors)."""
 
@@ -259,7 +267,7 @@ class _ContactReader:
 
 class _SampleChecks:
     """The per-sample divergence checks the run used before they ran vectorised afterwards
-    (kept here as the oracle of :func:`run._check_failure`): penetration, energy rise, lost
+    (kept here as the oracle of :func:`checks.check_failure`): penetration, energy rise, lost
     contact."""
 
     def __init__(self, R_m: float, fix: str) -> None:
@@ -276,20 +284,20 @@ class _SampleChecks:
         """
         if self.energy0 is None:
             self.energy0 = energy
-        if gap < -run.MAX_PENETRATION_R * self.R_m:
+        if gap < -checks.MAX_PENETRATION_R * self.R_m:
             return (f"the ball sank {-gap * 1e3:.3g} mm into the table (bound "
-                    f"{run.MAX_PENETRATION_R:g} R); stiffen solref or {self.fix}")
-        if energy - self.energy0 > run.MAX_ENERGY_RISE * abs(self.energy0):
+                    f"{checks.MAX_PENETRATION_R:g} R); stiffen solref or {self.fix}")
+        if energy - self.energy0 > checks.MAX_ENERGY_RISE * abs(self.energy0):
             return (f"the energy rose {100 * (energy / self.energy0 - 1):.3g}% above its "
                     f"initial value (friction can only dissipate it); {self.fix}")
-        if gap <= run.CONTACT_GAP_M or other_touching:
+        if gap <= checks.CONTACT_GAP_M or other_touching:
             self.airborne_since = None
             return None
         if self.airborne_since is None:
             self.airborne_since = t
-        if t - self.airborne_since > run.MAX_AIRBORNE_S:
+        if t - self.airborne_since > checks.MAX_AIRBORNE_S:
             return (f"contact lost: the top left the table at t = {self.airborne_since:.6g} s "
-                    f"for more than {run.MAX_AIRBORNE_S:g} s (the model follows it on the table "
+                    f"for more than {checks.MAX_AIRBORNE_S:g} s (the model follows it on the table "
                     "only)")
         return None
 
@@ -303,7 +311,7 @@ def _sequences(rng: np.random.Generator, n: int, R: float):
     kind = rng.integers(0, 4)
     at = int(rng.integers(1, n))
     if kind == 0:  # the ball sinks
-        gap[at] = -(run.MAX_PENETRATION_R + 0.01) * R
+        gap[at] = -(checks.MAX_PENETRATION_R + 0.01) * R
     elif kind == 1:  # the energy rises
         energy[at:] += 0.2
     elif kind == 2:  # airborne for longer than MAX_AIRBORNE_S, possibly interrupted
@@ -319,35 +327,37 @@ def test_vectorised_checks_are_the_per_sample_checks() -> None:
     seen: set[str] = set()
     for _ in range(300):
         t, gap, energy, other = _sequences(rng, int(rng.integers(2, 400)), R)
-        checks = _SampleChecks(R, "FIX")
+        oracle = _SampleChecks(R, "FIX")
         expected = (len(t), None)
         for i in range(len(t)):
-            reason = checks.failure(float(t[i]), float(gap[i]), float(energy[i]),
+            reason = oracle.failure(float(t[i]), float(gap[i]), float(energy[i]),
                                     other_touching=bool(other[i]))
             if reason:
                 expected = (i, reason)
                 break
-        assert run._check_failure(top_model, t, gap, energy, other, "FIX") == expected
+        assert checks.check_failure(top_model, t, gap, energy, other, "FIX") == expected
         seen.add("ok" if expected[1] is None else expected[1].split(":")[0][:13])
     # every outcome was exercised: no failure, and each kind of failure
     assert seen == {"ok", "the ball sank", "the energy ro", "contact lost"}
 
 
 def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
-    tm = _native()
     steps, n_intervals, dt = 5, 300, 2e-4
+    plan = _native_plan("RK4", dt, "run.sample_dt_s=1e-3", "run.t_end_s=0.3")
+    assert (plan.steps_per_sample, plan.n_intervals) == (steps, n_intervals)
+    tm = build_model(plan)
     data = _start(tm)
     mujoco.mj_forward(tm.model, data)
-    rec, _, _ = run._step_and_record(tm.model, data, steps, n_intervals, None, contacts=True)
+    rec, _, _ = stepping.step_and_record(tm.model, data, steps, n_intervals, None,
+                                         contacts=True)
     fix = "reduce timestep_s (now 0.0002 s)"
-    kwargs = {"mode": "native", "law": None, "steps": steps, "n_intervals": n_intervals}
-    full = run.result_from_samples(tm, rec, **kwargs)
+    full = results.result_from_samples(tm, rec, plan)
     assert full.ok and len(full.table) == n_intervals + 1
 
     bad = 117
     qvel = rec.qvel.copy()
     qvel[bad, 4] = math.nan
-    res = run.result_from_samples(tm, replace(rec, qvel=qvel), **kwargs)
+    res = results.result_from_samples(tm, replace(rec, qvel=qvel), plan)
     assert res.message == (f"diverged by t = {bad * steps * dt:.6g} s (native mode): NaN or "
                            f"Inf in qpos/qvel; {fix}")
     assert len(res.table) == len(res.contacts) == bad and res.n_steps == bad * steps
@@ -355,8 +365,8 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
 
     warnings = rec.warnings.copy()
     warnings[bad:, int(mujoco.mjtWarning.mjWARN_BADQACC)] = 1
-    res = run.result_from_samples(tm, replace(rec, warnings=warnings,
-                                                  warning_text="WARNING: Bad qacc"), **kwargs)
+    res = results.result_from_samples(tm, replace(rec, warnings=warnings,
+                                                  warning_text="WARNING: Bad qacc"), plan)
     assert res.message == (f"diverged by t = {bad * steps * dt:.6g} s (native mode): MuJoCo "
                            f"warning mjWARN_BADQACC (1x): Bad qacc, the integration is "
                            f"unstable; {fix}")
@@ -370,42 +380,45 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
     assert deep > 0 and depth[deep] > depth[:deep].max()
     qpos = rec.qpos.copy()
     qpos[deep, 2] -= 0.3 * FIG3_TOP.R_m
-    res = run.result_from_samples(tm, replace(rec, qpos=qpos), **kwargs)
+    res = results.result_from_samples(tm, replace(rec, qpos=qpos), plan)
     assert res.message.startswith(f"diverged by t = {deep * steps * dt:.6g} s (native mode): "
                                   "the ball sank")
     assert len(res.table) == deep and res.max_penetration_m == depth[deep]
 
     # stepping that stopped early (a batch's error), the record ending before the failure
-    res = run.result_from_samples(tm, rec.head(bad), **kwargs, failure="MuJoCo error: boom")
+    res = results.result_from_samples(tm, rec.head(bad), plan, failure="MuJoCo error: boom")
     assert res.message == (f"diverged by t = {bad * steps * dt:.6g} s (native mode): MuJoCo "
                            f"error: boom; {fix}")
     assert res.table.equals(full.table.iloc[:bad])
 
 
 @pytest.mark.parametrize(
-    ("top", "n0", "dt", "integrator"),
+    ("A_over_C", "n0", "dt", "integrator"),
     [
-        (FIG3_TOP, 1e11, 2e-5, "RK4"),  # MuJoCo's warning: |qvel| over its bound, reset
-        (TopParams.from_ratios(0.95, 0.1), 1000.0, 5e-3, "Euler"),  # contact lost
-        (FIG3_TOP, 100.0, 2e-2, "Euler"),  # the ball sinks through
+        (1.0, 1e11, 2e-5, "RK4"),  # MuJoCo's warning: |qvel| over its bound, reset
+        (0.95, 1000.0, 5e-3, "Euler"),  # contact lost
+        (1.0, 100.0, 2e-2, "Euler"),  # the ball sinks through
     ],
 )
-def test_failures_end_at_the_same_sample_compiled_or_not(top, n0, dt, integrator, tmp_path,
-                                                         monkeypatch) -> None:
+def test_failures_end_at_the_same_sample_compiled_or_not(A_over_C, n0, dt, integrator,
+                                                         tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
-    tm = load_top(make_mjcf(top, friction_mode="paper", timestep_s=dt, integrator=integrator))
+    plan = mujoco_plan("mujoco.friction='paper'", "effects.sliding=false",
+                       "mujoco.solref=[0.02, 1.0]", f"top.A_over_C={A_over_C!r}",
+                       f"init.n0={n0!r}", f"mujoco.timestep_s={dt!r}",
+                       f"mujoco.integrator={integrator!r}", "run.t_end_s=2.0",
+                       f"run.sample_dt_s={max(dt, 1e-3)!r}")
+    tm = build_model(plan)
     init = InitialState(theta0=0.1, n0=n0)
-    steps = max(1, round(1e-3 / dt))
-    results = []
+    outs = []
     for compiled in (True, False):
         data = _start(tm, init)
         mujoco.mj_forward(tm.model, data)
-        rec, failure, _ = run._step_and_record(tm.model, data, steps, round(2.0 / (steps * dt)),
-                                               None, contacts=True, compiled=compiled)
-        results.append(run.result_from_samples(tm, rec, mode="paper", law=None, steps=steps,
-                                               n_intervals=round(2.0 / (steps * dt)),
-                                               failure=failure))
-    a, b = results
+        rec, failure, _ = stepping.step_and_record(tm.model, data, plan.steps_per_sample,
+                                                   plan.n_intervals, None, contacts=True,
+                                                   compiled=compiled)
+        outs.append(results.result_from_samples(tm, rec, plan, failure=failure))
+    a, b = outs
     assert a.status == b.status == "diverged"
     assert a.message == b.message and a.table.equals(b.table) and a.n_steps == b.n_steps
 
@@ -418,8 +431,8 @@ def test_compiled_and_python_passes_give_the_same(top: str) -> None:
         tm, stem, dt, law = _paper(), None, 2e-5, LAW
         data = _start(tm)
     else:
-        scene = load_scene(None, [f"top.mjcf={str(CAPSULE)!r}", "mujoco.timestep_s=1e-4"])
-        plan = plan_for(scene, "mujoco-paper").mujoco
+        plan = mujoco_plan(f"top.mjcf={str(CAPSULE)!r}", "mujoco.timestep_s=1e-4",
+                           "mujoco.friction='paper'")
         tm, stem, dt, law = build_model(plan), plan.stem, 1e-4, plan.law
         assert stem is not None
         data = mujoco.MjData(tm.model)
@@ -427,8 +440,8 @@ def test_compiled_and_python_passes_give_the_same(top: str) -> None:
     steps = round(1e-3 / dt)
     with PaperFriction(tm, data, law, stem=stem):
         mujoco.mj_forward(tm.model, data)
-        rec, _, _ = run._step_and_record(tm.model, data, steps, 3000 if stem else 200, None)
-    outs = [run._scratch_contacts(tm, rec, law, None, stem, compiled=c) for c in (True, False)]
+        rec, _, _ = stepping.step_and_record(tm.model, data, steps, 3000 if stem else 200, None)
+    outs = [results.scratch_contacts(tm, rec, law, stem, compiled=c) for c in (True, False)]
     (ca, xy_a, p_a), (cb, xy_b, p_b) = outs
     assert np.array_equal(xy_a, xy_b) and np.array_equal(p_a, p_b)
     for field in ("sample", "geom", "dist", "pos", "frame", "force"):
