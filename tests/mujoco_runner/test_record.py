@@ -4,9 +4,9 @@ A run (:func:`mujoco_runner.run.run_compiled`) records the state at each sample 
 :mod:`mujoco_runner.stepper`'s compiled loop, or from Python) and :func:`result_from_samples`
 computes contacts, forces, checks and the table afterwards, vectorised. Every comparison here is
 exact (``==`` on float64): the same C calls on the same states, and the same floating-point
-operations in the same order, give the same bits; any tolerance would hide a change of what is computed. One exception: the
-per-sample contact reader kept as the oracle of the vectorised contact sums computes with
-numpy's matrix and dot products, which BLAS may evaluate in another order or with fused
+operations in the same order, give the same bits; any tolerance would hide a change of what is
+computed. One exception: the per-sample contact reader kept as the oracle of the vectorised
+contact sums computes with numpy's matrix and dot products, which BLAS may evaluate in another order or with fused
 multiply-adds (it differs between machines and numpy builds), so its forces, torques and power
 are compared within a rounding bound the test derives from the same sums of absolute values.
 """
