@@ -6,9 +6,10 @@ computes contacts, forces, checks and the table afterwards, vectorised. Every co
 exact (``==`` on float64): the same C calls on the same states, and the same floating-point
 operations in the same order, give the same bits; any tolerance would hide a change of what is
 computed. One exception: the per-sample contact reader kept as the oracle of the vectorised
-contact sums computes with numpy's matrix and dot products, which BLAS may evaluate in another order or with fused
-multiply-adds (it differs between machines and numpy builds), so its forces, torques and power
-are compared within a rounding bound the test derives from the same sums of absolute values.
+contact sums computes with numpy's matrix and dot products, which BLAS may evaluate in another
+order or with fused multiply-adds (it differs between machines and numpy builds), so its
+forces, torques and power are compared within a rounding bound the test derives from the same
+sums of absolute values.
 """
 
 from __future__ import annotations
