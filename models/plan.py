@@ -217,6 +217,12 @@ class OdePlan:
     sample_dt_s: float
     stem: StemParams | None = None
 
+    def what_runs(self) -> dict[str, Any]:
+        """What will run, under the keys a run's summary reports what ran with."""
+        return {"friction_law": self.friction.law, "formulation": self.options.formulation,
+                "rtol": self.options.rtol, "atol": self.options.atol,
+                "sample_dt_s": self.sample_dt_s}
+
 
 @dataclass(frozen=True)
 class MujocoPlan:
@@ -291,6 +297,29 @@ class MujocoPlan:
         """Timesteps the run takes to t_end."""
         return self.n_intervals * self.steps_per_sample
 
+    def what_runs(self) -> dict[str, Any]:
+        """What will run, under the keys a run's summary reports what ran with.
+
+        The contact is the ball's with the table (:attr:`ball_contact`), where a run reads
+        back the top's first contact at t = 0 (the same one, unless another geom of the top
+        starts on the table).
+        """
+        law = self.law
+        out: dict[str, Any] = {
+            "mode": self.mode, "timestep_s": self.timestep_s, "integrator": self.integrator,
+            "cone": self.cone, "impratio": self.impratio,
+            "noslip_iterations": self.noslip_iterations, "gravity_mps2": -self.gravity_mps2[2]}
+        contact = self.ball_contact
+        if contact is not None:
+            out.update(contact.acting())
+        out["friction_law"] = ("mujoco-native" if self.mode == "native"
+                               else law.law if law is not None else "none")
+        if law is not None:
+            out["law_mu"] = law.mu
+        out["sample_dt_s"] = self.sample_dt_s
+        out["keyframe"] = self.keyframe_name
+        return out
+
 
 @dataclass(frozen=True)
 class RunPlan:
@@ -331,6 +360,10 @@ class RunPlan:
     def t_end_s(self) -> float:
         """Simulated time (s)."""
         return self.sub.t_end_s
+
+    def what_runs(self) -> dict[str, Any]:
+        """What will run, as a summary's ``what ran`` keys say it (its engine's)."""
+        return self.sub.what_runs()
 
     def physics(self) -> dict[str, Any]:
         """Everything that defines the run's numbers, JSON-ready (the runs cache's key)."""

@@ -27,7 +27,8 @@ from tippetop.mujoco_runner.state import file_top
 from tippetop.mujoco_runner.stepping import start_data
 
 ROOT = Path(__file__).resolve().parents[2]
-FILES = [ROOT / "examples" / "paper_loaded_sphere.xml", ROOT / "examples" / "capsule_stem_top.xml",
+FILES = [ROOT / "examples" / "paper_loaded_sphere.xml",
+         ROOT / "examples" / "capsule_stem_top.xml",
          ROOT / "examples" / "cylinder_stem_ballast.xml",
          ROOT / "tests" / "data" / "tutorial_tippe_top.xml",
          ROOT / "tests" / "data" / "stranger" / "top.xml"]
