@@ -29,7 +29,7 @@ import time
 
 import mujoco
 
-from tippetop.compare.engines import plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import sample_interval
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import run as mj_run

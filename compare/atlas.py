@@ -36,7 +36,7 @@ from tippetop.compare.growth import (
     settled,
     state_start,
 )
-from tippetop.compare.runner import Task, run_tasks
+from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 
@@ -245,7 +245,7 @@ def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
     The folder is checked (new, empty or ``--force``) by the caller before the work.
     """
     from tippetop.compare.common_args import json_text
-    from tippetop.compare.io import staged_output_dir
+    from tippetop.compare.running.io import staged_output_dir
 
     names = ["atlas.csv", "atlas.png", "atlas.json"]
     with staged_output_dir(Path(out_dir)) as tmp:

@@ -59,7 +59,7 @@ def cmd_atlas(args: argparse.Namespace) -> int:
     engines = comma_list(args.engines)
     out_dir = None
     if args.out:
-        from tippetop.compare.io import check_output_dir, hold_output_lock
+        from tippetop.compare.running.io import check_output_dir, hold_output_lock
 
         out_dir = check_output_dir(args.out, force=args.force)  # before any run
         hold_output_lock(out_dir)

@@ -118,8 +118,8 @@ def _load(args: argparse.Namespace):
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
-    from tippetop.compare.engines import run_engine, run_failed
-    from tippetop.compare.io import TABLE_SUFFIXES, check_output_path, write_table
+    from tippetop.compare.running.engines import run_engine, run_failed
+    from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
 
     scene = _load(args)
     out_path = None
@@ -340,7 +340,7 @@ def print_compare(res: dict[str, Any]) -> None:
         if "engine" not in s:
             continue
         try:
-            from tippetop.compare.engines import describe_ran
+            from tippetop.compare.running.engines import describe_ran
 
             text = describe_ran(s)
         except (KeyError, TypeError, ValueError):
@@ -366,7 +366,7 @@ def cmd_threshold(args: argparse.Namespace) -> int:
 
     out_dir = None
     if getattr(args, "out", None):
-        from tippetop.compare.io import check_output_dir, hold_output_lock
+        from tippetop.compare.running.io import check_output_dir, hold_output_lock
 
         out_dir = check_output_dir(args.out, force=args.force)
         hold_output_lock(out_dir)  # a second run into it is refused now, not mixed in later
@@ -393,7 +393,7 @@ def _write_threshold(res: dict[str, Any], out: Any) -> list[Any]:
     import csv
 
     from tippetop.compare.common_args import json_text
-    from tippetop.compare.io import staged_output_dir
+    from tippetop.compare.running.io import staged_output_dir
 
     names = ["threshold.json", "runs.csv"]
     with staged_output_dir(out) as stage:  # all files or none
@@ -474,7 +474,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
-    from tippetop.compare.io import check_writable, hold_output_lock, write_atomic
+    from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
     from tippetop.compare.sweep import parse_range, run_sweep, sweep_figure
     from tippetop.models.modes import parse_modes
 

@@ -181,7 +181,7 @@ _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 def run_main(args: argparse.Namespace) -> int:
     """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
-    from tippetop.compare.interrupt import install_sigterm_handler
+    from tippetop.compare.running.interrupt import install_sigterm_handler
 
     install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
     try:

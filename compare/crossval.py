@@ -14,9 +14,9 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
-from tippetop.compare.engines import describe_ran, run_failed
 from tippetop.compare.metrics import classify_outcome, outcome_of_angle, theta_trend
-from tippetop.compare.runner import Task, TaskResult, run_tasks
+from tippetop.compare.running.engines import describe_ran, run_failed
+from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES, mode_task_parts
 from tippetop.models.params import TopParams

@@ -32,8 +32,8 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
-from tippetop.compare.engines import run_failed
-from tippetop.compare.runner import Task, run_tasks
+from tippetop.compare.running.engines import run_failed
+from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import TopParams
 

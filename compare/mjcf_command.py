@@ -1,7 +1,7 @@
 """``tippetop mjcf``: write the MuJoCo model a run compiles, to step without tippetop.
 
 The scene is resolved into its MuJoCo plan exactly as ``tippetop simulate`` does
-(:func:`tippetop.compare.engines.plan_for`) and the model is compiled by the run's own
+(:func:`tippetop.compare.running.engines.plan_for`) and the model is compiled by the run's own
 :func:`tippetop.mujoco_runner.settings.build_model`. The file written is the source document
 (the generated top's MJCF, or the user's own file) with every value the run's compiled model
 holds for the options (timestep, integrator, cone, impratio, noslip iterations), the contacts
@@ -316,8 +316,8 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
 
     import mujoco
 
-    from tippetop.compare.engines import plan_for
-    from tippetop.compare.io import write_atomic
+    from tippetop.compare.running.engines import plan_for
+    from tippetop.compare.running.io import write_atomic
     from tippetop.models.plan import mode_engine, sample_interval
     from tippetop.mujoco_runner.model import TopModelWarning, top_from_model
     from tippetop.mujoco_runner.run import run_grid
@@ -399,7 +399,7 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
 def cmd_mjcf(args: argparse.Namespace) -> int:
     """``tippetop mjcf``: write the run's model; exit 2 for bad input, nothing written."""
     from tippetop.compare.commands import _load
-    from tippetop.compare.io import check_output_path
+    from tippetop.compare.running.io import check_output_path
 
     out = check_output_path(args.out, force=args.force, suffixes=(".xml",))
     scene = _load(args)

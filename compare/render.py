@@ -253,7 +253,7 @@ def render_scene(
             does not decode to ``n_frames`` frames: the temporary file is removed and an
             existing ``out`` is left as it was.
     """
-    from tippetop.compare.io import check_output_path
+    from tippetop.compare.running.io import check_output_path
 
     expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
     width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
@@ -261,7 +261,7 @@ def render_scene(
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
     backend = use_gl_backend()  # before anything below imports mujoco
 
-    from tippetop.compare.engines import plan_for, run_plan
+    from tippetop.compare.running.engines import plan_for, run_plan
 
     engines = ("mujoco", "ode") if engine == "both" else (engine,)
     plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
@@ -275,7 +275,7 @@ def render_scene(
             raise RunFailed(f"{name}: {run.message}")
         tables[name] = run.table
 
-    from tippetop.compare.io import write_atomic
+    from tippetop.compare.running.io import write_atomic
     from tippetop.mujoco_runner import video
 
     first = plans[engines[0]]

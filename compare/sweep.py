@@ -13,10 +13,10 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
-from tippetop.compare.engines import run_failed
-from tippetop.compare.io import write_atomic
 from tippetop.compare.metrics import classify_outcome
-from tippetop.compare.runner import Task, run_tasks
+from tippetop.compare.running.engines import run_failed
+from tippetop.compare.running.io import write_atomic
+from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import mode_task_parts
 

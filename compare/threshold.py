@@ -21,9 +21,9 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare import theory
-from tippetop.compare.engines import run_failed
 from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
-from tippetop.compare.runner import Task, run_tasks
+from tippetop.compare.running.engines import run_failed
+from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 
 WHICH = ("n1", "n4", "nc")

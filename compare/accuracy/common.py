@@ -4,7 +4,7 @@ Every point of the study (:mod:`.ode_study`, :mod:`.mujoco_study`) is one row of
 :data:`ACCURACY_COLUMNS`, scored against one reference run of the same scene: the compiled
 DOP853 on the vector formulation at :data:`REFERENCE_RTOL`, the tightest tolerance
 :class:`~tippetop.models.options.OdeOptions` accepts. The scene becomes a run plan
-(:func:`tippetop.compare.engines.plan_for`) like every other run.
+(:func:`tippetop.compare.running.engines.plan_for`) like every other run.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.engines import plan_for
 from tippetop.compare.metrics import jellett_drift
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.plan import OdePlan
 from tippetop.models.scene import Scene, load_scene

@@ -15,7 +15,7 @@ from tippetop.compare.accuracy.common import (
 )
 from tippetop.compare.accuracy.mujoco_study import DEFAULT_INTEGRATORS, MUJOCO_NOTES
 from tippetop.compare.accuracy.pareto import pareto_front
-from tippetop.compare.io import write_atomic
+from tippetop.compare.running.io import write_atomic
 
 
 def work_precision_figure(df: pd.DataFrame, path: str | Path, *, title: str | None = None) -> None:

@@ -39,7 +39,7 @@ from tippetop.compare.accuracy.common import (
     reference_run,
     score,
 )
-from tippetop.compare.engines import plan_for, run_plan
+from tippetop.compare.running.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.scene import Scene
 from tippetop.reference_ode.solve import sample_times

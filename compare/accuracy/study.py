@@ -36,7 +36,7 @@ from tippetop.compare.accuracy.ode_study import (
     stiff_work_precision,
 )
 from tippetop.compare.accuracy.pareto import mujoco_pareto_markdown, pareto_markdown, pareto_table
-from tippetop.compare.io import check_writable, hold_output_lock, write_atomic
+from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
 from tippetop.models.errors import TippetopError, expect
 
 ENGINES: tuple[str, ...] = ("ode", "mujoco")

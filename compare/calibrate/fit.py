@@ -1,6 +1,6 @@
 """The search: candidates evaluated in parallel within a run budget, grid then compass steps.
 
-Search (deterministic; parallel through :func:`compare.runner.run_tasks`, cached on disk):
+Search (deterministic; parallel through :func:`compare.running.runner.run_tasks`, cached on disk):
 
 1. A coarse grid (:data:`GRID`): cone x impratio x solref time constant x solimp d0 at the
    paper's mu = 0.1, in that order, every candidate on every calibration scene.
@@ -33,7 +33,7 @@ from tippetop.compare.calibrate.scoring import (
     objective,
     residual,
 )
-from tippetop.compare.runner import Task, TaskResult, run_tasks
+from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 
 #: The coarse grid: cone x impratio x solref time constant (s) x solimp d0, at mu = 0.1.

@@ -51,8 +51,8 @@ from tippetop.compare.calibrate.scoring import (
     mujoco_defaults_label,
     parse_scene_list,
 )
-from tippetop.compare.io import check_output_path, write_atomic
-from tippetop.compare.runner import code_fingerprint
+from tippetop.compare.running.io import check_output_path, write_atomic
+from tippetop.compare.running.runner import code_fingerprint
 from tippetop.models.errors import TippetopError
 
 

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare.metrics import classify_outcome, theta_asymp
-from tippetop.compare.runner import TaskResult
+from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene

@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from tippetop.compare.engines import plan_for
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
 from tippetop.compare.nightly.tolerances import compare_value, format_value, tolerance_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import RunPlan
 from tippetop.models.scene import Scene, load_scene
 

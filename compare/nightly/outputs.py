@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import check_output_dir
+from tippetop.compare.running.io import check_output_dir
 from tippetop.models.resources import data_path
 
 RESULTS_FORMAT = "tippetop-nightly-results/1"
@@ -62,7 +62,7 @@ def environment() -> dict[str, Any]:
     """Versions, machine and git commit (when the code runs from a git checkout)."""
     from importlib import metadata
 
-    from tippetop.compare.runner import code_fingerprint
+    from tippetop.compare.running.runner import code_fingerprint
 
     versions = {}
     for pkg in ("tippetop", "numpy", "scipy", "numba", "pandas", "pyarrow", "matplotlib",

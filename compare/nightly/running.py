@@ -13,7 +13,7 @@ import pandas as pd
 
 from tippetop.compare.metrics import classify_outcome, theta_trend
 from tippetop.compare.nightly.catalogue import ENGINES, Case
-from tippetop.compare.runner import Task, TaskResult, run_tasks
+from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.compare.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, load_scene

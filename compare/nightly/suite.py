@@ -13,12 +13,6 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import (
-    check_output_dir,
-    locked_output_dir,
-    staged_output_dir,
-    write_atomic,
-)
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
     baseline_file,
@@ -49,7 +43,13 @@ from tippetop.compare.nightly.running import error_text, run_cases
 from tippetop.compare.nightly.tolerances import TOLERANCES
 from tippetop.compare.nightly.verdict import crossval_rows
 from tippetop.compare.nightly.videos import render_videos
-from tippetop.compare.runner import default_cache_dir
+from tippetop.compare.running.io import (
+    check_output_dir,
+    locked_output_dir,
+    staged_output_dir,
+    write_atomic,
+)
+from tippetop.compare.running.runner import default_cache_dir
 from tippetop.models.errors import TippetopError
 
 EXIT_OK, EXIT_REGRESSION = 0, 1
@@ -80,7 +80,7 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
                 echo: Callable[[str], None] = print) -> int:
     """Run the nightly regression; returns the exit status (0 clean, 1 regression or error).
 
-    The output folder is locked (:func:`~tippetop.compare.io.locked_output_dir`) before any
+    The output folder is locked (:func:`~tippetop.compare.running.io.locked_output_dir`) before any
     work and until the run ends: a second run into the same folder is refused.
 
     Raises:

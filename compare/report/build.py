@@ -12,7 +12,6 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.common_args import EXIT_BAD_INPUT, add_force_option
-from tippetop.compare.io import write_atomic
 from tippetop.compare.report.atlas import atlas_section
 from tippetop.compare.report.figures import sweeps_section, timeseries_section
 from tippetop.compare.report.friction import friction_section
@@ -29,6 +28,7 @@ from tippetop.compare.report.sections import (
     threshold_section,
     verdict_section,
 )
+from tippetop.compare.running.io import write_atomic
 from tippetop.models.errors import TippetopError
 
 _NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"

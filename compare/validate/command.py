@@ -67,12 +67,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     Exit status 0 when every check agrees, 1 when one departs (2: bad input).
     """
-    from tippetop.compare.io import check_output_dir, staged_output_dir, write_table
+    from tippetop.compare.running.io import check_output_dir, staged_output_dir, write_table
     from tippetop.compare.validate.run import ValidateConfig, validate
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
     if out is not None:
-        from tippetop.compare.io import hold_output_lock
+        from tippetop.compare.running.io import hold_output_lock
 
         hold_output_lock(out)
     config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,

@@ -35,8 +35,8 @@ from tippetop.compare.calibrate import (
     timestep_check,
 )
 from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
-from tippetop.compare.engines import run_engine
-from tippetop.compare.runner import TaskResult
+from tippetop.compare.running.engines import run_engine
+from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import (
     CALIBRATION_FILE,
     CALIBRATION_MU,

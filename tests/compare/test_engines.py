@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for, run_engine, run_plan
+from tippetop.compare.running.engines import plan_for, run_engine, run_plan
 from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.models.scene import load_scene

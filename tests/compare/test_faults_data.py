@@ -23,8 +23,8 @@ import pandas as pd
 import pytest
 
 from tippetop.compare import cli, nightly
-from tippetop.compare.io import lock_path, locked_output_dir
-from tippetop.compare.runner import ResultCache, Task, TaskResult, run_tasks
+from tippetop.compare.running.io import lock_path, locked_output_dir
+from tippetop.compare.running.runner import ResultCache, Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 
 TINY = """
@@ -73,7 +73,7 @@ def _hold_lock(out: Path) -> subprocess.Popen[str]:
     holder = subprocess.Popen(
         [sys.executable, "-c", textwrap.dedent(f"""
             import sys
-            from tippetop.compare.io import locked_output_dir
+            from tippetop.compare.running.io import locked_output_dir
             with locked_output_dir({str(out)!r}):
                 print("locked", flush=True)
                 sys.stdin.read()

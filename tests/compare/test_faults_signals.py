@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.leftovers import clean_cache_leftovers, clean_leftovers
+from tippetop.compare.running.leftovers import clean_cache_leftovers, clean_leftovers
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import (
     MUJOCO_MAX_STEPS,
@@ -259,8 +259,8 @@ def test_leftovers_of_a_killed_run_are_cleaned(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- how long
 def test_a_long_run_says_how_long_first_on_stderr_only(tmp_path: Path) -> None:
-    from tippetop.compare.cost_note import long_run_note
-    from tippetop.compare.engines import plan_for
+    from tippetop.compare.running.cost import long_run_note
+    from tippetop.compare.running.engines import plan_for
     from tippetop.models.scene import load_scene
 
     assert long_run_note([plan_for(load_scene("fig3", []), "mujoco")]) is None  # 8 s: quiet

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from tippetop.compare import cli, render
-from tippetop.compare.engines import run_engine
+from tippetop.compare.running.engines import run_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.scene import load_scene

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare import theory
-from tippetop.compare.runner import Task, run_tasks, strip_timing
+from tippetop.compare.running.runner import Task, run_tasks, strip_timing
 from tippetop.compare.sweep import parse_range, run_sweep
 from tippetop.compare.threshold import measure_threshold
 from tippetop.models.errors import TippetopError

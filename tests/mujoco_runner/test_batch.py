@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import friction_callback

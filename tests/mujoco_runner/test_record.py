@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams

@@ -221,7 +221,7 @@ def run_plan(plan: RunPlan, *,
         run = _run_ode if plan.engine == "ode" else _run_mujoco
         return run(plan, progress)
     if progress:  # a run for a person: say first when it will take long (stderr only)
-        from tippetop.compare.cost_note import say_long_run
+        from tippetop.compare.running.cost import say_long_run
 
         say_long_run([plan])
     label = f"{plan.scene} [{plan.engine}]"

@@ -44,9 +44,9 @@ def check_writable(folder: Path) -> None:
     """A file can be made in ``folder`` (checked by making one): before the work, not after.
 
     A killed run's temporary files older than any live write are removed on the way
-    (:func:`tippetop.compare.leftovers.clean_leftovers`).
+    (:func:`tippetop.compare.running.leftovers.clean_leftovers`).
     """
-    from tippetop.compare.leftovers import clean_leftovers
+    from tippetop.compare.running.leftovers import clean_leftovers
 
     try:
         fd, probe = tempfile.mkstemp(prefix=".tippetop-probe.", dir=folder)

@@ -5,14 +5,14 @@ address is given, and are cached on disk so that a rerun computes only what chan
 the MuJoCo runs go in this process on threads: runs whose models share a layout are stepped
 together in a persistent ``mujoco.batch.Batch`` (:mod:`tippetop.mujoco_runner.batch`; each
 result equals its single run bit for bit), while the reference's runs go to a pool of worker
-processes. Runs start longest first (:func:`tippetop.compare.terminal.expected_cost_s`), and
+processes. Runs start longest first (:func:`tippetop.compare.running.cost.expected_cost_s`), and
 cache entries are written on a background thread, all of them before :func:`run_tasks`
 returns.
 
 A :class:`Task` names a scene (file or catalogue name, or None for the default scene), its
 ``--set`` overrides and an engine. Its cache key hashes what defines the physics: the run plan
-(:func:`tippetop.compare.engines.plan_for`; not the scene's name, outputs or unused keys), an
-MJCF top's file content, the source code of the packages that compute it, and the MuJoCo
+(:func:`tippetop.compare.running.engines.plan_for`; not the scene's name, outputs or unused
+keys), an MJCF top's file content, the source code of the packages that compute it, and the MuJoCo
 version. Change any of these and the task runs again.
 """
 
@@ -40,11 +40,11 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.cost_note import say_long_run
-from tippetop.compare.engines import plan_for, run_plan
-from tippetop.compare.io import write_atomic
-from tippetop.compare.leftovers import clean_cache_leftovers
-from tippetop.compare.terminal import WorkProgress, expected_cost_s
+from tippetop.compare.running.cost import expected_cost_s, say_long_run
+from tippetop.compare.running.engines import plan_for, run_plan
+from tippetop.compare.running.io import write_atomic
+from tippetop.compare.running.leftovers import clean_cache_leftovers
+from tippetop.compare.running.progress import WorkProgress
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import ENGINES, RunPlan
@@ -54,8 +54,9 @@ from tippetop.models.scene import Scene, load_scene
 _PACKAGES = ("tippetop.models", "tippetop.reference_ode", "tippetop.mujoco_runner")
 #: Files outside those packages' Python sources that shape a cached result (its summary and
 #: table), among them the calibrated native-friction settings that native runs use by default.
-_MODULES = (("tippetop.compare", "engines.py"), ("tippetop.compare", "metrics.py"),
-            ("tippetop.compare", "runner.py"), ("tippetop.models", "calibrated_native.toml"))
+_MODULES = (("tippetop.compare.running", "engines.py"), ("tippetop.compare", "metrics.py"),
+            ("tippetop.compare.running", "runner.py"),
+            ("tippetop.models", "calibrated_native.toml"))
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000
 
@@ -74,7 +75,7 @@ class Task:
         return load_scene(self.scene, list(self.overrides))
 
     def plan(self, scene: Scene | None = None) -> RunPlan:
-        """The run plan (:func:`tippetop.compare.engines.plan_for`)."""
+        """The run plan (:func:`tippetop.compare.running.engines.plan_for`)."""
         return plan_for(scene or self.load(), self.engine)
 
 
@@ -483,7 +484,7 @@ def _run_mujoco_batched(tasks: list[tuple[str, Task]], plans: dict[str, RunPlan]
     """
     if not tasks:
         return
-    from tippetop.compare.engines import mujoco_engine_run
+    from tippetop.compare.running.engines import mujoco_engine_run
 
     keys = [k for k, _ in tasks]
     mj_plans = [plans[k].mujoco for k in keys]
@@ -615,7 +616,7 @@ def _sigint_deferred() -> Iterator[None]:
 
     For code that must not be interrupted half-way (imports of C extensions): a signal that
     comes during the block is recorded, and its handler (Ctrl-C's KeyboardInterrupt, or the
-    command's SIGTERM handler, :mod:`tippetop.compare.interrupt`) runs when the block ends.
+    command's SIGTERM handler, :mod:`tippetop.compare.running.interrupt`) runs when the block ends.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
