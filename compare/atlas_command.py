@@ -1,4 +1,4 @@
-"""``tippetop atlas``: the parser and the command; the work is in :mod:`tippetop.compare.atlas`.
+"""``tippetop atlas``: the parser and the command; the work is in :mod:`.analysis.atlas`.
 
 Imports only what building the parser needs: ``tippetop --help`` does not pay for the runs.
 """
@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tippetop.compare.atlas_defaults import (
+from tippetop.compare.analysis.defaults import (
     DEFAULT_A_OVER_C,
     DEFAULT_A_OVER_R,
     DEFAULT_ENGINES_TEXT,
@@ -52,7 +52,7 @@ def cmd_atlas(args: argparse.Namespace) -> int:
 
     An engine departing from the theory is a finding, printed and written, not a failure.
     """
-    from tippetop.compare.atlas import parse_grid, run_atlas, write_atlas
+    from tippetop.compare.analysis.atlas import parse_grid, run_atlas, write_atlas
 
     ac = parse_grid(args.A_over_C, "--A-over-C")
     ar = parse_grid(args.a_over_R, "--a-over-R")

@@ -13,8 +13,8 @@ import sys
 from typing import Any
 
 from tippetop.compare import commands
+from tippetop.compare.analysis.calibrate.command import add_calibrate_parser
 from tippetop.compare.atlas_command import add_atlas_parser
-from tippetop.compare.calibrate.command import add_calibrate_parser
 from tippetop.compare.common_args import (
     EXIT_OK,
     EXIT_STATUSES,

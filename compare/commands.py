@@ -47,7 +47,7 @@ def _cache_line(computed: int | None, cached: int | None, use_cache: bool) -> st
 # ---------------------------------------------------------------- theory
 def cmd_theory(args: argparse.Namespace) -> int:
     """``tippetop theory``: the paper's predictions for a top."""
-    from tippetop.compare import theory
+    from tippetop.compare.analysis import theory
     from tippetop.models.params import TopParams
 
     extra: dict[str, Any] = {}
@@ -170,7 +170,7 @@ def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``tippetop bench ode`` or ``tippetop bench accuracy``."""
     if args.what == "accuracy":
-        from tippetop.compare.accuracy import (
+        from tippetop.compare.analysis.accuracy import (
             DEFAULT_BUDGET_S,
             DEFAULT_MUJOCO_BUDGET_S,
             run_accuracy,
@@ -190,7 +190,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         else:
             print(res["report"])
         return 0
-    from tippetop.compare.bench import bench_ode
+    from tippetop.compare.analysis.bench import bench_ode
 
     if args.what != "ode":
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")
@@ -206,7 +206,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------- compare
 def cmd_compare(args: argparse.Namespace) -> int:
     """``tippetop compare``: one scene in several engines/modes, against the theory."""
-    from tippetop.compare.crossval import compare_scene
+    from tippetop.compare.analysis.crossval import compare_scene
     from tippetop.models.modes import parse_modes
 
     res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
@@ -235,7 +235,7 @@ def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
     why = d.get("why")
     if not why:
         try:
-            from tippetop.compare.crossval import TOLERANCES
+            from tippetop.compare.analysis.crossval import TOLERANCES
 
             why = TOLERANCES.get(metric, (None, ""))[1]
         except ImportError:  # pragma: no cover - crossval is part of the package
@@ -362,7 +362,7 @@ def print_compare(res: dict[str, Any]) -> None:
 # ---------------------------------------------------------------- threshold
 def cmd_threshold(args: argparse.Namespace) -> int:
     """``tippetop threshold``: n1 or nc by bisection on n0; ``--out`` writes the runs."""
-    from tippetop.compare.threshold import measure_threshold
+    from tippetop.compare.analysis.threshold import measure_threshold
 
     out_dir = None
     if getattr(args, "out", None):
@@ -474,8 +474,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
+    from tippetop.compare.analysis.sweep import parse_range, run_sweep, sweep_figure
     from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
-    from tippetop.compare.sweep import parse_range, run_sweep, sweep_figure
     from tippetop.models.modes import parse_modes
 
     n0s = parse_range(args.n0)

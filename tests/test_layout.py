@@ -61,8 +61,8 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
     exported function of the same name would turn into the module."""
     import importlib
 
-    for pkg in ("tippetop.compare.nightly", "tippetop.compare.calibrate",
-                "tippetop.compare.accuracy", "tippetop.compare.report",
+    for pkg in ("tippetop.compare.nightly", "tippetop.compare.analysis.calibrate",
+                "tippetop.compare.analysis.accuracy", "tippetop.compare.report",
                 "tippetop.compare.validate"):
         mod = importlib.import_module(pkg)
         folder = Path(mod.__file__).parent

@@ -61,8 +61,8 @@ def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
 
 
 def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, Any]]:
-    from tippetop.compare import theory
-    from tippetop.compare.metrics import outcome_of_angle
+    from tippetop.compare.analysis import theory
+    from tippetop.compare.analysis.metrics import outcome_of_angle
 
     top, ini = plan.top, plan.init
     law, mu, lam = _law(plan)

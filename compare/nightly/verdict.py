@@ -2,7 +2,8 @@
 
 One row per run case (scene and mode): its outcome against the theory's, theta_asymp against
 theta_s (for the run's own Jellett constant), the inversion time against the reference ODE's
-run of the same scene, and the Jellett drift (:func:`tippetop.compare.crossval.crossval_row`).
+run of the same scene, and the Jellett drift
+(:func:`tippetop.compare.analysis.crossval.crossval_row`).
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from tippetop.compare.crossval import crossval_row, predicted_outcome
+from tippetop.compare.analysis.crossval import crossval_row, predicted_outcome
 from tippetop.models.params import TopParams
 
 #: The modes the verdict table shows first, in this order; others follow as they ran.

@@ -154,7 +154,7 @@ def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataF
 
 def sweeps_section(results: Mapping[str, Any]) -> str:
     """theta_asymp against n0 with the theory's theta_s(n0), one figure per paper figure."""
-    from tippetop.compare import theory
+    from tippetop.compare.analysis import theory
 
     sweeps = [r for r in results.get("cases", []) if r["kind"] == "sweep" and r.get("points")]
     parts = ["<h2 id='sweeps'>theta_asymp against n0 (Figs. 9, 10)</h2>",

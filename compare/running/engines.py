@@ -19,7 +19,12 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.metrics import first_inversion_time, jellett_drift, jellett_scale, summary
+from tippetop.compare.analysis.metrics import (
+    first_inversion_time,
+    jellett_drift,
+    jellett_scale,
+    summary,
+)
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import ENGINES, RunPlan, mode_engine, resolve_plan

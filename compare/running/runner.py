@@ -54,7 +54,7 @@ from tippetop.models.scene import Scene, load_scene
 _PACKAGES = ("tippetop.models", "tippetop.reference_ode", "tippetop.mujoco_runner")
 #: Files outside those packages' Python sources that shape a cached result (its summary and
 #: table), among them the calibrated native-friction settings that native runs use by default.
-_MODULES = (("tippetop.compare.running", "engines.py"), ("tippetop.compare", "metrics.py"),
+_MODULES = (("tippetop.compare.running", "engines.py"), ("tippetop.compare.analysis", "metrics.py"),
             ("tippetop.compare.running", "runner.py"),
             ("tippetop.models", "calibrated_native.toml"))
 #: Rows kept of each run's observables table in the cache (for figures and reports).

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
 from tippetop.compare.common_args import (
     add_force_option,
     add_json_option,
@@ -19,13 +20,12 @@ from tippetop.compare.common_args import (
     finite_float,
     print_json,
 )
-from tippetop.compare.validate.constants import DEFAULT_T_END_S
 
 EXIT_AGREES, EXIT_DEPARTS = 0, 1
 
 
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
-    from tippetop.compare.validate.run import show_value
+    from tippetop.compare.analysis.validate import show_value
 
     checks = res["verdict"]
     n_pass = sum(c["passed"] for c in checks)
@@ -67,8 +67,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     Exit status 0 when every check agrees, 1 when one departs (2: bad input).
     """
+    from tippetop.compare.analysis.validate import ValidateConfig, validate
     from tippetop.compare.running.io import check_output_dir, staged_output_dir, write_table
-    from tippetop.compare.validate.run import ValidateConfig, validate
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
     if out is not None:
@@ -82,7 +82,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     tables = res.pop("tables")
     if out is not None:
         from tippetop.compare.nightly.outputs import json_ready
-        from tippetop.compare.validate.report import render
+        from tippetop.compare.report.validate import render
 
         text = json.dumps(json_ready(res), indent=1) + "\n"
         html = render(res, tables)

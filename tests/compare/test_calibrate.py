@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from tests.conftest import run_scene_ode
-from tippetop.compare.calibrate import (
+from tippetop.compare.analysis.calibrate import (
     W_T,
     Candidate,
     Evaluator,
@@ -34,7 +34,7 @@ from tippetop.compare.calibrate import (
     residual,
     timestep_check,
 )
-from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
+from tippetop.compare.analysis.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
 from tippetop.compare.running.engines import run_engine
 from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import (
@@ -214,8 +214,8 @@ def test_mujoco_defaults_are_what_mujoco_says() -> None:
 
 
 def test_the_old_name_is_read_from_mujoco_too() -> None:
-    import tippetop.compare.calibrate as cal
-    from tippetop.compare.calibrate import scoring
+    import tippetop.compare.analysis.calibrate as cal
+    from tippetop.compare.analysis.calibrate import scoring
 
     assert cal.MUJOCO_DEFAULTS == scoring.MUJOCO_DEFAULTS == mujoco_defaults()
 

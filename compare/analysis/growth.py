@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare import theory
+from tippetop.compare.analysis import theory
 from tippetop.compare.running.engines import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
@@ -291,7 +291,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
     """Measure ``n1``, ``n4`` or ``nc`` of a scene's top in ``engine`` from growth rates.
 
     Returns:
-        The threshold keys of :func:`tippetop.compare.threshold.measure_threshold`
+        The threshold keys of :func:`tippetop.compare.analysis.threshold.measure_threshold`
         (``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs,
         horizon_s, converged``) plus ``method`` ("growth"), ``rates`` (each ``{n0, state,
         rate_per_s}``), ``settled`` (every fit clean: two modes describe every run), and

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare import theory
-from tippetop.compare.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.metrics import OUTCOME_MARGIN, classify_outcome, theta_asymp
 from tippetop.compare.running.engines import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
@@ -30,7 +30,8 @@ WHICH = ("n1", "n4", "nc")
 #: A bisection run for n_c that is still moving at its end is continued over twice, then four
 #: times its horizon until it settles (``classify_outcome`` not ``inconclusive``).
 SETTLE_DOUBLINGS = 2
-#: ``growth`` (the default for every threshold: :mod:`tippetop.compare.growth`) or ``bisect``.
+#: ``growth`` (the default for every threshold: :mod:`tippetop.compare.analysis.growth`) or
+#: ``bisect``.
 METHODS = ("growth", "bisect")
 #: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.
 DEFAULT_SCENE = "fig11_n060"
@@ -84,8 +85,8 @@ def measure_threshold(
         which: ``n1``, ``n4`` or ``nc``.
         overrides: Scene overrides.
         method: ``growth`` (default: the zero of a steady state's growth rate, from short
-            runs; :func:`tippetop.compare.growth.measure_growth`) or ``bisect`` (the outcome
-            of full runs over the scene's horizon, :func:`bisect_threshold`; n1 and nc).
+            runs; :func:`tippetop.compare.analysis.growth.measure_growth`) or ``bisect`` (the
+            outcome of full runs over the scene's horizon, :func:`bisect_threshold`; n1 and nc).
         rel_tol: Relative tolerance (default 1e-5 for growth, 0.005 for bisect).
         scheduler: A Dask scheduler address, or None for local processes.
         workers: Local worker processes.
@@ -98,7 +99,7 @@ def measure_threshold(
         []), ``settled`` (growth: every fit clean; bisect: no run still moving and the answer
         does not depend on the horizon), and each method's own keys.
     """
-    from tippetop.compare.growth import measure_growth
+    from tippetop.compare.analysis.growth import measure_growth
 
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")

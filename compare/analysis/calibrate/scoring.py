@@ -32,7 +32,7 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.metrics import classify_outcome, theta_asymp
+from tippetop.compare.analysis.metrics import classify_outcome, theta_asymp
 from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError

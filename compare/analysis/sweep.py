@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare import theory
-from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.metrics import classify_outcome
 from tippetop.compare.running.engines import run_failed
 from tippetop.compare.running.io import write_atomic
 from tippetop.compare.running.runner import Task, run_tasks

@@ -9,13 +9,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.accuracy.common import (
+from tippetop.compare.analysis.accuracy.common import (
     DEFAULT_THRESHOLDS,
     STATUS_DIVERGED,
     STATUS_OK,
     STATUS_SKIPPED,
 )
-from tippetop.compare.accuracy.mujoco_study import MUJOCO_NOTES
+from tippetop.compare.analysis.accuracy.mujoco_study import MUJOCO_NOTES
 
 
 def pareto_front(df: pd.DataFrame) -> pd.DataFrame:

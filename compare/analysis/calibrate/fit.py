@@ -25,7 +25,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from tippetop.compare.calibrate.scoring import (
+from tippetop.compare.analysis.calibrate.scoring import (
     Candidate,
     Residual,
     SceneSpec,

@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.accuracy.common import (
+from tippetop.compare.analysis.accuracy.common import (
     ACCURACY_COLUMNS,
     HARD_LIMIT_FACTOR,
     STATUS_DIVERGED,

@@ -16,12 +16,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.calibrate.config import (
+from tippetop.compare.analysis.calibrate.config import (
     DEFAULT_OUT,
     DEFAULT_OUT_SHOWN,
     CalibrateConfig,
 )
-from tippetop.compare.calibrate.fit import (
+from tippetop.compare.analysis.calibrate.fit import (
     CONTINUOUS,
     GRID,
     INITIAL_STEPS_DECADES,
@@ -33,14 +33,14 @@ from tippetop.compare.calibrate.fit import (
     setting_bounds,
     timestep_check,
 )
-from tippetop.compare.calibrate.output import (
+from tippetop.compare.analysis.calibrate.output import (
     findings,
     path_text,
     render_toml,
     residual_dict,
     settings_table,
 )
-from tippetop.compare.calibrate.scoring import (
+from tippetop.compare.analysis.calibrate.scoring import (
     DAMPRATIO,
     GRID_DT_S,
     J_MAX,

@@ -7,10 +7,10 @@ import math
 from dataclasses import asdict
 from typing import Any
 
-from tippetop.compare.calibrate.scoring import J_MAX, Candidate, Residual
+from tippetop.compare.analysis.calibrate.scoring import J_MAX, Candidate, Residual
 
 #: Held-out theta_asymp error that counts as "not reproduced" (rad); the same margin as the
-#: outcome classes (:data:`compare.metrics.OUTCOME_MARGIN`).
+#: outcome classes (:data:`compare.analysis.metrics.OUTCOME_MARGIN`).
 ASYMP_TOL = 0.15
 #: Held-out inversion-time error that counts as "not reproduced": more than 0.5 s and more than
 #: 10 % of the reference's t_invert. A slow rise (Fig. 11, n0 = 50 rad/s, 15 s) crosses pi/2 at

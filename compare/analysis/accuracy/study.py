@@ -8,7 +8,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.accuracy.common import (
+from tippetop.compare.analysis.accuracy.common import (
     DEFAULT_THRESHOLDS,
     STATUS_DIVERGED,
     STATUS_OK,
@@ -16,8 +16,11 @@ from tippetop.compare.accuracy.common import (
     cut_scene,
     reference_run,
 )
-from tippetop.compare.accuracy.figures import mujoco_work_precision_figure, work_precision_figure
-from tippetop.compare.accuracy.mujoco_study import (
+from tippetop.compare.analysis.accuracy.figures import (
+    mujoco_work_precision_figure,
+    work_precision_figure,
+)
+from tippetop.compare.analysis.accuracy.mujoco_study import (
     DEFAULT_INTEGRATORS,
     DEFAULT_MODES,
     DEFAULT_MUJOCO_BUDGET_S,
@@ -26,7 +29,7 @@ from tippetop.compare.accuracy.mujoco_study import (
     mujoco_frame,
     mujoco_rows,
 )
-from tippetop.compare.accuracy.ode_study import (
+from tippetop.compare.analysis.accuracy.ode_study import (
     DEFAULT_BUDGET_S,
     DEFAULT_TOLERANCES,
     STIFF_LAMBDA_MPS,
@@ -35,7 +38,11 @@ from tippetop.compare.accuracy.ode_study import (
     stiff_scene,
     stiff_work_precision,
 )
-from tippetop.compare.accuracy.pareto import mujoco_pareto_markdown, pareto_markdown, pareto_table
+from tippetop.compare.analysis.accuracy.pareto import (
+    mujoco_pareto_markdown,
+    pareto_markdown,
+    pareto_table,
+)
 from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
 from tippetop.models.errors import TippetopError, expect
 

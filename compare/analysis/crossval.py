@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare import theory
-from tippetop.compare.metrics import classify_outcome, outcome_of_angle, theta_trend
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.metrics import classify_outcome, outcome_of_angle, theta_trend
 from tippetop.compare.running.engines import describe_ran, run_failed
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tippetop.compare.calibrate.config import (
+from tippetop.compare.analysis.calibrate.config import (
     DEFAULT_BUDGET_RUNS,
     DEFAULT_CALIBRATION,
     DEFAULT_HOLDOUT,
@@ -34,8 +34,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         budget_runs=args.budget_runs, timestep_s=args.timestep_s, integrator=args.integrator,
         scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
         progress=not args.json)
-    from tippetop.compare.calibrate.output import print_report
-    from tippetop.compare.calibrate.run import calibrate
+    from tippetop.compare.analysis.calibrate.output import print_report
+    from tippetop.compare.analysis.calibrate.run import calibrate
 
     report = calibrate(config)
     if args.json:

@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from tippetop.compare.accuracy.common import (
+from tippetop.compare.analysis.accuracy.common import (
     ACCURACY_COLUMNS,
     ATOL_PER_RTOL,
     HARD_LIMIT_FACTOR,
@@ -307,7 +307,7 @@ def stiff_scene(scene: Scene | str = STIFF_SCENE, Lambda_mps: float = STIFF_LAMB
 def law_reference(scene: Scene, rtol: float = STIFF_REFERENCE_RTOL) -> Reference:
     """The reference of a stiff scene: the friction law throughout (``stiff="off"``).
 
-    :func:`~tippetop.compare.accuracy.common.reference_run` integrates the scene as a run
+    :func:`~tippetop.compare.analysis.accuracy.common.reference_run` integrates the scene as a run
     does, with rolling phases where the law is stiff; scored against it, the rolling phases'
     own departure from the law would not show. Here the law itself, at ``rtol`` (its floor:
     the distance from a run at ``REFERENCE_CHECK_FACTOR`` x ``rtol``).

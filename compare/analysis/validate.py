@@ -16,12 +16,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare import theory
-from tippetop.compare.crossval import predicted_outcome
-from tippetop.compare.metrics import classify_outcome
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.crossval import predicted_outcome
+from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
+from tippetop.compare.analysis.metrics import classify_outcome
 from tippetop.compare.running.engines import describe_ran
 from tippetop.compare.running.runner import Task, run_tasks
-from tippetop.compare.validate.constants import DEFAULT_T_END_S
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 

@@ -7,14 +7,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.accuracy.common import (
+from tippetop.compare.analysis.accuracy.common import (
     DEFAULT_THRESHOLDS,
     PLOT_ERR_FLOOR,
     STATUS_DIVERGED,
     STATUS_OK,
 )
-from tippetop.compare.accuracy.mujoco_study import DEFAULT_INTEGRATORS, MUJOCO_NOTES
-from tippetop.compare.accuracy.pareto import pareto_front
+from tippetop.compare.analysis.accuracy.mujoco_study import DEFAULT_INTEGRATORS, MUJOCO_NOTES
+from tippetop.compare.analysis.accuracy.pareto import pareto_front
 from tippetop.compare.running.io import write_atomic
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.metrics import jellett_drift
+from tippetop.compare.analysis.metrics import jellett_drift
 from tippetop.compare.running.engines import plan_for
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.plan import OdePlan

@@ -1,8 +1,8 @@
 """The paper's group diagram, measured: n1 and n4 at every point of an (A/C, a/R) grid.
 
 At each grid point and in each engine/mode, the upright state's and the inverted state's
-growth-rate zeros are measured (:mod:`tippetop.compare.growth`): n1, and n3 carried to theta = 0
-as n4. The group they imply is the paper's (Sec. 3.2) read from the measured thresholds:
+growth-rate zeros are measured (:mod:`tippetop.compare.analysis.growth`): n1, and n3 carried to
+theta = 0 as n4. The group they imply is the paper's (Sec. 3.2) read from the measured thresholds:
 
 * I: the upright state never loses stability (no n1 at any spin scanned);
 * II: n1 exists and so does n4 (the inverted state turns stable at high spin): the top can
@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from tippetop.compare import theory
-from tippetop.compare.atlas_defaults import (  # noqa: F401 - re-exported
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.defaults import (  # noqa: F401 - re-exported
     DEFAULT_A_OVER_C,
     DEFAULT_A_OVER_R,
     DEFAULT_ENGINES_TEXT,
 )
-from tippetop.compare.growth import (
+from tippetop.compare.analysis.growth import (
     SCAN_SPINS,
     Search,
     jellett_pi_to_zero,
