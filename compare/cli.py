@@ -30,7 +30,7 @@ from tippetop.compare.common_args import (
 )
 from tippetop.compare.mjcf_command import add_mjcf_parser
 from tippetop.compare.nightly.command import add_nightly_parser
-from tippetop.compare.render import add_render_parser
+from tippetop.compare.presentation.video import add_render_parser
 from tippetop.compare.validate.command import add_validate_parser
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).

@@ -16,7 +16,7 @@ import sys
 from typing import Any
 
 from tippetop.compare.common_args import EXIT_RUN_FAILED, comma_list, print_json
-from tippetop.compare.terminal import (
+from tippetop.compare.presentation.terminal import (
     MISSING,
     fmt,
     fmt_percent,
@@ -29,7 +29,7 @@ from tippetop.models.errors import TippetopError
 
 
 def _print_human(d: dict[str, Any]) -> None:
-    """``key  value unit`` lines (:func:`tippetop.compare.terminal.key_values`)."""
+    """``key  value unit`` lines (:func:`tippetop.compare.presentation.terminal.key_values`)."""
     print(key_values(d))
 
 
@@ -474,7 +474,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
-    from tippetop.compare.analysis.sweep import parse_range, run_sweep, sweep_figure
+    from tippetop.compare.analysis.sweep import parse_range, run_sweep
+    from tippetop.compare.presentation.figures import sweep_figure
     from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
     from tippetop.models.modes import parse_modes
 

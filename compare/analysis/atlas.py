@@ -181,70 +181,13 @@ def atlas_table(result: dict[str, Any]) -> Any:
     return pd.DataFrame([{c: p[c] for c in cols} for p in result["points"]], columns=cols)
 
 
-_MARKERS = {"ode": "o", "mujoco-paper": "s", "mujoco-native": "^"}
-_GROUP_COLOURS = {"I": "#1565c0", "II": "#e65100", "III": "#6a1b9a"}
-
-
-def atlas_figure(result: dict[str, Any]) -> Any:
-    """The (a/R, A/C) plane with each engine's measured groups.
-
-    The boundaries A/C = 1 -+ a/R and r_c are drawn; each engine's measured group is a marker
-    (colour: group; shape: engine); departures from the theory are circled.
-    """
-    from tippetop.compare.report.markup import pyplot
-
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8.0, 5.6))
-    xs = np.linspace(0.0, 1.0, 400)
-    grid = result["grid"]
-    x_hi = max(0.3, 1.15 * max(grid["a_over_R"]))
-    y_lo = min(0.7, 0.95 * min(grid["A_over_C"]))
-    y_hi = max(1.5, 1.05 * max(grid["A_over_C"]))
-    ax.plot(xs, 1 - xs, "k-", lw=1.2, label="A/C = 1 - a/R (I | II)")
-    ax.plot(xs, 1 + xs, "k--", lw=1.2, label="A/C = 1 + a/R (II | III)")
-    from tippetop.models.params import TopParams
-
-    rc = [theory.r_c(TopParams(R_m=1.0, a_m=x, M_kg=1.0, A_kgm2=1.0, C_kgm2=1.0))
-          for x in xs[1:-1]]
-    ax.plot(xs[1:-1], rc, ":", color="0.3", lw=1.2, label="A/C = r_c (n_c = n1 | n4)")
-    engines = result["engines"]
-    k = len(engines)
-    dx = 0.012 * (x_hi / 0.3)
-    for j, eng in enumerate(engines):
-        pts = [p for p in result["points"] if p["engine"] == eng]
-        off = (j - (k - 1) / 2) * dx
-        for p in pts:
-            x, y = p["a_over_R"] + off, p["A_over_C"]
-            ax.plot(x, y, _MARKERS.get(eng, "v"), ms=7,
-                    color=_GROUP_COLOURS[p["group_measured"]], mec="k", mew=0.5)
-            if not p["agrees"]:
-                ax.plot(x, y, "o", ms=15, mfc="none", mec="#d50000", mew=1.6)
-    from matplotlib.lines import Line2D
-
-    handles, _ = ax.get_legend_handles_labels()
-    handles += [Line2D([], [], ls="", marker="o", color=c, mec="k", label=f"measured Group {g}")
-                for g, c in _GROUP_COLOURS.items()]
-    handles += [Line2D([], [], ls="", marker=_MARKERS.get(e, "v"), color="w", mec="k",
-                       label=e) for e in engines]
-    handles.append(Line2D([], [], ls="", marker="o", ms=12, mfc="none", mec="#d50000",
-                          mew=1.6, label="departs from the theory"))
-    ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    ax.set_xlim(0.0, x_hi)
-    ax.set_ylim(y_lo, y_hi)
-    ax.set_xlabel("a/R")
-    ax.set_ylabel("A/C")
-    ax.set_title("Groups measured from n1 and n4 (growth rates) in each engine", fontsize=10)
-    ax.grid(alpha=0.3)
-    fig.subplots_adjust(left=0.09, right=0.70, bottom=0.1, top=0.93)
-    return fig
-
-
 def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
     """Write atlas.csv, atlas.png and atlas.json into ``out_dir``, all or nothing.
 
     The folder is checked (new, empty or ``--force``) by the caller before the work.
     """
     from tippetop.compare.common_args import json_text
+    from tippetop.compare.presentation.figures import atlas_figure, pyplot
     from tippetop.compare.running.io import staged_output_dir
 
     names = ["atlas.csv", "atlas.png", "atlas.json"]
@@ -252,7 +195,6 @@ def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
         atlas_table(result).to_csv(tmp / "atlas.csv", index=False)
         fig = atlas_figure(result)
         fig.savefig(tmp / "atlas.png", dpi=110)
-        from tippetop.compare.report.markup import pyplot
 
         pyplot().close(fig)
         (tmp / "atlas.json").write_text(json_text(result, indent=1), encoding="utf-8")

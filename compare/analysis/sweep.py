@@ -6,7 +6,6 @@ This is the paper's Figs. 9 and 10, measured in any engine.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,7 +14,6 @@ import pandas as pd
 from tippetop.compare.analysis import theory
 from tippetop.compare.analysis.metrics import classify_outcome
 from tippetop.compare.running.engines import run_failed
-from tippetop.compare.running.io import write_atomic
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import mode_task_parts
@@ -71,32 +69,3 @@ def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
         "computed": sum(not r.cached for r in results),
         "cached": sum(r.cached for r in results),
     }
-
-
-def sweep_figure(result: dict[str, Any], path: Path) -> None:
-    """theta_asymp against n0 per mode, with theta_s(n0) and the critical spins (PNG/SVG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    top = result["top"]
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
-    th = result["theory"]
-    ax.plot(th["n0"], th["theta_s"], "k-", lw=1, label=r"theory $\theta_s(n_0)$")
-    markers = iter("os^vD<>p*")
-    for mode, grp in result["table"].groupby("mode", sort=False):
-        ax.plot(grp["n0"], grp["theta_asymp"], next(markers), mfc="none", label=mode)
-    for name, val in (("n1", theory.n1(top)), ("n4", theory.n4(top))):
-        if val is not None and th["n0"].min() <= val <= th["n0"].max():
-            ax.axvline(val, color="0.6", ls=":", lw=1)
-            ax.text(val, 0.05, f" {name}", color="0.4", fontsize=8)
-    ax.set_xlabel(r"$n_0$ (rad/s)")
-    ax.set_ylabel(r"$\theta_{asymp}$ (rad)")
-    ax.set_ylim(-0.1, math.pi + 0.15)
-    ax.set_title(f"{result['scene']}: A/C = {top.A_over_C:.3g}, a/R = {top.a_over_R:.3g} "
-                 f"(Group {theory.group(top)})", fontsize=10)
-    ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format=path.suffix.lstrip(".")))
-    plt.close(fig)

@@ -198,7 +198,7 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
 
 def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """Per mode, how many runs agree with the theory; then each run that does not, and why."""
-    from tippetop.compare.nightly.verdict import agreement_counts, cell_class, mode_order
+    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
 
     counts = agreement_counts(rows)
     out = []

@@ -41,8 +41,8 @@ from tippetop.compare.nightly.outputs import (
 )
 from tippetop.compare.nightly.running import error_text, run_cases
 from tippetop.compare.nightly.tolerances import TOLERANCES
-from tippetop.compare.nightly.verdict import crossval_rows
 from tippetop.compare.nightly.videos import render_videos
+from tippetop.compare.presentation.verdict import crossval_rows
 from tippetop.compare.running.io import (
     check_output_dir,
     locked_output_dir,

@@ -10,8 +10,9 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare.analysis.validate import MODES, show_value
+from tippetop.compare.presentation.figures import pyplot
 from tippetop.compare.report.groupmap import draw_groups
-from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png, pyplot
+from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
 
 _COLOURS = {"mujoco-file": "#d62728", "ode": "#111111", "mujoco-paper": "#1f77b4",
             "mujoco-native": "#2ca02c"}

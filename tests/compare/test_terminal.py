@@ -7,9 +7,7 @@ import math
 
 import pytest
 
-from tippetop.compare.running.cost import expected_cost_s, schedule_s
-from tippetop.compare.running.progress import WorkProgress
-from tippetop.compare.terminal import (
+from tippetop.compare.presentation.terminal import (
     MISSING,
     fmt,
     fmt_duration,
@@ -18,6 +16,8 @@ from tippetop.compare.terminal import (
     table,
     unit_of,
 )
+from tippetop.compare.running.cost import expected_cost_s, schedule_s
+from tippetop.compare.running.progress import WorkProgress
 
 
 # ---------------------------------------------------------------- values
