@@ -62,8 +62,7 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
     import importlib
 
     for pkg in ("tippetop.compare.nightly", "tippetop.compare.analysis.calibrate",
-                "tippetop.compare.analysis.accuracy", "tippetop.compare.report",
-                "tippetop.compare.validate"):
+                "tippetop.compare.analysis.accuracy", "tippetop.compare.report"):
         mod = importlib.import_module(pkg)
         folder = Path(mod.__file__).parent
         submodules = {p.stem for p in folder.glob("*.py")}

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -179,23 +178,3 @@ def atlas_table(result: dict[str, Any]) -> Any:
     cols = ["A_over_C", "a_over_R", "engine", "group_theory", "group_measured", "n1_theory",
             "n1_measured", "n4_theory", "n4_measured", "agrees", "n_runs", "settled"]
     return pd.DataFrame([{c: p[c] for c in cols} for p in result["points"]], columns=cols)
-
-
-def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
-    """Write atlas.csv, atlas.png and atlas.json into ``out_dir``, all or nothing.
-
-    The folder is checked (new, empty or ``--force``) by the caller before the work.
-    """
-    from tippetop.compare.common_args import json_text
-    from tippetop.compare.presentation.figures import atlas_figure, pyplot
-    from tippetop.compare.running.io import staged_output_dir
-
-    names = ["atlas.csv", "atlas.png", "atlas.json"]
-    with staged_output_dir(Path(out_dir)) as tmp:
-        atlas_table(result).to_csv(tmp / "atlas.csv", index=False)
-        fig = atlas_figure(result)
-        fig.savefig(tmp / "atlas.png", dpi=110)
-
-        pyplot().close(fig)
-        (tmp / "atlas.json").write_text(json_text(result, indent=1), encoding="utf-8")
-    return [Path(out_dir) / n for n in names]

@@ -5,8 +5,10 @@
   thousands separators, a boolean is ``yes`` or ``no``; :func:`fmt_value` adds the unit that a
   key's name implies (``t_invert`` -> s, ``theta_*`` -> rad, ``*_J`` -> J, ``rel_diff`` -> %).
 * :func:`table` lines up rows of text in columns, numbers right-aligned.
+* :func:`cache_line` says where a command's runs went.
 
-This module imports only the standard library.
+This module imports only the standard library (and, to say where the cache is,
+:mod:`tippetop.models.resources`).
 """
 
 from __future__ import annotations
@@ -244,5 +246,16 @@ def table(columns: Sequence[str], rows: Sequence[Sequence[str]], indent: str = "
     return "\n".join(lines)
 
 
-__all__ = ["MISSING", "NAN_TEXT", "fmt", "fmt_duration", "fmt_float", "fmt_percent", "fmt_value",
-           "key_values", "labelled", "table", "text_width", "unit_of"]
+def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str:
+    """Where the runs went: ``runs: 6 computed, 2 from the cache in /root/.cache/tippetop``."""
+    from tippetop.models.resources import user_cache_dir
+
+    counts = f"{computed} computed, {cached} from the cache" if computed is not None else ""
+    if not use_cache:
+        return f"runs: {counts or 'computed'}; the cache was not used (--no-cache)"
+    where = f"{user_cache_dir()} ($TIPPETOP_CACHE)"
+    return f"runs: {counts} in {where}" if counts else f"runs: cached in {where}"
+
+
+__all__ = ["MISSING", "NAN_TEXT", "cache_line", "fmt", "fmt_duration", "fmt_float", "fmt_percent",
+           "fmt_value", "key_values", "labelled", "table", "text_width", "unit_of"]

@@ -46,7 +46,6 @@ the simulation: this module imports only the standard library at the top, and th
 
 from __future__ import annotations
 
-import argparse
 import math
 import re
 import sys
@@ -57,7 +56,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tippetop.compare.common_args import add_force_option, add_set_option
 from tippetop.models.errors import TippetopError, expect
 from tippetop.mujoco_runner.gl import use_gl_backend
 
@@ -344,69 +342,6 @@ def _frame_bar(total: int, label: str, say: Callable[[str], None] | None = None
         yield lambda: bar.update(1)
 
 
-# ---------------------------------------------------------------- command line
-def _say(line: str) -> None:
-    """A progress line on stderr, at once."""
-    sys.stderr.write(line + "\n")
-    sys.stderr.flush()
-
-
-def _cmd_render(args: argparse.Namespace) -> int:
-    """Run ``tippetop render``; returns the exit status (0, or 1 for a failed run)."""
-    from tippetop.models.scene import load_scene
-
-    scene = load_scene(args.scene, list(args.set or []))
-    out = args.out if args.out else f"{scene.name}.mp4"
-    try:
-        res = render_scene(scene, out, engine=args.engine, fps=args.fps, speed=args.speed,
-                           size=args.size, max_frames=args.max_frames, force=args.force,
-                           say=_say)
-    except RunFailed as exc:
-        sys.stderr.write(f"tippetop: run failed: {exc}\n")
-        return 1
-    except VideoWriteFailed as exc:
-        sys.stderr.write(f"tippetop: video failed: {exc}\n")
-        return 1
-    print(f"wrote {res.path}: {res.n_frames} frames {res.width}x{res.height}, "
-          f"{res.video_s:.3g} s of video at {res.fps:g} fps for {scene.run.t_end_s:g} s "
-          f"simulated (--speed {res.speed:g}); {res.backend}, "
-          f"{res.ms_per_frame:.0f} ms a frame")
-    return 0
-
-
-def add_render_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Add the ``render`` subcommand to ``tippetop``'s subparsers; returns its parser.
-
-    The parser's ``func`` takes the parsed namespace and returns an exit status.
-    """
-    p = subparsers.add_parser(
-        "render", help="an offscreen H.264 MP4 of a run (MuJoCo, reference ODE or both)",
-        description="Simulate a scene and write an MP4: MuJoCo's run, the reference ODE "
-        "replayed in the same MJCF, or both side by side. Needs an offscreen OpenGL backend "
-        "(MUJOCO_GL=egl or osmesa; unset picks one).")
-    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
-                   "paper's top and Fig. 3 start)")
-    p.add_argument("--engine", default="mujoco", help="mujoco, ode (the reference replayed "
-                   "in the same MJCF) or both, side by side (default mujoco)")
-    p.add_argument("--out", metavar="FILE", help="the .mp4 file (default: <scene name>.mp4 "
-                   "in the current folder)")
-    p.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="FPS",
-                   help=f"frames per second of video (default {DEFAULT_FPS:g})")
-    p.add_argument("--speed", type=float, default=DEFAULT_SPEED, metavar="X",
-                   help="simulated seconds per second of video: 0.25 is quarter-speed slow "
-                   f"motion, 1 real time (default {DEFAULT_SPEED:g})")
-    p.add_argument("--size", default=DEFAULT_SIZE, metavar="WxH",
-                   help=f"WIDTHxHEIGHT of one panel in px (default {DEFAULT_SIZE})")
-    p.add_argument("--max-frames", dest="max_frames", type=int, default=DEFAULT_MAX_FRAMES,
-                   metavar="N", help=f"refuse a video of more frames than this, before "
-                   f"simulating (default {DEFAULT_MAX_FRAMES})")
-    add_force_option(p)
-    add_set_option(p, help="override a scene key, e.g. run.t_end_s=4; units as the key's "
-                   "name says; repeatable (default: the scene as written)")
-    p.set_defaults(func=_cmd_render)
-    return p
-
-
 __all__ = [
     "DEFAULT_FPS",
     "DEFAULT_MAX_FRAMES",
@@ -417,7 +352,6 @@ __all__ = [
     "RenderResult",
     "RunFailed",
     "VideoWriteFailed",
-    "add_render_parser",
     "frame_count",
     "parse_size",
     "render_scene",

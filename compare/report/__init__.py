@@ -32,7 +32,6 @@ from tippetop.compare._lazy import lazy_exports
 
 __getattr__, __dir__ = lazy_exports(__name__, {
     "build_report": "build",
-    "main": "build",
     "render_report": "build",
     "PLOT_ROWS": "figures",
     "FRICTION_MODES": "friction",
@@ -41,4 +40,4 @@ __getattr__, __dir__ = lazy_exports(__name__, {
 })
 
 __all__ = ["FRICTION_MODES", "FRICTION_SCENE", "PLOT_ROWS", "build_report", "friction_note",
-           "main", "render_report"]
+           "render_report"]

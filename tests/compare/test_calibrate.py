@@ -24,7 +24,6 @@ from tippetop.compare.analysis.calibrate import (
     Candidate,
     Evaluator,
     SceneSpec,
-    add_calibrate_parser,
     grid_candidates,
     mujoco_defaults,
     mujoco_defaults_label,
@@ -35,6 +34,7 @@ from tippetop.compare.analysis.calibrate import (
     timestep_check,
 )
 from tippetop.compare.analysis.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
+from tippetop.compare.commands.calibrate import add_parser as add_calibrate_parser
 from tippetop.compare.running.engines import run_engine
 from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import (

@@ -22,7 +22,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare import cli, nightly
+from tippetop.compare import cli
+from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.running.io import lock_path, locked_output_dir
 from tippetop.compare.running.runner import ResultCache, Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
@@ -47,7 +48,7 @@ def run_nightly(*args: str) -> tuple[int, str, str]:
     """``tippetop nightly ARGS`` in this process: (exit status, stdout, stderr)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = nightly.main(list(args))
+        code = nightly_command.main(list(args))
     return code, out.getvalue(), err.getvalue()
 
 

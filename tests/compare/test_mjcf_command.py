@@ -23,7 +23,7 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.cli import main
-from tippetop.compare.mjcf_command import KEYFRAME, model_differences
+from tippetop.compare.running.mjcf_export import KEYFRAME, model_differences
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: fig3 in MuJoCo's native friction, over a short run (0.5 s, 2500 RK4 steps).

@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from tippetop.compare import cli
+from tippetop.compare.commands import render as render_command
 from tippetop.compare.presentation import video as render
 from tippetop.compare.running.engines import run_engine
 from tippetop.models.errors import TippetopError
@@ -320,7 +321,7 @@ def _main(argv: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     if "render" not in sub.choices:
-        render.add_render_parser(sub)
+        render_command.add_parser(sub)
     monkeypatch.setattr(cli, "build_parser", lambda: parser)
     return cli.main(argv)
 
@@ -407,12 +408,12 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     code = textwrap.dedent(f"""
         import argparse, os, sys
         import tippetop.compare.cli, tippetop.reference_ode.solve, tippetop.mujoco_runner.run
-        import tippetop.compare.presentation.video
+        import tippetop.compare.commands.render, tippetop.compare.presentation.video
         from tippetop.compare import cli
         parser = cli.build_parser()
         sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         if "render" not in sub.choices:
-            tippetop.compare.presentation.video.add_render_parser(sub)
+            tippetop.compare.commands.render.add_parser(sub)
         cli.build_parser = lambda: parser
         assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set",
                          "run.t_end_s=0.01", "--json"]) == 0

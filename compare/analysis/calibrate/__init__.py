@@ -19,8 +19,8 @@ friction rows share the contact's solref.
 
 Modules: :mod:`.scoring` (candidates, scenes, residuals and the objective), :mod:`.fit`
 (the evaluator, the grid and compass search, the timestep check), :mod:`.output` (findings,
-the TOML file, the printed table), :mod:`.config` (:class:`CalibrateConfig`, the defaults) and
-:mod:`.command` (:func:`calibrate` and the parser).
+the TOML file), :mod:`.config` (:class:`CalibrateConfig`, the defaults) and :mod:`.run`
+(:func:`calibrate`); the command is :mod:`tippetop.compare.commands.calibrate`.
 """
 
 from __future__ import annotations
@@ -28,9 +28,7 @@ from __future__ import annotations
 from tippetop.compare._lazy import lazy_exports
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "add_calibrate_parser": "command",
     "calibrate": "run",
-    "cmd_calibrate": "command",
     "reproduce_command": "run",
     "DEFAULT_BUDGET_RUNS": "config",
     "DEFAULT_CALIBRATION": "config",
@@ -67,7 +65,7 @@ __all__ = [
     "DEFAULT_BUDGET_RUNS", "DEFAULT_CALIBRATION", "DEFAULT_HOLDOUT", "DEFAULT_INTEGRATOR",
     "DEFAULT_OUT", "DEFAULT_TIMESTEP_S", "FAIL_COST", "GRID", "J_MAX", "MUJOCO_DEFAULTS", "W_J",
     "W_T", "CalibrateConfig", "Candidate", "Evaluation", "Evaluator", "Residual", "SceneSpec",
-    "add_calibrate_parser", "calibrate", "cmd_calibrate", "findings", "grid_candidates",
-    "mujoco_defaults", "mujoco_defaults_label", "neighbours", "objective", "parse_scene_list",
-    "render_toml", "reproduce_command", "residual", "search", "timestep_check",
+    "calibrate", "findings", "grid_candidates", "mujoco_defaults", "mujoco_defaults_label",
+    "neighbours", "objective", "parse_scene_list", "render_toml", "reproduce_command", "residual",
+    "search", "timestep_check",
 ]

@@ -243,6 +243,26 @@ def scheduler_address(text: str) -> str:
     return text
 
 
+# ---------------------------------------------------------------- input
+def load_scene(args: argparse.Namespace) -> Any:
+    """The scene a command names: ``args.scene`` with ``--set``, ``--mjcf`` and ``--keyframe``.
+
+    A relative ``--mjcf`` path is relative to the working folder, not to the scene file.
+
+    Returns:
+        The validated :class:`tippetop.models.scene.Scene`.
+    """
+    from tippetop.models.scene import load_scene as load
+
+    overrides = list(args.set or [])
+    if getattr(args, "mjcf", None):
+        # relative to the working folder, not to the scene file
+        overrides.append(f"top.mjcf={json.dumps(os.path.abspath(args.mjcf))}")
+    if getattr(args, "keyframe", None):
+        overrides.append(f"init.keyframe={json.dumps(args.keyframe)}")
+    return load(args.scene, overrides)
+
+
 # ---------------------------------------------------------------- output
 def _json_default(o: Any) -> Any:
     if hasattr(o, "item"):

@@ -1,16 +1,18 @@
-"""``tippetop nightly``: its parser, ``cmd_nightly``, and ``python -m tippetop.compare.nightly``.
+"""``tippetop nightly``: the regression suite, with its report; ``python -m ...nightly``.
 
-Imports only what building the parser needs; the suite is imported when it runs.
+The nightly (:mod:`tippetop.compare.nightly`) runs and checks; the report
+(:mod:`tippetop.compare.report`) draws; this command composes the two (:func:`write_report`).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.common_args import (
+from tippetop.compare.commands.options import (
     Parser,
     add_force_option,
     add_scheduler_option,
@@ -21,26 +23,9 @@ from tippetop.compare.common_args import (
 from tippetop.models.plan import ENGINES
 
 
-def cmd_nightly(args: argparse.Namespace) -> int:
-    """``tippetop nightly``: build the :class:`NightlyOptions` and run them."""
-    from tippetop.compare.nightly.baselines import BASELINE_DIR
-    from tippetop.compare.nightly.suite import NightlyOptions, run_nightly
-
-    opts = NightlyOptions(
-        profile=args.profile, catalogue=Path(args.catalogue) if args.catalogue else None,
-        baseline_dir=Path(args.baseline) if args.baseline else BASELINE_DIR,
-        update_baseline=args.update_baseline, no_baseline=args.no_baseline, out=args.out,
-        force=args.force,
-        engines=comma_list(args.engines), cases=comma_list(args.cases or ""),
-        scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
-        accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
-        argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
-    return run_nightly(opts)
-
-
-def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Add the ``nightly`` subcommand to the ``tippetop`` parser (``set_defaults(func=...)``)."""
-    p = subparsers.add_parser(
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop nightly`` and its options."""
+    p = sub.add_parser(
         "nightly", help="the regression suite: catalogue vs stored baselines; exit 1 on "
         "regression",
         description="Run the nightly catalogue (models/nightly.toml), compare every metric with "
@@ -75,15 +60,39 @@ def add_nightly_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--accuracy-dir", dest="accuracy_dir", metavar="DIR", help="folder of "
                    "accuracy-versus-cost figures and Pareto tables to embed in the report, as "
                    "'tippetop bench accuracy --out DIR' writes them (default: none)")
-    p.set_defaults(func=cmd_nightly)
-    return p
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop nightly``: build the :class:`NightlyOptions` and run them, with the report."""
+    from tippetop.compare.nightly.baselines import BASELINE_DIR
+    from tippetop.compare.nightly.suite import NightlyOptions, run_nightly
+
+    opts = NightlyOptions(
+        profile=args.profile, catalogue=Path(args.catalogue) if args.catalogue else None,
+        baseline_dir=Path(args.baseline) if args.baseline else BASELINE_DIR,
+        update_baseline=args.update_baseline, no_baseline=args.no_baseline, out=args.out,
+        force=args.force,
+        engines=comma_list(args.engines), cases=comma_list(args.cases or ""),
+        scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
+        accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
+        argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
+    return run_nightly(opts, write_report=write_report)
+
+
+def write_report(results: Mapping[str, Any], path: Path, tables: Mapping[str, Any],
+                 accuracy_dir: Path | None) -> None:
+    """The nightly's ``report.html``: :func:`tippetop.compare.report.build.build_report`."""
+    from tippetop.compare.report.build import build_report
+
+    build_report(results, path, tables=tables, accuracy_dir=accuracy_dir)
 
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m tippetop.compare.nightly [options]``: the same as ``tippetop nightly``."""
     parser = Parser(prog="tippetop")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    add_nightly_parser(sub)
+    add_parser(sub)
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(["nightly", *argv])
     args._argv = argv
