@@ -130,13 +130,13 @@ def batch(plans: list, threads: int) -> tuple[float, float]:
 
 
 def _pool_variant(mode: str, runs: int, t_end: float):
-    from tippetop.compare.running.runner import Task, _local_pool, execute
+    from tippetop.compare.running.runner import Task, execute, local_pool
 
     tasks = [Task("fig3", tuple(_overrides(mode, float(n0), t_end)), "mujoco")
              for n0 in np.linspace(40.0, 160.0, runs)]
 
     def pool(plans: list, threads: int) -> tuple[float, float]:
-        executor, _queue = _local_pool(threads)
+        executor, _queue = local_pool(threads)
         start = time.perf_counter()
         for fut in [executor.submit(execute, task) for task in tasks]:
             fut.result()

@@ -418,7 +418,7 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
     pool = queue = None
     futures: dict[Any, str] = {}
     if pooled:
-        pool, queue = _local_pool(n)
+        pool, queue = local_pool(n)
         with _sigint_blocked():  # the workers start with Ctrl-C blocked (see there)
             futures = {pool.submit(execute, task, key if bar is not None else None): key
                        for key, task in ode_tasks}
@@ -651,7 +651,7 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
     pool.shutdown(wait=False, cancel_futures=True)  # stop them; shutdown forgets them
     for proc in procs:
         proc.terminate()
-    _local_pool.cache_clear()
+    local_pool.cache_clear()
 
 
 #: Age past which a temporary file in the cache is a killed run's leftover (s): a cache
@@ -666,8 +666,10 @@ def _clean_cache_once(root: str) -> None:
 
 
 @lru_cache(maxsize=1)
-def _local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
-    """One pool of worker processes per process, kept for later calls, and its report queue.
+def local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
+    """One pool of ``n`` worker processes per process, kept for later calls; and its queue.
+
+    The queue carries the workers' progress reports (for the bar).
 
     A bisection makes several rounds; fresh workers each round would cost seconds of imports.
     """
@@ -708,5 +710,5 @@ def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
-__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "execute", "run_tasks",
-           "strip_timing", "task_key"]
+__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "execute", "local_pool",
+           "run_tasks", "strip_timing", "task_key"]

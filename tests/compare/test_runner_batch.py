@@ -142,7 +142,7 @@ def test_mujoco_runs_start_no_worker_process(tmp_path: Path, monkeypatch) -> Non
     def no_pool(n: int):
         raise AssertionError("a worker pool was started for MuJoCo runs")
 
-    monkeypatch.setattr(runner, "_local_pool", no_pool)
+    monkeypatch.setattr(runner, "local_pool", no_pool)
     results = run_tasks(_sweep_tasks()[:4], workers=2, cache_dir=tmp_path)
     assert all(r.error is None and r.summary["status"] == "ok" for r in results)
 
