@@ -1,16 +1,7 @@
 """The paper's group diagram, measured: n1 and n4 at every point of an (A/C, a/R) grid.
 
-At each grid point and in each engine/mode, the upright state's and the inverted state's
-growth-rate zeros are measured (:mod:`tippetop.compare.analysis.growth`): n1, and n3 carried to
-theta = 0 as n4. The group they imply is the paper's (Sec. 3.2) read from the measured thresholds:
-
-* I: the upright state never loses stability (no n1 at any spin scanned);
-* II: n1 exists and so does n4 (the inverted state turns stable at high spin): the top can
-  turn over;
-* III: n1 exists, n4 does not (the inverted state is unstable at every spin scanned).
-
-Every search of every point and engine advances together, so each round is one parallel,
-cached batch of short runs (local processes or Dask).
+Each engine's thresholds from growth rates, the group they imply against the theory's
+(docs/design.md), in parallel, cached batches of short runs.
 """
 
 from __future__ import annotations

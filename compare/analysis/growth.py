@@ -1,24 +1,7 @@
 """Critical spins from growth rates: the spin where a steady state's tilt stops decaying.
 
-Near the spinning upright state (``theta = 0``) or the spinning inverted state (``theta = pi``)
-the motion is linear in the tilt. The horizontal components of the symmetry axis,
-``z = k_x + i k_y``, are then a sum of damped or growing rotating modes ``A e^{(s + i w) t}``:
-after the contact slip has relaxed (within about 4 ms on the paper's top, so the first
-``SKIP_S`` are left out) two remain, the slow precession and the nutation. A matrix-pencil fit
-of ``z(t)`` over a short run (``RUN_S``) gives both complex exponents; the growth rate of the
-state is the largest real part. It is negative where the state is stable and crosses zero at
-the critical spin, so a threshold is a root of ``rate(n)``, found by a secant (Illinois) search
-on a handful of short runs. Every engine and mode is measured the same way, in its own dynamics.
-
-* ``n1``: the upright state's rate crosses zero from below (unstable above n1).
-* ``n4``: the inverted state's rate crosses zero from above at ``|n(pi)| = n3``; Jellett's
-  constant, ``J = C n (R - a cos theta)``, carries it to the spin at ``theta = 0``:
-  ``n4 = n3 (R + a) / (R - a)``.
-* ``nc`` (Group II, full inversion, Sec. 4.3): the intermediate states exist between n1 and n4
-  and join ``theta = pi`` at the larger one, so ``nc = max(n1, n4)``, both measured.
-
-Measured on the paper's Fig. 9 (a) top in the reference at the theory's n1 (2-s runs): the
-nutation's rate is -6e-5 1/s where its slope is 0.03 1/s per rad/s, i.e. n1 to 2e-6 relative.
+Short runs near the upright or inverted state, a matrix-pencil fit of the symmetry axis's
+motion, and a secant search on the fitted growth rate; the method is in docs/design.md.
 """
 
 from __future__ import annotations

@@ -1,21 +1,8 @@
 """The paper's closed-form analysis of the loaded-sphere tippe top, as plain functions.
 
-Everything here follows Ueda, Sasaki & Watanabe, Sections 3.2 and 4.1-4.3 and Appendices B-C:
-the classification into Groups I-III, the critical spins ``n1 .. n4`` and ``n_c``, the equation
-``F(x) = kappa`` for the intermediate steady states, the stability signs at ``theta = 0``,
-``theta = pi`` and at the intermediate state, the curves ``xi_+-`` and the reduced energy
-``E^(1)`` (Appendix C).
-
-Equations are cited by their label in the paper's LaTeX source
-(``shared/paper/tippe-top-gbc-stability.tex``), e.g. ``(zeroStability4)`` for ``n1``, because
-printed equation numbers depend on how the source is counted.
-
-All inputs and outputs are SI (metres, kilograms, seconds, radians, rad/s). The dimensional
-``M``, ``g``, ``a``, ``C`` and ``A`` are taken from the :class:`~models.params.TopParams`; the
-dimensionless ratios ``A/C`` and ``a/R`` from its properties. A quantity that does not exist for a
-given top (for example ``n1`` of a Group I top) is returned as ``None``.
-
-Notation: ``e = a/R``, ``r = A/C``, ``x = cos(theta)``.
+Groups I-III, the critical spins ``n1 .. n4`` and ``n_c``, the intermediate steady states,
+their stability, ``xi_+-`` and the reduced energy; SI in and out, ``None`` for a quantity a top
+does not have. Equations are cited by their LaTeX label (docs/design.md says why).
 """
 
 from __future__ import annotations

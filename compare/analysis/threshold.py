@@ -1,15 +1,6 @@
-"""Critical spins measured by bisection on n0, against the theory's n1 and n_c.
+"""Critical spins measured in an engine, against the theory: growth rates or bisection on n0.
 
-* ``n1``: the spin above which the vertical state theta = 0 is unstable (eq. 4.13). A run
-  "crosses" when theta moves away from the vertical: its mean over the last 10 % of the run is
-  above its mean over 40-50 % of the run (growing), or theta_asymp is clearly off the vertical.
-  Near n1 the growth rate of theta goes to zero, so the horizon bounds how close the bisection
-  can get; the scene's ``run.t_end_s`` is that horizon.
-* ``nc``: the spin above which a Group II top inverts fully (Sec. 4.3): the run crosses when its
-  final state is ``inverted``.
-
-Each round runs as many points inside the bracket as there are workers, in parallel and
-cached, and keeps the sub-bracket where the outcome changes.
+How a run "crosses" in the bisection is in docs/design.md.
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
-"""``tippetop validate MODEL.xml``: one MJCF top against the theory and the reference.
+"""The work of ``tippetop validate``: one MJCF top against the theory and the reference.
 
-The file's top runs in four modes (:data:`MODES`): ``mujoco-file`` (MuJoCo, the file's own
-settings), ``ode`` (the reference with the file's mu and its stem), ``mujoco-paper`` (the
-paper's law in the same model) and ``mujoco-native`` (MuJoCo's own friction with the
-calibrated settings). :func:`validate` returns the model's parameters and the theory's
-numbers, each run's summary, a verdict (one row per check and mode, with the value, the
-tolerance and whether it passed), findings (what the file's own settings get wrong against
-the reference, with numbers) and the calibrated settings as MJCF attributes to paste.
+Four runs of the file's top, the checks, the findings and the settings to paste
+(:func:`validate`; docs/design.md).
 """
 
 from __future__ import annotations

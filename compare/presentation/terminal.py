@@ -1,13 +1,8 @@
 """What a person reads in the terminal: values with units, and tables.
 
-* :func:`fmt` turns one value into text: ``None`` is ``-``, NaN is ``undefined (NaN)``, a float
-  has four significant digits (a relative drift two, in scientific notation), an integer has
-  thousands separators, a boolean is ``yes`` or ``no``; :func:`fmt_value` adds the unit that a
-  key's name implies (``t_invert`` -> s, ``theta_*`` -> rad, ``*_J`` -> J, ``rel_diff`` -> %).
-* :func:`table` lines up rows of text in columns, numbers right-aligned.
-* :func:`cache_line` says where a command's runs went.
-
-This module imports only the standard library (and, to say where the cache is,
+:func:`fmt` and :func:`fmt_value` turn a value into text with the unit its key implies,
+:func:`table` lines up columns, :func:`cache_line` says where a command's runs went. This
+module imports only the standard library (and, for the cache's folder,
 :mod:`tippetop.models.resources`).
 """
 

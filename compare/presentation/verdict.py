@@ -1,9 +1,7 @@
-"""The nightly's cross-validation verdict: every run against the theory (``crossval``).
+"""The verdict against the theory: one row per run (scene and mode), for the summary and report.
 
-One row per run case (scene and mode): its outcome against the theory's, theta_asymp against
-theta_s (for the run's own Jellett constant), the inversion time against the reference ODE's
-run of the same scene, and the Jellett drift
-(:func:`tippetop.compare.analysis.crossval.crossval_row`).
+Each run's outcome and theta_asymp against the theory's, its inversion time against the
+reference's and its Jellett drift (:func:`tippetop.compare.analysis.crossval.crossval_row`).
 """
 
 from __future__ import annotations

@@ -1,47 +1,8 @@
-"""``tippetop render``: an offscreen H.264 MP4 of a scene's run, MuJoCo's, the reference's or both.
+"""An offscreen H.264 MP4 of a scene's run, MuJoCo's, the reference's or both side by side.
 
-Usage::
-
-    tippetop render SCENE [--engine mujoco|ode|both] [--out FILE.mp4] [--fps 30] [--speed 0.25]
-                          [--size 640x480] [--max-frames 3000] [--force] [--set KEY=VALUE ...]
-
-* ``--engine mujoco`` draws the MuJoCo run's poses; ``--engine ode`` replays the reference
-  ODE's trajectory kinematically in the same MJCF (at each frame the free joint's qpos is set
-  from the ODE's pose, then ``mj_forward``); ``--engine both`` puts MuJoCo (left) and the
-  reference (right) side by side, on the same time base, with the same camera settings.
-* Time: ``--speed`` is the playback rate, simulated seconds per second of video, so frame k
-  shows simulated time ``t_k = k * speed / fps`` and the video lasts ``t_end / speed``:
-  ``--speed 0.25`` is quarter-speed slow motion (4 s of video per simulated second), ``1`` is
-  real time. Poses between the table's samples are interpolated (position linearly, orientation
-  by slerp); the physics steps are not drawn one by one.
-* Frames: ``floor(t_end * fps / speed) + 1`` (the last at or just before t_end); more than
-  ``--max-frames`` (default 3000) is an error raised before anything is simulated, which says
-  which --speed would fit (:func:`speed_to_fit`: the speed at which that many frames show
-  the whole run, the last one on t_end).
-* Picture: the MJCF's checker table (drawn translucent) and light, a camera that follows the
-  top's centre of mass from a fixed bearing, low over the table (10 degrees) and to the side,
-  so that the stem shows while the top turns over (and through the table once it points into
-  it); the ball has a two-colour checker texture (visual only) so that spin and tilt show,
-  besides the MJCF's stem and spin marker; top left of each panel, the engine, t (s), theta
-  (rad) and n (rad/s). With ``both``, an inset at the bottom, across the seam, shows delta
-  theta (MuJoCo's theta minus the reference's) at each frame and theta(t) of both engines up
-  to the frame's time.
-* Progress: one line on stderr before each step ("simulating fig3 in MuJoCo (8 s
-  simulated)...", "replaying ..."), then a bar over the frames on a terminal (or a line every
-  15 s elsewhere).
-* Output: ``<scene name>.mp4`` in the working folder unless ``--out`` says otherwise; written
-  to a temporary file beside it, decoded back (every frame, of the expected size) and only then
-  renamed over it, never over an existing file without ``--force``. A write error (a full disk)
-  or a file that does not decode is one line and exit 1; the temporary file is removed and an
-  old video is left as it was. Sizes are
-  rounded down to even numbers (H.264 with yuv420p needs them).
-
-OpenGL: rendering needs an offscreen backend (:mod:`tippetop.mujoco_runner.gl`). ``MUJOCO_GL``
-may name it (``egl`` or ``osmesa``); unset, EGL is used when its libraries can open a device
-and OSMesa otherwise, and the choice is written to ``MUJOCO_GL`` before this command imports
-``mujoco``. Nothing here is imported by
-the simulation: this module imports only the standard library at the top, and the drawing code
-(:mod:`tippetop.mujoco_runner.video`, imageio-ffmpeg, Pillow) is imported when a video is asked for.
+:func:`render_scene` checks everything before it simulates, then draws, encodes and decodes
+the file back before it replaces any; what the picture shows and how time maps to frames is
+in docs/design.md. The drawing code is imported only when a video is asked for.
 """
 
 from __future__ import annotations

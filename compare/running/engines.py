@@ -1,11 +1,8 @@
 """Run a plan in its engine and summarise it with the shared metrics.
 
-:func:`plan_for` turns a scene and an engine (or a mode) into the run plan
-(:func:`tippetop.models.plan.resolve_plan`, reading an MJCF top's parameters when the scene has
-one); :func:`run_plan` runs it. Every summary reports what ran - for the reference the law,
-the formulation and the tolerances it integrated; for MuJoCo the settings read back from the
-compiled model and the top's contact - and lists under ``unused`` the ``--set`` keys that the
-engine did not read.
+:func:`plan_for` turns a scene and an engine (or a mode) into the run plan, :func:`run_plan`
+runs it; every summary reports what ran, read back from the engine, and the ``--set`` keys
+it did not read (``unused``).
 """
 
 from __future__ import annotations

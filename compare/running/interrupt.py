@@ -1,8 +1,7 @@
 """SIGTERM handled as Ctrl-C in a command's main process (standard library only).
 
-A command stopped by SIGTERM then ends as one stopped by Ctrl-C does: the runs going are
-stopped (:mod:`tippetop.compare.running.runner` ends its workers on a :class:`KeyboardInterrupt`),
-staged outputs are removed, one line ``tippetop: interrupted`` and exit status 130.
+The runs going are stopped (the runner ends its workers on a :class:`KeyboardInterrupt`),
+staged outputs removed, one line ``tippetop: interrupted``, exit status 130.
 """
 
 from __future__ import annotations

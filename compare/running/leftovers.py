@@ -1,13 +1,4 @@
-"""Leftovers of a killed run: temporary files and empty staging folders, cleaned later.
-
-Outputs are written atomically (:func:`tippetop.compare.running.io.write_atomic` writes a hidden
-``.<name>.<random>.tmp`` beside the file, then renames it into place;
-:func:`tippetop.compare.running.io.staged_output_dir` fills a hidden ``.<folder>.<random>`` sibling,
-then moves it). A run killed by SIGKILL cannot remove those, so the next run does: the
-functions here remove such temporary files and *empty* staging folders once they are older
-than an age that no live write takes (a run writing at the same time keeps its own). Only
-names of exactly those shapes are touched; a completed file never is.
-"""
+"""Leftovers of a killed run: temporary files and empty staging folders, cleaned later."""
 
 from __future__ import annotations
 

@@ -1,22 +1,7 @@
-"""``tippetop mjcf``: write the MuJoCo model a run compiles, to step without tippetop.
+"""The MJCF file of the model a run compiles, to step without tippetop (``tippetop mjcf``).
 
-The scene is resolved into its MuJoCo plan exactly as ``tippetop simulate`` does
-(:func:`tippetop.compare.running.engines.plan_for`) and the model is compiled by the run's own
-:func:`tippetop.mujoco_runner.settings.build_model`. The file written is the source document
-(the generated top's MJCF, or the user's own file) with every value the run's compiled model
-holds for the options (timestep, integrator, cone, impratio, noslip iterations), the contacts
-(condim, friction, solref, solimp and contype/conaffinity of every geom and pair) written back
-at full precision (``repr``, which parses back to the same double: MuJoCo's own XML writer,
-``MjSpec.to_xml``/``mj_saveLastXML``, prints 6 significant digits and would change the model),
-and the run's initial state as a keyframe (``tippetop_start``: qpos, qvel, time). Before the
-file is renamed into place it is compiled by plain ``mujoco.MjModel.from_xml_path`` and
-compared, array by array, with the model the run steps: anything that differs is refused, so
-the file written IS the run's model (the keyframe and the harness's userdata block aside).
-
-Paper mode's friction is tippetop's compiled callback, not part of any MJCF: the file's
-contacts are frictionless (condim 1) and say so in a comment at its top; the callback's
-``userdata`` block (room for its parameters, filled at run time) is left out, since without
-the callback nothing reads it. A loaded file keeps its own ``nuserdata``.
+:func:`write_mjcf` writes it and checks that it compiles to the run's model, array by array;
+docs/design.md says what the file holds.
 """
 
 from __future__ import annotations

@@ -1,19 +1,7 @@
-"""Many runs at once, cached.
+"""Many runs at once, in parallel (local cores or Dask) and cached on disk.
 
-Runs go in parallel on this machine's cores by default, on a Dask cluster when a scheduler
-address is given, and are cached on disk so that a rerun computes only what changed. Locally,
-the MuJoCo runs go in this process on threads: runs whose models share a layout are stepped
-together in a persistent ``mujoco.batch.Batch`` (:mod:`tippetop.mujoco_runner.batch`; each
-result equals its single run bit for bit), while the reference's runs go to a pool of worker
-processes. Runs start longest first (:func:`tippetop.compare.running.cost.expected_cost_s`), and
-cache entries are written on a background thread, all of them before :func:`run_tasks`
-returns.
-
-A :class:`Task` names a scene (file or catalogue name, or None for the default scene), its
-``--set`` overrides and an engine. Its cache key hashes what defines the physics: the run plan
-(:func:`tippetop.compare.running.engines.plan_for`; not the scene's name, outputs or unused
-keys), an MJCF top's file content, the source code of the packages that compute it, and the MuJoCo
-version. Change any of these and the task runs again.
+A :class:`Task` is one run; :func:`run_tasks` runs a batch, longest first, and serves what the
+cache holds. How the work is spread and what the cache key holds: docs/design.md.
 """
 
 from __future__ import annotations
@@ -54,8 +42,8 @@ from tippetop.models.scene import Scene, load_scene
 _PACKAGES = ("tippetop.models", "tippetop.reference_ode", "tippetop.mujoco_runner")
 #: Files outside those packages' Python sources that shape a cached result (its summary and
 #: table), among them the calibrated native-friction settings that native runs use by default.
-_MODULES = (("tippetop.compare.running", "engines.py"), ("tippetop.compare.analysis", "metrics.py"),
-            ("tippetop.compare.running", "runner.py"),
+_MODULES = (("tippetop.compare.running", "engines.py"), ("tippetop.compare.running", "runner.py"),
+            ("tippetop.compare.analysis", "metrics.py"),
             ("tippetop.models", "calibrated_native.toml"))
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000

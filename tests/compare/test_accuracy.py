@@ -1,4 +1,4 @@
-"""Work-precision data of the reference ODE (compare/accuracy.py), on a short Fig. 3 run."""
+"""Work-precision data of the reference ODE (compare/analysis/accuracy/), on a short Fig. 3 run."""
 
 from __future__ import annotations
 

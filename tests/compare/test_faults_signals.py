@@ -233,6 +233,13 @@ def test_more_mujoco_steps_than_its_counter_holds_are_refused(tmp_path: Path) ->
 
 # ---------------------------------------------------------------- leftovers
 def test_leftovers_of_a_killed_run_are_cleaned(tmp_path: Path) -> None:
+    """Outputs are written atomically (``io.write_atomic`` writes a hidden
+    ``.<name>.<random>.tmp`` beside the file, then renames it into place;
+    ``io.staged_output_dir`` fills a hidden ``.<folder>.<random>`` sibling, then moves it). A
+    run killed by SIGKILL cannot remove those, so the next run does: ``running.leftovers``
+    removes such temporary files and *empty* staging folders once they are older than an age
+    that no live write takes (a run writing at the same time keeps its own). Only names of
+    exactly those shapes are touched; a completed file never is."""
     old = time.time() - 7200
     keep = [tmp_path / "table.parquet", tmp_path / ".out.tippetop.lock",
             tmp_path / ".table.parquet.abcd1234.tmp.done"]

@@ -106,7 +106,8 @@ def test_the_files_options_and_contact_are_what_ran(native: dict) -> None:
 
 
 def test_mujocos_own_xml_writer_would_not_do(native: dict) -> None:
-    """Why the file is written with repr(): MuJoCo's writer rounds to 6 digits, and the run
+    """Why the file is written with repr(), which parses back to the same double: MuJoCo's own
+    XML writer (``MjSpec.to_xml``/``mj_saveLastXML``) prints 6 significant digits, and the run
     departs by far more than THETA_TOL from that file (the test above can fail)."""
     spec = mujoco.MjSpec.from_file(str(native["xml"]))
     spec.compile()

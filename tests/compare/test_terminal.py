@@ -1,4 +1,11 @@
-"""What a person reads: values with units, and a progress bar weighted by each run's cost."""
+"""What a person reads: values with units, and a progress bar weighted by each run's cost.
+
+``fmt`` turns one value into text: ``None`` is ``-``, NaN is ``undefined (NaN)``, a float has
+four significant digits (a relative drift two, in scientific notation), an integer has
+thousands separators, a boolean is ``yes`` or ``no``; ``fmt_value`` adds the unit that a key's
+name implies (``t_invert`` -> s, ``theta_*`` -> rad, ``*_J`` -> J, ``rel_diff`` -> %).
+``table`` lines up rows of text in columns, numbers right-aligned.
+"""
 
 from __future__ import annotations
 

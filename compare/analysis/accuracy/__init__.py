@@ -1,14 +1,9 @@
 """What accuracy costs: work-precision data for the reference ODE and for MuJoCo.
 
-Each method integrates a scene over a ladder of tolerances (the ODE) or timesteps (MuJoCo);
-every point is scored against one reference run of the same scene and costed in wall time and
-right-hand-side evaluations (ODE) or steps (MuJoCo). Every point is one row of
-:data:`ACCURACY_COLUMNS`; nothing that did not complete is dropped (its ``status`` says why).
-
-Modules: :mod:`.common` (the columns, the reference run, scoring), :mod:`.ode_study` (the
-reference's methods and tolerances), :mod:`.mujoco_study` (MuJoCo's integrators, modes and
-timesteps), :mod:`.pareto` (the cheapest point per accuracy, Markdown tables),
-:mod:`.figures` and :mod:`.study` (:func:`run_accuracy`, ``tippetop bench accuracy``).
+:mod:`.common` (the columns, the reference run, scoring), :mod:`.ode_study`,
+:mod:`.mujoco_study`, :mod:`.pareto` (the cheapest point per accuracy), :mod:`.figures` and
+:mod:`.study` (:func:`run_accuracy`, ``tippetop bench accuracy``). The study is described in
+docs/design.md.
 """
 
 from __future__ import annotations

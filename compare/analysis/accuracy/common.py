@@ -1,11 +1,4 @@
-"""What the work-precision study shares: the table's columns, the reference run, scoring.
-
-Every point of the study (:mod:`.ode_study`, :mod:`.mujoco_study`) is one row of
-:data:`ACCURACY_COLUMNS`, scored against one reference run of the same scene: the compiled
-DOP853 on the vector formulation at :data:`REFERENCE_RTOL`, the tightest tolerance
-:class:`~tippetop.models.options.OdeOptions` accepts. The scene becomes a run plan
-(:func:`tippetop.compare.running.engines.plan_for`) like every other run.
-"""
+"""What the work-precision study shares: the table's columns, the reference run, scoring."""
 
 from __future__ import annotations
 

@@ -1,17 +1,6 @@
 """MuJoCo's work-precision points: integrators x friction modes x timesteps.
 
-Methods are ``<integrator>/<mode>``: the integrators Euler, implicitfast and RK4 in the
-``paper`` friction mode (the paper's law applied by the harness) and the ``native`` one
-(MuJoCo's own soft friction, calibrated; not the paper's law, so its error against the
-reference floors at the friction-model difference), at timesteps 1e-3 ... 1e-5 s. Their rows
-have the columns of the ODE's (``engine = "mujoco"``, ``timestep_s`` set,
-``rtol``/``atol``/``n_rhs`` NaN, ``n_steps`` the cost, ``status`` ``ok``, ``diverged: ...``,
-``skipped: over budget`` or ``failed: ...``). Each point is the scene with the integrator,
-timestep, mode and row spacing set as the scene's own settings, run through its plan.
-
-Series run from the largest timestep down; the cost of the next point is extrapolated in steps
-(~ 1/dt) on top of the fixed per-sample work (:func:`predict_steps_wall`), and a point
-predicted over the budget is recorded as ``skipped: over budget`` with every smaller timestep.
+The methods and the budget are in docs/design.md.
 """
 
 from __future__ import annotations

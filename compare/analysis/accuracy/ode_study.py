@@ -1,25 +1,6 @@
 """The reference ODE's work-precision points: methods x tolerances, scored and costed.
 
-Methods (the names are the ``method`` column):
-
-* ``dop853-compiled/vector`` and ``dop853-compiled/paper``:
-  :func:`tippetop.reference_ode.solve.simulate_ode` on either formulation (the vector one with
-  its rolling phases where the friction law is stiff, :mod:`tippetop.reference_ode.rolling`).
-* ``dop853-compiled/vector-law``: the same, with the law integrated throughout
-  (``stiff="off"``); not a default method (where the law is not stiff it is the vector
-  method, step for step), but the stiff case's (:func:`stiff_work_precision`).
-* ``scipy-DOP853``, ``scipy-RK45``, ``scipy-LSODA``, ``scipy-Radau``: ``scipy.integrate.solve_ivp``
-  calling the same compiled vector right-hand side (:func:`tippetop.reference_ode.solve.
-  scipy_rhs`) from its Python loop, sampled with ``t_eval`` on the same grid. LSODA and Radau
-  get no Jacobian: they build it by finite differences (LSODA internally, Radau with scipy's
-  ``num_jac``); those evaluations are counted in ``n_rhs`` because every call goes through
-  one counting wrapper (``solve_ivp``'s own ``nfev`` leaves Radau's out).
-
-Budget: the tolerances of a method run from loose to tight; before each point its wall time
-is extrapolated from the previous point (the larger of the observed growth and the method's
-nominal ``10^(1/order)`` per decade). A point predicted over ``budget_s`` is recorded as
-``skipped: over budget`` together with every tighter one, never silently dropped. A scipy run
-that still overruns ``HARD_LIMIT_FACTOR * budget_s`` is stopped and recorded as failed.
+The methods and the budget are in docs/design.md.
 """
 
 from __future__ import annotations

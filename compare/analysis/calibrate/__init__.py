@@ -1,26 +1,9 @@
-"""``tippetop calibrate``: fit MuJoCo's native contact settings to the reference ODE.
+"""Fit MuJoCo's native contact settings to the reference ODE (``tippetop calibrate``).
 
-MuJoCo's own friction is a soft constraint: below saturation it acts like a steep viscous law
-whose slope depends on the friction cone, ``impratio``, ``solref``, ``solimp`` and the timestep,
-and with MuJoCo's defaults the paper's Fig. 3 top settles into rolling instead of turning over.
-This package picks the native settings (``mu``, ``cone``, ``impratio``, ``solref``, ``solimp``
-at a fixed integrator and timestep) that make native runs follow the reference ODE (the paper's
-modified Coulomb law) on a *calibration* set of scenes, and then measures how well the chosen
-settings do on *held-out* scenes that the fit never saw.
-
-MuJoCo's defaults, against which the result is reported, are read from a fresh MuJoCo model
-(:func:`.scoring.mujoco_defaults`: pyramidal cone, impratio 1, solref (0.02 s, 1), solimp
-(0.9, 0.95, 1 mm, 0.5, 2) in MuJoCo 4.0.0), at the paper's mu = 0.1 rather than MuJoCo's 1.
-
-The solref damping ratio (1), the solimp tail (dmax 0.95, width 1 mm, midpoint 0.5, power 2),
-the integrator and the timestep are fixed during the search and written with the settings.
-MuJoCo's ``solreffriction`` is not fitted: :func:`models.mjcf.make_mjcf` does not write it, so
-friction rows share the contact's solref.
-
-Modules: :mod:`.scoring` (candidates, scenes, residuals and the objective), :mod:`.fit`
-(the evaluator, the grid and compass search, the timestep check), :mod:`.output` (findings,
-the TOML file), :mod:`.config` (:class:`CalibrateConfig`, the defaults) and :mod:`.run`
-(:func:`calibrate`); the command is :mod:`tippetop.compare.commands.calibrate`.
+:mod:`.scoring` (candidates, scenes, residuals and the objective), :mod:`.fit` (the evaluator,
+the grid and compass search, the timestep check), :mod:`.output` (findings, the TOML file),
+:mod:`.config` (:class:`CalibrateConfig`, the defaults) and :mod:`.run` (:func:`calibrate`).
+Why and how: docs/design.md.
 """
 
 from __future__ import annotations

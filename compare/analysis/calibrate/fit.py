@@ -1,20 +1,6 @@
 """The search: candidates evaluated in parallel within a run budget, grid then compass steps.
 
-Search (deterministic; parallel through :func:`compare.running.runner.run_tasks`, cached on disk):
-
-1. A coarse grid (:data:`GRID`): cone x impratio x solref time constant x solimp d0 at the
-   paper's mu = 0.1, in that order, every candidate on every calibration scene.
-2. Compass (coordinate pattern) search from the best grid point, its cone kept, over the
-   continuous settings in decades: log10 impratio, log10 time constant, log10 d0, log10 mu.
-   Each round evaluates the 8 neighbours +-step along each axis in one parallel batch, moves to
-   the best one if it improves the objective, else halves the steps; it stops when every step
-   is below :data:`MIN_STEP_DECADES` or the run budget (``--budget-runs``, counted as
-   candidate x scene runs whether or not they came from the cache, so the search path does not
-   depend on the cache) is spent. Values are rounded to 3 significant digits, within
-   :data:`BOUNDS`; the time constant's lower bound is 2 timesteps, below which MuJoCo uses
-   2 timesteps anyway.
-3. A timestep check: the chosen settings rerun at half the timestep on the calibration set;
-   the objective and the largest theta difference are reported.
+The steps are in docs/design.md.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
 """The calibration itself: :func:`calibrate` for a :class:`CalibrateConfig`.
 
-After the search, the held-out scenes: the chosen settings and MuJoCo's defaults (read from a
-fresh MuJoCo model at the paper's mu, :func:`.scoring.mujoco_defaults`; both written out
-explicitly, and the defaults' label into the provenance) against the reference: theta(t) RMS,
-inversion-time error, theta_asymp error, outcome match, Jellett drift. Behaviour that no
-setting reproduces is listed in ``findings``.
+The search, then the held-out scenes with the chosen settings and MuJoCo's defaults.
 """
 
 from __future__ import annotations

@@ -1,24 +1,6 @@
 """What the calibration minimises: candidates, scenes, the residual of a run and the objective.
 
-Objective (rad), minimised over the calibration set::
-
-    objective = mean_s [ rms_s + W_T * dt_inv_s ] + W_J * max(0, log10(J_drift / J_MAX))
-
-* ``rms_s``: RMS over the run of theta_mujoco(t) - theta_ode(t), both interpolated on a
-  uniform grid of :data:`GRID_DT_S` (rad). This is the whole trajectory: the rise, the
-  inversion and the relaxation towards the final angle.
-* ``dt_inv_s``: inversion-time error (s), |t_inv_mujoco - t_inv_ode|; when only one engine
-  turns over (theta > pi/2) within the horizon T, ``T - t_inv`` of the one that did (a lower
-  bound of the error); 0 when neither does. Weighted by :data:`W_T` = 0.2 rad/s: one second of
-  inversion-time error costs as much as 0.2 rad of theta RMS. The inversion time is the
-  paper's headline observable and the RMS alone weighs it only through the few tenths of a
-  second around the flip.
-* Jellett penalty: native condim-3 friction acts at the contact point, so Jellett's constant J
-  must stay conserved; settings whose worst relative drift on the calibration set exceeds
-  :data:`J_MAX` = 1e-4 (the harness's tolerance) pay :data:`W_J` = 0.5 rad per decade above it.
-  Very soft normal contacts (a small ``solimp`` d0 with a long ``solref`` time constant) sink
-  the ball, move the contact point off the nominal geometry and make J drift.
-* A failed (diverged) MuJoCo run costs :data:`FAIL_COST` for its scene.
+The objective and its weights are explained in docs/design.md.
 """
 
 from __future__ import annotations
