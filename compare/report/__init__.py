@@ -1,4 +1,4 @@
-"""The model-validation report of a nightly: one self-contained HTML page.
+"""The HTML reports: a nightly's model-validation report and ``tippetop validate``'s page.
 
 :mod:`.markup` (escaping, tables, inline PNG, the style sheet), :mod:`.sections` (the text
 sections), :mod:`.figures` (time series and sweeps), :mod:`.groupmap`, :mod:`.atlas`,
