@@ -27,22 +27,25 @@ def _modules() -> dict[str, Path]:
     return {_module_name(p): p for layer in LAYERS for p in sorted((ROOT / layer).rglob("*.py"))}
 
 
+def _from_module(node: ast.ImportFrom, path: Path, name: str) -> str:
+    """The module a ``from ... import`` statement of module ``name`` (at ``path``) names."""
+    if not node.level:
+        return node.module or ""
+    base = name.split(".")
+    base = base if path.name == "__init__.py" else base[:-1]
+    base = base[: len(base) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(path: Path, name: str, known: set[str]) -> set[str]:
     """The tippetop modules a file imports (a package import counts as its __init__)."""
     tree = ast.parse(path.read_text(), filename=str(path))
-    is_pkg = path.name == "__init__.py"
     out: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".")
-                base = base if is_pkg else base[:-1]
-                base = base[: len(base) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
+            mod = _from_module(node, path, name)
             targets = [mod] + [f"{mod}.{a.name}" for a in node.names]
         else:
             continue
@@ -172,18 +175,11 @@ def _private(name: str) -> bool:
 def _private_uses(path: Path, name: str, known: set[str]) -> list[str]:
     """``from <tippetop module> import _x`` and ``m._x`` for an imported tippetop module m."""
     tree = ast.parse(path.read_text(), filename=str(path))
-    is_pkg = path.name == "__init__.py"
     found: list[str] = []
     modules: dict[str, str] = {}  # local name -> the tippetop module it names
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".")
-                base = base if is_pkg else base[:-1]
-                base = base[: len(base) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
+            mod = _from_module(node, path, name)
             if mod.split(".")[0] != "tippetop":
                 continue
             for a in node.names:
