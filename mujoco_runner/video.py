@@ -4,10 +4,7 @@ Imported only when a video is asked for: :mod:`compare.render` chooses the OpenG
 (``MUJOCO_GL``) first, and this module creates the context of that backend explicitly, so it
 works even when ``mujoco`` was imported earlier in the process with another ``MUJOCO_GL``.
 
-* :func:`render_model`: the model that is drawn. For a scene's own top it is
-  :func:`models.mjcf.make_mjcf` with a two-colour checker texture on the ball (visual only: the
-  mass, inertia and geometry are those of the MJCF, and poses are set, never simulated). A
-  scene with ``top.mjcf`` is drawn as its file says.
+* :func:`.drawn_model.render_model`: the model that is drawn.
 * :class:`Track`: an engine's sampled poses (the table's x, y, z, qw, qx, qy, qz), theta and n,
   interpolated at any time (position linearly, orientation by slerp) and mapped to the free
   joint's qpos. Replaying a track is kinematic: qpos is set, then ``mj_forward``.
@@ -49,10 +46,8 @@ import pandas as pd
 
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_mul, quat_to_mat
-from tippetop.models.mjcf import make_mjcf
-from tippetop.models.params import TopParams
 from tippetop.mujoco_runner.gl import BACKEND_PACKAGES
-from tippetop.mujoco_runner.model import TopModel, TopModelWarning, load_top, top_from_model
+from tippetop.mujoco_runner.model import TopModel
 
 if TYPE_CHECKING:
     from PIL.ImageFont import FreeTypeFont, ImageFont
@@ -63,23 +58,6 @@ if TYPE_CHECKING:
 _CAM_DISTANCE_R = 9.0  # (sphere radii) from the centre of mass
 _CAM_ELEVATION_DEG = -10.0  # looking down at the table, just
 _CAM_AZIMUTH_DEG = 60.0
-# The table is translucent (visual only), so that a stem pointing into it still shows; the
-# emission makes up for the light a translucent plane loses.
-_TABLE_ALPHA = 0.5
-_TABLE_EMISSION = 0.6
-# The ball's checker texture, so that spin shows in any orientation (visual only).
-_BALL_TEXTURE = "render_ball_checks"
-_BALL_RGB = ((0.85, 0.3, 0.15), (0.96, 0.92, 0.82))
-_BALL_TEXTURE_PX = 64  # per cube face
-# A sky instead of black above the horizon (visual only).
-_SKY_TEXTURE = "render_sky"
-_SKY_RGB = ((0.62, 0.75, 0.9), (0.95, 0.96, 0.98))
-_SKY_TEXTURE_PX = 128
-# Shadow map (px): MuJoCo's default 4096 triples the time of a 640x480 frame on a CPU renderer.
-_SHADOW_PX = 1024
-# Multisampling (anti-aliasing) samples: MuJoCo's default 4 more than doubles the time of a
-# frame on a CPU renderer; H.264 softens the edges anyway.
-_OFFSAMPLES = 0
 _MAX_GEOM = 1000  # drawn geoms: make_mjcf has 4, an MJCF top may have more
 # Text overlay, relative to the panel height.
 _FONT_FRACTION = 1 / 22  # font size
@@ -99,65 +77,6 @@ _ASCII = {"Δθ": "dtheta", "θ": "theta", "π": "pi", "−": "-", "■": "#"}
 # H.264 settings: constant quality (x264's CRF, lower is better) and the encoder's speed preset.
 _CRF = 20
 _X264_PRESET = "veryfast"
-
-
-# ---------------------------------------------------------------- the model that is drawn
-def render_model(top: TopParams, mjcf: Path | None, width: int, height: int) -> TopModel:
-    """The top to draw, with an offscreen buffer of at least ``width x height``.
-
-    Args:
-        top: The top's parameters (a run plan's): drawn as :func:`models.mjcf.make_mjcf` makes
-            it, with a checker texture on the ball, unless ``mjcf`` is given.
-        mjcf: A loaded top's MJCF file, drawn as is.
-        width: Panel width (px).
-        height: Panel height (px).
-
-    Returns:
-        The compiled model and where the top sits in it.
-    """
-    if mjcf is not None:
-        load_top(mjcf)  # validates the file with the harness's messages
-        spec = mujoco.MjSpec.from_file(str(mjcf))
-    else:
-        spec = mujoco.MjSpec.from_string(make_mjcf(top))
-        ball_mat = next((m for m in spec.materials if m.name == "ball_mat"), None)
-        if ball_mat is not None:
-            spec.add_texture(name=_BALL_TEXTURE, type=mujoco.mjtTexture.mjTEXTURE_CUBE,
-                             builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                             width=_BALL_TEXTURE_PX, height=_BALL_TEXTURE_PX,
-                             rgb1=list(_BALL_RGB[0]), rgb2=list(_BALL_RGB[1]))
-            textures = list(ball_mat.textures)
-            textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = _BALL_TEXTURE
-            ball_mat.textures = textures
-            ball_mat.rgba = [1.0, 1.0, 1.0, 1.0]
-    if not any(t.type == mujoco.mjtTexture.mjTEXTURE_SKYBOX for t in spec.textures):
-        spec.add_texture(name=_SKY_TEXTURE, type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                         builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=_SKY_TEXTURE_PX,
-                         height=_SKY_TEXTURE_PX, rgb1=list(_SKY_RGB[0]), rgb2=list(_SKY_RGB[1]))
-    with warnings.catch_warnings():  # load_top has warned about this top already
-        warnings.simplefilter("ignore", TopModelWarning)
-        top_model = top_from_model(spec.compile())
-    _translucent_table(top_model.model)
-    top_model.model.vis.quality.shadowsize = _SHADOW_PX
-    top_model.model.vis.quality.offsamples = _OFFSAMPLES
-    vis = top_model.model.vis.global_
-    vis.offwidth = max(int(vis.offwidth), width)
-    vis.offheight = max(int(vis.offheight), height)
-    return top_model
-
-
-def _translucent_table(model: mujoco.MjModel) -> None:
-    """Make the world's planes (the table) translucent, in place: a stem below shows through."""
-    planes = np.flatnonzero((model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
-                            & (model.geom_bodyid == 0))
-    for g in planes:
-        mat = int(model.geom_matid[g])
-        if mat >= 0:
-            model.mat_rgba[mat, 3] = _TABLE_ALPHA
-            model.mat_reflectance[mat] = 0.0  # a mirror under a translucent plane: confusing
-            model.mat_emission[mat] = max(float(model.mat_emission[mat]), _TABLE_EMISSION)
-        else:
-            model.geom_rgba[g, 3] = _TABLE_ALPHA
 
 
 # ---------------------------------------------------------------- poses from a table
@@ -861,7 +780,6 @@ __all__ = [
     "frame_times",
     "inset_layout",
     "render_frames",
-    "render_model",
     "set_pose",
     "tracking_camera",
     "verify_video",

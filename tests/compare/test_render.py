@@ -121,10 +121,10 @@ def test_both_has_the_comparison_inset_and_nothing_else_added(
 
 def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     """Replay the engine's table; the drawn body must sit where the table's pose says."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model, video
 
     table = run_engine(scene, engine, progress=False).table
-    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
+    top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
     track = video.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
     times = video.frame_times(N_FRAMES, FPS, SPEED)
     samples = track.at(times)
@@ -180,11 +180,11 @@ def test_ode_replay_in_an_mjcf_whose_body_frame_is_not_the_papers(tmp_path: Path
 
 
 def test_interpolation_between_samples_is_on_the_way() -> None:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model, video
 
     scene = load_scene("fig3", list(SHORT))
     table = run_engine(scene, "ode", progress=False).table
-    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
+    top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
     track = video.Track.from_table(table, top_model, label="ode", paper_frame=True)
     t0, t1 = table["t"].iloc[100], table["t"].iloc[101]
     a, mid, b = track.at([t0, 0.5 * (t0 + t1), t1])
@@ -220,9 +220,9 @@ def _ramp(t: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def inset_tracks() -> dict[str, Track]:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model
 
-    top_model = video.render_model(load_scene("fig3").top, None, 320, 240)
+    top_model = drawn_model.render_model(load_scene("fig3").top, None, 320, 240)
     return {"mujoco": _synthetic_track(top_model, "MuJoCo", _ramp),
             "same": _synthetic_track(top_model, "reference ODE", _ramp),
             "off": _synthetic_track(top_model, "reference ODE", lambda t: _ramp(t) - 0.5)}
