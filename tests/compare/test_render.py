@@ -33,7 +33,8 @@ from tippetop.mujoco_runner import gl
 from tippetop.mujoco_runner.model import TopModel, TopModelWarning
 
 if TYPE_CHECKING:
-    from tippetop.mujoco_runner.video import InsetLayout, Track
+    from tippetop.mujoco_runner.poses import Track
+    from tippetop.mujoco_runner.video import InsetLayout
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
@@ -121,11 +122,11 @@ def test_both_has_the_comparison_inset_and_nothing_else_added(
 
 def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     """Replay the engine's table; the drawn body must sit where the table's pose says."""
-    from tippetop.mujoco_runner import drawn_model, video
+    from tippetop.mujoco_runner import drawn_model, poses, video
 
     table = run_engine(scene, engine, progress=False).table
     top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
-    track = video.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
+    track = poses.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
     times = video.frame_times(N_FRAMES, FPS, SPEED)
     samples = track.at(times)
     data = mujoco.MjData(top_model.model)
@@ -134,7 +135,7 @@ def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     for k in (0, 3, 7, 10):  # frame times on the table's 1 ms grid
         row = table.iloc[int(np.argmin(np.abs(table["t"].to_numpy() - times[k])))]
         assert abs(row["t"] - times[k]) < 1e-12
-        video.set_pose(top_model, data, samples[k].qpos)
+        poses.set_pose(top_model, data, samples[k].qpos)
         q = np.array(row[["qw", "qx", "qy", "qz"]], dtype=float)
         q = q / np.linalg.norm(q)
         rot = quat_to_mat(q)
@@ -180,12 +181,12 @@ def test_ode_replay_in_an_mjcf_whose_body_frame_is_not_the_papers(tmp_path: Path
 
 
 def test_interpolation_between_samples_is_on_the_way() -> None:
-    from tippetop.mujoco_runner import drawn_model, video
+    from tippetop.mujoco_runner import drawn_model, poses
 
     scene = load_scene("fig3", list(SHORT))
     table = run_engine(scene, "ode", progress=False).table
     top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
-    track = video.Track.from_table(table, top_model, label="ode", paper_frame=True)
+    track = poses.Track.from_table(table, top_model, label="ode", paper_frame=True)
     t0, t1 = table["t"].iloc[100], table["t"].iloc[101]
     a, mid, b = track.at([t0, 0.5 * (t0 + t1), t1])
     # one 1 ms sample interval turns the top by ~0.1 rad: the midpoint is halfway (slerp)
@@ -202,7 +203,7 @@ def _synthetic_track(top_model: TopModel, label: str,
                      theta_of_t: Callable[[np.ndarray], np.ndarray],
                      t_end_s: float = 1.0) -> Track:
     """A track whose axis tilts about x by theta(t), the ball's centre fixed at (0, 0, R)."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import poses
 
     t = np.linspace(0.0, t_end_s, 101)
     theta = theta_of_t(t)
@@ -210,7 +211,7 @@ def _synthetic_track(top_model: TopModel, label: str,
     quat = np.stack([np.cos(theta / 2), np.sin(theta / 2), zero, zero], axis=1)
     k = np.stack([zero, -np.sin(theta), np.cos(theta)], axis=1)  # R_x(theta) e_z
     com = np.array([0.0, 0.0, top_model.top.R_m]) - top_model.top.a_m * k
-    return video.Track(label=label, t_s=t, com_m=com, quat=quat, theta=theta,
+    return poses.Track(label=label, t_s=t, com_m=com, quat=quat, theta=theta,
                        n=np.full_like(t, 100.0), top_model=top_model)
 
 
@@ -297,12 +298,12 @@ def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
 def test_the_stem_of_a_turned_over_top_shows(backend: str, inset_tracks: dict[str, Track]) -> None:
     """theta = pi - 0.05: the drawn stem (1.55 R) points into the table; the camera is low and
     the table translucent, so it shows below the ball (and the marker with it)."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import poses, video
 
     top_model = inset_tracks["mujoco"].top_model
     track = _synthetic_track(top_model, "x", lambda t: np.full_like(t, np.pi - 0.05))
     data = mujoco.MjData(top_model.model)
-    video.set_pose(top_model, data, track.at([0.0])[0].qpos)
+    poses.set_pose(top_model, data, track.at([0.0])[0].qpos)
     camera = video.tracking_camera(top_model)
     with video.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
         shown = renderer.render(data, camera).astype(int)
