@@ -298,14 +298,14 @@ def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
 def test_the_stem_of_a_turned_over_top_shows(backend: str, inset_tracks: dict[str, Track]) -> None:
     """theta = pi - 0.05: the drawn stem (1.55 R) points into the table; the camera is low and
     the table translucent, so it shows below the ball (and the marker with it)."""
-    from tippetop.mujoco_runner import poses, video
+    from tippetop.mujoco_runner import offscreen, poses
 
     top_model = inset_tracks["mujoco"].top_model
     track = _synthetic_track(top_model, "x", lambda t: np.full_like(t, np.pi - 0.05))
     data = mujoco.MjData(top_model.model)
     poses.set_pose(top_model, data, track.at([0.0])[0].qpos)
-    camera = video.tracking_camera(top_model)
-    with video.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
+    camera = offscreen.tracking_camera(top_model)
+    with offscreen.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
         shown = renderer.render(data, camera).astype(int)
         renderer._option.geomgroup[1] = 0  # the stem and the marker are visual, group 1
         hidden = renderer.render(data, camera).astype(int)
@@ -391,7 +391,8 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 
 # ---------------------------------------------------------------- OpenGL only when asked
 _GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
-               "tippetop.mujoco_runner.video", "imageio", "imageio_ffmpeg", "PIL")
+               "tippetop.mujoco_runner.video", "tippetop.mujoco_runner.offscreen", "imageio",
+               "imageio_ffmpeg", "PIL")
 
 
 def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
