@@ -25,8 +25,6 @@ none of this touches the physics.
 from __future__ import annotations
 
 import contextlib
-import functools
-import importlib.util
 import math
 import os
 import re
@@ -35,22 +33,20 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from tippetop.mujoco_runner.offscreen import OffscreenRenderer, tracking_camera
+from tippetop.mujoco_runner.overlay import (
+    TextOverlay,
+    font_size_px,
+    margin_px,
+    overlay_font,
+    spell,
+)
 from tippetop.mujoco_runner.poses import Track, TrackSample, set_pose
 
-if TYPE_CHECKING:
-    from PIL.ImageFont import FreeTypeFont, ImageFont
-
-# Text overlay, relative to the panel height.
-_FONT_FRACTION = 1 / 22  # font size
-_MIN_FONT_PX = 9
-_TEXT_MARGIN_FRACTION = 1 / 60
-_TEXT_BOX_OPACITY = 0.55  # the text's box darkens what is behind it
 # The comparison inset of two tracks, centred on the seam between the panels, at the bottom.
 _INSET_WIDTH_FRACTION = 0.75  # of a panel's width
 _INSET_HEIGHT_FRACTION = 0.42  # of the height (at least what its text and a plot need)
@@ -58,79 +54,12 @@ _INSET_MIN_PLOT_PX = 24  # plot height
 _INSET_OPACITY = 0.65  # its box darkens what is behind it
 #: The theta(t) inset's trace colours (RGB): the first track (MuJoCo), the second (reference).
 TRACE_RGB = ((255, 150, 40), (90, 200, 255))
-# Matplotlib's DejaVu Sans has the Greek letters; Pillow's default font does not.
-_FONT_FILE = ("mpl-data", "fonts", "ttf", "DejaVuSans.ttf")
-_ASCII = {"Δθ": "dtheta", "θ": "theta", "π": "pi", "−": "-", "■": "#"}
 # H.264 settings: constant quality (x264's CRF, lower is better) and the encoder's speed preset.
 _CRF = 20
 _X264_PRESET = "veryfast"
 
 
-# ---------------------------------------------------------------- overlay
-@functools.cache
-def _font(size_px: int) -> tuple[FreeTypeFont | ImageFont, bool]:
-    """DejaVu Sans (matplotlib's copy) at ``size_px``, and whether it has Greek letters.
-
-    Falls back to Pillow's default font (no Greek: the text is then spelled in ASCII).
-    """
-    from PIL import ImageFont
-
-    spec = importlib.util.find_spec("matplotlib")
-    if spec is not None and spec.origin is not None:
-        path = Path(spec.origin).parent.joinpath(*_FONT_FILE)
-        if path.is_file():
-            return ImageFont.truetype(str(path), size_px), True
-    return ImageFont.load_default(size=size_px), False
-
-
-def _spell(text: str, greek: bool) -> str:
-    """``text`` as is when the font has Greek letters, else with them spelled in ASCII."""
-    if not greek:
-        for symbol, word in _ASCII.items():
-            text = text.replace(symbol, word)
-    return text
-
-
-def _font_px(height: int) -> int:
-    """The overlay's font size (px) for a panel ``height`` px high."""
-    return max(_MIN_FONT_PX, round(height * _FONT_FRACTION))
-
-
-def _margin_px(height: int) -> int:
-    """The overlay's margin (px) for a panel ``height`` px high."""
-    return max(2, round(height * _TEXT_MARGIN_FRACTION))
-
-
-class _Overlay:
-    """Draws a panel's title and t, theta and n into the top-left corner of a frame."""
-
-    def __init__(self, height: int) -> None:
-        self._font, self._greek = _font(_font_px(height))
-        self._margin = _margin_px(height)
-
-    def draw(self, rgb: np.ndarray, label: str, s: TrackSample) -> np.ndarray:
-        """A copy of ``rgb`` (h, w, 3) with the text drawn on a darkened box."""
-        from PIL import Image, ImageDraw
-
-        lines = [label, f"t = {s.t_s:.3f} s", f"θ = {s.theta:.3f} rad",
-                 f"n = {s.n:.1f} rad/s"]
-        if s.ended:
-            lines.append("(run ended)")
-        text = _spell("\n".join(lines), self._greek)
-        m = self._margin
-        box = ImageDraw.Draw(Image.new("L", (1, 1))).multiline_textbbox(
-            (2 * m, 2 * m), text, font=self._font, spacing=m)
-        x1, y1 = min(rgb.shape[1], box[2] + m), min(rgb.shape[0], box[3] + m)
-        out = np.array(rgb)  # a writable copy
-        region = out[m:y1, m:x1]
-        region[...] = (region * (1.0 - _TEXT_BOX_OPACITY)).astype(np.uint8)  # darken behind
-        image = Image.fromarray(out[:y1, :x1])
-        ImageDraw.Draw(image).multiline_text((2 * m, 2 * m), text, font=self._font,
-                                             fill=(255, 255, 255), spacing=m)
-        out[:y1, :x1] = np.asarray(image)
-        return out
-
-
+# ---------------------------------------------------------------- the inset
 @dataclass(frozen=True)
 class InsetLayout:
     """Where the comparison inset of two panels sits, in the side-by-side frame (px).
@@ -153,7 +82,7 @@ def inset_layout(width: int, height: int) -> InsetLayout:
     Its height is a fraction of the panel's, or what its two lines of text, a plot of at least
     ``_INSET_MIN_PLOT_PX`` and the time labels need, whichever is more.
     """
-    font_px, m = _font_px(height), _margin_px(height)
+    font_px, m = font_size_px(height), margin_px(height)
     line = font_px + m
     w = max(4 * line, round(width * _INSET_WIDTH_FRACTION))
     h = min(height - 2 * m, max(round(height * _INSET_HEIGHT_FRACTION),
@@ -192,9 +121,9 @@ class ThetaInset:
 
         self.layout = inset_layout(width, height)
         self._labels = (tracks[0].label, tracks[1].label)
-        font_px = _font_px(height)
-        self._font, self._greek = _font(font_px)
-        self._m = _margin_px(height)
+        font_px = font_size_px(height)
+        self._font, self._greek = overlay_font(font_px)
+        self._m = margin_px(height)
         self._line = font_px + self._m
         bx0, by0, bx1, by1 = self.layout.box
         px0, py0, px1, py1 = self.layout.plot
@@ -213,7 +142,7 @@ class ThetaInset:
         for frac, label in ((1.0, "π"), (0.5, "π/2"), (0.0, "0")):
             y = oy + self._y_of(frac * math.pi)
             d.line([(ox, y), (ox + pw - 1, y)], fill=(255, 255, 255, 70 if frac == 0.5 else 110))
-            d.text((ox - self._m, y), _spell(label, self._greek), font=self._font,
+            d.text((ox - self._m, y), spell(label, self._greek), font=self._font,
                    fill=(255, 255, 255, 230), anchor="rm")
         d.line([(ox, oy), (ox, oy + ph - 1)], fill=(255, 255, 255, 110))
         y_t = oy + ph + self._m // 2
@@ -229,11 +158,11 @@ class ThetaInset:
         legends = [("θ(t):", f"■ {a}", f"■ {b}"), ("θ(t):", f"■ {a1}", f"■ {b1}"),
                    ("", f"■ {a1}", f"■ {b1}")]
         legend = next((pieces for pieces in legends if self._font.getlength(
-            _spell("  ".join(pieces), self._greek)) <= room), legends[-1])
+            spell("  ".join(pieces), self._greek)) <= room), legends[-1])
         x = 2 * self._m
         y_legend = self._m + self._line
         for i, piece in enumerate(legend):
-            text = _spell(piece, self._greek) + "  " if piece else ""
+            text = spell(piece, self._greek) + "  " if piece else ""
             colour = (255, 255, 255, 230) if i == 0 else (*TRACE_RGB[i - 1], 255)
             d.text((x, y_legend), text, font=self._font, fill=colour)
             x += round(self._font.getlength(text))
@@ -243,7 +172,7 @@ class ThetaInset:
                  f"Δθ ({a1} − {b1}) = {{}}", "Δθ = {}"]
         widest = "−8.8888 rad"
         self._readout = next((f for f in forms if self._font.getlength(
-            _spell(f.format(widest), self._greek)) <= room), forms[-1])
+            spell(f.format(widest), self._greek)) <= room), forms[-1])
 
     def _y_of(self, theta: np.ndarray | float) -> np.ndarray | float:
         """Row (px, in the plot) of theta: pi at the top row, 0 at the bottom row."""
@@ -295,7 +224,7 @@ class ThetaInset:
         value = f"{delta:+.4f} rad".replace("-", "−")  # (a run that ended holds its last pose)
         image = Image.fromarray(region)
         ImageDraw.Draw(image).text((2 * self._m, self._m),
-                                   _spell(self._readout.format(value), self._greek),
+                                   spell(self._readout.format(value), self._greek),
                                    font=self._font, fill=(255, 255, 255))
         frame[by0:by1, bx0:bx1] = np.asarray(image)
 
@@ -407,7 +336,7 @@ def render_frames(
     datas = [mujoco.MjData(model) for _ in tracks]
     cameras = [tracking_camera(top_model) for _ in tracks]
     samples = [track.at(times_s) for track in tracks]
-    overlay = _Overlay(height)
+    overlay = TextOverlay(height)
     t_axis = float(times_s[-1]) if len(times_s) else 0.0
     compare = (ThetaInset(tracks, t_axis, width, height)
                if inset and len(tracks) == 2 else None)
