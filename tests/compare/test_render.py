@@ -33,8 +33,8 @@ from tippetop.mujoco_runner import gl
 from tippetop.mujoco_runner.model import TopModel, TopModelWarning
 
 if TYPE_CHECKING:
+    from tippetop.mujoco_runner.inset import InsetLayout
     from tippetop.mujoco_runner.poses import Track
-    from tippetop.mujoco_runner.video import InsetLayout
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
@@ -90,7 +90,7 @@ def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Pa
 
 
 def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
-    from tippetop.mujoco_runner.video import inset_layout
+    from tippetop.mujoco_runner.inset import inset_layout
 
     frames = _frames(videos["both"])
     assert frames.shape == (N_FRAMES, H, 2 * W, 3)
@@ -109,7 +109,7 @@ def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
 def test_both_has_the_comparison_inset_and_nothing_else_added(
         videos: dict[str, Path]) -> None:
     """The left panel of ``both`` is the MuJoCo-only video, but for the inset's box."""
-    from tippetop.mujoco_runner.video import inset_layout
+    from tippetop.mujoco_runner.inset import inset_layout
 
     both = _frames(videos["both"])[:, :, :W].astype(int)
     alone = _frames(videos["mujoco"]).astype(int)
@@ -231,9 +231,9 @@ def inset_tracks() -> dict[str, Track]:
 
 def _draw_inset(first: Track, second: Track, t: float) -> tuple[np.ndarray, InsetLayout]:
     """The inset of (first, second) at time t on a flat grey 2 x 320 x 240 frame."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.inset import ThetaInset
 
-    inset = video.ThetaInset([first, second], 1.0, 320, 240)
+    inset = ThetaInset([first, second], 1.0, 320, 240)
     frame = np.full((240, 640, 3), 128, dtype=np.uint8)
     inset.draw(frame, [first.at([t])[0], second.at([t])[0]])
     return frame, inset.layout
@@ -257,7 +257,7 @@ def test_inset_readout_changes_with_delta_theta_only(inset_tracks: dict[str, Tra
 
 def test_inset_traces_both_engines_up_to_the_frame_time_only(
         inset_tracks: dict[str, Track]) -> None:
-    from tippetop.mujoco_runner.video import TRACE_RGB
+    from tippetop.mujoco_runner.inset import TRACE_RGB
 
     for t in (0.25, 0.5, 1.0):
         frame, layout = _draw_inset(inset_tracks["mujoco"], inset_tracks["off"], t)
@@ -276,6 +276,7 @@ def test_inset_traces_both_engines_up_to_the_frame_time_only(
 def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
                                                          inset_tracks: dict[str, Track]) -> None:
     from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.inset import inset_layout
 
     tracks = [inset_tracks["mujoco"], inset_tracks["off"]]
     times = np.array([0.0, 0.5])
@@ -286,7 +287,7 @@ def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
 
     plain, with_inset = frames(tracks, False), frames(tracks, True)
     assert plain.shape == with_inset.shape == (2, 240, 640, 3)
-    x0, y0, x1, y1 = video.inset_layout(320, 240).box
+    x0, y0, x1, y1 = inset_layout(320, 240).box
     inside = np.zeros(plain.shape[1:3], bool)
     inside[y0:y1, x0:x1] = True
     assert np.array_equal(plain[:, ~inside], with_inset[:, ~inside])
@@ -392,7 +393,8 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 # ---------------------------------------------------------------- OpenGL only when asked
 _GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
                "tippetop.mujoco_runner.video", "tippetop.mujoco_runner.offscreen",
-               "tippetop.mujoco_runner.overlay", "imageio", "imageio_ffmpeg", "PIL")
+               "tippetop.mujoco_runner.overlay", "tippetop.mujoco_runner.inset", "imageio",
+               "imageio_ffmpeg", "PIL")
 
 
 def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
