@@ -2,9 +2,11 @@
 
 :func:`render_model` compiles a scene's own top as :func:`models.mjcf.make_mjcf` makes it, with
 a checker texture on the ball so that spin shows (a ``top.mjcf`` top is drawn as its file
-says), adds a sky, draws the table translucent so that a stem pointing into it still shows, and
-sets the offscreen buffer and the render quality. All of it is visual: the mass, inertia and
-geometry are those of the MJCF, and poses are set on the model, never simulated.
+says), adds a sky, draws the table translucent so that a stem pointing into it still shows (the
+paper's loaded sphere has no stem: the drawn one is a visual marker of the axis, which pokes
+through the table once the top has turned over), and sets the offscreen buffer and the render
+quality. All of it is visual: the mass, inertia and geometry are those of the MJCF, and poses
+are set on the model, never simulated.
 """
 
 from __future__ import annotations

@@ -1,32 +1,17 @@
-"""Offscreen frames of a run and their H.264 MP4: the drawing half of ``tippetop render``.
+"""The video of a run: its frames drawn offscreen, and their H.264 MP4 (``tippetop render``).
 
 Imported only when a video is asked for: :mod:`compare.render` chooses the OpenGL backend
-(``MUJOCO_GL``) first, and this module creates the context of that backend explicitly, so it
-works even when ``mujoco`` was imported earlier in the process with another ``MUJOCO_GL``.
-
-* :func:`.drawn_model.render_model`: the model that is drawn.
-* :class:`.poses.Track`: an engine's poses, interpolated at the frame times.
-* :class:`.offscreen.OffscreenRenderer`: a context-managed EGL or OSMesa renderer of one model.
-* :func:`render_frames`: frames at the given simulated times, one panel per track side by
-  side, each with a text overlay (engine, t, theta, n); with two tracks (MuJoCo | reference) a
-  comparison inset straddles the seam at the bottom: the readout of delta theta (first track's
-  theta minus the second's) at that frame, and a small plot of theta(t) of both up to it.
-* :func:`write_video`: those frames encoded by imageio-ffmpeg's bundled ffmpeg (libx264,
-  yuv420p).
-
-The picture: a camera low over the table (10 degrees) and to the side, following the top, so
-that the stem shows beside the ball while the top turns over instead of hiding under it; the
-table is drawn translucent, so that the stem still shows once it points into the table (the
-paper's loaded sphere has no stem: the drawn one is a visual marker of the axis, 1.55 R long,
-and the turned-over top's marker pokes through the table). Poses are set, never simulated, so
-none of this touches the physics.
+(``MUJOCO_GL``) first. :func:`render_frames` draws each track (:class:`.poses.Track`: an
+engine's poses) at the given simulated times in the model of :mod:`.drawn_model`, seen by
+:func:`.offscreen.tracking_camera`, one panel per track side by side, each with its text overlay
+(:mod:`.overlay`: engine, t, theta, n); with two tracks (MuJoCo | reference) the comparison inset
+(:mod:`.inset`) straddles the seam at the bottom. :func:`write_video` encodes the frames
+(:mod:`.mp4`); :func:`verify_video` decodes the file and checks that it holds them. Poses are
+set, never simulated, so none of this touches the physics.
 """
 
 from __future__ import annotations
 
-import contextlib
-import os
-import re
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -37,71 +22,12 @@ import mujoco
 import numpy as np
 
 from tippetop.mujoco_runner.inset import ThetaInset
+from tippetop.mujoco_runner.mp4 import Mp4Writer
 from tippetop.mujoco_runner.offscreen import OffscreenRenderer, tracking_camera
 from tippetop.mujoco_runner.overlay import TextOverlay
 from tippetop.mujoco_runner.poses import Track, set_pose
 
-# H.264 settings: constant quality (x264's CRF, lower is better) and the encoder's speed preset.
-_CRF = 20
-_X264_PRESET = "veryfast"
 
-
-# ---------------------------------------------------------------- encoder
-class _Mp4Writer:
-    """Streams RGB frames to ffmpeg (imageio-ffmpeg's bundled binary): H.264, yuv420p, MP4.
-
-    ffmpeg's own messages go to a temporary file, not to our stderr: :meth:`reason` gives the
-    gist of them when the encoder fails (``No space left on device``, say).
-    """
-
-    def __init__(self, path: Path, width: int, height: int, fps: float) -> None:
-        import tempfile
-
-        import imageio_ffmpeg
-
-        self._log = tempfile.TemporaryFile()
-        self._gen = imageio_ffmpeg.write_frames(
-            str(path), (width, height), pix_fmt_in="rgb24", pix_fmt_out="yuv420p", fps=fps,
-            codec="libx264", quality=None, macro_block_size=1, ffmpeg_log_level="error",
-            output_params=["-crf", str(_CRF), "-preset", _X264_PRESET,
-                           "-movflags", "+faststart", "-f", "mp4"])
-        saved = os.dup(2)  # ffmpeg (started by the first send) inherits stderr: its log file
-        try:
-            os.dup2(self._log.fileno(), 2)
-            self._gen.send(None)
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-    def reason(self) -> str:
-        """What ffmpeg said went wrong, on one line ("" if nothing)."""
-        self._log.seek(0)
-        lines = [re.sub(r"^\[[^]]*\]\s*", "", ln).strip()
-                 for ln in self._log.read().decode("utf-8", "replace").splitlines()]
-        lines = [ln for ln in lines if ln]
-        for ln in lines:
-            if "No space left on device" in ln:
-                return "No space left on device"
-        return lines[0][:200] if lines else ""
-
-    def write(self, rgb: np.ndarray) -> None:
-        """Append one frame, uint8 RGB of shape (height, width, 3)."""
-        self._gen.send(np.ascontiguousarray(rgb))
-
-    def close(self) -> None:
-        """Finish the file (waits for ffmpeg); once only, later calls do nothing."""
-        gen, self._gen = self._gen, None
-        if gen is not None:
-            gen.close()
-
-    def release(self) -> None:
-        """Stop ffmpeg if it still runs (its errors already reported) and drop its log."""
-        with contextlib.suppress(OSError):
-            self.close()
-        self._log.close()
-
-
-# ---------------------------------------------------------------- the video
 @dataclass(frozen=True)
 class VideoStats:
     """What :func:`write_video` did.
@@ -202,7 +128,7 @@ def write_video(
     start = time.perf_counter()
     frames = render_frames(tracks, times_s, width=width, height=height, backend=backend,
                            inset=inset)
-    writer = _Mp4Writer(path, width * len(tracks), height, fps)
+    writer = Mp4Writer(path, width * len(tracks), height, fps)
     try:
         try:
             for frame in frames:

@@ -393,8 +393,8 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 # ---------------------------------------------------------------- OpenGL only when asked
 _GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
                "tippetop.mujoco_runner.video", "tippetop.mujoco_runner.offscreen",
-               "tippetop.mujoco_runner.overlay", "tippetop.mujoco_runner.inset", "imageio",
-               "imageio_ffmpeg", "PIL")
+               "tippetop.mujoco_runner.overlay", "tippetop.mujoco_runner.inset",
+               "tippetop.mujoco_runner.mp4", "imageio", "imageio_ffmpeg", "PIL")
 
 
 def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
