@@ -195,4 +195,5 @@ class ThetaInset:
                                    font=self._font, fill=(255, 255, 255))
         frame[by0:by1, bx0:bx1] = np.asarray(image)
 
+
 __all__ = ["InsetLayout", "TRACE_RGB", "ThetaInset", "inset_layout"]

@@ -94,4 +94,5 @@ class TextOverlay:
         out[:y1, :x1] = np.asarray(image)
         return out
 
+
 __all__ = ["TextOverlay", "font_size_px", "margin_px", "overlay_font", "spell"]
