@@ -236,11 +236,13 @@ def render_scene(
 
     from tippetop.compare.running.io import write_atomic
     from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.drawn_model import render_model
+    from tippetop.mujoco_runner.poses import Track
 
     first = plans[engines[0]]
-    top_model = video.render_model(first.top, scene.top_mjcf, width, height)
-    tracks = [video.Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
-                                     paper_frame=name == "ode") for name in engines]
+    top_model = render_model(first.top, scene.top_mjcf, width, height)
+    tracks = [Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
+                               paper_frame=name == "ode") for name in engines]
     times = video.frame_times(n_frames, fps, speed)
     runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
                         for name in engines)

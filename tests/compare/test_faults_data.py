@@ -193,18 +193,18 @@ def _fails_and_keeps(good: Path, capsys: pytest.CaptureFixture[str], says: str) 
 def test_disk_full_midway_keeps_the_old_video_and_exits_1(
         good_video: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import mp4
 
-    real_write = video._Mp4Writer.write
+    real_write = mp4.Mp4Writer.write
     written = []
 
-    def write(self: video._Mp4Writer, rgb: np.ndarray) -> None:
+    def write(self: mp4.Mp4Writer, rgb: np.ndarray) -> None:
         if len(written) == 2:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         written.append(1)
         real_write(self, rgb)
 
-    monkeypatch.setattr(video._Mp4Writer, "write", write)
+    monkeypatch.setattr(mp4.Mp4Writer, "write", write)
     _fails_and_keeps(good_video, capsys, "No space left on device")
 
 
