@@ -11,8 +11,8 @@ one giving the same results (tests/mujoco_runner/test_batch.py checks ==):
   sweep`` and the other many-run commands do): paper mode's runs step together in a persistent
   ``mujoco.batch.Batch``; native mode's, which read their contacts from their own steps, each
   on the compiled stepper on a thread of their own (``batch._run_threads``);
-* pool (``--pool``): the old path for reference, :func:`compare.runner.execute` of each run on
-  a pool of ``--threads`` worker processes, already started and warm (its start-up is left
+* pool (``--pool``): the old path for reference, :func:`compare.running.runner.execute` of each
+  run on a pool of ``--threads`` worker processes, already started and warm (its start-up is left
   out, which favours it); cold: the same on a pool started for the sweep, as a command paid
   it (spawned workers import numpy, pandas, MuJoCo and load the compiled code).
 
@@ -41,7 +41,7 @@ import time
 
 import numpy as np
 
-from tippetop.compare.engines import plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner.batch import simulate_plans
 from tippetop.mujoco_runner.friction_callback import compiled_callback
@@ -130,13 +130,13 @@ def batch(plans: list, threads: int) -> tuple[float, float]:
 
 
 def _pool_variant(mode: str, runs: int, t_end: float):
-    from tippetop.compare.runner import Task, _local_pool, execute
+    from tippetop.compare.running.runner import Task, execute, local_pool
 
     tasks = [Task("fig3", tuple(_overrides(mode, float(n0), t_end)), "mujoco")
              for n0 in np.linspace(40.0, 160.0, runs)]
 
     def pool(plans: list, threads: int) -> tuple[float, float]:
-        executor, _queue = _local_pool(threads)
+        executor, _queue = local_pool(threads)
         start = time.perf_counter()
         for fut in [executor.submit(execute, task) for task in tasks]:
             fut.result()

@@ -29,7 +29,7 @@ import time
 
 import mujoco
 
-from tippetop.compare.engines import plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import sample_interval
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import run as mj_run
@@ -84,7 +84,8 @@ def main() -> None:
         tm = build_model(plan)
         dt = float(tm.model.opt.timestep)
         sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
-        steps, n_intervals = mj_run._grid(sample_dt, plan.t_end_s, dt)
+        steps, n_intervals, _law = mj_run.run_grid(tm, plan.law, mode=plan.mode,
+                                                   t_end_s=plan.t_end_s, sample_dt_s=sample_dt)
         setups[mode] = (tm, plan, sample_dt, steps * n_intervals)
 
     # time the post-processing inside the run: simulate_top_model calls it by module global

@@ -1,7 +1,7 @@
 """Lazy re-exports for a package's ``__init__``: a name's module is imported on first use.
 
-A subpackage such as :mod:`tippetop.compare.nightly` re-exports its public names, but
-importing the package (as ``tippetop``'s parser does, to register the subcommand) must not
+A subpackage such as :mod:`tippetop.compare.analysis.calibrate` re-exports its public names,
+but importing the package (as ``tippetop``'s parser does, for a command's defaults) must not
 import what running it needs (pandas, MuJoCo): ``tippetop theory`` starts without them.
 """
 

@@ -1,9 +1,8 @@
-"""The ``tippetop`` command line: its parser and ``main``.
+"""The ``tippetop`` command line: the top-level parser, ``--version``, the epilog and ``main``.
 
-Bad input ends in one line on stderr (``tippetop: error: ...``) and exit status 2; every exit
-status is in :data:`tippetop.compare.common_args.EXIT_STATUSES`. The command bodies are in
-:mod:`tippetop.compare.commands`, ``nightly``, ``calibrate``, ``render`` and ``validate`` in
-their own modules; the options they share in :mod:`tippetop.compare.common_args`.
+Each command is a module of :mod:`tippetop.compare.commands` (:data:`COMMANDS`); the options
+they share, the exit statuses and the error handling are in
+:mod:`tippetop.compare.commands.options`.
 """
 
 from __future__ import annotations
@@ -12,26 +11,26 @@ import argparse
 import sys
 from typing import Any
 
-from tippetop.compare import commands
-from tippetop.compare.atlas_command import add_atlas_parser
-from tippetop.compare.calibrate.command import add_calibrate_parser
-from tippetop.compare.common_args import (
-    EXIT_OK,
-    EXIT_STATUSES,
-    Parser,
-    add_force_option,
-    add_json_option,
-    add_parallel_options,
-    add_set_option,
-    add_workers_option,
-    finite_float,
-    run_main,
-    worker_count,
+from tippetop.compare.commands import (
+    atlas,
+    bench,
+    calibrate,
+    compare,
+    mjcf,
+    nightly,
+    render,
+    simulate,
+    sweep,
+    theory,
+    threshold,
+    validate,
 )
-from tippetop.compare.mjcf_command import add_mjcf_parser
-from tippetop.compare.nightly.command import add_nightly_parser
-from tippetop.compare.render import add_render_parser
-from tippetop.compare.validate.command import add_validate_parser
+from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, run_main
+
+#: The command modules, in the order ``tippetop --help`` lists them; each has
+#: ``add_parser(sub)`` and ``run(args) -> int``.
+COMMANDS = (theory, simulate, compare, threshold, sweep, bench, nightly, calibrate, render,
+            validate, atlas, mjcf)
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {
@@ -175,157 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the installed versions of tippetop, MuJoCo and Python, and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser,
                            metavar="COMMAND")
-
-    t = sub.add_parser("theory", help="the paper's predictions for a top",
-                       description="The paper's group, critical spins n1...n4 and nc, the "
-                       "angles theta_c/f/d and (with --n0) theta_s, for a top given by its "
-                       "ratios or an MJCF file.")
-    t.add_argument("--A-over-C", dest="A_over_C", type=finite_float, metavar="X",
-                   help="A/C, the transverse over the axial moment of inertia (no default: "
-                   "required unless --mjcf)")
-    t.add_argument("--a-over-R", dest="a_over_R", type=finite_float, metavar="Y",
-                   help="a/R, the centre of mass's offset from the ball's centre over the "
-                   "radius (no default: required unless --mjcf)")
-    t.add_argument("--C-factor", dest="C_factor", type=finite_float, default=1.0, metavar="F",
-                   help="C = F (2/5) M R^2, the axial moment over a uniform ball's (default 1)")
-    t.add_argument("--R-m", dest="R_m", type=finite_float, default=0.015, metavar="M",
-                   help="ball radius (m; default 0.015)")
-    t.add_argument("--M-kg", dest="M_kg", type=finite_float, default=0.015, metavar="KG",
-                   help="mass (kg; default 0.015)")
-    t.add_argument("--g-mps2", dest="g_mps2", type=finite_float, default=9.8, metavar="G",
-                   help="gravity (m/s^2; default 9.8)")
-    t.add_argument("--n0", type=finite_float, metavar="RAD_S",
-                   help="initial spin near theta = 0 (rad/s); adds theta_s (default: none)")
-    t.add_argument("--mjcf", metavar="FILE", help="derive the top from an MJCF file instead "
-                   "of the ratios (default: none)")
-    add_json_option(t)
-    t.set_defaults(func=commands.cmd_theory)
-
-    s = sub.add_parser("simulate", help="run a scene in one engine and print its summary",
-                       description="Run a scene in one engine and print its summary: the "
-                       "results (theta, the inversion time, Jellett's drift, the energy), what "
-                       "ran (read back from the engine) and the --set keys it did not read. "
-                       "Exit 1 if the run failed.")
-    s.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
-                   "paper's top and Fig. 3 start)")
-    s.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
-                   "such as mujoco-native (see 'tippetop --help'; default ode)")
-    add_set_option(s)
-    s.add_argument("--mjcf", metavar="FILE", help="run a loaded MJCF top instead of the "
-                   "scene's: as its file says (options, contacts, first keyframe) unless --set "
-                   "says otherwise (default: the scene's top)")
-    s.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
-                   "of the file (default: its first, unless --set init.* sets the state)")
-    s.add_argument("--out", metavar="FILE", help="write the observables table, one row per "
-                   "sample, to this .csv or .parquet file (default: the scene's outputs.table, "
-                   "else none)")
-    add_force_option(s)
-    add_json_option(s)
-    s.set_defaults(func=commands.cmd_simulate)
-
-    cp = sub.add_parser("compare", help="run a scene in several engines/modes and compare",
-                        description="Run a scene in each mode and the reference ODE; print one "
-                        "line per mode (outcome, agreement with the theory, inversion time, "
-                        "theta_asymp, Jellett's drift, energy) and every metric that departs "
-                        "from the reference, naming the tolerance it broke.")
-    cp.add_argument("scene", help="scene .toml file or catalogue name (required)")
-    cp.add_argument("--modes", default="ode,mujoco-paper,mujoco-native",
-                    help="comma-separated modes, listed in 'tippetop --help' (default: "
-                    "ode,mujoco-paper,mujoco-native)")
-    add_set_option(cp)
-    add_parallel_options(cp)
-    add_json_option(cp)
-    cp.set_defaults(func=commands.cmd_compare)
-
-    th = sub.add_parser("threshold", help="measure n1, n4 or nc in an engine, against the "
-                        "theory",
-                        description="Measure a critical spin in an engine's own dynamics and "
-                        "compare it with the theory: by default from growth rates (short runs "
-                        "started 0.01 rad from the upright or inverted state; the spin where "
-                        "the tilt stops decaying), or by bisection on n0 over full runs (their "
-                        "final states; the bracket's ends are rerun over twice the horizon).")
-    th.add_argument("scene", nargs="?", help="scene (default: fig11_n060, the Fig. 9 (a) top "
-                    "from theta0 = 0.01 over 60 s)")
-    th.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
-                    "(default ode)")
-    th.add_argument("--which", required=True, choices=("n1", "n4", "nc"),
-                    help="n1: the spin above which theta = 0 is unstable; n4: the spin at "
-                    "theta = 0 that keeps the inverted state stable; nc: the spin above which "
-                    "a Group II top inverts fully, max(n1, n4) (no default: required)")
-    th.add_argument("--method", choices=("growth", "bisect"), default=None,
-                    help="growth: the zero of the steady state's growth rate, from 2-s runs "
-                    "(any of n1, n4, nc); bisect: the outcome of runs over the scene's "
-                    "run.t_end_s (n1 or nc) (default growth)")
-    add_set_option(th)
-    th.add_argument("--rel-tol", dest="rel_tol", type=finite_float, default=None,
-                    metavar="REL", help="stop when the spin is known to this, relative "
-                    "(default 1e-5 for growth, 0.005, i.e. 0.5 %%, for bisect)")
-    th.add_argument("--out", metavar="DIR", help="folder for threshold.json (the --json "
-                    "result) and runs.csv (every n0 run), new or empty, or --force (default: "
-                    "none, printed only)")
-    add_force_option(th, help="write into a non-empty --out")
-    add_parallel_options(th)
-    add_json_option(th)
-    th.set_defaults(func=commands.cmd_threshold)
-
-    sw = sub.add_parser("sweep", help="theta_asymp against n0 per mode, with theta_s(n0)",
-                        description="theta_asymp against the initial spin n0 in each mode, "
-                        "with the theory's theta_s(n0) (the paper's Figs. 9, 10).")
-    sw.add_argument("scene", help="scene .toml file or catalogue name (required)")
-    sw.add_argument("--n0", required=True, metavar="START:STOP:STEP",
-                    help="initial spins, rad/s; STOP is included when it falls on the grid, "
-                    "at most 2000 points (no default: required)")
-    sw.add_argument("--modes", default="ode", help="comma-separated modes, listed in "
-                    "'tippetop --help' (default: ode)")
-    add_set_option(sw)
-    sw.add_argument("--out", metavar="DIR", help="folder for sweep.csv, theory.csv and "
-                    "sweep.png (default: none, printed only)")
-    add_force_option(sw, help="overwrite results in --out")
-    add_parallel_options(sw)
-    add_json_option(sw)
-    sw.set_defaults(func=commands.cmd_sweep)
-
-    b = sub.add_parser("bench", help="benchmarks that print ratios against a baseline",
-                       description="bench ode: the compiled integrator against its peers "
-                       "(numbalsoda's DOP853 and LSODA, if installed: pip install -e "
-                       "'.[peers]') and scipy's solve_ivp(DOP853) on the same right-hand side. "
-                       "bench accuracy: "
-                       "work-precision of both engines against the reference (CSVs, figures, "
-                       "Pareto tables), and with the ODE the stiff case (fig3 at Lambda = 1e-6 "
-                       "m/s, rolling phases against the law) on its own frontier.")
-    b.add_argument("what", choices=("ode", "accuracy"), help="ode: compiled integrator vs "
-                   "numbalsoda and scipy solve_ivp(DOP853); accuracy: work-precision data and "
-                   "plots")
-    b.add_argument("scene", nargs="?", help="accuracy: scene (default: fig3 and fig11_n060)")
-    b.add_argument("--out", metavar="DIR", help="accuracy: output folder (default ./accuracy)")
-    b.add_argument("--budget-s", dest="budget_s", type=finite_float, default=None,
-                   metavar="S", help="accuracy: wall-time budget per point (s; default 20 for "
-                   "the ODE, 30 for MuJoCo)")
-    b.add_argument("--engines", default="ode,mujoco",
-                   help="accuracy: comma-separated engines (default: ode,mujoco)")
-    add_workers_option(b, help="accuracy: processes for the MuJoCo series (default: all cores)")
-    add_force_option(b, help="accuracy: overwrite results in --out")
-    b.add_argument("--n0", type=finite_float, default=60.0, metavar="RAD_S",
-                   help="ode: initial spin of the Fig. 11 top (rad/s; default 60)")
-    b.add_argument("--t-end-s", dest="t_end_s", type=finite_float, default=60.0, metavar="S",
-                   help="ode: simulated time (s; default 60)")
-    b.add_argument("--rtol", type=finite_float, default=1e-9, metavar="REL",
-                   help="ode: relative tolerance of both integrators (default 1e-9)")
-    b.add_argument("--rounds", "--repeats", dest="rounds", type=worker_count, default=5,
-                   metavar="N", help="ode: rounds in which the solvers take turns (runs of "
-                   "each), each keeping its best time (default 5)")
-    b.add_argument("--scipy-rounds", dest="scipy_rounds", type=worker_count, default=1,
-                   metavar="N", help="ode: of those, the rounds scipy runs in (~6 s each at the "
-                   "defaults; default 1)")
-    add_json_option(b)
-    b.set_defaults(func=commands.cmd_bench)
-
-    add_nightly_parser(sub)
-    add_calibrate_parser(sub)
-    add_render_parser(sub)
-    add_validate_parser(sub)
-    add_atlas_parser(sub)
-    add_mjcf_parser(sub)
+    for command in COMMANDS:
+        command.add_parser(sub)
     return p
 
 

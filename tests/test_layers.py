@@ -1,8 +1,9 @@
 """Layers point one way, and no module imports itself back, not even lazily.
 
-models < reference_ode < mujoco_runner < compare. The import graph is built from the source
+models < reference_ode < mujoco_runner < compare; inside compare the commands sit on top, and
+the nightly and the report do not know each other. The import graph is built from the source
 with ``ast`` (every ``import`` statement, at the top or inside a function), so a lazy import
-counts like any other.
+counts like any other. No module takes another's private (``_name``) names.
 """
 
 from __future__ import annotations
@@ -26,22 +27,25 @@ def _modules() -> dict[str, Path]:
     return {_module_name(p): p for layer in LAYERS for p in sorted((ROOT / layer).rglob("*.py"))}
 
 
+def _from_module(node: ast.ImportFrom, path: Path, name: str) -> str:
+    """The module a ``from ... import`` statement of module ``name`` (at ``path``) names."""
+    if not node.level:
+        return node.module or ""
+    base = name.split(".")
+    base = base if path.name == "__init__.py" else base[:-1]
+    base = base[: len(base) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(path: Path, name: str, known: set[str]) -> set[str]:
     """The tippetop modules a file imports (a package import counts as its __init__)."""
     tree = ast.parse(path.read_text(), filename=str(path))
-    is_pkg = path.name == "__init__.py"
     out: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".")
-                base = base if is_pkg else base[:-1]
-                base = base[: len(base) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
+            mod = _from_module(node, path, name)
             targets = [mod] + [f"{mod}.{a.name}" for a in node.names]
         else:
             continue
@@ -62,6 +66,10 @@ def _graph() -> dict[str, set[str]]:
 
 def _layer(module: str) -> int:
     return LAYERS.index(module.split(".")[1])
+
+
+def _within(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
 
 
 def test_graph_covers_every_module() -> None:
@@ -121,3 +129,100 @@ def test_the_check_sees_a_lazy_upward_import(tmp_path: Path) -> None:
     p.write_text(src)
     found = _imports(p, "tippetop.models.x", {"tippetop.compare.theory", "tippetop.compare"})
     assert found == {"tippetop.compare.theory"}
+
+
+# ---------------------------------------------------------------- inside compare
+COMMANDS = "tippetop.compare.commands"
+#: Entry points, which compose the rooms as the command line does: ``tippetop``'s parser and
+#: the ``python -m`` mains of the nightly and the report.
+ENTRY_POINTS = {"tippetop.compare.cli", "tippetop.compare.nightly.__main__",
+                "tippetop.compare.report.__main__"}
+
+
+def test_no_room_of_compare_imports_a_command() -> None:
+    """analysis, running, presentation, the nightly and the report never import a command."""
+    upward = sorted(f"{m} -> {t}" for m, targets in _graph().items() for t in targets
+                    if _within(t, COMMANDS) and not _within(m, COMMANDS)
+                    and m not in ENTRY_POINTS)
+    assert upward == []
+
+
+def test_the_nightly_and_the_report_do_not_import_each_other() -> None:
+    """The nightly command composes them (it passes the report's writer to ``run_nightly``)."""
+    nightly, report = "tippetop.compare.nightly", "tippetop.compare.report"
+    graph = _graph()
+    assert any(_within(m, nightly) for m in graph) and any(_within(m, report) for m in graph)
+    crossing = sorted(f"{m} -> {t}" for m, targets in graph.items() for t in targets
+                      if (_within(m, nightly) and _within(t, report))
+                      or (_within(m, report) and _within(t, nightly)))
+    assert crossing == []
+
+
+def test_the_check_sees_the_nightly_import_the_report_lazily(tmp_path: Path) -> None:
+    src = "def f():\n    from tippetop.compare.report.build import build_report\n"
+    p = tmp_path / "x.py"
+    p.write_text(src)
+    found = _imports(p, "tippetop.compare.nightly.x",
+                     {"tippetop.compare.report.build", "tippetop.compare.report"})
+    assert found == {"tippetop.compare.report.build"}
+
+
+# ---------------------------------------------------------------- private names
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_uses(path: Path, name: str, known: set[str]) -> list[str]:
+    """``from <tippetop module> import _x`` and ``m._x`` for an imported tippetop module m."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found: list[str] = []
+    modules: dict[str, str] = {}  # local name -> the tippetop module it names
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            mod = _from_module(node, path, name)
+            if mod.split(".")[0] != "tippetop":
+                continue
+            for a in node.names:
+                if _private(a.name):
+                    found.append(f"from {mod} import {a.name}")
+                if f"{mod}.{a.name}" in known:
+                    modules[a.asname or a.name] = f"{mod}.{a.name}"
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] == "tippetop":
+                    modules[a.asname or a.name] = a.name
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr):
+            owner = ast.unparse(node.value)
+            if owner in modules or owner in known:
+                found.append(f"{modules.get(owner, owner)}.{node.attr}")
+    return found
+
+
+def test_no_module_imports_another_modules_private_names() -> None:
+    """The four packages and the benchmarks use each other's public names only."""
+    mods = _modules()
+    known = set(mods)
+    files = dict(mods)
+    files.update({f"benchmarks.{p.stem}": p for p in sorted((ROOT / "benchmarks").glob("*.py"))})
+    assert len(files) > len(mods)
+    uses = sorted(f"{name}: {use}" for name, path in files.items()
+                  for use in _private_uses(path, name, known))
+    assert uses == []
+
+
+def test_the_check_sees_private_names(tmp_path: Path) -> None:
+    src = ("from tippetop.compare.running.runner import _local_pool\n"
+           "import tippetop.mujoco_runner.run as mj_run\n"
+           "from tippetop.compare.running import io\n"
+           "from os import _exit\n"
+           "mj_run._grid(1, 2, 3)\nio._tmp\nmj_run.__name__\n")
+    p = tmp_path / "x.py"
+    p.write_text(src)
+    known = {"tippetop.compare.running.runner", "tippetop.mujoco_runner.run",
+             "tippetop.compare.running.io"}
+    assert sorted(_private_uses(p, "benchmarks.x", known)) == [
+        "from tippetop.compare.running.runner import _local_pool",
+        "tippetop.compare.running.io._tmp",
+        "tippetop.mujoco_runner.run._grid",
+    ]

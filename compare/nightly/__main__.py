@@ -1,5 +1,5 @@
 """``python -m tippetop.compare.nightly [options]``: the same as ``tippetop nightly``."""
 
-from tippetop.compare.nightly.command import main
+from tippetop.compare.commands.nightly import main
 
 raise SystemExit(main())

@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.io import write_atomic
 from tippetop.compare.nightly.outputs import json_ready, timestamp
+from tippetop.compare.running.io import write_atomic
 from tippetop.models.errors import TippetopError
 from tippetop.models.resources import data_path
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from tippetop.compare.engines import plan_for
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
 from tippetop.compare.nightly.tolerances import compare_value, format_value, tolerance_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import RunPlan
 from tippetop.models.scene import Scene, load_scene
 
@@ -61,8 +61,8 @@ def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
 
 
 def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, Any]]:
-    from tippetop.compare import theory
-    from tippetop.compare.metrics import outcome_of_angle
+    from tippetop.compare.analysis import theory
+    from tippetop.compare.analysis.metrics import outcome_of_angle
 
     top, ini = plan.top, plan.init
     law, mu, lam = _law(plan)

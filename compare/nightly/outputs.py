@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import check_output_dir
+from tippetop.compare.running.io import check_output_dir
 from tippetop.models.resources import data_path
 
 RESULTS_FORMAT = "tippetop-nightly-results/1"
@@ -62,7 +62,7 @@ def environment() -> dict[str, Any]:
     """Versions, machine and git commit (when the code runs from a git checkout)."""
     from importlib import metadata
 
-    from tippetop.compare.runner import code_fingerprint
+    from tippetop.compare.running.runner import code_fingerprint
 
     versions = {}
     for pkg in ("tippetop", "numpy", "scipy", "numba", "pandas", "pyarrow", "matplotlib",
@@ -198,7 +198,7 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
 
 def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """Per mode, how many runs agree with the theory; then each run that does not, and why."""
-    from tippetop.compare.nightly.verdict import agreement_counts, cell_class, mode_order
+    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
 
     counts = agreement_counts(rows)
     out = []

@@ -1,4 +1,9 @@
-"""``run_nightly``: the whole regression for one :class:`NightlyOptions`, start to verdict."""
+"""``run_nightly``: the whole regression for one :class:`NightlyOptions`, start to verdict.
+
+The report is written by the function the caller passes (``write_report``): the nightly
+command composes the nightly with :mod:`tippetop.compare.report`, which this package does not
+import.
+"""
 
 from __future__ import annotations
 
@@ -6,19 +11,13 @@ import json
 import sys
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.io import (
-    check_output_dir,
-    locked_output_dir,
-    staged_output_dir,
-    write_atomic,
-)
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
     baseline_file,
@@ -47,12 +46,25 @@ from tippetop.compare.nightly.outputs import (
 )
 from tippetop.compare.nightly.running import error_text, run_cases
 from tippetop.compare.nightly.tolerances import TOLERANCES
-from tippetop.compare.nightly.verdict import crossval_rows
 from tippetop.compare.nightly.videos import render_videos
-from tippetop.compare.runner import default_cache_dir
+from tippetop.compare.presentation.verdict import crossval_rows
+from tippetop.compare.running.io import (
+    check_output_dir,
+    locked_output_dir,
+    staged_output_dir,
+    write_atomic,
+)
+from tippetop.compare.running.runner import default_cache_dir
 from tippetop.models.errors import TippetopError
 
 EXIT_OK, EXIT_REGRESSION = 0, 1
+
+#: Writes the report of a nightly's results: ``write_report(results, path, tables,
+#: accuracy_dir)``, with ``results`` as ``results.json`` holds them, ``path`` the HTML file,
+#: ``tables`` the downsampled run tables by case id, ``accuracy_dir`` a folder of figures or
+#: None.
+ReportWriter = Callable[[Mapping[str, Any], Path, Mapping[str, pd.DataFrame], Path | None],
+                        None]
 
 
 @dataclass
@@ -76,12 +88,15 @@ class NightlyOptions:
     argv: tuple[str, ...] = ()
 
 
-def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = None,
+def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
+                log: Callable[[str], None] | None = None,
                 echo: Callable[[str], None] = print) -> int:
     """Run the nightly regression; returns the exit status (0 clean, 1 regression or error).
 
-    The output folder is locked (:func:`~tippetop.compare.io.locked_output_dir`) before any
-    work and until the run ends: a second run into the same folder is refused.
+    ``write_report`` writes ``report.html`` (:data:`ReportWriter`); if it fails, the verdict
+    says so and the exit status is 1. The output folder is locked
+    (:func:`~tippetop.compare.running.io.locked_output_dir`) before any work and until the run
+    ends: a second run into the same folder is refused.
 
     Raises:
         TippetopError: bad input (exit 2), before any simulation: among it a baseline file
@@ -118,13 +133,14 @@ def run_nightly(opts: NightlyOptions, *, log: Callable[[str], None] | None = Non
                             f"{str(opts.accuracy_dir)!r}")
     with locked_output_dir(out_dir):
         check_output_dir(out_dir, force=opts.force)  # again, now that no other run writes
-        return _run_locked(opts, log, echo, started, t0, catalogue, cases, bfile, baseline,
-                           out_dir)
+        return _run_locked(opts, write_report, log, echo, started, t0, catalogue, cases, bfile,
+                           baseline, out_dir)
 
 
-def _run_locked(opts: NightlyOptions, log: Callable[[str], None], echo: Callable[[str], None],
-                started: str, t0: float, catalogue: Catalogue, cases: list[Case], bfile: Path,
-                baseline: dict[str, dict[str, Any]], out_dir: Path) -> int:
+def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[[str], None],
+                echo: Callable[[str], None], started: str, t0: float, catalogue: Catalogue,
+                cases: list[Case], bfile: Path, baseline: dict[str, dict[str, Any]],
+                out_dir: Path) -> int:
     """The run itself, its inputs checked and its output folder locked; the exit status."""
     log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline "
         + ("none (--no-baseline: every check is new)" if opts.no_baseline
@@ -191,10 +207,7 @@ def _run_locked(opts: NightlyOptions, log: Callable[[str], None], echo: Callable
 
         write_results()
         try:
-            from tippetop.compare.report.build import build_report
-
-            build_report(json_ready(results), stage / "report.html", tables=tables,
-                         accuracy_dir=opts.accuracy_dir)
+            write_report(json_ready(results), stage / "report.html", tables, opts.accuracy_dir)
         except Exception as exc:  # noqa: BLE001 - the verdict is written; the report is part of it
             traceback.print_exc(file=sys.stderr)
             results["report_error"] = error_text(exc)

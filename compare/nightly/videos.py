@@ -29,7 +29,7 @@ def video_speed(t_end_s: float) -> float:
     The slowest speed (at least ``VIDEO_MIN_SPEED``) whose video at ``VIDEO_FPS`` has at most
     ``VIDEO_MAX_FRAMES`` frames, its last frame (at ``t_end_s``) included.
     """
-    from tippetop.compare.render import speed_to_fit
+    from tippetop.compare.presentation.video import speed_to_fit
 
     return speed_to_fit(t_end_s, VIDEO_FPS, VIDEO_MAX_FRAMES, min_speed=VIDEO_MIN_SPEED)
 
@@ -74,7 +74,7 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
         ``{"requested": True, "status": "<k> written[, <m> failed]", "files": {scene:
         path relative to out_dir}, "failed": {scene: one-line reason}}``.
     """
-    from tippetop.compare.render import frame_count, render_scene
+    from tippetop.compare.presentation.video import frame_count, render_scene
     from tippetop.models.scene import load_scene
 
     scenes = video_scenes(cases)

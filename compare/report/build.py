@@ -1,18 +1,14 @@
-"""Assembling and writing the report; ``python -m tippetop.compare.report RESULTS.json``."""
+"""Assembling and writing the nightly's report: :func:`render_report`, :func:`build_report`."""
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.common_args import EXIT_BAD_INPUT, add_force_option
-from tippetop.compare.io import write_atomic
 from tippetop.compare.report.atlas import atlas_section
 from tippetop.compare.report.figures import sweeps_section, timeseries_section
 from tippetop.compare.report.friction import friction_section
@@ -29,6 +25,7 @@ from tippetop.compare.report.sections import (
     threshold_section,
     verdict_section,
 )
+from tippetop.compare.running.io import write_atomic
 from tippetop.models.errors import TippetopError
 
 _NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"
@@ -107,27 +104,3 @@ def build_report(results: Mapping[str, Any] | str | Path, path: str | Path, *,
     out = Path(path)
     write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR]``."""
-    p = argparse.ArgumentParser(prog="python -m tippetop.compare.report",
-                                description="Rebuild the validation report from a nightly's "
-                                "results.json.")
-    p.add_argument("results", help="results.json of a nightly run")
-    p.add_argument("--out", help="HTML file (default: report.html beside results.json)")
-    p.add_argument("--accuracy-dir", dest="accuracy_dir", help="folder of PNG figures")
-    add_force_option(p, help="overwrite an existing --out")
-    args = p.parse_args(argv)
-    out = Path(args.out) if args.out else Path(args.results).parent / "report.html"
-    try:
-        if out.exists() and not args.force:
-            raise TippetopError(f"--out: expected a path that does not exist yet (or --force), "
-                                f"got existing {str(out)!r}")
-        build_report(args.results, out, accuracy_dir=args.accuracy_dir)
-    except TippetopError as exc:
-        sys.stderr.write(f"tippetop: error: {exc}\n")
-        return EXIT_BAD_INPUT
-    print(out)
-    return 0
-

@@ -9,8 +9,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.nightly.verdict import scene_key, top_of
-from tippetop.compare.report.markup import esc, html_table, png, pyplot
+from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.presentation.verdict import scene_key, top_of
+from tippetop.compare.report.markup import esc, html_table, png
 
 _LABEL_MARKERS = {"(a)": "o", "(b)": "s", "(c)": "D", "(d)": "X"}
 #: Rows of a run's table drawn in its figures.
@@ -119,7 +120,7 @@ def _timeseries_figure(key: str, recs: Sequence[Mapping[str, Any]],
 
 def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
     """theta(t), xi(t) and the slip, one figure per scene: the main modes, the rest folded."""
-    from tippetop.compare.nightly.verdict import MAIN_MODES
+    from tippetop.compare.presentation.verdict import MAIN_MODES
 
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in results.get("cases", []):
@@ -154,7 +155,7 @@ def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataF
 
 def sweeps_section(results: Mapping[str, Any]) -> str:
     """theta_asymp against n0 with the theory's theta_s(n0), one figure per paper figure."""
-    from tippetop.compare import theory
+    from tippetop.compare.analysis import theory
 
     sweeps = [r for r in results.get("cases", []) if r["kind"] == "sweep" and r.get("points")]
     parts = ["<h2 id='sweeps'>theta_asymp against n0 (Figs. 9, 10)</h2>",

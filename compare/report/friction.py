@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from tippetop.compare.crossval import calibrated_native_text
-from tippetop.compare.engines import describe_ran
+from tippetop.compare.analysis.crossval import calibrated_native_text
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
+from tippetop.compare.running.engines import describe_ran
 
 #: Order of the rows of the friction-law table, with what each mode is.
 FRICTION_MODES: dict[str, str] = {

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from tippetop.compare.report.markup import html_table, png, pyplot
+from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.report.markup import html_table, png
 
 #: Groups are shaded in pale neutral tints and outcomes drawn in saturated colours that none
 #: of the tints resembles, so a marker never disappears into its group.

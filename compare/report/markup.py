@@ -9,6 +9,8 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+from tippetop.compare.presentation.figures import pyplot
+
 #: Resolution of the embedded figures.
 FIG_DPI = 90
 
@@ -41,16 +43,6 @@ table.verdict-table td:nth-child(2){padding:.1em .35em;background:#f7f7f7}
 .inconclusive{background:#fff3c4}.failed{background:#f8bbd0;font-weight:600}
 td.na{background:repeating-linear-gradient(45deg,#fafafa,#fafafa 4px,#eee 4px,#eee 8px)}
 """
-
-
-def pyplot():
-    """matplotlib.pyplot on the Agg backend (imported on first use)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def png(fig: Any) -> str:

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.nightly.verdict import scene_key
+from tippetop.compare.presentation.verdict import scene_key
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 
 
@@ -54,7 +54,7 @@ _MARK = {"agree": "", "depart": "&ne; ", "inconclusive": "? ", "failed": "&#x271
 
 def _cell(row: Mapping[str, Any]) -> Html:
     """A verdict ``<td>``: the outcome (marked where it departs) and J; the differences below."""
-    from tippetop.compare.nightly.verdict import cell_class
+    from tippetop.compare.presentation.verdict import cell_class
 
     cls = cell_class(row)
     outcome = row.get("outcome") or "-"
@@ -81,8 +81,8 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     tolerance of theta_s; it shows the differences and the Jellett drift, and (as a tooltip and
     in the list below the table) why it departs.
     """
-    from tippetop.compare.crossval import THETA_S_TOL, TOLERANCES
-    from tippetop.compare.nightly.verdict import agreement_counts, cell_class, mode_order
+    from tippetop.compare.analysis.crossval import THETA_S_TOL, TOLERANCES
+    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
 
     rows = results.get("crossval") or []
     head = "<section id='verdict'><h2>Does each engine agree with the theory?</h2>"

@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from tippetop.compare.bench import EQUAL_ACCURACY_RAD, bench_ode
+from tippetop.compare.analysis.bench import EQUAL_ACCURACY_RAD, bench_ode
 from tippetop.compare.cli import main
 from tippetop.reference_ode.peers import NUMBALSODA_METHODS, NUMBALSODA_MISSING
 

@@ -19,12 +19,11 @@ import pandas as pd
 import pytest
 
 from tests.conftest import run_scene_ode
-from tippetop.compare.calibrate import (
+from tippetop.compare.analysis.calibrate import (
     W_T,
     Candidate,
     Evaluator,
     SceneSpec,
-    add_calibrate_parser,
     grid_candidates,
     mujoco_defaults,
     mujoco_defaults_label,
@@ -34,9 +33,10 @@ from tippetop.compare.calibrate import (
     residual,
     timestep_check,
 )
-from tippetop.compare.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
-from tippetop.compare.engines import run_engine
-from tippetop.compare.runner import TaskResult
+from tippetop.compare.analysis.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
+from tippetop.compare.commands.calibrate import add_parser as add_calibrate_parser
+from tippetop.compare.running.engines import run_engine
+from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import (
     CALIBRATION_FILE,
     CALIBRATION_MU,
@@ -214,8 +214,8 @@ def test_mujoco_defaults_are_what_mujoco_says() -> None:
 
 
 def test_the_old_name_is_read_from_mujoco_too() -> None:
-    import tippetop.compare.calibrate as cal
-    from tippetop.compare.calibrate import scoring
+    import tippetop.compare.analysis.calibrate as cal
+    from tippetop.compare.analysis.calibrate import scoring
 
     assert cal.MUJOCO_DEFAULTS == scoring.MUJOCO_DEFAULTS == mujoco_defaults()
 

@@ -188,3 +188,24 @@ def test_paper_law_step_too_long_is_refused(tmp_path: Path) -> None:
     assert r.returncode == 2 and r.stdout == "" and not out.exists()
     assert r.stderr.strip().count("\n") == 0
     assert "mujoco.timestep_s: expected at most 0.00254 s" in r.stderr
+
+
+def test_every_command_is_one_module_with_the_same_two_entry_points() -> None:
+    """A module per command in tippetop.compare.commands, with add_parser(sub) and
+    run(args) -> int; cli lists every one of them, in the order of --help."""
+    import argparse
+    import inspect
+    import pkgutil
+
+    from tippetop.compare import cli, commands
+
+    names = sorted(m.name for m in pkgutil.iter_modules(commands.__path__) if m.name != "options")
+    assert sorted(c.__name__.rpartition(".")[2] for c in cli.COMMANDS) == names
+    for command in cli.COMMANDS:
+        assert list(inspect.signature(command.add_parser).parameters) == ["sub"], command
+        assert list(inspect.signature(command.run).parameters) == ["args"], command
+        parser = argparse.ArgumentParser()
+        sub = parser.add_subparsers(dest="command")
+        assert command.add_parser(sub) is None
+        name = command.__name__.rpartition(".")[2]
+        assert sub.choices[name].get_default("func") is command.run

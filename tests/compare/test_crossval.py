@@ -8,13 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare.crossval import (
+from tippetop.compare.analysis.crossval import (
     THETA_S_TOL,
     compare_scene,
     crossval_row,
     friction_law_table,
 )
-from tippetop.compare.metrics import classify_outcome, theta_trend
+from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
 from tippetop.models.errors import TippetopError
 
 SUMMARY_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for, run_engine, run_plan
+from tippetop.compare.running.engines import plan_for, run_engine, run_plan
 from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.models.scene import load_scene
@@ -140,7 +140,7 @@ def test_inversion_time_is_a_crossing_from_below() -> None:
     pi/2 upward. A start above pi/2 is not an inversion at t = 0."""
     import pandas as pd
 
-    from tippetop.compare.metrics import first_inversion_time
+    from tippetop.compare.analysis.metrics import first_inversion_time
 
     t = np.arange(5) * 0.1
     assert first_inversion_time(pd.DataFrame({"t": t, "theta": [0.1, 1.0, 1.6, 2.0, 3.0]})) \

@@ -22,9 +22,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare import cli, nightly
-from tippetop.compare.io import lock_path, locked_output_dir
-from tippetop.compare.runner import ResultCache, Task, TaskResult, run_tasks
+from tippetop.compare import cli
+from tippetop.compare.commands import nightly as nightly_command
+from tippetop.compare.running.io import lock_path, locked_output_dir
+from tippetop.compare.running.runner import ResultCache, Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 
 TINY = """
@@ -47,7 +48,7 @@ def run_nightly(*args: str) -> tuple[int, str, str]:
     """``tippetop nightly ARGS`` in this process: (exit status, stdout, stderr)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = nightly.main(list(args))
+        code = nightly_command.main(list(args))
     return code, out.getvalue(), err.getvalue()
 
 
@@ -73,7 +74,7 @@ def _hold_lock(out: Path) -> subprocess.Popen[str]:
     holder = subprocess.Popen(
         [sys.executable, "-c", textwrap.dedent(f"""
             import sys
-            from tippetop.compare.io import locked_output_dir
+            from tippetop.compare.running.io import locked_output_dir
             with locked_output_dir({str(out)!r}):
                 print("locked", flush=True)
                 sys.stdin.read()
@@ -192,18 +193,18 @@ def _fails_and_keeps(good: Path, capsys: pytest.CaptureFixture[str], says: str) 
 def test_disk_full_midway_keeps_the_old_video_and_exits_1(
         good_video: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import mp4
 
-    real_write = video._Mp4Writer.write
+    real_write = mp4.Mp4Writer.write
     written = []
 
-    def write(self: video._Mp4Writer, rgb: np.ndarray) -> None:
+    def write(self: mp4.Mp4Writer, rgb: np.ndarray) -> None:
         if len(written) == 2:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         written.append(1)
         real_write(self, rgb)
 
-    monkeypatch.setattr(video._Mp4Writer, "write", write)
+    monkeypatch.setattr(mp4.Mp4Writer, "write", write)
     _fails_and_keeps(good_video, capsys, "No space left on device")
 
 

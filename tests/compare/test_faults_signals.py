@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.leftovers import clean_cache_leftovers, clean_leftovers
+from tippetop.compare.running.leftovers import clean_cache_leftovers, clean_leftovers
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import (
     MUJOCO_MAX_STEPS,
@@ -233,6 +233,13 @@ def test_more_mujoco_steps_than_its_counter_holds_are_refused(tmp_path: Path) ->
 
 # ---------------------------------------------------------------- leftovers
 def test_leftovers_of_a_killed_run_are_cleaned(tmp_path: Path) -> None:
+    """Outputs are written atomically (``io.write_atomic`` writes a hidden
+    ``.<name>.<random>.tmp`` beside the file, then renames it into place;
+    ``io.staged_output_dir`` fills a hidden ``.<folder>.<random>`` sibling, then moves it). A
+    run killed by SIGKILL cannot remove those, so the next run does: ``running.leftovers``
+    removes such temporary files and *empty* staging folders once they are older than an age
+    that no live write takes (a run writing at the same time keeps its own). Only names of
+    exactly those shapes are touched; a completed file never is."""
     old = time.time() - 7200
     keep = [tmp_path / "table.parquet", tmp_path / ".out.tippetop.lock",
             tmp_path / ".table.parquet.abcd1234.tmp.done"]
@@ -259,8 +266,8 @@ def test_leftovers_of_a_killed_run_are_cleaned(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- how long
 def test_a_long_run_says_how_long_first_on_stderr_only(tmp_path: Path) -> None:
-    from tippetop.compare.cost_note import long_run_note
-    from tippetop.compare.engines import plan_for
+    from tippetop.compare.running.cost import long_run_note
+    from tippetop.compare.running.engines import plan_for
     from tippetop.models.scene import load_scene
 
     assert long_run_note([plan_for(load_scene("fig3", []), "mujoco")]) is None  # 8 s: quiet

@@ -1,4 +1,5 @@
-"""Thresholds from growth rates (:mod:`tippetop.compare.growth`) against the paper's closed forms.
+"""Thresholds from growth rates (:mod:`tippetop.compare.analysis.growth`) against the paper's
+closed forms.
 
 The theory's n1 (eq. zeroStability4), n3/n4 (piStability4, critical1) and n_c (Sec. 4.3) are
 closed-form; the growth-rate method measures them in an engine's own dynamics from 2-s runs
@@ -17,9 +18,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare import theory
-from tippetop.compare.growth import growth_fit, jellett_pi_to_zero, measure_growth
-from tippetop.compare.threshold import measure_threshold
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.growth import growth_fit, jellett_pi_to_zero, measure_growth
+from tippetop.compare.analysis.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 

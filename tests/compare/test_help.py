@@ -15,15 +15,17 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tippetop.compare import commands
 from tippetop.compare.cli import build_parser
-from tippetop.compare.common_args import (
+from tippetop.compare.commands.compare import print_compare
+from tippetop.compare.commands.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_RUN_FAILED,
     EXIT_STATUSES,
 )
+from tippetop.compare.commands.sweep import print_sweep
+from tippetop.compare.commands.threshold import print_threshold
 from tippetop.models.modes import MODES
 from tippetop.models.scene import catalogue_names
 
@@ -189,7 +191,7 @@ def _compare_result() -> dict:
 
 def test_compare_names_the_tolerance_each_difference_broke(
         capsys: pytest.CaptureFixture) -> None:
-    commands.print_compare(_compare_result())
+    print_compare(_compare_result())
     out = capsys.readouterr().out
     _assert_readable(out)
     flat = " ".join(out.split())
@@ -203,14 +205,14 @@ def test_compare_names_the_tolerance_each_difference_broke(
 
 
 def test_compare_output_copes_with_missing_keys(capsys: pytest.CaptureFixture) -> None:
-    commands.print_compare({"modes": {"ode": {}}, "differences": [{"metric": "theta_asymp"}]})
+    print_compare({"modes": {"ode": {}}, "differences": [{"metric": "theta_asymp"}]})
     out = capsys.readouterr().out
     assert "None" not in out and "theta_asymp" in out
 
 
 def test_threshold_prints_units_a_percentage_and_the_horizon_check(
         capsys: pytest.CaptureFixture) -> None:
-    commands.print_threshold({
+    print_threshold({
         "which": "n1", "engine": "ode", "scene": "fig11_n060", "measured": 34.63857,
         "theory": 34.352341016782724, "rel_diff": 0.0083333, "bracket": [34.35234, 34.92488],
         "runs": [{}] * 8, "n_runs": 8, "horizon_s": 60.0, "bracket_converged": True,
@@ -226,7 +228,7 @@ def test_threshold_prints_units_a_percentage_and_the_horizon_check(
 
 
 def test_threshold_by_growth_rates_says_so(capsys: pytest.CaptureFixture) -> None:
-    commands.print_threshold({
+    print_threshold({
         "which": "nc", "engine": "ode", "scene": "fig6", "method": "growth",
         "measured": 54.3431234, "theory": 54.341, "rel_diff": 3.81e-5,
         "bracket": [54.3431, 54.87], "runs": [{}] * 16, "n_runs": 16, "horizon_s": 2.0,
@@ -244,7 +246,7 @@ def test_sweep_prints_theta_s_beside_each_point(capsys: pytest.CaptureFixture) -
                           "t_invert": [None, 3.2], "J_rel_drift": [1e-9, math.nan],
                           "status": ["ok", "ok"], "cached": [True, False]})
     theory = pd.DataFrame({"n0": [40.0, 60.0], "theta_s": [0.0, 1.5]})
-    commands.print_sweep({"scene": "s", "table": table, "theory": theory})
+    print_sweep({"scene": "s", "table": table, "theory": theory})
     out = capsys.readouterr().out
     assert "None" not in out and not _LONG_FLOAT.search(out)
     assert re.search(r"ode\s+60 rad/s\s+1\.453 rad\s+1\.5 rad", out)

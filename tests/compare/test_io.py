@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.io import check_output_dir, staged_output_dir
+from tippetop.compare.running.io import check_output_dir, staged_output_dir
 from tippetop.models.errors import TippetopError
 
 

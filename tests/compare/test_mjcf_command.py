@@ -23,7 +23,7 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.cli import main
-from tippetop.compare.mjcf_command import KEYFRAME, model_differences
+from tippetop.compare.running.mjcf_export import KEYFRAME, model_differences
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: fig3 in MuJoCo's native friction, over a short run (0.5 s, 2500 RK4 steps).
@@ -106,7 +106,8 @@ def test_the_files_options_and_contact_are_what_ran(native: dict) -> None:
 
 
 def test_mujocos_own_xml_writer_would_not_do(native: dict) -> None:
-    """Why the file is written with repr(): MuJoCo's writer rounds to 6 digits, and the run
+    """Why the file is written with repr(), which parses back to the same double: MuJoCo's own
+    XML writer (``MjSpec.to_xml``/``mj_saveLastXML``) prints 6 significant digits, and the run
     departs by far more than THETA_TOL from that file (the test above can fail)."""
     spec = mujoco.MjSpec.from_file(str(native["xml"]))
     spec.compile()

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare import nightly
+from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.nightly import (
     TOLERANCES,
     Tolerance,
@@ -103,7 +104,7 @@ def run_nightly(*args: str) -> tuple[int, str, str]:
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
-            code = nightly.main(list(args))
+            code = nightly_command.main(list(args))
         except SystemExit as exc:  # an option refused by the parser (--scheduler's port)
             code = int(exc.code or 0)
     return code, out.getvalue(), err.getvalue()

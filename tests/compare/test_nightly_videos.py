@@ -16,9 +16,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tippetop.compare import render
 from tippetop.compare.nightly import videos
 from tippetop.compare.nightly.catalogue import Case, load_catalogue
+from tippetop.compare.presentation import video as render
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, catalogue_names, load_scene
 from tippetop.mujoco_runner import gl

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import plan_for, run_plan
+from tippetop.compare.running.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 

@@ -24,8 +24,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from tippetop.compare import cli, render
-from tippetop.compare.engines import run_engine
+from tippetop.compare import cli
+from tippetop.compare.commands import render as render_command
+from tippetop.compare.presentation import video as render
+from tippetop.compare.running.engines import run_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.scene import load_scene
@@ -33,7 +35,8 @@ from tippetop.mujoco_runner import gl
 from tippetop.mujoco_runner.model import TopModel, TopModelWarning
 
 if TYPE_CHECKING:
-    from tippetop.mujoco_runner.video import InsetLayout, Track
+    from tippetop.mujoco_runner.inset import InsetLayout
+    from tippetop.mujoco_runner.poses import Track
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT = ("run.t_end_s=0.5", "mujoco.timestep_s=1e-4")
@@ -89,7 +92,7 @@ def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Pa
 
 
 def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
-    from tippetop.mujoco_runner.video import inset_layout
+    from tippetop.mujoco_runner.inset import inset_layout
 
     frames = _frames(videos["both"])
     assert frames.shape == (N_FRAMES, H, 2 * W, 3)
@@ -108,7 +111,7 @@ def test_both_is_two_panels_on_one_time_base(videos: dict[str, Path]) -> None:
 def test_both_has_the_comparison_inset_and_nothing_else_added(
         videos: dict[str, Path]) -> None:
     """The left panel of ``both`` is the MuJoCo-only video, but for the inset's box."""
-    from tippetop.mujoco_runner.video import inset_layout
+    from tippetop.mujoco_runner.inset import inset_layout
 
     both = _frames(videos["both"])[:, :, :W].astype(int)
     alone = _frames(videos["mujoco"]).astype(int)
@@ -121,11 +124,11 @@ def test_both_has_the_comparison_inset_and_nothing_else_added(
 
 def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     """Replay the engine's table; the drawn body must sit where the table's pose says."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model, poses, video
 
     table = run_engine(scene, engine, progress=False).table
-    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
-    track = video.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
+    top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
+    track = poses.Track.from_table(table, top_model, label=engine, paper_frame=paper_frame)
     times = video.frame_times(N_FRAMES, FPS, SPEED)
     samples = track.at(times)
     data = mujoco.MjData(top_model.model)
@@ -134,7 +137,7 @@ def _pose_check(scene, engine: str, paper_frame: bool) -> None:
     for k in (0, 3, 7, 10):  # frame times on the table's 1 ms grid
         row = table.iloc[int(np.argmin(np.abs(table["t"].to_numpy() - times[k])))]
         assert abs(row["t"] - times[k]) < 1e-12
-        video.set_pose(top_model, data, samples[k].qpos)
+        poses.set_pose(top_model, data, samples[k].qpos)
         q = np.array(row[["qw", "qx", "qy", "qz"]], dtype=float)
         q = q / np.linalg.norm(q)
         rot = quat_to_mat(q)
@@ -180,12 +183,12 @@ def test_ode_replay_in_an_mjcf_whose_body_frame_is_not_the_papers(tmp_path: Path
 
 
 def test_interpolation_between_samples_is_on_the_way() -> None:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model, poses
 
     scene = load_scene("fig3", list(SHORT))
     table = run_engine(scene, "ode", progress=False).table
-    top_model = video.render_model(scene.top, scene.top_mjcf, W, H)
-    track = video.Track.from_table(table, top_model, label="ode", paper_frame=True)
+    top_model = drawn_model.render_model(scene.top, scene.top_mjcf, W, H)
+    track = poses.Track.from_table(table, top_model, label="ode", paper_frame=True)
     t0, t1 = table["t"].iloc[100], table["t"].iloc[101]
     a, mid, b = track.at([t0, 0.5 * (t0 + t1), t1])
     # one 1 ms sample interval turns the top by ~0.1 rad: the midpoint is halfway (slerp)
@@ -202,7 +205,7 @@ def _synthetic_track(top_model: TopModel, label: str,
                      theta_of_t: Callable[[np.ndarray], np.ndarray],
                      t_end_s: float = 1.0) -> Track:
     """A track whose axis tilts about x by theta(t), the ball's centre fixed at (0, 0, R)."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import poses
 
     t = np.linspace(0.0, t_end_s, 101)
     theta = theta_of_t(t)
@@ -210,7 +213,7 @@ def _synthetic_track(top_model: TopModel, label: str,
     quat = np.stack([np.cos(theta / 2), np.sin(theta / 2), zero, zero], axis=1)
     k = np.stack([zero, -np.sin(theta), np.cos(theta)], axis=1)  # R_x(theta) e_z
     com = np.array([0.0, 0.0, top_model.top.R_m]) - top_model.top.a_m * k
-    return video.Track(label=label, t_s=t, com_m=com, quat=quat, theta=theta,
+    return poses.Track(label=label, t_s=t, com_m=com, quat=quat, theta=theta,
                        n=np.full_like(t, 100.0), top_model=top_model)
 
 
@@ -220,9 +223,9 @@ def _ramp(t: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def inset_tracks() -> dict[str, Track]:
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import drawn_model
 
-    top_model = video.render_model(load_scene("fig3").top, None, 320, 240)
+    top_model = drawn_model.render_model(load_scene("fig3").top, None, 320, 240)
     return {"mujoco": _synthetic_track(top_model, "MuJoCo", _ramp),
             "same": _synthetic_track(top_model, "reference ODE", _ramp),
             "off": _synthetic_track(top_model, "reference ODE", lambda t: _ramp(t) - 0.5)}
@@ -230,9 +233,9 @@ def inset_tracks() -> dict[str, Track]:
 
 def _draw_inset(first: Track, second: Track, t: float) -> tuple[np.ndarray, InsetLayout]:
     """The inset of (first, second) at time t on a flat grey 2 x 320 x 240 frame."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.inset import ThetaInset
 
-    inset = video.ThetaInset([first, second], 1.0, 320, 240)
+    inset = ThetaInset([first, second], 1.0, 320, 240)
     frame = np.full((240, 640, 3), 128, dtype=np.uint8)
     inset.draw(frame, [first.at([t])[0], second.at([t])[0]])
     return frame, inset.layout
@@ -256,7 +259,7 @@ def test_inset_readout_changes_with_delta_theta_only(inset_tracks: dict[str, Tra
 
 def test_inset_traces_both_engines_up_to_the_frame_time_only(
         inset_tracks: dict[str, Track]) -> None:
-    from tippetop.mujoco_runner.video import TRACE_RGB
+    from tippetop.mujoco_runner.inset import TRACE_RGB
 
     for t in (0.25, 0.5, 1.0):
         frame, layout = _draw_inset(inset_tracks["mujoco"], inset_tracks["off"], t)
@@ -275,6 +278,7 @@ def test_inset_traces_both_engines_up_to_the_frame_time_only(
 def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
                                                          inset_tracks: dict[str, Track]) -> None:
     from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.inset import inset_layout
 
     tracks = [inset_tracks["mujoco"], inset_tracks["off"]]
     times = np.array([0.0, 0.5])
@@ -285,7 +289,7 @@ def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
 
     plain, with_inset = frames(tracks, False), frames(tracks, True)
     assert plain.shape == with_inset.shape == (2, 240, 640, 3)
-    x0, y0, x1, y1 = video.inset_layout(320, 240).box
+    x0, y0, x1, y1 = inset_layout(320, 240).box
     inside = np.zeros(plain.shape[1:3], bool)
     inside[y0:y1, x0:x1] = True
     assert np.array_equal(plain[:, ~inside], with_inset[:, ~inside])
@@ -297,14 +301,14 @@ def test_inset_is_drawn_into_the_frames_of_two_tracks_only(backend: str,
 def test_the_stem_of_a_turned_over_top_shows(backend: str, inset_tracks: dict[str, Track]) -> None:
     """theta = pi - 0.05: the drawn stem (1.55 R) points into the table; the camera is low and
     the table translucent, so it shows below the ball (and the marker with it)."""
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import offscreen, poses
 
     top_model = inset_tracks["mujoco"].top_model
     track = _synthetic_track(top_model, "x", lambda t: np.full_like(t, np.pi - 0.05))
     data = mujoco.MjData(top_model.model)
-    video.set_pose(top_model, data, track.at([0.0])[0].qpos)
-    camera = video.tracking_camera(top_model)
-    with video.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
+    poses.set_pose(top_model, data, track.at([0.0])[0].qpos)
+    camera = offscreen.tracking_camera(top_model)
+    with offscreen.OffscreenRenderer(top_model.model, 320, 240, backend) as renderer:
         shown = renderer.render(data, camera).astype(int)
         renderer._option.geomgroup[1] = 0  # the stem and the marker are visual, group 1
         hidden = renderer.render(data, camera).astype(int)
@@ -319,7 +323,7 @@ def _main(argv: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     if "render" not in sub.choices:
-        render.add_render_parser(sub)
+        render_command.add_parser(sub)
     monkeypatch.setattr(cli, "build_parser", lambda: parser)
     return cli.main(argv)
 
@@ -390,7 +394,9 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 
 # ---------------------------------------------------------------- OpenGL only when asked
 _GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
-               "tippetop.mujoco_runner.video", "imageio", "imageio_ffmpeg", "PIL")
+               "tippetop.mujoco_runner.video", "tippetop.mujoco_runner.offscreen",
+               "tippetop.mujoco_runner.overlay", "tippetop.mujoco_runner.inset",
+               "tippetop.mujoco_runner.mp4", "imageio", "imageio_ffmpeg", "PIL")
 
 
 def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
@@ -406,12 +412,12 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     code = textwrap.dedent(f"""
         import argparse, os, sys
         import tippetop.compare.cli, tippetop.reference_ode.solve, tippetop.mujoco_runner.run
-        import tippetop.compare.render
+        import tippetop.compare.commands.render, tippetop.compare.presentation.video
         from tippetop.compare import cli
         parser = cli.build_parser()
         sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         if "render" not in sub.choices:
-            tippetop.compare.render.add_render_parser(sub)
+            tippetop.compare.commands.render.add_parser(sub)
         cli.build_parser = lambda: parser
         assert cli.main(["simulate", "fig3", "--engine", "mujoco", "--set",
                          "run.t_end_s=0.01", "--json"]) == 0

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tippetop.compare import nightly
+from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.report import build_report, friction_note
 
 TINY = """
@@ -94,7 +94,7 @@ def nightly_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(out), \
             contextlib.redirect_stderr(err):
         mp.setenv("TIPPETOP_CACHE", str(root / "cache"))
-        code = nightly.main(["--catalogue", str(root / "tiny.toml"), "--profile", "tiny",
+        code = nightly_command.main(["--catalogue", str(root / "tiny.toml"), "--profile", "tiny",
                              "--baseline", str(root / "baselines"), "--update-baseline",
                              "--out", str(root / "out"), "--workers", "1"])
     assert code == 0, out.getvalue() + err.getvalue()

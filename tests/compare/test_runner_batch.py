@@ -2,7 +2,7 @@
 
 A sweep's MuJoCo runs go through :func:`tippetop.mujoco_runner.batch.iter_simulate_plans` in
 the main process; their summaries and tables must be those of single runs
-(:func:`tippetop.compare.runner.execute`), compared with ``==`` (the batch steps the same
+(:func:`tippetop.compare.running.runner.execute`), compared with ``==`` (the batch steps the same
 floating-point operations; see tests/mujoco_runner/test_batch.py). Only the wall time differs,
 and the run's one line that quotes it.
 """
@@ -18,9 +18,9 @@ from typing import Any
 import pandas as pd
 import pytest
 
-from tippetop.compare import runner
-from tippetop.compare.runner import ResultCache, Task, execute, run_tasks, task_key
-from tippetop.compare.terminal import expected_cost_s
+from tippetop.compare.running import runner
+from tippetop.compare.running.cost import expected_cost_s
+from tippetop.compare.running.runner import ResultCache, Task, execute, run_tasks, task_key
 
 pytestmark = pytest.mark.skipif(find_spec("mujoco.batch") is None,
                                 reason="this MuJoCo has no mujoco.batch")
@@ -142,7 +142,7 @@ def test_mujoco_runs_start_no_worker_process(tmp_path: Path, monkeypatch) -> Non
     def no_pool(n: int):
         raise AssertionError("a worker pool was started for MuJoCo runs")
 
-    monkeypatch.setattr(runner, "_local_pool", no_pool)
+    monkeypatch.setattr(runner, "local_pool", no_pool)
     results = run_tasks(_sweep_tasks()[:4], workers=2, cache_dir=tmp_path)
     assert all(r.error is None and r.summary["status"] == "ok" for r in results)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tippetop.compare.engines import run_engine
+from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 
 T_END = 3.5  # s: 0.8 s past the first stem contact

@@ -1,4 +1,11 @@
-"""What a person reads: values with units, and a progress bar weighted by each run's cost."""
+"""What a person reads: values with units, and a progress bar weighted by each run's cost.
+
+``fmt`` turns one value into text: ``None`` is ``-``, NaN is ``undefined (NaN)``, a float has
+four significant digits (a relative drift two, in scientific notation), an integer has
+thousands separators, a boolean is ``yes`` or ``no``; ``fmt_value`` adds the unit that a key's
+name implies (``t_invert`` -> s, ``theta_*`` -> rad, ``*_J`` -> J, ``rel_diff`` -> %).
+``table`` lines up rows of text in columns, numbers right-aligned.
+"""
 
 from __future__ import annotations
 
@@ -7,18 +14,17 @@ import math
 
 import pytest
 
-from tippetop.compare.terminal import (
+from tippetop.compare.presentation.terminal import (
     MISSING,
-    WorkProgress,
-    expected_cost_s,
     fmt,
     fmt_duration,
     fmt_percent,
     fmt_value,
-    schedule_s,
     table,
     unit_of,
 )
+from tippetop.compare.running.cost import expected_cost_s, schedule_s
+from tippetop.compare.running.progress import WorkProgress
 
 
 # ---------------------------------------------------------------- values
@@ -102,7 +108,7 @@ def test_a_mujoco_run_weighs_far_more_than_an_ode_run_of_the_same_scene() -> Non
     """The weights come from the plans: MuJoCo's steps (t_end / timestep) times a per-step
     cost; the reference ODE a little per simulated second. Fig. 3 over 8 s: paper mode runs
     400,000 steps at 2e-5 s, native mode 40,000 at 2e-4 s (the calibrated timestep)."""
-    from tippetop.compare.engines import plan_for
+    from tippetop.compare.running.engines import plan_for
     from tippetop.models.scene import load_scene
 
     scene = load_scene("fig3")
@@ -204,7 +210,7 @@ def test_the_bar_is_drawn_on_a_terminal_only() -> None:
 
 
 def test_run_tasks_is_quiet_when_stderr_is_not_a_terminal(capsys: pytest.CaptureFixture) -> None:
-    from tippetop.compare.runner import Task, run_tasks
+    from tippetop.compare.running.runner import Task, run_tasks
 
     res = run_tasks([Task("fig3", ("run.t_end_s=0.05",), "ode")], workers=1, use_cache=False)
     assert res[0].error is None
@@ -214,7 +220,7 @@ def test_run_tasks_is_quiet_when_stderr_is_not_a_terminal(capsys: pytest.Capture
 def test_a_mujoco_run_reports_how_far_it_got() -> None:
     """In a worker (here in-process) a MuJoCo run says the fraction of its simulated time done,
     under its key, the last report at the end (the bar's share of that run)."""
-    from tippetop.compare import runner
+    from tippetop.compare.running import runner
 
     seen: list[tuple[str, float]] = []
     before = runner._REPORTER

@@ -1,4 +1,5 @@
-"""compare.theory against the paper's printed numbers, and against its own consistency relations.
+"""compare.analysis.theory against the paper's printed numbers, and against its own consistency
+relations.
 
 Printed numbers are checked to half a unit of their last printed digit (n1 = 34.4 -> 0.05).
 """
@@ -11,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from tippetop.compare import theory as th
+from tippetop.compare.analysis import theory as th
 from tippetop.models.params import TopParams
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare import theory
+from tippetop.compare.analysis import theory
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import SCHEMA, catalogue_names, load_scene, parse_override
 

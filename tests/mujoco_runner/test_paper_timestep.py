@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.engines import plan_for, run_plan
+from tippetop.compare.running.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import FrictionParams, TopParams
 from tippetop.models.resolve import paper_max_timestep

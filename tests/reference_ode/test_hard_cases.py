@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tippetop.compare import theory
-from tippetop.compare.metrics import (
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.metrics import (
     classify_outcome,
     energy_monotone,
     jellett_drift,

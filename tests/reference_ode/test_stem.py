@@ -134,7 +134,7 @@ def test_a_flat_end_takes_the_top_onto_its_rim() -> None:
     the end and stays on it, the ball off the table (its last phase is the stem's)."""
     from pathlib import Path
 
-    from tippetop.compare.engines import plan_for
+    from tippetop.compare.running.engines import plan_for
 
     file = Path(__file__).resolve().parents[1] / "data" / "tutorial_tippe_top.xml"
     plan = plan_for(load_scene(None, [f"top.mjcf={str(file)!r}", "run.t_end_s=6"]), "ode")

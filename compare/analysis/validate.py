@@ -1,0 +1,392 @@
+"""The work of ``tippetop validate``: one MJCF top against the theory and the reference.
+
+Four runs of the file's top, the checks, the findings and the settings to paste
+(:func:`validate`; docs/design.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.analysis import theory
+from tippetop.compare.analysis.crossval import predicted_outcome
+from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
+from tippetop.compare.analysis.metrics import classify_outcome
+from tippetop.compare.running.engines import describe_ran
+from tippetop.compare.running.runner import Task, run_tasks
+from tippetop.models.calibrated import CALIBRATION_MU
+from tippetop.models.errors import TippetopError, expect
+
+#: The runs of a validation, in report order: the file as it says first.
+MODES: tuple[str, ...] = ("mujoco-file", "ode", "mujoco-paper", "mujoco-native")
+MUJOCO_MODES: tuple[str, ...] = ("mujoco-file", "mujoco-paper", "mujoco-native")
+#: An event time (inversion, first stem contact) agrees with the reference's within the larger
+#: of this (s) ...
+EVENT_TOL_S = 0.1
+#: ... and this fraction of the reference's time: a run's event time is as sensitive to the
+#: contact model as 10 % of a slow rise (the calibrated native settings reach it on the
+#: paper's tops, README).
+EVENT_RTOL = 0.1
+#: Jellett's constant before the stem's first contact: conserved by any force through the
+#: contact point (the paper's eq. 2.10). A drift above this means a torque that is not (a
+#: soft contact's shifted point, torsional or rolling friction).
+J_TOL = {"ode": 1e-6, "mujoco": 1e-3}
+#: MuJoCo's energy E (the rigid body's) may rise by the elastic energy its soft contacts hold
+#: and give back as they spring out, at most the normal force times the depth (the run's
+#: ``contact_energy_bound_J``; measured rises are 2-10x below it on the examples), plus this
+#: fraction of E0 for the integration itself; a diverging step rises far more.
+ENERGY_RISE_FLOOR = 1e-6
+
+
+@dataclass(frozen=True)
+class ValidateConfig:
+    """What ``tippetop validate`` was asked for.
+
+    Attributes:
+        model: The MJCF file.
+        t_end_s: Simulated time of every run (s).
+        keyframe: The file's keyframe to start from (None: its first).
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes (None: all cores).
+        use_cache: Read and write the runs cache.
+    """
+
+    model: Path
+    t_end_s: float = DEFAULT_T_END_S
+    keyframe: str | None = None
+    scheduler: str | None = None
+    workers: int | None = None
+    use_cache: bool = True
+
+
+def _overrides(config: ValidateConfig) -> tuple[str, ...]:
+    over = [f"top.mjcf={str(config.model)!r}", f"run.t_end_s={config.t_end_s!r}"]
+    if config.keyframe is not None:
+        over.append(f"init.keyframe={config.keyframe!r}")
+    return tuple(over)
+
+
+def _end_state(summary: dict[str, Any], outcome: str) -> str:
+    phases = summary.get("phases") or []
+    if phases and phases[-1]["contact"] in ("stem", "both"):
+        return "on its stem" if phases[-1]["contact"] == "stem" else "on ball and stem"
+    return outcome
+
+
+def _check(check: str, mode: str, passed: bool | None, value: Any, tolerance: str,
+           note: str) -> dict[str, Any]:
+    return {"check": check, "mode": mode, "passed": passed, "value": value,
+            "tolerance": tolerance, "note": note}
+
+
+def _event_check(name: str, mode: str, mine: float | None, ref: float | None,
+                 what: str) -> dict[str, Any]:
+    tol = max(EVENT_TOL_S, EVENT_RTOL * ref) if ref is not None else EVENT_TOL_S
+    text = f"|dt| <= max({EVENT_TOL_S:g} s, {100 * EVENT_RTOL:g} % of the reference's)"
+    if mine is None and ref is None:
+        return _check(name, mode, True, None, text, f"neither {what}")
+    if mine is None or ref is None:
+        who = "the reference only" if mine is None else "this run only"
+        return _check(name, mode, False, None, text, f"{what}: {who}")
+    d = mine - ref
+    return _check(name, mode, abs(d) <= tol, d, text,
+                  f"{what} at {mine:.3f} s, the reference at {ref:.3f} s")
+
+
+def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str) -> list[dict[str, Any]]:
+    """One check per (check, mode): the run's outcome, events, Jellett, energy."""
+    out: list[dict[str, Any]] = []
+    ref = runs.get("ode", {})
+    for mode, r in runs.items():
+        s = r
+        if r.get("error") or s.get("theta_final") is None:
+            out.append(_check("completed", mode, False, s.get("status", "error"), "ok",
+                              r.get("error") or s.get("message", "")))
+            continue
+        end = r["end_state"]
+        turned = s.get("t_stem") is not None or r["outcome"] == "inverted"
+        passed = (turned if theory_outcome == "inverted" else r["outcome"] == theory_outcome)
+        out.append(_check("outcome", mode, passed, end, f"the theory's: {theory_outcome}",
+                          "a top that reaches its stem counts as turned over"))
+        if mode != "ode" and ref.get("theta_final") is not None:
+            rs = ref
+            out.append(_event_check("t_invert", mode, s.get("t_invert"), rs.get("t_invert"),
+                                    "turns over (theta = pi/2)"))
+            if s.get("t_stem") is not None or rs.get("t_stem") is not None:
+                out.append(_event_check("t_stem", mode, s.get("t_stem"), rs.get("t_stem"),
+                                        "the stem touches"))
+        j = s.get("J_rel_drift")
+        tol = J_TOL["ode" if mode == "ode" else "mujoco"]
+        out.append(_check("jellett_before_stem", mode, j is not None and j <= tol, j,
+                          f"<= {tol:g}", "relative drift of Jellett's constant while the "
+                          "ball alone touches"))
+        rise = s.get("energy_rise_rel")
+        if mode == "ode":
+            ok, tol_text = bool(s.get("energy_monotone")), "within the integration tolerance"
+        else:
+            held = (s.get("contact_energy_bound_J") or 0.0) / abs(r["E0_J"])
+            limit = held + ENERGY_RISE_FLOOR
+            ok = rise is not None and rise <= limit
+            tol_text = (f"<= {limit:.2g} of E0 (the elastic energy the soft contacts held: "
+                        f"force x depth)")
+        out.append(_check("energy_never_rises", mode, ok, rise, tol_text,
+                          "largest rise of E above its running minimum, as a fraction of E0: "
+                          "friction and inelastic impacts only take energy"))
+    return out
+
+
+def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]]) -> list[str]:
+    """What the file's own settings get wrong against the reference, with numbers."""
+    f, ref = runs.get("mujoco-file"), runs.get("ode")
+    if not f or not ref:
+        return []
+    fs, rs = f, ref
+    if fs.get("theta_final") is None:
+        return [f"the file's own settings fail: {fs.get('message', f.get('error'))}"]
+    if rs.get("theta_final") is None:
+        return [f"the reference run failed: {rs.get('message', ref.get('error'))}"]
+    out = []
+    for key, what in (("t_invert", "turns the top over"), ("t_stem", "brings the stem down")):
+        a, b = fs.get(key), rs.get(key)
+        if a is not None and b is not None and abs(a - b) > max(EVENT_TOL_S, EVENT_RTOL * b):
+            later = "later" if a > b else "earlier"
+            out.append(f"its friction {what} {abs(a - b):.2f} s {later} than the reference "
+                       f"({a:.2f} s against {b:.2f} s)")
+        elif (a is None) != (b is None):
+            who = "the reference" if a is None else "the file"
+            out.append(f"only {who} {what} within the run")
+    if f["end_state"] != ref["end_state"]:
+        out.append(f"it ends {f['end_state']} (theta {fs['theta_final']:.2f} rad) where the "
+                   f"reference ends {ref['end_state']} (theta {rs['theta_final']:.2f} rad)")
+    integ, dt = fs.get("integrator"), fs.get("timestep_s")
+    step = f"its {integ} at dt = {dt:g} s" if integ and dt else "its integrator"
+    j = fs.get("J_rel_drift")
+    if j is not None and j > J_TOL["mujoco"]:
+        causes = ["a soft contact's sink"]
+        if (fs.get("condim") or 3) >= 4:
+            causes.append("torsional or rolling friction (condim "
+                          f"{fs.get('condim')})")
+        causes.append(f"the integration ({step}; RK4 or a shorter step tells)")
+        out.append(f"Jellett's constant drifts by {j:.1e} before the stem (a torque off the "
+                   f"contact point or an error: {', '.join(causes)})")
+    by_check = {c["check"]: c for c in checks if c["mode"] == "mujoco-file"}
+    energy = by_check.get("energy_never_rises")
+    if energy is not None and not energy["passed"] and energy["value"] is not None:
+        hint = (": Euler integrates a spinning body's gyroscopic forces explicitly, which gains "
+                "energy; use integrator=\"implicitfast\" or \"RK4\"" if integ == "Euler"
+                else "; a shorter timestep or RK4 tells whether the integration gains it")
+        out.append(f"its energy rises by {energy['value']:.2g} of E0, more than its soft "
+                   f"contacts can give back ({step}){hint}")
+    return out
+
+
+#: The settings ``suggestion`` lists where the file's run and the calibrated run differ.
+SETTINGS = ("timestep_s", "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu",
+            "solref", "solimp")
+
+
+def show_value(v: Any) -> str:
+    """A setting as the report and the terminal show it: ``0.02``, ``[0.02, 1]``, ``RK4``."""
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(f"{x:g}" for x in v) + "]"
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def setting_changes(file_run: dict[str, Any], native: dict[str, Any]) -> list[dict[str, Any]]:
+    """Where the calibrated settings differ from the file's, as both ran (read back)."""
+    out = []
+    for key in SETTINGS:
+        a, b = file_run.get(key), native.get(key)
+        if a is None or b is None:
+            continue
+        same = (a == b if isinstance(a, str) else
+                len(a) == len(b) and all(math.isclose(x, y, rel_tol=1e-9) for x, y in
+                                         zip(a, b, strict=True))
+                if isinstance(a, list | tuple) else math.isclose(a, b, rel_tol=1e-9))
+        if not same:
+            out.append({"setting": key, "file": a, "calibrated": b})
+    return out
+
+
+def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
+               file_run: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The calibrated native settings that ran, as MJCF to paste, and whether they agree.
+
+    Returns:
+        ``option`` and ``geom`` (MJCF text), ``where`` (which geoms take the attributes),
+        ``changes`` (list of {setting, file, calibrated} where they differ from the file's),
+        ``agrees`` (every check of the ``mujoco-native`` run passed), ``departs`` (the checks
+        it fails) and ``note`` (one sentence: a fix, or why the calibration does not fix it).
+        Empty if the native run failed before it ran.
+    """
+    s = native
+    if s.get("timestep_s") is None:
+        return {}
+
+    def nums(v: Any) -> str:
+        return " ".join(f"{x:g}" for x in v)
+
+    friction = [s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001]
+    mine = [c for c in checks if c["mode"] == "mujoco-native"]
+    departs = [c["check"] for c in mine if not c["passed"]]
+    agrees = bool(mine) and not departs
+    paper = [c for c in checks if c["mode"] == "mujoco-paper"]
+    paper_agrees = bool(paper) and all(c["passed"] for c in paper)
+    if agrees:
+        note = ("with these settings MuJoCo's own friction passes every check against the "
+                "theory and the reference: paste them into the file")
+    else:
+        note = (f"these settings do not fix it: with them MuJoCo still departs in "
+                f"{', '.join(departs)}. They were calibrated on the paper's tops at mu = "
+                f"{CALIBRATION_MU:g} and their friction scaled to the file's mu = "
+                f"{friction[0]:.3g}, which does not carry over to this top")
+        if paper_agrees:
+            note += ("; the paper's law in the same model (mujoco-paper, the harness's "
+                     "callback) does follow the reference")
+    return {
+        "option": (f'<option timestep="{s["timestep_s"]:g}" integrator="{s["integrator"]}" '
+                   f'cone="{s["cone"]}" impratio="{s["impratio"]:g}"/>'),
+        "geom": (f'condim="{s["condim"]}" friction="{nums(friction)}" '
+                 f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'),
+        "where": "on the ball's, the stem's and the table's geoms (MuJoCo mixes the two "
+                 "geoms' values of a contact), or on the file's contact pairs if it has any "
+                 "(they override the geoms')",
+        "changes": setting_changes(file_run, s) if file_run else [],
+        "agrees": agrees,
+        "departs": departs,
+        "note": note,
+    }
+
+
+def validate(config: ValidateConfig) -> dict[str, Any]:
+    """Validate one MJCF top (see the module docstring).
+
+    Returns:
+        ``model``, ``runs`` (mode -> the simulate summary's keys, ``t_invert``, ``t_stem`` and
+        ``status`` always among them, and ``outcome``, ``end_state``, ``ran`` (one line),
+        ``E0_J``, ``error`` (None, or why the run could not start), ``note`` (where the run
+        differs from the file's settings)),
+        ``verdict``, ``agrees`` (every check passed), ``findings``, ``suggestion``,
+        ``t_end_s`` and ``tables`` (mode -> observables, not JSON: the caller writes them).
+
+    Raises:
+        TippetopError: A missing or invalid file, or a bad ``t_end_s`` (before any run).
+    """
+    expect(config.model.is_file(), "MODEL", "an existing MJCF file", str(config.model))
+    expect(math.isfinite(config.t_end_s) and 0 < config.t_end_s <= 600, "--t-end-s",
+           "a number of seconds in (0, 600]", config.t_end_s)
+    over = _overrides(config)
+    plan = Task(None, over, "ode").plan()  # validates the file and the keyframe before any run
+    loaded = plan_file_info(over)
+    paper_dt, paper_note = paper_timestep(Task(None, over, "mujoco-paper").plan(),
+                                          loaded["timestep_s"])
+    tasks = [Task(None, over if mode != "mujoco-paper" or paper_dt is None
+                  else (*over, f"mujoco.timestep_s={paper_dt!r}"), mode) for mode in MODES]
+    results = run_tasks(tasks, scheduler=config.scheduler, workers=config.workers,
+                        use_cache=config.use_cache, label="validate")
+    top = plan.top
+    init = plan.init
+    J0 = (top.C_kgm2 * init.n0 * (top.R_m * math.cos(init.theta0) - top.a_m)
+          + top.A_kgm2 * init.Omega0 * top.R_m * math.sin(init.theta0) ** 2)
+    theta_pred, outcome_pred = predicted_outcome(top, J0)
+    th = theory.summary(top)
+    model = {
+        "file": str(config.model), "R_m": top.R_m, "a_m": top.a_m, "A": top.A_kgm2,
+        "C": top.C_kgm2, "M_kg": top.M_kg, "A_over_C": top.A_over_C,
+        "a_over_R": top.a_over_R, "mu": loaded["mu"], "group": th["group"], "n1": th["n1"],
+        "n4": th["n4"], "nc": th["nc"], "theta_s": theta_pred, "theory_outcome": outcome_pred,
+        "n0": init.n0, "theta0": init.theta0, "keyframe": loaded["keyframe"],
+        "stem": loaded["stem"], "stem_note": loaded["stem_note"],
+        "timestep_s": loaded["timestep_s"],
+    }
+    runs: dict[str, dict[str, Any]] = {}
+    tables = {}
+    for mode, res in zip(MODES, results, strict=True):
+        if res.error or res.summary is None:
+            runs[mode] = {"status": "error", "message": res.error, "t_invert": None,
+                          "t_stem": None, "theta_final": None, "error": res.error,
+                          "outcome": None, "end_state": None, "ran": None, "E0_J": None}
+            continue
+        s = dict(res.summary)
+        outcome = (classify_outcome(res.table) if s.get("theta_final") is not None
+                   and len(res.table) > 2 else "failed")
+        runs[mode] = {**s, "t_invert": s.get("t_invert"), "t_stem": s.get("t_stem"),
+                      "status": s.get("status"), "error": None, "outcome": outcome,
+                      "end_state": _end_state(s, outcome), "ran": describe_ran(s),
+                      "E0_J": (float(res.table["E"].iloc[0]) if res.table is not None
+                               and len(res.table) else None)}
+        if mode == "mujoco-paper" and paper_note:
+            runs[mode]["note"] = paper_note
+        if res.table is not None and len(res.table):
+            tables[mode] = res.table
+    checks = verdict(runs, outcome_pred)
+    return {
+        "format": "tippetop-validate/1",
+        "model": model,
+        "t_end_s": config.t_end_s,
+        "runs": runs,
+        "verdict": checks,
+        "agrees": all(c["passed"] for c in checks),
+        "findings": findings(runs, checks),
+        "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"))
+                       if "mujoco-native" in runs else {}),
+        "tables": tables,
+    }
+
+
+def nice_step_below(limit_s: float) -> float:
+    """The largest 1, 2 or 5 x 10^k seconds at or below ``limit_s``."""
+    exp = math.floor(math.log10(limit_s))
+    for m in (5.0, 2.0, 1.0):
+        if m * 10.0 ** exp <= limit_s * (1 + 1e-12):
+            return m * 10.0 ** exp
+    return 10.0 ** exp  # pragma: no cover - 1 x 10^floor(log10 x) <= x always
+
+
+def paper_timestep(paper_plan: Any, file_timestep_s: float | None) -> tuple[float | None, str]:
+    """The timestep of the ``mujoco-paper`` run: the file's, unless the law needs less.
+
+    MuJoCo refuses a paper-mode step longer than the law's slip relaxation time
+    (:func:`tippetop.mujoco_runner.run.paper_law_max_timestep`); the paper's law in the same
+    model then runs at the largest 1-2-5 step below it, which is said in the run's note.
+
+    Returns:
+        (the timestep to set, or None to keep the file's; the note, or "").
+    """
+    from tippetop.mujoco_runner.model import load_top
+    from tippetop.mujoco_runner.run import paper_law_max_timestep
+
+    mj = paper_plan.mujoco
+    if mj is None or mj.law is None or file_timestep_s is None or mj.timestep_s is not None:
+        return None, ""
+    limit = paper_law_max_timestep(mj.law, load_top(mj.mjcf))
+    if limit is None or file_timestep_s <= limit:
+        return None, ""
+    dt = nice_step_below(limit)
+    return dt, (f"ran at dt = {dt:g} s, not the file's {file_timestep_s:g} s: the paper's law "
+                f"at mu = {mj.law.mu:g} relaxes the slip in {1e3 * limit:.3g} ms on this top, "
+                "which a longer step cannot follow")
+
+
+def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
+    """The file's mu, keyframe and stem as the plan reads them."""
+    from tippetop.models.scene import load_scene
+    from tippetop.mujoco_runner.state import file_top
+
+    scene = load_scene(None, list(overrides))
+    if scene.top_mjcf is None:  # pragma: no cover - the overrides always set it
+        raise TippetopError("validate: expected an MJCF top")
+    ft = file_top(scene.top_mjcf)
+    key = scene.init_keyframe or (ft.keyframes[0] if ft.keyframes else None)
+    stem = ft.stem
+    return {"mu": ft.mu, "keyframe": key, "timestep_s": ft.timestep_s,
+            "stem": None if stem is None else {"kind": stem.kind, "offset_m": stem.offset_m,
+                                               "radius_m": stem.radius_m},
+            "stem_note": ft.stem_note}
+
+
+__all__ = ["DEFAULT_T_END_S", "MODES", "ValidateConfig", "findings", "suggestion", "validate",
+           "verdict"]

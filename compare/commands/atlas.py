@@ -1,0 +1,123 @@
+"""``tippetop atlas``: the paper's group diagram measured in each engine, printed or written."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.analysis.defaults import (
+    DEFAULT_A_OVER_C,
+    DEFAULT_A_OVER_R,
+    DEFAULT_ENGINES_TEXT,
+)
+from tippetop.compare.commands.options import (
+    add_force_option,
+    add_json_option,
+    add_parallel_options,
+    add_set_option,
+    comma_list,
+    json_text,
+    print_json,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop atlas`` and its options."""
+    p = sub.add_parser(
+        "atlas", help="the paper's group diagram measured: n1, n4 and the group at every "
+        "(A/C, a/R) point in each engine",
+        description="At every point of an (A/C, a/R) grid, measure n1 (the upright state's "
+        "growth rate crosses zero) and n4 (the inverted state's, carried to theta = 0 by "
+        "Jellett's constant) in each engine's own dynamics, the group they imply (I: no n1; "
+        "II: n1 and n4; III: n1, no n4), against the theory's group and thresholds.")
+    p.add_argument("--A-over-C", dest="A_over_C", default=DEFAULT_A_OVER_C, metavar="LO:HI:N",
+                   help=f"A/C values: N evenly spaced from LO to HI (default "
+                   f"{DEFAULT_A_OVER_C})")
+    p.add_argument("--a-over-R", dest="a_over_R", default=DEFAULT_A_OVER_R, metavar="LO:HI:N",
+                   help=f"a/R values, in (0, 1): N evenly spaced from LO to HI (default "
+                   f"{DEFAULT_A_OVER_R})")
+    p.add_argument("--engines", default=DEFAULT_ENGINES_TEXT, metavar="MODES",
+                   help=f"comma-separated modes, listed in 'tippetop --help' (default "
+                   f"{DEFAULT_ENGINES_TEXT})")
+    add_set_option(p)
+    p.add_argument("--out", metavar="DIR", help="folder for atlas.csv, atlas.png and "
+                   "atlas.json, new or empty, or --force (default: none, printed only)")
+    add_force_option(p, help="write into a non-empty --out")
+    add_parallel_options(p)
+    add_json_option(p, help="print {points, agreement, findings, grid, n_runs} as JSON "
+                    "instead of the summary")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop atlas``: measure the group diagram and print or write it (exit 0).
+
+    An engine departing from the theory is a finding, printed and written, not a failure.
+    """
+    from tippetop.compare.analysis.atlas import parse_grid, run_atlas
+
+    ac = parse_grid(args.A_over_C, "--A-over-C")
+    ar = parse_grid(args.a_over_R, "--a-over-R")
+    engines = comma_list(args.engines)
+    out_dir = None
+    if args.out:
+        from tippetop.compare.running.io import check_output_dir, hold_output_lock
+
+        out_dir = check_output_dir(args.out, force=args.force)  # before any run
+        hold_output_lock(out_dir)
+    res = run_atlas(ac, ar, engines, tuple(args.set or []), scheduler=args.scheduler,
+                    workers=args.workers, use_cache=not args.no_cache)
+    files = write_atlas(res, out_dir) if out_dir is not None else []
+    if args.json:
+        print_json({"points": res["points"], "agreement": res["agreement"],
+                    "findings": res["findings"], "grid": res["grid"],
+                    "n_runs": res["n_runs"]})
+    else:
+        print_atlas(res)
+        if files:
+            print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+def print_atlas(res: dict[str, Any]) -> None:
+    """The human summary: agreement per engine, the findings, and the points that depart."""
+    g = res["grid"]
+    print(f"tippetop atlas: {len(g['A_over_C'])} x {len(g['a_over_R'])} points (A/C "
+          f"{g['A_over_C'][0]:g}..{g['A_over_C'][-1]:g}, a/R {g['a_over_R'][0]:g}.."
+          f"{g['a_over_R'][-1]:g}), {res['n_runs']} runs of 2 s")
+    for eng, frac in res["agreement"].items():
+        pts = [p for p in res["points"] if p["engine"] == eng]
+        print(f"  {eng:<16} groups agree with the theory at {round(frac * len(pts))} of "
+              f"{len(pts)} points ({100 * frac:.0f} %)")
+    for f in res["findings"]:
+        print(f"  {f}")
+    wrong = [p for p in res["points"] if not p["agrees"]]
+    for p in wrong:
+        print(f"  departs: {p['engine']} at A/C = {p['A_over_C']:.3g}, a/R = "
+              f"{p['a_over_R']:.3g}: Group {p['group_measured']} (theory {p['group_theory']});"
+              f" n1 {_fmt(p['n1_measured'])} (theory {_fmt(p['n1_theory'])}), n4 "
+              f"{_fmt(p['n4_measured'])} (theory {_fmt(p['n4_theory'])}) rad/s")
+
+
+def _fmt(v: float | None) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
+    """Write atlas.csv, atlas.png and atlas.json into ``out_dir``, all or nothing.
+
+    The folder is checked (new, empty or ``--force``) by the caller before the work.
+    """
+    from tippetop.compare.analysis.atlas import atlas_table
+    from tippetop.compare.presentation.figures import atlas_figure, pyplot
+    from tippetop.compare.running.io import staged_output_dir
+
+    names = ["atlas.csv", "atlas.png", "atlas.json"]
+    with staged_output_dir(Path(out_dir)) as tmp:
+        atlas_table(result).to_csv(tmp / "atlas.csv", index=False)
+        fig = atlas_figure(result)
+        fig.savefig(tmp / "atlas.png", dpi=110)
+        pyplot().close(fig)
+        (tmp / "atlas.json").write_text(json_text(result, indent=1), encoding="utf-8")
+    return [Path(out_dir) / n for n in names]

@@ -1,0 +1,93 @@
+"""``tippetop calibrate``: fit MuJoCo's native contact settings to the reference ODE."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from tippetop.compare.analysis.calibrate.config import (
+    DEFAULT_BUDGET_RUNS,
+    DEFAULT_CALIBRATION,
+    DEFAULT_HOLDOUT,
+    DEFAULT_INTEGRATOR,
+    DEFAULT_OUT,
+    DEFAULT_TIMESTEP_S,
+    CalibrateConfig,
+)
+from tippetop.compare.commands.options import (
+    add_force_option,
+    add_json_option,
+    add_parallel_options,
+    number,
+    print_json,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop calibrate`` and its options."""
+    p = sub.add_parser(
+        "calibrate", help="fit MuJoCo's native contact settings to the reference ODE",
+        description="Fit mu, cone, impratio, solref and solimp of MuJoCo's native friction to "
+        "the reference ODE on calibration scenes, report residuals on held-out scenes, and "
+        "write the settings with their provenance.")
+    p.add_argument("--calibration", default=DEFAULT_CALIBRATION, metavar="SCENES",
+                   help=f"scenes fitted, NAME[:T_END_S],... with T_END_S the simulated time "
+                   f"(s) (default {DEFAULT_CALIBRATION})")
+    p.add_argument("--holdout", default=DEFAULT_HOLDOUT, metavar="SCENES",
+                   help=f"scenes only reported, NAME[:T_END_S],... (default {DEFAULT_HOLDOUT})")
+    p.add_argument("--out", default=str(DEFAULT_OUT), metavar="FILE",
+                   help="the calibration file (.toml; default models/calibrated_native.toml)")
+    add_force_option(p)
+    p.add_argument("--budget-runs", dest="budget_runs", type=int, default=DEFAULT_BUDGET_RUNS,
+                   metavar="N", help=f"runs the search may use, candidates times scenes "
+                   f"(default {DEFAULT_BUDGET_RUNS})")
+    p.add_argument("--timestep-s", dest="timestep_s", type=number, default=DEFAULT_TIMESTEP_S,
+                   metavar="S", help=f"MuJoCo timestep of the fit (s; default "
+                   f"{DEFAULT_TIMESTEP_S:g})")
+    p.add_argument("--integrator", default=DEFAULT_INTEGRATOR, metavar="NAME",
+                   help=f"MuJoCo integrator of the fit: Euler, implicit, implicitfast or RK4 "
+                   f"(default {DEFAULT_INTEGRATOR})")
+    add_parallel_options(p)
+    add_json_option(p, help="print the report as one JSON object instead of text")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop calibrate``: run, write the file, print the report."""
+    config = CalibrateConfig(
+        calibration=args.calibration, holdout=args.holdout, out=args.out, force=args.force,
+        budget_runs=args.budget_runs, timestep_s=args.timestep_s, integrator=args.integrator,
+        scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
+        progress=not args.json)
+    from tippetop.compare.analysis.calibrate.run import calibrate
+
+    report = calibrate(config)
+    if args.json:
+        print_json(report)
+    else:
+        print_report(report)
+    return 0
+
+
+def print_report(report: dict[str, Any]) -> None:
+    """The settings, the objective and a table of residuals, as ``tippetop calibrate`` prints."""
+    p = report["provenance"]
+    s = report["settings"]
+    print(f"settings: {', '.join(f'{k}={v}' for k, v in s.items())}")
+    print(f"objective {p['objective']:.4f} rad on {', '.join(p['calibration_set'])} "
+          f"(MuJoCo defaults {p['objective_mujoco_defaults']:.4f}); {p['runs_used']} runs, "
+          f"{p['candidates_evaluated']} candidates, stop: {p['stop_reason']}")
+    print(f"MuJoCo defaults: {p['mujoco_defaults']}")
+    hdr = (f"{'scene':<12} {'role':<11} {'rms':>7} {'t_inv ode':>9} {'t_inv mj':>9} "
+           f"{'asymp ode':>9} {'asymp mj':>9} {'outcome':<24} {'J drift':>8}")
+    print(hdr)
+    for r in report["residuals"]:
+        def f(v: Any) -> str:
+            return "-" if v is None else f"{v:.3f}"
+        outcome = f"{r['outcome_mujoco']}/{r['outcome_ode']}"
+        print(f"{r['scene']:<12} {r['role']:<11} {f(r['rms_rad']):>7} {f(r['t_invert_ode']):>9} "
+              f"{f(r['t_invert_mujoco']):>9} {f(r['theta_asymp_ode']):>9} "
+              f"{f(r['theta_asymp_mujoco']):>9} {outcome:<24} {r['J_rel_drift']:>8.1e}")
+    for line in p["findings"]:
+        print(f"- {line}")
+    print(f"wrote {report['out']} in {p['wall_s']:.0f} s")

@@ -1,0 +1,189 @@
+"""``tippetop compare``: one scene in several modes, against the theory and the reference."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    EXIT_RUN_FAILED,
+    add_json_option,
+    add_parallel_options,
+    add_set_option,
+    print_json,
+)
+from tippetop.compare.presentation.terminal import MISSING, fmt, fmt_value, labelled, table
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop compare`` and its options."""
+    p = sub.add_parser("compare", help="run a scene in several engines/modes and compare",
+                       description="Run a scene in each mode and the reference ODE; print one "
+                       "line per mode (outcome, agreement with the theory, inversion time, "
+                       "theta_asymp, Jellett's drift, energy) and every metric that departs "
+                       "from the reference, naming the tolerance it broke.")
+    p.add_argument("scene", help="scene .toml file or catalogue name (required)")
+    p.add_argument("--modes", default="ode,mujoco-paper,mujoco-native",
+                   help="comma-separated modes, listed in 'tippetop --help' (default: "
+                   "ode,mujoco-paper,mujoco-native)")
+    add_set_option(p)
+    add_parallel_options(p)
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop compare``: one scene in several engines/modes, against the theory."""
+    from tippetop.compare.analysis.crossval import compare_scene
+    from tippetop.models.modes import parse_modes
+
+    res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
+                        scheduler=args.scheduler, workers=args.workers,
+                        use_cache=not args.no_cache)
+    if args.json:
+        print_json(res)
+    else:
+        print_compare(res)
+    # a failed run is reported in its row (the others kept), and the command exits 1
+    failed = [m for m, s in res["modes"].items() if s.get("outcome") == "failed"]
+    if failed:
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['modes'])} runs "
+                         f"failed ({', '.join(failed)}); the reasons are in the output\n")
+        return EXIT_RUN_FAILED
+    return 0
+
+
+#: Unit of each metric ``compare`` checks against the reference.
+METRIC_UNITS = {"theta_asymp": "rad", "theta_rms": "rad", "t_invert": "s",
+                "J_rel_drift": "relative", "d_theta_asymp": "rad"}
+
+
+def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
+    """Why a tolerance is what it is: the difference's own ``why``, else crossval's table."""
+    why = d.get("why")
+    if not why:
+        try:
+            from tippetop.compare.analysis.crossval import TOLERANCES
+
+            why = TOLERANCES.get(metric, (None, ""))[1]
+        except ImportError:  # pragma: no cover - crossval is part of the package
+            why = ""
+    # the table's reasons start with the unit ("s; 1 ms sampling ..."): the unit is shown
+    head, sep, tail = str(why or "").partition("; ")
+    return tail if sep and len(head) <= 12 else str(why or "")
+
+
+def difference_text(d: dict[str, Any]) -> str:
+    """One difference from the reference in words, naming the tolerance it broke.
+
+    Example: ``t_invert 2.496 s against the reference's 2.329 s: 0.167 s apart, over the
+    t_invert tolerance of 0.1 s (1 ms sampling plus ...)``.
+    """
+    metric = str(d.get("metric", "?"))
+    unit = METRIC_UNITS.get(metric, "")
+    value, ref, tol = d.get("value"), d.get("reference"), d.get("tolerance")
+    if metric == "status":
+        note = d.get("note") or value
+        return f"the run failed ({note}); the reference's status is {fmt(ref)}"
+    if metric == "outcome":
+        return f"ends {fmt(value)} where the reference ends {fmt(ref)} (a different outcome)"
+    if metric == "t_invert" and (value is None) != (ref is None):
+        if value is None:
+            return f"never turns over; the reference does at {fmt(ref, 's')}"
+        return f"turns over at {fmt(value, 's')}; the reference never does"
+    text = f"{metric} {fmt(value, unit)}"
+    if metric == "theta_rms":
+        text = f"theta(t) departs from the reference's by {fmt(value, 'rad')} RMS"
+    elif ref is not None:
+        text += f" against the reference's {fmt(ref, unit)}"
+    if tol is None:
+        return text
+    if isinstance(value, (int, float)) and isinstance(ref, (int, float)) and metric not in (
+            "J_rel_drift", "theta_rms"):
+        text += f": {fmt(abs(value - ref), unit)} apart"
+    why = _tolerance_why(metric, d)
+    limit = "limit" if metric == "J_rel_drift" else "tolerance"
+    return f"{text}, over the {metric} {limit} of {fmt(tol, unit)}" + (
+        f" ({why})" if why else "")
+
+
+def print_compare(res: dict[str, Any]) -> None:
+    """``tippetop compare`` for a person: the theory, one line per mode, what differs and why.
+
+    Robust to the keys a result has: a missing value is ``-``.
+    """
+    th = res.get("theory") or {}
+    theta_s = th.get("theta_s")
+    tol_s = th.get("theta_s_tol")
+    head = f"{res.get('scene', '?')} (Group {res.get('group', '?')}): "
+    if "outcome" in th and th["outcome"] is None:  # needs a run's Jellett constant at t = 0
+        print(head + "no prediction from the theory: every run failed")
+    else:
+        print(head + f"the theory predicts {th.get('outcome', '?')}, theta_s = "
+              f"{fmt(theta_s, 'rad')}")
+    modes: dict[str, dict[str, Any]] = res.get("modes") or {}
+    rows = []
+    for m, s in modes.items():
+        matches = s.get("matches_theory")
+        if s.get("outcome") == "failed":
+            rows.append((m, "failed", "DIFFERS" if matches is False else MISSING,
+                         *[MISSING] * 5))
+            continue
+        rows.append((
+            m + (" (reference)" if m == "ode" else ""),
+            fmt(s.get("outcome")),
+            {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches)),
+            fmt_value("t_invert", s.get("t_invert")).split(" (")[0],
+            fmt(s.get("theta_asymp"), "rad"),
+            fmt(s.get("J_rel_drift"), "relative"),
+            fmt(s.get("energy_dissipated_J"), "J"),
+            MISSING if m == "ode" else fmt(s.get("theta_rms_vs_ref"), "rad"),
+        ))
+    if rows:
+        print()
+        print(table(("mode", "outcome", "theory", "t_invert", "theta_asymp", "J drift",
+                     "energy lost", "theta RMS vs ref"), rows))
+    agree_rule = (f"agrees: the theory's outcome, and theta_asymp within "
+                  f"{fmt(tol_s, 'rad')} of theta_s" if tol_s is not None else
+                  "agrees: the theory's outcome")
+    print(f"  ({agree_rule}; J drift: Jellett's constant, relative)")
+    against = [(str(r.get("mode")), r.get("reasons") or []) for r in res.get("crossval") or []
+               if not r.get("agrees", True)]
+    if against:
+        print("\nagainst the theory:")
+        width = max(len(m) for m, _ in against)
+        for m, reasons in against:
+            print(labelled(m, "; ".join(reasons) if reasons else "does not agree", width))
+    diffs = res.get("differences") or []
+    print()
+    if not diffs:
+        print("differences from the reference beyond their tolerances: none")
+    else:
+        print("differences from the reference beyond their tolerances:")
+        width = max(len(str(d.get("mode", ""))) for d in diffs)
+        for d in diffs:
+            print(labelled(str(d.get("mode", "?")), difference_text(d), width))
+    ran = []
+    for m, s in modes.items():
+        if "engine" not in s:
+            continue
+        try:
+            from tippetop.compare.running.engines import describe_ran
+
+            text = describe_ran(s)
+        except (KeyError, TypeError, ValueError):
+            text = MISSING
+        ran.append((m, re.sub(r"\b(None|nan)\b", MISSING, text)))
+    if ran:
+        print("\nwhat ran:")
+        width = max(len(m) for m, _ in ran)
+        for m, text in ran:
+            print(labelled(m, text, width))
+    notes = [(m, str(s.get("note"))) for m, s in modes.items() if s.get("note") and m != "ode"]
+    if notes:
+        print("\nwhy a mode may depart from the paper's law:")
+        width = max(len(m) for m, _ in notes)
+        for m, note in notes:
+            print(labelled(m, note, width))

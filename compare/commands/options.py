@@ -1,0 +1,326 @@
+"""What every ``tippetop`` command shares: the parser, exit statuses, JSON output, options.
+
+An option that several commands take is declared here once (its name, dest, type, default and
+help), asv-style: a command calls ``add_..._option(parser)``, in the place of its help listing
+where the option should appear, and passes its own ``help`` only where its wording differs.
+
+This module imports only the standard library and :mod:`tippetop.models.errors`, so building
+the command line stays cheap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import errno
+import json
+import math
+import os
+import sys
+import warnings
+from collections.abc import Callable
+from typing import Any, NoReturn
+
+from tippetop.models.errors import RunFailedError, TippetopError
+
+EXIT_OK = 0
+EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130  # Ctrl-C: one line, the runs going are stopped
+
+#: Every exit status of ``tippetop`` and what it means (``tippetop --help`` lists them).
+EXIT_STATUSES: dict[int, str] = {
+    EXIT_OK: "done: the run finished, the nightly found no regression, validate agrees",
+    EXIT_RUN_FAILED: "a run failed (diverged or stopped short; one line says why), stdout "
+                     "could not be written, the nightly found a regression, or a validate "
+                     "check departs",
+    EXIT_BAD_INPUT: "bad input: one line on stderr, nothing written",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C, or SIGTERM to tippetop): the runs going are "
+                      "stopped, nothing half-written",
+}
+
+#: Help of the shared options, where every command words them the same.
+SCHEDULER_HELP = "tcp://HOST:PORT of a Dask scheduler to run on (default: local processes)"
+WORKERS_HELP = "local worker processes (default: all cores)"
+NO_CACHE_HELP = ("neither read nor write the run cache ($TIPPETOP_CACHE; default: reuse runs "
+                 "already made with the same physics and code)")
+FORCE_HELP = "overwrite an existing --out file"
+SET_HELP = ("override a scene key, e.g. init.n0=60 or run.t_end_s=4; units as the key's name "
+            "says (_s seconds, _m metres, n0 rad/s); repeatable (default: the scene as written)")
+JSON_HELP = "print one JSON object on stdout instead of text (the keys are a contract)"
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Help at the terminal's width (at most 100 columns), the options' help beside them."""
+
+    def __init__(self, prog: str) -> None:
+        import shutil
+
+        width = max(60, min(100, shutil.get_terminal_size((100, 24)).columns) - 2)
+        super().__init__(prog, max_help_position=30, width=width)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line and exit 2, and help as wide as the terminal."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        """Write ``tippetop: error: MESSAGE (see 'PROG --help')`` and exit 2."""
+        sys.stderr.write(f"tippetop: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+_SHOWN: set[str] = set()
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
+                      lineno: int, file: Any = None, line: str | None = None) -> None:
+    """Show a warning as ``tippetop: warning: ...`` on one line (no source line)."""
+    text = " ".join(str(message).split())
+    if text in _SHOWN:
+        return
+    _SHOWN.add(text)
+    sys.stderr.write(f"tippetop: warning: {text}\n")
+
+
+class StdoutFailedError(Exception):
+    """Writing to stdout failed (a closed pipe, a full disk, a closed descriptor)."""
+
+
+class _GuardedStdout:
+    """``sys.stdout`` whose failed writes raise :class:`StdoutFailedError` (one line, exit 1).
+
+    Without it a full disk (``> /dev/full``) ends in an ``OSError`` traceback, and a reader
+    that went away (``| head -c 10``) in a ``BrokenPipeError``.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _guard(self, method: str, *a: Any) -> Any:
+        if self._stream is None:
+            raise StdoutFailedError("stdout is closed")
+        try:
+            return getattr(self._stream, method)(*a)
+        except (OSError, ValueError) as exc:  # ValueError: a closed file
+            raise StdoutFailedError(getattr(exc, "strerror", None) or str(exc)) from None
+
+    def write(self, text: str) -> int:
+        """Write ``text``; a failure raises :class:`StdoutFailedError`."""
+        return self._guard("write", text)
+
+    def flush(self) -> None:
+        """Flush; a failure raises :class:`StdoutFailedError`."""
+        self._guard("flush")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _silence_stdout(stream: Any) -> None:
+    """Point a failed stdout at /dev/null, so the flush at exit cannot fail a second time."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, stream.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Call the parsed command's ``func``; bad input becomes one line on stderr and exit 2.
+
+    A failed run (:class:`RunFailedError`) becomes one ``tippetop: run failed:`` line and
+    exit 1; so does stdout that cannot be written (``tippetop: failed: ...``: a closed pipe,
+    a full disk).
+
+    Warnings (a model that departs from the paper's top, say) are one line each, shown once.
+    """
+    func: Callable[[argparse.Namespace], int] = args.func
+    with warnings.catch_warnings():
+        # ours (and libraries' user-facing ones) once each; Python's ResourceWarning and
+        # DeprecationWarning stay at their defaults (hidden): they are not the user's business
+        warnings.simplefilter("once", UserWarning)
+        warnings.showwarning = _one_line_warning
+        real_stdout = sys.stdout
+        sys.stdout = _GuardedStdout(real_stdout)
+        try:
+            status = func(args)
+            sys.stdout.flush()  # a full disk may say so only here
+            return status
+        except TippetopError as exc:
+            sys.stderr.write(f"tippetop: error: {exc}\n")
+            return EXIT_BAD_INPUT
+        except RunFailedError as exc:
+            sys.stderr.write(f"tippetop: run failed: {exc}\n")
+            return EXIT_RUN_FAILED
+        except StdoutFailedError as exc:
+            _silence_stdout(real_stdout)
+            sys.stderr.write(f"tippetop: failed: could not write the output to stdout "
+                             f"({exc})\n")
+            return EXIT_RUN_FAILED
+        except OSError as exc:
+            if exc.errno not in _WRITE_ERRNOS:
+                raise
+            where = f" {exc.filename}" if exc.filename else ""
+            sys.stderr.write(f"tippetop: failed: could not write{where} ({exc.strerror}); "
+                             f"no partial file was left\n")
+            return EXIT_RUN_FAILED
+        finally:
+            sys.stdout = real_stdout
+
+
+#: Errors of a write that the disk or the system refused (full, read-only, no permission,
+#: over quota, too large): one line and exit 1, not a traceback. Outputs are written
+#: atomically, so none is left half-written.
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM,
+                 errno.EIO, errno.EFBIG}
+
+
+def run_main(args: argparse.Namespace) -> int:
+    """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
+    from tippetop.compare.running.interrupt import install_sigterm_handler
+
+    install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
+    try:
+        return run_command(args)
+    except KeyboardInterrupt:
+        sys.stderr.write("tippetop: interrupted\n")
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return EXIT_OK
+
+
+# ---------------------------------------------------------------- types
+def number(text: str) -> float:
+    """An argparse type: any float (the command checks the range, NaN included)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a finite float."""
+    v = number(text)
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def comma_list(text: str) -> tuple[str, ...]:
+    """The non-empty, stripped items of a comma-separated option value (``--engines``)."""
+    return tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def worker_count(text: str) -> int:
+    """An argparse type: an integer >= 1 (the one check of ``--workers``)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return n
+
+
+def scheduler_address(text: str) -> str:
+    """An argparse type: ``tcp://HOST:PORT`` (or ``tls://``), the port an integer 1-65535.
+
+    Checked as the option is read, before any work: a bad port would otherwise surface deep
+    in Dask as a traceback (``notaport``) or after a 10-s connection timeout (``99999``).
+    """
+    scheme, sep, rest = text.partition("://")
+    host, colon, port = rest.rpartition(":")
+    ok = (sep and scheme in ("tcp", "tls") and colon and host.strip("[]")
+          and port.isascii() and port.isdigit() and 1 <= int(port) <= 65535)
+    if not ok:
+        raise argparse.ArgumentTypeError(
+            f"expected tcp://HOST:PORT with a port from 1 to 65535, got {text!r}")
+    return text
+
+
+# ---------------------------------------------------------------- input
+def load_scene(args: argparse.Namespace) -> Any:
+    """The scene a command names: ``args.scene`` with ``--set``, ``--mjcf`` and ``--keyframe``.
+
+    A relative ``--mjcf`` path is relative to the working folder, not to the scene file.
+
+    Returns:
+        The validated :class:`tippetop.models.scene.Scene`.
+    """
+    from tippetop.models.scene import load_scene as load
+
+    overrides = list(args.set or [])
+    if getattr(args, "mjcf", None):
+        # relative to the working folder, not to the scene file
+        overrides.append(f"top.mjcf={json.dumps(os.path.abspath(args.mjcf))}")
+    if getattr(args, "keyframe", None):
+        overrides.append(f"init.keyframe={json.dumps(args.keyframe)}")
+    return load(args.scene, overrides)
+
+
+# ---------------------------------------------------------------- output
+def _json_default(o: Any) -> Any:
+    if hasattr(o, "item"):
+        return o.item()
+    raise TypeError(type(o).__name__)
+
+
+def _clean(obj: Any) -> Any:
+    """NaN/inf -> None so the JSON stays standard."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def json_text(obj: Any, indent: int | None = None) -> str:
+    """One JSON object as text: NaN and inf as null, numpy scalars as numbers."""
+    return json.dumps(_clean(obj), default=_json_default, indent=indent)
+
+
+def print_json(obj: Any) -> None:
+    """Print one JSON object on stdout."""
+    print(json_text(obj))
+
+
+# ---------------------------------------------------------------- options
+def add_scheduler_option(p: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS`` (dest ``scheduler``, default None: local processes)."""
+    p.add_argument("--scheduler", type=scheduler_address, metavar="ADDRESS",
+                   help=SCHEDULER_HELP)
+
+
+def add_workers_option(p: argparse.ArgumentParser, help: str = WORKERS_HELP) -> None:
+    """``--workers N`` (dest ``workers``, default None: all cores), checked to be >= 1."""
+    p.add_argument("--workers", type=worker_count, metavar="N", help=help)
+
+
+def add_parallel_options(p: argparse.ArgumentParser, *, no_cache: bool = True) -> None:
+    """``--scheduler``, ``--workers`` and (unless ``no_cache=False``) ``--no-cache``."""
+    add_scheduler_option(p)
+    add_workers_option(p)
+    if no_cache:
+        p.add_argument("--no-cache", action="store_true", help=NO_CACHE_HELP)
+
+
+def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
+    """``--set KEY=VALUE``, repeatable (dest ``set``: a list, or None when not given)."""
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help=help)
+
+
+def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:
+    """``--force`` (dest ``force``): write over existing output."""
+    p.add_argument("--force", action="store_true", help=help)
+
+
+def add_json_option(p: argparse.ArgumentParser, help: str = JSON_HELP) -> None:
+    """``--json`` (dest ``json``): print one JSON object instead of text."""
+    p.add_argument("--json", action="store_true", help=help)

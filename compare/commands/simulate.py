@@ -1,0 +1,92 @@
+"""``tippetop simulate``: one scene in one engine, its summary and what ran."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    EXIT_RUN_FAILED,
+    add_force_option,
+    add_json_option,
+    add_set_option,
+    load_scene,
+    print_json,
+)
+from tippetop.compare.presentation.terminal import fmt_value
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop simulate`` and its options."""
+    p = sub.add_parser("simulate", help="run a scene in one engine and print its summary",
+                       description="Run a scene in one engine and print its summary: the "
+                       "results (theta, the inversion time, Jellett's drift, the energy), what "
+                       "ran (read back from the engine) and the --set keys it did not read. "
+                       "Exit 1 if the run failed.")
+    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
+                   "paper's top and Fig. 3 start)")
+    p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
+                   "such as mujoco-native (see 'tippetop --help'; default ode)")
+    add_set_option(p)
+    p.add_argument("--mjcf", metavar="FILE", help="run a loaded MJCF top instead of the "
+                   "scene's: as its file says (options, contacts, first keyframe) unless --set "
+                   "says otherwise (default: the scene's top)")
+    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
+                   "of the file (default: its first, unless --set init.* sets the state)")
+    p.add_argument("--out", metavar="FILE", help="write the observables table, one row per "
+                   "sample, to this .csv or .parquet file (default: the scene's outputs.table, "
+                   "else none)")
+    add_force_option(p)
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
+    from tippetop.compare.running.engines import run_engine, run_failed
+    from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
+
+    scene = load_scene(args)
+    out_path = None
+    target = args.out or scene.outputs.table
+    if target:
+        if not args.out and scene.path is not None:
+            target = str(scene.path.parent / target)
+        out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
+    run = run_engine(scene, args.engine)
+    failed = run_failed(run.summary)
+    if out_path is not None and not failed:
+        write_table(run.table, out_path)
+    if args.json:
+        print_json(run.summary)
+    else:
+        _print_summary(scene.name, run.summary, out_path if not failed else None)
+    if failed:
+        sys.stderr.write(f"tippetop: run failed: {run.message}\n")
+        return EXIT_RUN_FAILED
+    return 0
+
+
+#: Summary keys that say what ran (settings read back from the engine), listed apart.
+RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
+            "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
+            "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
+
+
+def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) -> None:
+    """A run's summary: the results, then what ran, then the unused ``--set`` keys."""
+    ran = [(k, summary[k]) for k in RAN_KEYS if k in summary]
+    rest = [(k, v) for k, v in summary.items() if k not in RAN_KEYS and k != "unused"]
+    pairs = [("scene", scene), *rest]
+    width = max(len(k) for k, _ in [*pairs, *ran, ("unused", 0)])
+    print("\n".join(f"{k:<{width}}  {fmt_value(k, v)}" for k, v in pairs))
+    if ran:
+        print("what ran:")
+        print("\n".join(f"  {k:<{width - 2}}  {fmt_value(k, v)}" for k, v in ran))
+    unused = summary.get("unused")
+    if unused is not None:
+        print(f"{'unused':<{width}}  {', '.join(unused) if unused else 'none'} (--set keys "
+              "the engine did not read)")
+    if table_path is not None:
+        print(f"wrote {table_path}")

@@ -1,0 +1,116 @@
+"""``tippetop sweep``: theta_asymp against n0 per mode, with the theory's theta_s(n0)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    EXIT_RUN_FAILED,
+    add_force_option,
+    add_json_option,
+    add_parallel_options,
+    add_set_option,
+    print_json,
+)
+from tippetop.compare.presentation.terminal import cache_line, fmt, fmt_value, table
+from tippetop.models.errors import TippetopError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop sweep`` and its options."""
+    p = sub.add_parser("sweep", help="theta_asymp against n0 per mode, with theta_s(n0)",
+                       description="theta_asymp against the initial spin n0 in each mode, "
+                       "with the theory's theta_s(n0) (the paper's Figs. 9, 10).")
+    p.add_argument("scene", help="scene .toml file or catalogue name (required)")
+    p.add_argument("--n0", required=True, metavar="START:STOP:STEP",
+                   help="initial spins, rad/s; STOP is included when it falls on the grid, "
+                   "at most 2000 points (no default: required)")
+    p.add_argument("--modes", default="ode", help="comma-separated modes, listed in "
+                   "'tippetop --help' (default: ode)")
+    add_set_option(p)
+    p.add_argument("--out", metavar="DIR", help="folder for sweep.csv, theory.csv and "
+                   "sweep.png (default: none, printed only)")
+    add_force_option(p, help="overwrite results in --out")
+    add_parallel_options(p)
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
+    from pathlib import Path
+
+    from tippetop.compare.analysis.sweep import parse_range, run_sweep
+    from tippetop.compare.presentation.figures import sweep_figure
+    from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
+    from tippetop.models.modes import parse_modes
+
+    n0s = parse_range(args.n0)
+    modes = parse_modes(args.modes)
+    out_dir = None
+    if args.out:
+        out_dir = Path(args.out)
+        files = [out_dir / "sweep.csv", out_dir / "theory.csv", out_dir / "sweep.png"]
+        if out_dir.exists() and not out_dir.is_dir():
+            raise TippetopError(f"--out: expected a folder, got the file {str(out_dir)!r}")
+        if any(f.exists() for f in files) and not args.force:
+            raise TippetopError(f"--out: expected a folder without sweep results (or --force), "
+                                f"got {str(out_dir)!r} which has them")
+        base = out_dir if out_dir.is_dir() else out_dir.parent
+        if not base.is_dir():
+            raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
+        check_writable(base)  # before the runs, not after them
+        hold_output_lock(out_dir)  # a second sweep into it is refused now
+    res = run_sweep(args.scene, n0s, modes, tuple(args.set or []), scheduler=args.scheduler,
+                    workers=args.workers, use_cache=not args.no_cache)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        write_atomic(files[0], lambda tmp: res["table"].to_csv(tmp, index=False))
+        write_atomic(files[1], lambda tmp: res["theory"].to_csv(tmp, index=False))
+        sweep_figure(res, files[2])
+    if args.json:
+        print_json({"scene": res["scene"], "computed": res["computed"], "cached": res["cached"],
+                    "rows": res["table"].to_dict(orient="records")})
+    else:
+        print_sweep(res)
+        print(cache_line(res.get("computed"), res.get("cached"), not args.no_cache))
+        if out_dir is not None:
+            print("wrote " + ", ".join(str(f) for f in files))
+        else:
+            print("not written: --out DIR writes sweep.csv, theory.csv and sweep.png")
+    # a failed run is a row with its status (the others kept), and the command exits 1
+    table = res["table"]
+    failed = table[table["outcome"] == "failed"] if len(table) else table
+    if len(failed):
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(table)} runs failed "
+                         f"({', '.join(sorted(set(failed['status'])))}); each is a row with "
+                         "its status\n")
+        return EXIT_RUN_FAILED
+    return 0
+
+
+def print_sweep(res: dict[str, Any]) -> None:
+    """A sweep for a person: per mode and n0, theta_asymp against the theory's theta_s(n0)."""
+    import numpy as np
+
+    rows_in = res["table"].to_dict(orient="records")
+    th = res.get("theory")
+    print(f"{res.get('scene', '?')}: theta_asymp against n0, with the theory's theta_s(n0)")
+    rows = []
+    for r in rows_in:
+        t_inv = r.get("t_invert")
+        if isinstance(t_inv, float) and math.isnan(t_inv):
+            r["t_invert"] = None  # pandas holds "never turned over" as NaN
+        theta_s = None
+        if th is not None and len(th):
+            theta_s = float(np.interp(r["n0"], th["n0"], th["theta_s"]))
+        rows.append((r.get("mode"), fmt(r.get("n0"), "rad/s"), fmt(r.get("theta_asymp"), "rad"),
+                     fmt(theta_s, "rad"), fmt(r.get("outcome")),
+                     fmt_value("t_invert", r.get("t_invert")).split(" (")[0],
+                     fmt(r.get("J_rel_drift"), "relative"), fmt(r.get("status")),
+                     "cache" if r.get("cached") else "run"))
+    print(table(("mode", "n0", "theta_asymp", "theta_s", "outcome", "t_invert", "J drift",
+                 "status", "from"), rows))

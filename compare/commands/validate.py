@@ -1,0 +1,119 @@
+"""``tippetop validate MODEL.xml``: an MJCF top against the theory and the reference."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
+from tippetop.compare.commands.options import (
+    add_force_option,
+    add_json_option,
+    add_parallel_options,
+    finite_float,
+    print_json,
+)
+
+EXIT_AGREES, EXIT_DEPARTS = 0, 1
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop validate`` and its options."""
+    p = sub.add_parser(
+        "validate", help="the model-validation report of your own MJCF top",
+        description="Run an MJCF top as its file says, in the reference ODE (with the file's "
+        "mu and stem), with the paper's law in the same model, and with the calibrated native "
+        "settings; check each against the theory and the reference; write report.html, "
+        "results.json and the tables into --out. Exit 1 if a check departs.")
+    p.add_argument("model", help="the MJCF file of the top (required)")
+    p.add_argument("--out", metavar="DIR", help="folder for report.html, results.json and "
+                   "tables/ (new or empty, or --force; default: none, printed only)")
+    p.add_argument("--t-end-s", dest="t_end_s", type=finite_float, default=DEFAULT_T_END_S,
+                   metavar="S", help=f"simulated time of every run (s; default "
+                   f"{DEFAULT_T_END_S:g})")
+    p.add_argument("--keyframe", metavar="NAME", help="start from this keyframe of the file "
+                   "(default: its first)")
+    add_force_option(p, help="write into a non-empty --out")
+    add_parallel_options(p)
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop validate``: run, write the report folder, print the verdict.
+
+    Exit status 0 when every check agrees, 1 when one departs (2: bad input).
+    """
+    from tippetop.compare.analysis.validate import ValidateConfig, validate
+    from tippetop.compare.running.io import check_output_dir, staged_output_dir, write_table
+
+    out = check_output_dir(args.out, force=args.force) if args.out else None
+    if out is not None:
+        from tippetop.compare.running.io import hold_output_lock
+
+        hold_output_lock(out)
+    config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,
+                            keyframe=args.keyframe, scheduler=args.scheduler,
+                            workers=args.workers, use_cache=not args.no_cache)
+    res = validate(config)
+    tables = res.pop("tables")
+    if out is not None:
+        from tippetop.compare.nightly.outputs import json_ready
+        from tippetop.compare.report.validate import render
+
+        text = json.dumps(json_ready(res), indent=1) + "\n"
+        html = render(res, tables)
+        with staged_output_dir(out) as stage:  # all files or none, even on Ctrl-C
+            (stage / "tables").mkdir()
+            for mode, table in tables.items():
+                write_table(table, stage / "tables" / f"{mode}.csv")
+            (stage / "results.json").write_text(text, "utf-8")
+            (stage / "report.html").write_text(html, "utf-8")
+    if args.json:
+        print_json(res)
+    else:
+        _print_summary(res, out)
+    sys.stdout.flush()
+    return EXIT_AGREES if res["agrees"] else EXIT_DEPARTS
+
+
+def _print_summary(res: dict[str, Any], out: Path | None) -> None:
+    from tippetop.compare.analysis.validate import show_value
+
+    checks = res["verdict"]
+    n_pass = sum(c["passed"] for c in checks)
+    m = res["model"]
+    print(f"tippetop validate {m['file']}: Group {m['group']}, A/C = {m['A_over_C']:.4g}, "
+          f"a/R = {m['a_over_R']:.4g}, mu = {m['mu']}, n0 = {m['n0']:.4g} rad/s: the theory "
+          f"says {m['theory_outcome']} (theta_s = {m['theta_s']:.3f} rad)")
+    print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
+          f"checks pass, {res['t_end_s']:g} s simulated)")
+    width = max(len(c["check"]) for c in checks)
+    for c in checks:
+        if not c["passed"]:
+            v = c["value"]
+            shown = f"{v:.3g}" if isinstance(v, float) else str(v)
+            print(f"  departs: {c['mode']:<14} {c['check']:<{width}}  {shown}  "
+                  f"(tolerance {c['tolerance']}; {c['note']})")
+    for mode, r in res["runs"].items():
+        if r.get("note"):
+            print(f"  note: {mode}: {r['note']}")
+    for f in res["findings"]:
+        print(f"  the file's own settings: {f}")
+    sug = res.get("suggestion") or {}
+    if sug and not res["agrees"]:
+        title = ("settings that follow the reference" if sug["agrees"]
+                 else "the calibrated settings (mujoco-native)")
+        print(f"  {title}: {sug['note']}")
+        if sug.get("changes"):
+            print("    changes from the file's: " + "; ".join(
+                f"{c['setting']} {show_value(c['file'])} -> {show_value(c['calibrated'])}"
+                for c in sug["changes"]))
+        print(f"    {sug['option']}")
+        print(f"    <geom ... {sug['geom']}/>")
+    if out is not None:
+        print(f"report: {out / 'report.html'}")

@@ -1,0 +1,171 @@
+"""The validation report of one MJCF top: a self-contained HTML page, the verdict first."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tippetop.compare.analysis.validate import MODES, show_value
+from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.report.groupmap import draw_groups
+from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
+
+_COLOURS = {"mujoco-file": "#d62728", "ode": "#111111", "mujoco-paper": "#1f77b4",
+            "mujoco-native": "#2ca02c"}
+_LABELS = {"mujoco-file": "MuJoCo, the file's own settings", "ode": "reference ODE",
+           "mujoco-paper": "MuJoCo, the paper's law", "mujoco-native": "MuJoCo, calibrated"}
+_CHECKS = {"completed": "the run completed", "outcome": "outcome against the theory",
+           "t_invert": "inversion time - the reference's (s)",
+           "t_stem": "first stem contact - the reference's (s)",
+           "jellett_before_stem": "Jellett's drift before the stem",
+           "energy_never_rises": "energy never rises"}
+
+
+def _cell(check: Mapping[str, Any]) -> Html:
+    v = check["value"]
+    shown = fmt_num(v, ".3g") if not isinstance(v, str) else esc(v)
+    cls = "pass" if check["passed"] else "fail"
+    mark = "agrees" if check["passed"] else "departs"
+    return Html(f"<span class='{cls}'>{shown} ({mark})</span>"
+                f"<br><small>{esc(check['note'])}</small>")
+
+
+def verdict_section(res: Mapping[str, Any]) -> str:
+    """The verdict: one row per check, one column per mode; then findings and the fix."""
+    checks = res["verdict"]
+    modes = [m for m in MODES if m in res["runs"]]
+    names = list(dict.fromkeys(c["check"] for c in checks))
+    rows, classes = [], []
+    for name in names:
+        row: list[Any] = [_CHECKS.get(name, name)]
+        tol = next(c["tolerance"] for c in checks if c["check"] == name)
+        for m in modes:
+            c = next((c for c in checks if c["check"] == name and c["mode"] == m), None)
+            row.append(_cell(c) if c else "-")
+        row.append(tol)
+        rows.append(row)
+        bad = any(not c["passed"] for c in checks if c["check"] == name)
+        classes.append("fail" if bad else "pass")
+    n_pass = sum(c["passed"] for c in checks)
+    ok = res["agrees"]
+    head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
+            f"{'AGREES' if ok else 'DEPARTS'}</span> {n_pass} of {len(checks)} checks pass "
+            f"against the paper's theory and the reference ODE "
+            f"({res['t_end_s']:g} s simulated).</p>")
+    parts = ["<section id='verdict'><h2>Verdict</h2>", head,
+             html_table(["check", *(_LABELS[m] for m in modes), "tolerance"], rows, classes)]
+    if res["findings"]:
+        parts.append("<h3>What the file's own settings get wrong</h3><ul>"
+                     + "".join(f"<li>{esc(f)}</li>" for f in res["findings"]) + "</ul>")
+    sug = res.get("suggestion") or {}
+    if sug:
+        title = ("Settings that follow the reference" if sug["agrees"]
+                 else "The calibrated settings do not fix it")
+        parts.append(f"<h3>{title}</h3><p class='note'>MuJoCo's own friction with the "
+                     "calibrated settings (the <code>mujoco-native</code> column): "
+                     f"{esc(sug['note'])}. As MJCF; the contact attributes go "
+                     f"{esc(sug['where'])}:</p><pre>{esc(sug['option'])}\n"
+                     f"&lt;geom ... {esc(sug['geom'])}/&gt;</pre>")
+        if sug.get("changes"):
+            parts.append(html_table(["setting", "the file's", "calibrated"],
+                                    [(c["setting"], show_value(c["file"]),
+                                      show_value(c["calibrated"])) for c in sug["changes"]]))
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def model_section(res: Mapping[str, Any]) -> str:
+    """The top's parameters read from the file and the theory's numbers."""
+    m = res["model"]
+    rows = [("file", m["file"]), ("R (m)", m["R_m"]), ("a (m)", m["a_m"]),
+            ("A (kg m^2)", m["A"]), ("C (kg m^2)", m["C"]), ("M (kg)", m["M_kg"]),
+            ("A/C", m["A_over_C"]), ("a/R", m["a_over_R"]), ("mu (ball on table)", m["mu"]),
+            ("timestep (s)", m.get("timestep_s")),
+            ("start (keyframe)", m["keyframe"] or "the scene's state"),
+            ("n0 (rad/s)", m["n0"]), ("theta0 (rad)", m["theta0"]),
+            ("group", m["group"]), ("n1 (rad/s)", m["n1"]), ("n4 (rad/s)", m["n4"]),
+            ("n_c (rad/s)", m["nc"]), ("theta_s for this spin (rad)", m["theta_s"]),
+            ("the theory's outcome", m["theory_outcome"]), ("stem", m["stem_note"])]
+    return ("<section id='model'><h2>The top, read from the file</h2>"
+            + html_table(["what", "value"], rows) + "</section>")
+
+
+def runs_section(res: Mapping[str, Any]) -> str:
+    """What each run ran and how it ended."""
+    rows = []
+    for m in MODES:
+        r = res["runs"].get(m)
+        if r is None:
+            continue
+        s = r
+        note = f"<br><small>{esc(r['note'])}</small>" if r.get("note") else ""
+        rows.append((_LABELS[m], Html(f"<div class='wide'>{esc(r['ran'] or '-')}{note}</div>"),
+                     s.get("status", r.get("error")), s.get("t_invert"), s.get("t_stem"),
+                     s.get("theta_final"), r.get("end_state"),
+                     Html(fmt_num(s.get("J_rel_drift"), ".2e"))))
+    return ("<section id='runs'><h2>The runs</h2>"
+            + html_table(["mode", "what ran", "status", "t_invert (s)", "t_stem (s)",
+                          "theta_final (rad)", "ends", "J drift before the stem"], rows)
+            + "</section>")
+
+
+def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+    """theta(t) of every run, and each MuJoCo run minus the reference underneath."""
+    plt = pyplot()
+    fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9.5, 6.2), sharex=True,
+                                   gridspec_kw={"height_ratios": [3, 2]})
+    ref = tables.get("ode")
+    for m in MODES:
+        t = tables.get(m)
+        if t is None:
+            continue
+        ax.plot(t["t"], t["theta"], color=_COLOURS[m], lw=1.4 if m == "ode" else 1.0,
+                label=_LABELS[m])
+        t_stem = res["runs"][m].get("t_stem")
+        if t_stem is not None:
+            ax.axvline(t_stem, color=_COLOURS[m], ls=":", lw=0.8)
+        if ref is not None and m != "ode":
+            d = t["theta"].to_numpy() - np.interp(t["t"], ref["t"], ref["theta"])
+            ax_d.plot(t["t"], d, color=_COLOURS[m], lw=1.0)
+    ax.axhline(math.pi / 2, color="0.7", lw=0.8, ls="--")
+    ax.set_ylabel("theta (rad)")
+    ax.set_ylim(-0.1, math.pi + 0.1)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax_d.axhline(0.0, color="0.5", lw=0.8)
+    ax_d.set_ylabel("MuJoCo - reference (rad)")
+    ax_d.set_xlabel("t (s)")
+    fig.tight_layout()
+    return ("<section id='theta'><h2>theta(t)</h2><p class='note'>Dotted lines: each run's "
+            "first stem contact. Below: each MuJoCo run minus the reference.</p>"
+            + png(fig) + "</section>")
+
+
+def groups_section(res: Mapping[str, Any]) -> str:
+    """The top's place on the paper's group diagram."""
+    plt = pyplot()
+    m = res["model"]
+    fig, ax = plt.subplots(figsize=(5.6, 4.2))
+    x, y = m["a_over_R"], m["A_over_C"]
+    draw_groups(ax, (0.0, max(0.5, 1.3 * x)), (0.5, max(1.6, 1.2 * y)))
+    ax.plot([x], [y], "k*", ms=14)
+    ax.annotate(f"this top (Group {m['group']})", (x, y), xytext=(8, 8),
+                textcoords="offset points", fontsize=9)
+    for label, (gx, gy) in (("I", (0.05, 0.65)), ("II", (0.05, 1.0)), ("III", (0.05, 1.45))):
+        ax.text(gx, gy, f"Group {label}", fontsize=8, color="0.3")
+    fig.tight_layout()
+    return ("<section id='groups'><h2>The group diagram</h2>" + png(fig) + "</section>")
+
+
+def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+    """The page's HTML: verdict, model, runs, theta(t), group diagram."""
+    title = f"tippetop validate: {res['model']['file']}"
+    body = [f"<h1>{esc(title)}</h1>", verdict_section(res), model_section(res),
+            runs_section(res), theta_section(res, tables), groups_section(res)]
+    return page(title, body)
+
+
+__all__ = ["render"]
