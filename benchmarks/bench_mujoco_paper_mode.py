@@ -12,7 +12,7 @@ the same initial state over the same number of steps:
   applied through ``xfrc_applied`` (force at the centre of mass plus the torque (P - O) x F).
 
 Measurements alternate between the variants for several rounds; the best round counts. A last
-line times :func:`mujoco_runner.run.simulate_mujoco` (paper mode, 1 ms samples, so Python runs
+line times :func:`mujoco_runner.run.simulate_plan` (paper mode, 1 ms samples, so Python runs
 once per 50 steps) over the same horizon. The cost of a step depends on the state (the
 frictionless native run follows a different trajectory), so compare ratios from one run.
 
@@ -30,9 +30,11 @@ from numba.core import registry
 
 from tippetop.models.mjcf import make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.resolve import resolve_plan
+from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
 from tippetop.mujoco_runner.model import TopModel, load_top
-from tippetop.mujoco_runner.run import simulate_mujoco
+from tippetop.mujoco_runner.run import simulate_plan
 from tippetop.mujoco_runner.state import initial_qpos_qvel
 
 
@@ -100,9 +102,12 @@ def main() -> None:
 
     def runner(tm: TopModel, data: mujoco.MjData, steps: int, friction: FrictionParams) -> float:
         # The whole runner (1 ms samples) over the same trajectory as the paper variant.
-        result = simulate_mujoco(top, friction, init, t_end_s=steps * args.dt, sample_dt_s=1e-3,
-                                 mode="paper", timestep_s=args.dt, integrator=args.integrator)
-        return result.wall_s
+        # (the default scene: the same top, start and law; make_mjcf's default contact)
+        scene = load_scene(None, ["mujoco.friction='paper'", f"mujoco.timestep_s={args.dt!r}",
+                                  f"mujoco.integrator={args.integrator!r}",
+                                  f"run.t_end_s={steps * args.dt!r}", "run.sample_dt_s=1e-3",
+                                  "mujoco.solref=[0.02, 1.0]"])
+        return simulate_plan(resolve_plan(scene, "mujoco").mujoco).wall_s
 
     def paper_mu0(tm: TopModel, data: mujoco.MjData, steps: int, friction: FrictionParams) -> float:
         # The callback does all its work but the force is zero: native's trajectory, so this
@@ -123,7 +128,7 @@ def main() -> None:
                         ("paper_mu0", "paper mode callback, mu = 0"),
                         ("paper", "paper mode (compiled mjcb_passive)"),
                         ("python", "Python loop + xfrc_applied"),
-                        ("runner", "simulate_mujoco paper, 1 ms samples")):
+                        ("runner", "simulate_plan paper, 1 ms samples")):
         ratio = best[name] / best["native"]
         print(f"{label:40s} {best[name]:10.0f} steps/s   {ratio:6.3f}x native")
 

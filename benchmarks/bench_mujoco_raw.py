@@ -7,9 +7,9 @@ harness runs it) of one scene (Fig. 3 by default), in one process:
   the harness compiled (``settings.build_model`` of the plan), from the run's initial state,
   with paper mode's compiled callback armed (the baseline: what anyone stepping that model
   without tippetop pays);
-* run: :func:`tippetop.mujoco_runner.run.simulate_top_model` on the same model over the same
+* run: :func:`tippetop.mujoco_runner.run.run_compiled` on the same model over the same
   horizon, everything included: the per-sample recording, its checks, and the
-  post-processing (:func:`~tippetop.mujoco_runner.run.result_from_samples`: contacts, N,
+  post-processing (:func:`~tippetop.mujoco_runner.results.result_from_samples`: contacts, N,
   the law's force and power, energy and gap checks, the observables table).
 
 The variants alternate over ``--rounds`` rounds; the best time of each counts (the machine is
@@ -30,12 +30,12 @@ import time
 import mujoco
 
 from tippetop.compare.running.engines import plan_for
-from tippetop.models.plan import sample_interval
 from tippetop.models.scene import load_scene
 from tippetop.mujoco_runner import run as mj_run
 from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
+from tippetop.mujoco_runner.results import MujocoResult
 from tippetop.mujoco_runner.settings import build_model
-from tippetop.mujoco_runner.state import initial_qpos_qvel
+from tippetop.mujoco_runner.stepping import start_data
 
 #: The run's speed against raw mj_step that the harness must reach (issue 14).
 TARGET = 0.9
@@ -45,12 +45,7 @@ MODES = {"paper": "mujoco-paper", "native": "mujoco-native"}
 def _raw(tm, plan, nstep: int) -> tuple[float, float]:
     """(CPU, wall) seconds of one ``mj_step(model, data, nstep)`` from the run's start."""
     model = tm.model
-    data = mujoco.MjData(model)
-    if plan.keyframe is None:
-        qa, va = tm.qpos_adr, tm.dof_adr
-        data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(tm, plan.init)
-    else:
-        mujoco.mj_resetDataKeyframe(model, data, plan.keyframe)
+    data = start_data(tm, plan)
     armed = (PaperFriction(tm, data, plan.law, stem=plan.stem) if plan.law is not None
              else contextlib.nullcontext())
     with armed:
@@ -60,12 +55,10 @@ def _raw(tm, plan, nstep: int) -> tuple[float, float]:
         return time.process_time() - cpu, time.perf_counter() - wall
 
 
-def _run(tm, plan, sample_dt: float) -> tuple[float, float, mj_run.MujocoResult]:
+def _run(tm, plan) -> tuple[float, float, MujocoResult]:
     """(CPU, wall) seconds of the harness's run, and the run."""
     cpu, wall = time.process_time(), time.perf_counter()
-    result = mj_run.simulate_top_model(tm, plan.law, plan.init, t_end_s=plan.t_end_s,
-                                       sample_dt_s=sample_dt, mode=plan.mode,
-                                       keyframe=plan.keyframe, stem=plan.stem)
+    result = mj_run.run_compiled(tm, plan)
     return time.process_time() - cpu, time.perf_counter() - wall, result
 
 
@@ -81,14 +74,9 @@ def main() -> None:
     for mode, engine in MODES.items():
         scene = load_scene(args.scene, [f"run.t_end_s={args.t_end:g}"])
         plan = plan_for(scene, engine).mujoco
-        tm = build_model(plan)
-        dt = float(tm.model.opt.timestep)
-        sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s, dt)
-        steps, n_intervals, _law = mj_run.run_grid(tm, plan.law, mode=plan.mode,
-                                                   t_end_s=plan.t_end_s, sample_dt_s=sample_dt)
-        setups[mode] = (tm, plan, sample_dt, steps * n_intervals)
+        setups[mode] = (build_model(plan), plan, plan.sample_dt_s, plan.n_steps)
 
-    # time the post-processing inside the run: simulate_top_model calls it by module global
+    # time the post-processing inside the run: run_compiled calls it by module global
     post_s: list[float] = []
     original = mj_run.result_from_samples
 
@@ -106,12 +94,12 @@ def main() -> None:
     mj_run.result_from_samples = timed
     try:
         for _ in range(args.rounds):
-            for mode, (tm, plan, sample_dt, nstep) in setups.items():
+            for mode, (tm, plan, _sample_dt, nstep) in setups.items():
                 cpu, wall = _raw(tm, plan, nstep)
                 raw = best[mode, "raw"]
                 raw[:] = min(raw[0], cpu), min(raw[1], wall)
                 post_s.clear()
-                cpu, wall, result = _run(tm, plan, sample_dt)
+                cpu, wall, result = _run(tm, plan)
                 run = best[mode, "run"]
                 if cpu < run[0]:
                     post_best[mode] = post_s[-1]

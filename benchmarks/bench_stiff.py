@@ -39,7 +39,7 @@ from tippetop.compare.analysis.accuracy.common import DEFAULT_THRESHOLDS
 from tippetop.compare.analysis.accuracy.figures import work_precision_figure
 from tippetop.compare.analysis.accuracy.ode_study import DEFAULT_BUDGET_S, stiff_work_precision
 from tippetop.compare.analysis.accuracy.pareto import pareto_markdown, pareto_table
-from tippetop.models.plan import resolve_plan
+from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
 from tippetop.reference_ode.solve import OdeResult, simulate_ode
 

@@ -101,7 +101,8 @@ class MixedContact:
 
     Attributes:
         condim: Contact dimensionality.
-        friction: The five coefficients (sliding twice, torsional, rolling twice).
+        friction: The five coefficients (sliding twice, torsional, rolling twice), as mixed
+            (MuJoCo's contact holds each at least ``mjMINMU``: :attr:`contact_friction`).
         solref: (time constant s, damping ratio), or (-stiffness, -damping).
         solimp: (d0, dwidth, width m, midpoint, power).
         source: Which elements gave them (``geoms ball and table``, ``pair ball table``).
@@ -113,16 +114,20 @@ class MixedContact:
     solimp: tuple[float, ...]
     source: str
 
+    @property
+    def contact_friction(self) -> tuple[float, ...]:
+        """The five coefficients as MuJoCo's contact holds them: each at least ``mjMINMU``."""
+        return tuple(max(_MINMU, f) for f in self.friction)
+
     def acting(self) -> dict[str, Any]:
         """condim, and the coefficients it uses (None where it has no friction row).
 
-        The keys of a summary's ``what ran``: ``condim``, ``mu``, ``torsional``, ``rolling``,
-        ``solref``, ``solimp``.
+        The keys and values of a summary's ``what ran`` (read from MuJoCo's contact):
+        ``condim``, ``mu``, ``torsional``, ``rolling``, ``solref``, ``solimp``.
         """
-        c = self.condim
-        return {"condim": c, "mu": self.friction[0] if c >= 3 else None,
-                "torsional": self.friction[2] if c >= 4 else None,
-                "rolling": self.friction[3] if c >= 6 else None,
+        c, f = self.condim, self.contact_friction
+        return {"condim": c, "mu": f[0] if c >= 3 else None,
+                "torsional": f[2] if c >= 4 else None, "rolling": f[3] if c >= 6 else None,
                 "solref": list(self.solref), "solimp": list(self.solimp)}
 
 
@@ -131,7 +136,7 @@ def mix(a: ContactSetting, b: ContactSetting) -> MixedContact:
 
     The geom of higher priority gives everything; at equal priority condim and friction are
     the larger of the two, solref and solimp their solmix-weighted mean (solref the smaller of
-    each when either is given directly, negative). Friction is at least ``mjMINMU``.
+    each when either is given directly, negative).
     """
     if a.priority != b.priority:
         g = a if a.priority > b.priority else b
@@ -152,8 +157,7 @@ def mix(a: ContactSetting, b: ContactSetting) -> MixedContact:
             solref = tuple(min(x, y) for x, y in zip(a.solref, b.solref, strict=True))
         solimp = tuple(w * x + (1 - w) * y for x, y in zip(a.solimp, b.solimp, strict=True))
         fri = tuple(max(x, y) for x, y in zip(a.friction, b.friction, strict=True))
-    five = (fri[0], fri[0], fri[1], fri[2], fri[2])
-    return MixedContact(condim, tuple(max(_MINMU, f) for f in five), tuple(solref),
+    return MixedContact(condim, (fri[0], fri[0], fri[1], fri[2], fri[2]), tuple(solref),
                         tuple(solimp), f"geoms {a.name} and {b.name}")
 
 
@@ -173,8 +177,7 @@ def ball_table_contact(contacts: Sequence[ContactSetting]) -> MixedContact | Non
     tables = {c.index: c for c in contacts if c.role == "table"}
     for c in contacts:
         if c.element == "pair" and ball.index in c.geoms and any(g in tables for g in c.geoms):
-            return MixedContact(c.condim, tuple(max(_MINMU, f) for f in c.friction), c.solref,
-                                c.solimp, f"pair {c.name}")
+            return MixedContact(c.condim, c.friction, c.solref, c.solimp, f"pair {c.name}")
     for table in tables.values():
         if _can_collide(ball, table):
             return mix(table, ball)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tippetop.models.contacts import ContactSetting
+from tippetop.models.contacts import ContactSetting, ball_table_contact
 from tippetop.models.frames import free_joint_start
 from tippetop.models.observables import SIN_THETA_UNDEFINED
 from tippetop.models.params import InitialState
@@ -164,7 +164,6 @@ def initial_state_from_qpos_qvel(top_model: TopModel, qpos: np.ndarray,
 __all__ = [
     "KEYFRAME_TOUCH_R",
     "Kinematics",
-    "ball_table_mu",
     "contact_reach_m",
     "contact_settings",
     "file_top",
@@ -210,18 +209,21 @@ def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
                   for i in range(model.nkey))
     inits = tuple(keyframe_state(top_model, i) for i in range(model.nkey))
     stem, note = stem_from_model(top_model)
+    contacts = contact_settings(top_model)
+    ball = ball_table_contact(contacts)
     opt = model.opt
     return FileTop(
         top=top_model.top, path=path.resolve(), text=path.read_text(encoding="utf-8"),
         timestep_s=float(opt.timestep), integrator=integrator_name(int(opt.integrator)),
         cone=cone_name(int(opt.cone)), impratio=float(opt.impratio),
         noslip_iterations=int(opt.noslip_iterations),
-        gravity_mps2=tuple(float(g) for g in opt.gravity), contacts=contact_settings(top_model),
+        gravity_mps2=tuple(float(g) for g in opt.gravity), contacts=contacts,
         ngeom=int(model.ngeom), npair=int(model.npair),
         contact_reach_m=contact_reach_m(top_model),
         centre_body_m=tuple(float(v) for v in top_model.centre_body_m),
         paper_from_body_quat=tuple(float(v) for v in top_model.paper_from_body_quat),
-        keyframes=names, keyframe_inits=inits, mu=ball_table_mu(top_model), stem=stem,
+        keyframes=names, keyframe_inits=inits,
+        mu=None if ball is None else ball.friction[0], stem=stem,
         stem_note=note)
 
 
@@ -281,24 +283,3 @@ def contact_reach_m(top_model: TopModel) -> float:
             d = float(np.linalg.norm(model.geom_pos[g] - model.body_ipos[b]))
             reach = max(reach, d + float(model.geom_rbound[g]))
     return reach
-
-
-def ball_table_mu(top_model: TopModel) -> float | None:
-    """The ball's sliding friction coefficient against the table, as MuJoCo mixes it.
-
-    A contact pair of the ball and a static geom gives its own; otherwise MuJoCo takes the
-    larger of the two geoms' coefficients (its default mixing), the table being the static
-    geoms the ball can collide with. None if the ball can touch no static geom.
-    """
-    model, ball = top_model.model, top_model.ball_geom_id
-    static = [g for g in range(model.ngeom)
-              if model.body_weldid[model.geom_bodyid[g]] == 0
-              and (model.geom_contype[g] & model.geom_conaffinity[ball]
-                   or model.geom_conaffinity[g] & model.geom_contype[ball])]
-    for p in range(model.npair):
-        if ball in (model.pair_geom1[p], model.pair_geom2[p]):
-            return float(model.pair_friction[p, 0])
-    if not static:
-        return None
-    return float(max(model.geom_friction[ball, 0], *(model.geom_friction[g, 0]
-                                                      for g in static)))

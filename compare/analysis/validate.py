@@ -281,10 +281,11 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     over = _overrides(config)
     plan = Task(None, over, "ode").plan()  # validates the file and the keyframe before any run
     loaded = plan_file_info(over)
-    paper_dt, paper_note = paper_timestep(Task(None, over, "mujoco-paper").plan(),
-                                          loaded["timestep_s"])
-    tasks = [Task(None, over if mode != "mujoco-paper" or paper_dt is None
-                  else (*over, f"mujoco.timestep_s={paper_dt!r}"), mode) for mode in MODES]
+    # the paper's law runs at a step it can follow: the file's, or the largest 1-2-5 step
+    # below the law's limit, which the plan chooses and says (mujoco.fit_paper_timestep)
+    paper = (*over, "mujoco.fit_paper_timestep=true")
+    tasks = [Task(None, paper if mode == "mujoco-paper" else over, mode) for mode in MODES]
+    paper_note = "; ".join(tasks[MODES.index("mujoco-paper")].plan().mujoco.notes)
     results = run_tasks(tasks, scheduler=config.scheduler, workers=config.workers,
                         use_cache=config.use_cache, label="validate")
     top = plan.top
@@ -335,40 +336,6 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
                        if "mujoco-native" in runs else {}),
         "tables": tables,
     }
-
-
-def nice_step_below(limit_s: float) -> float:
-    """The largest 1, 2 or 5 x 10^k seconds at or below ``limit_s``."""
-    exp = math.floor(math.log10(limit_s))
-    for m in (5.0, 2.0, 1.0):
-        if m * 10.0 ** exp <= limit_s * (1 + 1e-12):
-            return m * 10.0 ** exp
-    return 10.0 ** exp  # pragma: no cover - 1 x 10^floor(log10 x) <= x always
-
-
-def paper_timestep(paper_plan: Any, file_timestep_s: float | None) -> tuple[float | None, str]:
-    """The timestep of the ``mujoco-paper`` run: the file's, unless the law needs less.
-
-    MuJoCo refuses a paper-mode step longer than the law's slip relaxation time
-    (:func:`tippetop.mujoco_runner.run.paper_law_max_timestep`); the paper's law in the same
-    model then runs at the largest 1-2-5 step below it, which is said in the run's note.
-
-    Returns:
-        (the timestep to set, or None to keep the file's; the note, or "").
-    """
-    from tippetop.mujoco_runner.model import load_top
-    from tippetop.mujoco_runner.run import paper_law_max_timestep
-
-    mj = paper_plan.mujoco
-    if mj is None or mj.law is None or file_timestep_s is None or mj.timestep_s is not None:
-        return None, ""
-    limit = paper_law_max_timestep(mj.law, load_top(mj.mjcf))
-    if limit is None or file_timestep_s <= limit:
-        return None, ""
-    dt = nice_step_below(limit)
-    return dt, (f"ran at dt = {dt:g} s, not the file's {file_timestep_s:g} s: the paper's law "
-                f"at mu = {mj.law.mu:g} relaxes the slip in {1e3 * limit:.3g} ms on this top, "
-                "which a longer step cannot follow")
 
 
 def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
@@ -14,7 +15,11 @@ from tippetop.compare.commands.options import (
     load_scene,
     print_json,
 )
-from tippetop.compare.presentation.terminal import fmt_value
+from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_value, ran_lines
+from tippetop.models.errors import TippetopError
+
+if TYPE_CHECKING:
+    from tippetop.models.plan import RunPlan
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -26,14 +31,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "Exit 1 if the run failed.")
     p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
                    "paper's top and Fig. 3 start)")
-    p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
-                   "such as mujoco-native (see 'tippetop --help'; default ode)")
+    p.add_argument("--engine", help="ode (the reference), mujoco, or a mode such as "
+                   "mujoco-native (see 'tippetop --help'; default ode)")
     add_set_option(p)
     p.add_argument("--mjcf", metavar="FILE", help="run a loaded MJCF top instead of the "
                    "scene's: as its file says (options, contacts, first keyframe) unless --set "
                    "says otherwise (default: the scene's top)")
     p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
                    "of the file (default: its first, unless --set init.* sets the state)")
+    p.add_argument("--plan", metavar="FILE.json", help="run this plan (written by 'tippetop "
+                   "plan --json', or by another program) exactly as it says, instead of a "
+                   "scene: not with SCENE, --engine, --set, --mjcf or --keyframe (default: none)")
     p.add_argument("--out", metavar="FILE", help="write the observables table, one row per "
                    "sample, to this .csv or .parquet file (default: the scene's outputs.table, "
                    "else none)")
@@ -44,46 +52,73 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
-    from tippetop.compare.running.engines import run_engine, run_failed
+    from tippetop.compare.running.engines import plan_for, run_failed, run_plan
     from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
 
-    scene = load_scene(args)
+    target = args.out
+    if args.plan:
+        plan = read_plan(args)
+    else:
+        scene = load_scene(args)
+        plan = plan_for(scene, args.engine or "ode")
+        if not target and scene.outputs.table:
+            target = scene.outputs.table
+            if scene.path is not None:
+                target = str(scene.path.parent / target)
     out_path = None
-    target = args.out or scene.outputs.table
     if target:
-        if not args.out and scene.path is not None:
-            target = str(scene.path.parent / target)
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
-    run = run_engine(scene, args.engine)
+    run = run_plan(plan)
     failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)
     if args.json:
         print_json(run.summary)
     else:
-        _print_summary(scene.name, run.summary, out_path if not failed else None)
+        _print_summary(plan.scene, run.summary, out_path if not failed else None)
     if failed:
         sys.stderr.write(f"tippetop: run failed: {run.message}\n")
         return EXIT_RUN_FAILED
     return 0
 
 
-#: Summary keys that say what ran (settings read back from the engine), listed apart.
-RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
-            "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
-            "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
+def read_plan(args: argparse.Namespace) -> RunPlan:
+    """The plan of ``--plan FILE.json``; the options a plan replaces must not be given.
+
+    Raises:
+        TippetopError: A scene option beside the plan, a missing file, or JSON that is not a
+            plan (one line each).
+    """
+    from tippetop.models.plan import RunPlan
+
+    given = [name for name, value in (("SCENE", args.scene), ("--engine", args.engine),
+                                      ("--set", args.set), ("--mjcf", args.mjcf),
+                                      ("--keyframe", args.keyframe)) if value]
+    if given:
+        raise TippetopError(f"--plan: expected the plan alone (it says what runs), got "
+                            f"{', '.join(given)} beside it")
+    path = Path(args.plan)
+    if not path.is_file():
+        raise TippetopError(f"--plan: expected an existing plan file (tippetop plan --json), "
+                            f"got {args.plan!r}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise TippetopError(f"--plan: expected a readable UTF-8 JSON file, got {args.plan!r} "
+                            f"({type(exc).__name__})") from None
+    return RunPlan.from_json(text)
 
 
 def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) -> None:
     """A run's summary: the results, then what ran, then the unused ``--set`` keys."""
-    ran = [(k, summary[k]) for k in RAN_KEYS if k in summary]
+    ran = [k for k in RAN_KEYS if k in summary]
     rest = [(k, v) for k, v in summary.items() if k not in RAN_KEYS and k != "unused"]
     pairs = [("scene", scene), *rest]
-    width = max(len(k) for k, _ in [*pairs, *ran, ("unused", 0)])
+    width = max(len(k) for k in [*(k for k, _ in pairs), *ran, "unused"])
     print("\n".join(f"{k:<{width}}  {fmt_value(k, v)}" for k, v in pairs))
     if ran:
         print("what ran:")
-        print("\n".join(f"  {k:<{width - 2}}  {fmt_value(k, v)}" for k, v in ran))
+        print("\n".join(ran_lines(summary, width)))
     unused = summary.get("unused")
     if unused is not None:
         print(f"{'unused':<{width}}  {', '.join(unused) if unused else 'none'} (--set keys "

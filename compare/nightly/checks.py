@@ -53,10 +53,12 @@ def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
     elif plan.mujoco is not None and plan.mujoco.law is not None:
         fr = plan.mujoco.law
     else:
-        mu = plan.mujoco.mu if plan.mujoco is not None else None
-        law = "mujoco-native" if plan.mujoco is not None and plan.mujoco.mode == "native" \
-            else "none"
-        return law, mu, None
+        contact = plan.mujoco.ball_contact if plan.mujoco is not None else None
+        native = plan.mujoco is not None and plan.mujoco.mode == "native"
+        # MuJoCo's own friction: the ball's contact's mu; no friction at all: mu 0
+        mu = (contact.friction[0] if native and contact is not None
+              else None if contact is None else 0.0)
+        return "mujoco-native" if native else "none", mu, None
     return fr.law, fr.mu, fr.Lambda_mps
 
 

@@ -185,6 +185,21 @@ def fmt_value(key: str, value: Any) -> str:
     return fmt(value, unit_of(key))
 
 
+#: The keys of what ran (a summary's settings read back from the engine, or a plan's), in the
+#: order they are listed.
+RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
+            "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
+            "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
+
+
+def ran_lines(values: dict[str, Any], width: int) -> list[str]:
+    """What ran (or will run): an indented ``key  value unit`` line per key present.
+
+    In :data:`RAN_KEYS` order, the values starting at column ``width + 2``.
+    """
+    return [f"  {k:<{width - 2}}  {fmt_value(k, values[k])}" for k in RAN_KEYS if k in values]
+
+
 def key_values(items: Iterable[tuple[str, Any]] | dict[str, Any], indent: str = "") -> str:
     """``key  value unit`` lines, the values lined up."""
     pairs = list(items.items() if isinstance(items, dict) else items)
@@ -252,5 +267,6 @@ def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str
     return f"runs: {counts} in {where}" if counts else f"runs: cached in {where}"
 
 
-__all__ = ["MISSING", "NAN_TEXT", "cache_line", "fmt", "fmt_duration", "fmt_float", "fmt_percent",
-           "fmt_value", "key_values", "labelled", "table", "text_width", "unit_of"]
+__all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "fmt", "fmt_duration", "fmt_float",
+           "fmt_percent", "fmt_value", "key_values", "labelled", "ran_lines", "table",
+           "text_width", "unit_of"]

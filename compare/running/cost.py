@@ -20,8 +20,6 @@ from typing import Any, TextIO
 #: machine: 21-90 us a step over the cached paper- and native-mode runs (median about 65 us;
 #: recording the observables costs as much as the physics). The bar measures the real speed.
 MUJOCO_STEP_S = 65e-6
-#: MuJoCo's own timestep, for a loaded file whose plan leaves it to the file (s).
-MUJOCO_DEFAULT_TIMESTEP_S = 2e-3
 #: Fixed cost of a run in a worker: building the model or problem, the table, the cache (s).
 TASK_OVERHEAD_S = 0.3
 #: Expected wall time of the compiled reference ODE per simulated second (s): median 5 ms,
@@ -32,23 +30,16 @@ ODE_PER_SIM_S = 0.01
 def expected_cost_s(plan: Any) -> float:
     """The expected wall time of one run on one core (s), from its plan.
 
-    MuJoCo: ``t_end / timestep`` steps times :data:`MUJOCO_STEP_S`; the reference ODE:
+    MuJoCo: the plan's steps times :data:`MUJOCO_STEP_S`; the reference ODE:
     :data:`ODE_PER_SIM_S` per simulated second; both plus :data:`TASK_OVERHEAD_S`. Only the
     ratios matter to the bar; its ETA uses the speed measured while it runs.
 
     Args:
-        plan: A :class:`tippetop.models.plan.RunPlan` (read by attribute).
+        plan: A :class:`tippetop.models.plan.RunPlan`.
     """
-    mj = getattr(plan, "mujoco", None)
-    t_end = float(getattr(plan, "t_end_s", 0.0) or 0.0)
-    if getattr(plan, "engine", "ode") != "ode" and mj is not None:
-        dt = getattr(mj, "timestep_s", None) or MUJOCO_DEFAULT_TIMESTEP_S
-        t_end = float(getattr(mj, "t_end_s", t_end) or t_end)
-        return TASK_OVERHEAD_S + t_end / dt * MUJOCO_STEP_S
-    ode = getattr(plan, "ode", None)
-    if ode is not None:
-        t_end = float(getattr(ode, "t_end_s", t_end) or t_end)
-    return TASK_OVERHEAD_S + t_end * ODE_PER_SIM_S
+    if plan.mujoco is not None:
+        return TASK_OVERHEAD_S + mujoco_steps(plan) * MUJOCO_STEP_S
+    return TASK_OVERHEAD_S + float(plan.t_end_s) * ODE_PER_SIM_S
 
 
 def schedule_s(running: Sequence[float], pending: Sequence[float], slots: int) -> float:
@@ -89,13 +80,9 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 86400:.1f} days"
 
 
-def mujoco_steps(plan: Any) -> float:
-    """MuJoCo steps of a run plan (0 for the reference ODE): simulated time / timestep."""
-    mj = getattr(plan, "mujoco", None)
-    if getattr(plan, "engine", "ode") == "ode" or mj is None:
-        return 0.0
-    dt = getattr(mj, "timestep_s", None) or MUJOCO_DEFAULT_TIMESTEP_S
-    return float(mj.t_end_s) / dt
+def mujoco_steps(plan: Any) -> int:
+    """MuJoCo steps of a run plan (0 for the reference ODE): the plan's own count."""
+    return 0 if plan.mujoco is None else plan.mujoco.n_steps
 
 
 def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
@@ -141,6 +128,6 @@ def say_long_run(plans: Sequence[Any], slots: int = 1, stream: TextIO | None = N
         out.flush()
 
 
-__all__ = ["LONG_RUN_S", "MUJOCO_DEFAULT_TIMESTEP_S", "MUJOCO_STEP_S", "ODE_PER_SIM_S",
+__all__ = ["LONG_RUN_S", "MUJOCO_STEP_S", "ODE_PER_SIM_S",
            "TASK_OVERHEAD_S", "expected_cost_s", "long_run_note", "mujoco_steps",
            "say_long_run", "schedule_s"]

@@ -24,7 +24,8 @@ from tippetop.compare.analysis.metrics import (
 )
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
-from tippetop.models.plan import ENGINES, RunPlan, mode_engine, resolve_plan
+from tippetop.models.plan import ENGINES, RunPlan
+from tippetop.models.resolve import mode_engine, resolve_plan
 from tippetop.models.scene import Scene
 
 #: Stand-in for an integration tolerance in MuJoCo's energy check: soft contacts store a

@@ -15,122 +15,12 @@ from tippetop.models.errors import TippetopError
 #: The name of the keyframe that holds the run's initial state.
 KEYFRAME = "tippetop_start"
 #: Model arrays that may differ between the file and the run's model: names, keyframes (the
-#: file has one more), paths and text (bookkeeping, never read by mj_step), and the bounding-
-#: volume trees of the collision midphase, which MuJoCo builds at compile time from the geoms
-#: that collide then: a run that turns a stem's collisions off on the compiled model
-#: (effects.stem = false) keeps the stem in its tree, where the collision filter drops it, and
-#: the file compiles without it (the test steps such a file to the run's states bit for bit).
+#: file has one more), paths and text (bookkeeping, never read by mj_step).
 _SKIP_PREFIXES = ("name_", "names", "key_", "text_", "tex_pathadr", "mesh_pathadr",
-                  "hfield_pathadr", "skin_pathadr", "signature", "bvh_", "body_bvh")
-#: Model sizes that may differ (the keyframe, the names, the harness's userdata block, the
-#: midphase trees).
+                  "hfield_pathadr", "skin_pathadr", "signature")
+#: Model sizes that may differ (the keyframe, the names, the harness's userdata block).
 _SKIP_SIZES = ("nkey", "nnames", "nnames_map", "nuserdata", "npaths", "ntext", "ntextdata",
-               "narena", "nbuffer", "signature", "nbvh", "nbvhstatic", "nbvhdynamic")
-
-# ---------------------------------------------------------------- the document
-def _fmt(values: Any) -> str:
-    """Numbers as MJCF text that parses back to the same doubles (``repr``)."""
-    import numpy as np
-
-    flat = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
-    return " ".join(repr(float(v)) for v in flat)
-
-
-def _parse(text: str) -> Any:
-    """The document's element tree, its comments kept."""
-    import re
-    import xml.etree.ElementTree as ET
-
-    # MuJoCo's parser takes "--" inside a comment (strict XML does not): keep such comments
-    text = re.sub(r"<!--(.*?)-->", lambda m: "<!--" + m.group(1).replace("--", "- -") + "-->",
-                  text, flags=re.DOTALL)
-    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
-    try:
-        return ET.fromstring(text, parser=parser)
-    except ET.ParseError as exc:
-        raise TippetopError(f"mjcf: expected an MJCF (XML) document, got: {exc}") from None
-
-
-def _body_elements(root: Any) -> list[Any]:
-    """``<worldbody>`` and the ``<body>`` elements, in MuJoCo's body order (depth first)."""
-    world = root.find("worldbody")
-    out: list[Any] = []
-
-    def walk(el: Any) -> None:
-        out.append(el)
-        for child in _children(el, "body"):
-            walk(child)
-
-    if world is not None:
-        walk(world)
-    return out
-
-
-def _children(el: Any, tag: str) -> list[Any]:
-    """``el``'s ``tag`` children, also those inside ``<frame>`` elements, in order."""
-    out = []
-    for child in el:
-        if child.tag == tag:
-            out.append(child)
-        elif child.tag == "frame":
-            out.extend(_children(child, tag))
-    return out
-
-
-def _geom_elements(root: Any) -> list[Any]:
-    """Every ``<geom>`` element in MuJoCo's geom order (by body, then as written)."""
-    return [g for body in _body_elements(root) for g in _children(body, "geom")]
-
-
-def _set(el: Any, **attrs: str) -> None:
-    for k, v in attrs.items():
-        el.set(k, v)
-
-
-def _write_back(root: Any, model: Any, generated: bool) -> None:
-    """Write the compiled model's options and contact values onto the document's elements.
-
-    Raises:
-        TippetopError: The document's geoms or pairs do not map one to one onto the model's
-            (an ``<include>``, ``<replicate>`` or a composite made them elsewhere).
-    """
-    import mujoco
-
-    from tippetop.mujoco_runner.settings import integrator_name
-
-    opt = model.opt
-    option = root.find("option")
-    if option is None:
-        import xml.etree.ElementTree as ET
-
-        option = ET.Element("option")
-        root.insert(0, option)
-    _set(option, timestep=_fmt(opt.timestep), integrator=integrator_name(int(opt.integrator)),
-         cone="pyramidal" if int(opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
-         else "elliptic", impratio=_fmt(opt.impratio),
-         noslip_iterations=str(int(opt.noslip_iterations)), gravity=_fmt(opt.gravity))
-    geoms = _geom_elements(root)
-    pairs = [p for c in root.findall("contact") for p in c.findall("pair")]
-    if len(geoms) != model.ngeom or len(pairs) != model.npair:
-        raise TippetopError(
-            f"mjcf: expected a document whose <geom> and <pair> elements are the model's "
-            f"({model.ngeom} geoms, {model.npair} pairs), got {len(geoms)} and {len(pairs)} "
-            "(an <include>, <replicate> or composite makes others): it cannot be written back "
-            "exactly")
-    for g, el in enumerate(geoms):
-        _set(el, contype=str(int(model.geom_contype[g])),
-             conaffinity=str(int(model.geom_conaffinity[g])),
-             condim=str(int(model.geom_condim[g])), friction=_fmt(model.geom_friction[g]),
-             solref=_fmt(model.geom_solref[g]), solimp=_fmt(model.geom_solimp[g]))
-    for p, el in enumerate(pairs):
-        _set(el, condim=str(int(model.pair_dim[p])), friction=_fmt(model.pair_friction[p]),
-             solref=_fmt(model.pair_solref[p]), solimp=_fmt(model.pair_solimp[p]))
-    if generated:  # the harness's callback block: without the callback nothing reads it
-        size = root.find("size")
-        if size is not None:
-            size.attrib.pop("nuserdata", None)
-            if not size.attrib:
-                root.remove(size)
+               "narena", "nbuffer", "signature")
 
 
 def _keyframe_name(model: Any) -> str:
@@ -143,28 +33,17 @@ def _keyframe_name(model: Any) -> str:
     return name
 
 
-def _add_keyframe(root: Any, model: Any, data: Any, name: str) -> None:
-    """The run's initial state as ``<key name=...>`` (every state the key can hold)."""
-    import xml.etree.ElementTree as ET
-
-    frames = root.findall("keyframe")
-    parent = frames[-1] if frames else ET.SubElement(root, "keyframe")
-    key = ET.SubElement(parent, "key", name=name, time=_fmt(data.time), qpos=_fmt(data.qpos),
-                        qvel=_fmt(data.qvel))
+def _start_key(model: Any, data: Any) -> list[tuple[str, Any]]:
+    """The attributes of a ``<key>`` that holds ``data``'s state (every state a key can hold)."""
+    values: list[tuple[str, Any]] = [("time", data.time), ("qpos", data.qpos),
+                                     ("qvel", data.qvel)]
     if model.na:
-        key.set("act", _fmt(data.act))
+        values.append(("act", data.act))
     if model.nu:
-        key.set("ctrl", _fmt(data.ctrl))
+        values.append(("ctrl", data.ctrl))
     if model.nmocap:
-        key.set("mpos", _fmt(data.mocap_pos))
-        key.set("mquat", _fmt(data.mocap_quat))
-
-
-def _comment(text: str) -> str:
-    """``text`` as an XML comment (``--`` is not allowed inside one)."""
-    while "--" in text:
-        text = text.replace("--", "- -")
-    return f"<!--\n{text}\n-->\n"
+        values += [("mpos", data.mocap_pos), ("mquat", data.mocap_quat)]
+    return values
 
 
 def model_differences(run_model: Any, file_model: Any) -> list[str]:
@@ -213,7 +92,7 @@ def _header(scene: str, engine: str, plan: Any, run: dict[str, Any], key: str,
         version = metadata.version("tippetop")
     except metadata.PackageNotFoundError:  # pragma: no cover - the package is installed
         version = "?"
-    steps = round(plan.t_end_s / run["timestep_s"])
+    steps = plan.n_steps
     lines = [
         f"Written by 'tippetop mjcf' (tippetop {version}, MuJoCo {mujoco.__version__}): "
         f"scene {scene}, {engine}, {plan.mode} mode.",
@@ -232,7 +111,9 @@ def _header(scene: str, engine: str, plan: Any, run: dict[str, Any], key: str,
     else:
         lines.append("Its friction is MuJoCo's own (native mode): stepping this file alone is "
                      "the run.")
-    return _comment("\n".join(lines))
+    from tippetop.models.mjcf_document import comment
+
+    return comment("\n".join(lines))
 
 
 def _paper_note(plan: Any) -> str:
@@ -259,52 +140,40 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
 
     from tippetop.compare.running.engines import plan_for
     from tippetop.compare.running.io import write_atomic
-    from tippetop.models.plan import mode_engine, sample_interval
+    from tippetop.models import mjcf_document
+    from tippetop.models.resolve import mode_engine
     from tippetop.mujoco_runner.model import TopModelWarning, top_from_model
-    from tippetop.mujoco_runner.run import run_grid
-    from tippetop.mujoco_runner.settings import build_model, generated_mjcf, settings_that_ran
-    from tippetop.mujoco_runner.state import initial_qpos_qvel
+    from tippetop.mujoco_runner.settings import build_model, settings_that_ran
+    from tippetop.mujoco_runner.stepping import start_data
 
     if mode_engine(engine)[0] != "mujoco":
         raise TippetopError(f"--engine: expected mujoco or a mujoco-* mode, got {engine!r} "
                             "(the reference ODE has no MuJoCo model)")
+    # what a run refuses (e.g. a timestep the paper's law cannot be followed with), so does
+    # its file: the plan refuses it
     plan = plan_for(scene_obj, engine).mujoco
     assert plan is not None
-    top_model = build_model(plan)  # the run's own model, every setting applied
+    top_model = build_model(plan)  # the run's own model: the plan's MJCF text
     model = top_model.model
-    sample_dt = sample_interval(plan.t_end_s, plan.requested_sample_dt_s,
-                                float(model.opt.timestep))
-    # what a run refuses (e.g. a timestep the paper's law cannot be followed with), so does
-    # its file: the run's own checks
-    run_grid(top_model, plan.law, mode=plan.mode, t_end_s=plan.t_end_s, sample_dt_s=sample_dt)
-    if plan.mjcf is None:
-        source = generated_mjcf(plan)
-    else:
-        source = Path(plan.mjcf).read_text(encoding="utf-8")
-    root = _parse(source)
-    _write_back(root, model, generated=plan.mjcf is None)
-
-    # the run's initial state, set as the run sets it
-    data = mujoco.MjData(model)
-    if plan.keyframe is None:
-        qa, va = top_model.qpos_adr, top_model.dof_adr
-        data.qpos[qa:qa + 7], data.qvel[va:va + 6] = initial_qpos_qvel(top_model, plan.init)
-    else:
-        mujoco.mj_resetDataKeyframe(model, data, plan.keyframe)
+    root = mjcf_document.parse(plan.mjcf)
+    if plan.source is None:  # the harness's callback block: without the callback nothing reads it
+        size = root.find("size")
+        if size is not None:
+            size.attrib.pop("nuserdata", None)
+            if not size.attrib:
+                root.remove(size)
+    data = start_data(top_model, plan)  # the run's initial state, set as the run sets it
     key = _keyframe_name(model)
-    _add_keyframe(root, model, data, key)
+    mjcf_document.add_keyframe(root, key, _start_key(model, data))
 
     mujoco.mj_forward(model, data)
     ran = settings_that_ran(top_model, data)
     ran.pop("contact_source", None)
-    ran["sample_dt_s"] = sample_dt
+    ran["sample_dt_s"] = plan.sample_dt_s
     note = _paper_note(plan) if plan.mode == "paper" else None
     key_index = model.nkey  # appended after the file's own keyframes
-    import xml.etree.ElementTree as ET
-
-    ET.indent(root, space="  ")
-    text = (_header(scene_obj.name, engine, plan, ran, key, key_index, note)
-            + ET.tostring(root, encoding="unicode") + "\n")
+    text = mjcf_document.to_text(root, _header(scene_obj.name, engine, plan, ran, key,
+                                               key_index, note))
 
     def write(tmp: Path) -> None:
         tmp.write_text(text, encoding="utf-8")
@@ -331,7 +200,7 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
 
     write_atomic(out, write)
     return {"out": str(out), "scene": scene_obj.name, "engine": engine, "mode": plan.mode,
-            "source": "generated" if plan.mjcf is None else str(plan.mjcf),
+            "source": "generated" if plan.source is None else plan.source,
             "keyframe": key, "keyframe_index": key_index, "t_end_s": plan.t_end_s,
             "friction_in_file": plan.mode == "native" or plan.law is None,
             "note": note, "ran": ran}

@@ -86,12 +86,9 @@ def code_fingerprint() -> str:
 
 
 def task_key(task: Task, plan: RunPlan | None = None) -> str:
-    """The cache key of a task: its plan's physics, the code, and an MJCF file's content."""
+    """The cache key of a task: its plan's physics (its MJCF text included) and the code."""
     plan = plan or task.plan()
     payload: dict[str, Any] = {**plan.physics(), "code": code_fingerprint()}
-    mjcf = plan.mujoco.mjcf if plan.mujoco is not None else None
-    if mjcf is not None:
-        payload["mjcf"] = hashlib.sha256(Path(mjcf).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:24]
 
 
@@ -116,13 +113,31 @@ _REPORTER: Callable[[str, float], None] | None = None
 
 
 def execute(task: Task, report_key: str | None = None) -> dict[str, Any]:
-    """Run one task in this process; returns its summary and a downsampled table.
+    """Plan and run one task in this process; returns its summary and a downsampled table.
 
     Bad input is returned as ``{"error": message}`` rather than raised, so that one bad task
     in a sweep is reported with the others.
 
     Args:
         task: The run.
+        report_key: See :func:`execute_plan`.
+    """
+    try:
+        plan = task.plan()
+    except TippetopError as exc:
+        return {"error": str(exc)}
+    return execute_plan(plan.to_json(), report_key)
+
+
+def execute_plan(plan_json: str, report_key: str | None = None) -> dict[str, Any]:
+    """Run one plan, given as its JSON (:meth:`RunPlan.to_json`), in this process.
+
+    What the process pool's workers and a Dask cluster are sent: the plan as data, which any
+    process of this package can run without resolving a scene. Returns its summary and a
+    downsampled table, or ``{"error": message}`` for a plan this engine refuses.
+
+    Args:
+        plan_json: The plan.
         report_key: With a progress bar listening, a MuJoCo run reports the fraction of its
             simulated time done under this key now and then (the reference ODE is too quick to
             bother; the results are the same either way).
@@ -133,7 +148,7 @@ def execute(task: Task, report_key: str | None = None) -> dict[str, Any]:
         # The main process resolved the same plan and said each model warning once already.
         warnings.simplefilter("ignore", TopModelWarning)
         try:
-            plan = task.plan()
+            plan = RunPlan.from_json(plan_json)
             progress: bool | Callable[[float], None] = False
             reporter = _REPORTER
             if report_key is not None and reporter is not None and plan.engine != "ode" \
@@ -271,18 +286,30 @@ def run_tasks(
         if t.engine not in ENGINES and t.engine not in MODES:
             raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, "
                                 f"got {t.engine!r}")
-    plans = [t.plan() for t in tasks]
-    keys = [task_key(t, p) for t, p in zip(tasks, plans, strict=True)]
+    # a scene that does not load stops everything; a plan refused for its settings (a step the
+    # paper's law cannot follow, effects an engine cannot run) is that task's own row
+    scenes = [t.load() for t in tasks]
+    plans: list[RunPlan | None] = []
+    results: list[TaskResult | None] = [None] * len(tasks)
+    for i, (task, scene) in enumerate(zip(tasks, scenes, strict=True)):
+        try:
+            plans.append(task.plan(scene))
+        except TippetopError as exc:
+            plans.append(None)
+            results[i] = TaskResult(task, "", None, None, str(exc), False)
+    keys = [task_key(t, p) if p is not None else "" for t, p in zip(tasks, plans, strict=True)]
 
     def own(i: int, res_summary: dict[str, Any] | None) -> dict[str, Any] | None:
         """A task's own copy of a (shared or cached) summary, with its own unused keys."""
-        if res_summary is None:
+        plan = plans[i]
+        if res_summary is None or plan is None:
             return None
-        return {**res_summary, "unused": list(plans[i].unused)}
+        return {**res_summary, "unused": list(plan.unused)}
 
-    results: list[TaskResult | None] = [None] * len(tasks)
     todo: dict[str, list[int]] = {}
     for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
+        if plans[i] is None:
+            continue
         hit = cache.get(key) if cache else None
         if hit is not None:
             results[i] = TaskResult(task, key, own(i, hit[0]), hit[1], None, True)
@@ -291,7 +318,7 @@ def run_tasks(
     # longest first: the last runs to start are short, so the cores finish together
     unique = sorted(((key, tasks[idx[0]]) for key, idx in todo.items()),
                     key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
-    unique_plans = {key: plans[todo[key][0]] for key, _ in unique}
+    unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
     slots = _slots(scheduler, workers, len(unique))
     say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
     bar = _progress(list(unique_plans.values()), label, slots, len(tasks) - len(unique))
@@ -393,13 +420,13 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
         if bar is not None:
             bar.finished(index[key])
 
+    plans = plans or {key: task.plan() for key, task in unique}
     if scheduler:
-        for key, out in _dispatch_dask(unique, scheduler):
+        for key, out in _dispatch_dask(unique, plans, scheduler):
             yield key, out
             done(key)
         return
     n = workers or os.cpu_count() or 1
-    plans = plans or {key: task.plan() for key, task in unique}
     mujoco_tasks = [(k, t) for k, t in unique if plans[k].engine != "ode"]
     ode_tasks = [(k, t) for k, t in unique if plans[k].engine == "ode"]
     pooled = n > 1 and len(ode_tasks) > 1
@@ -408,8 +435,9 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
     if pooled:
         pool, queue = local_pool(n)
         with _sigint_blocked():  # the workers start with Ctrl-C blocked (see there)
-            futures = {pool.submit(execute, task, key if bar is not None else None): key
-                       for key, task in ode_tasks}
+            futures = {pool.submit(execute_plan, plans[key].to_json(),
+                                   key if bar is not None else None): key
+                       for key, _task in ode_tasks}
     waiting = set(futures)
     try:
         if not pooled:
@@ -671,8 +699,9 @@ def local_pool(n: int) -> tuple[ProcessPoolExecutor, Any]:
     return pool, queue
 
 
-def _dispatch_dask(unique: list[tuple[str, Task]],
+def _dispatch_dask(unique: list[tuple[str, Task]], plans: dict[str, RunPlan],
                    scheduler: str) -> Iterable[tuple[str, dict[str, Any]]]:
+    """Run the tasks' plans on the Dask cluster at ``scheduler``, sent as their JSON."""
     try:
         from distributed import Client
         from distributed import as_completed as dask_as_completed
@@ -687,7 +716,8 @@ def _dispatch_dask(unique: list[tuple[str, Task]],
         raise TippetopError(f"--scheduler: expected a reachable Dask scheduler, got "
                             f"{scheduler!r} ({exc})") from None
     with client:
-        futures = client.map(execute, [t for _, t in unique], pure=False)
+        futures = client.map(execute_plan, [plans[key].to_json() for key, _ in unique],
+                             pure=False)
         keys = {f.key: k for f, (k, _) in zip(futures, unique, strict=True)}
         for fut in dask_as_completed(futures):
             yield keys[fut.key], fut.result()
@@ -698,5 +728,5 @@ def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
-__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "execute", "local_pool",
-           "run_tasks", "strip_timing", "task_key"]
+__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "execute", "execute_plan",
+           "local_pool", "run_tasks", "strip_timing", "task_key"]

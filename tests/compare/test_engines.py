@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import run_mujoco
 from tippetop.compare.running.engines import plan_for, run_engine, run_plan
 from tippetop.models.mjcf import make_mjcf
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.params import TopParams
 from tippetop.models.scene import load_scene
-from tippetop.mujoco_runner.run import simulate_mujoco
 
 T_END = 0.5  # s: a quarter of Fig. 3's rise, enough for friction to move the top visibly
 
@@ -67,14 +67,12 @@ def test_a_loaded_top_runs_its_own_timestep_and_integrator(mjcf_file: Path) -> N
     assert run.summary["n_steps"] == round(0.1 / 5e-5)
     # and the summary is true: this is the run of a model written with the file's settings
     # (its own contact too), bit for bit
-    kwargs = dict(t_end_s=0.1, sample_dt_s=1e-3, mode="paper", timestep_s=5e-5,
-                  solref=(0.02, 1.0))
-    args = (TopParams.from_ratios(1.0, 0.1), FrictionParams(), InitialState(theta0=0.1,
-                                                                            n0=100.0))
-    same = simulate_mujoco(*args, integrator="implicitfast", **kwargs)
+    same_args = ("run.t_end_s=0.1", "run.sample_dt_s=1e-3", "mujoco.friction='paper'",
+                 "mujoco.timestep_s=5e-5", "mujoco.solref=[0.02, 1.0]")
+    same = run_mujoco(*same_args, "mujoco.integrator='implicitfast'")
     assert np.array_equal(run.table["theta"].to_numpy(), same.table["theta"].to_numpy())
     # ... which the integrator does change: RK4 at the same dt ends 4.6e-5 rad away
-    rk4 = simulate_mujoco(*args, integrator="RK4", **kwargs)
+    rk4 = run_mujoco(*same_args, "mujoco.integrator='RK4'")
     assert np.max(np.abs(run.table["theta"].to_numpy() - rk4.table["theta"].to_numpy())) > 1e-6
 
 
@@ -86,10 +84,9 @@ def test_a_loaded_top_runs_the_timestep_and_integrator_it_is_given(mjcf_file: Pa
     s = run.summary
     assert (s["timestep_s"], s["integrator"], s["n_steps"]) == (1e-4, "Euler", 1000)
     # and it is the run of a model written with those settings, bit for bit
-    same = simulate_mujoco(TopParams.from_ratios(1.0, 0.1), FrictionParams(),
-                           InitialState(theta0=0.1, n0=100.0), t_end_s=0.1, sample_dt_s=1e-3,
-                           mode="paper", timestep_s=1e-4, integrator="Euler",
-                           solref=(0.02, 1.0))
+    same = run_mujoco("run.t_end_s=0.1", "run.sample_dt_s=1e-3", "mujoco.friction='paper'",
+                      "mujoco.timestep_s=1e-4", "mujoco.integrator='Euler'",
+                      "mujoco.solref=[0.02, 1.0]")
     assert np.array_equal(run.table["theta"].to_numpy(), same.table["theta"].to_numpy())
 
 

@@ -25,11 +25,11 @@ from tippetop.compare.analysis.validate import (
     J_TOL,
     MODES,
     findings,
-    nice_step_below,
     setting_changes,
     suggestion,
     verdict,
 )
+from tippetop.models.resolve import nice_step_below
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"

@@ -114,15 +114,18 @@ def test_the_plan_states_the_ball_table_contact_as_mujoco_makes_it(path: Path,
     assert con is not None, "the ball starts on the table"
     want = p.ball_contact
     assert (int(con.dim), tuple(con.friction), tuple(con.solref), tuple(con.solimp)) == (
-        want.condim, want.friction, want.solref, want.solimp)
+        want.condim, want.contact_friction, want.solref, want.solimp)
 
 
 def test_the_stranger_file_mixes_by_priority_and_keeps_its_pair() -> None:
-    # the floor has priority 1: the ball's contact takes the floor's values alone; the stem's
-    # explicit pair with the floor keeps its own five coefficients
+    # the floor has priority 1: the ball's contact takes the floor's values alone (mu 0.3, not
+    # the shell's 0.8), and so does the friction law's mu; the stem's explicit pair with the
+    # floor keeps its own five coefficients
     p = _plan(None, "mujoco", f"top.mjcf={str(FILES[4])!r}").mujoco
     assert p.ball_contact.friction == (0.3, 0.3, 0.005, 0.0001, 0.0001)
     assert p.ball_contact.source == "geoms floor and shell"
+    assert _plan(None, "mujoco-paper", f"top.mjcf={str(FILES[4])!r}",
+                 "mujoco.fit_paper_timestep=true").mujoco.law.mu == 0.3
     pair = next(c for c in p.contacts if c.element == "pair")
     assert pair.friction == (0.5, 0.5, 0.01, 0.001, 0.001) and pair.solref == (0.003, 1.0)
     # a native scene value goes to every contact element: geoms and the pair

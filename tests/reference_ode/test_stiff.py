@@ -18,7 +18,7 @@ import pytest
 
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.models.plan import resolve_plan
+from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import catalogue_names, load_scene
 from tippetop.reference_ode import dop853 as d
 from tippetop.reference_ode import rolling, solve

@@ -1,0 +1,107 @@
+"""``tippetop plan``: what a run would run, without running it; ``--json``: the plan itself."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    add_force_option,
+    add_json_option,
+    add_set_option,
+    load_scene,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop plan`` and its options."""
+    p = sub.add_parser("plan", help="print what a run would run, without running it",
+                       description="Resolve a scene for one engine exactly as 'tippetop "
+                       "simulate' does and print what would run, without running it: the same "
+                       "'what ran' lines a run's summary prints, the start, the model, every "
+                       "contact's settings and the --set keys the engine would not read. "
+                       "--json prints the plan itself (every value resolved, the MJCF text "
+                       "that would be compiled), which 'tippetop simulate --plan FILE.json' "
+                       "runs in any process.")
+    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
+                   "paper's top and Fig. 3 start)")
+    p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
+                   "such as mujoco-native (see 'tippetop --help'; default ode)")
+    add_set_option(p)
+    p.add_argument("--mjcf", metavar="FILE", help="a loaded MJCF top instead of the scene's "
+                   "(default: the scene's top)")
+    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
+                   "of the file (default: its first, unless --set init.* sets the state)")
+    p.add_argument("--out", metavar="FILE.json", help="also write the plan's JSON to this file "
+                   "(default: none)")
+    add_force_option(p, help="overwrite an existing --out file")
+    add_json_option(p, help="print the plan as JSON (format tippetop-plan/1) instead of text")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop plan``: print the plan (and write it with ``--out``); exit 2 for bad input."""
+    from tippetop.compare.running.engines import plan_for
+    from tippetop.compare.running.io import check_output_path, write_atomic
+
+    out = check_output_path(args.out, force=args.force, suffixes=(".json",)) if args.out \
+        else None
+    plan = plan_for(load_scene(args), args.engine)
+    text = plan.to_json()
+    if out is not None:
+        write_atomic(out, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+    if args.json:
+        print(text)
+    else:
+        print_plan(plan, args.engine)
+        if out is not None:
+            print(f"wrote {out}: run it with 'tippetop simulate --plan {out}'")
+    return 0
+
+
+def print_plan(plan: Any, engine: str) -> None:
+    """A plan for a person: what will run, in the lines a run's summary says what ran with."""
+    from tippetop.compare.presentation.terminal import fmt, fmt_value, ran_lines
+
+    said = plan.what_runs()
+    rows: list[tuple[str, str]] = [("start", _start(plan))]
+    mj = plan.mujoco
+    if mj is None:
+        print(f"{plan.scene} in the reference ODE ({engine}): {fmt(plan.t_end_s, 's')} "
+              f"simulated, a sample every {fmt(plan.ode.sample_dt_s, 's')}")
+    else:
+        print(f"{plan.scene} in MuJoCo ({engine}, {mj.mode} mode): {fmt(mj.t_end_s, 's')} "
+              f"simulated, {mj.n_steps} steps of {fmt(mj.timestep_s, 's')}, a sample every "
+              f"{mj.steps_per_sample} steps ({mj.n_intervals + 1} rows)")
+        rows.append(("model", "generated from the scene's top" if mj.source is None else
+                     f"{mj.source}, with the values here written into its document"))
+        for c in mj.contacts:
+            rows.append(("contact", f"{c.element} {c.name} ({c.role}): condim {c.condim}, "
+                         f"friction {fmt_value('', list(c.friction))}, solref "
+                         f"{fmt_value('solref', list(c.solref))}, solimp "
+                         f"{fmt_value('', list(c.solimp))}"
+                         + ("" if c.collides else ", collides with nothing")))
+        if mj.paper_max_timestep_s is not None:
+            rows.append(("law's step", f"at most {fmt(mj.paper_max_timestep_s, 's')} (the "
+                         "paper's law relaxes the slip in that time)"))
+        rows += [("note", note) for note in mj.notes]
+    width = max(max(len(k) for k in [*(k for k, _ in rows), "unused"]),
+                max(len(k) + 2 for k in said))
+    print("what will run:")
+    print("\n".join(ran_lines(said, width)))
+    for key, text in rows:
+        print(f"{key:<{width}}  {text}")
+    print(f"{'unused':<{width}}  {', '.join(plan.unused) or 'none'} (--set keys the engine "
+          "would not read)")
+
+
+def _start(plan: Any) -> str:
+    from tippetop.compare.presentation.terminal import fmt
+
+    mj = plan.mujoco
+    if mj is not None and mj.keyframe is not None:
+        return f"keyframe '{mj.keyframe_name}' of the file (index {mj.keyframe})"
+    ini = plan.init
+    return (f"theta0 {fmt(ini.theta0, 'rad')}, n0 {fmt(ini.n0, 'rad/s')}, thetadot0 "
+            f"{fmt(ini.thetadot0, 'rad/s')}, Omega0 {fmt(ini.Omega0, 'rad/s')}, uOX "
+            f"{fmt(ini.uOX, 'm/s')}, uOY {fmt(ini.uOY, 'm/s')}")
