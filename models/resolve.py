@@ -333,9 +333,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                        else {}))
             for c in file_top.contacts)
         reach = top.R_m + top.a_m if stem_off else file_top.contact_reach_m
-    dt = float(options["timestep_s"])
-    expect(math.isfinite(dt) and dt > 0, "mujoco.timestep_s", "a finite number > 0 (seconds)",
-           dt)
+    dt = float(options["timestep_s"])  # checked where it came from: the scene, or the file
     limit = paper_max_timestep(law, top, reach) if law is not None else None
     if limit is not None and dt > limit:
         if want.set_by_scene("timestep_s") or not mj.fit_paper_timestep:

@@ -46,7 +46,7 @@ def run_failed(summary: dict[str, Any]) -> bool:
     return summary.get("status", "ok") not in FINISHED_STATUSES
 
 __all__ = ["ENGINES", "FINISHED_STATUSES", "EngineRun", "describe_ran", "mujoco_engine_run",
-           "plan_for", "progress_bar", "run_engine", "run_failed", "run_plan"]
+           "check_engine", "plan_for", "progress_bar", "run_engine", "run_failed", "run_plan"]
 
 
 @dataclass
@@ -96,6 +96,7 @@ def plan_for(scene: Scene, engine: str) -> RunPlan:
 
     A mode (``mujoco-native-elliptic``, ...) is its engine plus the overrides that select it.
     """
+    check_engine(engine)
     engine, overrides = mode_engine(engine)
     if overrides:
         scene = scene.with_overrides(list(overrides))
@@ -176,7 +177,7 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
 
     Args:
         plan: A MuJoCo plan (:func:`plan_for`).
-        res: Its :class:`tippetop.mujoco_runner.run.MujocoResult`, from a single run or from a
+        res: Its :class:`tippetop.mujoco_runner.results.MujocoResult`, from a single run or a
             batch (:mod:`tippetop.mujoco_runner.batch`).
     """
     p = plan.mujoco
@@ -236,6 +237,10 @@ def run_plan(plan: RunPlan, *,
 
 def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:
     """Run ``scene`` in ``engine`` (``ode``, ``mujoco`` or a mode name): plan, then run."""
+    return run_plan(plan_for(scene, engine), progress=progress)
+
+
+def check_engine(engine: str) -> None:
+    """Refuse an engine that is neither ``ode``, ``mujoco`` nor a mode name (one line)."""
     if engine not in ENGINES and engine not in MODES:
         raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {engine!r}")
-    return run_plan(plan_for(scene, engine), progress=progress)

@@ -29,13 +29,12 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.running.cost import expected_cost_s, say_long_run
-from tippetop.compare.running.engines import plan_for, run_plan
+from tippetop.compare.running.engines import check_engine, plan_for, run_plan
 from tippetop.compare.running.io import write_atomic
 from tippetop.compare.running.leftovers import clean_cache_leftovers
 from tippetop.compare.running.progress import WorkProgress
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import MODES
-from tippetop.models.plan import ENGINES, RunPlan
+from tippetop.models.plan import RunPlan
 from tippetop.models.resources import data_path, user_cache_dir
 from tippetop.models.scene import Scene, load_scene
 
@@ -283,9 +282,7 @@ def run_tasks(
     if cache is not None:
         _clean_cache_once(str(cache.root))  # what a killed run left (SIGKILL)
     for t in tasks:  # validate everything before any work
-        if t.engine not in ENGINES and t.engine not in MODES:
-            raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, "
-                                f"got {t.engine!r}")
+        check_engine(t.engine)
     # a scene that does not load stops everything; a plan refused for its settings (a step the
     # paper's law cannot follow, effects an engine cannot run) is that task's own row
     scenes = [t.load() for t in tasks]

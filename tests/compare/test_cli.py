@@ -130,7 +130,7 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
 
     The file is written with MuJoCo friction mu = 0.1 (the paper's, which the reference's law
     then takes from the file) and paper mode's stiff contact (solref 0.5 ms,
-    models.plan.PAPER_SOLREF; a loaded top keeps its file's contact). Checks, 0.3 s from the
+    models.resolve.PAPER_SOLREF; a loaded top keeps its file's contact). Checks, 0.3 s from the
     Fig. 3 start:
 
     * ODE: the parameters read back from the file are the top's, so theta_final equals the run

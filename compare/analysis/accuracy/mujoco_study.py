@@ -277,7 +277,7 @@ def mujoco_work_precision(
     contact) is recorded as ``diverged: <its message>`` and the series goes on to the smaller
     timesteps. Nothing is dropped.
 
-    The runs use the scene's plan (:func:`tippetop.models.plan.resolve_plan`)
+    The runs use the scene's plan (:func:`tippetop.models.resolve.resolve_plan`)
     with ``mujoco.friction``, ``mujoco.integrator`` and ``mujoco.timestep_s`` set per point
     (so native mode keeps its calibrated contact but not the calibrated 2e-4 s timestep), and
     the reference's sample grid (``run.sample_dt_s``), which every timestep must divide.
