@@ -9,6 +9,7 @@ import sys
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
+    add_scene_options,
     add_set_option,
     load_scene,
     print_json,
@@ -29,17 +30,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop mjcf`` and its options."""
     p = sub.add_parser("mjcf", help="write a scene's MuJoCo model as a run compiles it",
                        description=DESCRIPTION)
-    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
-                   "paper's top and Fig. 3 start)")
+    add_scene_options(p)
     p.add_argument("--engine", default="mujoco", help="mujoco (the scene's mujoco.friction "
                    "mode), or a MuJoCo mode such as mujoco-native or mujoco-paper (see "
                    "'tippetop --help'; default mujoco)")
     add_set_option(p)
-    p.add_argument("--mjcf", metavar="FILE", help="a loaded MJCF top instead of the scene's, "
-                   "with the settings a run gives it (default: the scene's top)")
-    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: the run starts from this "
-                   "keyframe of the file (default: its first, unless --set init.* sets the "
-                   "state)")
     p.add_argument("--out", metavar="FILE.xml", required=True, help="the MJCF file to write, "
                    "in an existing folder (no default: required)")
     add_force_option(p, help="overwrite an existing --out file")

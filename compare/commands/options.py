@@ -316,6 +316,20 @@ def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help=help)
 
 
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """``SCENE`` (optional), ``--mjcf FILE`` and ``--keyframe NAME``: what load_scene reads.
+
+    A scene, and a loaded MJCF top that replaces its top.
+    """
+    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
+                   "paper's top and Fig. 3 start)")
+    p.add_argument("--mjcf", metavar="FILE", help="a loaded MJCF top instead of the scene's: "
+                   "as its file says (options, contacts, first keyframe) unless --set says "
+                   "otherwise (default: the scene's top)")
+    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
+                   "of the file (default: its first, unless --set init.* sets the state)")
+
+
 def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:
     """``--force`` (dest ``force``): write over existing output."""
     p.add_argument("--force", action="store_true", help=help)

@@ -8,6 +8,7 @@ from typing import Any
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
+    add_scene_options,
     add_set_option,
     load_scene,
 )
@@ -23,15 +24,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "--json prints the plan itself (every value resolved, the MJCF text "
                        "that would be compiled), which 'tippetop simulate --plan FILE.json' "
                        "runs in any process.")
-    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
-                   "paper's top and Fig. 3 start)")
+    add_scene_options(p)
     p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
                    "such as mujoco-native (see 'tippetop --help'; default ode)")
     add_set_option(p)
-    p.add_argument("--mjcf", metavar="FILE", help="a loaded MJCF top instead of the scene's "
-                   "(default: the scene's top)")
-    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
-                   "of the file (default: its first, unless --set init.* sets the state)")
     p.add_argument("--out", metavar="FILE.json", help="also write the plan's JSON to this file "
                    "(default: none)")
     add_force_option(p, help="overwrite an existing --out file")

@@ -11,6 +11,7 @@ from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
     add_force_option,
     add_json_option,
+    add_scene_options,
     add_set_option,
     load_scene,
     print_json,
@@ -29,16 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "results (theta, the inversion time, Jellett's drift, the energy), what "
                        "ran (read back from the engine) and the --set keys it did not read. "
                        "Exit 1 if the run failed.")
-    p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
-                   "paper's top and Fig. 3 start)")
+    add_scene_options(p)
     p.add_argument("--engine", help="ode (the reference), mujoco, or a mode such as "
                    "mujoco-native (see 'tippetop --help'; default ode)")
     add_set_option(p)
-    p.add_argument("--mjcf", metavar="FILE", help="run a loaded MJCF top instead of the "
-                   "scene's: as its file says (options, contacts, first keyframe) unless --set "
-                   "says otherwise (default: the scene's top)")
-    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
-                   "of the file (default: its first, unless --set init.* sets the state)")
     p.add_argument("--plan", metavar="FILE.json", help="run this plan (written by 'tippetop "
                    "plan --json', or by another program) exactly as it says, instead of a "
                    "scene: not with SCENE, --engine, --set, --mjcf or --keyframe (default: none)")

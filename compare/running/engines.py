@@ -243,4 +243,5 @@ def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun
 def check_engine(engine: str) -> None:
     """Refuse an engine that is neither ``ode``, ``mujoco`` nor a mode name (one line)."""
     if engine not in ENGINES and engine not in MODES:
-        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)}, got {engine!r}")
+        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)} or a mode "
+                            f"({', '.join(MODES)}), got {engine!r}")

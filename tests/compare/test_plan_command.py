@@ -110,7 +110,7 @@ def test_simulate_plan_is_simulate_bit_for_bit(scene, engine, extra, tmp_path, c
     (["simulate", "--plan", "notjson.json"], "plan: expected JSON"),
     (["simulate", "--plan", "other.json"], "plan format: expected 'tippetop-plan/1', got "
      "'tippetop-sweep/1'"),
-    (["plan", "fig3", "--engine", "warp"], "mode: expected an engine"),
+    (["plan", "fig3", "--engine", "warp"], "--engine: expected one of ode|mujoco or a mode"),
     (["plan", "--mjcf", str(ROOT / "tests" / "data" / "tutorial_tippe_top.xml"), "--engine",
       "mujoco-paper"], "mujoco.timestep_s: expected at most 0.000166 s"),
     (["plan", "fig3", "--out", "taken.json"], "--out: expected a path that does not exist"),
