@@ -189,7 +189,10 @@ def _ode_plan(scene: Scene, top: TopParams, init: InitialState, friction: Fricti
 
 # ---------------------------------------------------------------- MuJoCo
 class _Wanted:
-    """What the scene sets of MuJoCo's settings; None keeps a loaded file's own value."""
+    """What the scene asks of MuJoCo's settings, and the scene keys that reads.
+
+    ``values``: key -> value (None keeps a loaded file's own); ``used``: the keys read.
+    """
 
     def __init__(self, scene: Scene, loaded: bool) -> None:
         self.scene, self.loaded = scene, loaded
@@ -199,11 +202,91 @@ class _Wanted:
     def set_by_scene(self, key: str) -> bool:
         return self.scene.is_set(f"mujoco.{key}")
 
-    def take(self, key: str, value: Any, fallback: Any = None) -> None:
-        """The scene's value when it sets it (or any generated top's), else ``fallback``."""
-        self.used.add(f"mujoco.{key}")
-        own = not self.loaded or self.set_by_scene(key)
-        self.values[key] = value if own else fallback
+    def take(self, key: str, value: Any, *, read: bool = True) -> None:
+        """The scene's value when it sets it (or any generated top's), else the file's (None).
+
+        ``read``: the key counts as read by the engine (listed as unused otherwise).
+        """
+        if read:
+            self.used.add(f"mujoco.{key}")
+        self.values[key] = value if not self.loaded or self.set_by_scene(key) else None
+
+
+def _paper_wanted(scene: Scene, friction: FrictionParams, want: _Wanted) -> FrictionParams | None:
+    """Paper mode's settings into ``want``; the law the harness applies (None: no friction)."""
+    mj, loaded = scene.mujoco, want.loaded
+    _refuse_torsion(scene, "paper mode", " (use mujoco.friction=native)")
+    expect(mj.condim in (None, 1), "mujoco.condim",
+           "1 in paper mode (the harness applies the friction itself; frictionless "
+           "contacts)", mj.condim)
+    want.used |= {"mujoco.condim", "mujoco.fit_paper_timestep"}
+    law = None
+    if scene.effects.sliding:
+        law = friction
+        want.used |= friction_keys(law)
+        if scene.is_set("mujoco.mu"):
+            law = replace(law, mu=float(mj.mu))
+            want.used.add("mujoco.mu")
+            want.used.discard("friction.mu")
+    for key in ("timestep_s", "integrator", "solimp"):
+        want.take(key, getattr(mj, key))
+    want.take("solref", mj.solref if want.set_by_scene("solref") else PAPER_SOLREF)
+    # the cone and impratio shape friction rows only: a paper-mode contact has none
+    for key in ("cone", "impratio"):
+        want.take(key, getattr(mj, key), read=False)
+    want.values.update(condim=1, mu=None if loaded else 0.0,
+                       torsional=None if loaded else 0.0, rolling=None if loaded else 0.0)
+    return law
+
+
+def _native_wanted(scene: Scene, friction: FrictionParams, want: _Wanted) -> None:
+    """Native mode's settings into ``want``: the scene's, the calibration's or the file's."""
+    mj, e, loaded = scene.mujoco, scene.effects, want.loaded
+    want.used.add("mujoco.calibrated")
+    use_calibration = mj.calibrated if mj.calibrated is not None else not loaded
+    calibrated = calibrated_native_settings() if use_calibration else {}
+    keep_file = loaded and not use_calibration
+    for key in ("timestep_s", "integrator", "cone", "impratio", "solref", "solimp"):
+        want.used.add(f"mujoco.{key}")
+        value = getattr(mj, key)
+        if not want.set_by_scene(key):
+            value = None if keep_file else calibrated.get(key, value)
+        want.values[key] = value
+    # a loaded file keeps its contacts unless the effects ask for more than sliding
+    effects_set = not e.sliding or e.torsional or e.rolling or not keep_file
+    want.used.add("mujoco.condim")
+    if want.set_by_scene("condim"):
+        condim = mj.condim
+    elif not loaded or effects_set:
+        condim = native_condim(scene)
+    else:
+        condim = None
+    if want.set_by_scene("mu"):
+        mu = float(mj.mu)
+        want.used.add("mujoco.mu")
+    elif keep_file:
+        mu = None
+    elif "mu" in calibrated:
+        # the calibration fitted MuJoCo's mu for the reference's mu = CALIBRATION_MU: another
+        # law's mu (a loaded file's, a scene's) is scaled by the same factor
+        mu = (float(calibrated["mu"]) if friction.mu == CALIBRATION_MU
+              else friction.mu * float(calibrated["mu"]) / CALIBRATION_MU)
+        want.used.add("friction.mu")
+    else:
+        mu = friction.mu
+        want.used.add("friction.mu")
+    if not e.sliding:
+        mu = 0.0
+        want.used.discard("mujoco.mu")
+        want.used.discard("friction.mu")
+    torsional = rolling = None if loaded and not effects_set else 0.0
+    if condim is not None and condim >= 4:
+        torsional = e.torsional_mu if e.torsional_mu is not None else MUJOCO_DEFAULT_TORSIONAL
+        want.used.add("effects.torsional_mu")
+    if condim == 6:
+        rolling = e.rolling_mu if e.rolling_mu is not None else MUJOCO_DEFAULT_ROLLING
+        want.used.add("effects.rolling_mu")
+    want.values.update(condim=condim, mu=mu, torsional=torsional, rolling=rolling)
 
 
 def _generated_contacts(top: TopParams, stem: StemParams | None, condim: int,
@@ -223,6 +306,32 @@ def _full_solimp(solimp: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(solimp) + tuple(_DEFAULT.solimp[len(solimp):])
 
 
+def _fitted_timestep(law: FrictionParams, limit: float | None, dt: float, scene: Scene,
+                     loaded: bool) -> tuple[float, str | None]:
+    """Paper mode's timestep: ``dt``, or below the law's ``limit``; and the note saying why.
+
+    Raises:
+        TippetopError: A step longer than the limit that is not to be fitted (the scene sets
+            it itself, or ``mujoco.fit_paper_timestep`` is off).
+    """
+    if limit is None or dt <= limit:
+        return dt, None
+    own = scene.is_set("mujoco.timestep_s")
+    if own or not scene.mujoco.fit_paper_timestep:
+        raise TippetopError(
+            f"mujoco.timestep_s: expected at most {limit:.3g} s for the paper's law on this "
+            f"top (law {law.law}, mu {law.mu:g}: its slip relaxes in "
+            f"{1e3 * limit / PAPER_LAW_MAX_DT_RATE:.3g} ms, and a longer step makes the "
+            "force flip instead of relax; set mujoco.timestep_s"
+            + ("" if own else ", or mujoco.fit_paper_timestep = true to run at the largest "
+               "1-2-5 step below the limit") + f"), got {dt!r}")
+    fitted = nice_step_below(limit)
+    whose = "the file's" if loaded else "the scene's"
+    return fitted, (f"ran at dt = {fitted:g} s, not {whose} {dt:g} s: the paper's law at "
+                    f"mu = {law.mu:g} relaxes the slip in {1e3 * limit:.3g} ms on this top, "
+                    "which a longer step cannot follow")
+
+
 def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int | None,
                  friction: FrictionParams, stem: StemParams | None,
                  file_top: FileTop | None) -> tuple[MujocoPlan, set[str]]:
@@ -231,78 +340,11 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     # a loaded file runs its own friction unless the scene picks a mode
     mode = mj.friction if not loaded or scene.is_set("mujoco.friction") else "native"
     want = _Wanted(scene, loaded)
-    e = scene.effects
     law = None
-    notes: list[str] = []
     if mode == "paper":
-        _refuse_torsion(scene, "paper mode", " (use mujoco.friction=native)")
-        expect(mj.condim in (None, 1), "mujoco.condim",
-               "1 in paper mode (the harness applies the friction itself; frictionless "
-               "contacts)", mj.condim)
-        want.used |= {"mujoco.condim", "mujoco.fit_paper_timestep"}
-        if e.sliding:
-            law = friction
-            want.used |= friction_keys(law)
-            if scene.is_set("mujoco.mu"):
-                law = replace(law, mu=float(mj.mu))
-                want.used.add("mujoco.mu")
-                want.used.discard("friction.mu")
-        for key in ("timestep_s", "integrator", "solimp"):
-            want.take(key, getattr(mj, key))
-        want.take("solref", mj.solref if want.set_by_scene("solref") else PAPER_SOLREF)
-        # the cone and impratio shape friction rows only: a paper-mode contact has none
-        for key in ("cone", "impratio"):
-            want.values[key] = getattr(mj, key) if not loaded or want.set_by_scene(key) \
-                else None
-        want.values.update(condim=1, mu=None if loaded else 0.0,
-                           torsional=None if loaded else 0.0, rolling=None if loaded else 0.0)
+        law = _paper_wanted(scene, friction, want)
     else:
-        want.used.add("mujoco.calibrated")
-        use_calibration = mj.calibrated if mj.calibrated is not None else not loaded
-        calibrated = calibrated_native_settings() if use_calibration else {}
-        keep_file = loaded and not use_calibration
-        for key in ("timestep_s", "integrator", "cone", "impratio", "solref", "solimp"):
-            want.used.add(f"mujoco.{key}")
-            value = getattr(mj, key)
-            if not want.set_by_scene(key):
-                value = None if keep_file else calibrated.get(key, value)
-            want.values[key] = value
-        # a loaded file keeps its contacts unless the effects ask for more than sliding
-        effects_set = not e.sliding or e.torsional or e.rolling or not keep_file
-        want.used.add("mujoco.condim")
-        if want.set_by_scene("condim"):
-            condim = mj.condim
-        elif not loaded or effects_set:
-            condim = native_condim(scene)
-        else:
-            condim = None
-        if want.set_by_scene("mu"):
-            mu = float(mj.mu)
-            want.used.add("mujoco.mu")
-        elif keep_file:
-            mu = None
-        elif "mu" in calibrated:
-            # the calibration fitted MuJoCo's mu for the reference's mu = CALIBRATION_MU: another
-            # law's mu (a loaded file's, a scene's) is scaled by the same factor
-            mu = (float(calibrated["mu"]) if friction.mu == CALIBRATION_MU
-                  else friction.mu * float(calibrated["mu"]) / CALIBRATION_MU)
-            want.used.add("friction.mu")
-        else:
-            mu = friction.mu
-            want.used.add("friction.mu")
-        if not e.sliding:
-            mu = 0.0
-            want.used.discard("mujoco.mu")
-            want.used.discard("friction.mu")
-        torsional = rolling = None if loaded and not effects_set else 0.0
-        if condim is not None and condim >= 4:
-            torsional = e.torsional_mu if e.torsional_mu is not None \
-                else MUJOCO_DEFAULT_TORSIONAL
-            want.used.add("effects.torsional_mu")
-        if condim == 6:
-            rolling = e.rolling_mu if e.rolling_mu is not None else MUJOCO_DEFAULT_ROLLING
-            want.used.add("effects.rolling_mu")
-        want.values.update(condim=condim, mu=mu, torsional=torsional, rolling=rolling)
+        _native_wanted(scene, friction, want)
     w = want.values
     solref = None if w["solref"] is None else tuple(float(x) for x in w["solref"])
     # a solimp of three numbers: a generated top's midpoint and power are the defaults (as
@@ -321,7 +363,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
             else (0.0, 0.0, 0.0), solref, solimp)
         reach = generated_contact_reach_m(top, stem)
     else:
-        options = {key: (w[key] if w.get(key) is not None else getattr(file_top, key))
+        options = {key: (w[key] if w[key] is not None else getattr(file_top, key))
                    for key in ("timestep_s", "integrator", "cone", "impratio")}
         options["noslip_iterations"] = file_top.noslip_iterations if noslip is None else noslip
         options["gravity_mps2"] = file_top.gravity_mps2
@@ -333,23 +375,11 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                        else {}))
             for c in file_top.contacts)
         reach = top.R_m + top.a_m if stem_off else file_top.contact_reach_m
-    dt = float(options["timestep_s"])  # checked where it came from: the scene, or the file
+    # the timestep was checked where it came from: the scene, or the file
     limit = paper_max_timestep(law, top, reach) if law is not None else None
-    if limit is not None and dt > limit:
-        if want.set_by_scene("timestep_s") or not mj.fit_paper_timestep:
-            raise TippetopError(
-                f"mujoco.timestep_s: expected at most {limit:.3g} s for the paper's law on this "
-                f"top (law {law.law}, mu {law.mu:g}: its slip relaxes in "
-                f"{1e3 * limit / PAPER_LAW_MAX_DT_RATE:.3g} ms, and a longer step makes the "
-                "force flip instead of relax; set mujoco.timestep_s"
-                + ("" if want.set_by_scene("timestep_s") else ", or mujoco.fit_paper_timestep = "
-                   "true to run at the largest 1-2-5 step below the limit") + f"), got {dt!r}")
-        fitted = nice_step_below(limit)
-        whose = "the file's" if loaded else "the scene's"
-        notes.append(f"ran at dt = {fitted:g} s, not {whose} {dt:g} s: the paper's "
-                     f"law at mu = {law.mu:g} relaxes the slip in {1e3 * limit:.3g} ms on this "
-                     "top, which a longer step cannot follow")
-        dt = options["timestep_s"] = fitted
+    dt, note = _fitted_timestep(law, limit, float(options["timestep_s"]), scene, loaded) \
+        if law is not None else (float(options["timestep_s"]), None)
+    options["timestep_s"] = dt
     check_samples(scene.run.t_end_s, scene.run.sample_dt_s if scene.run.sample_dt_s is not None
                   else default_sample_dt(scene.run.t_end_s))
     check_mujoco_steps(scene.run.t_end_s, dt)
@@ -362,16 +392,15 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                          torsional=float(w["torsional"] or 0.0),
                          rolling=float(w["rolling"] or 0.0), stem=stem,
                          noslip_iterations=options["noslip_iterations"])
-        source, frame = None, ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))
+        source, centre, quat = None, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)
     else:
         mjcf = _file_document(file_top, options, contacts)
-        source, frame = str(file_top.path), (file_top.centre_body_m,
-                                             file_top.paper_from_body_quat)
-    start: dict[str, Any] = {}
+        source = str(file_top.path)
+        centre, quat = file_top.centre_body_m, file_top.paper_from_body_quat
     if keyframe is None:
-        qpos, qvel = free_joint_start(top, init, np.array(frame[1]), np.array(frame[0]))
-        start = {"start_qpos": tuple(float(v) for v in qpos),
-                 "start_qvel": tuple(float(v) for v in qvel)}
+        qpos, qvel = free_joint_start(top, init, np.array(quat), np.array(centre))
+        start: dict[str, Any] = {"start_qpos": tuple(float(v) for v in qpos),
+                                 "start_qvel": tuple(float(v) for v in qvel)}
     else:
         assert file_top is not None
         start = {"keyframe": keyframe,
@@ -383,7 +412,8 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         noslip_iterations=int(options["noslip_iterations"]),
         gravity_mps2=tuple(float(g) for g in options["gravity_mps2"]), contacts=contacts,
         sample_dt_s=sample_dt, steps_per_sample=steps, n_intervals=n_intervals, mjcf=mjcf,
-        source=source, stem=stem, paper_max_timestep_s=limit, notes=tuple(notes), **start)
+        source=source, stem=stem, paper_max_timestep_s=limit,
+        notes=() if note is None else (note,), **start)
     return plan, want.used
 
 
