@@ -1,24 +1,10 @@
 """MJCF text for the loaded-sphere tippe top on a table.
 
-One template, filled by :func:`make_mjcf`. The model holds:
-
-* ``table``: a plane at z = 0 (checker material, for renders).
-* ``top``: a body with the free joint ``top_free``. Its origin is the sphere's centre S and its
-  z axis is the symmetry axis k (see :mod:`models.frames`). The mass and inertia come only from
-  ``<inertial pos="0 0 -a" mass="M" diaginertia="A A C"/>`` (``inertiafromgeom="false"``; every
-  geom also has mass 0), so the top is exactly the paper's loaded sphere.
-* ``ball``: the sphere geom of radius R, the only geom of the top that collides.
-* ``stem`` and ``spin_marker``: visual-only geoms (``contype = conaffinity = 0``, mass 0,
-  group 1) that make tilt and spin visible in renders; with a ``stem`` argument, the stem
-  collides (a capsule or cylinder from S to its end, mass 0, the ball's contact settings).
-* ``<size nuserdata="HARNESS_USERDATA"/>``: room in ``mjData.userdata`` for the paper-mode
-  callback's parameters (:mod:`mujoco_runner.friction_callback`), so the text works with it
-  even when compiled by MuJoCo directly (:func:`mujoco_runner.model.load_model` appends its
-  own block of that size to whatever a document declares).
-
-Contact parameters (condim, friction, solref, solimp) are written identically on ``table`` and
-``ball``, so MuJoCo's mixing rules (max for condim and friction, solmix-weighted average for
-solref and solimp) reproduce them exactly.
+One template, filled by :func:`make_mjcf`: the plane ``table`` at z = 0 and the body ``top`` on
+the free joint ``top_free``, whose origin is the sphere's centre S and whose z axis is the
+symmetry axis k (see :mod:`models.frames`); ``ball``, the sphere of radius R, is the only geom
+of the top that collides unless a stem is asked for. Every element the model holds, and why
+the contact settings are written as they are: docs/design.md.
 """
 
 from __future__ import annotations

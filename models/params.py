@@ -152,7 +152,7 @@ class FrictionParams:
             ``mu M g / Lambda``, the slope of the paper's law at v_P = 0, so that the laws agree
             for small slip.
         coulomb_v_eps_mps: Exact Coulomb only: below this slip speed the set-valued law is
-            replaced by a linear ramp (see :mod:`reference_ode.friction`).
+            replaced by a linear ramp (:mod:`reference_ode.friction`; docs/design.md).
     """
 
     law: str = "modified_coulomb"

@@ -1,30 +1,9 @@
 """The one resolution of a scene: (scene, engine) -> a run plan with every value resolved.
 
 A scene says what the user asked for; :func:`resolve_plan` says exactly what an engine will run
-(:mod:`tippetop.models.plan`), and no engine or command re-derives it. The rules:
-
-* Effects. ``effects.sliding = false`` removes sliding friction in every engine: the
-  reference integrates law ``none``, paper mode applies no law and native mode gets mu = 0.
-  Torsional and rolling friction exist only in MuJoCo's native mode (condim 4 and 6).
-* Paper mode: frictionless contacts (condim 1) and the scene's law applied at the contact
-  point by the harness (``mujoco.mu``, when set, replaces the law's mu); a generated top's
-  contact is stiff (:data:`PAPER_SOLREF`) unless ``mujoco.solref`` is set. A step longer than
-  the law can follow (:func:`paper_max_timestep`) is refused, or with
-  ``mujoco.fit_paper_timestep`` the largest 1-2-5 step below the limit runs, and the plan says
-  so in its notes (a timestep the scene sets itself is always refused).
-* Native mode: MuJoCo's own friction. A generated top takes the calibration
-  (``models/calibrated_native.toml``, its mu scaled by friction.mu / 0.1) for every setting the
-  scene does not set; condim follows the effects (3 sliding, 4 torsional, 6 rolling, 1 none).
-* A top loaded from an MJCF file runs as its file says: native mode unless the scene sets
-  ``mujoco.friction``; the file's options and contacts unless the scene sets them (or asks for
-  the calibrated settings, ``mujoco.calibrated = true``); its first keyframe (or
-  ``init.keyframe``) unless the scene sets ``init.*``; the laws' mu is the file's ball-table
-  mu unless the scene sets ``friction.mu``. The values are read into the plan and written
-  into the file's document, the MJCF text the plan carries.
-* Sampling: ``run.sample_dt_s`` if set, else :func:`~.plan.default_sample_dt`; in MuJoCo a
-  whole number of timesteps (:func:`~.plan.sample_grid`).
-
-A ``--set`` key that the chosen engine does not read is listed in :attr:`RunPlan.unused`.
+(:mod:`tippetop.models.plan`), and no engine or command re-derives it. A ``--set`` key that the
+chosen engine does not read is listed in :attr:`RunPlan.unused`. The rules (effects, paper and
+native mode, a top loaded from an MJCF file, sampling): docs/design.md.
 """
 
 from __future__ import annotations
@@ -469,7 +448,7 @@ def _start(scene: Scene, file_top: FileTop | None) -> tuple[InitialState, int | 
 
 # ---------------------------------------------------------------- the one resolution
 def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) -> RunPlan:
-    """The one resolution of a scene for an engine (see the module docstring).
+    """The one resolution of a scene for an engine (its rules: docs/design.md).
 
     Args:
         scene: A validated scene.

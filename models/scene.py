@@ -1,57 +1,9 @@
 """Scene files: what to simulate, and nothing more.
 
 One TOML file names the top, the table's friction, the effects that are on, the initial state,
-the run and the outputs wanted.
-
-Example (every key optional; the defaults are the paper's top and Fig. 3 start)::
-
-    [scene]
-    name = "fig3"
-    description = "Group II top, theta0 = 0.1: passes near theta = 0 while nutating, inverts"
-    source = "Ueda, Sasaki & Watanabe, Fig. 3"
-
-    [top]                 # the loaded sphere, from the paper's ratios (SI for the rest)
-    A_over_C = 1.0
-    a_over_R = 0.1
-    C_factor = 1.0        # C = C_factor * (2/5) M R^2
-    R_m = 0.015
-    M_kg = 0.015
-
-    [friction]
-    law = "modified_coulomb"   # modified_coulomb | coulomb | viscous | coulomb_viscous
-    mu = 0.1
-    Lambda_mps = 0.01
-
-    [effects]             # which contact effects are simulated at all
-    sliding = true
-    torsional = false     # MuJoCo only (condim 4)
-    rolling = false       # MuJoCo only (condim 6)
-    stem = false          # the stem's end as a second contact (both engines); a loaded
-                          # MJCF top: on when its file has a colliding stem
-
-    [stem]                # the stem's end on the axis, beyond the ball (effects.stem)
-    kind = "sphere"       # sphere (rounded, or a capsule's cap) | cylinder (flat, rim contact)
-    offset_m = 0.0195     # from the ball's centre to the end's centre (default 1.3 R)
-    radius_m = 0.003      # the end's radius (default 0.2 R)
-
-    [init]
-    theta0 = 0.1
-    n0 = 100.0
-    # keyframe = "spin"   # a loaded MJCF top: start from this keyframe of its file (by
-                          # default its first keyframe, unless [init] sets the state)
-
-    [run]
-    t_end_s = 8.0
-
-    [ode]
-    formulation = "vector"
-    rtol = 1e-9
-
-    [outputs]
-    table = "fig3.csv"    # written only when named
-
-Unknown sections or keys are errors that name the key. ``--set section.key=value`` overrides
-apply to the same dictionary before validation, so they obey the same rules.
+the run and the outputs wanted; :func:`load_scene` reads and validates it (with ``--set``
+overrides) into a :class:`Scene`. :data:`SCHEMA` lists every key with its type; docs/scenes.md
+says what each one means, with its unit and default, and shows an example file.
 """
 
 from __future__ import annotations

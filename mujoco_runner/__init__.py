@@ -2,10 +2,8 @@
 
 Importing this package (before any of its modules imports ``mujoco``) sets ``MUJOCO_GL`` to
 :data:`NO_GL` when the user has not set it: the simulation needs no OpenGL, and with
-``MUJOCO_GL`` unset ``import mujoco`` imports its windowed backend, the ``glfw`` bindings,
-which start a Python subprocess per GLFW library they find to ask its version. A command
-stopped while one runs leaves that subprocess writing a traceback to the user's terminal
-(``EOFError`` or ``BrokenPipeError`` from its ``<string>``). Worker processes inherit the
+``MUJOCO_GL`` unset ``import mujoco`` starts a subprocess per GLFW library it finds (what that
+did to a stopped command: tests/compare/test_faults_signals.py). Worker processes inherit the
 setting. Offscreen rendering picks its own backend (:mod:`.gl`), and reads :data:`NO_GL` as
 unset (:func:`gl_requested`).
 """

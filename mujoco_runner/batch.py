@@ -1,54 +1,11 @@
 """Many MuJoCo runs stepped together on threads, each equal to its single run bit for bit.
 
 :func:`iter_simulate_plans` runs many :class:`~tippetop.models.plan.MujocoPlan` on ``nthread``
-threads and gives each run's :class:`~tippetop.mujoco_runner.results.MujocoResult` as soon as it
-is done, the same one :func:`~tippetop.mujoco_runner.run.simulate_plan` gives. Two ways:
-
-* Runs that read each sample's contacts from their own steps (native mode, or paper mode
-  without a law: :func:`~tippetop.mujoco_runner.stepping.contacts_from_steps`) run whole on
-  :func:`_run_threads`: a worker thread steps each as the single run does, in the compiled
-  stepper, which releases the GIL (:mod:`.stepper`), and the caller's thread turns the
-  records into results while the workers step the next runs. A ``Batch`` would lose those
-  contacts (they are not among its bindable fields), and forward passes to compute them
-  again afterwards cost the sweep a fifth of its rate.
-* The others (paper mode's law, whose N and forces need forward passes afterwards whichever
-  way a run is stepped; or when the compiled stepper is not usable) step in persistent
-  ``mujoco.batch.Batch`` objects (one mjData per simulation).
-
-In a batch:
-
-* Plans whose compiled models give MjData the same layout (every size of the model equal: the
-  same scene with other spins, tops, contact settings, friction laws, modes or timesteps)
-  share a batch; each simulation runs on its own model (``Batch.set_models``), so paper
-  mode's callback, which ignores any model but the one it was armed for, applies the law
-  (see :mod:`.friction_callback`).
-* Each simulation starts exactly as the single run does (initial state or keyframe, two
-  forward passes with the callback armed), then every simulation still running advances by
-  the same number of steps per ``batch.step(ids, nstep)`` call: up to the nearest of their
-  next samples (runs of different timesteps or sample intervals share a batch), and at most
-  :data:`MAX_CALL_STEPS` over all simulations. At each of its samples a simulation's state
-  is recorded (the single run's
-  :class:`~tippetop.mujoco_runner.record.SampleRecord`); a simulation whose state is not finite,
-  or that raised a MuJoCo warning or error, stops there, as the single run does. The
-  per-sample checks (penetration, energy, lost contact), the contact forces and the
-  observables are then computed from the record by the single run's own code
-  (:func:`~tippetop.mujoco_runner.results.result_from_samples`), so both give the same result.
-* A batch's forward pass checks the state as ``mj_step`` does (``mj_forward`` does not): a
-  run whose initial state MuJoCo finds bad (|qvel| > 1e10, say) is warned of and reset there,
-  so it is run alone instead (it fails at its first step either way).
-* MuJoCo's ``mj_step`` is bit-identical in a batch and in a loop over mjData (MuJoCo's own
-  guarantee, and tests/mujoco_runner/test_batch.py checks it for this harness: == on every
-  sample's qpos and qvel, and on the tables, contacts and messages).
-
-The calls come back to Python at least once per sample and per :data:`MAX_CALL_STEPS` steps,
-so Ctrl-C is seen within about a second, and the caller's ``tick`` runs at least every
-:data:`TICK_S` (to redraw a progress bar, collect other work). On threads the caller's thread
-waits for results at most :data:`TICK_S` at a time (Ctrl-C is seen there), and a worker stops
-at its next progress report (every :data:`~.stepping.PROGRESS_INTERVAL_S` of its stepping) once the
-caller stops; the workers are joined before the caller sees the interruption. The main
-thread drives the runs; do not run :func:`iter_simulate_plans` from two Python threads at once
-(paper mode's callback is installed process-wide from the main thread, see
-:mod:`.friction_callback`).
+threads and gives each run's :class:`~tippetop.mujoco_runner.results.MujocoResult`, the one
+:func:`~tippetop.mujoco_runner.run.simulate_plan` gives, as soon as it is done. Call it from
+the main thread, never from two Python threads at once (paper mode's callback is installed
+process-wide, :mod:`.friction_callback`). Which runs step on threads and which in
+``mujoco.batch.Batch`` objects, how a batch steps, and interruption: docs/design.md.
 """
 
 from __future__ import annotations

@@ -1,72 +1,11 @@
 """The paper's friction law applied to a MuJoCo top by a compiled passive callback.
 
-In "paper" mode the contact is frictionless (condim 1) and the friction force
-
-    F = -mu N v_P / sqrt(|v_P|^2 + Lambda^2)          (paper eq. 2.12, ``modified_coulomb``)
-
-(or any other law of :class:`models.params.FrictionParams`, through the reference ODE's own
-compiled law terms, so both engines apply the same function) acts at the
-contact point P = S - R e_z, with v_P the horizontal velocity of the material point at P. This
-module owns MuJoCo's process-global ``mjcb_passive`` while at least one :class:`PaperFriction`
-(or :func:`callback_installed`) context is open, and restores the previous callback when the
-last one closes.
-
-How the callback reaches its state (no Python runs per step):
-
-* The callback is one numba ``cfunc`` with MuJoCo's signature ``void(const mjModel*, mjData*)``.
-  It reads everything through the two pointers it is given, so it works on any mjData on any
-  thread (e.g. the thread pool of ``mujoco.batch.Batch``), and it holds no address of this
-  process: it is cached on disk by numba (``cache=True``; the folder is set by
-  :mod:`reference_ode._jit`), so only the first process after an install, an upgrade or a
-  source change compiles it.
-* The struct field offsets it needs (``mjData.qpos``, ``qvel``, ``userdata``, ``qfrc_passive``,
-  ``qfrc_constraint`` and ``mjModel.nuserdata``) are not in the Python bindings. They are found
-  once per process by :func:`struct_layout`, from probe models and data (see there), and baked
-  into the callback as constants. A cached callback reports the constants it was compiled with
-  (called with a NULL model, which MuJoCo never passes); if they differ from this process's
-  layout (a MuJoCo build with another layout but the same version, so the same cache folder),
-  the callback is compiled afresh without the cache, with a :class:`StaleCallbackWarning`.
-* Its parameters live in the mjData itself: the LAST :data:`USERDATA_SIZE` entries of
-  ``mjData.userdata`` (:data:`models.mjcf.HARNESS_USERDATA`; :func:`mujoco_runner.model.
-  load_model` appends that many to every model, :func:`models.mjcf.make_mjcf` declares them).
-  :func:`userdata_block` builds them: a magic marker, the ``mjModel*`` address (so the
-  callback ignores any other model, e.g. a copy), the law (coulomb kind, viscous flag, mu,
-  Lambda, viscous coefficient, v_eps), R and the sphere's centre in the body frame, the free
-  joint's qpos/dof addresses, then outputs the callback writes (last Fx, Fy, N and a call
-  counter). Without the marker and the matching model the callback does nothing, so an
-  mjData nobody armed (the runner's scratch data, which copies only qpos/qvel; a new
-  ``MjData``; one after ``mj_resetData``) steps frictionless. A copy of an armed mjData
-  (``mj_copyData``, ``copy.copy``, a batch's state rows, which hold userdata) is armed too.
-* :class:`PaperFriction` arms one mjData (writes its block) on enter and disarms it (clears the
-  marker) on exit; several mjData may be armed at once, each with its own law. The global
-  callback is installed while at least one context is open (reference counted) and the
-  previous one restored when the last closes. Thread-safety: open and close contexts from one
-  thread (the main thread) only, and never while a simulation is being stepped on another
-  thread; the callback itself is reentrant (it touches only the mjData it is given) and may
-  run on any number of threads at once.
-* The force is added to ``qfrc_passive`` (MuJoCo fills it before calling the callback, which
-  must add, not overwrite) as the free joint's generalized force: the world force F on the
-  translational dofs and the torque (P - body origin) x F, rotated into the body frame, on the
-  rotational dofs. That is J^T F for the Jacobian of the material point at P, i.e. what
-  ``mj_applyFT(F, 0, P)`` gives (a test checks this against a Python callback using
-  ``mj_applyFT``).
-
-The normal force N. Passive forces are computed before the constraint solve, so the current
-evaluation's N is unknown. The callback reads the vertical component of the free joint's
-``qfrc_constraint``, which still holds the result of the previous dynamics evaluation: with a
-frictionless plane contact that is exactly the normal force (the contact normal is e_z and
-the translational dofs take the world force). With RK4 (four evaluations per step) each stage
-thus sees the N of the stage before it, and the first stage the N of the previous step's last
-stage; with Euler it is the previous step's N. So N lags by one evaluation, an O(dt) error.
-Any other constraint force on the body (another contact, an equality) would be counted in N;
-a top whose only contact is the ball has none. N is clipped at 0. ``qfrc_constraint`` is not
-part of MuJoCo's state vector: a ``mujoco.batch.Batch`` must be ``persistent=True`` (one mjData
-per simulation) for the first stage of a call to see its own simulation's N (otherwise it sees
-another simulation's), and must run on the caller's model (``batch.set_models(model)``: the
-batch's own copy has another address, so the callback would ignore it). So set up, a batch
-equals single-mjData runs bit for bit on any number of threads.
-
-The velocity used is the one in mjData at call time (the RK4 stage's velocity).
+In paper mode the contact is frictionless (condim 1) and the scene's law, through the reference
+ODE's own compiled terms, acts at the contact point P = S - R e_z. :class:`PaperFriction` arms
+one mjData with the law (:func:`userdata_block`, the last :data:`USERDATA_SIZE` entries of its
+``userdata``) and owns MuJoCo's process-global ``mjcb_passive`` while a context is open; open
+and close contexts from the main thread only. How the callback reaches its state, the normal
+force it uses (the previous evaluation's) and when a batch equals single runs: docs/design.md.
 """
 
 from __future__ import annotations
@@ -449,7 +388,7 @@ class PaperFriction:
     the marker is cleared and, when it was the last open context, the previous callback is
     restored. Several contexts may be open at once on different mjData (of the same model or
     not), each with its own law; the same mjData cannot be armed twice. Open and close them
-    from the main thread only (see the module docstring).
+    from the main thread only (see docs/design.md).
 
     Example:
         >>> with PaperFriction(top_model, data, FrictionParams()):

@@ -2,24 +2,10 @@
 
 "Any MJCF top" is a model with exactly one body on a free joint, with no child bodies, that
 carries a colliding sphere geom: the ball that touches the table (the largest colliding sphere
-if there are several; the others count as extra contact geoms). Its mass and
-inertia are MuJoCo's composed ones (``body_mass``, ``body_inertia``, ``body_ipos``,
-``body_iquat``), so several geoms on the body are fine. The table is assumed to be the plane
-z = 0 and gravity to point along -z.
-
-The inertia must be axisymmetric about the line through the centre of mass O and the sphere's
-centre S: two principal moments equal (A) to :data:`AXISYMMETRY_RTOL` and O on the principal
-axis of the third one (C) through S. When all three moments are equal any axis is principal,
-and the symmetry axis k is taken along O -> S.
-
-Other colliding geoms on the top (a stem, say) are allowed with a warning that gives the tilt at
-which they would touch the table (:func:`touch_tilt`); the paper's loaded sphere has none.
-
-A body origin away from the sphere's centre is allowed with a warning: MuJoCo's constraint
-dynamics omit the velocity-product term (J-dot q-dot) of the contact, which vanishes for the
-sphere-plane gap only when the free joint's origin is the sphere's centre S. Elsewhere the
-normal force picks up an error ~ M |centre offset| |omega x (omega x k)| (measured: 1.5% of
-M g for a = 1.9 mm, n = 100 rad/s, theta = 0.4, origin at the centre of mass).
+if there are several). The table is the plane z = 0 and gravity points along -z; the inertia
+must be axisymmetric about the line through the centre of mass and the sphere's centre.
+:func:`load_top` loads one as a :class:`TopModel`. The rules in full, and what is allowed
+with a warning (a stem, a body origin off the ball's centre): docs/design.md.
 """
 
 from __future__ import annotations

@@ -1,19 +1,8 @@
 """The observables table (models.observables.COLUMNS + EXTRA_COLUMNS) from sampled MuJoCo states.
 
-Definitions (table frame, SI; see :mod:`models.observables` and :mod:`models.frames`):
-
-* theta, theta_dot, Omega, n: :func:`mujoco_runner.state.paper_angles`.
-* xi = C n - A Omega cos theta (paper eq. 3.1).
-* J = -L . X_P = R L_z - a C n, with L = I omega about the centre of mass (eq. 2.7).
-* xi_plus, xi_minus: eq. 3.13 with the current J and h = R - a cos theta,
-  xi_+ = (J + sqrt(D)) / (2 (R cos theta - a)), D = J^2 + 4 A M g (R cos theta - a) h a, and the
-  cancellation-free xi_- = -2 A M g a h / (J + sqrt(D)); NaN where D < 0 or R cos theta = a.
-* E = M |u_O|^2 / 2 + omega . L / 2 + M g z_O (the contact's elastic energy is not counted).
-* vPX, vPY: slip velocity of the material point at P = S - R e_z along e_X, e_Y.
-* N: the contact normal force on the top.
-* uOX, uOY: centre-of-mass velocity along e_X, e_Y; x, y, z: centre of mass.
-* qw, qx, qy, qz: the body's quaternion (body to world; the MJCF body's own frame).
-* P_fric = F . v_P (+ tau . omega for MuJoCo's torsional/rolling torques): the friction power.
+:func:`observables_table` computes every column from the sampled free-joint qpos/qvel and the
+contact's forces, in the table frame and SI (see :mod:`models.observables` and
+:mod:`models.frames`). How each column is defined, with the paper's equations: docs/design.md.
 """
 
 from __future__ import annotations

@@ -140,7 +140,7 @@ class SampleRecord:
         qfrc_constraint: ``mjData.qfrc_constraint`` as the step left it: the constraint force
             of the step's LAST dynamics evaluation (with RK4 its last stage's, not the sample
             state's), shape (n, nv). Paper mode's callback takes its normal force from it in
-            the first forward pass at the sample's state (see :mod:`.friction_callback`).
+            the first forward pass at the sample's state (see docs/design.md).
         warnings: ``mjData.warning.number`` (cumulative counters), shape (n, mjNWARNING), int;
             None: not recorded (the caller checked them while stepping and stopped at the first
             sample with a warning, passing ``failure`` to :func:`result_from_samples`).

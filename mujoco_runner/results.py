@@ -29,7 +29,7 @@ from tippetop.mujoco_runner.state import rotations
 #: The top's contacts at a sample: none, the ball, another geom (the stem), both.
 CONTACT_LABELS = ("none", "ball", "stem", "both")
 #: Forward passes per sample in paper mode that bring the recorded normal force to the state's
-#: own (the callback uses the previous evaluation's N; see :mod:`.friction_callback`).
+#: own (the callback uses the previous evaluation's N; see docs/design.md).
 N_FORCE_PASSES = 3
 
 

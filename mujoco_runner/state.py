@@ -1,14 +1,13 @@
 """The paper's state <-> MuJoCo's free-joint qpos/qvel, and the top's kinematics from them.
 
-MuJoCo's free joint: ``qpos = (p, q)`` with p the body origin
-in the world and q the world quaternion (w, x, y, z) of the body; ``qvel = (v, w_b)`` with v the
-world linear velocity of the body origin and w_b the angular velocity in the BODY frame. For a
-:func:`models.mjcf.make_mjcf` top the body origin is the sphere's centre S and the body's z axis
-is the symmetry axis k; for any other MJCF top :class:`~mujoco_runner.model.TopModel` says where
-S and k sit in the body, and the maps below account for it.
-
-Frame conventions are those of :mod:`models.frames` (table z = 0, k from O to S, the paper's
-rotating frame e_X = horizontal projection of k normalised, e_Y = e_Z x e_X).
+MuJoCo's free joint: ``qpos = (p, q)`` with p the body origin in the world and q the world
+quaternion (w, x, y, z) of the body; ``qvel = (v, w_b)`` with v the world linear velocity of the
+body origin and w_b the angular velocity in the BODY frame. For a :func:`models.mjcf.make_mjcf`
+top the body origin is the sphere's centre S and the body's z axis is the symmetry axis k; for
+any other MJCF top :class:`~mujoco_runner.model.TopModel` says where S and k sit in the body,
+and the maps below account for it. Frame conventions are those of :mod:`models.frames` (table
+z = 0, k from O to S, the paper's rotating frame e_X = horizontal projection of k normalised,
+e_Y = e_Z x e_X).
 """
 
 from __future__ import annotations

@@ -1,25 +1,11 @@
 """Sample-by-sample stepping of one mjData in a compiled loop that calls MuJoCo's C API.
 
-A run steps its top one sample interval at a time and records the state at each sample. From
-Python that costs a few microseconds per sample (the binding calls, the copies), which is 10-20 %
-of a sample's physics when a sample is only a few RK4 steps (native mode: 5 steps of 0.2 ms per
-1-ms sample). :func:`advance` does the same in one numba-compiled loop over many samples, which
-calls MuJoCo's own functions (``mj_step``, ``mj_forward``, ``mj_getState``, ...) by their
-addresses in the very ``libmujoco`` the Python bindings use, on the bindings' ``mjModel*`` and
-``mjData*``: the same C calls on the same structs, so the same numbers, without Python between
-them. Both loops release the GIL (numba's ``nogil``): steppers of other mjData run on other
-threads at once (:mod:`.batch`), and Python (the post-processing of finished runs) goes on
-beside them.
-
-What the loop reads that the bindings give only as views: ``qfrc_constraint`` and the warning
-counters (addresses of the bindings' own arrays, fixed for an mjData's life), ``ncon`` (the int
-right after ``timer[mjNTIMER]`` in ``mjData``, mjdata.h) and the contact structs (MuJoCo keeps
-them at the start of the arena: ``mj_clearEfc`` sets ``d->contact = d->arena``; ``arena`` is
-the pointer after ``buffer``, right after ``energy[2]``). :func:`available` checks all of it
-once per process on probe models against the bindings' values (and that the library is the
-bindings' one: already loaded, and seeing the bindings' warning handler), and says no, with
-the reason, rather than guess; the caller then steps from Python. The check swaps nothing
-global (runs on other threads are not disturbed).
+:class:`CompiledStepper` steps a run one sample interval at a time and records the state at
+each sample in one numba-compiled loop over many samples (:func:`_advance`), which calls
+MuJoCo's own functions in the very ``libmujoco`` the Python bindings use: the same C calls on
+the same structs, so the same numbers, without Python between them, and with the GIL
+released. :func:`available` says whether it can run in this process (else the caller steps
+from Python). What it saves, and what it reads of MuJoCo's structs: docs/design.md.
 """
 
 from __future__ import annotations
@@ -347,7 +333,7 @@ class ContactLayout:
 
 
 def _layout(data: mujoco.MjData) -> tuple[int, int]:
-    """(offset of ncon, offset of the arena pointer) in ``data``'s struct (see module doc)."""
+    """(offset of ncon, offset of the arena pointer) in ``data``'s struct (docs/design.md)."""
     timer = data.timer.duration
     ncon = timer.ctypes.data + timer.strides[0] * timer.shape[0] - data._address
     energy = data.energy

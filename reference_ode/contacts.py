@@ -1,20 +1,11 @@
 """The top's contact surfaces, the parameters of a contact phase, and the impact between phases.
 
-A real tippe top turns over onto its stem. The reference models two contact surfaces on the
-symmetry axis, each touching the table at one point X_P = b k + c from the centre of mass:
-
-* the ball: b = a, c = -R e_z (the paper's loaded sphere);
-* the stem's end (:class:`~tippetop.models.params.StemParams`): a rounded end of radius r
-  centred ``offset`` beyond the ball's centre (b = a + offset, c = -r e_z), or a flat end of
-  rim radius r (b = a + offset, c = r u, u the unit vector in the end's plane that points most
-  downward).
-
-One surface is *active* at a time: it carries the normal force N, found from its constraint,
-and the friction law acts at its point. The right-hand side's guard also watches the other
-surface (:mod:`.top`): when it reaches the table, the run switches to it through a perfectly
-inelastic, frictionless impact at the new point (:func:`impact`): the impulse that stops the
-new point's approach. If the old surface would then have to push as well (both touching at
-once, a phase the model does not have), that is detected and reported: the run stops there.
+The reference models two contact surfaces on the symmetry axis, the ball
+(:func:`ball_contact`) and the stem's end (:func:`stem_contact`), each touching the table at
+one point X_P = b k + c from the centre of mass (:class:`Contact`). One is active at a time
+(:func:`phase_params`); when the other reaches the table the run switches to it through a
+perfectly inelastic, frictionless impact (:func:`impact`). Each surface's geometry and what
+happens at a switch: docs/design.md.
 """
 
 from __future__ import annotations

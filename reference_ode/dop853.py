@@ -1,63 +1,11 @@
 """A compiled Dormand-Prince 8(5,3) integrator, generic over a compiled right-hand side.
 
-The tableau, the error estimator (the 5th- and 3rd-order embedded pair), the 7th-order dense
-output and the step-size control are those of Hairer's DOP853 as in ``scipy.integrate.DOP853``
-(same coefficients, written out in :mod:`reference_ode.dop853_tableau` so that a run does not
-import scipy); the difference is that the whole loop, the right-hand side and the events run
-compiled, so a step costs no Python.
-
-The problem is given by two numba ``njit`` functions of an autonomous system:
-
-* ``rhs(y, p, dy) -> g``: writes dy/dt into ``dy`` and returns a *guard* value. The run stops
-  where g falls to <= 0 (status :data:`STATUS_GUARD`), the crossing located on the dense
-  output (for the tippe top g is the normal force N: loss of contact).
-* ``watch(y, p) -> (mark, monitor)``: evaluated at every step end. The first crossing of
-  ``mark`` from > 0 to <= 0 is located on the dense output and recorded in
-  ``stats[S_T_MARK]``; the run goes on (the top: mark = cos theta, the inversion time). The
-  smallest ``monitor`` seen at a step end is kept in ``stats[S_MONITOR_MIN]``, and the run stops
-  with status :data:`STATUS_MONITOR` once it falls below ``monitor_floor`` (the paper
-  formulation: sin theta below its singular threshold; pass ``-inf`` for no such stop).
-
-``p`` is a float64 array of parameters passed through to both. ``y`` is a float64 array.
-
-One compiled kernel for every problem. ``rhs`` and ``watch`` are numba first-class functions:
-the functions below are compiled once, for the signatures :data:`RHS_SIG` and
-:data:`WATCH_SIG` (``RHS_TYPE``, ``WATCH_TYPE``), and call them through a function pointer.
-Pass any ``njit`` dispatcher with those signatures (float64 C-contiguous vectors; the
-dispatcher is compiled for them on the first call). Why not let numba specialise the kernel
-on each dispatcher (its default for a function argument): such a specialisation can never be
-served from the on-disk cache (numba 0.68 keys it by the dispatcher object, so every process
-would compile it again, ~8 s, and write a new cache file), and a cached wrapper that passes a
-global dispatcher on embeds its address and is refused by the cache ("dynamic globals").
-With function pointers the kernel is compiled eagerly at import, cached, and shared by every
-right-hand side; the price is an indirect call per evaluation (measured: no difference
-against a kernel specialised on the tippe top's right-hand side). All array arguments
-must be float64 and C-contiguous (else: ``TypeError: No matching definition``).
-
-What a step costs besides its 12 evaluations (the tippe top's run: ~20 ns per evaluation,
-against ~60 ns for the evaluation itself). The step is written out in :func:`_kernel`'s loop,
-not in helper functions: numba passes an array to a function it inlines by a new reference,
-two atomic reference-count updates per array per call (about 40 per step, 8 % of the run), and
-a row view made per call costs as many. The stage buffer ``K`` and the states are padded to a
-multiple of 4 entries (one AVX2 register) with zeros that stay zero, so that LLVM turns every
-loop over the entries into vector instructions with no scalar remainder; the right-hand side
-sees views of the first n entries, made once per call of the kernel. The stage sums add their
-terms in the tableau's order, so the results are bit for bit those of the plain loops. The
-dense output's coefficients (3 more evaluations) are computed only for a step that holds a
-sample or an event.
-
-Stiffness detection (Hairer's DOP853, Hairer & Wanner, Solving ODEs II, Sec. IV.2): after
-every accepted step the product of the step and the local Lipschitz estimate,
-``h lambda = h |f(y_new) - f(y_12)| / |y_new - y_12|`` (the last two stages, both at
-``t + h``), is compared with ``STIFF_HLAMBDA`` = 6.1, near the border of the method's
-stability region. A step above it is limited by stability rather than accuracy; such steps
-are counted (``S_NSTIFF``) and the largest ``h lambda`` is kept (``S_HLAMBDA_MAX``). Hairer
-checks every 1000th step and warns after 15 flagged checks in a row; here every accepted step
-is checked (2n flops and no extra evaluation) and nothing else changes: the step sequence and
-the results are those without the check. A caller that wants to act on stiffness (the
-reference's rolling phases, :mod:`reference_ode.rolling`) sets ``stats[S_STIFF_STOP]``: the run
-then returns :data:`STATUS_STIFF` at the end of the step whose flag brings ``S_NSTIFF`` to it
-(by default +inf: never).
+Hairer's DOP853 with scipy's coefficients (:mod:`reference_ode.dop853_tableau`), the loop, the
+right-hand side and the events all compiled. :func:`dop853_run` integrates a problem given as
+two numba ``njit`` functions of :data:`RHS_SIG` and :data:`WATCH_SIG` (float64, C-contiguous
+arrays): ``rhs(y, p, dy) -> guard``, the run stopping where the guard falls to <= 0, and
+``watch(y, p) -> (mark, monitor)``, evaluated at every step end. The contract in full, why the
+kernel takes function pointers, what a step costs and the stiffness detector: docs/design.md.
 """
 
 from __future__ import annotations
@@ -512,7 +460,7 @@ def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
 
     Args:
         rhs: ``rhs(y, p, dy) -> guard`` (njit); the run stops where the guard falls to <= 0.
-        watch: ``watch(y, p) -> (mark, monitor)`` (njit), see the module docstring.
+        watch: ``watch(y, p) -> (mark, monitor)`` (njit), see docs/design.md.
         y: The state (float64, (n,)), advanced in place.
         t: The start time.
         t_stop: This call returns once a step ends at or after ``t_stop`` (a chunk).

@@ -1,8 +1,8 @@
 """The Dormand-Prince 8(5,3) tableau, as ``scipy.integrate._ivp.dop853_coefficients`` has it.
 
 Written out here (to the last bit: each number is the ``repr`` of scipy's float64, which
-reads back exactly) so that the integrator does not import scipy, ~0.4 s of every run's
-start-up. ``tests/reference_ode/test_dop853.py`` checks that they equal scipy's exactly.
+reads back exactly) so that the integrator does not import scipy (what that saves:
+``tests/reference_ode/test_dop853.py``, which also checks that they equal scipy's exactly).
 Hairer's DOP853: 12 stages (the 13th, f(y_new), reused), 3 extra stages for the 7th-order
 dense output.
 """

@@ -3,17 +3,8 @@
 State, shape (10,): ``[theta, theta_dot, Omega, n, uOX, uOY, phi, psi, x, y]`` where
 (phi, theta, psi) are the ZYZ Euler angles, Omega = dphi/dt, n = Omega cos(theta) + dpsi/dt,
 (uOX, uOY) the centre-of-mass velocity in the rotating frame OXYZ and (x, y) its position on
-the table.
-
-    A dOmega/dt sin(theta) = (C n - 2 A Omega cos(theta)) theta_dot + (a - R cos(theta)) F_Y
-    A theta_ddot = -Omega (C n - A Omega cos(theta)) sin(theta) - a sin(theta) N - h F_X
-    C dn/dt = R sin(theta) F_Y
-    M duOX/dt = M Omega uOY + F_X,     M duOY/dt = -M Omega uOX + F_Y
-    N = M (g + a (theta_dot^2 cos(theta) + theta_ddot sin(theta)))     (solved with theta_ddot)
-
-The first equation divides by sin(theta): the formulation is singular at theta = 0 and pi. The
-integrator stops a paper-formulation run when |sin(theta)| falls below ``P_SING`` and reports it
-(status ``singular``) instead of integrating through the singularity.
+the table. :func:`paper_core` is the right-hand side, singular at theta = 0 and pi: a run stops
+where |sin(theta)| falls below ``P_SING`` (status ``singular``). The equations: docs/design.md.
 """
 
 from __future__ import annotations

@@ -3,11 +3,10 @@
 The peers a user would pick for a compiled ODE: numbalsoda's DOP853 (Hairer's C code) and
 LSODA (ODEPACK, Fortran), driven by a numba ``cfunc`` that calls the SAME compiled right-hand
 side as the reference kernel (:func:`reference_ode.top.vector_rhs`, the vector formulation)
-and counts its evaluations in a slot after the parameters of the data array it is given.
-
-numbalsoda is an optional extra (``pip install -e '.[peers]'``; it builds with gfortran):
-without it :func:`numbalsoda_missing` says so and nothing here runs. numba compiles the
-``cfunc`` on the first call of :func:`run_numbalsoda` (and caches it on disk).
+and counts its evaluations (:data:`COUNTER_SLOT`). numbalsoda is an optional extra
+(``pip install -e '.[peers]'``; it builds with gfortran): without it
+:func:`numbalsoda_missing` says so and nothing here runs. numba compiles the ``cfunc`` on the
+first call of :func:`run_numbalsoda` (and caches it on disk).
 """
 
 from __future__ import annotations

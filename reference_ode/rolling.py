@@ -1,41 +1,11 @@
 """Rolling phases: the paper's law in its stiff limit, replaced by the rolling constraint.
 
-The modified Coulomb law F = -mu N v_P / sqrt(|v_P|^2 + Lambda^2) is, while the slip |v_P| is
-below Lambda, a viscous law with the huge coefficient ~ mu N / Lambda: the slip relaxes in
-about Lambda / (mu g) seconds (1e-7 s at Lambda = 1e-6 m/s) to a quasi-steady value of order
-Lambda, and an explicit integrator is held at its stability limit by that relaxation (about
-1,000x the evaluations of Lambda = 1e-2 on the Fig. 3 scene). On that slow manifold the law
-is, to leading order in Lambda, the rolling constraint: the horizontal contact force F is
-whatever keeps the slip where the law puts it. The reduced model keeps the full state (the
-vector formulation's 11 components) and solves, at each evaluation, the 3 x 3 linear system
-for (F_x, F_y, N):
-
-* the contact's height, as in :mod:`reference_ode.vector` (z_O = R - a k_z, M z'' = N - M g);
-* dv_P/dt = dv_qs/dt - (v_P - v_qs) / tau, the slip held at the law's quasi-steady slip
-  v_qs = -Lambda F0 / (mu N0 sqrt(1 - f0^2)), f0 = |F0| / (mu N0), where (F0, N0) is the pure
-  rolling force (dv_P/dt = 0). With v_P = v_qs the law itself gives F0: the force and the
-  dissipation F . v_P are the law's to first order in Lambda; dv_qs/dt is a difference
-  quotient along the pure rolling motion, and tau (:data:`TAU_S`) a Baumgarte time that only
-  pulls the slip back onto v_qs (the entry's mismatch, the integrator's drift) and is slow
-  enough not to be stiff itself.
-
-F acts at the contact point, so Jellett's constant is conserved as with the law.
-:mod:`reference_ode.solve` enters the phase when the integrator's stiffness detector flags
-steps (h lambda > 6.1) while the slip is below :data:`SLIP_ENTER` Lambda and the rolling
-force below :data:`F_ENTER` mu N. The phase ends (the guard) where the force the constraint
-needs reaches :data:`F_EXIT` mu N (the law's quasi-steady slip is then Lambda F_EXIT /
-sqrt(1 - F_EXIT^2), 2.1 Lambda; the slip's relaxation is still (1 - F_EXIT^2)^1.5 = 8 % of
-its rate at rest, far faster than the motion wherever the detector flagged the law): beyond
-it the top starts to slide and the law takes over again; or where N falls to 0 (contact
-lost). The same
-holds for the exact Coulomb law's ramp (``coulomb``: F = -mu N v_P / v_eps below v_eps, the
-quasi-steady slip -v_eps F / (mu N)), with v_eps in Lambda's place.
-
-Accuracy (fig3, 8 s, against the law at rtol 1e-11): theta within 2.1e-9 rad at Lambda = 1e-6
-m/s and 1.2e-7 at 1e-5 (the exact law's ramp alike at the same v_eps): the reduction's error
-grows about as Lambda^2. At Lambda >= 1e-4 the detector never flags the law (its largest
-h lambda is 3.0), so no phase starts there; ``simulate_ode(..., stiff="off")`` integrates the
-law throughout.
+Where the modified Coulomb law (or the exact Coulomb law's ramp) is stiff, the slip sits at a
+quasi-steady value of order Lambda and the law is, to leading order, the rolling constraint.
+:data:`ROLLING` is that reduced model as a formulation of the vector state (:mod:`.vector`);
+:mod:`reference_ode.solve` enters a phase where the stiffness detector flags the law, and the
+phase ends where the force reaches :data:`F_EXIT` mu N or N falls to 0. The derivation and the
+thresholds: docs/design.md; the accuracy: tests/reference_ode/test_stiff.py.
 """
 
 from __future__ import annotations

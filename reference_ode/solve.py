@@ -105,7 +105,7 @@ class OdeResult:
             step ended with theta outside (0, pi): it passed through the singularity).
         states: The sampled raw states, shape (samples, state size).
         stiff_steps: Accepted steps whose stiffness estimate h lambda exceeded 6.1 (Hairer's
-            DOP853 test, see :mod:`reference_ode.dop853`): steps limited by stability, not by
+            DOP853 test, see docs/design.md): steps limited by stability, not by
             accuracy. A large share means the problem is stiff for an explicit method.
         h_lambda_max: The largest h lambda estimate of an accepted step.
         phases: The contact phases, each ``{"contact", "t_start", "t_end", "J_rel_drift"}``:

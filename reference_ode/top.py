@@ -1,21 +1,11 @@
 """The tippe top as a problem for the generic DOP853 kernel (:mod:`reference_ode.dop853`).
 
-Each formulation gives the kernel its two compiled functions (of the kernel's ``RHS_SIG`` and
-``WATCH_SIG``):
-
-* ``*_rhs(y, p, dy) -> N``: the equations of motion with the friction law packed in ``p``
-  (:func:`params_array.pack_params`); the guard is the normal force N, so the run stops where
-  contact is lost.
-* ``*_watch(y, p) -> (cos theta, monitor)``: the mark cos theta (its first fall through 0 is
-  the inversion time) and the monitor. The vector formulation has no singularity: its monitor
-  is |sin theta| and is only recorded (pass ``monitor_floor = -inf``). The paper formulation's
-  monitor is the signed sin theta (negative once theta has stepped outside (0, pi)); with
-  ``monitor_floor = p[P_SING]`` the run stops at its singularity.
-
-and an allocating right-hand side for scipy and the observables of a batch of states.
-:data:`FORMULATIONS` collects them by name. The friction law is read from ``p`` and branched
-on, so only its terms are computed; the equations (``vector_core``, ``paper_core``) are
-inlined into each right-hand side, which then touches no reference counts.
+Each formulation (:data:`FORMULATIONS` by name, a :class:`Formulation` each) gives the kernel
+``*_rhs(y, p, dy) -> N``, the equations of motion with the friction law packed in ``p``
+(:func:`params_array.pack_params`), whose guard N stops the run where contact is lost, and
+``*_watch(y, p) -> (cos theta, monitor)``, whose mark's first fall through 0 is the inversion
+time; and an allocating right-hand side for scipy and the observables of a batch of states.
+The monitors, and how the law and the equations are compiled in: docs/design.md.
 """
 
 from __future__ import annotations
@@ -163,7 +153,7 @@ def paper_observe_all(Y, p, sin_undefined, out):
 # ---------------------------------------------------------------- by name
 @dataclass(frozen=True)
 class Formulation:
-    """One formulation's compiled functions (see the module docstring).
+    """One formulation's compiled functions (see the module docstring; docs/design.md).
 
     Attributes:
         name: ``vector`` or ``paper``.

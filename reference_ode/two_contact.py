@@ -1,18 +1,9 @@
 """The top on two points at once: the ball and the stem's end both on the table.
 
-When the stem's end reaches the table while the ball must keep pushing, the top rests on two
-points (a real tippe top slides on both for a while before the ball lifts). Both points are
-on the table, so the tilt is fixed (k_z = the touching value, k_z' = k_z'' = 0) and so is the
-centre of mass's height (z_O'' = 0). The two normal forces N1 (the active contact, ``P_R``,
-``P_A_OFF``, ``P_RIM``) and N2 (the other, ``P_OTHER*``) follow from
-
-* N1 + N2 = M g (the vertical momentum), and
-* (dw/dt x k)_z + (w x dk/dt)_z = 0 (k_z'' = 0), with dw/dt = N1 alpha1 + N2 alpha2 + beta
-
-where alpha_i = I^-1 (X_i x (e_z + phi_i)) and beta = I^-1 (sum X_i x psi_i - (C - A) n dk/dt)
-(the friction law F_i = N_i phi_i + psi_i acts at each point). The phase ends when either
-force falls to 0: that point lifts, and the top goes on on the other (the guard is
-min(N1, N2)).
+:func:`two_contact_core` is that phase's right-hand side: the tilt and the centre of mass's
+height are fixed, and the normal forces N1 (the active contact, ``P_R``, ``P_A_OFF``,
+``P_RIM``) and N2 (the other, ``P_OTHER*``) follow from the constraints. The phase ends when
+either force falls to 0 (the guard is min(N1, N2)). The equations: docs/design.md.
 """
 
 from __future__ import annotations

@@ -3,16 +3,8 @@
 State, all in the table frame (SI), shape (11,):
 ``[x, y, vx, vy, qw, qx, qy, qz, wx, wy, wz]`` - the centre of mass's horizontal position and
 velocity, the body quaternion (body to world) and the angular velocity. The height of the
-centre of mass is not a state: contact holds it at z = R - a k_z, so v_z = -a (w x k)_z.
-
-Equations (k = symmetry axis, X_P = a k - R e_z, I = A 1 + (C - A) k k^T, n = w . k):
-
-* M dv/dt = N e_z + F - M g e_z
-* I dw/dt = X_P x (N e_z + F) - (C - A) n (w x k)      (dI/dt w = (C - A) n (w x k))
-* dq/dt = (0, w) * q / 2
-* N from M d^2 z/dt^2 = N - M g with z = R - a k_z, which is linear in N once F = N phi + psi.
-
-Nothing here divides by sin(theta): the equations are regular at theta = 0 and pi.
+centre of mass is not a state: contact holds it at z = R - a k_z. :func:`vector_core` is the
+right-hand side, regular at theta = 0 and pi; its equations: docs/design.md.
 """
 
 from __future__ import annotations

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,8 @@ import pytest
 from tippetop.compare.analysis import theory
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import SCHEMA, catalogue_names, load_scene, parse_override
+
+SCENES_MD = Path(__file__).resolve().parents[2] / "docs" / "scenes.md"
 
 
 def test_catalogue_has_the_papers_cases() -> None:
@@ -103,3 +106,20 @@ def test_content_hash_tracks_physics_not_names() -> None:
     a = load_scene("fig3")
     assert a.content_hash() == load_scene("fig3").content_hash()
     assert a.content_hash() != load_scene("fig3", ["init.n0=99"]).content_hash()
+
+
+def test_docs_scenes_md_documents_every_key() -> None:
+    """docs/scenes.md has a section per SCHEMA section and, in it, a table row per key.
+
+    And no row for a key SCHEMA does not have: the page documents exactly the contract.
+    """
+    text = SCENES_MD.read_text()
+    parts = re.split(r"^## `\[(\w+)\]`.*$", text, flags=re.MULTILINE)
+    sections = dict(zip(parts[1::2], parts[2::2], strict=True))
+    documented = {s: re.findall(r"^\| `(\w+)` \|", body, flags=re.MULTILINE)
+                  for s, body in sections.items()}
+    missing = [f"{s}.{k}" for s in SCHEMA for k in SCHEMA[s] if k not in documented.get(s, [])]
+    assert not missing, f"keys of SCHEMA missing from docs/scenes.md: {missing}"
+    extra = [f"{s}.{k}" for s, keys in documented.items() for k in keys
+             if k not in SCHEMA.get(s, {})]
+    assert not extra, f"keys in docs/scenes.md that SCHEMA does not have: {extra}"

@@ -5,6 +5,10 @@ with the same ``mj_step`` on its own mjData (MuJoCo's guarantee for ``mujoco.bat
 and paper mode's callback reads only the mjData it is given, so the same floating-point
 operations run in the same order as in the single run. Any difference is a bug (a callback
 reading another simulation's state, a lost N, a wrong start), not rounding.
+
+MuJoCo's ``mj_step`` is bit-identical in a batch and in a loop over mjData (MuJoCo's own
+guarantee, and these tests check it for this harness: == on every sample's qpos and qvel, and
+on the tables, contacts and messages).
 """
 
 from __future__ import annotations

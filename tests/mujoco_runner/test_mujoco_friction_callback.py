@@ -89,6 +89,12 @@ def _python_reference(tm, data, params):
 
 @pytest.mark.parametrize("xml", ["generated", "generic"])
 def test_compiled_callback_matches_mj_applyFT_reference(xml: str) -> None:
+    """The force is added to ``qfrc_passive`` (MuJoCo fills it before calling the callback,
+    which must add, not overwrite) as the free joint's generalized force: the world force F on
+    the translational dofs and the torque (P - body origin) x F, rotated into the body frame,
+    on the rotational dofs. That is J^T F for the Jacobian of the material point at P, i.e.
+    what ``mj_applyFT(F, 0, P)`` gives: checked here against a Python callback using
+    ``mj_applyFT``."""
     # Same law, same N source, same point: the trajectories agree to rounding after 600
     # RK4 steps (2400 callback calls) through the tilted, spinning, sliding start.
     if xml == "generated":

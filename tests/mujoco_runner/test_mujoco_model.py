@@ -232,7 +232,11 @@ def test_off_centre_origin_shifts_the_normal_force() -> None:
     (N_s, A, R), (N_o, _, _) = forces
     w, k = kin.omega_radps[0], kin.k[0]
     predicted = top.a_m * np.cross(w, np.cross(w, k))[2] / (A + R)
-    assert abs(predicted) > 0.01 * N_s  # a real effect: over 1% of the normal force here
+    # a real effect: over 1% of the normal force here. Measured: 1.5% of M g for a = 1.9 mm,
+    # n = 100 rad/s, theta = 0.4, origin at the centre of mass (an error of the normal force
+    # ~ M |centre offset| |omega x (omega x k)|, the term MuJoCo omits with the body origin
+    # away from the sphere's centre S, which load_top allows with a warning)
+    assert abs(predicted) > 0.01 * N_s
     assert N_o - N_s == pytest.approx(predicted, rel=1e-9)
 
 

@@ -374,9 +374,10 @@ print(json.dumps(out))
 
 def test_second_process_compiles_nothing() -> None:
     """The kernel takes its functions as function pointers so that its compiled code can be
-    cached (a kernel specialised on a dispatcher argument never is; see ``dop853``). A process
-    running both formulations must load every function from the cache and compile none. This
-    process runs them first, so that the cache is warm (and written if it was cold)."""
+    cached (a kernel specialised on a dispatcher argument never is; see docs/design.md). A
+    process running both formulations must load every function from the cache and compile
+    none. This process runs them first, so that the cache is warm (and written if it was
+    cold)."""
     import json
     import subprocess
     import sys
