@@ -119,8 +119,8 @@ class Impact:
         y: The state just after (the angular velocity changed; positions and the horizontal
             velocity did not).
         impulse_Ns: The new surface's impulse (N s).
-        both: True if the old surface would have to push too (both touching at once: the model
-            has no such phase; ``y`` is then the state before).
+        both: True if the old surface would have to push too (both touching at once:
+            :func:`impact_both` then starts the two-point phase; ``y`` is the state before).
         approach_mps: The new point's downward speed before the impact (m/s).
     """
 
