@@ -4,7 +4,7 @@ A run plan carries the MJCF text that will be compiled (:class:`~tippetop.models
 MujocoPlan`): for a loaded file, the file's own document with the plan's options and contact
 settings written into its elements (numbers at full precision: ``repr`` parses back to the same
 double), its ``<include>`` elements inlined and its asset folders made absolute, so that any
-process can compile it from the text alone. Only the standard library is used.
+process can compile it from the text alone.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from tippetop.models.errors import TippetopError
 
 #: The attributes of ``<compiler>`` that name folders of asset files.
@@ -25,18 +27,8 @@ _ASSET_TAGS = ("mesh", "texture", "hfield", "skin")
 
 
 def fmt(values: Any) -> str:
-    """Numbers as MJCF text that parses back to the same doubles (``repr``)."""
-    if isinstance(values, (int, float)):
-        values = (values,)
-    flat = []
-    for v in values:
-        if isinstance(v, (list, tuple)):
-            flat.extend(v)
-        elif hasattr(v, "ravel"):
-            flat.extend(v.ravel().tolist())
-        else:
-            flat.append(v)
-    return " ".join(repr(float(v)) for v in flat)
+    """Numbers (one, a sequence or an array) as MJCF text: ``repr``, the same doubles back."""
+    return " ".join(repr(float(v)) for v in np.ravel(np.asarray(values, dtype=float)))
 
 
 def parse(text: str) -> ET.Element:
