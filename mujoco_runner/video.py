@@ -1,7 +1,7 @@
 """The video of a run: its frames drawn offscreen, and their H.264 MP4 (``tippetop render``).
 
-Imported only when a video is asked for: :mod:`compare.render` chooses the OpenGL backend
-(``MUJOCO_GL``) first. :func:`render_frames` draws each track (:class:`.poses.Track`: an
+Imported only when a video is asked for: :mod:`compare.presentation.video` chooses the OpenGL
+backend (``MUJOCO_GL``) first. :func:`render_frames` draws each track (:class:`.poses.Track`: an
 engine's poses) at the given simulated times in the model of :mod:`.drawn_model`, seen by
 :func:`.offscreen.tracking_camera`, one panel per track side by side, each with its text overlay
 (:mod:`.overlay`: engine, t, theta, n); with two tracks (MuJoCo | reference) the comparison inset
