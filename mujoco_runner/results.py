@@ -256,6 +256,7 @@ def result_from_samples(
     failure: str | None = None,
     wall_s: float = 0.0,
     ran: dict[str, Any] | None = None,
+    law_forces: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> MujocoResult:
     """The :class:`MujocoResult` of one simulation from its recorded samples.
 
@@ -279,6 +280,9 @@ def result_from_samples(
             None: it did not stop early. The reason is followed by ``; <what to change>``.
         wall_s: Wall time of the stepping (s); the post-processing's own time is added.
         ran: The run's :func:`~.stepping.ran_settings`.
+        law_forces: Paper mode: the law's (Fx, Fy) (n, 2) and power (n,) at each sample's own
+            state, where ``record.contacts`` was computed too (by a worker in another Python,
+            :mod:`.remote`); None: computed here, from forward passes.
 
     Returns:
         The run's result.
@@ -300,7 +304,9 @@ def result_from_samples(
     n = len(rec)
     law_xy = law_power = None
     contacts = rec.contacts
-    if contacts is None or law is not None:
+    if law_forces is not None and contacts is not None:
+        law_xy, law_power = law_forces[0][:n], law_forces[1][:n]
+    elif contacts is None or law is not None:
         contacts, law_xy, law_power = scratch_contacts(top_model, rec, law, stem)
     qpos, qvel = rec.qpos[:, qa:qa + 7], rec.qvel[:, va:va + 6]
     sums = contact_sums(top_model, contacts, qpos, qvel, n)

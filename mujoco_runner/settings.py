@@ -101,20 +101,20 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
         c = data.contact[i]
         if b in (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]):
             fr = [float(v) for v in c.friction]
-            out.update(_friction_that_acts(int(c.dim), fr[0], fr[2], fr[3]),
+            out.update(friction_that_acts(int(c.dim), fr[0], fr[2], fr[3]),
                        solref=[float(v) for v in c.solref],
                        solimp=[float(v) for v in c.solimp], contact_source="contact at t = 0")
             return out
     g = top_model.ball_geom_id
     fr = [float(v) for v in model.geom_friction[g]]
-    out.update(_friction_that_acts(int(model.geom_condim[g]), *fr),
+    out.update(friction_that_acts(int(model.geom_condim[g]), *fr),
                solref=[float(v) for v in model.geom_solref[g]],
                solimp=[float(v) for v in model.geom_solimp[g]],
                contact_source="ball geom (no contact at t = 0)")
     return out
 
 
-def _friction_that_acts(condim: int, mu: float, torsional: float,
+def friction_that_acts(condim: int, mu: float, torsional: float,
                         rolling: float) -> dict[str, Any]:
     """Condim and the coefficients it uses; None for a coefficient with no friction row."""
     return {"condim": condim, "mu": mu if condim >= 3 else None,
@@ -134,5 +134,5 @@ def cone_name(code: int) -> str:
     return next((s for s in CONES if s == name), name)
 
 
-__all__ = ["build_model", "check_model", "cone_name", "integrator_name", "plan_differences",
-           "settings_that_ran"]
+__all__ = ["build_model", "check_model", "cone_name", "friction_that_acts", "integrator_name",
+           "plan_differences", "settings_that_ran"]

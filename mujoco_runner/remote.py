@@ -1,0 +1,233 @@
+"""Run a MuJoCo plan in another Python (another MuJoCo) through :mod:`.worker`.
+
+:func:`simulate_in` sends the plan's model, start, grid and law to ``worker.py`` started in the
+given interpreter, which needs nothing but ``mujoco`` and ``numpy``; its samples, contacts and
+forces come back in a ``.npz`` file, and this process turns them into the same
+:class:`~.results.MujocoResult` as an in-process run (:func:`~.results.result_from_samples`).
+A worker that crashes, hangs past its budget or answers with anything but its reply is one
+failed run, with the reason (:class:`WorkerFailed`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from tippetop.models.mjcf import HARNESS_USERDATA
+from tippetop.models.plan import MujocoPlan
+from tippetop.mujoco_runner import worker
+from tippetop.mujoco_runner.friction_callback import law_parameters
+from tippetop.mujoco_runner.model import TopModel
+from tippetop.mujoco_runner.record import ContactRecord, SampleRecord
+from tippetop.mujoco_runner.results import MujocoResult, result_from_samples
+from tippetop.mujoco_runner.settings import build_model, friction_that_acts
+
+#: The worker script, run by path in the other interpreter.
+WORKER = Path(worker.__file__)
+#: Wall time a worker may take beyond its expected cost before it is stopped (s), and the
+#: factor on the expected cost: a hung worker is a failed run, not a hung harness.
+BUDGET_MIN_S = 60.0
+BUDGET_FACTOR = 20.0
+
+
+class WorkerFailed(RuntimeError):
+    """A worker that crashed, hung or answered with something else than its reply."""
+
+
+@dataclass(frozen=True)
+class WorkerInfo:
+    """What a worker says of where it ran.
+
+    Attributes:
+        executable: Its Python.
+        version: ``mujoco.__version__`` there.
+        python: Its Python version.
+        path: How it stepped (``plain loop``).
+    """
+
+    executable: str
+    version: str
+    python: str
+    path: str
+
+
+def request(plan: MujocoPlan, top_model: TopModel, out: Path) -> dict[str, Any]:
+    """The worker's request for ``plan`` (its arrays go to ``out``)."""
+    start: dict[str, Any] = ({"keyframe": plan.keyframe} if plan.keyframe is not None
+                             else {"qpos": list(plan.start_qpos), "qvel": list(plan.start_qvel)})
+    law = None
+    if plan.law is not None:
+        p = law_parameters(plan.law, top_model)
+        stem = plan.stem
+        law = {**{k: float(v) if not isinstance(v, int) else v for k, v in p.items()},
+               "R": top_model.top.R_m, "centre": [float(v) for v in top_model.centre_body_m],
+               "axis": [float(v) for v in top_model.axis_body],
+               "stem_kind": 0 if stem is None else 2 if stem.kind == "cylinder" else 1,
+               "stem_l": 0.0 if stem is None else stem.offset_m,
+               "stem_r": 0.0 if stem is None else stem.radius_m}
+    return {"protocol": worker.PROTOCOL, "mjcf": plan.mjcf, "userdata": HARNESS_USERDATA,
+            "start": start, "ball_geom": top_model.ball_geom_id,
+            "steps_per_sample": plan.steps_per_sample,
+            "n_intervals": plan.n_intervals, "law": law, "out": str(out)}
+
+
+def _name(enum: Any, code: int, prefix: str, names: tuple[str, ...]) -> str:
+    name = enum(code).name.removeprefix(prefix)
+    return next((s for s in names if s.upper() == name.upper()), name.lower())
+
+
+def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
+    """The worker's read-back in the keys of :func:`~.stepping.ran_settings`."""
+    from tippetop.models.mjcf import CONES, INTEGRATORS
+
+    r = reply["ran"]
+    out: dict[str, Any] = {
+        "timestep_s": r["timestep_s"],
+        "integrator": _name(mujoco.mjtIntegrator, r["integrator_code"], "mjINT_", INTEGRATORS),
+        "cone": _name(mujoco.mjtCone, r["cone_code"], "mjCONE_", CONES),
+        "impratio": r["impratio"], "noslip_iterations": r["noslip_iterations"],
+        "gravity_mps2": r["gravity_mps2"]}
+    out.update(friction_that_acts(r["condim"], *r["coefficients"]), solref=r["solref"],
+               solimp=r["solimp"], contact_source=r["contact_source"])
+    law = plan.law
+    out["friction_law"] = ("mujoco-native" if plan.mode == "native"
+                           else law.law if law is not None else "none")
+    if law is not None:
+        out["law_mu"] = float(law.mu)
+    out["sample_dt_s"] = plan.steps_per_sample * float(r["timestep_s"])
+    out["keyframe"] = plan.keyframe_name
+    return out
+
+
+def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
+                progress: Callable[[float], None] | None = None,
+                env: dict[str, str] | None = None) -> tuple[MujocoResult, WorkerInfo]:
+    """Run ``plan`` in the interpreter ``python`` (its own ``mujoco``).
+
+    Args:
+        python: The interpreter's path.
+        plan: What to run.
+        budget_s: Wall time after which the worker is stopped (default from the plan's steps).
+        progress: Called with the simulated time reached, as the worker reports it.
+        env: The worker's environment (default this process's, without ``PYTHONPATH``).
+
+    Returns:
+        The run's result (as an in-process run's) and where the worker ran.
+
+    Raises:
+        WorkerFailed: The worker crashed, hung past its budget or did not answer as a worker.
+        TippetopError: The plan's model does not compile here (nothing is run).
+    """
+    top_model = build_model(plan)  # this process's view of the model: geometry, observables
+    if budget_s is None:
+        budget_s = BUDGET_MIN_S + BUDGET_FACTOR * plan.n_steps * 65e-6
+    with tempfile.TemporaryDirectory(prefix="tippetop-worker-") as tmp:
+        out = Path(tmp) / "run.npz"
+        text = json.dumps(request(plan, top_model, out))
+        reply, lines = _converse(python, text, budget_s, progress, env)
+        info = WorkerInfo(str(reply.get("executable", python)), str(reply.get("version", "?")),
+                          str(reply.get("python", "?")), str(reply.get("path", "?")))
+        if reply.get("status") != "ok":
+            raise WorkerFailed(f"the worker in {python} failed: "
+                               f"{reply.get('message', 'no reason given')}")
+        try:
+            with np.load(out) as z:
+                arrays = {k: z[k] for k in z.files}
+        except (OSError, ValueError) as exc:
+            raise WorkerFailed(f"the worker in {python} wrote no readable results ({exc})") \
+                from None
+    record = SampleRecord(
+        time=arrays["time"], qpos=arrays["qpos"], qvel=arrays["qvel"],
+        qacc_warmstart=arrays["qacc_warmstart"], qfrc_constraint=arrays["qfrc_constraint"],
+        warnings=arrays["warnings"], warning_text=reply.get("warning_text"),
+        contacts=ContactRecord(arrays["contact_sample"], arrays["contact_geom"],
+                               arrays["contact_dist"], arrays["contact_pos"],
+                               arrays["contact_frame"], arrays["contact_force"]))
+    law_out = arrays["law_out"]
+    forces = (law_out[:, :2], law_out[:, 2]) if plan.law is not None else None
+    with np.errstate(over="ignore", invalid="ignore"):
+        result = result_from_samples(top_model, record, plan, wall_s=float(reply["wall_s"]),
+                                     ran=_ran(reply, plan), law_forces=forces)
+    if progress is not None and len(result.table):
+        progress(float(result.table["t"].iloc[-1]))
+    return result, info
+
+
+def _converse(python: str, text: str, budget_s: float,
+              progress: Callable[[float], None] | None,
+              env: dict[str, str] | None) -> tuple[dict[str, Any], list[str]]:
+    """Start the worker, send the request and read its lines until its reply.
+
+    The worker is stopped past the budget. Returns the reply (its last line) and the lines
+    before it.
+    """
+    if env is None:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    try:
+        proc = subprocess.Popen([python, "-u", str(WORKER)], stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                env=env, start_new_session=True)
+    except OSError as exc:
+        raise WorkerFailed(f"the worker could not start {python!r}: {exc.strerror}") from None
+    stderr: list[str] = []
+    reader = threading.Thread(target=lambda: stderr.extend(proc.stderr), daemon=True)
+    reader.start()
+    lines: list[str] = []
+    timer = threading.Timer(budget_s, _kill, (proc,))
+    timer.start()
+    t0 = time.monotonic()
+    try:
+        assert proc.stdin is not None and proc.stdout is not None
+        with contextlib.suppress(BrokenPipeError):
+            proc.stdin.write(text)
+            proc.stdin.close()
+        for line in proc.stdout:
+            lines.append(line.rstrip("\n"))
+            if progress is not None and line.startswith('{"t": '):
+                with contextlib.suppress(ValueError, KeyError):
+                    progress(float(json.loads(line)["t"]))
+        proc.wait()
+    except BaseException:  # Ctrl-C: the worker goes with the run
+        _kill(proc)
+        proc.wait()
+        raise
+    finally:
+        timer.cancel()
+    reader.join(1.0)
+    if time.monotonic() - t0 >= budget_s and proc.returncode != 0:
+        raise WorkerFailed(f"the worker in {python} took longer than its budget of "
+                           f"{budget_s:.0f} s and was stopped")
+    reply = None
+    if lines:
+        with contextlib.suppress(ValueError):
+            reply = json.loads(lines[-1])
+    if not isinstance(reply, dict) or "status" not in reply:
+        tail = (stderr[-1].strip() if stderr else lines[-1] if lines else "nothing")[:200]
+        how = (f"exit status {proc.returncode}" if proc.returncode
+               else "no reply on its last line")
+        raise WorkerFailed(f"the worker in {python} ended without its reply ({how}; last "
+                           f"output: {tail})")
+    return reply, lines[:-1]
+
+
+def _kill(proc: subprocess.Popen[str]) -> None:
+    """End the worker and whatever it started (its own session: a process group)."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+
+
+__all__ = ["BUDGET_FACTOR", "BUDGET_MIN_S", "WORKER", "WorkerFailed", "WorkerInfo", "request",
+           "simulate_in"]

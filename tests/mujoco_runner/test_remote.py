@@ -1,0 +1,124 @@
+"""A plan run by the worker in another Python is the in-process run; a broken worker is one
+failed run with its reason.
+
+The worker (``mujoco_runner/worker.py``) needs nothing but ``mujoco`` and ``numpy``: it steps
+from Python (``mj_step`` per sample interval) with paper mode's law as a Python passive callback,
+where an in-process run steps in the compiled loop with the compiled callback. In this very
+interpreter (the same MuJoCo) both do the same floating-point operations on the same states, so
+the tables are compared bit for bit: native and paper mode, a stem the law also acts at, a
+file's keyframe as the start.
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import mujoco_plan
+from tippetop.mujoco_runner import remote
+from tippetop.mujoco_runner.run import simulate_plan
+
+ROOT = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
+
+
+@pytest.mark.parametrize("over", [
+    ("mujoco.friction=native",),
+    ("mujoco.friction=paper",),
+    ("mujoco.friction=paper", "friction.law='coulomb_viscous'", "mujoco.timestep_s=1e-5"),
+    (f"top.mjcf={str(ROOT / 'examples' / 'capsule_stem_top.xml')!r}", "mujoco.friction=paper",
+     "mujoco.timestep_s=2e-4", "init.theta0=2.0", "init.n0=60.0"),
+    (f"top.mjcf={str(ROOT / 'examples' / 'cylinder_stem_ballast.xml')!r}",),
+], ids=["native", "paper", "coulomb-viscous", "paper-stem", "keyframe"])
+def test_a_worker_in_this_python_is_the_in_process_run(over: tuple[str, ...]) -> None:
+    plan = mujoco_plan("run.t_end_s=0.3", *over)
+    alone = simulate_plan(plan)
+    reported: list[float] = []
+    there, info = remote.simulate_in(sys.executable, plan, progress=reported.append)
+    assert info.version == alone_version() and info.path == "plain loop"
+    assert there.status == alone.status and there.n_steps == alone.n_steps
+    assert there.message.split(" in ")[0] == alone.message.split(" in ")[0]
+    assert there.ran == alone.ran
+    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+    assert there.contacts.tobytes() == alone.contacts.tobytes()
+    assert reported and reported[-1] == pytest.approx(0.3)
+    if "init.theta0=2.0" in over:  # turned over far enough: the stem touches, the law acts there
+        assert there.t_stem is not None
+
+
+def alone_version() -> str:
+    import mujoco
+
+    return mujoco.__version__
+
+
+def test_a_diverging_run_fails_there_as_here(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
+    plan = mujoco_plan("mujoco.friction=paper", "effects.sliding=false", "init.n0=1e11",
+                       "run.t_end_s=0.1")
+    alone = simulate_plan(plan)
+    there, _ = remote.simulate_in(sys.executable, plan)
+    assert alone.status == there.status == "diverged"
+    assert "mjWARN_BADQVEL" in there.message
+    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+
+
+def _fake(tmp_path: Path, body: str) -> str:
+    path = tmp_path / "python"
+    path.write_text("#!/bin/sh\n" + body + "\n")
+    path.chmod(0o755)
+    return str(path)
+
+
+@pytest.mark.parametrize(("body", "says"), [
+    ("echo 'Traceback (most recent call last):' >&2; echo 'Segmentation fault' >&2; exit 139",
+     "ended without its reply (exit status 139; last output: Segmentation fault)"),
+    ("echo '{\"half a line'", "ended without its reply (no reply on its last line; last "
+     "output: {\"half a line)"),
+    ("echo 'hello'; echo '[1, 2]'", "ended without its reply"),
+    ("echo '{\"status\": \"error\", \"message\": \"no GPU here\"}'", "failed: no GPU here"),
+    ("echo '{\"status\": \"ok\", \"wall_s\": 1, \"ran\": {}}'", "wrote no readable results"),
+], ids=["crash", "cut-off", "garbage", "error", "no-results"])
+def test_a_broken_worker_is_one_failed_run_with_its_reason(tmp_path: Path, body: str,
+                                                           says: str) -> None:
+    plan = mujoco_plan("run.t_end_s=0.01")
+    with pytest.raises(remote.WorkerFailed) as info:
+        remote.simulate_in(_fake(tmp_path, body), plan)
+    assert says in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_hung_worker_is_stopped_at_its_budget(tmp_path: Path) -> None:
+    import time
+
+    plan = mujoco_plan("run.t_end_s=0.01")
+    t0 = time.monotonic()
+    with pytest.raises(remote.WorkerFailed, match="longer than its budget of 1 s"):
+        remote.simulate_in(_fake(tmp_path, "sleep 60"), plan, budget_s=1.0)
+    assert time.monotonic() - t0 < 10
+
+
+def test_a_python_without_mujoco_says_so(tmp_path: Path) -> None:
+    plan = mujoco_plan("run.t_end_s=0.01")
+    python = "/usr/bin/python3" if Path("/usr/bin/python3").exists() else None
+    if python is None:  # pragma: no cover - every Debian has one
+        pytest.skip("no system Python")
+    with pytest.raises(remote.WorkerFailed, match=r"expected mujoco and numpy in .*, got "
+                       "ImportError"):
+        remote.simulate_in(python, plan)
+    with pytest.raises(remote.WorkerFailed, match="could not start"):
+        remote.simulate_in(str(tmp_path / "no-such-python"), plan)
+
+
+def test_the_worker_imports_nothing_but_mujoco_numpy_and_the_standard_library() -> None:
+    tree = ast.parse(remote.WORKER.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            names.add((node.module or "").split(".")[0])
+    assert names <= {"__future__", "json", "math", "sys", "time", "traceback", "mujoco",
+                     "numpy"}, names
