@@ -106,7 +106,9 @@ def integrator_split(model: mujoco.MjModel) -> tuple[int, str] | None:
     :mod:`.stepper` integrator code and the C name of a (m, d) integrator.
     """
     enabled = int(model.opt.enableflags)
-    if enabled & (int(mujoco.mjtEnableBit.mjENBL_FWDINV) | int(mujoco.mjtEnableBit.mjENBL_SLEEP)):
+    bits = mujoco.mjtEnableBit
+    # sleeping islands (newer releases only) change what mj_step does after its forward pass
+    if enabled & (int(bits.mjENBL_FWDINV) | int(getattr(bits, "mjENBL_SLEEP", 0))):
         return None
     kind = int(model.opt.integrator)
     if kind == int(mujoco.mjtIntegrator.mjINT_RK4):

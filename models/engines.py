@@ -1,0 +1,93 @@
+"""Engine specs: which implementation of MuJoCo runs a plan, from where, at what precision.
+
+``mujoco`` is the MuJoCo installed beside tippetop, in this process; ``mujoco==X.Y.Z`` a
+release in a managed environment; ``mujoco@PYTHON`` the ``mujoco`` that interpreter imports (a
+build from source, a nightly wheel); ``mjx`` and ``mjx-f32`` MuJoCo MJX on JAX in float64 and
+float32; ``warp`` MuJoCo Warp (float32). :func:`parse_engine` reads one.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from tippetop.models.errors import TippetopError
+
+#: The implementations an engine spec can name.
+IMPLEMENTATIONS: tuple[str, ...] = ("mujoco", "mjx", "warp")
+#: How to write an engine spec, for messages.
+SPEC_FORMS = "mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp"
+_VERSION = re.compile(r"^\d+\.\d+\.\d+$")
+
+
+@dataclass(frozen=True)
+class EngineSpec:
+    """One engine under test.
+
+    Attributes:
+        spec: As written (``mujoco==3.3.7``).
+        implementation: ``mujoco`` (MuJoCo C), ``mjx`` or ``warp``.
+        version: A release to install in a managed environment (``3.3.7``); None: the one
+            that is there (beside tippetop, or in ``python``).
+        python: ``mujoco@PYTHON``'s interpreter; None otherwise.
+        precision: ``float64`` or ``float32``.
+    """
+
+    spec: str
+    implementation: str
+    version: str | None = None
+    python: str | None = None
+    precision: str = "float64"
+
+    @property
+    def in_process(self) -> bool:
+        """The MuJoCo installed beside tippetop, run in this process."""
+        return self.implementation == "mujoco" and self.version is None and self.python is None
+
+
+def parse_engine(text: str) -> EngineSpec:
+    """The engine spec ``text`` names.
+
+    Raises:
+        TippetopError: Anything but one of :data:`SPEC_FORMS` (one line, with what was given).
+    """
+    spec = text.strip()
+    if spec == "mujoco":
+        return EngineSpec(spec, "mujoco")
+    if spec.startswith("mujoco=="):
+        version = spec.removeprefix("mujoco==")
+        if _VERSION.match(version):
+            return EngineSpec(spec, "mujoco", version=version)
+        raise TippetopError(f"engine: expected mujoco==X.Y.Z with a release number such as "
+                            f"3.3.7, got {text!r}")
+    if spec.startswith("mujoco@"):
+        python = spec.removeprefix("mujoco@")
+        if python:
+            return EngineSpec(spec, "mujoco", python=python)
+    if spec == "mjx":
+        return EngineSpec(spec, "mjx")
+    if spec == "mjx-f32":
+        return EngineSpec(spec, "mjx", precision="float32")
+    if spec == "warp":
+        return EngineSpec(spec, "warp", precision="float32")
+    raise TippetopError(f"engine: expected {SPEC_FORMS}, got {text!r}")
+
+
+def parse_engines(text: str) -> list[EngineSpec]:
+    """A comma-separated list of engine specs (``--engines``), each at most once.
+
+    Raises:
+        TippetopError: An empty list, a bad spec or one given twice.
+    """
+    specs = [parse_engine(s) for s in text.split(",") if s.strip()]
+    if not specs:
+        raise TippetopError(f"--engines: expected at least one of {SPEC_FORMS}, got {text!r}")
+    seen = [s.spec for s in specs]
+    twice = sorted({s for s in seen if seen.count(s) > 1})
+    if twice:
+        raise TippetopError(f"--engines: expected each engine once, got {', '.join(twice)} "
+                            "twice")
+    return specs
+
+
+__all__ = ["IMPLEMENTATIONS", "SPEC_FORMS", "EngineSpec", "parse_engine", "parse_engines"]
