@@ -87,9 +87,9 @@ class _Sim:
         n = self.row + 1
         a = {k: v[:n] for k, v in self.arrays.items()}
         return SampleRecord(time=a["time"], qpos=a["qpos"], qvel=a["qvel"],
-                                   qacc_warmstart=a["qacc_warmstart"],
-                                   qfrc_constraint=a["qfrc_constraint"],
-                                   warnings=a["warnings"], warning_text=self.warning_text)
+                            qacc_warmstart=a["qacc_warmstart"],
+                            qfrc_constraint=a["qfrc_constraint"], warnings=a["warnings"],
+                            warning_text=self.warning_text, path="mujoco.batch")
 
 
 def layout_key(model: mujoco.MjModel) -> tuple[tuple[str, int], ...]:

@@ -149,6 +149,8 @@ class SampleRecord:
         contacts: The contacts at each sample's own state, if the stepping computed them (a
             forward pass at the sample's state); None: :func:`result_from_samples` computes
             them with forward passes on a scratch mjData.
+        path: How the samples were stepped: ``compiled stepper``, ``plain loop`` (Python),
+            ``mujoco.batch``, or a worker's (``worker: plain loop``).
     """
 
     time: np.ndarray
@@ -159,6 +161,7 @@ class SampleRecord:
     warnings: np.ndarray | None = None
     warning_text: str | None = None
     contacts: ContactRecord | None = None
+    path: str = ""
 
     def __len__(self) -> int:
         """The number of recorded samples."""

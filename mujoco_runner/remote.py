@@ -47,6 +47,19 @@ class WorkerFailed(RuntimeError):
     """A worker that crashed, hung or answered with something else than its reply."""
 
 
+#: The workers running now (to stop them all when the harness is stopped).
+_LIVE: set[subprocess.Popen[str]] = set()
+_LIVE_LOCK = threading.Lock()
+
+
+def stop_workers() -> None:
+    """End every worker this process started that is still running (Ctrl-C, an error)."""
+    with _LIVE_LOCK:
+        live = list(_LIVE)
+    for proc in live:
+        _kill(proc)
+
+
 @dataclass(frozen=True)
 class WorkerInfo:
     """What a worker says of where it ran.
@@ -155,12 +168,14 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
         warnings=arrays["warnings"], warning_text=reply.get("warning_text"),
         contacts=ContactRecord(arrays["contact_sample"], arrays["contact_geom"],
                                arrays["contact_dist"], arrays["contact_pos"],
-                               arrays["contact_frame"], arrays["contact_force"]))
+                               arrays["contact_frame"], arrays["contact_force"]),
+        path=f"worker: {info.path}")
     law_out = arrays["law_out"]
     forces = (law_out[:, :2], law_out[:, 2]) if plan.law is not None else None
     with np.errstate(over="ignore", invalid="ignore"):
         result = result_from_samples(top_model, record, plan, wall_s=float(reply["wall_s"]),
-                                     ran=_ran(reply, plan), law_forces=forces)
+                                     ran=_ran(reply, plan), law_forces=forces,
+                                     version=info.version)
     if progress is not None and len(result.table):
         progress(float(result.table["t"].iloc[-1]))
     return result, info
@@ -182,6 +197,8 @@ def _converse(python: str, text: str, budget_s: float,
                                 env=env, start_new_session=True)
     except OSError as exc:
         raise WorkerFailed(f"the worker could not start {python!r}: {exc.strerror}") from None
+    with _LIVE_LOCK:
+        _LIVE.add(proc)
     stderr: list[str] = []
     reader = threading.Thread(target=lambda: stderr.extend(proc.stderr), daemon=True)
     reader.start()
@@ -206,6 +223,8 @@ def _converse(python: str, text: str, budget_s: float,
         raise
     finally:
         timer.cancel()
+        with _LIVE_LOCK:
+            _LIVE.discard(proc)
     reader.join(1.0)
     if time.monotonic() - t0 >= budget_s and proc.returncode != 0:
         raise WorkerFailed(f"the worker in {python} took longer than its budget of "
@@ -230,4 +249,4 @@ def _kill(proc: subprocess.Popen[str]) -> None:
 
 
 __all__ = ["BUDGET_FACTOR", "BUDGET_MIN_S", "WORKER", "WorkerFailed", "WorkerInfo", "request",
-           "simulate_in"]
+           "simulate_in", "stop_workers"]

@@ -52,6 +52,9 @@ class MujocoResult:
         contacts: Per sample, which of the top's geoms touched the table (a code of
             :data:`CONTACT_LABELS`).
         max_penetration_m: The deepest penetration of the top's contacts over the samples (m).
+        engine: What ran the steps, read back: ``implementation`` (``mujoco``), ``version``
+            (its ``mujoco.__version__``), ``precision``, ``device`` and ``path`` (how the
+            samples were stepped, :attr:`~.record.SampleRecord.path`).
         contact_energy_bound_J: The most elastic energy the soft contacts held at a sample,
             bounded by the normal force times the deepest contact's depth (J; the force grows
             with depth). E, the rigid body's energy, leaves it out and may rise by it when a
@@ -69,6 +72,7 @@ class MujocoResult:
     contacts: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     max_penetration_m: float = 0.0
     contact_energy_bound_J: float = 0.0
+    engine: dict[str, Any] = field(default_factory=dict)
 
     def phases(self) -> list[dict[str, Any]]:
         """The sampled contact phases: runs of samples with the same contacts.
@@ -257,6 +261,7 @@ def result_from_samples(
     wall_s: float = 0.0,
     ran: dict[str, Any] | None = None,
     law_forces: tuple[np.ndarray, np.ndarray] | None = None,
+    version: str | None = None,
 ) -> MujocoResult:
     """The :class:`MujocoResult` of one simulation from its recorded samples.
 
@@ -283,6 +288,7 @@ def result_from_samples(
         law_forces: Paper mode: the law's (Fx, Fy) (n, 2) and power (n,) at each sample's own
             state, where ``record.contacts`` was computed too (by a worker in another Python,
             :mod:`.remote`); None: computed here, from forward passes.
+        version: The MuJoCo release that stepped the samples (default this process's).
 
     Returns:
         The run's result.
@@ -346,7 +352,11 @@ def result_from_samples(
                         message=message, mode=mode, warnings=top_model.warnings,
                         ran=dict(ran or {}), contacts=sums["touching"][:n_good].copy(),
                         max_penetration_m=float(np.fmax.reduce(depth, initial=0.0)),
-                        contact_energy_bound_J=float(np.fmax.reduce(bound, initial=0.0)))
+                        contact_energy_bound_J=float(np.fmax.reduce(bound, initial=0.0)),
+                        engine={"implementation": "mujoco",
+                                "version": version or mujoco.__version__,
+                                "precision": "float64", "device": "cpu",
+                                "path": record.path or "?"})
 
 
 __all__ = ["CONTACT_LABELS", "N_FORCE_PASSES", "MujocoResult", "contact_sums",

@@ -206,7 +206,8 @@ def step_compiled(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_inte
     record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
                           qvel=state[:, 1 + nq:1 + nq + nv],
                           qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=run.con[:n],
-                          warnings=run.warn[:n], warning_text=text, contacts=record_contacts)
+                          warnings=run.warn[:n], warning_text=text, contacts=record_contacts,
+                          path="compiled stepper")
     return record, None, wall_s
 
 
@@ -286,7 +287,7 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
                           qvel=state[:, 1 + nq:1 + nq + nv],
                           qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=con[:n],
                           warnings=warn[:n], warning_text=text,
-                          contacts=None if log is None else log.record())
+                          contacts=None if log is None else log.record(), path="plain loop")
     return record, None, wall_s
 
 

@@ -22,6 +22,7 @@ from tippetop.compare.analysis.metrics import (
     jellett_scale,
     summary,
 )
+from tippetop.models.engines import EngineSpec
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import ENGINES, RunPlan
@@ -46,7 +47,8 @@ def run_failed(summary: dict[str, Any]) -> bool:
     return summary.get("status", "ok") not in FINISHED_STATUSES
 
 __all__ = ["ENGINES", "FINISHED_STATUSES", "EngineRun", "describe_ran", "mujoco_engine_run",
-           "check_engine", "plan_for", "progress_bar", "run_engine", "run_failed", "run_plan"]
+           "check_engine", "engine_python", "plan_for", "progress_bar", "run_engine",
+           "run_failed", "run_plan", "run_plan_on"]
 
 
 @dataclass
@@ -172,17 +174,19 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
     return mujoco_engine_run(plan, simulate_plan(plan.mujoco, progress=progress))
 
 
-def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
+def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRun:
     """The engine run (summary and table) of a MuJoCo result of ``plan``.
 
     Args:
         plan: A MuJoCo plan (:func:`plan_for`).
-        res: Its :class:`tippetop.mujoco_runner.results.MujocoResult`, from a single run or a
-            batch (:mod:`tippetop.mujoco_runner.batch`).
+        res: Its :class:`tippetop.mujoco_runner.results.MujocoResult`, from a single run, a
+            batch (:mod:`tippetop.mujoco_runner.batch`) or a worker (``.remote``).
+        spec: The engine spec that ran it (:mod:`tippetop.models.engines`).
     """
     p = plan.mujoco
     assert p is not None
     ran = {k: v for k, v in res.ran.items() if k != "contact_source"}
+    ran.update(engine_spec=spec, **res.engine)  # what ran the steps, read back
     if not res.ok:
         # a diverged run is a failed run with its reason, never numbers
         s = {"engine": "mujoco", **dict.fromkeys(RESULT_KEYS),
@@ -233,6 +237,47 @@ def run_plan(plan: RunPlan, *,
         if plan.engine == "ode":
             return _run_ode(plan, tick)
         return _run_mujoco(plan, tick)
+
+
+def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) -> str:
+    """The interpreter that runs an engine's plans: its managed environment's, or the user's.
+
+    A managed environment is made on first use (``say`` is told). Raises TippetopError (one
+    line) for an interpreter that is not there, and for engines not run by this harness yet.
+    """
+    import os
+
+    if spec.version is not None:
+        from tippetop.mujoco_runner.envs import env_python
+
+        return str(env_python(spec.version, say=say))
+    if spec.python is not None:
+        if not (os.path.isfile(spec.python) and os.access(spec.python, os.X_OK)):
+            raise TippetopError(f"engine {spec.spec}: expected the path of a Python "
+                                f"interpreter that can import mujoco, got {spec.python!r}")
+        return spec.python
+    raise TippetopError(f"engine {spec.spec}: expected mujoco, mujoco==X.Y.Z or "
+                        f"mujoco@PYTHON (this harness does not run {spec.implementation} yet), "
+                        f"got {spec.spec!r}")
+
+
+def run_plan_on(spec: EngineSpec, plan: RunPlan, *, python: str | None = None,
+                progress: Callable[[float], None] | None = None) -> EngineRun:
+    """Run a MuJoCo plan on an engine other than this process's MuJoCo, through its worker.
+
+    Raises:
+        TippetopError: The engine cannot run it (not there, not supported), or the worker
+            failed (crashed, hung, garbled): one line with the reason.
+    """
+    from tippetop.mujoco_runner.remote import WorkerFailed, simulate_in
+
+    assert plan.mujoco is not None and not spec.in_process
+    python = python or engine_python(spec)
+    try:
+        res, _info = simulate_in(python, plan.mujoco, progress=progress)
+    except WorkerFailed as exc:
+        raise TippetopError(f"engine {spec.spec}: {exc}") from None
+    return mujoco_engine_run(plan, res, spec.spec)
 
 
 def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:

@@ -16,7 +16,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -50,12 +50,17 @@ CACHED_TABLE_ROWS = 4000
 
 @dataclass(frozen=True)
 class Task:
-    """One run: a scene, its overrides and an engine (or a mode name)."""
+    """One run: a scene, its overrides, an engine (or a mode name), and who runs it.
+
+    ``spec``: the engine spec that runs a MuJoCo plan (``mujoco``: this process's MuJoCo;
+    :mod:`tippetop.models.engines`).
+    """
 
     scene: str | None
     overrides: tuple[str, ...] = ()
     engine: str = "ode"
     label: str = field(default="", compare=False)
+    spec: str = "mujoco"
 
     def load(self) -> Scene:
         """The validated scene."""
@@ -85,10 +90,20 @@ def code_fingerprint() -> str:
 
 
 def task_key(task: Task, plan: RunPlan | None = None) -> str:
-    """The cache key of a task: its plan's physics (its MJCF text included) and the code."""
+    """The cache key of a task: its plan's physics (its MJCF text included), the code.
+
+    And for a MuJoCo plan the engine spec that runs it.
+    """
     plan = plan or task.plan()
     payload: dict[str, Any] = {**plan.physics(), "code": code_fingerprint()}
+    if plan.engine != "ode" and task.spec != "mujoco":
+        payload["spec"] = task.spec
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def _cacheable(task: Task) -> bool:
+    """A user's own build (``mujoco@PYTHON``) changes behind its name: never cached."""
+    return not task.spec.startswith("mujoco@")
 
 
 def default_cache_dir() -> Path:
@@ -283,6 +298,7 @@ def run_tasks(
         _clean_cache_once(str(cache.root))  # what a killed run left (SIGKILL)
     for t in tasks:  # validate everything before any work
         check_engine(t.engine)
+    pythons = _engine_pythons(tasks, scheduler)  # managed environments made now, not midway
     # a scene that does not load stops everything; a plan refused for its settings (a step the
     # paper's law cannot follow, effects an engine cannot run) is that task's own row
     scenes = [t.load() for t in tasks]
@@ -307,7 +323,7 @@ def run_tasks(
     for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
         if plans[i] is None:
             continue
-        hit = cache.get(key) if cache else None
+        hit = cache.get(key) if cache and _cacheable(task) else None
         if hit is not None:
             results[i] = TaskResult(task, key, own(i, hit[0]), hit[1], None, True)
         else:
@@ -322,12 +338,12 @@ def run_tasks(
     writer = _CacheWriter(cache) if cache else None
     finished = False
     try:
-        for key, out in _dispatch(unique, scheduler, workers, bar, unique_plans):
+        for key, out in _dispatch(unique, scheduler, workers, bar, unique_plans, pythons):
             if "error" in out:
                 res_summary, table, err = None, None, out["error"]
             else:
                 res_summary, table, err = out["summary"], out["table"], None
-                if writer is not None:
+                if writer is not None and _cacheable(tasks[todo[key][0]]):
                     writer.put(key, res_summary, table)
             for i in todo[key]:
                 results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
@@ -396,8 +412,44 @@ class _CacheWriter:
             raise self.error
 
 
+def _engine_pythons(tasks: Sequence[Task], scheduler: str | None) -> dict[str, str]:
+    """The interpreter of each engine spec the tasks name other than this process's MuJoCo.
+
+    Managed environments are made here, before any run (each says so on stderr); an engine
+    that cannot run is refused in one line. Dask runs this process's MuJoCo only.
+    """
+    from tippetop.compare.running.engines import engine_python
+    from tippetop.models.engines import parse_engine
+
+    specs = {t.spec: parse_engine(t.spec) for t in tasks}
+    others = {k: spec for k, spec in specs.items() if not spec.in_process}
+    if others and scheduler:
+        raise TippetopError(f"--scheduler: expected the MuJoCo installed with tippetop on a "
+                            f"Dask cluster, got engines {', '.join(others)}")
+
+    def say(line: str) -> None:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+    return {k: engine_python(spec, say=say) for k, spec in others.items()}
+
+
+def _execute_remote(task: Task, plan: RunPlan, python: str,
+                    report: Callable[[float], None] | None) -> dict[str, Any]:
+    """Run one MuJoCo plan on another engine (its worker); a failure is ``{"error": ...}``."""
+    from tippetop.compare.running.engines import run_plan_on
+    from tippetop.models.engines import parse_engine
+
+    try:
+        run = run_plan_on(parse_engine(task.spec), plan, python=python, progress=report)
+    except TippetopError as exc:
+        return {"error": str(exc)}
+    return {"summary": run.summary, "table": _downsample(run.table)}
+
+
 def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: int | None,
-              bar: WorkProgress | None, plans: dict[str, RunPlan] | None = None
+              bar: WorkProgress | None, plans: dict[str, RunPlan] | None = None,
+              pythons: dict[str, str] | None = None
               ) -> Iterable[tuple[str, dict[str, Any]]]:
     """Run the unique tasks; yield ``(key, out)`` as each ends (:func:`execute`'s ``out``).
 
@@ -424,10 +476,13 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
             done(key)
         return
     n = workers or os.cpu_count() or 1
-    mujoco_tasks = [(k, t) for k, t in unique if plans[k].engine != "ode"]
+    pythons = pythons or {}
+    remote_tasks = [(k, t) for k, t in unique if plans[k].engine != "ode" and t.spec in pythons]
+    mujoco_tasks = [(k, t) for k, t in unique
+                    if plans[k].engine != "ode" and t.spec not in pythons]
     ode_tasks = [(k, t) for k, t in unique if plans[k].engine == "ode"]
     pooled = n > 1 and len(ode_tasks) > 1
-    pool = queue = None
+    pool = queue = threads = None
     futures: dict[Any, str] = {}
     if pooled:
         pool, queue = local_pool(n)
@@ -435,6 +490,16 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
             futures = {pool.submit(execute_plan, plans[key].to_json(),
                                    key if bar is not None else None): key
                        for key, _task in ode_tasks}
+    if remote_tasks:  # other engines' workers: a process each, waited for on threads
+        threads = ThreadPoolExecutor(max_workers=n, thread_name_prefix="tippetop-engine")
+        for key, task in remote_tasks:
+            plan = plans[key]
+
+            def tick(t: float, key: str = key, t_end: float = plan.t_end_s) -> None:
+                report(key, t / t_end)
+
+            futures[threads.submit(_execute_remote, task, plan, pythons[task.spec],
+                                   tick if bar is not None else None)] = key
     waiting = set(futures)
     try:
         if not pooled:
@@ -482,7 +547,14 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
     except BaseException:
         if pool is not None:
             _stop_pool(pool)  # Ctrl-C or an error: do not wait for the runs still going
+        if threads is not None:
+            from tippetop.mujoco_runner.remote import stop_workers
+
+            threads.shutdown(wait=False, cancel_futures=True)
+            stop_workers()
         raise
+    if threads is not None:
+        threads.shutdown(wait=True)
 
 
 def _run_mujoco_batched(tasks: list[tuple[str, Task]], plans: dict[str, RunPlan], nthread: int,
