@@ -16,6 +16,7 @@ from tippetop.compare.commands import (
     bench,
     calibrate,
     compare,
+    matrix,
     mjcf,
     nightly,
     plan,
@@ -30,8 +31,8 @@ from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, ru
 
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
-COMMANDS = (theory, simulate, plan, compare, threshold, sweep, bench, nightly, calibrate,
-            render, validate, atlas, mjcf)
+COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
+            calibrate, render, validate, atlas, mjcf)
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {

@@ -1,0 +1,129 @@
+"""``tippetop matrix``: scenes on several engines side by side.
+
+Against the theory and each other: :mod:`tippetop.compare.analysis.matrix` does the work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    EXIT_RUN_FAILED,
+    add_force_option,
+    add_json_option,
+    add_set_option,
+    add_workers_option,
+    json_text,
+    print_json,
+)
+
+DESCRIPTION = (
+    "Run every scene on every engine in every mode, and the reference ODE once per scene: "
+    "whether each run agrees with the theory (the nightly's rule), and every metric on which "
+    "two engines differ beyond the nightly's tolerance. Engines: mujoco (the MuJoCo installed "
+    "with tippetop), mujoco==X.Y.Z (a release, in an environment made with uv on first use "
+    "under $TIPPETOP_CACHE/envs), mujoco@PYTHON (the mujoco that interpreter imports: a build "
+    "of your own; it needs only mujoco and numpy, and is never cached). Exit 1 if a run failed.")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop matrix`` and its options."""
+    p = sub.add_parser("matrix", help="scenes on several engines side by side",
+                       description=DESCRIPTION)
+    p.add_argument("scenes", nargs="*", metavar="SCENE|MODEL.xml",
+                   help="catalogue names, scene .toml files or MJCF tops (default: the "
+                   "--profile's scenes)")
+    p.add_argument("--profile", choices=("quick", "full"), default="quick",
+                   help="the scenes when none are named: quick (fig3, fig6, fig8a, fig11_n060) "
+                   "or full (the whole catalogue) (default quick)")
+    p.add_argument("--engines", required=True, metavar="SPEC,SPEC,...",
+                   help="comma-separated engine specs: mujoco, mujoco==X.Y.Z, mujoco@PYTHON "
+                   "(no default: required)")
+    p.add_argument("--modes", default="native,paper", help="native (MuJoCo's own friction: "
+                   "the calibrated settings, or an MJCF top's own) and/or paper (the paper's "
+                   "law at the contact point) (default: native,paper)")
+    add_set_option(p)
+    p.add_argument("--out", metavar="DIR", help="folder for results.json (the --json result), "
+                   "new or empty, or --force (default: none, printed only)")
+    add_force_option(p, help="write into a non-empty --out")
+    add_workers_option(p)
+    p.add_argument("--no-cache", action="store_true", help="compute every run again and "
+                   "write nothing to the cache")
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop matrix``: exit 1 when a run failed."""
+    from tippetop.compare.analysis.matrix import profile_scenes, run_matrix
+    from tippetop.compare.running.io import check_output_dir, hold_output_lock, write_atomic
+    from tippetop.models.engines import parse_engines
+
+    engines = parse_engines(args.engines)
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    scenes = list(args.scenes) or list(profile_scenes(args.profile))
+    out_dir = None
+    if args.out:
+        out_dir = check_output_dir(args.out, force=args.force)
+        hold_output_lock(out_dir)
+    res = run_matrix(scenes, engines, modes, tuple(args.set or []), workers=args.workers,
+                     use_cache=not args.no_cache)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        text = json_text(res, indent=1) + "\n"
+        write_atomic(out_dir / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
+    if args.json:
+        print_json(res)
+    else:
+        print_matrix(res)
+        if out_dir is not None:
+            print(f"wrote {out_dir / 'results.json'}")
+    failed = [r for r in res["runs"] if r["status"] not in ("ok", "contact_lost", "hop")]
+    if failed:
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['runs'])} runs "
+                         "failed; the reasons are in the output\n")
+        return EXIT_RUN_FAILED
+    return 0
+
+
+def print_matrix(res: dict[str, Any]) -> None:
+    """The matrix for a person: the verdict against the theory first.
+
+    Then what changes between engines, then which engines ran.
+    """
+    from tippetop.compare.presentation.terminal import fmt, labelled, table
+
+    engines = res["engines"]
+    print(f"matrix: {len(res['scenes'])} scenes x {len(engines)} engines x "
+          f"{len(res['modes'])} modes, against the theory and each other")
+    print("\nagainst the theory (its outcome, and theta_asymp within 0.05 rad of theta_s):")
+    rows = []
+    for e in engines:
+        for mode in res["modes"]:
+            mine = [r for r in res["runs"] if r["engine"] == e["spec"] and r["mode"] == mode]
+            agree = sum(r["agrees"] for r in mine)
+            failed = sum(r["status"] not in ("ok", "contact_lost", "hop") for r in mine)
+            why = [f"{r['scene']}: {'; '.join(r['reasons']) or 'departs'}" for r in mine
+                   if not r["agrees"]]
+            rows.append((e["spec"], mode, f"{agree} of {len(mine)}", str(failed),
+                         why[0] + (f" (and {len(why) - 1} more)" if len(why) > 1 else "")
+                         if why else ""))
+    print(table(("engine", "mode", "agree", "failed", "first departure"), rows, indent="  "))
+    diffs = res["differences"]
+    print("\nwhat changes between engines (beyond the nightly's tolerances):"
+          + ("" if diffs else " nothing"))
+    width = max([len(f"{d['scene']} {d['mode']}") for d in diffs] or [0])
+    for d in diffs:
+        (a, b), (va, vb) = d["engines"], d["values"]
+        unit = "rad" if d["metric"] == "theta_asymp" else "s" if d["metric"] in (
+            "t_invert", "t_stem") else ""
+        text = (f"{d['metric']} {fmt(va, unit)} ({a}) against {fmt(vb, unit)} ({b})"
+                + (f", over {fmt(d['tolerance'], unit)}" if d["tolerance"] is not None
+                   else ""))
+        print(labelled(f"{d['scene']} {d['mode']}", text, width))
+    print("\nengines (read back from their runs):")
+    print(table(("spec", "implementation", "version", "precision", "device"),
+                [(e["spec"], e["implementation"], fmt(e["version"]), e["precision"],
+                  e["device"]) for e in engines], indent="  "))
