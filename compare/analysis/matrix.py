@@ -14,7 +14,6 @@ import os
 from collections.abc import Sequence
 from typing import Any
 
-from tippetop.compare.analysis import theory
 from tippetop.compare.analysis.crossval import crossval_row, predicted_outcome
 from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
 from tippetop.compare.running.engines import run_failed
@@ -182,14 +181,5 @@ def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
     return out
 
 
-def group_of(scene: str) -> str | None:
-    """The theory's group of a scene's top (None if it does not load)."""
-    try:
-        name, base, _ = _scene_task_args(scene)
-        return theory.group(Task(name, base, "ode").plan().top)
-    except TippetopError:
-        return None
-
-
-__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "group_of", "profile_scenes",
+__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "profile_scenes",
            "run_matrix"]
