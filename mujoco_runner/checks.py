@@ -6,6 +6,8 @@ rising, the contact lost.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import mujoco
 import numpy as np
 
@@ -27,19 +29,21 @@ MAX_ENERGY_RISE = 0.1
 NONFINITE_REASON = "NaN or Inf in qpos/qvel"
 
 
-def warning_reason(counts: np.ndarray, text: str | None = None) -> str:
+def warning_reason(counts: np.ndarray, text: str | None = None,
+                   names: Sequence[str] | None = None) -> str:
     """The failure reason for MuJoCo's warning counters ``counts`` (``mjData.warning.number``).
 
     ``text``: MuJoCo's own text of the warning (default: the last one the warning handler kept,
-    :data:`~mujoco_runner.model.MUJOCO_WARNINGS`).
+    :data:`~mujoco_runner.model.MUJOCO_WARNINGS`). ``names``: the counters' names, from the
+    release that stepped (default: this process's ``mujoco.mjtWarning``).
     """
     counts = np.asarray(counts)
     i = int(np.flatnonzero(counts)[0])
+    name = mujoco.mjtWarning(i).name if names is None else names[i]
     if text is None:
         text = MUJOCO_WARNINGS[-1] if MUJOCO_WARNINGS else ""
     text = f": {text.removeprefix('WARNING: ')}" if text else ""
-    return (f"MuJoCo warning {mujoco.mjtWarning(i).name} ({int(counts[i])}x){text}, "
-            "the integration is unstable")
+    return f"MuJoCo warning {name} ({int(counts[i])}x){text}, the integration is unstable"
 
 
 def divergence_fix(model: mujoco.MjModel) -> str:
@@ -62,7 +66,7 @@ def step_failure(record: SampleRecord) -> tuple[int, str | None]:
     i = int(hits[0])
     if bad[i]:
         return i, NONFINITE_REASON
-    return i, warning_reason(record.warnings[i], record.warning_text)
+    return i, warning_reason(record.warnings[i], record.warning_text, record.warning_names)
 
 
 def check_failure(top_model: TopModel, t: np.ndarray, gap: np.ndarray, energy: np.ndarray,

@@ -146,6 +146,9 @@ class SampleRecord:
             sample with a warning, passing ``failure`` to :func:`result_from_samples`).
         warning_text: MuJoCo's text of the first warning (the run's message quotes it); None:
             the last one the warning handler kept.
+        warning_names: The names of ``warnings``' columns (``mjtWarning``), from the release
+            that stepped (its enum need not be this one's: 4.0 dropped ``mjWARN_VGEOMFULL``);
+            None: this process's ``mujoco.mjtWarning``.
         contacts: The contacts at each sample's own state, if the stepping computed them (a
             forward pass at the sample's state); None: :func:`result_from_samples` computes
             them with forward passes on a scratch mjData.
@@ -160,6 +163,7 @@ class SampleRecord:
     qfrc_constraint: np.ndarray
     warnings: np.ndarray | None = None
     warning_text: str | None = None
+    warning_names: tuple[str, ...] | None = None
     contacts: ContactRecord | None = None
     path: str = ""
 

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from tippetop.models.mjcf import HARNESS_USERDATA
@@ -85,7 +84,7 @@ def request(plan: MujocoPlan, top_model: TopModel, out: Path) -> dict[str, Any]:
     if plan.law is not None:
         p = law_parameters(plan.law, top_model)
         stem = plan.stem
-        law = {**{k: float(v) if not isinstance(v, int) else v for k, v in p.items()},
+        law = {**p,
                "R": top_model.top.R_m, "centre": [float(v) for v in top_model.centre_body_m],
                "axis": [float(v) for v in top_model.axis_body],
                "stem_kind": 0 if stem is None else 2 if stem.kind == "cylinder" else 1,
@@ -97,8 +96,13 @@ def request(plan: MujocoPlan, top_model: TopModel, out: Path) -> dict[str, Any]:
             "n_intervals": plan.n_intervals, "law": law, "out": str(out)}
 
 
-def _name(enum: Any, code: int, prefix: str, names: tuple[str, ...]) -> str:
-    name = enum(code).name.removeprefix(prefix)
+def _name(enum_name: str, prefix: str, names: tuple[str, ...]) -> str:
+    """The harness's spelling of the worker's enum value ``enum_name``.
+
+    The worker names the value from its own release's enum: codes need not match across
+    releases.
+    """
+    name = enum_name.removeprefix(prefix)
     return next((s for s in names if s.upper() == name.upper()), name.lower())
 
 
@@ -109,8 +113,8 @@ def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
     r = reply["ran"]
     out: dict[str, Any] = {
         "timestep_s": r["timestep_s"],
-        "integrator": _name(mujoco.mjtIntegrator, r["integrator_code"], "mjINT_", INTEGRATORS),
-        "cone": _name(mujoco.mjtCone, r["cone_code"], "mjCONE_", CONES),
+        "integrator": _name(r["integrator"], "mjINT_", INTEGRATORS),
+        "cone": _name(r["cone"], "mjCONE_", CONES),
         "impratio": r["impratio"], "noslip_iterations": r["noslip_iterations"],
         "gravity_mps2": r["gravity_mps2"]}
     out.update(friction_that_acts(r["condim"], *r["coefficients"]), solref=r["solref"],
@@ -166,6 +170,7 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
         time=arrays["time"], qpos=arrays["qpos"], qvel=arrays["qvel"],
         qacc_warmstart=arrays["qacc_warmstart"], qfrc_constraint=arrays["qfrc_constraint"],
         warnings=arrays["warnings"], warning_text=reply.get("warning_text"),
+        warning_names=tuple(reply["warning_names"]),
         contacts=ContactRecord(arrays["contact_sample"], arrays["contact_geom"],
                                arrays["contact_dist"], arrays["contact_pos"],
                                arrays["contact_frame"], arrays["contact_force"]),

@@ -17,7 +17,7 @@ import time
 import traceback
 
 #: The version of the request and reply formats.
-PROTOCOL = 1
+PROTOCOL = 2
 #: Forward passes per sample in paper mode (the law's N iterated to the state's own), as in
 #: the harness's own runs.
 N_FORCE_PASSES = 3
@@ -141,11 +141,11 @@ class PaperLaw:
         self.last = (fx, fy, N, power)
 
 
-def _free_joint(mujoco, model) -> tuple[int, int]:
+def _free_joint(mujoco, model) -> int:
     free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
     if len(free) != 1:
         raise ValueError(f"expected one free joint, got {len(free)}")
-    return int(model.jnt_qposadr[free[0]]), int(model.jnt_dofadr[free[0]])
+    return free[0]
 
 
 def _ran(mujoco, model, data, body: int, ball: int) -> dict:
@@ -154,8 +154,9 @@ def _ran(mujoco, model, data, body: int, ball: int) -> dict:
     The ball geom's own values when nothing touches then.
     """
     opt = model.opt
-    out = {"timestep_s": float(opt.timestep), "integrator_code": int(opt.integrator),
-           "cone_code": int(opt.cone), "impratio": float(opt.impratio),
+    out = {"timestep_s": float(opt.timestep),
+           "integrator": mujoco.mjtIntegrator(int(opt.integrator)).name,
+           "cone": mujoco.mjtCone(int(opt.cone)).name, "impratio": float(opt.impratio),
            "noslip_iterations": int(opt.noslip_iterations),
            "gravity_mps2": float(-opt.gravity[2])}
     for i in range(data.ncon):
@@ -179,15 +180,20 @@ def run(request: dict) -> dict:
     import mujoco
     import numpy as np
 
+    # MuJoCo's warnings, kept (one line each) as in-process runs keep them, instead of printed
+    # on stdout (the reply's channel) and appended to ./MUJOCO_LOG.TXT
+    kept: list[str] = []
+    if hasattr(mujoco, "set_mju_user_warning"):
+        mujoco.set_mju_user_warning(lambda message: kept.append(" ".join(str(message).split())))
     spec = mujoco.MjSpec.from_string(request["mjcf"]) if hasattr(mujoco, "MjSpec") else None
     if spec is not None:
         spec.nuserdata += request.get("userdata", 0)
         model = spec.compile()
     else:  # pragma: no cover - releases before MjSpec
         model = mujoco.MjModel.from_xml_string(request["mjcf"])
-    qa, va = _free_joint(mujoco, model)
-    body = int(model.jnt_bodyid[next(j for j in range(model.njnt)
-                                     if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE)])
+    joint = _free_joint(mujoco, model)
+    qa, va = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+    body = int(model.jnt_bodyid[joint])
     data = mujoco.MjData(model)
     start = request["start"]
     if "keyframe" in start:
@@ -210,7 +216,7 @@ def run(request: dict) -> dict:
                "qfrc_constraint": np.empty((n_rows, nv)),
                "warnings": np.zeros((n_rows, len(counts)), dtype=np.int64)}
         mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
-        n, text, wall0 = 0, None, time.perf_counter()
+        n, wall0 = 0, time.perf_counter()
         next_report = wall0
         dt = float(model.opt.timestep)
         while True:
@@ -265,7 +271,8 @@ def run(request: dict) -> dict:
                   "contact_force": np.array(c_force).reshape(-1, 6), "law_out": law_out}
         np.savez(request["out"], **arrays)
         return {"status": "ok", "samples": n, "wall_s": wall_s, "ran": ran,
-                "warning_text": text}
+                "warning_text": kept[-1] if kept else None,
+                "warning_names": [mujoco.mjtWarning(i).name for i in range(len(counts))]}
     finally:
         if law is not None:
             mujoco.set_mjcb_passive(None)

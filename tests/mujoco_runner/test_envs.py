@@ -42,6 +42,13 @@ def test_a_managed_environment_runs_an_older_release(tmp_path: Path) -> None:
     import numpy as np
     assert np.max(np.abs(there.table["theta"].to_numpy() - here.table["theta"].to_numpy())) \
         < 1e-2
+    # a run that diverges there names the warning by that release's enum, as its text does
+    # (3.3.7's code 5 is BADQVEL, 4.0's BADQACC)
+    bad = mujoco_plan("mujoco.friction=paper", "effects.sliding=false", "init.n0=1e11",
+                      "run.t_end_s=0.1")
+    there, _ = remote.simulate_in(str(python), bad)
+    assert there.status == "diverged"
+    assert "MuJoCo warning mjWARN_BADQVEL (1x): Nan, Inf or huge value in QVEL" in there.message
 
 
 @pytest.mark.slow

@@ -372,6 +372,15 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
                            f"warning mjWARN_BADQACC (1x): Bad qacc, the integration is "
                            f"unstable; {fix}")
     assert len(res.table) == bad
+    # counters stepped by another release are named by its enum (3.3.7 had mjWARN_VGEOMFULL
+    # at code 3, so its code 5 is BADQVEL where 4.0's code 5 is BADQACC)
+    old_names = ("mjWARN_INERTIA", "mjWARN_CONTACTFULL", "mjWARN_CNSTRFULL", "mjWARN_VGEOMFULL",
+                 "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC", "mjWARN_BADCTRL")
+    there = np.zeros((len(rec), len(old_names)), dtype=np.int64)
+    there[bad:, 5] = 1
+    res = results.result_from_samples(tm, replace(rec, warnings=there, warning_text="Bad qvel",
+                                                  warning_names=old_names), plan)
+    assert "MuJoCo warning mjWARN_BADQVEL (1x): Bad qvel," in res.message
 
     # a failure of the checks: its sample's contacts were read, so the contact bounds cover it
     # (as when each sample was read and then checked): sink the ball where it was deepest
