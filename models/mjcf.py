@@ -127,6 +127,9 @@ def make_mjcf(
     rolling: float = 0.0,
     stem: StemParams | None = None,
     noslip_iterations: int = GENERATED_NOSLIP_ITERATIONS,
+    iterations: int = 100,
+    tolerance: float = 1e-8,
+    contacts_on: bool = True,
 ) -> str:
     """MJCF text of the loaded sphere on a table.
 
@@ -153,6 +156,9 @@ def make_mjcf(
             flat one, from the ball's centre to the end, massless, with the ball's contact
             settings). None: the stem is visual only (the paper's loaded sphere).
         noslip_iterations: MuJoCo's noslip solver iterations (0: none).
+        iterations: The constraint solver's maximum iterations (MuJoCo's default 100).
+        tolerance: The solver's tolerance (MuJoCo's default 1e-8).
+        contacts_on: False disables contacts (``<flag contact="disable"/>``).
 
     Returns:
         The MJCF document as text.
@@ -191,7 +197,10 @@ def make_mjcf(
   <size nuserdata="{HARNESS_USERDATA}"/>
   <option timestep="{_num(timestep_s)}" integrator="{integrator}" cone="{cone}"
           impratio="{_num(impratio)}" noslip_iterations="{int(noslip_iterations)}"
-          gravity="0 0 {_num(-top.g_mps2)}"/>
+          iterations="{int(iterations)}" tolerance="{_num(tolerance)}"
+          gravity="0 0 {_num(-top.g_mps2)}">
+    <flag contact="{'enable' if contacts_on else 'disable'}"/>
+  </option>
   <visual>
     <global offwidth="1280" offheight="720"/>
     <headlight ambient="0.3 0.3 0.3" diffuse="0.6 0.6 0.6"/>

@@ -154,6 +154,18 @@ def set_attributes(el: ET.Element, values: Mapping[str, str]) -> None:
         el.set(key, value)
 
 
+def write_flag(root: ET.Element, flag: str, value: str) -> None:
+    """Set ``<option><flag flag="value"/>`` (the option and flag elements made if missing)."""
+    el = root.find("option")
+    if el is None:
+        el = ET.Element("option")
+        root.insert(0, el)
+    flag_el = el.find("flag")
+    if flag_el is None:
+        flag_el = ET.SubElement(el, "flag")
+    flag_el.set(flag, value)
+
+
 def write_values(root: ET.Element, *, option: Mapping[str, str],
                  geoms: Mapping[int, Mapping[str, str]], pairs: Mapping[int, Mapping[str, str]],
                  ngeom: int, npair: int) -> None:

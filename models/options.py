@@ -79,6 +79,12 @@ class MujocoOptions:
         fit_paper_timestep: Paper mode: when the timestep the scene does not set itself (a
             loaded file's own, say) is longer than the law can follow, run at the largest
             1-2-5 step below that limit and say so in the plan, instead of refusing the run.
+        iterations: The constraint solver's maximum iterations (None: the model's: a loaded
+            file's own, MuJoCo's default 100 for a generated top).
+        tolerance: The constraint solver's tolerance (None: the model's; MuJoCo's 1e-8).
+        contacts: False disables contacts altogether (MuJoCo's ``<flag contact="disable">``):
+            the top falls freely. For attribution (``tippetop matrix``): does a difference
+            between engines follow the contact, or the free body's integration?
     """
 
     friction: str = "paper"
@@ -93,6 +99,9 @@ class MujocoOptions:
     noslip_iterations: int | None = None
     calibrated: bool | None = None
     fit_paper_timestep: bool = False
+    iterations: int | None = None
+    tolerance: float | None = None
+    contacts: bool = True
 
     def __post_init__(self) -> None:
         expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",
@@ -111,6 +120,14 @@ class MujocoOptions:
         expect(self.noslip_iterations is None or (
             isinstance(self.noslip_iterations, int) and 0 <= self.noslip_iterations <= 10_000),
                "mujoco.noslip_iterations", "an integer from 0 to 10000", self.noslip_iterations)
+        expect(self.iterations is None or (
+            isinstance(self.iterations, int) and not isinstance(self.iterations, bool)
+            and 1 <= self.iterations <= 100_000), "mujoco.iterations",
+            "an integer from 1 to 100000", self.iterations)
+        expect(self.tolerance is None or _positive(self.tolerance) or self.tolerance == 0,
+               "mujoco.tolerance", "a finite number >= 0", self.tolerance)
+        expect(isinstance(self.contacts, bool), "mujoco.contacts", "true or false",
+               self.contacts)
         expect(len(self.solref) == 2 and all(_finite(v) for v in self.solref),
                "mujoco.solref", "two finite numbers [timeconst, dampratio]", self.solref)
         expect(len(self.solimp) in (3, 5) and all(_finite(v) for v in self.solimp),

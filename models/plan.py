@@ -170,6 +170,9 @@ class FileTop:
         stem: The stem's end as the reference models it, from the file's colliding geoms
             (None: the file has none the reference can model).
         stem_note: One line on what was found (which geom, or why none).
+        iterations: Its constraint solver's maximum iterations.
+        tolerance: Its solver tolerance.
+        contacts_on: False where the file disables contacts (``<flag contact="disable">``).
     """
 
     top: TopParams
@@ -192,6 +195,9 @@ class FileTop:
     mu: float | None = None
     stem: StemParams | None = None
     stem_note: str = ""
+    iterations: int = 100
+    tolerance: float = 1e-8
+    contacts_on: bool = True
 
 
 # ---------------------------------------------------------------- the plans
@@ -260,6 +266,9 @@ class MujocoPlan:
         paper_max_timestep_s: Paper mode: the longest step the law can be followed with on
             this top (s); None without a law.
         notes: What the plan chose that the scene did not ask for, and why: a sentence each.
+        iterations: The constraint solver's maximum iterations.
+        tolerance: The solver's tolerance.
+        contacts_on: False: contacts disabled (the top falls freely).
     """
 
     mode: str
@@ -286,6 +295,9 @@ class MujocoPlan:
     stem: StemParams | None = None
     paper_max_timestep_s: float | None = None
     notes: tuple[str, ...] = field(default=())
+    iterations: int = 100
+    tolerance: float = 1e-8
+    contacts_on: bool = True
 
     @property
     def ball_contact(self) -> MixedContact | None:
@@ -308,7 +320,9 @@ class MujocoPlan:
         out: dict[str, Any] = {
             "mode": self.mode, "timestep_s": self.timestep_s, "integrator": self.integrator,
             "cone": self.cone, "impratio": self.impratio,
-            "noslip_iterations": self.noslip_iterations, "gravity_mps2": -self.gravity_mps2[2]}
+            "noslip_iterations": self.noslip_iterations, "gravity_mps2": -self.gravity_mps2[2],
+            "iterations": self.iterations, "tolerance": self.tolerance,
+            "contacts": self.contacts_on}
         contact = self.ball_contact
         if contact is not None:
             out.update(contact.acting())

@@ -175,7 +175,8 @@ class _Wanted:
 
     def __init__(self, scene: Scene, loaded: bool) -> None:
         self.scene, self.loaded = scene, loaded
-        self.used: set[str] = {"mujoco.friction", "mujoco.noslip_iterations"}
+        self.used: set[str] = {"mujoco.friction", "mujoco.noslip_iterations",
+                               "mujoco.iterations", "mujoco.tolerance", "mujoco.contacts"}
         self.values: dict[str, Any] = {}
 
     def set_by_scene(self, key: str) -> bool:
@@ -335,7 +336,9 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         options = {"timestep_s": w["timestep_s"], "integrator": w["integrator"],
                    "cone": w["cone"], "impratio": w["impratio"],
                    "noslip_iterations": GENERATED_NOSLIP_ITERATIONS if noslip is None else noslip,
-                   "gravity_mps2": (0.0, 0.0, -top.g_mps2)}
+                   "gravity_mps2": (0.0, 0.0, -top.g_mps2),
+                   "iterations": 100 if mj.iterations is None else mj.iterations,
+                   "tolerance": 1e-8 if mj.tolerance is None else mj.tolerance}
         solimp = _full_solimp(solimp)
         contacts = _generated_contacts(
             top, stem, w["condim"], (w["mu"], w["torsional"], w["rolling"]) if mode == "native"
@@ -346,6 +349,8 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                    for key in ("timestep_s", "integrator", "cone", "impratio")}
         options["noslip_iterations"] = file_top.noslip_iterations if noslip is None else noslip
         options["gravity_mps2"] = file_top.gravity_mps2
+        options["iterations"] = file_top.iterations if mj.iterations is None else mj.iterations
+        options["tolerance"] = file_top.tolerance if mj.tolerance is None else mj.tolerance
         stem_off = scene.effects.stem is False
         contacts = tuple(
             replace(c.with_values(condim=w["condim"], mu=w["mu"], torsional=w["torsional"],
@@ -359,6 +364,8 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     dt, note = _fitted_timestep(law, limit, float(options["timestep_s"]), scene, loaded) \
         if law is not None else (float(options["timestep_s"]), None)
     options["timestep_s"] = dt
+    options["contacts_on"] = (mj.contacts if file_top is None or scene.is_set("mujoco.contacts")
+                              else file_top.contacts_on)
     check_samples(scene.run.t_end_s, scene.run.sample_dt_s if scene.run.sample_dt_s is not None
                   else default_sample_dt(scene.run.t_end_s))
     check_mujoco_steps(scene.run.t_end_s, dt)
@@ -370,7 +377,10 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                          impratio=options["impratio"], solref=solref, solimp=solimp,
                          torsional=float(w["torsional"] or 0.0),
                          rolling=float(w["rolling"] or 0.0), stem=stem,
-                         noslip_iterations=options["noslip_iterations"])
+                         noslip_iterations=options["noslip_iterations"],
+                         iterations=int(options["iterations"]),
+                         tolerance=float(options["tolerance"]),
+                         contacts_on=bool(options["contacts_on"]))
         source, centre, quat = None, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)
     else:
         mjcf = _file_document(file_top, options, contacts)
@@ -392,7 +402,9 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         gravity_mps2=tuple(float(g) for g in options["gravity_mps2"]), contacts=contacts,
         sample_dt_s=sample_dt, steps_per_sample=steps, n_intervals=n_intervals, mjcf=mjcf,
         source=source, stem=stem, paper_max_timestep_s=limit,
-        notes=() if note is None else (note,), **start)
+        notes=() if note is None else (note,), iterations=int(options["iterations"]),
+        tolerance=float(options["tolerance"]), contacts_on=bool(options["contacts_on"]),
+        **start)
     return plan, want.used
 
 
@@ -407,7 +419,11 @@ def _file_document(file_top: FileTop, options: dict[str, Any],
     option = {"timestep": fmt(options["timestep_s"]), "integrator": options["integrator"],
               "cone": options["cone"], "impratio": fmt(options["impratio"]),
               "noslip_iterations": str(int(options["noslip_iterations"])),
-              "gravity": fmt(options["gravity_mps2"])}
+              "gravity": fmt(options["gravity_mps2"]),
+              "iterations": str(int(options["iterations"])),
+              "tolerance": fmt(options["tolerance"])}
+    mjcf_document.write_flag(root, "contact",
+                             "enable" if options["contacts_on"] else "disable")
     mjcf_document.write_values(
         root, option=option,
         geoms={c.index: c.to_attributes() for c in contacts if c.element == "geom"},

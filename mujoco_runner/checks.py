@@ -70,20 +70,22 @@ def step_failure(record: SampleRecord) -> tuple[int, str | None]:
 
 
 def check_failure(top_model: TopModel, t: np.ndarray, gap: np.ndarray, energy: np.ndarray,
-                   other_touching: np.ndarray, fix: str) -> tuple[int, str | None]:
+                   other_touching: np.ndarray, fix: str,
+                   on_table: bool = True) -> tuple[int, str | None]:
     """The divergence checks over all samples: (first failing sample, reason) or (n, None).
 
     A sample fails when the ball sank more than :data:`MAX_PENETRATION_R` R into the table,
     when the energy rose more than :data:`MAX_ENERGY_RISE` above the first sample's, or when
     the ball has been off the table (gap above :data:`CONTACT_GAP_M`, no other geom of the top
-    touching) for more than :data:`MAX_AIRBORNE_S`.
+    touching) for more than :data:`MAX_AIRBORNE_S`. With ``on_table`` False (contacts
+    disabled: the top falls freely, as asked) only the energy is checked.
     """
     n = len(t)
     if not n:
         return 0, None
     R = top_model.top.R_m
     e0 = energy[0]
-    sink = gap < -MAX_PENETRATION_R * R
+    sink = gap < -MAX_PENETRATION_R * R if on_table else np.zeros(n, dtype=bool)
     with np.errstate(invalid="ignore"):
         rise = energy - e0 > MAX_ENERGY_RISE * abs(e0)
     ok = (gap <= CONTACT_GAP_M) | other_touching
@@ -91,7 +93,7 @@ def check_failure(top_model: TopModel, t: np.ndarray, gap: np.ndarray, energy: n
     last_ok = np.maximum.accumulate(np.where(ok, idx, -1))
     start = np.minimum(last_ok + 1, n - 1)
     since = t[start]
-    lost = ~ok & (t - since > MAX_AIRBORNE_S)
+    lost = ~ok & (t - since > MAX_AIRBORNE_S) & on_table
     hits = np.flatnonzero(sink | rise | lost)
     if not hits.size:
         return n, None

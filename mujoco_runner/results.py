@@ -319,7 +319,8 @@ def result_from_samples(
     t_check = np.arange(n) * steps * dt  # as the checks always had it: (i * steps) * dt
     gap, energy = gap_energy_many(top_model, qpos, qvel)
     n_good, check = check_failure(top_model, t_check, gap, energy,
-                                   (sums["touching"] & 2) > 0, fix)
+                                   (sums["touching"] & 2) > 0, fix,
+                                   on_table=plan.contacts_on)
     if check is not None:
         reason = check
     status = "ok" if reason is None else "diverged"

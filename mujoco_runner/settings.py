@@ -57,7 +57,9 @@ def plan_differences(plan: MujocoPlan, model: mujoco.MjModel) -> list[str]:
     have = {"timestep_s": float(opt.timestep), "integrator": integrator_name(int(opt.integrator)),
             "cone": cone_name(int(opt.cone)), "impratio": float(opt.impratio),
             "noslip_iterations": int(opt.noslip_iterations),
-            "gravity_mps2": tuple(float(g) for g in opt.gravity)}
+            "gravity_mps2": tuple(float(g) for g in opt.gravity),
+            "iterations": int(opt.iterations), "tolerance": float(opt.tolerance),
+            "contacts_on": contacts_enabled(model)}
     for key, value in have.items():
         if value != getattr(plan, key):
             out.append(f"{key} {value!r}, the plan's {getattr(plan, key)!r}")
@@ -95,6 +97,9 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
         "impratio": float(opt.impratio),
         "noslip_iterations": int(opt.noslip_iterations),
         "gravity_mps2": float(-opt.gravity[2]),
+        "iterations": int(opt.iterations),
+        "tolerance": float(opt.tolerance),
+        "contacts": contacts_enabled(model),
     }
     b = top_model.body_id
     for i in range(data.ncon):
@@ -112,6 +117,11 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
                solimp=[float(v) for v in model.geom_solimp[g]],
                contact_source="ball geom (no contact at t = 0)")
     return out
+
+
+def contacts_enabled(model: mujoco.MjModel) -> bool:
+    """False where the model disables contacts (``<flag contact="disable"/>``)."""
+    return not int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 
 
 def friction_that_acts(condim: int, mu: float, torsional: float,

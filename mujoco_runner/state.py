@@ -223,7 +223,8 @@ def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
         paper_from_body_quat=tuple(float(v) for v in top_model.paper_from_body_quat),
         keyframes=names, keyframe_inits=inits,
         mu=None if ball is None else ball.friction[0], stem=stem,
-        stem_note=note)
+        stem_note=note, iterations=int(opt.iterations), tolerance=float(opt.tolerance),
+        contacts_on=not int(opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CONTACT))
 
 
 def contact_settings(top_model: TopModel) -> tuple[ContactSetting, ...]:

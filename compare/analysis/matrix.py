@@ -44,6 +44,11 @@ METRICS: dict[str, tuple[str, float, float, str]] = {
 }
 
 
+def table_key(scene: str, mode: str, engine: str) -> str:
+    """The key of a run's table in ``run_matrix``'s ``tables``."""
+    return f"{scene}|{mode}|{engine}"
+
+
 def profile_scenes(profile: str) -> tuple[str, ...]:
     """The scenes of ``--profile`` (``full``: the whole catalogue)."""
     if profile == "full":
@@ -79,7 +84,8 @@ def _differ(metric: str, a: Any, b: Any) -> bool:
 
 def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequence[str],
                overrides: tuple[str, ...] = (), *, workers: int | None = None,
-               use_cache: bool = True) -> dict[str, Any]:
+               use_cache: bool = True, attribution: bool = True,
+               tables: dict[str, Any] | None = None) -> dict[str, Any]:
     """Every scene on every engine in every mode, the reference once per scene.
 
     Returns:
@@ -87,7 +93,10 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
         version read back from the runs), ``runs`` ({scene, engine, mode, status, message,
         t_invert, t_stem, theta_final, theta_asymp, J_rel_drift, agrees} and ``theta_s``,
         ``outcome``, ``theory_outcome``, ``path``), ``differences`` ({scene, mode, engines: [A,
-        B], metric, values: [a, b], tolerance, why}) and ``reference`` (the ODE's per scene).
+        B], metric, values: [a, b], tolerance, why, attribution, closer}: see
+        :mod:`.attribution`; None for both with ``attribution`` False) and ``reference`` (the
+        ODE's per scene). ``tables``, when given, receives each run's table under
+        :func:`table_key` (the reference's: mode and engine ``ode``).
     """
     for m in modes:
         if m not in MODES:
@@ -105,18 +114,107 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
     results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,
                         label="matrix")
     runs, reference = [], {}
+    done: dict[tuple[str, str, str], tuple[Task, TaskResult]] = {}
+    predictions: dict[str, tuple[float | None, str | None]] = {}
     for scene in scenes:
         mine = [(m, t, r) for (s, m, t), r in zip(jobs, results, strict=True) if s == scene]
         ref = mine[0][2]
         th_s, th_out = _prediction(mine[0][1], [r for _, _, r in mine])
+        predictions[scene] = th_s, th_out
         reference[scene] = _run_row(scene, "ode", "ode", ref, th_s, th_out)
+        if tables is not None and ref.table is not None:
+            tables[table_key(scene, "ode", "ode")] = ref.table
         for mode, task, res in mine[1:]:
             runs.append(_run_row(scene, task.spec, mode, res, th_s, th_out))
+            done[scene, str(mode), task.spec] = task, res
+            if tables is not None and res.table is not None and res.error is None:
+                tables[table_key(scene, str(mode), task.spec)] = res.table
+    differences = _differences(runs, engines, modes, scenes)
+    if attribution:
+        _attribute(differences, done, reference, predictions, workers=workers,
+                   use_cache=use_cache)
+    else:
+        for d in differences:
+            d["attribution"] = d["closer"] = None
     return {"format": FORMAT, "engines": _engines(engines, runs), "runs": runs,
-            "differences": _differences(runs, engines, modes, scenes),
+            "differences": differences, "attribution": attribution,
             "reference": reference, "modes": list(modes), "scenes": list(scenes),
             "tolerances": {k: {"kind": v[0], "value": v[1], "floor": v[2], "why": v[3]}
                            for k, v in METRICS.items()}}
+
+
+def _attribute(differences: list[dict[str, Any]],
+               done: dict[tuple[str, str, str], tuple[Task, TaskResult]],
+               reference: dict[str, dict[str, Any]],
+               predictions: dict[str, tuple[float | None, str | None]], *,
+               workers: int | None, use_cache: bool) -> None:
+    """Fill each difference's ``attribution`` and ``closer`` (one batch of reruns)."""
+    from tippetop.compare.analysis import attribution as attr
+
+    groups: dict[tuple[str, str], set[str]] = {}
+    for d in differences:
+        groups.setdefault((d["scene"], d["mode"]), set()).update(d["engines"])
+    jobs: list[tuple[str, str, str, attr.Change, Task]] = []
+    changes: dict[tuple[str, str], list[attr.Change]] = {}
+    integrators: dict[tuple[str, str], str] = {}
+    for (scene, mode), specs in groups.items():
+        first = next(iter(sorted(specs)))
+        task0 = done[scene, mode, first][0]
+        try:
+            plan = task0.plan().mujoco
+        except TippetopError:
+            plan = None
+        if plan is None:
+            changes[scene, mode] = []
+            continue
+        changes[scene, mode] = attr.changes_for(plan)
+        integrators[scene, mode] = plan.integrator
+        for spec in sorted(specs):
+            task = done[scene, mode, spec][0]
+            for ch in changes[scene, mode]:
+                if ch.overrides is None:
+                    continue
+                jobs.append((scene, mode, spec, ch, Task(
+                    task.scene, (*task.overrides, *ch.overrides), "mujoco",
+                    label=f"{scene} [{spec} {mode}, {ch.name}]", spec=spec)))
+    results = run_tasks([j[4] for j in jobs], workers=workers, use_cache=use_cache,
+                        label="attribution") if jobs else []
+    rerun: dict[tuple[str, str, str, str], dict[str, Any]] = {}
+    tables: dict[tuple[str, str, str, str], Any] = {}
+    for (scene, mode, spec, ch, _t), res in zip(jobs, results, strict=True):
+        th_s, th_out = predictions[scene]
+        rerun[scene, mode, spec, ch.name] = _run_row(scene, spec, mode, res, th_s, th_out)
+        tables[scene, mode, spec, ch.name] = res.table if res.error is None else None
+    for d in differences:
+        scene, mode, metric = d["scene"], d["mode"], d["metric"]
+        a, b = d["engines"]
+        ta, tb = done[scene, mode, a][1].table, done[scene, mode, b][1].table
+        base_gap = attr.theta_gap(ta, tb)
+        evidence: list[dict[str, Any]] = []
+        for ch in changes[scene, mode]:
+            if ch.overrides is None:
+                evidence.append({"change": ch.name, "applies": False, "why": ch.why_not})
+                continue
+            ra, rb = rerun[scene, mode, a, ch.name], rerun[scene, mode, b, ch.name]
+            bad = [r for r in (ra, rb) if r["status"] == "failed"]
+            row: dict[str, Any] = {"change": ch.name, "a": ra[metric], "b": rb[metric],
+                                   "difference": attr.value_gap(ra[metric], rb[metric]),
+                                   "theta_gap_rad": attr.theta_gap(
+                                       tables[scene, mode, a, ch.name],
+                                       tables[scene, mode, b, ch.name]),
+                                   "agree": not _differ(metric, ra[metric], rb[metric])}
+            if bad:
+                row["failed"] = bad[0]["message"]
+            evidence.append(row)
+        d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence, _differ,
+                                          ran_integrator=integrators.get((scene, mode)))
+        d["attribution"]["theta_gap_rad"] = base_gap
+        quarter = next((c.name for c in changes[scene, mode] if c.name == "quarter timestep"),
+                       None)
+        conv = ((rerun[scene, mode, a, quarter][metric], rerun[scene, mode, b, quarter][metric])
+                if quarter else (None, None))
+        d["closer"] = attr.closer(metric, tuple(d["values"]), reference[scene].get(metric),
+                                  conv, (a, b))
 
 
 def _prediction(task: Task, results: list[TaskResult]) -> tuple[float | None, str | None]:
@@ -181,5 +279,5 @@ def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
     return out
 
 
-__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "profile_scenes",
+__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "profile_scenes", "table_key",
            "run_matrix"]

@@ -45,10 +45,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "the calibrated settings, or an MJCF top's own) and/or paper (the paper's "
                    "law at the contact point) (default: native,paper)")
     add_set_option(p)
-    p.add_argument("--out", metavar="DIR", help="folder for results.json (the --json result), "
-                   "new or empty, or --force (default: none, printed only)")
+    p.add_argument("--out", metavar="DIR", help="folder for results.json (the --json result) "
+                   "and report.html, new or empty, or --force (default: none, printed only)")
     add_force_option(p, help="write into a non-empty --out")
     add_workers_option(p)
+    p.add_argument("--no-attribution", action="store_true", help="skip the reruns that say "
+                   "what each difference follows (the integrator, contacts, friction, the cone, "
+                   "the solver, the timestep) and which engine is nearer the reference and its "
+                   "own converged answer")
     p.add_argument("--no-cache", action="store_true", help="compute every run again and "
                    "write nothing to the cache")
     add_json_option(p)
@@ -58,7 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """``tippetop matrix``: exit 1 when a run failed."""
     from tippetop.compare.analysis.matrix import profile_scenes, run_matrix
-    from tippetop.compare.running.io import check_output_dir, hold_output_lock, write_atomic
+    from tippetop.compare.running.io import check_output_dir, hold_output_lock
     from tippetop.models.engines import parse_engines
 
     engines = parse_engines(args.engines)
@@ -68,24 +72,56 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         out_dir = check_output_dir(args.out, force=args.force)
         hold_output_lock(out_dir)
+    tables: dict[str, Any] = {}
     res = run_matrix(scenes, engines, modes, tuple(args.set or []), workers=args.workers,
-                     use_cache=not args.no_cache)
+                     use_cache=not args.no_cache, attribution=not args.no_attribution,
+                     tables=tables)
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        from tippetop.compare.report.matrix import render
+        from tippetop.compare.running.io import staged_output_dir
+
         text = json_text(res, indent=1) + "\n"
-        write_atomic(out_dir / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
+        html = render(res, tables)
+        with staged_output_dir(out_dir) as stage:  # all files or none, even on Ctrl-C
+            (stage / "results.json").write_text(text, "utf-8")
+            (stage / "report.html").write_text(html, "utf-8")
     if args.json:
         print_json(res)
     else:
         print_matrix(res)
         if out_dir is not None:
-            print(f"wrote {out_dir / 'results.json'}")
+            print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
     failed = [r for r in res["runs"] if r["status"] not in ("ok", "contact_lost", "hop")]
     if failed:
         sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['runs'])} runs "
                          "failed; the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0
+
+
+def closer_text(d: dict[str, Any], near: dict[str, Any]) -> str:
+    """Which engine is nearer the reference, and its own converged answer, in words."""
+    from tippetop.compare.presentation.terminal import fmt
+
+    unit = "rad" if d["metric"] == "theta_asymp" else "s" if d["metric"] in (
+        "t_invert", "t_stem") else ""
+    ref, conv = near.get("reference"), near.get("converged_nearer")
+    parts = []
+    if ref is None:
+        parts.append("to the reference: n/a (a value is missing)")
+    elif ref == "tie":
+        parts.append("to the reference: a tie")
+    else:
+        parts.append(f"to the reference ({fmt(near['reference_value'], unit)}): {ref}")
+    if conv is None:
+        parts.append("to its own answer at dt/4: n/a")
+    elif conv == "tie":
+        parts.append("to its own answer at dt/4: a tie")
+    else:
+        gaps = ", ".join(f"{k} {fmt(v, unit)} off" for k, v in near["converged"].items()
+                         if v is not None)
+        parts.append(f"to its own answer at dt/4: {conv} ({gaps})")
+    return "; ".join(parts)
 
 
 def print_matrix(res: dict[str, Any]) -> None:
@@ -123,6 +159,11 @@ def print_matrix(res: dict[str, Any]) -> None:
                 + (f", over {fmt(d['tolerance'], unit)}" if d["tolerance"] is not None
                    else ""))
         print(labelled(f"{d['scene']} {d['mode']}", text, width))
+        att, near = d.get("attribution"), d.get("closer")
+        if att:
+            print(labelled("", f"follows: {att['follows']}", width))
+        if near:
+            print(labelled("", f"closer: {closer_text(d, near)}", width))
     print("\nengines (read back from their runs):")
     print(table(("spec", "implementation", "version", "precision", "device"),
                 [(e["spec"], e["implementation"], fmt(e["version"]), e["precision"],

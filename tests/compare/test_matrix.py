@@ -89,9 +89,126 @@ def test_differences_are_named_metric_by_metric() -> None:
     (["matrix", "fig3", "--engines", "mujoco", "--modes", "exact"], "--modes: expected "
      "native and/or paper, got 'exact'"),
     (["matrix", "nope.xml", "--engines", "mujoco"], "SCENE: expected a scene or an MJCF file"),
-    (["matrix", "fig3", "--engines", "warp"], "this harness does not run warp yet"),
+    (["matrix", "fig3", "--engines", "mujoco@/no/such/python"], "engine mujoco@/no/such/python: "
+     "expected the path of a Python interpreter"),
 ])
 def test_bad_input_is_one_line(argv: list[str], says: str, capsys) -> None:
     assert cli.main(argv) == 2
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and says in err, err
+
+
+def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
+        tmp_path: Path, monkeypatch) -> None:
+    """A difference injected between two bit-identical engines: every change is rerun on both.
+
+    The same MuJoCo here and in a worker agree under every change (to the bit), so the
+    difference "goes away" with each: what is checked is that each change ran as asked, read
+    back from the reruns (a quarter of the timestep, the other integrators, contacts off, the
+    tighter solver), and that closer compares against the reference and dt/4 runs.
+    """
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    real = matrix._differences
+
+    def injected(runs, engines, modes, scenes):
+        out = real(runs, engines, modes, scenes)
+        assert out == []
+        r = {x["engine"]: x for x in runs}
+        return [{"scene": "fig3", "mode": "native", "engines": ["mujoco", HERE],
+                 "metric": "theta_asymp", "values": [r["mujoco"]["theta_asymp"],
+                                                     r[HERE]["theta_asymp"]],
+                 "tolerance": 0.02, "why": "injected"}]
+
+    monkeypatch.setattr(matrix, "_differences", injected)
+    res = matrix.run_matrix(["fig3"], parse_engines(f"mujoco,{HERE}"), ["native"],
+                            ("run.t_end_s=0.3",))
+    (d,) = res["differences"]
+    att = d["attribution"]
+    changes = [e["change"] for e in att["evidence"]]
+    # the native plan's own integrator and cone are not changes: the other two integrators,
+    # the other cone, and the rest
+    from tippetop.compare.running.runner import Task
+
+    plan = Task("fig3", ("run.t_end_s=0.3", "mujoco.friction=native"), "mujoco").plan().mujoco
+    other = "pyramidal" if plan.cone == "elliptic" else "elliptic"
+    assert changes == [*(f"integrator {i}" for i in ("Euler", "implicitfast", "RK4")
+                         if i != plan.integrator), "contacts off", "friction off",
+                       f"cone {other}", "solver 1000 iterations, tolerance 1e-12",
+                       "quarter timestep"]
+    for e in att["evidence"]:
+        assert e["agree"] and e["difference"] == 0.0 and e["theta_gap_rad"] == 0.0, e
+    assert att["removed_by"] == changes and att["kept_by"] == []
+    assert all(c.removeprefix("integrator ") in att["follows"] for c in changes), att["follows"]
+    # the contacts-off rerun is a free top: no torque about its centre, so theta stays at
+    # theta0 = 0.1 rad (to round-off over 1500 RK4 steps)
+    off = next(e for e in att["evidence"] if e["change"] == "contacts off")
+    assert off["a"] == pytest.approx(0.1, abs=1e-9)
+    near = d["closer"]
+    ref = res["reference"]["fig3"]["theta_asymp"]
+    assert near["reference_value"] == ref
+    assert near["reference_distance"] == [abs(d["values"][0] - ref)] * 2
+    assert near["reference"] == "tie" and near["converged_nearer"] == "tie"
+    q = next(e for e in att["evidence"] if e["change"] == "quarter timestep")
+    assert near["converged"]["mujoco"] == abs(d["values"][0] - q["a"])
+
+
+def test_attribution_changes_read_back(tmp_path: Path, monkeypatch) -> None:
+    """Each change's keys reach the compiled model: the run's summary reads them back."""
+    from tippetop.compare.analysis.attribution import changes_for
+    from tippetop.compare.running.runner import Task, run_tasks
+
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    base = Task("fig3", ("run.t_end_s=0.05", "mujoco.friction=paper"), "mujoco")
+    plan = base.plan().mujoco
+    changes = changes_for(plan)
+    cone = next(c for c in changes if c.name.startswith("cone"))
+    assert cone.overrides is None and "no friction rows" in cone.why_not
+    runs = [c for c in changes if c.overrides is not None]
+    results = run_tasks([Task("fig3", (*base.overrides, *c.overrides), "mujoco") for c in runs],
+                        use_cache=False)
+    got = {c.name: r.summary for c, r in zip(runs, results, strict=True)}
+    assert got["integrator Euler"]["integrator"] == "Euler"
+    assert got["contacts off"]["contacts"] is False
+    assert got["solver 1000 iterations, tolerance 1e-12"]["iterations"] == 1000
+    assert got["solver 1000 iterations, tolerance 1e-12"]["tolerance"] == 1e-12
+    assert got["quarter timestep"]["timestep_s"] == plan.timestep_s / 4
+    assert got["friction off"]["friction_law"] == "none"
+
+
+def test_follows_names_the_subsystem() -> None:
+    from tippetop.compare.analysis.attribution import attribute
+
+    def ev(change: str, agree: bool, gap: float) -> dict:
+        return {"change": change, "a": 1.0, "b": 1.0 + gap, "difference": gap,
+                "theta_gap_rad": gap, "agree": agree}
+
+    only_rk4 = [ev("integrator Euler", True, 1e-12), ev("integrator implicitfast", True, 2e-12),
+                ev("integrator RK4", False, 0.1), ev("quarter timestep", False, 0.1)]
+    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4, matrix._differ,
+                    ran_integrator="implicit")
+    assert att["follows"].startswith("differs with implicit and RK4 (as run: implicit): with "
+                                     "Euler and implicitfast the two agree (theta(t) within "
+                                     "2e-12 rad)")
+    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4[:2], matrix._differ,
+                    ran_integrator="RK4")
+    assert att["follows"].startswith("differs only with RK4: with Euler and implicitfast the "
+                                     "two agree (theta(t) within 2e-12 rad)")
+    assert att["removed_by"] == ["integrator Euler", "integrator implicitfast"]
+    stays = [ev("friction off", False, 0.09), ev("quarter timestep", False, 0.08)]
+    att = attribute("theta_asymp", "a", "b", 0.1, stays, matrix._differ)
+    assert att["follows"].startswith("persists with every change (2 tried)")
+    assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att["follows"]
+    friction = [ev("friction off", True, 1e-6), ev("quarter timestep", False, 0.1)]
+    att = attribute("theta_asymp", "a", "b", 0.1, friction, matrix._differ)
+    assert att["follows"].startswith("goes away with friction off (theta(t) then within "
+                                     "1e-06 rad); stays with quarter timestep")
+
+
+def test_closer_is_the_nearer_to_the_reference_and_to_its_own_dt4_answer() -> None:
+    from tippetop.compare.analysis.attribution import closer
+
+    c = closer("t_invert", (2.40, 2.30), 2.33, (2.39, 2.20), ("a", "b"))
+    assert c["reference"] == "b" and c["reference_distance"] == pytest.approx([0.07, 0.03])
+    assert c["converged_nearer"] == "a"
+    c = closer("outcome", ("inverted", "intermediate"), "inverted", (None, None), ("a", "b"))
+    assert c["reference"] == "a" and c["converged_nearer"] is None

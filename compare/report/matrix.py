@@ -1,0 +1,185 @@
+"""``tippetop matrix``'s report.html: verdict first, then what changes between engines.
+
+A column per engine in the verdict table; the differences with their attribution and which
+engine is closer; theta(t) of every engine with a difference panel; then what ran.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tippetop.compare.analysis.matrix import table_key
+from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
+
+_UNITS = {"theta_asymp": "rad", "theta_final": "rad", "t_invert": "s", "t_stem": "s"}
+_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
+
+
+def _value(metric: str, v: Any) -> str:
+    if isinstance(v, float):
+        return fmt_num(v, ".4g", _UNITS.get(metric, ""))
+    return fmt_num(v)
+
+
+def _cell(run: Mapping[str, Any]) -> tuple[Html, str]:
+    if run["status"] not in ("ok", "contact_lost", "hop"):
+        return Html(f"&#x2716; {esc(run['status'])}<br><span class='j'>"
+                    f"{esc((run.get('message') or '')[:120])}</span>"), "failed"
+    cls = "agree" if run["agrees"] else "depart"
+    mark = "" if run["agrees"] else "&ne; "
+    text = (f"{mark}{esc(run.get('outcome'))}<br><span class='j'>theta_asymp "
+            f"{_value('theta_asymp', run.get('theta_asymp'))}, t_invert "
+            f"{_value('t_invert', run.get('t_invert'))}</span>")
+    return Html(text), cls
+
+
+def verdict_section(res: Mapping[str, Any]) -> str:
+    """One row per (scene, mode), one column per engine: agrees with the theory or not."""
+    engines = [e["spec"] for e in res["engines"]]
+    by = {(r["scene"], r["mode"], r["engine"]): r for r in res["runs"]}
+    rows = []
+    for scene in res["scenes"]:
+        for mode in res["modes"]:
+            row: list[Any] = [scene, mode]
+            for spec in engines:
+                run = by.get((scene, mode, spec))
+                if run is None:
+                    row.append("-")
+                    continue
+                cell, cls = _cell(run)
+                row.append(Html(f"<div class='{cls}'>{cell}</div>"))
+            ref = res["reference"].get(scene, {})
+            row.append(Html(f"{esc(ref.get('theory_outcome'))}<br><span class='j'>theta_s "
+                            f"{_value('theta_asymp', ref.get('theta_s'))}</span>"))
+            rows.append(row)
+    agree = sum(r["agrees"] for r in res["runs"])
+    failed = sum(r["status"] not in ("ok", "contact_lost", "hop") for r in res["runs"])
+    n_diff = len(res["differences"])
+    ok = agree == len(res["runs"]) and not failed
+    head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
+            f"{'ALL AGREE' if ok else 'SOME DEPART'}</span> {agree} of {len(res['runs'])} "
+            f"runs agree with the theory (its outcome, and theta_asymp within 0.05 rad of "
+            f"theta_s), {failed} failed; {n_diff} difference{'s' if n_diff != 1 else ''} "
+            "between engines beyond the nightly's tolerances.</p>")
+    return ("<section id='verdict'><h2>Against the theory</h2>" + head
+            + html_table(["scene", "mode", *engines, "theory"], rows) + "</section>")
+
+
+def differences_section(res: Mapping[str, Any]) -> str:
+    """Every difference, what it follows (the reruns' evidence) and which engine is closer."""
+    diffs = res["differences"]
+    parts = ["<section id='differences'><h2>What changes between engines</h2>"]
+    if not diffs:
+        parts.append("<p>Nothing: every pair of engines agrees on every metric within the "
+                     "nightly's tolerance.</p></section>")
+        return "".join(parts)
+    tol = res.get("tolerances", {})
+    parts.append("<p class='note'>Tolerances: "
+                 + "; ".join(f"{esc(k)}: {esc(v['why'])}" for k, v in tol.items()) + "</p>")
+    for d in diffs:
+        (a, b), (va, vb) = d["engines"], d["values"]
+        m = d["metric"]
+        parts.append(f"<h3>{esc(d['scene'])} {esc(d['mode'])}: {esc(m)}</h3>"
+                     f"<p>{esc(a)}: <b>{_value(m, va)}</b>, {esc(b)}: <b>{_value(m, vb)}</b>"
+                     + (f" (tolerance {_value(m, d['tolerance'])})"
+                        if d.get("tolerance") is not None else "") + "</p>")
+        att, near = d.get("attribution"), d.get("closer")
+        if att:
+            parts.append(f"<p>Follows: {esc(att['follows'])}</p>")
+            rows = []
+            for e in att["evidence"]:
+                if not e.get("applies", True):
+                    rows.append((e["change"], "-", "-", "-", "-", f"n/a: {e['why']}"))
+                    continue
+                rows.append((e["change"], Html(_value(m, e["a"])), Html(_value(m, e["b"])),
+                             Html(fmt_num(e["difference"], ".3g")),
+                             Html(fmt_num(e["theta_gap_rad"], ".3g", "rad")),
+                             "failed: " + e["failed"] if e.get("failed")
+                             else "agree" if e["agree"] else "differ"))
+            parts.append(html_table(["change (both engines)", a, b, "|a - b|",
+                                     "max |theta_a - theta_b|", "within tolerance"], rows,
+                                    ["pass" if r[-1] == "agree" else "" for r in rows]))
+        if near:
+            conv = near.get("converged") or {}
+            parts.append(
+                "<p class='note'>Closer to the reference ODE "
+                f"({_value(m, near.get('reference_value'))}): "
+                f"<b>{esc(near.get('reference') or 'n/a')}</b>; closer to its own answer at a "
+                f"quarter of the timestep: <b>{esc(near.get('converged_nearer') or 'n/a')}</b>"
+                + (" (" + ", ".join(f"{esc(k)} {fmt_num(v, '.3g')}" for k, v in conv.items())
+                   + ")" if conv else "") + ".</p>")
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+    """theta(t) of every engine per (scene, mode), the reference dashed.
+
+    Below it, each engine minus the first engine.
+    """
+    plt = pyplot()
+    engines = [e["spec"] for e in res["engines"]]
+    parts = ["<section id='theta'><h2>theta(t) on every engine</h2><p class='note'>Dashed: "
+             f"the reference ODE. Below: each engine minus {esc(engines[0])}.</p>"]
+    for scene in res["scenes"]:
+        for mode in res["modes"]:
+            got = [(spec, tables.get(table_key(scene, mode, spec))) for spec in engines]
+            got = [(s, t) for s, t in got if t is not None and len(t)]
+            if not got:
+                continue
+            fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9.0, 5.0), sharex=True,
+                                           gridspec_kw={"height_ratios": [3, 2]})
+            ref = tables.get(table_key(scene, "ode", "ode"))
+            if ref is not None and len(ref):
+                ax.plot(ref["t"], ref["theta"], color="0.15", lw=1.2, ls="--",
+                        label="reference ODE")
+            base = got[0][1]
+            for i, (spec, t) in enumerate(got):
+                colour = _COLOURS[i % len(_COLOURS)]
+                ax.plot(t["t"], t["theta"], color=colour, lw=1.0, label=spec)
+                if i:
+                    d = t["theta"].to_numpy() - np.interp(t["t"], base["t"], base["theta"])
+                    ax_d.plot(t["t"], d, color=colour, lw=1.0, label=f"{spec} - {got[0][0]}")
+            ax.axhline(math.pi / 2, color="0.7", lw=0.8, ls=":")
+            ax.set_ylabel("theta (rad)")
+            ax.set_title(f"{scene}, {mode} mode", fontsize=10)
+            ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+            ax_d.axhline(0.0, color="0.5", lw=0.8)
+            ax_d.set_ylabel("difference (rad)")
+            ax_d.set_xlabel("t (s)")
+            if len(got) > 1:
+                ax_d.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+            fig.tight_layout()
+            parts.append(png(fig))
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def ran_section(res: Mapping[str, Any]) -> str:
+    """The engines and every run's path, version and message, as read back."""
+    eng = html_table(["spec", "implementation", "version", "precision", "device"],
+                     [(e["spec"], e["implementation"], e["version"], e["precision"],
+                       e["device"]) for e in res["engines"]])
+    runs = html_table(["scene", "mode", "engine", "version", "path", "status", "message"],
+                      [(r["scene"], r["mode"], r["engine"], r.get("version"), r.get("path"),
+                        r["status"], r.get("message")) for r in res["runs"]])
+    return ("<section id='ran'><h2>What ran</h2><p class='note'>Read back from the runs.</p>"
+            + eng + runs + "</section>")
+
+
+def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+    """The page: verdict, differences with their attribution, theta(t), what ran."""
+    title = (f"tippetop matrix: {len(res['scenes'])} scenes on "
+             + ", ".join(e["spec"] for e in res["engines"]))
+    body = [f"<h1>{esc(title)}</h1>", verdict_section(res), differences_section(res),
+            theta_section(res, tables), ran_section(res)]
+    return page(title, body)
+
+
+__all__ = ["render"]
