@@ -52,6 +52,8 @@ class ValidateConfig:
         scheduler: A Dask scheduler address, or None for local processes.
         workers: Local worker processes (None: all cores).
         use_cache: Read and write the runs cache.
+        engines: The engine specs the MuJoCo modes run on (:mod:`tippetop.models.engines`);
+            another spec than ``mujoco`` adds its runs as ``MODE@SPEC``.
     """
 
     model: Path
@@ -60,6 +62,17 @@ class ValidateConfig:
     scheduler: str | None = None
     workers: int | None = None
     use_cache: bool = True
+    engines: tuple[str, ...] = ("mujoco",)
+
+
+def run_key(mode: str, spec: str) -> str:
+    """A run's key in ``runs``: the mode, with ``@SPEC`` on another engine than ``mujoco``."""
+    return mode if spec in ("mujoco", "ode") or mode == "ode" else f"{mode}@{spec}"
+
+
+def mode_of(key: str) -> str:
+    """The mode of a run key (``mujoco-file@mujoco==3.3.7`` -> ``mujoco-file``)."""
+    return key.split("@", 1)[0]
 
 
 def _overrides(config: ValidateConfig) -> tuple[str, ...]:
@@ -284,8 +297,12 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     # the paper's law runs at a step it can follow: the file's, or the largest 1-2-5 step
     # below the law's limit, which the plan chooses and says (mujoco.fit_paper_timestep)
     paper = (*over, "mujoco.fit_paper_timestep=true")
-    tasks = [Task(None, paper if mode == "mujoco-paper" else over, mode) for mode in MODES]
-    paper_note = "; ".join(tasks[MODES.index("mujoco-paper")].plan().mujoco.notes)
+    jobs = [(run_key(mode, spec), Task(None, paper if mode == "mujoco-paper" else over, mode,
+                                       spec=spec if mode != "ode" else "mujoco"))
+            for mode in MODES for spec in (config.engines if mode != "ode" else ("ode",))]
+    tasks = [t for _, t in jobs]
+    paper_note = "; ".join(next(t for k, t in jobs if mode_of(k) == "mujoco-paper")
+                           .plan().mujoco.notes)
     results = run_tasks(tasks, scheduler=config.scheduler, workers=config.workers,
                         use_cache=config.use_cache, label="validate")
     top = plan.top
@@ -305,7 +322,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     }
     runs: dict[str, dict[str, Any]] = {}
     tables = {}
-    for mode, res in zip(MODES, results, strict=True):
+    for (mode, _task), res in zip(jobs, results, strict=True):
         if res.error or res.summary is None:
             runs[mode] = {"status": "error", "message": res.error, "t_invert": None,
                           "t_stem": None, "theta_final": None, "error": res.error,
@@ -319,7 +336,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
                       "end_state": _end_state(s, outcome), "ran": describe_ran(s),
                       "E0_J": (float(res.table["E"].iloc[0]) if res.table is not None
                                and len(res.table) else None)}
-        if mode == "mujoco-paper" and paper_note:
+        if mode_of(mode) == "mujoco-paper" and paper_note:
             runs[mode]["note"] = paper_note
         if res.table is not None and len(res.table):
             tables[mode] = res.table
@@ -328,6 +345,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "format": "tippetop-validate/1",
         "model": model,
         "t_end_s": config.t_end_s,
+        "engines": list(config.engines),
         "runs": runs,
         "verdict": checks,
         "agrees": all(c["passed"] for c in checks),
@@ -355,5 +373,5 @@ def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
             "stem_note": ft.stem_note}
 
 
-__all__ = ["DEFAULT_T_END_S", "MODES", "ValidateConfig", "findings", "suggestion", "validate",
-           "verdict"]
+__all__ = ["DEFAULT_T_END_S", "MODES", "ValidateConfig", "findings", "mode_of", "run_key",
+           "suggestion", "validate", "verdict"]

@@ -44,8 +44,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", help="output folder (default: a new "
                    "nightly-YYYYMMDD-HHMMSS in the current folder)")
     add_force_option(p, help="write into a non-empty --out")
-    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines to "
-                   f"run (default: {','.join(ENGINES)})")
+    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated: ode (the "
+                   "reference) and engine specs the MuJoCo cases run on: mujoco (the installed "
+                   "one), mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32, warp; each spec keeps "
+                   "its own baseline file, <profile>@<spec>.json beside <profile>.json "
+                   f"(default: {','.join(ENGINES)})")
     p.add_argument("--cases", metavar="GLOBS", help="only case ids matching these "
                    "comma-separated globs, e.g. 'paper/*[ode]' (default: every case of the "
                    "profile)")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    f"{DEFAULT_T_END_S:g})")
     p.add_argument("--keyframe", metavar="NAME", help="start from this keyframe of the file "
                    "(default: its first)")
+    p.add_argument("--engines", default="mujoco", metavar="SPEC,SPEC,...", help="the engines "
+                   "the MuJoCo runs run on: mujoco (the installed one), mujoco==X.Y.Z, "
+                   "mujoco@PYTHON, mjx, mjx-f32, warp; another engine's runs are named "
+                   "MODE@SPEC beside the installed one's (default: mujoco)")
     add_force_option(p, help="write into a non-empty --out")
     add_parallel_options(p)
     add_json_option(p)
@@ -50,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
     """
     from tippetop.compare.analysis.validate import ValidateConfig, validate
     from tippetop.compare.running.io import check_output_dir, staged_output_dir, write_table
+    from tippetop.models.engines import parse_engines
+
+    engines = tuple(e.spec for e in parse_engines(args.engines))
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
     if out is not None:
@@ -58,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
         hold_output_lock(out)
     config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,
                             keyframe=args.keyframe, scheduler=args.scheduler,
-                            workers=args.workers, use_cache=not args.no_cache)
+                            workers=args.workers, use_cache=not args.no_cache,
+                            engines=engines)
     res = validate(config)
     tables = res.pop("tables")
     if out is not None:
@@ -70,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
         with staged_output_dir(out) as stage:  # all files or none, even on Ctrl-C
             (stage / "tables").mkdir()
             for mode, table in tables.items():
-                write_table(table, stage / "tables" / f"{mode}.csv")
+                name = re.sub(r"[^A-Za-z0-9._=@+-]", "_", mode)  # a spec may hold a path
+                write_table(table, stage / "tables" / f"{name}.csv")
             (stage / "results.json").write_text(text, "utf-8")
             (stage / "report.html").write_text(html, "utf-8")
     if args.json:
@@ -93,11 +103,12 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
           f"checks pass, {res['t_end_s']:g} s simulated)")
     width = max(len(c["check"]) for c in checks)
+    mwidth = max(len(c["mode"]) for c in checks)
     for c in checks:
         if not c["passed"]:
             v = c["value"]
             shown = f"{v:.3g}" if isinstance(v, float) else str(v)
-            print(f"  departs: {c['mode']:<14} {c['check']:<{width}}  {shown}  "
+            print(f"  departs: {c['mode']:<{mwidth}} {c['check']:<{width}}  {shown}  "
                   f"(tolerance {c['tolerance']}; {c['note']})")
     for mode, r in res["runs"].items():
         if r.get("note"):

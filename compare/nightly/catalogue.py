@@ -6,7 +6,7 @@ import fnmatch
 import sys
 import tomllib
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +34,11 @@ KIND_METRICS: dict[str, tuple[str, ...]] = {
 
 @dataclass(frozen=True)
 class Case:
-    """One case of the catalogue in one mode."""
+    """One case of the catalogue in one mode.
+
+    ``spec``: the engine spec a MuJoCo case runs on (:mod:`tippetop.models.engines`); a case
+    on another spec than ``mujoco`` has ``@SPEC`` at the end of its id.
+    """
 
     id: str
     name: str
@@ -56,6 +60,7 @@ class Case:
     label: str = ""
     A_over_C: str = ""
     a_over_R: str = ""
+    spec: str = "mujoco"
 
     @property
     def engine(self) -> str:
@@ -237,6 +242,13 @@ def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = EN
         globs = [_literal_brackets(p) for p in patterns]
         out = [c for c in out if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
     return out
+
+
+def on_spec(case: Case, spec: str) -> Case:
+    """``case`` (a MuJoCo case) on the engine spec ``spec``: its id gains ``@spec``."""
+    if spec == "mujoco":
+        return case
+    return replace(case, id=f"{case.id}@{spec}", spec=spec)
 
 
 def _literal_brackets(pattern: str) -> str:

@@ -92,7 +92,8 @@ def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
     params, th = _top_record(scene, plan_for(scene, c.engine))
     rec: dict[str, Any] = {
         "id": c.id, "name": c.name, "category": c.category, "kind": c.kind, "mode": c.mode,
-        "engine": c.engine, "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
+        "engine": c.engine, "engine_spec": c.spec if c.engine != "ode" else "ode",
+        "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
         "overrides": list(c.overrides), "description": c.description or scene.description,
         "metrics": list(c.metrics), "status": case_status(checks), "error": cr.error,
         "wall_s": cr.wall_s, "params": params, "theory": th, "expect": expectation(c, scene),

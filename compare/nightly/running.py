@@ -135,10 +135,10 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 if c.engine != engine:
                     continue
                 if c.kind == "run":
-                    jobs.append((c, None, Task(c.scene, c.overrides, engine)))
+                    jobs.append((c, None, Task(c.scene, c.overrides, engine, spec=c.spec)))
                 elif c.kind == "sweep":
-                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), engine))
-                             for n0 in c.n0]
+                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), engine,
+                                          spec=c.spec)) for n0 in c.n0]
             if not jobs:
                 continue
             log(f"nightly: {len(jobs)} {engine} runs")

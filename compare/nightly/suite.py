@@ -29,6 +29,7 @@ from tippetop.compare.nightly.catalogue import (
     Case,
     Catalogue,
     load_catalogue,
+    on_spec,
     select_cases,
 )
 from tippetop.compare.nightly.checks import case_record, check_case
@@ -105,12 +106,10 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
     """
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
     started, t0 = timestamp(), time.perf_counter()
-    for e in opts.engines:
-        if e not in ENGINES:
-            raise TippetopError(f"--engines: expected a comma-separated list of "
-                                f"{','.join(ENGINES)}, got {e!r}")
+    kinds, specs = engine_specs(opts.engines)
     catalogue = load_catalogue(opts.catalogue)
-    cases = select_cases(catalogue, opts.profile, opts.engines, opts.cases)
+    cases, skipped = cases_on_specs(select_cases(catalogue, opts.profile, kinds, opts.cases),
+                                    specs)
     if not cases:
         raise TippetopError(f"nightly: expected at least one case for profile "
                             f"{opts.profile!r}, engines {','.join(opts.engines)} and cases "
@@ -122,9 +121,11 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
     if not base_dir.is_dir() and not (opts.update_baseline or opts.no_baseline):
         raise TippetopError(f"--baseline: expected an existing folder of baseline files, got "
                             f"{str(base_dir)!r}")
-    bfile = baseline_file(base_dir, opts.profile)
-    baseline = ({} if opts.no_baseline
-                else load_baseline(bfile, missing_ok=opts.update_baseline))
+    files = baseline_files(base_dir, opts.profile, cases)
+    baseline: dict[str, dict[str, Any]] = {}
+    if not opts.no_baseline:
+        for f in files.values():
+            baseline.update(load_baseline(f, missing_ok=opts.update_baseline))
     out_dir = prepare_out_dir(opts.out, opts.force)
     if opts.scheduler and not opts.scheduler.startswith("tcp://"):
         raise TippetopError(f"--scheduler: expected tcp://HOST:PORT, got {opts.scheduler!r}")
@@ -133,18 +134,112 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
                             f"{str(opts.accuracy_dir)!r}")
     with locked_output_dir(out_dir):
         check_output_dir(out_dir, force=opts.force)  # again, now that no other run writes
-        return _run_locked(opts, write_report, log, echo, started, t0, catalogue, cases, bfile,
-                           baseline, out_dir)
+        return _run_locked(opts, write_report, log, echo, started, t0, catalogue, cases, files,
+                           baseline, out_dir, skipped)
+
+
+def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
+    """``--engines`` read: (the case kinds to select, ``ode``/``mujoco``; the MuJoCo specs).
+
+    ``ode`` is the reference; every other entry is an engine spec
+    (:func:`tippetop.models.engines.parse_engine`) the MuJoCo cases run on.
+
+    Raises:
+        TippetopError: A bad spec, or none at all (one line).
+    """
+    from tippetop.models.engines import SPEC_FORMS, parse_engine
+
+    kinds: list[str] = []
+    specs: list[str] = []
+    for e in engines:
+        if e == "ode":
+            kinds.append("ode")
+            continue
+        try:
+            spec = parse_engine(e).spec
+        except TippetopError:
+            raise TippetopError(f"--engines: expected a comma-separated list of ode and "
+                                f"engine specs ({SPEC_FORMS}), got {e!r}") from None
+        if spec not in specs:
+            specs.append(spec)
+    if specs:
+        kinds.append("mujoco")
+    if not kinds:
+        raise TippetopError(f"--engines: expected a comma-separated list of "
+                            f"{','.join(ENGINES)} or engine specs, got none")
+    return tuple(kinds), specs
+
+
+def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], list[str]]:
+    """Each MuJoCo case on each engine spec; the cases that cannot run on a spec, said.
+
+    Runs and sweeps run on any spec; thresholds and the atlas (searches the harness drives
+    in this process) on ``mujoco`` only.
+    """
+    out, skipped = [], []
+    for c in cases:
+        if c.engine == "ode":
+            out.append(c)
+            continue
+        for spec in specs:
+            if spec != "mujoco" and c.kind not in ("run", "sweep"):
+                skipped.append(f"{c.id} on {spec} (a {c.kind} runs on the installed MuJoCo "
+                               "only)")
+                continue
+            out.append(on_spec(c, spec))
+    return out, skipped
+
+
+def spec_slug(spec: str) -> str:
+    """A file-name-safe form of an engine spec (``mujoco==3.3.7`` stays as it is)."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9._=+-]", "_", spec)
+
+
+def baseline_files(base_dir: Path, profile: str, cases: list[Case]) -> dict[str, Path]:
+    """The baseline file of each engine spec the cases run on.
+
+    The reference's and the installed MuJoCo's (``mujoco``) cases: ``DIR/<profile>.json`` as
+    always; another spec's: ``DIR/<profile>@<spec>.json``, so a release, a build or MJX is
+    compared with its own past, never with another engine's.
+    """
+    out: dict[str, Path] = {}
+    for c in cases:
+        key = "mujoco" if c.engine == "ode" else c.spec
+        if key not in out:
+            out[key] = (baseline_file(base_dir, profile) if key == "mujoco"
+                        else base_dir / f"{profile}@{spec_slug(key)}.json")
+    return out
+
+
+def _update_baselines(files: dict[str, Path], profile: str, catalogue: Catalogue,
+                      cases: list[Case], records: list[dict[str, Any]],
+                      env: dict[str, Any]) -> dict[str, int]:
+    """Write each spec's baseline file from its cases' records; the counts summed."""
+    ids = {c.id for c in catalogue.cases if profile in c.profiles}
+    spec_of = {c.id: ("mujoco" if c.engine == "ode" else c.spec) for c in cases}
+    total: dict[str, int] = {}
+    for key, path in files.items():
+        mine = [r for r in records if spec_of.get(r["id"]) == key]
+        profile_ids = ids if key == "mujoco" else {f"{i}@{key}" for i in ids}
+        counts = update_baseline(path, profile, mine, profile_ids, env)
+        for k, v in counts.items():
+            total[k] = total.get(k, 0) + v
+    return total
 
 
 def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[[str], None],
                 echo: Callable[[str], None], started: str, t0: float, catalogue: Catalogue,
-                cases: list[Case], bfile: Path, baseline: dict[str, dict[str, Any]],
-                out_dir: Path) -> int:
+                cases: list[Case], files: dict[str, Path], baseline: dict[str, dict[str, Any]],
+                out_dir: Path, skipped: list[str]) -> int:
     """The run itself, its inputs checked and its output folder locked; the exit status."""
+    shown = ", ".join(f"{f}{'' if f.is_file() else ' (missing: every case is new)'}"
+                      for f in files.values())
     log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline "
-        + ("none (--no-baseline: every check is new)" if opts.no_baseline
-           else f"{bfile}{'' if bfile.is_file() else ' (missing: every case is new)'}"))
+        + ("none (--no-baseline: every check is new)" if opts.no_baseline else shown))
+    for line in skipped:
+        log(f"nightly: not run: {line}")
 
     runs = run_cases(cases, scheduler=opts.scheduler, workers=opts.workers,
                      cache_dir=default_cache_dir() if opts.cache else None,
@@ -173,7 +268,9 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
             "command": ["tippetop", "nightly", *opts.argv],
             "started": started,
             "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
-                              else str(bfile)),
+                              else ", ".join(str(f) for f in files.values())),
+            "baseline_files": {k: str(f) for k, f in files.items()},
+            "not_run": skipped,
             "no_baseline": opts.no_baseline,
             "baseline_update": None,
             "videos": (render_videos(cases, stage, log) if opts.videos
@@ -186,9 +283,8 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
         }
         results["counts"] = count(records)
         if opts.update_baseline:
-            profile_ids = {c.id for c in catalogue.cases if opts.profile in c.profiles}
-            results["baseline_update"] = update_baseline(bfile, opts.profile, records,
-                                                         profile_ids, env)
+            results["baseline_update"] = _update_baselines(files, opts.profile, catalogue,
+                                                           cases, records, env)
         c = results["counts"]
         videos_failed = bool(results["videos"].get("failed"))
         failed = (c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)

@@ -45,6 +45,7 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     rows = []
     for r in runs:
         key = scene_key(r)
+        mode = mode_label(r)
         v = r.get("values") or {}
         th = r.get("theory") or {}
         theta_s, theory_out = th.get("theta_s"), th.get("outcome")
@@ -57,11 +58,11 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         if error is None and v.get("status") == "diverged":
             error = (r.get("summary") or {}).get("message") or "the run diverged"
         if error is not None:
-            row = crossval_row(key, r["mode"], outcome="failed", theta_asymp=None,
+            row = crossval_row(key, mode, outcome="failed", theta_asymp=None,
                                theta_s=theta_s, theory_outcome=theory_out, t_invert=None,
                                error=error)
         else:
-            row = crossval_row(key, r["mode"], outcome=v.get("outcome"),
+            row = crossval_row(key, mode, outcome=v.get("outcome"),
                                theta_asymp=v.get("theta_asymp"), theta_s=theta_s,
                                theory_outcome=theory_out, t_invert=v.get("t_invert"),
                                t_invert_ref=ref_t.get(key), J_rel_drift=v.get("J_rel_drift"),
@@ -73,6 +74,12 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                    paper_theta_asymp=expect.get("theta_asymp"))
         rows.append(row)
     return rows
+
+
+def mode_label(rec: Mapping[str, Any]) -> str:
+    """A case's column: its mode, with ``@SPEC`` when it ran on another engine than ``mujoco``."""
+    spec = rec.get("engine_spec")
+    return rec["mode"] if spec in (None, "mujoco", "ode") else f"{rec['mode']}@{spec}"
 
 
 def mode_order(rows: Sequence[Mapping[str, Any]]) -> list[str]:

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.analysis.validate import MODES, show_value
+from tippetop.compare.analysis.validate import MODES, mode_of, show_value
 from tippetop.compare.presentation.figures import pyplot
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
@@ -25,6 +25,27 @@ _CHECKS = {"completed": "the run completed", "outcome": "outcome against the the
            "energy_never_rises": "energy never rises"}
 
 
+def _keys(res: Mapping[str, Any]) -> list[str]:
+    """The runs' keys in the page's order: each mode, then its runs on other engines."""
+    keys = list(res["runs"])
+    return [k for m in MODES for k in keys if mode_of(k) == m]
+
+
+def _label(key: str) -> str:
+    mode, _, spec = key.partition("@")
+    return _LABELS.get(mode, mode) + (f" [{spec}]" if spec else "")
+
+
+_OTHER = ("#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def _colour(key: str, keys: list[str]) -> str:
+    if key in _COLOURS:
+        return _COLOURS[key]
+    others = [k for k in keys if k not in _COLOURS]
+    return _OTHER[others.index(key) % len(_OTHER)]
+
+
 def _cell(check: Mapping[str, Any]) -> Html:
     v = check["value"]
     shown = fmt_num(v, ".3g") if not isinstance(v, str) else esc(v)
@@ -37,7 +58,7 @@ def _cell(check: Mapping[str, Any]) -> Html:
 def verdict_section(res: Mapping[str, Any]) -> str:
     """The verdict: one row per check, one column per mode; then findings and the fix."""
     checks = res["verdict"]
-    modes = [m for m in MODES if m in res["runs"]]
+    modes = _keys(res)
     names = list(dict.fromkeys(c["check"] for c in checks))
     rows, classes = [], []
     for name in names:
@@ -57,7 +78,7 @@ def verdict_section(res: Mapping[str, Any]) -> str:
             f"against the paper's theory and the reference ODE "
             f"({res['t_end_s']:g} s simulated).</p>")
     parts = ["<section id='verdict'><h2>Verdict</h2>", head,
-             html_table(["check", *(_LABELS[m] for m in modes), "tolerance"], rows, classes)]
+             html_table(["check", *(_label(m) for m in modes), "tolerance"], rows, classes)]
     if res["findings"]:
         parts.append("<h3>What the file's own settings get wrong</h3><ul>"
                      + "".join(f"<li>{esc(f)}</li>" for f in res["findings"]) + "</ul>")
@@ -97,13 +118,11 @@ def model_section(res: Mapping[str, Any]) -> str:
 def runs_section(res: Mapping[str, Any]) -> str:
     """What each run ran and how it ended."""
     rows = []
-    for m in MODES:
-        r = res["runs"].get(m)
-        if r is None:
-            continue
+    for m in _keys(res):
+        r = res["runs"][m]
         s = r
         note = f"<br><small>{esc(r['note'])}</small>" if r.get("note") else ""
-        rows.append((_LABELS[m], Html(f"<div class='wide'>{esc(r['ran'] or '-')}{note}</div>"),
+        rows.append((_label(m), Html(f"<div class='wide'>{esc(r['ran'] or '-')}{note}</div>"),
                      s.get("status", r.get("error")), s.get("t_invert"), s.get("t_stem"),
                      s.get("theta_final"), r.get("end_state"),
                      Html(fmt_num(s.get("J_rel_drift"), ".2e"))))
@@ -119,18 +138,19 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
     fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9.5, 6.2), sharex=True,
                                    gridspec_kw={"height_ratios": [3, 2]})
     ref = tables.get("ode")
-    for m in MODES:
+    keys = _keys(res)
+    for m in keys:
         t = tables.get(m)
         if t is None:
             continue
-        ax.plot(t["t"], t["theta"], color=_COLOURS[m], lw=1.4 if m == "ode" else 1.0,
-                label=_LABELS[m])
+        ax.plot(t["t"], t["theta"], color=_colour(m, keys), lw=1.4 if m == "ode" else 1.0,
+                label=_label(m))
         t_stem = res["runs"][m].get("t_stem")
         if t_stem is not None:
-            ax.axvline(t_stem, color=_COLOURS[m], ls=":", lw=0.8)
+            ax.axvline(t_stem, color=_colour(m, keys), ls=":", lw=0.8)
         if ref is not None and m != "ode":
             d = t["theta"].to_numpy() - np.interp(t["t"], ref["t"], ref["theta"])
-            ax_d.plot(t["t"], d, color=_COLOURS[m], lw=1.0)
+            ax_d.plot(t["t"], d, color=_colour(m, keys), lw=1.0)
     ax.axhline(math.pi / 2, color="0.7", lw=0.8, ls="--")
     ax.set_ylabel("theta (rad)")
     ax.set_ylim(-0.1, math.pi + 0.1)

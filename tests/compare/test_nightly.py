@@ -460,3 +460,76 @@ def test_quick_subset_matches_the_repository_baselines(tmp_path: Path,
     res = _results(tmp_path / "out")
     assert res["counts"]["checks_pass"] == res["counts"]["checks"] >= 20
     assert res["baseline_file"] == str(nightly.BASELINE_DIR / "quick.json")
+
+
+# --------------------------------------------------------------------------- engine specs
+def test_engine_specs_keep_their_own_baselines(tiny: dict, tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--engines mujoco,mujoco@PYTHON``: the MuJoCo case on both, each with its own file.
+
+    The same MuJoCo in a worker (``mujoco@`` this interpreter) runs the case as
+    ``paper/fig3[mujoco-paper]@mujoco@...``; its baseline goes to ``tiny@<spec>.json``, not
+    into ``tiny.json``; a second run compares each with its own (no check is new). The
+    threshold case is not run on the other spec, and says so.
+    """
+    import sys
+
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    here = f"mujoco@{sys.executable}"
+    base = tmp_path / "baselines"
+    cat = tmp_path / "short.toml"
+    # the tiny catalogue's paper-mode fig3, cut to 0.5 s (the worker's Python callback is slow)
+    cat.write_text(TINY.replace('modes = ["mujoco-paper"]',
+                                'set = ["run.t_end_s=0.5"]\nmodes = ["mujoco-paper"]'))
+    args = ["--catalogue", str(cat), "--profile", "tiny", "--engines",
+            f"mujoco,{here}", "--cases", "paper/fig3[*", "--baseline", str(base),
+            "--workers", "1", "--cache"]
+    code, out, err = run_nightly(*args, "--update-baseline", "--out", str(tmp_path / "a"))
+    assert code == 0, out + err
+    from tippetop.compare.nightly.suite import spec_slug
+
+    own = base / f"tiny@{spec_slug(here)}.json"
+    main_ids = set(json.loads((base / "tiny.json").read_text())["cases"])
+    spec_ids = set(json.loads(own.read_text())["cases"])
+    assert main_ids == {MUJOCO_ID} and spec_ids == {f"{MUJOCO_ID}@{here}"}
+    code, out, err = run_nightly(*args, "--out", str(tmp_path / "b"))
+    assert code == 0, out + err
+    res = _results(tmp_path / "b")
+    assert res["counts"]["checks_new"] == 0 and res["counts"]["checks_fail"] == 0
+    by = {r["id"]: r for r in res["cases"]}
+    assert by[f"{MUJOCO_ID}@{here}"]["engine_spec"] == here
+    # the verdict table has a column for the other engine
+    assert {r["mode"] for r in res["crossval"]} == {"mujoco-paper", f"mujoco-paper@{here}"}
+    # the same MuJoCo in a worker: the same values to the bit
+    assert by[MUJOCO_ID]["values"] == by[f"{MUJOCO_ID}@{here}"]["values"]
+
+
+def test_a_missing_spec_baseline_is_one_line(tiny: dict, tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tiny["cache"]))
+    code, out, err = run_nightly(
+        "--catalogue", str(tiny["catalogue"]), "--profile", "tiny", "--engines",
+        f"ode,mujoco@{sys.executable}", "--baseline", str(tiny["baselines"]),
+        "--out", str(tmp_path / "out"), "--workers", "1")
+    assert code == 2 and err.count("\n") == 1 and "tiny@mujoco_" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_threshold_cases_on_another_spec_are_said_not_run() -> None:
+    from tippetop.compare.nightly.suite import cases_on_specs, engine_specs
+
+    cat = load_catalogue(None)
+    kinds, specs = engine_specs(("ode", "mujoco", "mujoco==3.3.7"))
+    assert kinds == ("ode", "mujoco") and specs == ["mujoco", "mujoco==3.3.7"]
+    picked = select_cases(cat, "full", kinds)
+    cases, skipped = cases_on_specs(picked, specs)
+    mj = [c for c in picked if c.engine == "mujoco"]
+    runnable = [c for c in mj if c.kind in ("run", "sweep")]
+    assert len(cases) == len(picked) + len(runnable)
+    assert len(skipped) == len(mj) - len(runnable)
+    assert all("runs on the installed MuJoCo only" in s for s in skipped)
+    with pytest.raises(TippetopError, match="--engines: expected a comma-separated list of "
+                       "ode and engine specs"):
+        engine_specs(("ode", "bullet"))

@@ -305,3 +305,41 @@ def test_ctrl_c_leaves_no_partial_output_and_no_traceback(tmp_path: Path) -> Non
             break
         time.sleep(0.05)
     assert all(state == "Z" for state in states), states
+
+
+def test_validate_on_another_engine_adds_its_runs(tmp_path: Path) -> None:
+    """``--engines mujoco,mujoco@THIS_PYTHON``: each MuJoCo mode again as ``MODE@SPEC``.
+
+    The same MuJoCo in a worker gives the same runs to the bit (the same checks, the same
+    values), so its column agrees exactly where the installed one's does; the report has a
+    column per run and the tables a file each.
+    """
+    here = f"mujoco@{sys.executable}"
+    out = tmp_path / "report"
+    proc = _validate(str(EXAMPLE), "--engines", f"mujoco,{here}", "--t-end-s", "0.5",
+                     "--out", str(out), "--json", "--no-cache")
+    assert proc.returncode in (0, 1), proc.stderr
+    res = json.loads(proc.stdout)
+    assert res["engines"] == ["mujoco", here]
+    assert list(res["runs"]) == ["mujoco-file", f"mujoco-file@{here}", "ode", "mujoco-paper",
+                                 f"mujoco-paper@{here}", "mujoco-native",
+                                 f"mujoco-native@{here}"]
+    for mode in ("mujoco-file", "mujoco-paper", "mujoco-native"):
+        a, b = res["runs"][mode], res["runs"][f"{mode}@{here}"]
+        assert a["path"] != b["path"] and b["path"].startswith("worker")
+        for key in ("t_invert", "t_stem", "theta_final", "J_rel_drift", "energy_rise_rel"):
+            assert a[key] == b[key], (mode, key)
+        mine = [(c["check"], c["passed"], c["value"]) for c in res["verdict"]
+                if c["mode"] == mode]
+        theirs = [(c["check"], c["passed"], c["value"]) for c in res["verdict"]
+                  if c["mode"] == f"{mode}@{here}"]
+        assert mine == theirs
+    assert len(list((out / "tables").iterdir())) == 7
+    assert f"[{here}]" in (out / "report.html").read_text()
+
+
+def test_validate_bad_engine_is_one_line(tmp_path: Path) -> None:
+    proc = _validate(str(EXAMPLE), "--engines", "mujoco,bullet", "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert "engine: expected mujoco, mujoco==X.Y.Z" in proc.stderr and proc.stdout == ""
+    assert not (tmp_path / "o").exists()
