@@ -177,6 +177,15 @@ def _attribute(differences: list[dict[str, Any]],
                 jobs.append((scene, mode, spec, ch, Task(
                     task.scene, (*task.overrides, *ch.overrides), "mujoco",
                     label=f"{scene} [{spec} {mode}, {ch.name}]", spec=spec)))
+    if jobs:
+        import sys
+
+        n = len(differences)
+        sys.stderr.write(f"matrix: {n} difference{'s' if n != 1 else ''} between engines: "
+                         f"{len(jobs)} more runs to attribute {'them' if n != 1 else 'it'} "
+                         "(each engine with one subsystem changed at a time; "
+                         "--no-attribution skips them)\n")
+        sys.stderr.flush()
     results = run_tasks([j[4] for j in jobs], workers=workers, use_cache=use_cache,
                         label="attribution") if jobs else []
     rerun: dict[tuple[str, str, str, str], dict[str, Any]] = {}
