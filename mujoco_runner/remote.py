@@ -19,7 +19,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +27,7 @@ import numpy as np
 
 from tippetop.models.mjcf import HARNESS_USERDATA
 from tippetop.models.plan import MujocoPlan
+from tippetop.models.resources import user_cache_dir
 from tippetop.mujoco_runner import worker
 from tippetop.mujoco_runner.friction_callback import law_parameters
 from tippetop.mujoco_runner.model import TopModel
@@ -40,6 +41,14 @@ WORKER = Path(worker.__file__)
 #: factor on the expected cost: a hung worker is a failed run, not a hung harness.
 BUDGET_MIN_S = 60.0
 BUDGET_FACTOR = 20.0
+#: Extra wall time for an accelerated engine's setup (MJX compiles its loop: ~30 s here) (s).
+BUDGET_COMPILE_S = 180.0
+#: What steps a plan when the caller names nothing: MuJoCo C in float64.
+DEFAULT_ENGINE = {"implementation": "mujoco", "precision": "float64"}
+#: The keys of a worker's ``engine`` reply kept in a result's ``engine`` besides the five
+#: every summary has (an accelerated engine's: where its contacts and warnings come from).
+ENGINE_EXTRA = ("mujoco_c_version", "device_kind", "contacts_from", "warnings", "law_applied",
+                "note")
 
 
 class WorkerFailed(RuntimeError):
@@ -76,8 +85,13 @@ class WorkerInfo:
     path: str
 
 
-def request(plan: MujocoPlan, top_model: TopModel, out: Path) -> dict[str, Any]:
-    """The worker's request for ``plan`` (its arrays go to ``out``)."""
+def request(plan: MujocoPlan, top_model: TopModel, out: Path,
+            engine: dict[str, str] | None = None) -> dict[str, Any]:
+    """The worker's request for ``plan`` (its arrays go to ``out``).
+
+    ``engine`` (``{"implementation": "mujoco"|"mjx"|"warp", "precision": ...}``) says what
+    steps it there; default MuJoCo C in float64.
+    """
     start: dict[str, Any] = ({"keyframe": plan.keyframe} if plan.keyframe is not None
                              else {"qpos": list(plan.start_qpos), "qvel": list(plan.start_qvel)})
     law = None
@@ -93,7 +107,9 @@ def request(plan: MujocoPlan, top_model: TopModel, out: Path) -> dict[str, Any]:
     return {"protocol": worker.PROTOCOL, "mjcf": plan.mjcf, "userdata": HARNESS_USERDATA,
             "start": start, "ball_geom": top_model.ball_geom_id,
             "steps_per_sample": plan.steps_per_sample,
-            "n_intervals": plan.n_intervals, "law": law, "out": str(out)}
+            "n_intervals": plan.n_intervals, "law": law, "out": str(out),
+            "engine": dict(engine or DEFAULT_ENGINE),
+            "compile_cache": str(user_cache_dir() / "jax")}
 
 
 def _name(enum_name: str, prefix: str, names: tuple[str, ...]) -> str:
@@ -116,7 +132,8 @@ def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
         "integrator": _name(r["integrator"], "mjINT_", INTEGRATORS),
         "cone": _name(r["cone"], "mjCONE_", CONES),
         "impratio": r["impratio"], "noslip_iterations": r["noslip_iterations"],
-        "gravity_mps2": r["gravity_mps2"]}
+        "gravity_mps2": r["gravity_mps2"], "iterations": r["iterations"],
+        "tolerance": r["tolerance"], "contacts": r["contacts"]}
     out.update(friction_that_acts(r["condim"], *r["coefficients"]), solref=r["solref"],
                solimp=r["solimp"], contact_source=r["contact_source"])
     law = plan.law
@@ -131,8 +148,9 @@ def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
 
 def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
                 progress: Callable[[float], None] | None = None,
-                env: dict[str, str] | None = None) -> tuple[MujocoResult, WorkerInfo]:
-    """Run ``plan`` in the interpreter ``python`` (its own ``mujoco``).
+                env: dict[str, str] | None = None,
+                engine: dict[str, str] | None = None) -> tuple[MujocoResult, WorkerInfo]:
+    """Run ``plan`` in the interpreter ``python`` (its own ``mujoco``, or MJX, or Warp).
 
     Args:
         python: The interpreter's path.
@@ -140,6 +158,9 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
         budget_s: Wall time after which the worker is stopped (default from the plan's steps).
         progress: Called with the simulated time reached, as the worker reports it.
         env: The worker's environment (default this process's, without ``PYTHONPATH``).
+        engine: What steps it: ``{"implementation": "mujoco"|"mjx"|"warp", "precision":
+            "float64"|"float32"}`` (default MuJoCo C in float64). The result's ``engine``
+            is what the worker read back (implementation, version, precision, device).
 
     Returns:
         The run's result (as an in-process run's) and where the worker ran.
@@ -151,9 +172,11 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
     top_model = build_model(plan)  # this process's view of the model: geometry, observables
     if budget_s is None:
         budget_s = BUDGET_MIN_S + BUDGET_FACTOR * plan.n_steps * 65e-6
+        if (engine or DEFAULT_ENGINE).get("implementation") != "mujoco":
+            budget_s += BUDGET_COMPILE_S
     with tempfile.TemporaryDirectory(prefix="tippetop-worker-") as tmp:
         out = Path(tmp) / "run.npz"
-        text = json.dumps(request(plan, top_model, out))
+        text = json.dumps(request(plan, top_model, out, engine))
         reply, lines = _converse(python, text, budget_s, progress, env)
         info = WorkerInfo(str(reply.get("executable", python)), str(reply.get("version", "?")),
                           str(reply.get("python", "?")), str(reply.get("path", "?")))
@@ -181,6 +204,13 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
         result = result_from_samples(top_model, record, plan, wall_s=float(reply["wall_s"]),
                                      ran=_ran(reply, plan), law_forces=forces,
                                      version=info.version)
+    said = reply.get("engine")
+    if isinstance(said, dict):  # what stepped it, as the worker read it back
+        ran_engine = {k: said.get(k, "?") for k in ("implementation", "version", "precision",
+                                                    "device")}
+        ran_engine["path"] = record.path
+        ran_engine.update({k: said[k] for k in ENGINE_EXTRA if k in said})
+        result = replace(result, engine=ran_engine)
     if progress is not None and len(result.table):
         progress(float(result.table["t"].iloc[-1]))
     return result, info
@@ -253,5 +283,5 @@ def _kill(proc: subprocess.Popen[str]) -> None:
         os.killpg(proc.pid, signal.SIGKILL)
 
 
-__all__ = ["BUDGET_FACTOR", "BUDGET_MIN_S", "WORKER", "WorkerFailed", "WorkerInfo", "request",
-           "simulate_in", "stop_workers"]
+__all__ = ["BUDGET_COMPILE_S", "BUDGET_FACTOR", "BUDGET_MIN_S", "DEFAULT_ENGINE", "WORKER",
+           "WorkerFailed", "WorkerInfo", "request", "simulate_in", "stop_workers"]

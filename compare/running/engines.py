@@ -244,9 +244,15 @@ def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) ->
 
     A managed environment is made on first use (``say`` is told). Raises TippetopError (one
     line) for an interpreter that is not there, and for engines not run by this harness yet.
+    MJX (``mjx``, ``mjx-f32``) and MuJoCo Warp (``warp``) run in managed environments of their
+    own (:func:`tippetop.mujoco_runner.envs.accelerated_env_python`).
     """
     import os
 
+    if spec.implementation in ("mjx", "warp") and spec.python is None:
+        from tippetop.mujoco_runner.envs import accelerated_env_python
+
+        return str(accelerated_env_python(spec.implementation, say=say))
     if spec.version is not None:
         from tippetop.mujoco_runner.envs import env_python
 
@@ -256,9 +262,8 @@ def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) ->
             raise TippetopError(f"engine {spec.spec}: expected the path of a Python "
                                 f"interpreter that can import mujoco, got {spec.python!r}")
         return spec.python
-    raise TippetopError(f"engine {spec.spec}: expected mujoco, mujoco==X.Y.Z or "
-                        f"mujoco@PYTHON (this harness does not run {spec.implementation} yet), "
-                        f"got {spec.spec!r}")
+    raise TippetopError(f"engine {spec.spec}: expected mujoco, mujoco==X.Y.Z, "
+                        f"mujoco@PYTHON, mjx, mjx-f32 or warp, got {spec.spec!r}")
 
 
 def run_plan_on(spec: EngineSpec, plan: RunPlan, *, python: str | None = None,
@@ -274,7 +279,9 @@ def run_plan_on(spec: EngineSpec, plan: RunPlan, *, python: str | None = None,
     assert plan.mujoco is not None and not spec.in_process
     python = python or engine_python(spec)
     try:
-        res, _info = simulate_in(python, plan.mujoco, progress=progress)
+        res, _info = simulate_in(python, plan.mujoco, progress=progress,
+                                 engine={"implementation": spec.implementation,
+                                         "precision": spec.precision})
     except WorkerFailed as exc:
         raise TippetopError(f"engine {spec.spec}: {exc}") from None
     return mujoco_engine_run(plan, res, spec.spec)

@@ -67,14 +67,20 @@ def test_a_failing_worker_is_its_row_and_the_others_run(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("spec", "says"), [
-    ("mjx", "engine mjx: expected mujoco, mujoco==X.Y.Z or mujoco@PYTHON (this harness does "
-     "not run mjx yet)"),
+    ("mjx", "engine mujoco-mjx==3.17.0: expected a release uv can install"),
     ("mujoco@/no/such/python", "engine mujoco@/no/such/python: expected the path of a Python "
      "interpreter"),
     ("mujoco==4", "engine: expected mujoco==X.Y.Z"),
 ])
 def test_an_engine_that_cannot_run_is_refused_before_any_run(tmp_path: Path, spec: str,
-                                                             says: str) -> None:
+                                                             says: str, monkeypatch) -> None:
+    from tippetop.mujoco_runner import envs
+
+    def no_env(implementation: str, say=None):  # uv without the registry: its one line
+        raise TippetopError("engine mujoco-mjx==3.17.0: expected a release uv can install "
+                            "from the package registry for Python 3.11, got: no network")
+
+    monkeypatch.setattr(envs, "accelerated_env_python", no_env)
     with pytest.raises(TippetopError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
         run_tasks([Task("fig3", SHORT, "mujoco"), Task("fig3", SHORT, "mujoco", spec=spec)],
                   cache_dir=tmp_path)

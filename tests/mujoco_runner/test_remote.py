@@ -126,5 +126,12 @@ def test_the_worker_imports_nothing_but_mujoco_numpy_and_the_standard_library() 
             names |= {a.name.split(".")[0] for a in node.names}
         elif isinstance(node, ast.ImportFrom):
             names.add((node.module or "").split(".")[0])
-    assert names <= {"__future__", "json", "math", "sys", "time", "traceback", "mujoco",
-                     "numpy"}, names
+    assert names <= {"__future__", "contextlib", "importlib", "json", "math", "os", "sys",
+                     "time", "traceback", "typing", "mujoco", "numpy", "jax", "warp",
+                     "mujoco_warp"}, names
+    # MJX's and Warp's packages only where those engines run (a plain MuJoCo needs neither)
+    top = {a.name.split(".")[0] for node in tree.body if isinstance(node, ast.Import)
+           for a in node.names}
+    top |= {(node.module or "").split(".")[0] for node in tree.body
+            if isinstance(node, ast.ImportFrom)}
+    assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, top
