@@ -10,6 +10,8 @@ failed run, with the reason (:class:`WorkerFailed`).
 
 from __future__ import annotations
 
+import atexit
+import collections
 import contextlib
 import json
 import os
@@ -216,65 +218,183 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
     return result, info
 
 
+class _Worker:
+    """A worker process that answers one request after another (one JSON line each).
+
+    Kept while it answers as a worker: the start and ``import mujoco`` are paid once per
+    interpreter and thread, not once per run.
+    """
+
+    def __init__(self, python: str, env: dict[str, str], key: tuple[Any, ...]) -> None:
+        try:
+            self.proc = subprocess.Popen([python, "-u", str(WORKER)], stdin=subprocess.PIPE,
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                         text=True, env=env, start_new_session=True)
+        except OSError as exc:
+            raise WorkerFailed(f"the worker could not start {python!r}: {exc.strerror}") \
+                from None
+        self.key = key
+        self.reused = False
+        self.over_budget = False
+        self.budget_s = 0.0
+        self.stderr: collections.deque[str] = collections.deque(maxlen=50)
+        err = self.proc.stderr
+        assert err is not None
+        self.reader = threading.Thread(target=lambda: self.stderr.extend(err), daemon=True)
+        self.reader.start()
+        with _LIVE_LOCK:
+            _LIVE.add(self.proc)
+
+    def alive(self) -> bool:
+        """Still running (it may have ended after its last reply)."""
+        return self.proc.poll() is None
+
+    def end(self, *, kill: bool = True) -> None:
+        """Stop it (``kill`` False: close its input and let it finish) and forget it."""
+        if kill:
+            _kill(self.proc)
+        else:
+            with contextlib.suppress(OSError, ValueError):
+                assert self.proc.stdin is not None
+                self.proc.stdin.close()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.proc.wait(timeout=2.0)
+        if self.proc.poll() is None:
+            _kill(self.proc)
+            self.proc.wait()
+        with _LIVE_LOCK:
+            _LIVE.discard(self.proc)
+
+
+#: Workers waiting for their next request, by (interpreter, environment).
+_IDLE: dict[tuple[Any, ...], list[_Worker]] = {}
+_IDLE_LOCK = threading.Lock()
+
+
+def _take(python: str, env: dict[str, str], *, fresh: bool = False) -> _Worker:
+    """An idle worker of ``python`` with ``env``, or a new one (``fresh``: always new)."""
+    key = (python, tuple(sorted(env.items())))
+    while not fresh:
+        with _IDLE_LOCK:
+            idle = _IDLE.get(key)
+            w = idle.pop() if idle else None
+        if w is None:
+            break
+        if w.alive():
+            w.reused = True
+            return w
+        w.end()
+    return _Worker(python, env, key)
+
+
+def _give_back(w: _Worker) -> None:
+    with _IDLE_LOCK:
+        _IDLE.setdefault(w.key, []).append(w)
+
+
+def live_workers() -> list[int]:
+    """The process ids of this process's workers now running (busy or idle)."""
+    with _LIVE_LOCK:
+        return sorted(p.pid for p in _LIVE if p.poll() is None)
+
+
+def close_workers() -> None:
+    """End the idle workers (their input closed: each finishes and exits)."""
+    with _IDLE_LOCK:
+        idle = [w for ws in _IDLE.values() for w in ws]
+        _IDLE.clear()
+    for w in idle:
+        w.end(kill=False)
+
+
+atexit.register(close_workers)
+
+
 def _converse(python: str, text: str, budget_s: float,
               progress: Callable[[float], None] | None,
               env: dict[str, str] | None) -> tuple[dict[str, Any], list[str]]:
-    """Start the worker, send the request and read its lines until its reply.
+    """Send the request to a worker and read its lines until its reply.
 
-    The worker is stopped past the budget. Returns the reply (its last line) and the lines
-    before it.
+    The worker (one kept from an earlier request, or a new one) is stopped past the budget, or
+    when it answers with anything but its reply; after a reply it waits for the next request.
+    Returns the reply and the lines before it.
     """
     if env is None:
         env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    try:
-        proc = subprocess.Popen([python, "-u", str(WORKER)], stdin=subprocess.PIPE,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                env=env, start_new_session=True)
-    except OSError as exc:
-        raise WorkerFailed(f"the worker could not start {python!r}: {exc.strerror}") from None
-    with _LIVE_LOCK:
-        _LIVE.add(proc)
-    stderr: list[str] = []
-    reader = threading.Thread(target=lambda: stderr.extend(proc.stderr), daemon=True)
-    reader.start()
+        env.setdefault("MUJOCO_GL", "disable")  # the worker never draws: no GL probing
+    w = _take(python, env)
+    reply, lines = _ask(w, python, text, budget_s, progress)
+    if reply is None and w.reused and not lines and not w.stderr:
+        # a kept worker that had ended unseen (killed while idle): the request goes to a new one
+        w = _take(python, env, fresh=True)
+        reply, lines = _ask(w, python, text, budget_s, progress)
+    if reply is None:
+        raise _failure(w, python, lines)
+    return reply, lines
+
+
+def _ask(w: _Worker, python: str, text: str, budget_s: float,
+         progress: Callable[[float], None] | None) -> tuple[dict[str, Any] | None, list[str]]:
+    """One request to ``w``: (its reply, the lines before it), or (None, lines) if it ended.
+
+    The worker is stopped past the budget; after a reply it goes back to the idle workers.
+    """
+    proc = w.proc
+    assert proc.stdin is not None and proc.stdout is not None
     lines: list[str] = []
+    reply: dict[str, Any] | None = None
     timer = threading.Timer(budget_s, _kill, (proc,))
     timer.start()
     t0 = time.monotonic()
     try:
-        assert proc.stdin is not None and proc.stdout is not None
-        with contextlib.suppress(BrokenPipeError):
-            proc.stdin.write(text)
-            proc.stdin.close()
-        for line in proc.stdout:
-            lines.append(line.rstrip("\n"))
+        with contextlib.suppress(BrokenPipeError, OSError, ValueError):
+            proc.stdin.write(text.replace("\n", " ") + "\n")
+            proc.stdin.flush()
+        while True:
+            line = proc.stdout.readline()
+            if not line:  # it ended
+                break
+            line = line.rstrip("\n")
             if progress is not None and line.startswith('{"t": '):
                 with contextlib.suppress(ValueError, KeyError):
                     progress(float(json.loads(line)["t"]))
-        proc.wait()
+                continue
+            with contextlib.suppress(ValueError):
+                said = json.loads(line)
+                if isinstance(said, dict) and "status" in said:
+                    reply = said
+                    break
+            lines.append(line)
     except BaseException:  # Ctrl-C: the worker goes with the run
-        _kill(proc)
-        proc.wait()
+        timer.cancel()
+        w.end()
         raise
     finally:
         timer.cancel()
-        with _LIVE_LOCK:
-            _LIVE.discard(proc)
-    reader.join(1.0)
-    if time.monotonic() - t0 >= budget_s and proc.returncode != 0:
-        raise WorkerFailed(f"the worker in {python} took longer than its budget of "
-                           f"{budget_s:.0f} s and was stopped")
-    reply = None
-    if lines:
-        with contextlib.suppress(ValueError):
-            reply = json.loads(lines[-1])
-    if not isinstance(reply, dict) or "status" not in reply:
-        tail = (stderr[-1].strip() if stderr else lines[-1] if lines else "nothing")[:200]
-        how = (f"exit status {proc.returncode}" if proc.returncode
-               else "no reply on its last line")
-        raise WorkerFailed(f"the worker in {python} ended without its reply ({how}; last "
-                           f"output: {tail})")
-    return reply, lines[:-1]
+    if reply is not None:
+        _give_back(w)
+        return reply, lines
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        proc.wait(timeout=5.0)
+    w.reader.join(1.0)
+    w.end()
+    w.over_budget = time.monotonic() - t0 >= budget_s
+    w.budget_s = budget_s
+    return None, lines
+
+
+def _failure(w: _Worker, python: str, lines: list[str]) -> WorkerFailed:
+    """Why a worker ended without its reply, in one line."""
+    proc = w.proc
+    if w.over_budget and proc.returncode != 0:
+        return WorkerFailed(f"the worker in {python} took longer than its budget of "
+                            f"{w.budget_s:.0f} s and was stopped")
+    stderr = list(w.stderr)
+    tail = (stderr[-1].strip() if stderr else lines[-1] if lines else "nothing")[:200]
+    how = (f"exit status {proc.returncode}" if proc.returncode
+           else "no reply on its last line")
+    return WorkerFailed(f"the worker in {python} ended without its reply ({how}; last "
+                        f"output: {tail})")
 
 
 def _kill(proc: subprocess.Popen[str]) -> None:
@@ -284,4 +404,5 @@ def _kill(proc: subprocess.Popen[str]) -> None:
 
 
 __all__ = ["BUDGET_COMPILE_S", "BUDGET_FACTOR", "BUDGET_MIN_S", "DEFAULT_ENGINE", "WORKER",
-           "WorkerFailed", "WorkerInfo", "request", "simulate_in", "stop_workers"]
+           "WorkerFailed", "WorkerInfo", "close_workers", "live_workers", "request", "simulate_in",
+           "stop_workers"]

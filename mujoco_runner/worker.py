@@ -1,9 +1,10 @@
 """Run one MuJoCo plan in another Python: a script that needs nothing but ``mujoco`` and ``numpy``.
 
-``PYTHON worker.py`` reads one request (JSON) on stdin, steps the plan's model sample by sample
-as the harness does from Python, and writes the samples, the contacts at each sample and paper
-mode's forces to the ``.npz`` file the request names; stdout carries progress lines and one last
-JSON line that says how it ended. The harness turns that into a run's result
+``PYTHON worker.py`` reads requests (JSON, one line each) on stdin until its end; for each it
+steps the plan's model sample by sample as the harness does from Python, and writes the samples,
+the contacts at each sample and paper mode's forces to the ``.npz`` file the request names;
+stdout carries progress lines and then one JSON line that says how the request ended (its
+reply). The harness keeps a worker for its next request. The harness turns that into a run's result
 (:mod:`tippetop.mujoco_runner.remote`). This file imports nothing of tippetop's, so it runs in
 any interpreter that can ``import mujoco`` (a managed environment, a user's own build).
 
@@ -42,8 +43,9 @@ import time
 import traceback
 from typing import Any
 
-#: The version of the request and reply formats (3: the request's ``engine``).
-PROTOCOL = 3
+#: The version of the request and reply formats (3: the request's ``engine``; 4: one request
+#: per line, answered in turn until the input ends).
+PROTOCOL = 4
 #: What can step a plan: implementation -> the precisions it runs in.
 ENGINES = {"mujoco": ("float64",), "mjx": ("float64", "float32"), "warp": ("float32",)}
 #: Where the accelerated engines' PyPI packages are (their version is the reply's).
@@ -757,7 +759,11 @@ def run(request: dict) -> dict:
 
 
 def main() -> int:
-    """Read a request on stdin, run it, say how it ended on stdout (exit 0 either way)."""
+    """Answer requests, one JSON line each on stdin, until its end (exit 0 either way).
+
+    Each request's reply is one JSON line on stdout (after its progress lines): the harness
+    keeps the worker for its next request, so the start and the imports are paid once.
+    """
     try:
         import mujoco
         import numpy as np
@@ -768,21 +774,30 @@ def main() -> int:
     info = {"protocol": PROTOCOL, "version": mujoco.__version__, "numpy": np.__version__,
             "python": ".".join(map(str, sys.version_info[:3])), "executable": sys.executable,
             "path": "plain loop"}
+    while True:
+        line = sys.stdin.readline()
+        if not line:
+            return 0
+        if line.strip():
+            _say({**info, **answer(line)})
+
+
+def answer(line: str) -> dict:
+    """The reply to one request line (a failed run is a reply too, in one line)."""
     try:
-        request = json.loads(sys.stdin.read())
-        if request.get("protocol") != PROTOCOL:
-            raise ValueError(f"expected protocol {PROTOCOL}, got {request.get('protocol')!r}")
-        reply = run(request)
+        request = json.loads(line)
+        if not isinstance(request, dict) or request.get("protocol") != PROTOCOL:
+            got = request.get("protocol") if isinstance(request, dict) else request
+            raise ValueError(f"expected protocol {PROTOCOL}, got {got!r}")
+        return run(request)
     except Refused as exc:  # said as it is
-        reply = {"status": "error", "message": str(exc)}
+        return {"status": "error", "message": str(exc)}
     except Exception as exc:  # noqa: BLE001 - one failed run, said in one line
         last = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
         where = f" ({last[0].name}, line {last[0].lineno})" if last else ""
         # one line: JAX's and Warp's errors span several
-        reply = {"status": "error",
-                 "message": " ".join(f"{type(exc).__name__}: {exc}{where}".split())[:2000]}
-    _say({**info, **reply})
-    return 0
+        return {"status": "error",
+                "message": " ".join(f"{type(exc).__name__}: {exc}{where}".split())[:2000]}
 
 
 if __name__ == "__main__":

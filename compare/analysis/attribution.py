@@ -136,13 +136,14 @@ def attribute(metric: str, a_spec: str, b_spec: str,
         follows = (f"differs {only}with {' and '.join(differs)}"
                    + (f" (as run: {ran_integrator})" if ran_integrator in differs
                       and len(differs) > 1 else "")
-                   + f": with {' and '.join(agrees)} the two agree (theta(t) within {within})")
+                   + f": with {' and '.join(agrees)} the two agree on {metric} (theta(t) then "
+                   f"within {within})")
         also = [c for c in removed if not c.startswith("integrator ")]
         if also:
             follows += f"; it also goes away with {', '.join(also)}"
     else:
-        follows = (f"goes away with {', '.join(removed)} (theta(t) then within "
-                   f"{gap_text(removed)})"
+        follows = (f"goes away with {', '.join(removed)}: the two agree on {metric} "
+                   f"(theta(t) then within {gap_text(removed)})"
                    + (f"; stays with {', '.join(kept)}" if kept else "; and with every other "
                       "change too"))
     # the change that brings the two trajectories closest, against the runs as they ran

@@ -187,12 +187,12 @@ def test_follows_names_the_subsystem() -> None:
     att = attribute("theta_asymp", "a", "b", 0.1, only_rk4, matrix._differ,
                     ran_integrator="implicit")
     assert att["follows"].startswith("differs with implicit and RK4 (as run: implicit): with "
-                                     "Euler and implicitfast the two agree (theta(t) within "
-                                     "2e-12 rad)")
+                                     "Euler and implicitfast the two agree on theta_asymp "
+                                     "(theta(t) then within 2e-12 rad)")
     att = attribute("theta_asymp", "a", "b", 0.1, only_rk4[:2], matrix._differ,
                     ran_integrator="RK4")
     assert att["follows"].startswith("differs only with RK4: with Euler and implicitfast the "
-                                     "two agree (theta(t) within 2e-12 rad)")
+                                     "two agree on theta_asymp (theta(t) then within 2e-12 rad)")
     assert att["removed_by"] == ["integrator Euler", "integrator implicitfast"]
     stays = [ev("friction off", False, 0.09), ev("quarter timestep", False, 0.08)]
     att = attribute("theta_asymp", "a", "b", 0.1, stays, matrix._differ)
@@ -200,8 +200,9 @@ def test_follows_names_the_subsystem() -> None:
     assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att["follows"]
     friction = [ev("friction off", True, 1e-6), ev("quarter timestep", False, 0.1)]
     att = attribute("theta_asymp", "a", "b", 0.1, friction, matrix._differ)
-    assert att["follows"].startswith("goes away with friction off (theta(t) then within "
-                                     "1e-06 rad); stays with quarter timestep")
+    assert att["follows"].startswith("goes away with friction off: the two agree on "
+                                     "theta_asymp (theta(t) then within 1e-06 rad); stays with "
+                                     "quarter timestep")
 
 
 def test_closer_is_the_nearer_to_the_reference_and_to_its_own_dt4_answer() -> None:

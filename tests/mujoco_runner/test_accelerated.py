@@ -39,7 +39,7 @@ def test_the_request_carries_the_engine(tmp_path: Path) -> None:
     plan = mujoco_plan("run.t_end_s=0.01")
     top = build_model(plan)
     req = remote.request(plan, top, tmp_path / "x.npz", MJX32)
-    assert req["protocol"] == worker.PROTOCOL == 3
+    assert req["protocol"] == worker.PROTOCOL == 4
     assert req["engine"] == MJX32
     assert remote.request(plan, top, tmp_path / "x.npz")["engine"] == remote.DEFAULT_ENGINE
 

@@ -135,3 +135,51 @@ def test_the_worker_imports_nothing_but_mujoco_numpy_and_the_standard_library() 
     top |= {(node.module or "").split(".")[0] for node in tree.body
             if isinstance(node, ast.ImportFrom)}
     assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, top
+
+
+def test_a_worker_answers_one_request_after_another() -> None:
+    """The second run in the same interpreter goes to the same worker, and is the same run.
+
+    A worker that died between two requests is replaced; closing the workers ends them all.
+    """
+    import os
+    import signal
+
+    remote.close_workers()
+    plan = mujoco_plan("run.t_end_s=0.05")
+    first, _ = remote.simulate_in(sys.executable, plan)
+    (pid,) = remote.live_workers()
+    second, _ = remote.simulate_in(sys.executable, plan)
+    assert remote.live_workers() == [pid]
+    assert first.table.equals(second.table)
+    os.kill(pid, signal.SIGKILL)
+    third, _ = remote.simulate_in(sys.executable, plan)
+    (new,) = remote.live_workers()
+    assert new != pid and third.table.equals(first.table)
+    remote.close_workers()
+    assert remote.live_workers() == []
+
+
+def test_no_worker_outlives_the_harness(tmp_path: Path) -> None:
+    """A process that ran plans in workers and exits leaves none running (atexit)."""
+    import os
+    import subprocess
+
+    code = ("import sys; from tests.conftest import mujoco_plan; "
+            "from tippetop.mujoco_runner import remote; "
+            "remote.simulate_in(sys.executable, mujoco_plan('run.t_end_s=0.02')); "
+            "print(*remote.live_workers())")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, cwd=Path(__file__).resolve().parents[2])
+    assert done.returncode == 0, done.stderr
+    (pid,) = [int(p) for p in done.stdout.split()]
+    import time
+
+    for _ in range(50):  # the worker ends when its input does
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        raise AssertionError(f"worker {pid} still running after the harness exited")
