@@ -16,9 +16,9 @@ environment is made first, outside the timing, if it is missing):
   in the result cache and the engine's not: what it includes is the command's start (imports,
   scenes, plans, finding the environment), a worker process per thread (Python's start,
   ``import mujoco``; the harness keeps it for the next plan), per plan the request as JSON, the
-  same ``run``, the ``.npz`` read back, the result built from the samples here, the analysis, the cache writes and the printing. This is the ratio the
-  target is on (<= 1.2x): on the best rounds, and on the median of the rounds with the drift
-  taken out (below).
+  same ``run``, the ``.npz`` read back, the result built from the samples here, the
+  analysis, the cache writes and the printing. This is the ratio the target is on (<= 1.2x):
+  on the best rounds, and on the median of the rounds with the drift taken out (below).
 * ``matrix cached``: the same command again, everything cached: "a second matrix", the
   command's fixed cost. ``matrix`` minus it is the engine runs' own share (printed as a ratio
   too, for reference).
