@@ -25,7 +25,11 @@ DESCRIPTION = (
     "two engines differ beyond the nightly's tolerance. Engines: mujoco (the MuJoCo installed "
     "with tippetop), mujoco==X.Y.Z (a release, in an environment made with uv on first use "
     "under $TIPPETOP_CACHE/envs), mujoco@PYTHON (the mujoco that interpreter imports: a build "
-    "of your own; it needs only mujoco and numpy, and is never cached). Exit 1 if a run failed.")
+    "of your own; it needs only mujoco and numpy, and is never cached), mjx and mjx-f32 (MuJoCo "
+    "MJX on JAX in float64 and float32) and warp (MuJoCo Warp, float32), each in an "
+    "environment of its own, on the CPU here. Each difference is attributed: the pair is run "
+    "again with one subsystem changed at a time (--no-attribution skips it). Exit 1 if a run "
+    "failed.")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -39,8 +43,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="the scenes when none are named: quick (fig3, fig6, fig8a, fig11_n060) "
                    "or full (the whole catalogue) (default quick)")
     p.add_argument("--engines", required=True, metavar="SPEC,SPEC,...",
-                   help="comma-separated engine specs: mujoco, mujoco==X.Y.Z, mujoco@PYTHON "
-                   "(no default: required)")
+                   help="comma-separated engine specs: mujoco, mujoco==X.Y.Z, mujoco@PYTHON, "
+                   "mjx, mjx-f32, warp (no default: required)")
     p.add_argument("--modes", default="native,paper", help="native (MuJoCo's own friction: "
                    "the calibrated settings, or an MJCF top's own) and/or paper (the paper's "
                    "law at the contact point) (default: native,paper)")
