@@ -96,7 +96,8 @@ def attribute(metric: str, a_spec: str, b_spec: str,
               base_gap: float | None,
               evidence: list[dict[str, Any]],
               differ: Callable[[str, Any, Any], bool],
-              ran_integrator: str | None = None) -> dict[str, Any]:
+              ran_integrator: str | None = None,
+              precisions: tuple[str, str] | None = None) -> dict[str, Any]:
     """``attribution`` of one difference: what it follows, and the evidence.
 
     Args:
@@ -108,6 +109,8 @@ def attribute(metric: str, a_spec: str, b_spec: str,
             {change, applies: False, why}).
         differ: The matrix's rule: do two values of ``metric`` differ.
         ran_integrator: The integrator the runs as they ran used (they differ with it).
+        precisions: A's and B's precision (``float64``, ``float32``): a difference no change
+            removes between two precisions is said to be theirs.
 
     Returns:
         {follows (a sentence with the numbers), evidence, removed_by, kept_by}.
@@ -126,6 +129,9 @@ def attribute(metric: str, a_spec: str, b_spec: str,
     if not ran:
         follows = "not attributed: no change could be run" + (
             f" ({failed[0]['change']}: {failed[0]['failed']})" if failed else "")
+    elif not removed and precisions is not None and precisions[0] != precisions[1]:
+        follows = (f"persists with every change ({len(kept)} tried): the two run in "
+                   f"{precisions[0]} and {precisions[1]}, which no option changes")
     elif not removed:
         follows = (f"persists with every change ({len(kept)} tried): not one option of the "
                    "two engines but how each is built (collision, solver, stepping)")

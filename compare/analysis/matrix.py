@@ -18,7 +18,7 @@ from tippetop.compare.analysis.crossval import crossval_row, predicted_outcome
 from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
 from tippetop.compare.running.engines import run_failed
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
-from tippetop.models.engines import EngineSpec
+from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import catalogue_names
 
@@ -216,7 +216,9 @@ def _attribute(differences: list[dict[str, Any]],
                 row["failed"] = bad[0]["message"]
             evidence.append(row)
         d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence, _differ,
-                                          ran_integrator=integrators.get((scene, mode)))
+                                          ran_integrator=integrators.get((scene, mode)),
+                                          precisions=(parse_engine(a).precision,
+                                                      parse_engine(b).precision))
         d["attribution"]["theta_gap_rad"] = base_gap
         quarter = next((c.name for c in changes[scene, mode] if c.name == "quarter timestep"),
                        None)

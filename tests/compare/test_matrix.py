@@ -198,6 +198,10 @@ def test_follows_names_the_subsystem() -> None:
     att = attribute("theta_asymp", "a", "b", 0.1, stays, matrix._differ)
     assert att["follows"].startswith("persists with every change (2 tried)")
     assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att["follows"]
+    att = attribute("J_rel_drift", "mjx", "mjx-f32", 0.1, stays, matrix._differ,
+                    precisions=("float64", "float32"))
+    assert att["follows"].startswith("persists with every change (2 tried): the two run in "
+                                     "float64 and float32, which no option changes")
     friction = [ev("friction off", True, 1e-6), ev("quarter timestep", False, 0.1)]
     att = attribute("theta_asymp", "a", "b", 0.1, friction, matrix._differ)
     assert att["follows"].startswith("goes away with friction off: the two agree on "
