@@ -14,8 +14,12 @@ COLUMNS: tuple[str, ...] = (
 )
 
 #: Extra columns every engine also writes: the centre of mass height, the body pose (w, x, y,
-#: z quaternion, body to world) for replays and renders, and the friction power F . v_P (W).
-EXTRA_COLUMNS: tuple[str, ...] = ("z", "qw", "qx", "qy", "qz", "P_fric")
+#: z quaternion, body to world) for replays and renders, the friction power F . v_P (W), and
+#: the friction force on the top at the contact in the paper's frame, beside the slip (FX,
+#: FY; N): the reference's law (both points' summed while the stem touches too, the rolling
+#: phase's force while it rolls), MuJoCo's own contact forces rotated out of each contact's
+#: frame in native mode, the harness's law in paper mode. NaN where the frame is undefined.
+EXTRA_COLUMNS: tuple[str, ...] = ("z", "qw", "qx", "qy", "qz", "P_fric", "FX", "FY")
 
 #: Below this |sin theta| the paper-frame quantities are reported as NaN.
 SIN_THETA_UNDEFINED = 1e-9

@@ -98,6 +98,8 @@ def observables_table(
         "qy": quat[:, 2],
         "qz": quat[:, 3],
         "P_fric": P_fric,
+        "FX": np.einsum("ni,ni->n", np.asarray(F_fric, dtype=float), kin.e_X),
+        "FY": np.einsum("ni,ni->n", np.asarray(F_fric, dtype=float), kin.e_Y),
     }
     names = COLUMNS + EXTRA_COLUMNS
     # one float block, as the reference's table (a frame from a dict of 23 columns costs

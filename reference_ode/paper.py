@@ -69,7 +69,7 @@ def paper_core(coulomb_kind, viscous, y, p, dy):
 
 @nb.njit(cache=True)
 def paper_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
-    """Fill ``out`` (22,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
+    """Fill ``out`` (24,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
     R, a, M, A, C, g = top_params(p)
     N, FX, FY, vPX, vPY = paper_core(coulomb_kind, viscous, y, p, scratch)
     th, thd, Om, n = y[ITH], y[ITHD], y[IOM], y[IN]
@@ -92,4 +92,5 @@ def paper_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
                       C * n - A * Om * c if defined else nan, xi_p, xi_m, J, E,
                       vPX if defined else nan, vPY if defined else nan, N,
                       y[IUX] if defined else nan, y[IUY] if defined else nan, y[IX], y[IY], h,
-                      ct * cs, -st * sd, st * cd, ct * ss, FX * vPX + FY * vPY)
+                      ct * cs, -st * sd, st * cd, ct * ss, FX * vPX + FY * vPY,
+                      FX if defined else nan, FY if defined else nan)

@@ -41,6 +41,7 @@ from tippetop.reference_ode.vector import (
     IX,
     IY,
     N_STATE,
+    to_paper_xy,
     vector_observe,
 )
 
@@ -279,6 +280,7 @@ def rolling_observe_all(Y, p, sin_undefined, out):
         N, Fx, Fy, _, vpx, vpy = rolling_core(Y[i], p, scratch)
         out[i, 11] = N
         out[i, 21] = Fx * vpx + Fy * vpy
+        out[i, 22], out[i, 23] = to_paper_xy(Y[i], Fx, Fy, sin_undefined)
 
 
 #: The rolling phase as a formulation of the vector state (a phase, not a scene's choice).

@@ -89,7 +89,7 @@ def vector_observe_all(Y, p, sin_undefined, out):
 def two_contact_rhs(y, p, dy):
     """dy/dt with the ball and the stem's end both on the table; the guard is min(N1, N2)."""
     ck, visc = friction_law(p)
-    N1, N2, _ = two_contact_core(ck, visc, y, p, dy)
+    N1, N2, _, _, _ = two_contact_core(ck, visc, y, p, dy)
     return N1 if N1 < N2 else N2
 
 
@@ -106,7 +106,7 @@ def two_contact_forces(y, p):
     """(N1, N2): the active and the other contact's normal forces of a two-point state (N)."""
     ck, visc = friction_law(p)
     dy = np.empty_like(y)
-    N1, N2, _ = two_contact_core(ck, visc, y, p, dy)
+    N1, N2, _, _, _ = two_contact_core(ck, visc, y, p, dy)
     return N1, N2
 
 

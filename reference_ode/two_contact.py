@@ -38,6 +38,7 @@ from tippetop.reference_ode.vector import (
     IWZ,
     IX,
     IY,
+    to_paper_xy,
     vector_observe,
 )
 
@@ -53,7 +54,11 @@ def _point(rim, b, r, kx, ky, kz):
 
 @nb.njit(cache=True, inline="always")
 def two_contact_core(coulomb_kind, viscous, y, p, dy):
-    """Write dy/dt into ``dy``; return (N1, N2, P_fric) (the two normal forces, the power)."""
+    """Write dy/dt into ``dy``; return (N1, N2, P_fric, Fx, Fy).
+
+    The two normal forces, the friction power, and the friction force of both points (world
+    frame).
+    """
     R, a, M, A, C, g = top_params(p)
     qw, qx, qy, qz = y[IQW], y[IQX], y[IQY], y[IQZ]
     inv = 1.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
@@ -110,7 +115,7 @@ def two_contact_core(coulomb_kind, viscous, y, p, dy):
     dy[IWZ] = N1 * a1z + N2 * a2z + bz
     power = ((N1 * f1x + s1x) * v1x + (N1 * f1y + s1y) * v1y
              + (N2 * f2x + s2x) * v2x + (N2 * f2y + s2y) * v2y)
-    return N1, N2, power
+    return N1, N2, power, Fx, Fy
 
 
 @nb.njit(cache=True)
@@ -120,9 +125,10 @@ def two_contact_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch
     The friction power is that of both points.
     """
     vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch)
-    N1, N2, power = two_contact_core(coulomb_kind, viscous, y, p, scratch)
+    N1, N2, power, Fx, Fy = two_contact_core(coulomb_kind, viscous, y, p, scratch)
     out[11] = N1 + N2
     out[21] = power
+    out[22], out[23] = to_paper_xy(y, Fx, Fy, sin_undefined)
 
 
 __all__ = ["two_contact_core", "two_contact_observe"]

@@ -154,7 +154,7 @@ def vector_core(coulomb_kind, viscous, y, p, dy):
 
 @nb.njit(cache=True)
 def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
-    """Fill ``out`` (22,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
+    """Fill ``out`` (24,) with one state's observables (``COLUMNS[1:] + EXTRA_COLUMNS``)."""
     R, a, M, A, C, g = top_params(p)
     N, Fx, Fy, vpx, vpy = vector_core(coulomb_kind, viscous, y, p, scratch)
     kx, ky, kz = _axis(y)
@@ -193,14 +193,29 @@ def vector_observe(coulomb_kind, viscous, y, p, sin_undefined, out, scratch):
     xi_p, xi_m = xi_curves(J, kz, R, a, M, A, g)
     qw, qx, qy, qz = y[IQW], y[IQX], y[IQY], y[IQZ]
     qn = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    FX, FY = to_paper_xy(y, Fx, Fy, sin_undefined)
     write_observables(out, theta, theta_dot, Omega, n, xi, xi_p, xi_m, J, E, vPX, vPY, N, uOX,
                       uOY, y[IX], y[IY], h, qw * qn, qx * qn, qy * qn, qz * qn,
-                      Fx * vpx + Fy * vpy)
+                      Fx * vpx + Fy * vpy, FX, FY)
+
+
+@nb.njit(cache=True, inline="always")
+def to_paper_xy(y, fx, fy, sin_undefined):
+    """A horizontal world vector (fx, fy) in the paper's frame, NaN where that is undefined.
+
+    X is along the symmetry axis's horizontal projection, Y a quarter turn on.
+    """
+    kx, ky, _kz = _axis(y)
+    s = math.sqrt(kx * kx + ky * ky)
+    if s > sin_undefined:
+        ex, ey = kx / s, ky / s
+        return fx * ex + fy * ey, -fx * ey + fy * ex
+    return math.nan, math.nan
 
 
 @nb.njit(cache=True, inline="always")
 def write_observables(out, theta, theta_dot, Omega, n, xi, xi_p, xi_m, J, E, vPX, vPY, N, uOX,
-                      uOY, x, y, z, qw, qx, qy, qz, P_fric):
+                      uOY, x, y, z, qw, qx, qy, qz, P_fric, FX, FY):
     """Write one row of observables into ``out`` in the order of ``COLUMNS[1:] + EXTRA``."""
     out[0] = theta
     out[1] = theta_dot
@@ -224,6 +239,8 @@ def write_observables(out, theta, theta_dot, Omega, n, xi, xi_p, xi_m, J, E, vPX
     out[19] = qy
     out[20] = qz
     out[21] = P_fric
+    out[22] = FX
+    out[23] = FY
 
 
 @nb.njit(cache=True, inline="always")
