@@ -269,6 +269,9 @@ class MujocoPlan:
         iterations: The constraint solver's maximum iterations.
         tolerance: The solver's tolerance.
         contacts_on: False: contacts disabled (the top falls freely).
+        reference_law: The law the reference runs on this scene (its mu resolved): what the
+            friction MuJoCo realises is measured against (``friction_realised``), in native
+            mode too.
     """
 
     mode: str
@@ -298,6 +301,7 @@ class MujocoPlan:
     iterations: int = 100
     tolerance: float = 1e-8
     contacts_on: bool = True
+    reference_law: FrictionParams | None = None
 
     @property
     def ball_contact(self) -> MixedContact | None:

@@ -404,7 +404,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         source=source, stem=stem, paper_max_timestep_s=limit,
         notes=() if note is None else (note,), iterations=int(options["iterations"]),
         tolerance=float(options["tolerance"]), contacts_on=bool(options["contacts_on"]),
-        **start)
+        reference_law=friction, **start)
     return plan, want.used
 
 

@@ -180,6 +180,10 @@ def fmt_value(key: str, value: Any) -> str:
         text = _phases(value)
         if text is not None:
             return text
+    if key == "friction_realised" and isinstance(value, dict):
+        from tippetop.compare.analysis.friction_realised import realised_sentence
+
+        return realised_sentence("the run", value)
     if key == "solref" and isinstance(value, (list, tuple)) and len(value) == 2:
         return f"{fmt(value[0])} s, {fmt(value[1])}"
     return fmt(value, unit_of(key))

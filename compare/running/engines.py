@@ -16,6 +16,7 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.analysis.friction_realised import friction_realised
 from tippetop.compare.analysis.metrics import (
     first_inversion_time,
     jellett_drift,
@@ -158,6 +159,8 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
     s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
              phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
                      for ph in res.phases], rolling=rolling, unused=list(plan.unused))
+    s["friction_realised"] = friction_realised(res.table, p.friction.mu,
+                                               p.friction.Lambda_mps)
     if p.stem is not None:
         # Jellett's constant of each contact is conserved only within its phases
         drifts = [ph["J_rel_drift"] for ph in res.phases if ph["J_rel_drift"] is not None]
@@ -212,6 +215,9 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
     s.update(status=res.status, message=res.message, mode=p.mode, **ran, t_stem=t_stem,
              phases=res.phases(), max_penetration_m=res.max_penetration_m,
              contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
+    law = p.law or p.reference_law
+    s["friction_realised"] = (friction_realised(res.table, law.mu, law.Lambda_mps)
+                              if law is not None else None)
     return EngineRun(res.table, s, res.status, res.message)
 
 

@@ -1,0 +1,147 @@
+"""The friction law as an engine realises it, measured from its table (issue 22).
+
+From the friction force at the contact (``FX``, ``FY``), the normal force ``N`` and the slip
+(``vPX``, ``vPY``) of every sample that touches and slips: the effective coefficient
+mu_eff = |F_t| / N against the slip speed |v_P|, the angle between F_t and -v_P, the creep
+(samples whose |F_t| is below the law's value at their slip), and a least-squares fit of the
+paper's modified Coulomb law mu |v| / sqrt(|v|^2 + Lambda^2) to what the engine realised. For
+the reference and MuJoCo's paper mode the fit gives back the law's own mu and Lambda; for
+MuJoCo's own friction it is a measurement.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+#: Slip speeds below this are not slipping for the fit and the angle (m/s): the direction of
+#: a slip of 1e-9 m/s is round-off.
+MIN_SLIP_MPS = 1e-9
+#: A sample creeps when its |F_t| is below the law's value by more than this fraction.
+CREEP_MARGIN = 0.01
+#: Fewer usable samples than this: nothing is measured (the keys say None).
+MIN_SAMPLES = 20
+
+
+def law_mu(v: np.ndarray, mu: float, lam: float) -> np.ndarray:
+    """The paper's modified Coulomb law as a coefficient: mu v / sqrt(v^2 + Lambda^2)."""
+    return mu * v / np.sqrt(v * v + lam * lam)
+
+
+def samples(table: pd.DataFrame) -> pd.DataFrame:
+    """The samples that touch and slip: slip speed, mu_eff and the angle to -v_P."""
+    cols = ("FX", "FY", "vPX", "vPY", "N")
+    if table is None or not all(c in table for c in cols):
+        return pd.DataFrame({"slip": [], "mu_eff": [], "angle": []})
+    t = table[list(cols)].to_numpy(dtype=float)
+    FX, FY, vX, vY, N = t.T
+    F, v = np.hypot(FX, FY), np.hypot(vX, vY)
+    ok = np.isfinite(F) & np.isfinite(v) & np.isfinite(N) & (N > 0) & (v > MIN_SLIP_MPS)
+    # the angle between F_t and -v_P, from its sine and cosine (accurate near 0)
+    angle = np.arctan2(np.abs(FX * vY - FY * vX), -(FX * vX + FY * vY))
+    angle = np.where(F > 0, angle, 0.0)
+    return pd.DataFrame({"slip": v[ok], "mu_eff": (F / np.where(N > 0, N, 1.0))[ok],
+                         "angle": angle[ok]})
+
+
+def fit_law(slip: np.ndarray, mu_eff: np.ndarray, mu0: float,
+            lam0: float) -> tuple[float, float, float]:
+    """(mu, Lambda, residual): the modified Coulomb law fitted to (slip, mu_eff).
+
+    Least squares on the coefficient, both parameters positive (scipy's ``least_squares``,
+    Lambda on a log scale, from the law's own values); the residual is the RMS of mu_eff less
+    the fitted law.
+    """
+    from scipy.optimize import least_squares
+
+    def resid(x: np.ndarray) -> np.ndarray:
+        return law_mu(slip, x[0], math.exp(x[1])) - mu_eff
+
+    lo = math.log(min(1e-12, lam0 / 10.0)) if lam0 > 0 else math.log(1e-12)
+    hi = math.log(max(10.0, 10.0 * lam0))
+    x0 = np.array([max(mu0, 1e-6), min(max(math.log(max(lam0, 1e-300)), lo), hi)])
+    sol = least_squares(resid, x0, bounds=([0.0, lo], [np.inf, hi]),
+                        x_scale=[max(mu0, 1e-3), 1.0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    mu, lam = float(sol.x[0]), float(math.exp(sol.x[1]))
+    return mu, lam, float(np.sqrt(np.mean(resid(sol.x) ** 2)))
+
+
+def _slip_reaching(slip: np.ndarray, mu_eff: np.ndarray, level: float) -> float | None:
+    """The slip speed at which the median mu_eff first reaches ``level``; None if never.
+
+    The samples are binned on log slip (40 bins); each bin is the point (its median slip, its
+    median mu_eff), and the crossing is interpolated between the two bins around it.
+    """
+    if not len(slip):
+        return None
+    edges = np.logspace(math.log10(slip.min()), math.log10(slip.max()) + 1e-12, 41)
+    idx = np.clip(np.searchsorted(edges, slip, side="right") - 1, 0, len(edges) - 2)
+    points = [(float(np.median(slip[idx == b])), float(np.median(mu_eff[idx == b])))
+              for b in range(len(edges) - 1) if np.any(idx == b)]
+    for i, (x, y) in enumerate(points):
+        if y >= level:
+            if i == 0:
+                return x
+            x0, y0 = points[i - 1]
+            f = (level - y0) / (y - y0)
+            return float(math.exp(math.log(x0) + f * (math.log(x) - math.log(x0))))
+    return None
+
+
+def friction_realised(table: pd.DataFrame, mu: float, lam: float) -> dict[str, Any]:
+    """``friction_realised`` of a run: the law the engine realised, against the paper's.
+
+    Args:
+        table: The run's observables (with ``FX``, ``FY``).
+        mu: The law's mu (the scene's: what the engine was meant to realise).
+        lam: The law's Lambda (m/s).
+
+    Returns:
+        ``mu_fit``, ``Lambda_fit_mps``, ``residual`` (RMS of mu_eff less the fitted law),
+        ``half_mu_slip_mps`` and ``ninety_mu_slip_mps`` (the slip speeds at which the
+        median |F_t| reaches half and 90 % of mu_fit N, measured in log-slip bins),
+        ``law_half_mu_slip_mps`` (the paper's law's: Lambda / sqrt(3)), ``angle_rms_rad``
+        (between F_t and -v_P), ``creep_fraction`` (samples with |F_t| more than
+        :data:`CREEP_MARGIN` below the law's mu |v| / sqrt(|v|^2 + Lambda^2) N) and
+        ``samples``; every number None when fewer than :data:`MIN_SAMPLES` samples slip.
+    """
+    s = samples(table)
+    out: dict[str, Any] = {"samples": int(len(s)), "mu_law": mu, "Lambda_law_mps": lam,
+                           "law_half_mu_slip_mps": lam / math.sqrt(3.0)}
+    keys = ("mu_fit", "Lambda_fit_mps", "residual", "half_mu_slip_mps",
+            "ninety_mu_slip_mps", "angle_rms_rad", "creep_fraction")
+    if len(s) < MIN_SAMPLES:
+        return {**out, **dict.fromkeys(keys)}
+    slip, mu_eff = s["slip"].to_numpy(), s["mu_eff"].to_numpy()
+    try:
+        mu_fit, lam_fit, residual = fit_law(slip, mu_eff, mu, lam)
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        return {**out, **dict.fromkeys(keys), "fit_error": str(exc)}
+    law = law_mu(slip, mu, lam)
+    out.update(mu_fit=mu_fit, Lambda_fit_mps=lam_fit, residual=residual,
+               half_mu_slip_mps=_slip_reaching(slip, mu_eff, 0.5 * mu_fit),
+               ninety_mu_slip_mps=_slip_reaching(slip, mu_eff, 0.9 * mu_fit),
+               angle_rms_rad=float(np.sqrt(np.mean(s["angle"].to_numpy() ** 2))),
+               creep_fraction=float(np.mean(mu_eff < (1.0 - CREEP_MARGIN) * law)))
+    return out
+
+
+def realised_sentence(name: str, fr: dict[str, Any]) -> str:
+    """One sentence with the numbers: where the engine's force reaches half of mu N."""
+    if fr.get("mu_fit") is None:
+        return f"{name}: too few slipping samples ({fr.get('samples', 0)}) to measure"
+    half = fr.get("half_mu_slip_mps")
+    where = (f"reaches half of mu N at a slip of {1e3 * half:.3g} mm/s" if half is not None
+             else "never reaches half of mu N")
+    return (f"{name}'s contact {where}; the paper's law at "
+            f"{1e3 * fr['law_half_mu_slip_mps']:.3g} mm/s (fit: mu {fr['mu_fit']:.4g}, Lambda "
+            f"{1e3 * fr['Lambda_fit_mps']:.3g} mm/s, residual {fr['residual']:.2g}; F_t "
+            f"{fr['angle_rms_rad']:.2g} rad from -v_P, RMS; creeping "
+            f"{100 * fr['creep_fraction']:.0f} % of the time)")
+
+
+__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "fit_law", "friction_realised",
+           "law_mu", "realised_sentence", "samples"]
