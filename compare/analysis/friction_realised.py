@@ -91,13 +91,16 @@ def _slip_reaching(slip: np.ndarray, mu_eff: np.ndarray, level: float) -> float 
     return None
 
 
-def friction_realised(table: pd.DataFrame, mu: float, lam: float) -> dict[str, Any]:
+def friction_realised(table: pd.DataFrame, mu: float, lam: float,
+                      t_stem: float | None = None) -> dict[str, Any]:
     """``friction_realised`` of a run: the law the engine realised, against the paper's.
 
     Args:
         table: The run's observables (with ``FX``, ``FY``).
         mu: The law's mu (the scene's: what the engine was meant to realise).
         lam: The law's Lambda (m/s).
+        t_stem: The stem's first contact (s): only the samples before it count, while the
+            ball alone touches (after it the force is two points' and the slip one point's).
 
     Returns:
         ``mu_fit``, ``Lambda_fit_mps``, ``residual`` (RMS of mu_eff less the fitted law),
@@ -108,9 +111,12 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float) -> dict[str, A
         :data:`CREEP_MARGIN` below the law's mu |v| / sqrt(|v|^2 + Lambda^2) N) and
         ``samples``; every number None when fewer than :data:`MIN_SAMPLES` samples slip.
     """
+    if t_stem is not None and table is not None and "t" in table:
+        table = table[table["t"] < t_stem]
     s = samples(table)
     out: dict[str, Any] = {"samples": int(len(s)), "mu_law": mu, "Lambda_law_mps": lam,
-                           "law_half_mu_slip_mps": lam / math.sqrt(3.0)}
+                           "law_half_mu_slip_mps": lam / math.sqrt(3.0),
+                           "before_t_s": t_stem}
     keys = ("mu_fit", "Lambda_fit_mps", "residual", "half_mu_slip_mps",
             "ninety_mu_slip_mps", "angle_rms_rad", "creep_fraction")
     if len(s) < MIN_SAMPLES:
@@ -136,7 +142,7 @@ def realised_sentence(name: str, fr: dict[str, Any]) -> str:
     half = fr.get("half_mu_slip_mps")
     where = (f"reaches half of mu N at a slip of {1e3 * half:.3g} mm/s" if half is not None
              else "never reaches half of mu N")
-    return (f"{name}'s contact {where}; the paper's law at "
+    return (f"{name}: the contact {where}, the paper's law at "
             f"{1e3 * fr['law_half_mu_slip_mps']:.3g} mm/s (fit: mu {fr['mu_fit']:.4g}, Lambda "
             f"{1e3 * fr['Lambda_fit_mps']:.3g} mm/s, residual {fr['residual']:.2g}; F_t "
             f"{fr['angle_rms_rad']:.2g} rad from -v_P, RMS; creeping "

@@ -164,6 +164,52 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
             + png(fig) + "</section>")
 
 
+def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+    """The friction law as each run realises it: |F_t| / (mu N) against the slip speed.
+
+    Each run's samples as points (log slip axis), the paper's law as the curve, and a sentence
+    with the numbers per run (``friction_realised``).
+    """
+    from tippetop.compare.analysis.friction_realised import law_mu, realised_sentence, samples
+
+    keys = [k for k in _keys(res) if k in tables and res["runs"][k].get("friction_realised")]
+    if not keys:
+        return ""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(9.0, 4.2))
+    fr0 = res["runs"][keys[0]]["friction_realised"]
+    mu, lam = fr0["mu_law"], fr0["Lambda_law_mps"]
+    lo, hi = [], []
+    for k in keys:
+        t_stem = res["runs"][k]["friction_realised"].get("before_t_s")
+        tab = tables[k] if t_stem is None else tables[k][tables[k]["t"] < t_stem]
+        smp = samples(tab)
+        if not len(smp):
+            continue
+        if len(smp) > 3000:  # a readable cloud: every n-th sample
+            smp = smp.iloc[:: len(smp) // 3000 + 1]
+        ax.plot(smp["slip"], smp["mu_eff"] / mu, ".", ms=2.5, alpha=0.5,
+                color=_colour(k, keys), label=_label(k))
+        lo.append(float(smp["slip"].min()))
+        hi.append(float(smp["slip"].max()))
+    if lo:
+        v = np.logspace(math.log10(min(lo)), math.log10(max(hi)), 200)
+        ax.plot(v, law_mu(v, mu, lam) / mu, "k-", lw=1.2,
+                label=f"the paper's law (mu {mu:g}, Lambda {1e3 * lam:g} mm/s)")
+    ax.set_xscale("log")
+    ax.set_xlabel("slip speed |v_P| (m/s)")
+    ax.set_ylabel("|F_t| / (mu N)")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    lines = "".join(f"<li>{esc(realised_sentence(_label(k), res['runs'][k]['friction_realised']))}"
+                    "</li>" for k in keys)
+    return ("<section id='friction'><h2>The friction law as each run realises it</h2>"
+            "<p class='note'>Each sample that touches and slips while the ball alone touches "
+            "(before the stem): the friction force at the contact over mu N, against the slip "
+            "speed; the curve is the paper's law.</p>"
+            + png(fig) + f"<ul>{lines}</ul></section>")
+
+
 def groups_section(res: Mapping[str, Any]) -> str:
     """The top's place on the paper's group diagram."""
     plt = pyplot()
@@ -184,7 +230,8 @@ def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
     """The page's HTML: verdict, model, runs, theta(t), group diagram."""
     title = f"tippetop validate: {res['model']['file']}"
     body = [f"<h1>{esc(title)}</h1>", verdict_section(res), model_section(res),
-            runs_section(res), theta_section(res, tables), groups_section(res)]
+            runs_section(res), theta_section(res, tables), friction_section(res, tables),
+            groups_section(res)]
     return page(title, body)
 
 

@@ -160,7 +160,7 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
              phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
                      for ph in res.phases], rolling=rolling, unused=list(plan.unused))
     s["friction_realised"] = friction_realised(res.table, p.friction.mu,
-                                               p.friction.Lambda_mps)
+                                               p.friction.Lambda_mps, t_stem=res.t_stem)
     if p.stem is not None:
         # Jellett's constant of each contact is conserved only within its phases
         drifts = [ph["J_rel_drift"] for ph in res.phases if ph["J_rel_drift"] is not None]
@@ -216,7 +216,8 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
              phases=res.phases(), max_penetration_m=res.max_penetration_m,
              contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
     law = p.law or p.reference_law
-    s["friction_realised"] = (friction_realised(res.table, law.mu, law.Lambda_mps)
+    s["friction_realised"] = (friction_realised(res.table, law.mu, law.Lambda_mps,
+                                                t_stem=t_stem)
                               if law is not None else None)
     return EngineRun(res.table, s, res.status, res.message)
 

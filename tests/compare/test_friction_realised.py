@@ -87,3 +87,17 @@ def test_a_law_outside_the_usual_range_is_fitted_too(lam: float) -> None:
     mu, fitted, _res = fit_law(v, law_mu(v, 0.2, lam), 0.2, lam)
     assert mu == pytest.approx(0.2, rel=1e-6) or lam > 10  # beyond the slips: mu and Lambda
     assert math.isfinite(fitted)                           # trade off, still a number
+
+
+def test_with_a_stem_only_the_ball_phase_is_measured() -> None:
+    """After the stem touches, the force is two points' and the slip one point's: left out.
+
+    The reference with a stem still gives its law back (to the ball phase's round-off), and
+    the summary says up to when it measured.
+    """
+    scene = load_scene("fig3", ["run.t_end_s=4", "effects.stem=true"])
+    s = run_engine(scene, "ode", progress=False).summary
+    fr = s["friction_realised"]
+    assert s["t_stem"] is not None and fr["before_t_s"] == s["t_stem"]
+    assert fr["mu_fit"] == pytest.approx(scene.friction.mu, rel=1e-9)
+    assert fr["Lambda_fit_mps"] == pytest.approx(scene.friction.Lambda_mps, rel=1e-9)

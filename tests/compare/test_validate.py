@@ -232,6 +232,12 @@ def test_validate_report_opens_with_the_verdict(paper_example: tuple[Any, Path, 
     assert verdict_at < html.index("<img")
     assert "DEPARTS" in html[verdict_at:html.index("</section>", verdict_at)]
     assert "src=\"http" not in html and "src='http" not in html  # self-contained
+    # the friction law as each run realises it: a figure and a sentence per run, after theta(t)
+    friction_at = html.index("<section id='friction'>")
+    assert html.index("<section id='theta'>") < friction_at
+    section = html[friction_at:html.index("</section>", friction_at)]
+    assert "<img" in section and section.count("<li>") == 4
+    assert "reference ODE: the contact reaches half of mu N" in section
 
 
 def test_validate_bad_file_is_one_line(tmp_path: Path) -> None:
