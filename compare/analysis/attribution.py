@@ -12,7 +12,6 @@ same engine at a quarter of the timestep).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,9 +23,6 @@ from tippetop.models.plan import MujocoPlan
 #: The solver of "solver tighter": this many times the iterations, this tolerance.
 SOLVER_ITERATIONS_FACTOR = 10
 SOLVER_TOLERANCE = 1e-12
-#: Two theta(t) curves closer than this everywhere (rad) are "the same trajectory" in the
-#: sentences (double precision's noise over ~1e5 steps is far below it).
-SAME_THETA_RAD = 1e-9
 
 
 @dataclass(frozen=True)
@@ -95,7 +91,6 @@ def value_gap(a: Any, b: Any) -> float | None:
 def attribute(metric: str, a_spec: str, b_spec: str,
               base_gap: float | None,
               evidence: list[dict[str, Any]],
-              differ: Callable[[str, Any, Any], bool],
               ran_integrator: str | None = None,
               precisions: tuple[str, str] | None = None) -> dict[str, Any]:
     """``attribution`` of one difference: what it follows, and the evidence.
@@ -107,7 +102,6 @@ def attribute(metric: str, a_spec: str, b_spec: str,
         base_gap: The largest theta(t) gap of the runs as they ran (rad).
         evidence: Per change: {change, a, b, difference, theta_gap_rad, agree} (or
             {change, applies: False, why}).
-        differ: The matrix's rule: do two values of ``metric`` differ.
         ran_integrator: The integrator the runs as they ran used (they differ with it).
         precisions: A's and B's precision (``float64``, ``float32``): a difference no change
             removes between two precisions is said to be theirs.
@@ -203,30 +197,20 @@ def closer(metric: str, values: tuple[Any, Any], reference: Any,
             return None if metric not in ("outcome", "status") else 1.0
         if isinstance(x, str) or isinstance(y, str):
             return 0.0 if x == y else 1.0
-        g = value_gap(x, y)
-        return g
+        return value_gap(x, y)
+
+    def nearer(a: float | None, b: float | None) -> str | None:
+        if a is None or b is None:
+            return None
+        return "tie" if a == b else specs[0] if a < b else specs[1]
 
     da, db = dist(values[0], reference), dist(values[1], reference)
-    nearer: str | None
-    if da is None or db is None:
-        nearer = None
-    elif da == db:
-        nearer = "tie"
-    else:
-        nearer = specs[0] if da < db else specs[1]
     ca, cb = ((None, None) if converged == (None, None)  # not run
               else (dist(values[0], converged[0]), dist(values[1], converged[1])))
-    conv = {specs[0]: ca, specs[1]: cb}
-    if ca is None or cb is None:
-        conv_nearer = None
-    elif ca == cb:
-        conv_nearer = "tie"
-    else:
-        conv_nearer = specs[0] if ca < cb else specs[1]
-    return {"reference": nearer, "reference_value": reference,
-            "reference_distance": [da, db], "converged": conv,
-            "converged_nearer": conv_nearer}
+    return {"reference": nearer(da, db), "reference_value": reference,
+            "reference_distance": [da, db], "converged": {specs[0]: ca, specs[1]: cb},
+            "converged_nearer": nearer(ca, cb)}
 
 
-__all__ = ["SAME_THETA_RAD", "SOLVER_ITERATIONS_FACTOR", "SOLVER_TOLERANCE", "Change",
+__all__ = ["SOLVER_ITERATIONS_FACTOR", "SOLVER_TOLERANCE", "Change",
            "attribute", "changes_for", "closer", "integrator_split", "theta_gap", "value_gap"]

@@ -215,7 +215,7 @@ def _attribute(differences: list[dict[str, Any]],
             if bad:
                 row["failed"] = bad[0]["message"]
             evidence.append(row)
-        d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence, _differ,
+        d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence,
                                           ran_integrator=integrators.get((scene, mode)),
                                           precisions=(parse_engine(a).precision,
                                                       parse_engine(b).precision))

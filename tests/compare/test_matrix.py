@@ -184,26 +184,26 @@ def test_follows_names_the_subsystem() -> None:
 
     only_rk4 = [ev("integrator Euler", True, 1e-12), ev("integrator implicitfast", True, 2e-12),
                 ev("integrator RK4", False, 0.1), ev("quarter timestep", False, 0.1)]
-    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4, matrix._differ,
+    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4,
                     ran_integrator="implicit")
     assert att["follows"].startswith("differs with implicit and RK4 (as run: implicit): with "
                                      "Euler and implicitfast the two agree on theta_asymp "
                                      "(theta(t) then within 2e-12 rad)")
-    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4[:2], matrix._differ,
+    att = attribute("theta_asymp", "a", "b", 0.1, only_rk4[:2],
                     ran_integrator="RK4")
     assert att["follows"].startswith("differs only with RK4: with Euler and implicitfast the "
                                      "two agree on theta_asymp (theta(t) then within 2e-12 rad)")
     assert att["removed_by"] == ["integrator Euler", "integrator implicitfast"]
     stays = [ev("friction off", False, 0.09), ev("quarter timestep", False, 0.08)]
-    att = attribute("theta_asymp", "a", "b", 0.1, stays, matrix._differ)
+    att = attribute("theta_asymp", "a", "b", 0.1, stays)
     assert att["follows"].startswith("persists with every change (2 tried)")
     assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att["follows"]
-    att = attribute("J_rel_drift", "mjx", "mjx-f32", 0.1, stays, matrix._differ,
+    att = attribute("J_rel_drift", "mjx", "mjx-f32", 0.1, stays,
                     precisions=("float64", "float32"))
     assert att["follows"].startswith("persists with every change (2 tried): the two run in "
                                      "float64 and float32, which no option changes")
     friction = [ev("friction off", True, 1e-6), ev("quarter timestep", False, 0.1)]
-    att = attribute("theta_asymp", "a", "b", 0.1, friction, matrix._differ)
+    att = attribute("theta_asymp", "a", "b", 0.1, friction)
     assert att["follows"].startswith("goes away with friction off: the two agree on "
                                      "theta_asymp (theta(t) then within 1e-06 rad); stays with "
                                      "quarter timestep")
