@@ -340,6 +340,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
             runs[mode]["note"] = paper_note
         if res.table is not None and len(res.table):
             tables[mode] = res.table
+    refit(runs, tables, over, config)
     checks = verdict(runs, outcome_pred)
     return {
         "format": "tippetop-validate/1",
@@ -354,6 +355,60 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
                        if "mujoco-native" in runs else {}),
         "tables": tables,
     }
+
+
+def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[str, ...],
+          config: ValidateConfig) -> None:
+    """Each MuJoCo run's ``friction_realised.refit``: the reference rerun with its fitted law.
+
+    A law fitted equal to the file's (paper mode: mu and Lambda to 1e-6) is the reference's
+    own run, not run again; the other refits run together, cached as every run.
+    """
+    from tippetop.compare.analysis.refit import (
+        events,
+        not_refit,
+        refit_overrides,
+        refit_result,
+    )
+
+    ref = runs.get("ode") or {}
+    if ref.get("theta_final") is None or "ode" not in tables:
+        for key, r in runs.items():
+            if key != "ode" and r.get("friction_realised"):
+                r["friction_realised"]["refit"] = not_refit("the reference run failed")
+        return
+    ref_events = events(ref, tables["ode"])
+    law = ref.get("friction_realised") or {}
+    todo: list[tuple[str, Task]] = []
+    for key, r in runs.items():
+        fr = r.get("friction_realised")
+        if key == "ode" or not fr:
+            continue
+        ov = refit_overrides(fr)
+        if ov is None:
+            fr["refit"] = not_refit(f"no law fitted ({fr.get('samples', 0)} slipping "
+                                    "samples)")
+            continue
+        same = all(math.isclose(fr[k], law.get(k) or math.nan, rel_tol=1e-6)
+                   for k in ("mu_fit", "Lambda_fit_mps"))
+        if same:
+            fr["refit"] = refit_result(fr, events(r, tables.get(key)), ref_events, ref_events,
+                                       r)
+        else:
+            todo.append((key, Task(None, (*over, *ov), "ode")))
+    if not todo:
+        return
+    results = run_tasks([t for _, t in todo], scheduler=config.scheduler,
+                        workers=config.workers, use_cache=config.use_cache, label="refit")
+    for (key, _task), res in zip(todo, results, strict=True):
+        r = runs[key]
+        if res.error or res.summary is None or res.table is None:
+            r["friction_realised"]["refit"] = not_refit(f"the refit reference failed: "
+                                                        f"{res.error}")
+            continue
+        r["friction_realised"]["refit"] = refit_result(
+            r["friction_realised"], events(r, tables.get(key)), ref_events,
+            events(res.summary, res.table), r)
 
 
 def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:

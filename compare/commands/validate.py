@@ -91,6 +91,24 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_AGREES if res["agrees"] else EXIT_DEPARTS
 
 
+def _print_friction(res: dict[str, Any]) -> None:
+    """The law each MuJoCo run realised, and whether the refit reference explains the run."""
+    from tippetop.compare.analysis.friction_realised import realised_sentence
+
+    lines = []
+    for mode, r in res["runs"].items():
+        fr = r.get("friction_realised")
+        if mode == "ode" or not fr:
+            continue
+        lines.append(f"    {realised_sentence(mode, fr)}")
+        refit = fr.get("refit")
+        if refit:
+            lines.append(f"      refit: {refit['sentence']}")
+    if lines:
+        print("  the friction law as each run realises it (the ball's phase):")
+        print("\n".join(lines))
+
+
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     from tippetop.compare.analysis.validate import show_value
 
@@ -115,6 +133,7 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
             print(f"  note: {mode}: {r['note']}")
     for f in res["findings"]:
         print(f"  the file's own settings: {f}")
+    _print_friction(res)
     sug = res.get("suggestion") or {}
     if sug and not res["agrees"]:
         title = ("settings that follow the reference" if sug["agrees"]

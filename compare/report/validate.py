@@ -201,12 +201,19 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     ax.set_ylabel("|F_t| / (mu N)")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
-    lines = "".join(f"<li>{esc(realised_sentence(_label(k), res['runs'][k]['friction_realised']))}"
-                    "</li>" for k in keys)
+    def sentence(k: str) -> str:
+        fr = res["runs"][k]["friction_realised"]
+        refit = (fr.get("refit") or {}).get("sentence")
+        more = f"<br><span class='note'>Refit: {esc(refit)}.</span>" if refit else ""
+        return f"<li>{esc(realised_sentence(_label(k), fr))}{more}</li>"
+
+    lines = "".join(sentence(k) for k in keys)
     return ("<section id='friction'><h2>The friction law as each run realises it</h2>"
             "<p class='note'>Each sample that touches and slips while the ball alone touches "
             "(before the stem): the friction force at the contact over mu N, against the slip "
-            "speed; the curve is the paper's law.</p>"
+            "speed; the curve is the paper's law. Refit: the reference run again with the law "
+            "each run realised; if it turns over and brings the stem down when the run does "
+            "(within the nightly's tolerances), the friction law is the difference.</p>"
             + png(fig) + f"<ul>{lines}</ul></section>")
 
 

@@ -190,6 +190,14 @@ def test_validate_json_contract(paper_example: tuple[Any, Path, int]) -> None:
         assert {"t_invert", "t_stem", "status", "theta_final", "J_rel_drift",
                 "energy_monotone"} <= set(run)
     assert code == (0 if res["agrees"] else 1)
+    # every MuJoCo run's realised law, with its refit (issue 22's contract keys)
+    for mode in ("mujoco-file", "mujoco-paper", "mujoco-native"):
+        fr = res["runs"][mode]["friction_realised"]
+        assert {"mu_fit", "Lambda_fit_mps", "residual", "half_mu_slip_mps", "angle_rms_rad",
+                "creep_fraction", "refit"} <= set(fr)
+        assert {"t_invert", "t_stem", "theta_asymp", "explains"} <= set(fr["refit"])
+    # paper mode realises the file's law, so its refit is the reference, which it follows
+    assert res["runs"]["mujoco-paper"]["friction_realised"]["refit"]["explains"] is True
     assert json.loads((out / "results.json").read_text()) == res
     assert {p.name for p in (out / "tables").iterdir()} == {f"{m}.csv" for m in MODES}
 
