@@ -108,7 +108,8 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
             remains.append(f"the contact's sink (up to {1e3 * sink:.3g} mm)")
         j = ran.get("J_rel_drift")
         if j is not None:
-            remains.append(f"a torque off the contact point (Jellett drift {j:.1e})")
+            remains.append(f"Jellett's drift ({j:.1e}: a torque off the contact point, or a "
+                           "first-order integrator on a top with A != C)")
         if ran.get("integrator") and ran.get("timestep_s"):
             remains.append(f"the integration ({ran['integrator']} at dt = "
                            f"{ran['timestep_s']:g} s)")

@@ -112,6 +112,31 @@ def test_jellett_tolerance_per_engine() -> None:
     assert not _check(checks, "jellett_before_stem", "mujoco-file")["passed"]
 
 
+def test_paper_mode_jellett_drift_under_a_first_order_integrator_is_the_integrators() -> None:
+    # A first-order step integrates the gyroscopic torque of a top with A != C from the step's
+    # start: J drifts in proportion to dt (the law at P keeps it). The note says so, with the
+    # 1-2-5 step at which the drift scaled by dt is within the tolerance.
+    paper = {"J_rel_drift": 3.2e-3, "integrator": "implicitfast", "timestep_s": 1e-4}
+    checks = verdict(_runs(mujoco_paper=paper), "inverted", A_over_C=1.09)
+    check = _check(checks, "jellett_before_stem", "mujoco-paper")
+    assert not check["passed"]
+    assert "not the law's" in check["note"] and "implicitfast is first order" in check["note"]
+    assert "dt <= 2e-05 s or RK4" in check["note"]
+    # at A = C (no gyroscopic torque), with RK4, or in another mode: no such attribution
+    for runs, ac in ((_runs(mujoco_paper=paper), 1.0),
+                     (_runs(mujoco_paper={**paper, "integrator": "RK4"}), 1.09),
+                     (_runs(mujoco_file=paper), 1.09)):
+        notes = " ".join(c["note"] for c in verdict(runs, "inverted", A_over_C=ac)
+                         if c["check"] == "jellett_before_stem")
+        assert "first order" not in notes
+    # the file's finding names the gyroscopic torque's integration among the causes
+    runs = _runs(mujoco_file={"J_rel_drift": 6.5e-2, "integrator": "implicitfast",
+                              "timestep_s": 2e-3})
+    text = " ".join(findings(runs, verdict(runs, "inverted", A_over_C=1.09), A_over_C=1.09))
+    assert "its implicitfast at dt = 0.002 s is first order" in text
+    assert "dt <= 2e-05 s or RK4" in text
+
+
 def test_energy_may_rise_by_what_the_soft_contact_held_and_no_more() -> None:
     # E0 = 1 J; the contacts held at most 2 mJ (force x depth): a 1.5e-3 rise is the contact
     # springing back, a 5e-3 rise is energy the integration made
