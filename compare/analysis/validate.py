@@ -65,6 +65,9 @@ class ValidateConfig:
         use_cache: Read and write the runs cache.
         engines: The engine specs the MuJoCo modes run on (:mod:`tippetop.models.engines`);
             another spec than ``mujoco`` adds its runs as ``MODE@SPEC``.
+        tune: Fit the file's contact settings to the reference and verify them
+            (:mod:`tippetop.compare.analysis.tune`; ``--no-tune`` skips it).
+        progress: Progress lines of the tuning on a terminal.
     """
 
     model: Path
@@ -74,6 +77,8 @@ class ValidateConfig:
     workers: int | None = None
     use_cache: bool = True
     engines: tuple[str, ...] = ("mujoco",)
+    tune: bool = True
+    progress: bool = True
 
 
 def run_key(mode: str, spec: str) -> str:
@@ -138,6 +143,26 @@ def gyroscopic_drift(run: dict[str, Any], A_over_C: float | None) -> str | None:
             f"{A_over_C:.3g}, not 1) from each step's start, which moves J in proportion to "
             f"dt (none at A = C, dt^4 with RK4): dt <= {keep:g} s or RK4 keeps it within "
             f"{tol:g}")
+
+
+def run_entry(res: Any) -> dict[str, Any]:
+    """A finished run as :func:`verdict` reads it.
+
+    The summary's keys, ``outcome``, ``end_state``, ``ran`` (one line), ``E0_J`` and
+    ``error`` (None, or why it failed).
+    """
+    if res.error or res.summary is None:
+        return {"status": "error", "message": res.error, "t_invert": None, "t_stem": None,
+                "theta_final": None, "error": res.error or "no result", "outcome": None,
+                "end_state": None, "ran": None, "E0_J": None}
+    s = dict(res.summary)
+    outcome = (classify_outcome(res.table) if s.get("theta_final") is not None
+               and res.table is not None and len(res.table) > 2 else "failed")
+    return {**s, "t_invert": s.get("t_invert"), "t_stem": s.get("t_stem"),
+            "status": s.get("status"), "error": None, "outcome": outcome,
+            "end_state": _end_state(s, outcome), "ran": describe_ran(s),
+            "E0_J": (float(res.table["E"].iloc[0]) if res.table is not None
+                     and len(res.table) else None)}
 
 
 def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
@@ -371,25 +396,17 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     runs: dict[str, dict[str, Any]] = {}
     tables = {}
     for (mode, _task), res in zip(jobs, results, strict=True):
-        if res.error or res.summary is None:
-            runs[mode] = {"status": "error", "message": res.error, "t_invert": None,
-                          "t_stem": None, "theta_final": None, "error": res.error,
-                          "outcome": None, "end_state": None, "ran": None, "E0_J": None}
+        runs[mode] = run_entry(res)
+        if runs[mode]["error"]:
             continue
-        s = dict(res.summary)
-        outcome = (classify_outcome(res.table) if s.get("theta_final") is not None
-                   and len(res.table) > 2 else "failed")
-        runs[mode] = {**s, "t_invert": s.get("t_invert"), "t_stem": s.get("t_stem"),
-                      "status": s.get("status"), "error": None, "outcome": outcome,
-                      "end_state": _end_state(s, outcome), "ran": describe_ran(s),
-                      "E0_J": (float(res.table["E"].iloc[0]) if res.table is not None
-                               and len(res.table) else None)}
         if mode_of(mode) == "mujoco-paper" and paper_note:
             runs[mode]["note"] = paper_note
         if res.table is not None and len(res.table):
             tables[mode] = res.table
     refit(runs, tables, over, config)
     checks = verdict(runs, outcome_pred, top.A_over_C)
+    tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
+             else {"skipped": "--no-tune"})
     return {
         "format": "tippetop-validate/1",
         "model": model,
@@ -401,6 +418,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "findings": findings(runs, checks, top.A_over_C),
         "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"))
                        if "mujoco-native" in runs else {}),
+        "tuned": tuned,
         "tables": tables,
     }
 
@@ -457,6 +475,65 @@ def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[s
         r["friction_realised"]["refit"] = refit_result(
             r["friction_realised"], events(r, tables.get(key)), ref_events,
             events(res.summary, res.table), r)
+
+
+def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, Any],
+              plan: Any, runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """``tuned``: the file's contact settings fitted and verified, or what stopped it.
+
+    See :func:`tippetop.compare.analysis.tune.tune`: fitted to the reference at the file's
+    start, verified from held-out starts.
+    """
+    from tippetop.compare.analysis.tune import tune
+
+    if (runs.get("ode") or {}).get("status") != "ok":
+        return {"skipped": "the reference run from the file's start did not complete",
+                "agrees": False}
+    top, init = plan.top, plan.init
+    file_run = runs.get("mujoco-file") or {}
+
+    def theory(n0: float, theta0: float, role: str) -> str:
+        Omega0 = init.Omega0 if role == "fit" else 0.0
+        J0 = (top.C_kgm2 * n0 * (top.R_m * math.cos(theta0) - top.a_m)
+              + top.A_kgm2 * Omega0 * top.R_m * math.sin(theta0) ** 2)
+        return predicted_outcome(top, J0)[1]
+
+    base = tuple(o for o in over if not o.startswith("run.t_end_s="))
+    try:
+        return tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
+                    file_run=file_run, file_timestep_s=file_run.get("timestep_s"),
+                    file_integrator=file_run.get("integrator"),
+                    run_options={"scheduler": config.scheduler, "workers": config.workers,
+                                 "use_cache": config.use_cache},
+                    progress=config.progress, theory=theory, A_over_C=top.A_over_C)
+    except TippetopError as exc:
+        return {"skipped": str(exc), "agrees": False}
+
+
+def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
+              workers: int | None = None, use_cache: bool = True,
+              progress: bool = True) -> dict[str, Any]:
+    """``tippetop calibrate --mjcf FILE``: the file's contact settings tuned, no report.
+
+    The reference and the file's own run at its start, then :func:`tune_file` (no paper or
+    calibrated runs).
+
+    Raises:
+        TippetopError: A missing or invalid file (before any run).
+    """
+    expect(model.is_file(), "--mjcf", "an existing MJCF file", str(model))
+    config = ValidateConfig(model=model, t_end_s=t_end_s, scheduler=scheduler,
+                            workers=workers, use_cache=use_cache, progress=progress)
+    over = _overrides(config)
+    plan = Task(None, over, "ode").plan()
+    loaded = plan_file_info(over)
+    results = run_tasks([Task(None, over, "ode"), Task(None, over, "mujoco-file")],
+                        scheduler=scheduler, workers=workers, use_cache=use_cache,
+                        label="calibrate --mjcf")
+    runs = {"ode": run_entry(results[0]), "mujoco-file": run_entry(results[1])}
+    return {"file": str(model), "mu": loaded["mu"], "n0": plan.init.n0,
+            "theta0": plan.init.theta0, "t_end_s": t_end_s,
+            "tuned": tune_file(config, over, loaded, plan, runs)}
 
 
 def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:

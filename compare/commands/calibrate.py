@@ -47,18 +47,34 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--integrator", default=DEFAULT_INTEGRATOR, metavar="NAME",
                    help=f"MuJoCo integrator of the fit: Euler, implicit, implicitfast or RK4 "
                    f"(default {DEFAULT_INTEGRATOR})")
+    p.add_argument("--search", default="sysid", metavar="NAME", help="sysid (MuJoCo's "
+                   "identification, mujoco.sysid; the default) or compass (the hand-written "
+                   "grid and compass search, kept to compare)")
+    p.add_argument("--mjcf", metavar="FILE", help="tune this MJCF top's own contact settings "
+                   "instead: fitted to the reference at the file's start and verified from "
+                   "held-out starts, printed as MJCF (validate's 'tuned', without the report; "
+                   "nothing is written)")
+    p.add_argument("--t-end-s", dest="t_end_s", type=number, default=None, metavar="S",
+                   help="with --mjcf: simulated time of the verification runs (s; default "
+                   "validate's)")
     add_parallel_options(p)
     add_json_option(p, help="print the report as one JSON object instead of text")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """``tippetop calibrate``: run, write the file, print the report."""
+    """``tippetop calibrate``: run, write the file, print the report.
+
+    With ``--mjcf FILE``: tune the file's own settings (exit 0 if they agree from every
+    start, 1 if a check departs).
+    """
+    if args.mjcf is not None:
+        return run_mjcf(args)
     config = CalibrateConfig(
         calibration=args.calibration, holdout=args.holdout, out=args.out, force=args.force,
         budget_runs=args.budget_runs, timestep_s=args.timestep_s, integrator=args.integrator,
         scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
-        progress=not args.json)
+        progress=not args.json, search=args.search)
     from tippetop.compare.analysis.calibrate.run import calibrate
 
     report = calibrate(config)
@@ -67,6 +83,31 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_report(report)
     return 0
+
+
+def run_mjcf(args: argparse.Namespace) -> int:
+    """``tippetop calibrate --mjcf FILE``: the file's contact settings tuned and verified."""
+    import math
+    import os
+    from pathlib import Path
+
+    from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
+    from tippetop.compare.analysis.validate import tune_only
+    from tippetop.compare.commands.validate import print_tuned
+    from tippetop.models.errors import expect
+
+    t_end = DEFAULT_T_END_S if args.t_end_s is None else args.t_end_s
+    expect(math.isfinite(t_end) and 0 < t_end <= 600, "--t-end-s",
+           "a number of seconds in (0, 600]", t_end)
+    res = tune_only(Path(os.path.abspath(args.mjcf)), t_end, scheduler=args.scheduler,
+                    workers=args.workers, use_cache=not args.no_cache, progress=not args.json)
+    if args.json:
+        print_json(res)
+    else:
+        print(f"tippetop calibrate --mjcf {res['file']}: mu = {res['mu']}, n0 = "
+              f"{res['n0']:.4g} rad/s, theta0 = {res['theta0']:.3g} rad")
+        print_tuned(res["tuned"], indent="")
+    return 0 if res["tuned"].get("agrees") else 1
 
 
 def print_report(report: dict[str, Any]) -> None:

@@ -42,6 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "the MuJoCo runs run on: mujoco (the installed one), mujoco==X.Y.Z, "
                    "mujoco@PYTHON, mjx, mjx-f32, warp; another engine's runs are named "
                    "MODE@SPEC beside the installed one's (default: mujoco)")
+    p.add_argument("--no-tune", dest="tune", action="store_false", help="skip the tuning: "
+                   "the file's contact settings fitted to the reference at its start and "
+                   "verified from held-out starts (the results' 'tuned'; about 1-3 min)")
     add_force_option(p, help="write into a non-empty --out")
     add_parallel_options(p)
     add_json_option(p)
@@ -67,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,
                             keyframe=args.keyframe, scheduler=args.scheduler,
                             workers=args.workers, use_cache=not args.no_cache,
-                            engines=engines)
+                            engines=engines, tune=args.tune, progress=not args.json)
     res = validate(config)
     tables = res.pop("tables")
     if out is not None:
@@ -145,5 +148,34 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
                 for c in sug["changes"]))
         print(f"    {sug['option']}")
         print(f"    <geom ... {sug['geom']}/>")
+    print_tuned(res.get("tuned") or {})
     if out is not None:
         print(f"report: {out / 'report.html'}")
+
+
+def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
+    """The tuned settings: the fit, the MJCF to paste, each start's verification."""
+    if not tuned:
+        return
+    if tuned.get("skipped"):
+        print(f"{indent}tuned settings: not run ({tuned['skipped']})")
+        return
+    fit = tuned["fit"]
+    start = fit["starts"][0]
+    print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}: "
+          f"{tuned['note']}")
+    print(f"{indent}  fitted at n0 = {start['n0']:.4g} rad/s, theta0 = {start['theta0']:.3g} "
+          f"rad over {start['t_end_s']:.3g} s: residual {fit['residual']:.3g} rad (theta and J), "
+          f"{fit['runs']} MuJoCo runs, {fit['wall_s']:.0f} s (mujoco.sysid)")
+    for line in tuned["mjcf"].splitlines():
+        print(f"{indent}  {line}")
+    for v in tuned["verified"]:
+        where = (f"n0 = {v['n0']:.4g} rad/s, theta0 = {v['theta0']:.3g} rad ({v['role']})")
+        if v["passed"] is None:
+            state = v.get("note", "not verified")
+        elif v["passed"]:
+            state = f"passes all {len(v['checks'])} checks"
+        else:
+            state = "departs in " + ", ".join(c["check"] for c in v["checks"]
+                                              if not c["passed"])
+        print(f"{indent}  from {where}: {state}")

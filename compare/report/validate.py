@@ -99,6 +99,51 @@ def verdict_section(res: Mapping[str, Any]) -> str:
     return "".join(parts)
 
 
+def tuned_section(res: Mapping[str, Any]) -> str:
+    """The tuned settings: the MJCF to paste, the fit, each start's checks."""
+    t = res.get("tuned") or {}
+    if not t:
+        return ""
+    if t.get("skipped"):
+        return (f"<section id='tuned'><h2>Tuned settings</h2><p class='note'>Not run: "
+                f"{esc(t['skipped'])}.</p></section>")
+    fit = t["fit"]
+    start = fit["starts"][0]
+    ok = t["agrees"]
+    head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
+            f"{'AGREE' if ok else 'DEPART'}</span> {esc(t['note'])}.</p>")
+    how = (f"<p class='note'>The file's contact settings fitted to the reference at its own "
+           f"start (n0 = {start['n0']:.4g} rad/s, theta0 = {start['theta0']:.3g} rad, over "
+           f"{start['t_end_s']:.3g} s) with MuJoCo's identification (mujoco.sysid): residual "
+           f"{fit['residual']:.3g} rad ({esc(fit['residual_definition'])}), {fit['runs']} "
+           f"MuJoCo runs, {fit['wall_s']:.0f} s; then run by the harness from every start "
+           f"below over {res['t_end_s']:g} s and checked as the verdict checks. As MJCF (the "
+           f"contact attributes go on the ball's, the stem's and the table's geoms, or on the "
+           f"file's contact pairs):</p><pre>{esc(t['mjcf'])}</pre>")
+    names = list(dict.fromkeys(c["check"] for v in t["verified"] for c in v["checks"]))
+    rows, classes = [], []
+    for v in t["verified"]:
+        row: list[Any] = [f"n0 = {v['n0']:.4g} rad/s, theta0 = {v['theta0']:.3g} rad",
+                          v["role"]]
+        by = {c["check"]: c for c in v["checks"]}
+        row += [_cell(by[n]) if n in by else "-" for n in names]
+        if v["passed"] is None:
+            row[-1] = v.get("note", "not verified")
+        rows.append(row)
+        classes.append("" if v["passed"] is None else "pass" if v["passed"] else "fail")
+    needs = "".join(
+        f"<li>{esc(n['integrator'])} at dt = {n['timestep_s']:g} s: "
+        f"{'kept' if n['kept'] else 'not kept: ' + esc(n.get('why', ''))}</li>"
+        for n in fit.get("needs", []))
+    needs_html = (f"<p class='note'>The file's own integrator and step, tried with the fitted "
+                  f"contact (the fit ran {esc(fit['integrator'])} at dt = "
+                  f"{fit['timestep_s']:g} s):</p><ul>{needs}</ul>" if needs else "")
+    return ("<section id='tuned'><h2>Tuned settings for this top</h2>" + head + how
+            + html_table(["start", "role", *(_CHECKS.get(n, n) for n in names)], rows,
+                         classes)
+            + needs_html + "</section>")
+
+
 def model_section(res: Mapping[str, Any]) -> str:
     """The top's parameters read from the file and the theory's numbers."""
     m = res["model"]
@@ -236,7 +281,8 @@ def groups_section(res: Mapping[str, Any]) -> str:
 def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
     """The page's HTML: verdict, model, runs, theta(t), group diagram."""
     title = f"tippetop validate: {res['model']['file']}"
-    body = [f"<h1>{esc(title)}</h1>", verdict_section(res), model_section(res),
+    body = [f"<h1>{esc(title)}</h1>", verdict_section(res), tuned_section(res),
+            model_section(res),
             runs_section(res), theta_section(res, tables), friction_section(res, tables),
             groups_section(res)]
     return page(title, body)

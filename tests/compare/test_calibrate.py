@@ -358,7 +358,7 @@ def test_tiny_calibration_writes_a_valid_file_and_refuses_to_overwrite(
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "cal.toml"
     argv = ("--calibration", "fig3:1", "--holdout", "fig7a:0.5", "--budget-runs", "2",
-            "--out", str(out), "--json")
+            "--out", str(out), "--json", "--search", "compass")
     assert _calibrate(*argv) == 0
     capsys.readouterr()
     data = tomllib.loads(out.read_text())
@@ -375,6 +375,38 @@ def test_tiny_calibration_writes_a_valid_file_and_refuses_to_overwrite(
     assert _calibrate(*argv, "--force") == 0  # from the cache now
     capsys.readouterr()
     assert tomllib.loads(out.read_text())["settings"] == data["settings"]
+
+
+def test_tiny_sysid_calibration_fits_and_says_how(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
+    # the default search: MuJoCo's identification from the seeds, the best fit scored with the
+    # same objective as the compass search's candidates
+    monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "cal.toml"
+    assert _calibrate("--calibration", "fig3:1", "--holdout", "fig7a:0.5", "--budget-runs",
+                      "24", "--out", str(out), "--json") == 0
+    capsys.readouterr()
+    data = tomllib.loads(out.read_text())
+    prov = data["provenance"]
+    assert set(data["settings"]) == SETTINGS_KEYS
+    assert "mujoco.sysid" in prov["search"] and "--search sysid" in prov["command"]
+    sysid = prov["sysid"]
+    assert prov["runs_used"] == sysid["rollouts"] > 0
+    # one fit per cone, each from its cone's best seed; the result is the best of everything
+    assert {f["cone"] for f in sysid["fits"]} == {"pyramidal", "elliptic"}
+    best_seed = min(s["rms_rad"] for s in sysid["seeds"])
+    assert sysid["residual"] <= best_seed
+    assert sysid["residual"] == min([best_seed, *(f["rms_rad"] for f in sysid["fits"])])
+    s = data["settings"]
+    # MuJoCo clamps the time constant to two steps; mu stays within a factor 2 of the paper's
+    assert s["solref"][0] >= 2 * s["timestep_s"] and 0.05 <= s["mu"] <= 0.2
+
+
+def test_bad_search_is_one_line(tmp_path: Path) -> None:
+    with pytest.raises(TippetopError, match="--search: expected one of sysid|compass"):
+        _calibrate("--calibration", "fig3:1", "--holdout", "fig7a:0.5", "--search", "grid",
+                   "--out", str(tmp_path / "x.toml"))
+    assert not (tmp_path / "x.toml").exists()
 
 
 @pytest.mark.parametrize(("calibration", "holdout", "match"), [

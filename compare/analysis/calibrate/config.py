@@ -25,6 +25,9 @@ DEFAULT_TIMESTEP_S = 2e-4
 DEFAULT_INTEGRATOR = "RK4"
 #: Candidate x scene runs the search may use.
 DEFAULT_BUDGET_RUNS = 160
+#: The searches: ``sysid`` (MuJoCo's identification, :mod:`.identify`; the default) and
+#: ``compass`` (the hand-written grid and compass search, :mod:`.fit`, kept to compare).
+SEARCHES = ("sysid", "compass")
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,7 @@ class CalibrateConfig:
         workers: Local worker processes (None: all cores).
         use_cache: Read and write the run cache.
         progress: Print the search's progress on stderr.
+        search: ``sysid`` or ``compass`` (:data:`SEARCHES`).
     """
 
     calibration: str = DEFAULT_CALIBRATION
@@ -56,3 +60,4 @@ class CalibrateConfig:
     workers: int | None = None
     use_cache: bool = True
     progress: bool = True
+    search: str = "sysid"

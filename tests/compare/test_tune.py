@@ -1,0 +1,91 @@
+"""The tuning of any top's contact settings (issue 22): its starts, horizons and choices.
+
+The fit itself is tested end to end in ``test_validate.py`` (the paper's top: tuned settings
+that pass every check from held-out starts) and, slow, on a stranger's file here.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tippetop.compare.analysis.calibrate.identify import Bounds
+from tippetop.compare.analysis.tune import (
+    FIT_INTEGRATOR,
+    HELD_OUT,
+    MIN_FIT_S,
+    _cheaper,
+    fit_horizon,
+    seeds,
+    starts_for,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_held_out_starts_differ_from_the_fit() -> None:
+    starts = starts_for(150.0, 0.04)
+    assert starts[0].role == "fit" and starts[0].overrides() == ()  # the file's own start
+    held = starts[1:]
+    assert len(held) == len(HELD_OUT) and all(s.role == "held-out" for s in held)
+    assert {(s.n0, s.theta0) for s in held}.isdisjoint({(150.0, 0.04)})
+    # a faster and a slower spin, a larger tilt (at least 0.05 rad more)
+    assert max(s.n0 for s in held) > 150.0 > min(s.n0 for s in held)
+    assert max(s.theta0 for s in held) >= 0.04 + 0.05
+    assert "init.n0=" in held[0].overrides()[0]
+
+
+def test_the_fit_follows_the_ball_phase() -> None:
+    assert fit_horizon({"t_stem": 0.9, "t_invert": 0.75}, 8.0) == pytest.approx(1.35)
+    assert fit_horizon({"t_stem": None, "t_invert": 2.33}, 8.0) == pytest.approx(3.495)
+    assert fit_horizon({"t_stem": None, "t_invert": 0.2}, 8.0) == MIN_FIT_S
+    assert fit_horizon({}, 8.0) == 8.0  # nothing happens: the whole run
+
+
+def test_cheaper_options_are_the_files_own() -> None:
+    assert _cheaper("Euler", 5e-4, 2e-4) == [("Euler", 5e-4), (FIT_INTEGRATOR, 5e-4)]
+    assert _cheaper("RK4", 2e-4, 2e-4) == []
+    assert _cheaper("implicitfast", 1e-4, 1e-4) == [("implicitfast", 1e-4)]
+
+
+def test_seeds_are_at_the_files_mu_in_both_cones() -> None:
+    s = seeds(0.3, {"cone": "elliptic", "impratio": 1.0, "solref": [1e-4, 1.0],
+                    "solimp": [0.9, 0.95, 0.001, 0.5, 2.0]}, 2e-4)
+    assert {c.cone for c in s} == {"pyramidal", "elliptic"}
+    # the calibrated mu (0.104 at the paper's 0.1) scaled to 0.3; the others at 0.3
+    assert s[0].mu == pytest.approx(0.312) and all(c.mu == 0.3 for c in s[1:])
+    # a file's time constant below two steps is raised to it (MuJoCo's own floor)
+    assert s[-1].timeconst_s == pytest.approx(4e-4)
+
+
+def test_bounds_keep_mu_the_materials() -> None:
+    b = Bounds.around(0.3, 2e-4)
+    assert b.values["mu"] == (0.15, 0.6)
+    assert b.values["timeconst_s"][0] == pytest.approx(4e-4)
+    assert math.isclose(b.values["timeconst_s"][1], 0.05)
+
+
+@pytest.mark.slow
+def test_a_strangers_file_is_tuned_or_told_why(tmp_path: Path) -> None:
+    # a Group II top written as a stranger would (mu = 1, implicitfast at MuJoCo's 2 ms)
+    xml = ROOT / "tests" / "data" / "stranger" / "group2_mu1_implicitfast.xml"
+    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "validate", str(xml),
+                           "--json", "--t-end-s", "4"], capture_output=True, text=True,
+                          timeout=1200, cwd=ROOT)
+    assert proc.returncode in (0, 1), proc.stderr
+    t = json.loads(proc.stdout)["tuned"]
+    assert "skipped" not in t, t
+    # the file's own step and integrator are not kept: implicitfast is first order and this
+    # top's A != C (its Jellett drift), so the fit's RK4 is what it needs
+    assert t["settings"]["integrator"] == "RK4"
+    assert any("first order" in n.get("why", "") for n in t["fit"]["needs"])
+    # either every start passes, or the note names what departs
+    if not t["agrees"]:
+        assert t["departs"] and "depart" in t["note"]
+    else:
+        assert all(v["passed"] is not False for v in t["verified"])
