@@ -258,7 +258,8 @@ def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float
             "theta_asymp": s.get("theta_asymp"), "J_rel_drift": s.get("J_rel_drift"),
             "agrees": row["agrees"], "outcome": row["outcome"], "theta_s": theta_s,
             "theory_outcome": theory_outcome, "reasons": row["reasons"],
-            "version": s.get("version"), "path": s.get("path")}
+            "version": s.get("version"), "path": s.get("path"),
+            "friction_realised": s.get("friction_realised")}
 
 
 def _engines(engines: Sequence[EngineSpec], runs: list[dict[str, Any]]) -> list[dict[str, Any]]:

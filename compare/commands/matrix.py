@@ -168,6 +168,15 @@ def print_matrix(res: dict[str, Any]) -> None:
             print(labelled("", f"follows: {att['follows']}", width))
         if near:
             print(labelled("", f"closer: {closer_text(d, near)}", width))
+    realised = [r for r in res["runs"] if r["mode"] != "paper" and r["engine"] != "ode"
+                and (r.get("friction_realised") or {}).get("samples")]
+    if realised:
+        from tippetop.compare.analysis.friction_realised import realised_sentence
+
+        print("\nthe friction law as each engine realises it (the ball's phase):")
+        for r in realised:
+            name = f"{r['scene']} {r['mode']} {r['engine']}"
+            print(f"  {realised_sentence(name, r['friction_realised'])}")
     print("\nengines (read back from their runs):")
     print(table(("spec", "implementation", "version", "precision", "device"),
                 [(e["spec"], e["implementation"], fmt(e["version"]), e["precision"],

@@ -52,6 +52,13 @@ def test_the_same_mujoco_here_and_in_a_worker_is_the_same_matrix(tmp_path: Path,
             k: b[k] for k in RUN_KEYS - {"engine", "message"}}
         assert a["t_invert"] is not None
     assert res["differences"] == []
+    # the law each engine realised: the same MuJoCo in a worker realises the same one (its
+    # friction forces come back with the samples), and the report draws it per engine
+    fa, fb = (by[e, "native"]["friction_realised"] for e in ("mujoco", HERE))
+    assert fa["samples"] > 100 and fa["mu_fit"] == pytest.approx(fb["mu_fit"], rel=1e-9)
+    html = (out / "report.html").read_text()
+    section = html[html.index("<section id='friction'>"):]
+    assert section.count("<li>") == 2 and "fig3 native mujoco: the contact reaches" in section
 
 
 def test_differences_are_named_metric_by_metric() -> None:

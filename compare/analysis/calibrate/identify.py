@@ -356,7 +356,7 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
         rms, per = problem.rms(s)
         scored.append((rms, per, s))
         if say:
-            say(f"seed {s.label()}: RMS {rms:.4f} rad")
+            say(f"seed {s.label()}: residual {rms:.4f} rad")
     scored.sort(key=lambda x: x[0] if math.isfinite(x[0]) else math.inf)
     best = scored[0]
     fits = []
@@ -369,7 +369,7 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
                          "to": found.label(), "rms_rad": rms,
                          "rollouts": problem.rollouts - before, "iterations": iters})
             if say:
-                say(f"fit ({cone}): RMS {rms0:.4f} -> {rms:.4f} rad, {found.label()}")
+                say(f"fit ({cone}): residual {rms0:.4f} -> {rms:.4f} rad, {found.label()}")
             if rms < best[0]:
                 best = (rms, per, found)
     return Identified(best=best[2], rms_rad=best[0], per_start_rms_rad=best[1],
