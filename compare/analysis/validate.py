@@ -6,6 +6,7 @@ Four runs of the file's top, the checks, the findings and the settings to paste
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -499,8 +500,16 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
         return predicted_outcome(top, J0)[1]
 
     base = tuple(o for o in over if not o.startswith("run.t_end_s="))
+    path = _tune_cache_path(over) if config.use_cache else None
+    if path is not None and path.is_file():
+        try:
+            cached = json.loads(path.read_text("utf-8"))
+            if isinstance(cached, dict) and cached.get("fit"):
+                return {**cached, "cached": True}
+        except (OSError, ValueError):  # a damaged entry is computed again
+            pass
     try:
-        return tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
+        out = tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
                     file_run=file_run, file_timestep_s=file_run.get("timestep_s"),
                     file_integrator=file_run.get("integrator"),
                     run_options={"scheduler": config.scheduler, "workers": config.workers,
@@ -508,6 +517,32 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
                     progress=config.progress, theory=theory, A_over_C=top.A_over_C)
     except TippetopError as exc:
         return {"skipped": str(exc), "agrees": False}
+    if path is not None:
+        from tippetop.compare.nightly.outputs import json_ready
+        from tippetop.compare.running.io import write_atomic
+
+        text = json.dumps(json_ready(out))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, lambda tmp: tmp.write_text(text, "utf-8"))
+    return {**out, "cached": False}
+
+
+def _tune_cache_path(over: tuple[str, ...]) -> Path:
+    """Where a tuning is kept in the cache.
+
+    Keyed by the file's run plan (its MJCF text, start and horizon) and the code, as every
+    cached run.
+    """
+    import hashlib
+
+    from tippetop.compare.running.runner import code_fingerprint
+    from tippetop.models.resources import user_cache_dir
+
+    plan = Task(None, over, "mujoco-file").plan()
+    key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
+                                     "what": "tune/1"}, sort_keys=True,
+                                    default=str).encode()).hexdigest()[:32]
+    return user_cache_dir() / "tune" / f"{key}.json"
 
 
 def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,

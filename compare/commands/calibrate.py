@@ -39,8 +39,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="the calibration file (.toml; default models/calibrated_native.toml)")
     add_force_option(p)
     p.add_argument("--budget-runs", dest="budget_runs", type=int, default=DEFAULT_BUDGET_RUNS,
-                   metavar="N", help=f"runs the search may use, candidates times scenes "
-                   f"(default {DEFAULT_BUDGET_RUNS})")
+                   metavar="N", help=f"runs the search may use, candidates times scenes; "
+                   f"with --search sysid it sets the fits' iterations (runs / (12 x scenes)), "
+                   f"and the "
+                   f"rollouts used are reported, not capped (default {DEFAULT_BUDGET_RUNS})")
     p.add_argument("--timestep-s", dest="timestep_s", type=number, default=DEFAULT_TIMESTEP_S,
                    metavar="S", help=f"MuJoCo timestep of the fit (s; default "
                    f"{DEFAULT_TIMESTEP_S:g})")

@@ -166,7 +166,8 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
           f"{tuned['note']}")
     print(f"{indent}  fitted at n0 = {start['n0']:.4g} rad/s, theta0 = {start['theta0']:.3g} "
           f"rad over {start['t_end_s']:.3g} s: residual {fit['residual']:.3g} rad (theta and J), "
-          f"{fit['runs']} MuJoCo runs, {fit['wall_s']:.0f} s (mujoco.sysid)")
+          f"{fit['runs']} MuJoCo runs, {fit['wall_s']:.0f} s (mujoco.sysid"
+          f"{'; from the cache' if tuned.get('cached') else ''})")
     for line in tuned["mjcf"].splitlines():
         print(f"{indent}  {line}")
     for v in tuned["verified"]:

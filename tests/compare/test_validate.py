@@ -251,6 +251,15 @@ def test_validate_tunes_the_files_contact(paper_example: tuple[Any, Path, int]) 
     assert 0.05 <= s["mu"] <= 0.2
 
 
+def test_a_second_validate_takes_the_tuning_from_the_cache(
+        paper_example: tuple[Any, Path, int]) -> None:
+    first = paper_example[0]["tuned"]
+    proc = _validate(str(EXAMPLE), "--t-end-s", str(T_END), "--json")
+    again = json.loads(proc.stdout)["tuned"]
+    assert again["cached"] is True  # (the fixture's may have come from an earlier session's)
+    assert again["settings"] == first["settings"] and again["agrees"] == first["agrees"]
+
+
 def test_validate_reads_the_top_from_the_file(paper_example: tuple[Any, Path, int]) -> None:
     # the file states the paper's top (R = 1.5 cm, M = 15 g, a = 0.1 R, A = C = 1.35e-6 kg m^2,
     # mu = 0.1) and its keyframe the Fig. 3 start: MuJoCo's compiler and the loader must give
