@@ -138,7 +138,7 @@ def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
     return mujoco.mj_id2name(model, obj, i) or f"#{i}"
 
 
-def _quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Unit quaternion (w, x, y, z) of the smallest rotation taking unit u to unit v."""
     d = float(np.dot(u, v))
     if d < -1 + 1e-12:
@@ -422,7 +422,7 @@ def top_from_model(model: mujoco.MjModel) -> TopModel:
     top_model = TopModel(
         model=model, top=top, body_id=b, joint_id=j, qpos_adr=int(model.jnt_qposadr[j]),
         dof_adr=int(model.jnt_dofadr[j]), ball_geom_id=ball, centre_body_m=centre_body,
-        axis_body=axis, paper_from_body_quat=_quat_between(axis, np.array([0.0, 0.0, 1.0])),
+        axis_body=axis, paper_from_body_quat=quat_between(axis, np.array([0.0, 0.0, 1.0])),
     )
     messages = _extra_geom_warnings(top_model)
     offset = float(np.linalg.norm(centre_body))
@@ -442,6 +442,7 @@ __all__ = [
     "TopModel",
     "load_model",
     "load_top",
+    "quat_between",
     "top_from_mjcf_file",
     "stem_from_model",
     "stem_geoms",

@@ -27,7 +27,7 @@ from tippetop.compare.analysis.calibrate.identify import (
     reference_theta,
 )
 from tippetop.compare.analysis.calibrate.scoring import Candidate, mujoco_defaults
-from tippetop.compare.analysis.validate import FIRST_ORDER
+from tippetop.compare.analysis.verdict import FIRST_ORDER, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
@@ -163,8 +163,6 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     Raises:
         TippetopError: No spin to fit (n0 = 0), or a reference run that failed.
     """
-    from tippetop.compare.analysis.validate import run_entry
-
     if not (math.isfinite(n0) and abs(n0) > 0):
         raise TippetopError(f"tune: expected a spinning start (n0 != 0), got n0 = {n0!r}")
     opts = dict(run_options or {})
@@ -261,8 +259,6 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
             theory: Callable[[float, float, str], str] | None,
             A_over_C: float | None) -> tuple[list[dict[str, Any]], list[Any]]:
     """Every start run by the harness with ``best``, checked with validate's verdict."""
-    from tippetop.compare.analysis.validate import run_entry, verdict
-
     tasks = [Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}",
                          *best.overrides(timestep, integrator)), "mujoco") for s in starts]
     mj = run_tasks(tasks, label="tune verify", **opts)

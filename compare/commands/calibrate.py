@@ -14,6 +14,7 @@ from tippetop.compare.analysis.calibrate.config import (
     DEFAULT_TIMESTEP_S,
     CalibrateConfig,
 )
+from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
@@ -55,10 +56,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mjcf", metavar="FILE", help="tune this MJCF top's own contact settings "
                    "instead: fitted to the reference at the file's start and verified from "
                    "held-out starts, printed as MJCF (validate's 'tuned', without the report; "
-                   "nothing is written)")
+                   "nothing is written; default: none, the paper's calibration)")
     p.add_argument("--t-end-s", dest="t_end_s", type=number, default=None, metavar="S",
-                   help="with --mjcf: simulated time of the verification runs (s; default "
-                   "validate's)")
+                   help=f"with --mjcf: simulated time of the verification runs (s; default "
+                   f"{DEFAULT_T_END_S:g}, validate's)")
     add_parallel_options(p)
     add_json_option(p, help="print the report as one JSON object instead of text")
     p.set_defaults(func=run)
@@ -93,7 +94,6 @@ def run_mjcf(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
-    from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
     from tippetop.compare.analysis.validate import tune_only
     from tippetop.compare.commands.validate import print_tuned
     from tippetop.models.errors import expect

@@ -189,7 +189,7 @@ class Problem:
 
         from tippetop.compare.running.engines import plan_for
         from tippetop.models.scene import load_scene
-        from tippetop.mujoco_runner.model import _quat_between
+        from tippetop.mujoco_runner.model import quat_between
         from tippetop.mujoco_runner.settings import build_model
         from tippetop.mujoco_runner.stepping import start_data
 
@@ -203,7 +203,7 @@ class Problem:
         name = mujoco.mj_id2name(top_model.model, mujoco.mjtObj.mjOBJ_BODY, top_model.body_id)
         body = spec.body(name) if name else spec.bodies[top_model.body_id]
         site = body.add_site(name=SENSOR, pos=[0.0, 0.0, 0.0],
-                             quat=_quat_between(np.array([0.0, 0.0, 1.0]),
+                             quat=quat_between(np.array([0.0, 0.0, 1.0]),
                                                 np.asarray(top_model.axis_body, dtype=float)))
         for key, kind in SENSORS.items():
             spec.add_sensor(name=f"{SENSOR}_{key}", type=getattr(mujoco.mjtSensor, kind),
