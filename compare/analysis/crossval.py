@@ -298,6 +298,17 @@ def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...
         if s["J_rel_drift"] > tol:
             diffs.append({"mode": m, "metric": "J_rel_drift", "value": s["J_rel_drift"],
                           "reference": ref_s["J_rel_drift"], "tolerance": tol, "why": why})
+    # each MuJoCo mode's realised law, rerun in the reference: does it explain the mode?
+    mj = {m: per_mode[m] for m in modes if m.startswith("mujoco") and m != REFERENCE_MODE
+          and (per_mode[m].get("friction_realised") or {}).get("samples")}
+    if mj:
+        from tippetop.compare.analysis.refit import attach_refits
+
+        ref_engine, ref_over = mode_task_parts(REFERENCE_MODE)
+        attach_refits({REFERENCE_MODE: dict(ref.summary), **mj},
+                      {k: results[k].table for k in (REFERENCE_MODE, *mj)}, REFERENCE_MODE,
+                      lambda ov: Task(scene, (*overrides, *ref_over, *ov), ref_engine),
+                      {"scheduler": scheduler, "workers": workers, "use_cache": use_cache})
     return {
         "scene": sc.name,
         "group": theory.group(top),

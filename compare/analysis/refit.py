@@ -11,6 +11,8 @@ sink, the integration) and :func:`refit_result` says what, with numbers.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from typing import Any
 
 import pandas as pd
@@ -135,5 +137,62 @@ def not_refit(reason: str) -> dict[str, Any]:
             "sentence": f"no refit: {reason}"}
 
 
-__all__ = ["THETA_TOL_RAD", "T_TOL_S", "events", "not_refit", "refit_overrides",
-           "refit_result"]
+def attach_refits(runs: dict[str, dict[str, Any]], tables: dict[str, pd.DataFrame],
+                  ref_key: str, task_for: Callable[[tuple[str, ...]], Any],
+                  run_options: dict[str, Any]) -> None:
+    """Set each run's ``friction_realised["refit"]``: the reference rerun with its law.
+
+    Args:
+        runs: Run key -> summary (with ``friction_realised``); the reference among them.
+        tables: Run key -> observables.
+        ref_key: The reference's key.
+        task_for: The reference's task with these ``--set`` strings added (the fitted law).
+        run_options: Keyword arguments of :func:`run_tasks` (the refits run together, cached
+            as every run).
+
+    A law fitted equal to the reference's (paper mode: mu and Lambda to 1e-6) is the
+    reference's own run, not run again.
+    """
+    from tippetop.compare.running.runner import run_tasks
+
+    ref = runs.get(ref_key) or {}
+    if ref.get("theta_final") is None or ref_key not in tables:
+        for key, r in runs.items():
+            if key != ref_key and r.get("friction_realised"):
+                r["friction_realised"]["refit"] = not_refit("the reference run failed")
+        return
+    ref_events = events(ref, tables[ref_key])
+    law = ref.get("friction_realised") or {}
+    todo: list[tuple[str, Any]] = []
+    for key, r in runs.items():
+        fr = r.get("friction_realised")
+        if key == ref_key or not fr:
+            continue
+        ov = refit_overrides(fr)
+        if ov is None:
+            fr["refit"] = not_refit(f"no law fitted ({fr.get('samples', 0)} slipping "
+                                    "samples)")
+            continue
+        same = all(math.isclose(fr[k], law.get(k) or math.nan, rel_tol=1e-6)
+                   for k in ("mu_fit", "Lambda_fit_mps"))
+        if same:
+            fr["refit"] = refit_result(fr, events(r, tables.get(key)), ref_events, ref_events,
+                                       r)
+        else:
+            todo.append((key, task_for(ov)))
+    if not todo:
+        return
+    results = run_tasks([t for _, t in todo], label="refit", **run_options)
+    for (key, _task), res in zip(todo, results, strict=True):
+        r = runs[key]
+        if res.error or res.summary is None or res.table is None:
+            r["friction_realised"]["refit"] = not_refit(f"the refit reference failed: "
+                                                        f"{res.error}")
+            continue
+        r["friction_realised"]["refit"] = refit_result(
+            r["friction_realised"], events(r, tables.get(key)), ref_events,
+            events(res.summary, res.table), r)
+
+
+__all__ = ["THETA_TOL_RAD", "T_TOL_S", "attach_refits", "events", "not_refit",
+           "refit_overrides", "refit_result"]

@@ -285,56 +285,12 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
 
 def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[str, ...],
           config: ValidateConfig) -> None:
-    """Each MuJoCo run's ``friction_realised.refit``: the reference rerun with its fitted law.
+    """Each MuJoCo run's ``friction_realised.refit`` (:func:`.refit.attach_refits`)."""
+    from tippetop.compare.analysis.refit import attach_refits
 
-    A law fitted equal to the file's (paper mode: mu and Lambda to 1e-6) is the reference's
-    own run, not run again; the other refits run together, cached as every run.
-    """
-    from tippetop.compare.analysis.refit import (
-        events,
-        not_refit,
-        refit_overrides,
-        refit_result,
-    )
-
-    ref = runs.get("ode") or {}
-    if ref.get("theta_final") is None or "ode" not in tables:
-        for key, r in runs.items():
-            if key != "ode" and r.get("friction_realised"):
-                r["friction_realised"]["refit"] = not_refit("the reference run failed")
-        return
-    ref_events = events(ref, tables["ode"])
-    law = ref.get("friction_realised") or {}
-    todo: list[tuple[str, Task]] = []
-    for key, r in runs.items():
-        fr = r.get("friction_realised")
-        if key == "ode" or not fr:
-            continue
-        ov = refit_overrides(fr)
-        if ov is None:
-            fr["refit"] = not_refit(f"no law fitted ({fr.get('samples', 0)} slipping "
-                                    "samples)")
-            continue
-        same = all(math.isclose(fr[k], law.get(k) or math.nan, rel_tol=1e-6)
-                   for k in ("mu_fit", "Lambda_fit_mps"))
-        if same:
-            fr["refit"] = refit_result(fr, events(r, tables.get(key)), ref_events, ref_events,
-                                       r)
-        else:
-            todo.append((key, Task(None, (*over, *ov), "ode")))
-    if not todo:
-        return
-    results = run_tasks([t for _, t in todo], scheduler=config.scheduler,
-                        workers=config.workers, use_cache=config.use_cache, label="refit")
-    for (key, _task), res in zip(todo, results, strict=True):
-        r = runs[key]
-        if res.error or res.summary is None or res.table is None:
-            r["friction_realised"]["refit"] = not_refit(f"the refit reference failed: "
-                                                        f"{res.error}")
-            continue
-        r["friction_realised"]["refit"] = refit_result(
-            r["friction_realised"], events(r, tables.get(key)), ref_events,
-            events(res.summary, res.table), r)
+    attach_refits(runs, tables, "ode", lambda ov: Task(None, (*over, *ov), "ode"),
+                  {"scheduler": config.scheduler, "workers": config.workers,
+                   "use_cache": config.use_cache})
 
 
 def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, Any],

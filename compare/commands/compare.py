@@ -165,6 +165,17 @@ def print_compare(res: dict[str, Any]) -> None:
         width = max(len(str(d.get("mode", ""))) for d in diffs)
         for d in diffs:
             print(labelled(str(d.get("mode", "?")), difference_text(d), width))
+    realised = [(m, s["friction_realised"]) for m, s in modes.items()
+                if m.startswith("mujoco") and (s.get("friction_realised") or {}).get("samples")]
+    if realised:
+        from tippetop.compare.analysis.friction_realised import realised_sentence
+
+        print("\nthe friction law as each mode realises it (the ball's phase):")
+        width = max(len(m) for m, _ in realised)
+        for m, fr in realised:
+            print(labelled(m, realised_sentence(m, fr).split(": ", 1)[1], width))
+            if (fr.get("refit") or {}).get("sentence"):
+                print(labelled("", f"refit: {fr['refit']['sentence']}", width))
     ran = []
     for m, s in modes.items():
         if "engine" not in s:
