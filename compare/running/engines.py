@@ -161,6 +161,7 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
                      for ph in res.phases], rolling=rolling, unused=list(plan.unused))
     s["friction_realised"] = friction_realised(res.table, p.friction.mu,
                                                p.friction.Lambda_mps, t_stem=res.t_stem)
+    s["friction_realised"]["refit"] = _no_refit("the reference itself integrates the law")
     if p.stem is not None:
         # Jellett's constant of each contact is conserved only within its phases
         drifts = [ph["J_rel_drift"] for ph in res.phases if ph["J_rel_drift"] is not None]
@@ -219,7 +220,17 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
     s["friction_realised"] = (friction_realised(res.table, law.mu, law.Lambda_mps,
                                                 t_stem=t_stem)
                               if law is not None else None)
+    if s["friction_realised"] is not None:
+        s["friction_realised"]["refit"] = _no_refit(
+            "one run alone: `tippetop compare` and `tippetop validate` rerun the reference "
+            "with the law this run realised")
     return EngineRun(res.table, s, res.status, res.message)
+
+
+def _no_refit(why: str) -> dict[str, Any]:
+    """``friction_realised.refit`` where no refit ran: its keys, None, and why."""
+    return {"t_invert": None, "t_stem": None, "theta_asymp": None, "explains": None,
+            "sentence": f"no refit: {why}"}
 
 
 def run_plan(plan: RunPlan, *,
