@@ -350,12 +350,17 @@ def _tune_cache_path(over: tuple[str, ...]) -> Path:
     """
     import hashlib
 
+    from tippetop.compare.analysis import tune, verdict
+    from tippetop.compare.analysis.calibrate import identify, scoring
     from tippetop.compare.running.runner import code_fingerprint
     from tippetop.models.resources import user_cache_dir
 
     plan = Task(None, over, "mujoco-file").plan()
+    # the runs' code, and the tuning's own (which the runs' fingerprint does not hold)
+    own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
+                                  for m in (tune, verdict, identify, scoring))).hexdigest()
     key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
-                                     "what": "tune/1"}, sort_keys=True,
+                                     "tune": own, "what": "tune/1"}, sort_keys=True,
                                     default=str).encode()).hexdigest()[:32]
     return user_cache_dir() / "tune" / f"{key}.json"
 

@@ -131,6 +131,7 @@ class Identified:
         seeds: The seeds scored: [{cone, settings, rms_rad}].
         fits: The fits run: [{cone, from, to, rms_rad, rollouts, iterations}].
         wall_s: Wall time (s).
+        fit_seeds: The settings each fit started from, in ``fits``' order.
     """
 
     best: Candidate
@@ -140,6 +141,7 @@ class Identified:
     seeds: list[dict[str, Any]] = field(default_factory=list)
     fits: list[dict[str, Any]] = field(default_factory=list)
     wall_s: float = 0.0
+    fit_seeds: list[Candidate] = field(default_factory=list)
 
 
 def reference_theta(table: Any, t_end_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -360,11 +362,13 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
     scored.sort(key=lambda x: x[0] if math.isfinite(x[0]) else math.inf)
     best = scored[0]
     fits = []
+    fit_seeds: list[Candidate] = []
     for cone in dict.fromkeys(s.cone for _, _, s in scored):
         for rms0, _per0, seed in [x for x in scored if x[2].cone == cone][:fits_per_cone]:
             before = problem.rollouts
             found, iters = problem.fit(seed, max_iters)
             rms, per = problem.rms(found)
+            fit_seeds.append(seed)
             fits.append({"cone": cone, "from": seed.label(), "from_rms_rad": rms0,
                          "to": found.label(), "rms_rad": rms,
                          "rollouts": problem.rollouts - before, "iterations": iters})
@@ -376,7 +380,7 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
                       rollouts=problem.rollouts,
                       seeds=[{"cone": s.cone, "settings": s.label(), "rms_rad": r}
                              for r, _, s in scored],
-                      fits=fits, wall_s=time.perf_counter() - t0)
+                      fits=fits, wall_s=time.perf_counter() - t0, fit_seeds=fit_seeds)
 
 
 __all__ = ["FD_STEP_DECADES", "FITTED", "MAX_ITERS", "Bounds", "FitStart", "Identified",
