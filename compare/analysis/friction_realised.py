@@ -135,6 +135,15 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
     return out
 
 
+def not_refit(reason: str) -> dict[str, Any]:
+    """``friction_realised["refit"]`` when no refit ran: every value None, and the reason.
+
+    The refit itself (the reference rerun with the fitted law) is :mod:`.refit`'s.
+    """
+    return {"t_invert": None, "t_stem": None, "theta_asymp": None, "explains": None,
+            "sentence": f"no refit: {reason}"}
+
+
 def realised_sentence(name: str, fr: dict[str, Any]) -> str:
     """One sentence with the numbers: where the engine's force reaches half of mu N."""
     if fr.get("mu_fit") is None:
@@ -150,4 +159,4 @@ def realised_sentence(name: str, fr: dict[str, Any]) -> str:
 
 
 __all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "fit_law", "friction_realised",
-           "law_mu", "realised_sentence", "samples"]
+           "law_mu", "not_refit", "realised_sentence", "samples"]

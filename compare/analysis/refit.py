@@ -17,6 +17,7 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.analysis.friction_realised import not_refit
 from tippetop.compare.analysis.metrics import first_inversion_time, theta_asymp
 from tippetop.compare.nightly.tolerances import TOLERANCES
 
@@ -129,12 +130,6 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
             "tolerances": {"t_invert_s": T_TOL_S, "t_stem_s": T_TOL_S,
                            "theta_asymp_rad": THETA_TOL_RAD},
             "sentence": sentence}
-
-
-def not_refit(reason: str) -> dict[str, Any]:
-    """``refit`` when no refit ran: every value None and the reason."""
-    return {"t_invert": None, "t_stem": None, "theta_asymp": None, "explains": None,
-            "sentence": f"no refit: {reason}"}
 
 
 def attach_refits(runs: dict[str, dict[str, Any]], tables: dict[str, pd.DataFrame],

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from tippetop.compare.analysis.calibrate.identify import (
@@ -26,10 +26,10 @@ from tippetop.compare.analysis.calibrate.identify import (
     identify,
     reference_theta,
 )
-from tippetop.compare.analysis.calibrate.scoring import Candidate, mujoco_defaults
+from tippetop.compare.analysis.calibrate.scoring import Candidate, standard_seeds
 from tippetop.compare.analysis.verdict import FIRST_ORDER, run_entry, verdict
+from tippetop.compare.running.engines import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
-from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
 
 #: The fit's step and integrator: RK4 (a first-order step drifts J on a top with A != C,
@@ -103,16 +103,7 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
     The calibrated settings, MuJoCo's defaults in both cones, the file's own (each at the
     file's mu; the calibrated one's mu scaled as the paper's 0.1 is).
     """
-    from tippetop.models.calibrated import calibrated_native_settings
-
-    out = []
-    cal = calibrated_native_settings()
-    if cal:
-        out.append(Candidate(cal["cone"], float(cal["impratio"]),
-                             max(float(cal["solref"][0]), 2.0 * timestep_s),
-                             float(cal["solimp"][0]), mu * float(cal["mu"]) / CALIBRATION_MU))
-    d = mujoco_defaults(mu)
-    out += [d, replace(d, cone="elliptic" if d.cone == "pyramidal" else "pyramidal")]
+    out = standard_seeds(mu)  # the seeds are clipped to the fit's bounds where they are used
     # and a few contacts between the calibrated (stiff, hard from the start) and MuJoCo's
     # (soft) in both cones: scoring a seed is one rollout, a fit a few hundred
     out += [Candidate(cone, 1.0, max(tc, 2.0 * timestep_s), d0, mu)
@@ -373,16 +364,8 @@ def _mjcf(ran: dict[str, Any]) -> str:
     """The tuned settings as MJCF attributes to paste (``<option>`` and the contact's)."""
     if ran.get("timestep_s") is None:
         return ""
-
-    def nums(v: Any) -> str:
-        return " ".join(f"{x:g}" for x in v)
-
-    friction = [ran.get("mu") or 0.0, ran.get("torsional") or 0.005,
-                ran.get("rolling") or 0.0001]
-    return (f'<option timestep="{ran["timestep_s"]:g}" integrator="{ran["integrator"]}" '
-            f'cone="{ran["cone"]}" impratio="{ran["impratio"]:g}"/>\n'
-            f'<geom ... condim="{ran.get("condim", 3)}" friction="{nums(friction)}" '
-            f'solref="{nums(ran["solref"])}" solimp="{nums(ran["solimp"])}"/>')
+    option, geom = mjcf_attributes(ran)
+    return f"{option}\n<geom ... {geom}/>"
 
 
 def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> str:

@@ -27,6 +27,7 @@ from tippetop.compare.analysis.verdict import (
     run_entry,
     verdict,
 )
+from tippetop.compare.running.engines import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
@@ -172,10 +173,7 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
     if s.get("timestep_s") is None:
         return {}
 
-    def nums(v: Any) -> str:
-        return " ".join(f"{x:g}" for x in v)
-
-    friction = [s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001]
+    option, geom = mjcf_attributes(s)
     mine = [c for c in checks if c["mode"] == "mujoco-native"]
     departs = [c["check"] for c in mine if not c["passed"]]
     agrees = bool(mine) and not departs
@@ -188,15 +186,13 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
         note = (f"these settings do not fix it: with them MuJoCo still departs in "
                 f"{', '.join(departs)}. They were calibrated on the paper's tops at mu = "
                 f"{CALIBRATION_MU:g} and their friction scaled to the file's mu = "
-                f"{friction[0]:.3g}, which does not carry over to this top")
+                f"{s.get('mu') or 0.0:.3g}, which does not carry over to this top")
         if paper_agrees:
             note += ("; the paper's law in the same model (mujoco-paper, the harness's "
                      "callback) does follow the reference")
     return {
-        "option": (f'<option timestep="{s["timestep_s"]:g}" integrator="{s["integrator"]}" '
-                   f'cone="{s["cone"]}" impratio="{s["impratio"]:g}"/>'),
-        "geom": (f'condim="{s["condim"]}" friction="{nums(friction)}" '
-                 f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'),
+        "option": option,
+        "geom": geom,
         "where": "on the ball's, the stem's and the table's geoms (MuJoCo mixes the two "
                  "geoms' values of a contact), or on the file's contact pairs if it has any "
                  "(they override the geoms')",
@@ -240,8 +236,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
                         use_cache=config.use_cache, label="validate")
     top = plan.top
     init = plan.init
-    J0 = (top.C_kgm2 * init.n0 * (top.R_m * math.cos(init.theta0) - top.a_m)
-          + top.A_kgm2 * init.Omega0 * top.R_m * math.sin(init.theta0) ** 2)
+    J0 = float(theory.jellett_from_spin(top, init.n0, init.theta0, init.Omega0))
     theta_pred, outcome_pred = predicted_outcome(top, J0)
     th = theory.summary(top)
     model = {
@@ -308,11 +303,10 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
     top, init = plan.top, plan.init
     file_run = runs.get("mujoco-file") or {}
 
-    def theory(n0: float, theta0: float, role: str) -> str:
+    def outcome_at(n0: float, theta0: float, role: str) -> str:
         Omega0 = init.Omega0 if role == "fit" else 0.0
-        J0 = (top.C_kgm2 * n0 * (top.R_m * math.cos(theta0) - top.a_m)
-              + top.A_kgm2 * Omega0 * top.R_m * math.sin(theta0) ** 2)
-        return predicted_outcome(top, J0)[1]
+        return predicted_outcome(top, float(theory.jellett_from_spin(top, n0, theta0,
+                                                                     Omega0)))[1]
 
     base = tuple(o for o in over if not o.startswith("run.t_end_s="))
     path = _tune_cache_path(over) if config.use_cache else None
@@ -329,7 +323,7 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
                     file_integrator=file_run.get("integrator"),
                     run_options={"scheduler": config.scheduler, "workers": config.workers,
                                  "use_cache": config.use_cache},
-                    progress=config.progress, theory=theory, A_over_C=top.A_over_C)
+                    progress=config.progress, theory=outcome_at, A_over_C=top.A_over_C)
     except TippetopError as exc:
         return {"skipped": str(exc), "agrees": False}
     if path is not None:

@@ -153,6 +153,53 @@ def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataF
     return "".join(parts)
 
 
+#: Samples drawn per run in a friction-law figure: a readable cloud (every n-th beyond it).
+FRICTION_POINTS = 3000
+
+
+def friction_law_figure(runs: Sequence[tuple[str, str, pd.DataFrame, Mapping[str, Any]]], *,
+                        title: str | None = None, height: float = 4.2) -> str:
+    """|F_t| / (mu N) against the slip speed (log axis), as ``<img>`` HTML.
+
+    Args:
+        runs: (label, colour, table, its ``friction_realised``) per run: its samples that touch
+            and slip before ``before_t_s`` (the stem) as points.
+        title: The axes' title, if any.
+        height: Figure height (inches).
+
+    The curve is the paper's law, at the first run's ``mu_law`` and ``Lambda_law_mps``.
+    """
+    from tippetop.compare.analysis.friction_realised import law_mu, samples
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(9.0, height))
+    mu, lam = runs[0][3]["mu_law"], runs[0][3]["Lambda_law_mps"]
+    lo, hi = [], []
+    for label, colour, table, fr in runs:
+        before = fr.get("before_t_s")
+        smp = samples(table if before is None else table[table["t"] < before])
+        if not len(smp):
+            continue
+        if len(smp) > FRICTION_POINTS:
+            smp = smp.iloc[:: len(smp) // FRICTION_POINTS + 1]
+        ax.plot(smp["slip"], smp["mu_eff"] / mu, ".", ms=2.5, alpha=0.5, color=colour,
+                label=label)
+        lo.append(float(smp["slip"].min()))
+        hi.append(float(smp["slip"].max()))
+    if lo:
+        v = np.logspace(math.log10(min(lo)), math.log10(max(hi)), 200)
+        ax.plot(v, law_mu(v, mu, lam) / mu, "k-", lw=1.2,
+                label=f"the paper's law (mu {mu:g}, Lambda {1e3 * lam:g} mm/s)")
+    ax.set_xscale("log")
+    ax.set_xlabel("slip speed |v_P| (m/s)")
+    ax.set_ylabel("|F_t| / (mu N)")
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    return png(fig)
+
+
 def sweeps_section(results: Mapping[str, Any]) -> str:
     """theta_asymp against n0 with the theory's theta_s(n0), one figure per paper figure."""
     from tippetop.compare.analysis import theory

@@ -15,6 +15,7 @@ import pandas as pd
 
 from tippetop.compare.analysis.matrix import table_key
 from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
 
 _UNITS = {"theta_asymp": "rad", "theta_final": "rad", "t_invert": "s", "t_stem": "s"}
@@ -167,9 +168,8 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     Per scene of MuJoCo's own friction: each engine's samples as points, the paper's law as
     the curve, and a sentence per run.
     """
-    from tippetop.compare.analysis.friction_realised import law_mu, realised_sentence, samples
+    from tippetop.compare.analysis.friction_realised import realised_sentence
 
-    plt = pyplot()
     engines = [e["spec"] for e in res["engines"] if e["spec"] != "ode"]
     by = {(r["scene"], r["mode"], r["engine"]): r for r in res["runs"]}
     parts: list[str] = []
@@ -177,40 +177,16 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     for scene in res["scenes"]:
         for mode in (m for m in res["modes"] if m != "paper"):
             got = []
-            for spec in engines:
+            for i, spec in enumerate(engines):
                 run, t = by.get((scene, mode, spec)), tables.get(table_key(scene, mode, spec))
                 fr = (run or {}).get("friction_realised") or {}
                 if t is None or not len(t) or not fr.get("samples"):
                     continue
-                before = fr.get("before_t_s")
-                got.append((spec, t if before is None else t[t["t"] < before], fr))
+                got.append((spec, _COLOURS[i % len(_COLOURS)], t, fr))
                 items.append(realised_sentence(f"{scene} {mode} {spec}", fr))
-            if not got:
-                continue
-            fig, ax = plt.subplots(figsize=(9.0, 3.8))
-            mu, lam = got[0][2]["mu_law"], got[0][2]["Lambda_law_mps"]
-            lo, hi = [], []
-            for i, (spec, t, _fr) in enumerate(got):
-                smp = samples(t)
-                if len(smp) > 3000:
-                    smp = smp.iloc[:: len(smp) // 3000 + 1]
-                if not len(smp):
-                    continue
-                ax.plot(smp["slip"], smp["mu_eff"] / mu, ".", ms=2.5, alpha=0.5,
-                        color=_COLOURS[i % len(_COLOURS)], label=spec)
-                lo.append(float(smp["slip"].min()))
-                hi.append(float(smp["slip"].max()))
-            if lo:
-                v = np.logspace(math.log10(min(lo)), math.log10(max(hi)), 200)
-                ax.plot(v, law_mu(v, mu, lam) / mu, "k-", lw=1.2,
-                        label=f"the paper's law (mu {mu:g}, Lambda {1e3 * lam:g} mm/s)")
-            ax.set_xscale("log")
-            ax.set_xlabel("slip speed |v_P| (m/s)")
-            ax.set_ylabel("|F_t| / (mu N)")
-            ax.set_title(f"{scene}, {mode} mode", fontsize=10)
-            ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-            fig.tight_layout()
-            parts.append(png(fig))
+            if got:
+                parts.append(friction_law_figure(got, title=f"{scene}, {mode} mode",
+                                                 height=3.8))
     if not parts:
         return ""
     return ("<section id='friction'><h2>The friction law as each engine realises it</h2>"

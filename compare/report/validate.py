@@ -11,6 +11,7 @@ import pandas as pd
 
 from tippetop.compare.analysis.validate import MODES, mode_of, show_value
 from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
 
@@ -215,37 +216,14 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     Each run's samples as points (log slip axis), the paper's law as the curve, and a sentence
     with the numbers per run (``friction_realised``).
     """
-    from tippetop.compare.analysis.friction_realised import law_mu, realised_sentence, samples
+    from tippetop.compare.analysis.friction_realised import realised_sentence
 
     keys = [k for k in _keys(res) if k in tables and res["runs"][k].get("friction_realised")]
     if not keys:
         return ""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9.0, 4.2))
-    fr0 = res["runs"][keys[0]]["friction_realised"]
-    mu, lam = fr0["mu_law"], fr0["Lambda_law_mps"]
-    lo, hi = [], []
-    for k in keys:
-        t_stem = res["runs"][k]["friction_realised"].get("before_t_s")
-        tab = tables[k] if t_stem is None else tables[k][tables[k]["t"] < t_stem]
-        smp = samples(tab)
-        if not len(smp):
-            continue
-        if len(smp) > 3000:  # a readable cloud: every n-th sample
-            smp = smp.iloc[:: len(smp) // 3000 + 1]
-        ax.plot(smp["slip"], smp["mu_eff"] / mu, ".", ms=2.5, alpha=0.5,
-                color=_colour(k, keys), label=_label(k))
-        lo.append(float(smp["slip"].min()))
-        hi.append(float(smp["slip"].max()))
-    if lo:
-        v = np.logspace(math.log10(min(lo)), math.log10(max(hi)), 200)
-        ax.plot(v, law_mu(v, mu, lam) / mu, "k-", lw=1.2,
-                label=f"the paper's law (mu {mu:g}, Lambda {1e3 * lam:g} mm/s)")
-    ax.set_xscale("log")
-    ax.set_xlabel("slip speed |v_P| (m/s)")
-    ax.set_ylabel("|F_t| / (mu N)")
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.tight_layout()
+    fig = friction_law_figure([(_label(k), _colour(k, keys), tables[k],
+                                res["runs"][k]["friction_realised"]) for k in keys])
+
     def sentence(k: str) -> str:
         fr = res["runs"][k]["friction_realised"]
         refit = (fr.get("refit") or {}).get("sentence")
@@ -259,7 +237,7 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
             "speed; the curve is the paper's law. Refit: the reference run again with the law "
             "each run realised; if it turns over and brings the stem down when the run does "
             "(within the nightly's tolerances), the friction law is the difference.</p>"
-            + png(fig) + f"<ul>{lines}</ul></section>")
+            + fig + f"<ul>{lines}</ul></section>")
 
 
 def groups_section(res: Mapping[str, Any]) -> str:

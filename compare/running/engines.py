@@ -16,7 +16,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.analysis.friction_realised import friction_realised
+from tippetop.compare.analysis.friction_realised import friction_realised, not_refit
 from tippetop.compare.analysis.metrics import (
     first_inversion_time,
     jellett_drift,
@@ -94,6 +94,25 @@ def describe_ran(summary: dict[str, Any]) -> str:
     return f"{head}native friction: " + ", ".join(friction)
 
 
+def mjcf_attributes(summary: dict[str, Any]) -> tuple[str, str]:
+    """The contact settings a MuJoCo run ran, as MJCF to paste.
+
+    Returns:
+        The ``<option .../>`` element (timestep, integrator, cone, impratio) and the contact's
+        attributes (condim, friction with its torsional and rolling parts, solref, solimp),
+        read from the run's summary.
+    """
+    def nums(v: Any) -> str:
+        return " ".join(f"{x:g}" for x in v)
+
+    s = summary
+    friction = [s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001]
+    return ((f'<option timestep="{s["timestep_s"]:g}" integrator="{s["integrator"]}" '
+             f'cone="{s["cone"]}" impratio="{s["impratio"]:g}"/>'),
+            (f'condim="{s.get("condim", 3)}" friction="{nums(friction)}" '
+             f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'))
+
+
 def plan_for(scene: Scene, engine: str) -> RunPlan:
     """The run plan of ``scene`` in ``engine`` (``ode``, ``mujoco``, or a mode name).
 
@@ -161,7 +180,7 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
                      for ph in res.phases], rolling=rolling, unused=list(plan.unused))
     s["friction_realised"] = friction_realised(res.table, p.friction.mu,
                                                p.friction.Lambda_mps, t_stem=res.t_stem)
-    s["friction_realised"]["refit"] = _no_refit("the reference itself integrates the law")
+    s["friction_realised"]["refit"] = not_refit("the reference itself integrates the law")
     if p.stem is not None:
         # Jellett's constant of each contact is conserved only within its phases
         drifts = [ph["J_rel_drift"] for ph in res.phases if ph["J_rel_drift"] is not None]
@@ -221,16 +240,10 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
                                                 t_stem=t_stem)
                               if law is not None else None)
     if s["friction_realised"] is not None:
-        s["friction_realised"]["refit"] = _no_refit(
+        s["friction_realised"]["refit"] = not_refit(
             "one run alone: `tippetop compare` and `tippetop validate` rerun the reference "
             "with the law this run realised")
     return EngineRun(res.table, s, res.status, res.message)
-
-
-def _no_refit(why: str) -> dict[str, Any]:
-    """``friction_realised.refit`` where no refit ran: its keys, None, and why."""
-    return {"t_invert": None, "t_stem": None, "theta_asymp": None, "explains": None,
-            "sentence": f"no refit: {why}"}
 
 
 def run_plan(plan: RunPlan, *,

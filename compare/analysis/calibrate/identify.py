@@ -181,6 +181,7 @@ class Problem:
         #: is held in the residual before then)
         self.ball_until = list(ball_until) if ball_until else [math.inf] * len(self.starts)
         self._top = (1.0, 1.0, 1.0, 0.0)
+        self._measured: dict[int, int] = {}  # id of a start's measurement -> the start
         self._cone = "pyramidal"
         self._template = Candidate("pyramidal", 1.0, 0.02, 0.9, 0.1)
 
@@ -226,10 +227,8 @@ class Problem:
         return R * np.einsum("ni,ni->n", L, ez) - a * L[:, 2]
 
     def _sequence_of(self, meas: Any) -> int:
-        for i, (grid, _theta) in enumerate(self.references):
-            if len(grid) == len(meas.times) and grid[-1] == meas.times[-1]:
-                return i
-        return 0
+        """The start whose measurement ``meas`` is (sysid hands back the object it was given)."""
+        return self._measured[id(meas)]
 
     def _candidate(self, params: Any) -> Candidate:
         values = {k: float(10.0 ** params[k].value[0]) for k in FITTED}
@@ -238,6 +237,7 @@ class Problem:
     def sequences(self, seed: Candidate) -> list[Any]:
         """One ``ModelSequences`` per start, measured: the reference's cos theta."""
         sysid = self.sysid
+        self._measured.clear()  # the previous fit's sequences are done with
         out = []
         for i, (start, (grid, theta)) in enumerate(zip(self.starts, self.references,
                                                        strict=True)):
@@ -249,6 +249,7 @@ class Problem:
             data[:, model.sensor(f"{SENSOR}_z").adr[0] + 2] = np.cos(theta)
             meas = sysid.TimeSeries.from_names(grid, data, model)  # every sensor, in order
             spec = _Key(i, model)
+            self._measured[id(meas)] = i
             out.append(sysid.ModelSequences(start.label, spec, "theta", x0, control, meas))
         return out
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 import shlex
 import time
-from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -46,14 +45,14 @@ from tippetop.compare.analysis.calibrate.scoring import (
     SOLIMP_TAIL,
     W_J,
     W_T,
-    Candidate,
     mujoco_defaults,
     mujoco_defaults_label,
     parse_scene_list,
+    standard_seeds,
 )
 from tippetop.compare.running.io import check_output_path, write_atomic
 from tippetop.compare.running.runner import code_fingerprint
-from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
+from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
 
 
@@ -113,14 +112,7 @@ def sysid_search(ev: Evaluator, config: CalibrateConfig) -> tuple[SearchResult, 
     bounds = Bounds.around(CALIBRATION_MU, config.timestep_s)
     problem = Problem(starts, refs, config.timestep_s, config.integrator, bounds,
                       max(1, default_threads()), ball)
-    shipped = calibrated_native_settings()
-    seeds = []
-    if shipped:
-        seeds.append(Candidate(shipped["cone"], float(shipped["impratio"]),
-                               float(shipped["solref"][0]), float(shipped["solimp"][0]),
-                               float(shipped["mu"])))
-    d = mujoco_defaults()
-    seeds += [d, replace(d, cone="elliptic" if d.cone == "pyramidal" else "pyramidal")]
+    seeds = standard_seeds()
 
     def say(line: str) -> None:
         if config.progress:

@@ -124,6 +124,23 @@ def mujoco_defaults(mu: float = CALIBRATION_MU) -> Candidate:
                      solimp_tail=(solimp[1], solimp[2], solimp[3], solimp[4]))
 
 
+def standard_seeds(mu: float = CALIBRATION_MU) -> list[Candidate]:
+    """Where a sysid fit starts (:mod:`.identify`).
+
+    The shipped calibrated settings, if any, with their mu scaled to ``mu`` as the paper's 0.1
+    is, then MuJoCo's defaults at ``mu`` in both cones (:func:`mujoco_defaults`).
+    """
+    from tippetop.models.calibrated import calibrated_native_settings
+
+    out = []
+    cal = calibrated_native_settings()
+    if cal:
+        out.append(Candidate(cal["cone"], float(cal["impratio"]), float(cal["solref"][0]),
+                             float(cal["solimp"][0]), mu * float(cal["mu"]) / CALIBRATION_MU))
+    d = mujoco_defaults(mu)
+    return [*out, d, replace(d, cone="elliptic" if d.cone == "pyramidal" else "pyramidal")]
+
+
 def mujoco_defaults_label(mu: float = CALIBRATION_MU) -> str:
     """What :func:`mujoco_defaults` is, in words, with the MuJoCo version it was read from."""
     import mujoco
