@@ -49,3 +49,23 @@ def configure_numba_cache() -> Path | None:
     folder = user_cache_dir() / "numba" / cache_key()
     numba.config.CACHE_DIR = str(folder)
     return folder
+
+
+def is_compiled(source: str | Path) -> bool:
+    """Whether numba's cache holds compiled code of a module's functions (any of them).
+
+    Args:
+        source: The module's file (its ``__file__``).
+
+    Returns:
+        True when the cache folder numba uses for that file has an index (``*.nbi``) of the
+        file's functions, so a run loads them instead of compiling.
+    """
+    import numba
+    from numba.core.caching import _CacheLocator
+
+    path = Path(source).resolve()
+    folder = Path(numba.config.CACHE_DIR or path.parent / "__pycache__")
+    if numba.config.CACHE_DIR:
+        folder = folder / _CacheLocator.get_suitable_cache_subpath(str(path))
+    return any(folder.glob(f"{path.stem}.*.nbi"))

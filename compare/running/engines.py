@@ -260,8 +260,10 @@ def run_plan(plan: RunPlan, *,
         run = _run_ode if plan.engine == "ode" else _run_mujoco
         return run(plan, progress)
     if progress:  # a run for a person: say first when it will take long (stderr only)
+        from tippetop.compare.running.compiling import say_compile
         from tippetop.compare.running.cost import say_long_run
 
+        say_compile([plan])
         say_long_run([plan])
     label = f"{plan.scene} [{plan.engine}]"
     with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:

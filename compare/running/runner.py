@@ -28,6 +28,7 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.running.compiling import say_compile
 from tippetop.compare.running.cost import expected_cost_s, say_long_run
 from tippetop.compare.running.engines import check_engine, plan_for, run_plan
 from tippetop.compare.running.io import write_atomic
@@ -255,12 +256,21 @@ class ResultCache:
         write_atomic(js, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
-def _progress(plans: list[RunPlan], label: str, slots: int, cached: int) -> WorkProgress | None:
-    """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal."""
+def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
+              shared: int = 0) -> WorkProgress | None:
+    """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal.
+
+    Its count is of the runs to compute; the note says what the others are (``cached`` taken
+    from the cache, ``shared`` the same run as another task's, run once), so that the count
+    and the note add up to the tasks asked for.
+    """
     if not sys.stderr.isatty() or not plans:
         return None
+    note = [f"{cached} from the cache"] if cached else []
+    if shared:
+        note.append(f"{shared} the same as another, run once")
     return WorkProgress(label, [expected_cost_s(p) for p in plans], slots=slots,
-                        note=f"{cached} from the cache" if cached else "")
+                        note=", ".join(note))
 
 
 def _slots(scheduler: str | None, workers: int | None, n_tasks: int) -> int:
@@ -333,8 +343,11 @@ def run_tasks(
                     key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
     unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
     slots = _slots(scheduler, workers, len(unique))
+    say_compile([unique_plans[key] for key, t in unique if t.spec not in pythons])
     say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
-    bar = _progress(list(unique_plans.values()), label, slots, len(tasks) - len(unique))
+    hits = sum(r is not None and r.cached for r in results)
+    shared = sum(len(idx) - 1 for idx in todo.values())
+    bar = _progress(list(unique_plans.values()), label, slots, hits, shared)
     writer = _CacheWriter(cache) if cache else None
     finished = False
     try:

@@ -1,0 +1,95 @@
+"""The note before runs that compile code: what is compiled, where, and about how long.
+
+The reference ODE and MuJoCo's stepper are numba code, compiled on first use and cached on disk
+(:mod:`tippetop.reference_ode._jit`). In a fresh cache the first run sits for seconds with
+nothing to show; a person at a terminal is told once, before the runs start.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from typing import Any, TextIO
+
+#: Compiled parts: (module, what it is, seconds to compile on a 2-core machine, which plans need
+#: it). Measured in a fresh ``TIPPETOP_CACHE`` against a second time: importing the integrator
+#: 13.7 s against 1.2 s, then ``tippetop simulate fig3`` 5.5 s against 1.5 s; ``--set
+#: ode.formulation=paper`` 2.8 s against 1.4 s; MuJoCo's paper mode 3.9 s against 3.0 s, native
+#: mode 3.3 s against 2.4 s.
+PARTS: tuple[tuple[str, str, float], ...] = (
+    ("tippetop.reference_ode.dop853", "the reference's integrator (DOP853)", 12.0),
+    ("tippetop.reference_ode.top", "the equations of motion", 4.0),
+    ("tippetop.reference_ode.paper", "the paper's Appendix A equations", 1.5),
+    ("tippetop.mujoco_runner.stepper", "MuJoCo's stepper", 1.0),
+    ("tippetop.mujoco_runner.friction_callback", "the paper's law as a MuJoCo callback", 1.0),
+)
+#: Below this many seconds of compiling nothing is said: the run's own output follows soon.
+QUIET_BELOW_S = 3.0
+#: A reference run that enters a rolling phase compiles it then (measured: about 6 s more).
+ROLLING_S = 6.0
+
+_said = False
+
+
+def _needs(plan: Any) -> set[str]:
+    """The modules of :data:`PARTS` a run of ``plan`` compiles (the in-process engines')."""
+    if plan.ode is not None:
+        out = {"tippetop.reference_ode.dop853", "tippetop.reference_ode.top"}
+        if plan.ode.options.formulation == "paper":
+            out.add("tippetop.reference_ode.paper")
+        return out
+    out = {"tippetop.mujoco_runner.stepper"}
+    if plan.mujoco.mode == "paper" and plan.mujoco.law is not None:
+        out.add("tippetop.mujoco_runner.friction_callback")
+    return out
+
+
+def compile_note(plans: Sequence[Any]) -> str | None:
+    """The line to print before running ``plans`` in this process's engines, or None.
+
+    Args:
+        plans: Run plans (:class:`tippetop.models.plan.RunPlan`) of the installed engines.
+
+    Returns:
+        ``tippetop: compiling the reference ODE (...) into FOLDER, once for this code: about
+        11 s``, or None when the cache holds the code or compiling takes under
+        :data:`QUIET_BELOW_S`.
+    """
+    from importlib.util import find_spec
+
+    from tippetop.reference_ode import NUMBA_CACHE_DIR
+    from tippetop.reference_ode._jit import is_compiled
+
+    needed: set[str] = set()
+    for p in plans:
+        needed |= _needs(p)
+    todo = []
+    for module, what, seconds in PARTS:
+        spec = find_spec(module)  # not imported: importing the integrator compiles it
+        if module in needed and spec is not None and spec.origin \
+                and not is_compiled(spec.origin):
+            todo.append((what, seconds))
+    total = sum(s for _, s in todo)
+    if total < QUIET_BELOW_S:
+        return None
+    where = f" into {NUMBA_CACHE_DIR}" if NUMBA_CACHE_DIR is not None else ""
+    rolling = (f" ({ROLLING_S:.0f} s more if a run enters a rolling phase)"
+               if needed & {"tippetop.reference_ode.top"} and todo else "")
+    return (f"tippetop: compiling {' and '.join(w for w, _ in todo)}{where}, once for this code:"
+            f" about {total:.0f} s{rolling}")
+
+
+def say_compile(plans: Sequence[Any], stream: TextIO | None = None) -> None:
+    """Print :func:`compile_note` once per process, on a terminal only (stderr by default)."""
+    global _said
+    out = stream or sys.stderr
+    if _said or not out.isatty():
+        return
+    note = compile_note(plans)
+    if note is not None:
+        _said = True
+        out.write(note + "\n")
+        out.flush()
+
+
+__all__ = ["PARTS", "QUIET_BELOW_S", "compile_note", "say_compile"]

@@ -1,0 +1,57 @@
+"""The note before runs that compile: what, where and about how long; once, on a terminal."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+import tippetop.compare.running.compiling as compiling
+import tippetop.reference_ode._jit as jit
+from tippetop.compare.running.engines import plan_for
+from tippetop.models.scene import load_scene
+
+
+class _Tty(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def _plan(engine: str, *sets: str):
+    return plan_for(load_scene("fig3", list(sets)), engine)
+
+
+def test_a_fresh_cache_says_what_compiles_and_how_long(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(jit, "is_compiled", lambda source: False)
+    note = compiling.compile_note([_plan("ode")])
+    assert note is not None
+    assert "compiling the reference's integrator (DOP853) and the equations of motion" in note
+    assert "about 16 s" in note and "rolling phase" in note
+    # MuJoCo alone compiles in about 2 s: nothing to say before it
+    assert compiling.compile_note([_plan("mujoco", "mujoco.friction=native")]) is None
+
+
+def test_nothing_is_said_when_the_code_is_cached(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(jit, "is_compiled", lambda source: True)
+    assert compiling.compile_note([_plan("ode"), _plan("mujoco")]) is None
+
+
+def test_said_once_and_only_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(jit, "is_compiled", lambda source: False)
+    monkeypatch.setattr(compiling, "_said", False)
+    pipe, tty = io.StringIO(), _Tty()
+    compiling.say_compile([_plan("ode")], stream=pipe)
+    assert pipe.getvalue() == ""
+    compiling.say_compile([_plan("ode")], stream=tty)
+    compiling.say_compile([_plan("ode")], stream=tty)
+    assert tty.getvalue().count("compiling") == 1
+
+
+def test_the_cache_check_reads_numbas_own_folder() -> None:
+    # this session has run the reference (the suite's runs before this test, or the import of
+    # the integrator, which compiles its typed functions): its index files are where numba
+    # keeps them, and a module never compiled has none
+    import tippetop.reference_ode.dop853 as dop853
+
+    assert jit.is_compiled(dop853.__file__)
+    assert not jit.is_compiled(compiling.__file__)
