@@ -61,6 +61,7 @@ class Case:
     A_over_C: str = ""
     a_over_R: str = ""
     spec: str = "mujoco"
+    departs: str = ""
 
     @property
     def engine(self) -> str:
@@ -84,7 +85,7 @@ class Catalogue:
 
 _COMMON_KEYS = {"name", "category", "kind", "scene", "set", "modes", "profiles", "metrics",
                 "description"}
-_KIND_KEYS = {"run": set(), "atlas": {"A_over_C", "a_over_R"},
+_KIND_KEYS = {"run": {"departs"}, "atlas": {"A_over_C", "a_over_R"},
               "threshold": {"which", "method", "rel_tol", "max_rounds", "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
 
@@ -173,12 +174,22 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
                  "a_over_R": _req(entry, "a_over_R", str, where)}
         parse_grid(extra["A_over_C"], f"{where}.A_over_C")
         parse_grid(extra["a_over_R"], f"{where}.a_over_R")
+    elif kind == "run" and "departs" in entry:
+        departs = entry["departs"]
+        if not (isinstance(departs, dict) and departs and all(
+                m in modes and isinstance(why, str) and why.strip()
+                for m, why in departs.items())):
+            raise TippetopError(f"{where}.departs: expected a table of the case's modes "
+                                f"({', '.join(modes)}) = 'why it departs from the theory', got "
+                                f"{departs!r}")
     elif kind == "sweep":
         extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
                  "figure": entry.get("figure", ""), "label": entry.get("label", "")}
     return [Case(id=f"{category}/{name}[{mode}]", name=name, category=category, kind=kind,
                  scene=scene, mode=mode, metrics=tuple(metrics), profiles=tuple(profs),
-                 set=tuple(over), description=entry.get("description", ""), **extra)
+                 set=tuple(over), description=entry.get("description", ""),
+                 departs=(entry.get("departs") or {}).get(mode, "") if kind == "run" else "",
+                 **extra)
             for mode in modes]
 
 

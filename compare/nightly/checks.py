@@ -96,6 +96,7 @@ def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
         "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
         "overrides": list(c.overrides), "description": c.description or scene.description,
         "metrics": list(c.metrics), "status": case_status(checks), "error": cr.error,
+        "expected_departure": c.departs or None,
         "wall_s": cr.wall_s, "params": params, "theory": th, "expect": expectation(c, scene),
         "values": cr.values, "checks": checks, **cr.detail,
     }

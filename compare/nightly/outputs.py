@@ -148,43 +148,60 @@ def count(records: Sequence[dict[str, Any]]) -> dict[str, int]:
 
 
 def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
-    """The one-screen summary printed at the end."""
+    """The one-screen summary printed at the end.
+
+    Its last lines give the two answers apart: regression against the baseline (what
+    ``result`` and the exit status say) and agreement with the theory, where a departure the
+    catalogue expects (its ``departs`` reason) is told apart from one it does not.
+    """
     c = results["counts"]
     lines = [f"tippetop nightly: profile {results['profile']}, {c['cases']} cases, "
              f"{c['checks']} checks in {results['wall_s']:.0f} s",
              f"  checks: {c['checks_pass']} pass, {c['checks_fail']} fail, {c['checks_new']} "
              f"new, {c['checks_error']} error"]
 
-    def block(title: str, items: list[str]) -> None:
+    def block(title: str, items: list[str], where: str = "results.json") -> None:
         if not items:
             return
         lines.append(title)
         lines.extend(f"  {s}" for s in items[:SUMMARY_LINES])
         if len(items) > SUMMARY_LINES:
-            lines.append(f"  ... and {len(items) - SUMMARY_LINES} more (see results.json)")
+            lines.append(f"  ... {len(items)} in all: every one in {out_dir / where}")
 
     recs = results["cases"]
-    title = ("CHANGED (accepted into the baseline):" if results.get("baseline_update")
-             else "REGRESSIONS:")
-    block(title, [f"{r['id']} {ch['message']}" for r in recs for ch in r["checks"]
-                  if ch["status"] == "fail"])
-    block("ERRORS (case did not run):", [f"{r['id']}: {r['error']}" for r in recs
-                                         if r["status"] == "error"])
+    update = results.get("baseline_update")
+    title = "CHANGED (accepted into the baseline):" if update else "REGRESSIONS:"
+    regressions = [f"{r['id']} {ch['message']}" for r in recs for ch in r["checks"]
+                   if ch["status"] == "fail"]
+    block(title, regressions, "results.json (cases, checks with status 'fail')")
+    errors = [f"{r['id']}: {r['error']}" for r in recs if r["status"] == "error"]
+    block("ERRORS (case did not run):", errors)
     new = {r["id"]: [ch["metric"] for ch in r["checks"] if ch["status"] == "new"]
            for r in recs}
     block("NEW (no baseline yet; --update-baseline adds them):",
           [f"{r['id']}: " + (f"all {len(new[r['id']])} metrics"
                              if len(new[r["id"]]) == len(r["checks"])
                              else ", ".join(new[r["id"]])) for r in recs if new[r["id"]]])
-    upd = results.get("baseline_update")
-    if upd:
-        lines.append(f"baseline updated: {results['baseline_file']} ({upd['written']} cases "
-                     f"written, {upd['added']} added, {upd['kept']} kept, {upd['dropped']} "
-                     f"dropped)")
-    else:
-        lines.append(f"baseline: {results['baseline_file']}")
-    block("AGAINST THE THEORY (outcome and theta_asymp; the report's verdict table):",
-          crossval_lines(results.get("crossval", [])))
+    if update:
+        lines.append(f"baseline updated: {results['baseline_file']} ({update['written']} cases "
+                     f"written, {update['added']} added, {update['kept']} kept, "
+                     f"{update['dropped']} dropped)")
+    rows = results.get("crossval", [])
+    theory = theory_answer(rows)
+    if rows:
+        lines.append("AGAINST THE THEORY (outcome and theta_asymp; the report's verdict table):")
+        lines.extend(f"  {s}" for s in crossval_lines(rows))
+        expected, unexpected = theory["expected"], theory["unexpected"]
+        if expected:
+            lines.append("  departures the catalogue expects (with its reason):")
+            lines.extend(f"    {s}" for s in expected)
+        if unexpected:
+            lines.append("  NOT AGREEING, NOT EXPECTED:")
+            lines.extend(f"    {s}" for s in unexpected[:UNEXPECTED_LINES])
+            if len(unexpected) > UNEXPECTED_LINES:
+                lines.append(f"    ... {len(unexpected)} in all: every one in "
+                             f"{out_dir / 'report.html'} (#verdict) and results.json "
+                             f"(crossval)")
     if results.get("videos", {}).get("requested"):
         lines.append(f"videos: {results['videos']['status']}")
         block("VIDEOS FAILED:", [f"{k}: {v}" for k, v in
@@ -192,13 +209,72 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
     if results.get("report_error"):
         lines.append(f"REPORT FAILED: {results['report_error']}")
     lines.append(f"output: {out_dir}")
-    lines.append(f"result: {results['verdict']}")
+    n_fail, n_checks = c["checks_fail"], c["checks"]
+    if update:
+        regression = f"baseline updated ({len(regressions)} changed checks accepted)"
+    elif results.get("no_baseline"):
+        regression = "not checked (--no-baseline: every check is new)"
+    elif n_fail:
+        regression = f"REGRESSION, {n_fail} of {n_checks} checks (listed above)"
+    else:
+        regression = (f"none, {c['checks_pass']} of {n_checks} checks pass"
+                      + (f", {c['checks_new']} new" if c["checks_new"] else ""))
+    if errors:
+        regression += f"; {len(errors)} cases did not run"
+    lines.append(f"regression against the baseline ({results['baseline_file']}): {regression}")
+    lines.append(f"agreement with the theory: {theory['text']}")
+    lines.append(f"result: {results['verdict']} (regression against the baseline"
+                 + ("; the theory's answer is the line above)" if rows else ")"))
     return "\n".join(lines)
 
 
+#: Unexpected disagreements with the theory listed in the summary before pointing at the report.
+UNEXPECTED_LINES = 30
+
+
+def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Agreement with the theory in one line, and the runs that do not agree, told apart.
+
+    Returns:
+        ``text`` (``38 of 43 runs agree; 4 depart as the catalogue expects; 1 not expected
+        (1 inconclusive, listed above)``), ``expected`` and ``unexpected``: a line per run
+        that does not agree, an expected one with the catalogue's reason.
+    """
+    from tippetop.compare.presentation.verdict import cell_class
+
+    expected, unexpected = [], []
+    kinds: dict[str, int] = {}
+    for r in rows:
+        cls = cell_class(r)
+        if cls == "agree":
+            continue
+        head = f"{r['scene']} [{r['mode']}]: {'; '.join(r.get('reasons') or [])}"
+        if r.get("expected_departure") and cls == "depart":
+            expected.append(f"{head} -- expected: {r['expected_departure']}")
+        else:
+            unexpected.append(f"{cls}: {head}")
+            kinds[cls] = kinds.get(cls, 0) + 1
+    agree = len(rows) - len(expected) - len(unexpected)
+    if not rows:
+        text = "not checked (no run cases)"
+    else:
+        text = f"{agree} of {len(rows)} runs agree"
+        if expected:
+            text += (f"; {len(expected)} {'departs' if len(expected) == 1 else 'depart'} as "
+                     f"the catalogue expects")
+        if unexpected:
+            noun = {"depart": "departing", "inconclusive": "inconclusive", "failed": "failed"}
+            text += (f"; {len(unexpected)} not expected ("
+                     + ", ".join(f"{n} {noun.get(k, k)}" for k, n in kinds.items())
+                     + ", listed above)")
+        elif agree + len(expected) == len(rows):
+            text += "; none unexpected"
+    return {"text": text, "expected": expected, "unexpected": unexpected}
+
+
 def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """Per mode, how many runs agree with the theory; then each run that does not, and why."""
-    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
+    """Per mode, how many runs agree with the theory (the runs that do not: theory_answer)."""
+    from tippetop.compare.presentation.verdict import agreement_counts, mode_order
 
     counts = agreement_counts(rows)
     out = []
@@ -206,9 +282,6 @@ def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         k = counts[m]
         rest = ", ".join(f"{k[c]} {c}" for c in ("depart", "inconclusive", "failed") if k[c])
         out.append(f"{m}: {k['agree']} of {k['runs']} agree" + (f" ({rest})" if rest else ""))
-    for r in rows:
-        if cell_class(r) != "agree":
-            out.append(f"  {r['scene']} [{r['mode']}]: {'; '.join(r['reasons'])}")
     return out
 
 

@@ -17,9 +17,15 @@ MAIN_MODES = ("ode", "mujoco-paper", "mujoco-native")
 
 
 def scene_key(rec: Mapping[str, Any]) -> str:
-    """Runs of the same scene with the same ``set`` overrides share a row and their figures."""
+    """Runs of the same scene with the same ``set`` overrides share a row and their figures.
+
+    A case that changes its scene (``set``) is named by the case, whose name says what runs
+    (``groupII-A105-e010``), with its overrides; a case of a scene as it is, by the scene.
+    """
     extra = ", ".join(rec.get("set") or [])
-    return f"{rec['scene']}" + (f" ({extra})" if extra else "")
+    if not extra:
+        return f"{rec['scene']}"
+    return f"{rec.get('name') or rec['scene']} ({extra})"
 
 
 def top_of(params: Mapping[str, Any]) -> TopParams:
@@ -71,7 +77,11 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                                or r["params"].get("t_end_s"))
         expect = r.get("expect") or {}
         row.update(case=r["id"], name=r["name"], category=r["category"],
-                   paper_theta_asymp=expect.get("theta_asymp"))
+                   paper_theta_asymp=expect.get("theta_asymp"),
+                   expected_departure=r.get("expected_departure"))
+        if row["expected_departure"] and cell_class(row) == "depart":
+            row["notes"] = [*row.get("notes", []),
+                            f"expected by the catalogue: {row['expected_departure']}"]
         rows.append(row)
     return rows
 
