@@ -188,5 +188,13 @@ def main(argv: list[str] | None = None) -> int:
     return run_main(args)
 
 
+def entry() -> int:
+    """The ``tippetop`` script: :func:`main` in a process of its own (see ``own_process``)."""
+    from tippetop.compare.running.interrupt import own_process
+
+    own_process()
+    return main()
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(entry())

@@ -181,11 +181,13 @@ _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 def run_main(args: argparse.Namespace) -> int:
     """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
-    from tippetop.compare.running.interrupt import install_sigterm_handler
+    from tippetop.compare.running.interrupt import install_sigterm_handler, outputs_complete
 
     install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
     try:
-        return run_command(args)
+        status = run_command(args)
+        outputs_complete()  # the work is done: no interrupt in the interpreter's exit
+        return status
     except KeyboardInterrupt:
         sys.stderr.write("tippetop: interrupted\n")
         return EXIT_INTERRUPTED

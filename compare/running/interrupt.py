@@ -31,4 +31,31 @@ def install_sigterm_handler() -> None:
     signal.signal(signal.SIGTERM, on_sigterm)
 
 
-__all__ = ["Terminated", "install_sigterm_handler"]
+#: Set by a command's process entry point (:func:`own_process`): only then may
+#: :func:`outputs_complete` change the process's signal handling (not in a caller's process,
+#: such as a test calling a command's ``main``).
+_owns_process = False
+
+
+def own_process() -> None:
+    """Called by a process entry point (the ``tippetop`` script, ``python -m ...``)."""
+    global _owns_process
+    _owns_process = True
+
+
+def outputs_complete() -> None:
+    """From now on Ctrl-C and SIGTERM are ignored: the command's outputs are all in place.
+
+    Called when a command's output folder has been moved into place, and when a command has
+    returned: what is left is printing and the interpreter's exit (the process pools' threads
+    joined), where an interrupt would print a traceback from the standard library and turn a
+    complete result into exit 130, or into a 0 that says nothing. Outside the main thread it
+    does nothing, and so it does unless :func:`own_process` was called.
+    """
+    if not _owns_process or threading.current_thread() is not threading.main_thread():
+        return
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+__all__ = ["Terminated", "install_sigterm_handler", "outputs_complete", "own_process"]

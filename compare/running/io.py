@@ -85,11 +85,16 @@ def staged_output_dir(out: Path) -> Iterator[Path]:
     Yields the staging folder. On success a new ``out`` is the staging folder renamed (one
     atomic step); into an existing one (empty, or ``--force``) its files are moved, each by an
     atomic rename, next to the folder's other files. On any error or Ctrl-C the staging folder
-    is removed and ``out`` is as it was.
+    is removed and ``out`` is as it was. Once the files are being moved into place, Ctrl-C
+    and SIGTERM are ignored for the rest of the process (:func:`.interrupt.outputs_complete`):
+    the folder is whole, and what follows is the summary.
     """
+    from tippetop.compare.running.interrupt import outputs_complete
+
     stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
         yield stage
+        outputs_complete()
         if not out.exists():
             stage.chmod(0o777 & ~_umask())
             os.rename(stage, out)

@@ -284,3 +284,30 @@ def test_a_long_run_says_how_long_first_on_stderr_only(tmp_path: Path) -> None:
     stdout, stderr = proc.communicate(timeout=30)
     assert first.startswith("tippetop: about 11 min of computing (1.0e+07 MuJoCo steps")
     assert proc.returncode == 130 and stdout == "" and "Traceback" not in stderr
+
+
+def test_ctrl_c_as_a_nightly_finishes_is_no_traceback_and_an_honest_status(
+        tmp_path: Path) -> None:
+    # Ctrl-C (several, as a person presses it) the moment the nightly's folder appears: the
+    # folder is then whole, so the exit status is the nightly's own (0 here), not 130; and
+    # nothing from the interpreter's exit (the process pools' threads joined) reaches stderr.
+    # Before the fix: "Exception ignored in: <module 'threading'> ... KeyboardInterrupt" and
+    # exit 0, or 130 with the folder complete.
+    out = tmp_path / "night"
+    proc = _start(["nightly", "--profile", "quick", "--cases",
+                   "paper/fig3[ode],paper/fig4[ode]", "--out", str(out)], tmp_path)
+    deadline = time.monotonic() + START_S + 60
+    while not out.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.001)
+    assert out.exists(), proc.communicate()[1]
+    for _ in range(5):
+        try:
+            os.killpg(proc.pid, signal.SIGINT)
+        except ProcessLookupError:
+            break
+        time.sleep(0.02)
+    stdout, stderr = proc.communicate(timeout=STOP_S * 4)
+    assert "Traceback" not in stderr and "Exception ignored" not in stderr, stderr
+    assert proc.returncode == 0, stderr
+    assert (out / "results.json").exists() and (out / "report.html").exists()
+    assert "result: OK" in stdout
