@@ -7,6 +7,7 @@ import html
 import io
 import math
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any
 
 from tippetop.compare.presentation.figures import pyplot
@@ -94,11 +95,24 @@ class Html(str):
     """A table cell that is already HTML."""
 
 
+#: Marks a page as tippetop's own, so that rebuilding it may replace it (report/__main__.py).
+GENERATOR = "<meta name='generator' content='tippetop'>"
+
+
+def made_by_tippetop(path: Path) -> bool:
+    """Whether the HTML file at ``path`` is a page :func:`page` wrote."""
+    try:
+        with path.open("rb") as f:
+            return GENERATOR.encode() in f.read(4096)
+    except OSError:
+        return False
+
+
 def page(title: str, body: Iterable[str]) -> str:
     """A self-contained HTML page: inline CSS and data-URI images only (its CSP forbids more)."""
     return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
             "<meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; "
             "img-src data:; style-src 'unsafe-inline'\">"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
+            f"{GENERATOR}<title>{esc(title)}</title><style>{CSS}</style></head><body>"
             + "\n".join(body) + "</body></html>\n")

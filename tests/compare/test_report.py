@@ -20,6 +20,7 @@ import os
 import select
 import shutil
 import subprocess
+import sys
 import time
 from html.parser import HTMLParser
 from pathlib import Path
@@ -371,3 +372,24 @@ def test_results_crossval_rows(nightly_out: Path) -> None:
     assert coulomb["d_t_invert"] is None
     viscous = rows[("fig3", "ode-viscous")]
     assert viscous["d_t_invert"] == pytest.approx(viscous["t_invert"] - ode["t_invert"])
+
+
+def test_the_readmes_rebuild_command_works_on_a_fresh_nightly_folder(
+        nightly_out: Path, tmp_path: Path) -> None:
+    """``python -m tippetop.compare.report DIR/results.json``, as the README gives it, replaces
+    the report the nightly wrote; a report.html tippetop did not write is kept without --force,
+    in one line that does not name an --out the user never passed."""
+    folder = tmp_path / "night"
+    shutil.copytree(nightly_out, folder)
+    cmd = [sys.executable, "-m", "tippetop.compare.report", str(folder / "results.json")]
+    before = (folder / "report.html").stat().st_mtime_ns
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert res.returncode == 0 and res.stdout.strip() == str(folder / "report.html"), res.stderr
+    assert (folder / "report.html").stat().st_mtime_ns != before
+    (folder / "report.html").write_text("<p>my notes</p>")
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert res.returncode == 2 and "--out" not in res.stderr.split(":", 2)[1]
+    assert res.stderr.count("\n") == 1 and "tippetop did not write it" in res.stderr
+    assert (folder / "report.html").read_text() == "<p>my notes</p>"
+    res = subprocess.run([*cmd, "--force"], capture_output=True, text=True, check=False)
+    assert res.returncode == 0 and "<!DOCTYPE html>" in (folder / "report.html").read_text()
