@@ -79,11 +79,12 @@ def _overrides(config: ValidateConfig) -> tuple[str, ...]:
 
 
 def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
-             A_over_C: float | None = None) -> list[str]:
+             A_over_C: float | None = None, t_end_s: float | None = None) -> list[str]:
     """What the file's own settings get wrong against the reference, with numbers.
 
     With ``A_over_C`` (the top's) a Jellett drift under a first-order integrator names the
-    gyroscopic torque's integration among its causes (:func:`gyroscopic_drift`).
+    gyroscopic torque's integration among its causes (:func:`gyroscopic_drift`); with
+    ``t_end_s`` (the runs' horizon, s) an event only one run reaches says within how long.
     """
     f, ref = runs.get("mujoco-file"), runs.get("ode")
     if not f or not ref:
@@ -102,7 +103,8 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
                        f"({a:.2f} s against {b:.2f} s)")
         elif (a is None) != (b is None):
             who = "the reference" if a is None else "the file"
-            out.append(f"only {who} {what} within the run")
+            within = f"the run's {t_end_s:g} s" if t_end_s is not None else "the run"
+            out.append(f"only {who} {what} within {within}")
     if f["end_state"] != ref["end_state"]:
         out.append(f"it ends {f['end_state']} (theta {fs['theta_final']:.2f} rad) where the "
                    f"reference ends {ref['end_state']} (theta {rs['theta_final']:.2f} rad)")
@@ -117,8 +119,8 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
         gyro = gyroscopic_drift(fs, A_over_C)
         causes.append(f"the integration ({step} is {gyro})" if gyro else
                       f"the integration ({step}; RK4 or a shorter step tells)")
-        out.append(f"Jellett's constant drifts by {j:.1e} before the stem (a torque off the "
-                   f"contact point or an error: {', '.join(causes)})")
+        out.append(f"Jellett's constant drifts by {j:.1e} (relative) before the stem (a torque "
+                   f"off the contact point or an error: {', '.join(causes)})")
     by_check = {c["check"]: c for c in checks if c["mode"] == "mujoco-file"}
     energy = by_check.get("energy_never_rises")
     if energy is not None and not energy["passed"] and energy["value"] is not None:
@@ -142,6 +144,23 @@ def show_value(v: Any) -> str:
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
+def show_setting(setting: str, v: Any) -> str:
+    """A setting of :data:`SETTINGS` with its units: ``0.002 s``, ``[0.02 s, 1]``.
+
+    solref's first number is a time (s) when it is positive (MuJoCo's timeconst, dampratio;
+    negative, it is a stiffness and a damping); solimp's third is a width (m).
+    """
+    if setting == "timestep_s" and isinstance(v, int | float):
+        return f"{v:g} s"
+    if setting == "solref" and isinstance(v, list | tuple) and len(v) == 2 and v[0] > 0:
+        return f"[{v[0]:g} s, {v[1]:g}]"
+    if setting == "solimp" and isinstance(v, list | tuple) and len(v) >= 3:
+        parts = [f"{x:g}" for x in v]
+        parts[2] += " m"
+        return "[" + ", ".join(parts) + "]"
+    return show_value(v)
+
+
 def setting_changes(file_run: dict[str, Any], native: dict[str, Any]) -> list[dict[str, Any]]:
     """Where the calibrated settings differ from the file's, as both ran (read back)."""
     out = []
@@ -158,9 +177,41 @@ def setting_changes(file_run: dict[str, Any], native: dict[str, Any]) -> list[di
     return out
 
 
+def scaled_mu_clause(file_mu: float | None, native_mu: float | None) -> str:
+    """How the calibrated settings' friction came to this file: its mu and theirs, both said.
+
+    The calibration was made at :data:`CALIBRATION_MU` and its MuJoCo mu is scaled in
+    proportion to the law's: at the file's mu the calibrated contact's mu may differ from the
+    file's (1.04 for a file's 1, say), and then the sentence gives both.
+
+    Args:
+        file_mu: The file's mu (its ball geom's sliding friction), or None if unknown.
+        native_mu: The mu the calibrated run's contact ran with, or None if unknown.
+    """
+    head = f"They were calibrated on the paper's tops at mu = {CALIBRATION_MU:g}"
+    if file_mu is None or native_mu is None or file_mu <= 0:
+        known = file_mu if file_mu is not None else native_mu
+        if known is None:
+            return f"{head} and their friction scaled to this file's mu"
+        return f"{head} and their friction scaled to mu = {known:.4g}"
+    if math.isclose(native_mu, file_mu, rel_tol=1e-9):
+        return f"{head} and their friction scaled to the file's mu = {file_mu:.4g}"
+    at_calibration = native_mu / file_mu * CALIBRATION_MU
+    return (f"{head} (where MuJoCo's contact needs mu = {at_calibration:.4g} to follow the "
+            f"law's {CALIBRATION_MU:g}) and scaled to the file's mu = {file_mu:.4g}, which "
+            f"gives MuJoCo's contact mu = {native_mu:.4g}")
+
+
 def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
-               file_run: dict[str, Any] | None = None) -> dict[str, Any]:
+               file_run: dict[str, Any] | None = None,
+               file_mu: float | None = None) -> dict[str, Any]:
     """The calibrated native settings that ran, as MJCF to paste, and whether they agree.
+
+    Args:
+        native: The ``mujoco-native`` run (:func:`run_entry`).
+        checks: The verdict's checks (:func:`verdict`).
+        file_run: The ``mujoco-file`` run, for the settings that differ from the file's.
+        file_mu: The file's mu as read from it (default: the file's run's ``mu``).
 
     Returns:
         ``option`` and ``geom`` (MJCF text), ``where`` (which geoms take the attributes),
@@ -183,10 +234,11 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
         note = ("with these settings MuJoCo's own friction passes every check against the "
                 "theory and the reference: paste them into the file")
     else:
+        if file_mu is None and file_run is not None:
+            file_mu = file_run.get("mu")
         note = (f"these settings do not fix it: with them MuJoCo still departs in "
-                f"{', '.join(departs)}. They were calibrated on the paper's tops at mu = "
-                f"{CALIBRATION_MU:g} and their friction scaled to the file's mu = "
-                f"{s.get('mu') or 0.0:.3g}, which does not carry over to this top")
+                f"{', '.join(departs)}. {scaled_mu_clause(file_mu, s.get('mu'))}: the "
+                f"calibration does not carry over to this top")
         if paper_agrees:
             note += ("; the paper's law in the same model (mujoco-paper, the harness's "
                      "callback) does follow the reference")
@@ -270,8 +322,9 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "runs": runs,
         "verdict": checks,
         "agrees": all(c["passed"] for c in checks),
-        "findings": findings(runs, checks, top.A_over_C),
-        "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"))
+        "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
+        "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"),
+                                  file_mu=loaded["mu"])
                        if "mujoco-native" in runs else {}),
         "tuned": tuned,
         "tables": tables,
@@ -403,5 +456,6 @@ def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
 
 
 __all__ = ["DEFAULT_T_END_S", "ENERGY_RISE_FLOOR", "EVENT_RTOL", "EVENT_TOL_S", "FIRST_ORDER",
-           "ISOTROPIC_TOL", "J_TOL", "MODES", "ValidateConfig", "findings", "gyroscopic_drift",
-           "mode_of", "run_entry", "run_key", "suggestion", "validate", "verdict"]
+           "ISOTROPIC_TOL", "J_TOL", "MODES", "ValidateConfig", "findings",
+           "gyroscopic_drift", "mode_of", "run_entry", "run_key", "scaled_mu_clause",
+           "show_setting", "show_value", "suggestion", "validate", "verdict"]

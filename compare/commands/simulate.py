@@ -16,7 +16,7 @@ from tippetop.compare.commands.options import (
     load_scene,
     print_json,
 )
-from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_value, ran_lines
+from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_stiff, fmt_value, ran_lines
 from tippetop.models.errors import TippetopError
 
 if TYPE_CHECKING:
@@ -105,12 +105,21 @@ def read_plan(args: argparse.Namespace) -> RunPlan:
 
 
 def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) -> None:
-    """A run's summary: the results, then what ran, then the unused ``--set`` keys."""
+    """A run's summary: the results, then what ran, then the unused ``--set`` keys.
+
+    Every number with its unit, to four significant digits (a relative drift to two, and
+    said to be relative); a value that is not there says why.
+    """
     ran = [k for k in RAN_KEYS if k in summary]
     rest = [(k, v) for k, v in summary.items() if k not in RAN_KEYS and k != "unused"]
     pairs = [("scene", scene), *rest]
     width = max(len(k) for k in [*(k for k, _ in pairs), *ran, "unused"])
-    print("\n".join(f"{k:<{width}}  {fmt_value(k, v)}" for k, v in pairs))
+
+    def said(k: str, v: Any) -> str:
+        # what ran for stiff friction, beside the rolling phases the run did (or did not) enter
+        return fmt_stiff(v, summary.get("rolling")) if k == "stiff" else fmt_value(k, v)
+
+    print("\n".join(f"{k:<{width}}  {said(k, v)}" for k, v in pairs))
     if ran:
         print("what ran:")
         print("\n".join(ran_lines(summary, width)))

@@ -96,14 +96,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_friction(res: dict[str, Any]) -> None:
     """The law each MuJoCo run realised, and whether the refit reference explains the run."""
-    from tippetop.compare.analysis.friction_realised import realised_sentence
+    from tippetop.compare.presentation.terminal import realised_text
 
     lines = []
     for mode, r in res["runs"].items():
         fr = r.get("friction_realised")
         if mode == "ode" or not fr:
             continue
-        lines.append(f"    {realised_sentence(mode, fr)}")
+        lines.append(f"    {realised_text(mode, fr)}")
         refit = fr.get("refit")
         if refit:
             lines.append(f"      refit: {refit['sentence']}")
@@ -112,25 +112,42 @@ def _print_friction(res: dict[str, Any]) -> None:
         print("\n".join(lines))
 
 
+def model_line(m: dict[str, Any]) -> str:
+    """The top as read from the file, and the theory's outcome: every number with its unit.
+
+    A/C and a/R are ratios and mu a coefficient (no unit); a value the file does not give says
+    so.
+    """
+    from tippetop.compare.presentation.terminal import fmt
+
+    mu = (fmt(float(m["mu"])) if m.get("mu") is not None
+          else "not read (the file's ball geom gives no friction)")
+    theta_s = (f"theta_s = {fmt(float(m['theta_s']), 'rad')}" if m.get("theta_s") is not None
+               else "no theta_s for this spin")
+    return (f"tippetop validate {m['file']}: Group {m['group']}, A/C = {m['A_over_C']:.4g}, "
+            f"a/R = {m['a_over_R']:.4g}, mu = {mu}, n0 = {fmt(float(m['n0']), 'rad/s')}: the "
+            f"theory says {m['theory_outcome']} ({theta_s})")
+
+
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
-    from tippetop.compare.analysis.validate import show_value
+    from tippetop.compare.analysis.validate import show_setting
+    from tippetop.compare.presentation.terminal import check_text
 
     checks = res["verdict"]
     n_pass = sum(c["passed"] for c in checks)
-    m = res["model"]
-    print(f"tippetop validate {m['file']}: Group {m['group']}, A/C = {m['A_over_C']:.4g}, "
-          f"a/R = {m['a_over_R']:.4g}, mu = {m['mu']}, n0 = {m['n0']:.4g} rad/s: the theory "
-          f"says {m['theory_outcome']} (theta_s = {m['theta_s']:.3f} rad)")
+    print(model_line(res["model"]))
     print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
           f"checks pass, {res['t_end_s']:g} s simulated)")
     width = max(len(c["check"]) for c in checks)
     mwidth = max(len(c["mode"]) for c in checks)
     for c in checks:
         if not c["passed"]:
-            v = c["value"]
-            shown = f"{v:.3g}" if isinstance(v, float) else str(v)
+            shown = check_text(c, res["t_end_s"], res["runs"])
+            # an event neither time of which is a number: the text already says who never has it
+            said = c["value"] is None and c["check"] in ("t_invert", "t_stem")
+            why = "" if said or not c["note"] else f"; {c['note']}"
             print(f"  departs: {c['mode']:<{mwidth}} {c['check']:<{width}}  {shown}  "
-                  f"(tolerance {c['tolerance']}; {c['note']})")
+                  f"(tolerance {c['tolerance']}{why})")
     for mode, r in res["runs"].items():
         if r.get("note"):
             print(f"  note: {mode}: {r['note']}")
@@ -144,7 +161,8 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
         print(f"  {title}: {sug['note']}")
         if sug.get("changes"):
             print("    changes from the file's: " + "; ".join(
-                f"{c['setting']} {show_value(c['file'])} -> {show_value(c['calibrated'])}"
+                f"{c['setting']} {show_setting(c['setting'], c['file'])} -> "
+                f"{show_setting(c['setting'], c['calibrated'])}"
                 for c in sug["changes"]))
         print(f"    {sug['option']}")
         print(f"    <geom ... {sug['geom']}/>")
@@ -160,18 +178,22 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
     if tuned.get("skipped"):
         print(f"{indent}tuned settings: not run ({tuned['skipped']})")
         return
+    from tippetop.compare.presentation.terminal import fmt, fmt_duration
+
     fit = tuned["fit"]
     start = fit["starts"][0]
     print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}: "
           f"{tuned['note']}")
-    print(f"{indent}  fitted at n0 = {start['n0']:.4g} rad/s, theta0 = {start['theta0']:.3g} "
-          f"rad over {start['t_end_s']:.3g} s: residual {fit['residual']:.3g} rad (theta and J), "
-          f"{fit['runs']} MuJoCo runs, {fit['wall_s']:.0f} s (mujoco.sysid"
+    print(f"{indent}  fitted at n0 = {fmt(start['n0'], 'rad/s')}, theta0 = "
+          f"{fmt(start['theta0'], 'rad')} over {fmt(start['t_end_s'], 's')}: residual "
+          f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs, "
+          f"{fmt_duration(fit['wall_s'])} (mujoco.sysid"
           f"{'; from the cache' if tuned.get('cached') else ''})")
     for line in tuned["mjcf"].splitlines():
         print(f"{indent}  {line}")
     for v in tuned["verified"]:
-        where = (f"n0 = {v['n0']:.4g} rad/s, theta0 = {v['theta0']:.3g} rad ({v['role']})")
+        where = (f"n0 = {fmt(v['n0'], 'rad/s')}, theta0 = {fmt(v['theta0'], 'rad')} "
+                 f"({v['role']})")
         if v["passed"] is None:
             state = v.get("note", "not verified")
         elif v["passed"]:

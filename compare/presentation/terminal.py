@@ -1,7 +1,8 @@
 """What a person reads in the terminal: values with units, and tables.
 
 :func:`fmt` and :func:`fmt_value` turn a value into text with the unit its key implies,
-:func:`table` lines up columns, :func:`cache_line` says where a command's runs went. This
+:func:`check_text` a verdict check's value, :func:`realised_text` the friction law a run
+realised; :func:`table` lines up columns, :func:`cache_line` says where a command's runs went. This
 module imports only the standard library (and, for the cache's folder,
 :mod:`tippetop.models.resources`).
 """
@@ -24,6 +25,8 @@ _KEY_UNITS: dict[str, str] = {
     "n0": "rad/s", "n1": "rad/s", "n2": "rad/s", "n3": "rad/s", "n4": "rad/s", "nc": "rad/s",
     "measured": "rad/s", "theory": "rad/s", "t_invert": "s", "t_stem": "s",
     "theta_rms": "rad", "A": "kg m^2", "C": "kg m^2", "mu": "", "law_mu": "",
+    # MuJoCo's solver tolerance (a relative improvement of its cost), the ODE's rtol
+    "tolerance": "relative", "rtol": "relative",
 }
 #: Name endings that carry a unit, longest first.
 _SUFFIX_UNITS: tuple[tuple[str, str], ...] = (
@@ -100,13 +103,18 @@ def fmt_percent(x: float | None, digits: int = 3) -> str:
 
 
 def fmt_duration(seconds: float | None) -> str:
-    """Wall time for a person: ``0.025 s``, ``18.1 s``, ``2 min 05 s``, ``1 h 02 min``."""
+    """Wall time for a person: ``24.78 ms``, ``18.06 s``, ``2 min 05 s``, ``1 h 02 min``.
+
+    Four significant digits below a minute, as every other number (in ms below a second).
+    """
     if seconds is None:
         return MISSING
     if not math.isfinite(seconds):
         return fmt_float(seconds)
+    if 0 < seconds < 1:
+        return f"{fmt_float(1e3 * seconds)} ms"
     if seconds < 60:
-        return f"{fmt_float(seconds, 3)} s"
+        return f"{fmt_float(seconds)} s"
     s = int(round(seconds))
     if s < 3600:
         return f"{s // 60} min {s % 60:02d} s"
@@ -164,13 +172,143 @@ def _phases(value: Any) -> str | None:
 
 #: What None means for keys where "-" would hide it.
 _NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)"}
+#: What None means among the settings that ran (:func:`ran_lines`): a coefficient MuJoCo's
+#: contact has no row for, or a start that is not a keyframe.
+_RAN_NONE_MEANS = {
+    "mu": "none (condim 1: MuJoCo's contact has no friction of its own)",
+    "torsional": "none (condim below 4: no torsional friction)",
+    "rolling": "none (condim below 6: no rolling friction)",
+    "law_mu": "none (no friction law of the harness's)",
+    "keyframe": "none (the scene's own start, not a keyframe)",
+}
+#: ``stiff`` of a reference run (what ran for stiff friction) as a person reads it.
+_STIFF_MEANS = {"rolling": "rolling phases where the law turns stiff",
+                "off": "off (the law throughout, as asked)"}
+
+
+def fmt_rolling(rolling: Any) -> str:
+    """The reference's rolling phases (``{"phases", "t_s"}``) as a person reads them."""
+    if not (isinstance(rolling, dict) and "phases" in rolling):
+        return fmt(rolling)
+    n = rolling["phases"]
+    if not n:
+        return "no rolling phase entered"
+    return (f"{fmt(n)} rolling {'phase' if n == 1 else 'phases'}, "
+            f"{fmt(rolling.get('t_s'), 's')} in all")
+
+
+def fmt_stiff(stiff: Any, rolling: Any = None) -> str:
+    """What ran for stiff friction, coherent with the rolling phases the run entered.
+
+    ``rolling`` (rolling phases were available where the law turns stiff) says whether the run
+    entered any: ``rolling phases where the law turns stiff: available, never entered``.
+    """
+    text = _STIFF_MEANS.get(stiff, fmt(stiff))
+    if stiff == "rolling" and isinstance(rolling, dict) and "phases" in rolling:
+        n = rolling["phases"]
+        text += (": available, never entered" if not n else
+                 f": available, entered {fmt(n)} {'time' if n == 1 else 'times'} "
+                 f"({fmt(rolling.get('t_s'), 's')} in all)")
+    return text
+
+
+def realised_text(name: str, fr: dict[str, Any]) -> str:
+    """The friction law a run realised (``friction_realised``), four digits and their units.
+
+    ``NAME: the contact reaches half of mu N at a slip of 5.765 mm/s, the paper's law at
+    5.774 mm/s (fit: mu 0.1, Lambda 10 mm/s, residual 1.1e-17 of |F_t|/N, RMS; ...)``.
+    """
+    def mm_s(v: Any) -> str:
+        return fmt(1e3 * float(v), "mm/s") if v is not None else MISSING
+
+    if fr.get("mu_fit") is None:
+        return f"{name}: too few slipping samples ({fr.get('samples', 0)}) to measure"
+    half = fr.get("half_mu_slip_mps")
+    where = (f"reaches half of mu N at a slip of {mm_s(half)}" if half is not None
+             else "never reaches half of mu N")
+    return (f"{name}: the contact {where}, the paper's law at "
+            f"{mm_s(fr.get('law_half_mu_slip_mps'))} (fit: mu {fmt(fr['mu_fit'])}, Lambda "
+            f"{mm_s(fr.get('Lambda_fit_mps'))}, residual {fmt(fr.get('residual'), 'relative')} "
+            f"of |F_t|/N, RMS; F_t {fmt(fr.get('angle_rms_rad'), 'rad')} from -v_P, RMS; "
+            f"creeping {fmt(100 * float(fr.get('creep_fraction') or 0.0))} % of the time)")
+
+
+# ---------------------------------------------------------------- a verdict's checks
+#: The events of the event checks (:mod:`tippetop.compare.analysis.verdict`): what a run does,
+#: what it does not.
+_EVENTS = {"t_invert": ("turns over", "does not turn over"),
+           "t_stem": ("touches its stem", "does not touch its stem")}
+
+
+def _event_text(check: dict[str, Any], t_end_s: float | None,
+                times: tuple[float | None, float | None] | None) -> str:
+    """An event check's value: how far from the reference's, or which run never has it."""
+    does, never = _EVENTS[check["check"]]
+    d = check["value"]
+    if d is not None:
+        if d == 0:
+            return "0 s from the reference's"
+        return f"{fmt(abs(float(d)), 's')} {'later' if d > 0 else 'earlier'} than the reference"
+    within = f"within the run's {fmt(float(t_end_s), 's')}" if t_end_s is not None else \
+        "within the run"
+    mine, ref = times if times is not None else (None, None)
+    note = str(check.get("note", ""))
+    if check["passed"] or note.startswith("neither"):
+        verb = never.removeprefix("does not ")
+        return f"neither this run nor the reference {verb} {within}"
+    if note.endswith("this run only"):  # the reference never has it
+        at = f" at {fmt(float(mine), 's')}" if mine is not None else ""
+        return f"{does}{at}; the reference {never} {within}"
+    at = f" at {fmt(float(ref), 's')}" if ref is not None else ""
+    return f"{never} {within}; the reference {does}{at}"
+
+
+def check_text(check: dict[str, Any], t_end_s: float | None = None,
+               runs: dict[str, dict[str, Any]] | None = None) -> str:
+    """A check's value as a person reads it: with its unit, or why there is none.
+
+    ``t_invert`` and ``t_stem`` are the run's time less the reference's (``1.29 s later than
+    the reference``), or which of the two never has the event within the run's ``t_end_s``;
+    Jellett's drift is relative, the energy's rise a fraction of E0; a string is itself. Never
+    a bare ``None``: the JSON keeps ``value`` as it is (null), this is the text beside it.
+
+    Args:
+        check: One check of :func:`tippetop.compare.analysis.verdict.verdict`.
+        t_end_s: The runs' simulated time (s), to say what "never" means.
+        runs: The runs by key (``ode`` the reference), for the event times.
+    """
+    name, v = check["check"], check["value"]
+    if name in _EVENTS:
+        times = None
+        if runs is not None:
+            times = ((runs.get(check["mode"]) or {}).get(name),
+                     (runs.get("ode") or {}).get(name))
+        return _event_text(check, t_end_s, times)
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        if not math.isfinite(v):
+            return fmt(float(v))
+        if name == "jellett_before_stem":
+            return f"{fmt(float(v), 'relative')} (relative)"
+        if name == "energy_never_rises":
+            return f"{fmt(float(v), 'relative')} of E0"
+        return fmt(v)
+    if v is None:
+        why = {"jellett_before_stem": "not measured: the ball alone never touched before the "
+                                      "stem",
+               "energy_never_rises": "not measured: the run has no energy record",
+               "outcome": "no outcome: the run did not finish"}
+        return why.get(name, f"none ({check.get('note') or 'not measured'})")
+    return str(v)
 
 
 def fmt_value(key: str, value: Any) -> str:
     """A value as text with the unit its key implies (:func:`unit_of`).
 
     ``t_invert`` None reads ``never (does not turn over)``; ``wall_s`` is a duration; a
-    ``phases`` list reads ``ball 0-2.5 s, stem 2.5-8 s``; an empty ``unused`` list ``none``.
+    ``phases`` list reads ``ball 0-2.5 s, stem 2.5-8 s``; an empty ``unused`` list ``none``;
+    a relative quantity says so (``1.3e-9 (relative)``, an energy's ``0 of E0``).
     """
     if value is None and key in _NONE_MEANS:
         return _NONE_MEANS[key]
@@ -181,12 +319,25 @@ def fmt_value(key: str, value: Any) -> str:
         if text is not None:
             return text
     if key == "friction_realised" and isinstance(value, dict):
-        from tippetop.compare.analysis.friction_realised import realised_sentence
-
-        return realised_sentence("the run", value)
+        return realised_text("the run", value)
+    if key == "stiff":
+        return fmt_stiff(value)
+    if key == "rolling" and isinstance(value, dict):
+        return fmt_rolling(value)
     if key == "solref" and isinstance(value, (list, tuple)) and len(value) == 2:
         return f"{fmt(value[0])} s, {fmt(value[1])}"
-    return fmt(value, unit_of(key))
+    if key == "solimp" and isinstance(value, (list, tuple)) and len(value) >= 3:
+        parts = [fmt(v) for v in value]
+        parts[2] += " m"  # (d0, dwidth, width, midpoint, power): the width is a depth
+        return ", ".join(parts)
+    if key == "atol" and isinstance(value, float):
+        return f"{fmt(value)} (absolute, in each state variable's own unit)"
+    unit = unit_of(key)
+    text = fmt(value, unit)
+    if unit == "relative" and isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value):
+        return f"{text} of E0" if key.startswith("energy") else f"{text} (relative)"
+    return text
 
 
 #: The keys of what ran (a summary's settings read back from the engine, or a plan's), in the
@@ -199,9 +350,14 @@ RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "ti
 def ran_lines(values: dict[str, Any], width: int) -> list[str]:
     """What ran (or will run): an indented ``key  value unit`` line per key present.
 
-    In :data:`RAN_KEYS` order, the values starting at column ``width + 2``.
+    In :data:`RAN_KEYS` order, the values starting at column ``width + 2``; a setting that
+    is None says why (``mu  none (condim 1: ...)``).
     """
-    return [f"  {k:<{width - 2}}  {fmt_value(k, values[k])}" for k in RAN_KEYS if k in values]
+    def said(k: str) -> str:
+        v = values[k]
+        return _RAN_NONE_MEANS[k] if v is None and k in _RAN_NONE_MEANS else fmt_value(k, v)
+
+    return [f"  {k:<{width - 2}}  {said(k)}" for k in RAN_KEYS if k in values]
 
 
 def key_values(items: Iterable[tuple[str, Any]] | dict[str, Any], indent: str = "") -> str:
@@ -271,6 +427,6 @@ def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str
     return f"runs: {counts} in {where}" if counts else f"runs: cached in {where}"
 
 
-__all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "fmt", "fmt_duration", "fmt_float",
-           "fmt_percent", "fmt_value", "key_values", "labelled", "ran_lines", "table",
-           "text_width", "unit_of"]
+__all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "check_text", "fmt", "fmt_duration",
+           "fmt_float", "fmt_percent", "fmt_rolling", "fmt_stiff", "fmt_value", "key_values",
+           "labelled", "ran_lines", "realised_text", "table", "text_width", "unit_of"]

@@ -7,7 +7,9 @@ in docs/design.md. The drawing code is imported only when a video is asked for.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
 import re
 import sys
 import time
@@ -208,9 +210,10 @@ def render_scene(
         TippetopError: For bad arguments, an existing ``out`` without ``force``, or no working
             OpenGL backend (no file is written).
         RunFailed: If an engine's run diverged or stopped short (no file is written).
-        VideoWriteFailed: If writing failed (OSError: a full disk, say) or the file written
-            does not decode to ``n_frames`` frames: the temporary file is removed and an
-            existing ``out`` is left as it was.
+        VideoWriteFailed: If writing failed (OSError: a full disk, said as ENOSPC with the
+            free space, :func:`disk_full`) or the file written does not decode to
+            ``n_frames`` frames: the temporary file is removed and an existing ``out`` is
+            left as it was.
     """
     from tippetop.compare.running.io import check_output_path
 
@@ -251,25 +254,106 @@ def render_scene(
     stats: list[video.VideoStats] = []
 
     def write_checked(tmp: Path) -> None:
-        """Encode into ``tmp``, then decode it: only a complete video replaces ``path``."""
-        stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
-                                       height=height, backend=backend, on_frame=tick))
-        video.verify_video(tmp, n_frames, width * len(engines), height)
+        """Encode into ``tmp``, then decode it: only a complete video replaces ``path``.
+
+        A failure on a full filesystem is said to be one (ENOSPC), whatever the encoder or
+        the decoder made of it: the free space is read while ``tmp`` still holds its bytes.
+        """
+        try:
+            stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
+                                           height=height, backend=backend, on_frame=tick))
+            video.verify_video(tmp, n_frames, width * len(engines), height)
+        except (OSError, video.VideoCheckFailed) as exc:
+            full = disk_full(exc, tmp.parent)
+            if full is not None:
+                raise full from exc
+            raise
 
     try:
         with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
                         say) as tick:
             write_atomic(path, write_checked)
     except (OSError, video.VideoCheckFailed) as exc:
+        kept = "left as it was" if path.exists() else "not written"
+        full = exc if _is_full(exc) else disk_full(exc, path.parent)
+        if full is not None:
+            raise VideoWriteFailed(f"could not write {path}: {full_text(full, path)}; {path} "
+                                   f"{kept}") from exc
         what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
             else str(exc)
-        kept = "left as it was" if path.exists() else "not written"
         raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
             from exc
     s = stats[0]
     return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
                         width=s.width, height=s.height, fps=float(fps), speed=float(speed),
                         video_s=n_frames / fps, render_wall_s=s.wall_s)
+
+
+# ---------------------------------------------------------------- a full disk
+#: The errnos of a filesystem with no room left for the file: no space, or the user's quota.
+FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
+#: After a failed write, less free space than this (bytes) on the file's filesystem means the
+#: failure was the full disk: the encoder writes its buffer (tens of kB) at a time, so a write
+#: that failed for want of room leaves less than that, and the decoder then finds a cut file.
+FULL_BELOW_BYTES = 1 << 20
+_NO_SPACE = "No space left on device"
+
+
+def _is_full(exc: BaseException) -> bool:
+    return isinstance(exc, OSError) and exc.errno in FULL_ERRNOS
+
+
+def free_bytes(folder: Path) -> int | None:
+    """Bytes this process may still write on ``folder``'s filesystem, or None if unknown.
+
+    Root may write into the blocks a filesystem reserves (``f_bfree``), anyone else only into
+    the rest (``f_bavail``, what :func:`shutil.disk_usage` calls free).
+    """
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):  # no statvfs: another platform, a vanished folder
+        return None
+    blocks = st.f_bfree if hasattr(os, "geteuid") and os.geteuid() == 0 else st.f_bavail
+    return int(blocks) * int(st.f_frsize)
+
+
+def disk_full(exc: BaseException, folder: Path) -> OSError | None:
+    """The full-disk error behind a failed write of a file in ``folder``, or None if it was not.
+
+    Full when the error says so (errno ENOSPC or EDQUOT, or ffmpeg's ``No space left on
+    device`` in its text), or when the filesystem has less than :data:`FULL_BELOW_BYTES` free
+    right after the failure (ffmpeg may finish "successfully" on a full disk and leave a cut
+    file that does not decode: that is what the user saw).
+
+    Returns:
+        An ``OSError`` with errno ENOSPC (or EDQUOT) and the free space in its text, or None.
+    """
+    free = free_bytes(folder)
+    where = f"{_bytes(free)} free on the filesystem of {folder}" if free is not None else \
+        f"the filesystem of {folder}"
+    code = exc.errno if isinstance(exc, OSError) and exc.errno in FULL_ERRNOS else None
+    if code is None and (_NO_SPACE.lower() in str(exc).lower()
+                         or (free is not None and free < FULL_BELOW_BYTES)):
+        code = errno.ENOSPC
+    return OSError(code, os.strerror(code), where) if code is not None else None
+
+
+def full_text(exc: OSError, path: Path) -> str:
+    """One clause for a full disk: the errno's name and text, where, and what to do."""
+    code = errno.errorcode.get(exc.errno or errno.ENOSPC, "ENOSPC")
+    where = exc.filename or f"the filesystem of {path.parent}"
+    return (f"{os.strerror(exc.errno or errno.ENOSPC)} ({code}: {where}); free space there or "
+            f"write the video elsewhere")
+
+
+def _bytes(n: int) -> str:
+    """``0 bytes``, ``12 kB``, ``3.4 MB``: a size for a person."""
+    if n < 1000:
+        return f"{n} bytes"
+    for unit, scale in (("kB", 1e3), ("MB", 1e6), ("GB", 1e9)):
+        if n < scale * 1000:
+            return f"{n / scale:.4g} {unit}"
+    return f"{n / 1e12:.4g} TB"
 
 
 @contextmanager
@@ -315,7 +399,9 @@ __all__ = [
     "RenderResult",
     "RunFailed",
     "VideoWriteFailed",
+    "disk_full",
     "frame_count",
+    "free_bytes",
     "parse_size",
     "render_scene",
     "speed_to_fit",

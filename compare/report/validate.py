@@ -9,8 +9,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.analysis.validate import MODES, mode_of, show_value
+from tippetop.compare.analysis.validate import MODES, mode_of, show_setting
 from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.presentation.terminal import check_text, fmt, fmt_duration, realised_text
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
@@ -20,10 +21,10 @@ _COLOURS = {"mujoco-file": "#d62728", "ode": "#111111", "mujoco-paper": "#1f77b4
 _LABELS = {"mujoco-file": "MuJoCo, the file's own settings", "ode": "reference ODE",
            "mujoco-paper": "MuJoCo, the paper's law", "mujoco-native": "MuJoCo, calibrated"}
 _CHECKS = {"completed": "the run completed", "outcome": "outcome against the theory",
-           "t_invert": "inversion time - the reference's (s)",
-           "t_stem": "first stem contact - the reference's (s)",
-           "jellett_before_stem": "Jellett's drift before the stem",
-           "energy_never_rises": "energy never rises"}
+           "t_invert": "inversion time against the reference's",
+           "t_stem": "first stem contact against the reference's",
+           "jellett_before_stem": "Jellett's drift before the stem (relative)",
+           "energy_never_rises": "energy never rises (its largest rise, of E0)"}
 
 
 def _keys(res: Mapping[str, Any]) -> list[str]:
@@ -47,13 +48,16 @@ def _colour(key: str, keys: list[str]) -> str:
     return _OTHER[others.index(key) % len(_OTHER)]
 
 
-def _cell(check: Mapping[str, Any]) -> Html:
-    v = check["value"]
-    shown = fmt_num(v, ".3g") if not isinstance(v, str) else esc(v)
+def _cell(check: Mapping[str, Any], t_end_s: float | None = None,
+          runs: Mapping[str, Any] | None = None) -> Html:
+    """A check's cell: its value with its unit, or why there is none (never ``-`` alone)."""
+    shown = esc(check_text(dict(check), t_end_s, dict(runs) if runs is not None else None))
     cls = "pass" if check["passed"] else "fail"
     mark = "agrees" if check["passed"] else "departs"
-    return Html(f"<span class='{cls}'>{shown} ({mark})</span>"
-                f"<br><small>{esc(check['note'])}</small>")
+    # an event neither time of which is a number: the text already says who never has it
+    said = check["value"] is None and check["check"] in ("t_invert", "t_stem")
+    note = "" if said or not check["note"] else f"<br><small>{esc(check['note'])}</small>"
+    return Html(f"<span class='{cls}'>{shown} ({mark})</span>{note}")
 
 
 def verdict_section(res: Mapping[str, Any]) -> str:
@@ -67,7 +71,8 @@ def verdict_section(res: Mapping[str, Any]) -> str:
         tol = next(c["tolerance"] for c in checks if c["check"] == name)
         for m in modes:
             c = next((c for c in checks if c["check"] == name and c["mode"] == m), None)
-            row.append(_cell(c) if c else "-")
+            row.append(_cell(c, res["t_end_s"], res["runs"]) if c else
+                       "the reference itself" if m == "ode" else "not checked")
         row.append(tol)
         rows.append(row)
         bad = any(not c["passed"] for c in checks if c["check"] == name)
@@ -94,8 +99,9 @@ def verdict_section(res: Mapping[str, Any]) -> str:
                      f"&lt;geom ... {esc(sug['geom'])}/&gt;</pre>")
         if sug.get("changes"):
             parts.append(html_table(["setting", "the file's", "calibrated"],
-                                    [(c["setting"], show_value(c["file"]),
-                                      show_value(c["calibrated"])) for c in sug["changes"]]))
+                                    [(c["setting"], show_setting(c["setting"], c["file"]),
+                                      show_setting(c["setting"], c["calibrated"]))
+                                     for c in sug["changes"]]))
     parts.append("</section>")
     return "".join(parts)
 
@@ -114,20 +120,21 @@ def tuned_section(res: Mapping[str, Any]) -> str:
     head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
             f"{'AGREE' if ok else 'DEPART'}</span> {esc(t['note'])}.</p>")
     how = (f"<p class='note'>The file's contact settings fitted to the reference at its own "
-           f"start (n0 = {start['n0']:.4g} rad/s, theta0 = {start['theta0']:.3g} rad, over "
-           f"{start['t_end_s']:.3g} s) with MuJoCo's identification (mujoco.sysid): residual "
-           f"{fit['residual']:.3g} rad ({esc(fit['residual_definition'])}), {fit['runs']} "
-           f"MuJoCo runs, {fit['wall_s']:.0f} s; then run by the harness from every start "
+           f"start (n0 = {fmt(start['n0'], 'rad/s')}, theta0 = {fmt(start['theta0'], 'rad')}, "
+           f"over {fmt(start['t_end_s'], 's')}) with MuJoCo's identification (mujoco.sysid): "
+           f"residual {fmt(fit['residual'], 'rad')} ({esc(fit['residual_definition'])}), "
+           f"{fit['runs']} MuJoCo runs, {fmt_duration(fit['wall_s'])}; then run by the "
+           f"harness from every start "
            f"below over {res['t_end_s']:g} s and checked as the verdict checks. As MJCF (the "
            f"contact attributes go on the ball's, the stem's and the table's geoms, or on the "
            f"file's contact pairs):</p><pre>{esc(t['mjcf'])}</pre>")
     names = list(dict.fromkeys(c["check"] for v in t["verified"] for c in v["checks"]))
     rows, classes = [], []
     for v in t["verified"]:
-        row: list[Any] = [f"n0 = {v['n0']:.4g} rad/s, theta0 = {v['theta0']:.3g} rad",
+        row: list[Any] = [f"n0 = {fmt(v['n0'], 'rad/s')}, theta0 = {fmt(v['theta0'], 'rad')}",
                           v["role"]]
         by = {c["check"]: c for c in v["checks"]}
-        row += [_cell(by[n]) if n in by else "-" for n in names]
+        row += [_cell(by[n], res["t_end_s"]) if n in by else "not checked" for n in names]
         if v["passed"] is None:
             row[-1] = v.get("note", "not verified")
         rows.append(row)
@@ -148,33 +155,51 @@ def tuned_section(res: Mapping[str, Any]) -> str:
 def model_section(res: Mapping[str, Any]) -> str:
     """The top's parameters read from the file and the theory's numbers."""
     m = res["model"]
+    group = f"none for a Group {m['group']} top"
     rows = [("file", m["file"]), ("R (m)", m["R_m"]), ("a (m)", m["a_m"]),
             ("A (kg m^2)", m["A"]), ("C (kg m^2)", m["C"]), ("M (kg)", m["M_kg"]),
-            ("A/C", m["A_over_C"]), ("a/R", m["a_over_R"]), ("mu (ball on table)", m["mu"]),
-            ("timestep (s)", m.get("timestep_s")),
+            ("A/C", m["A_over_C"]), ("a/R", m["a_over_R"]),
+            ("mu (ball on table)", _or(m["mu"], "not read: the ball geom gives no friction")),
+            ("timestep (s)", _or(m.get("timestep_s"), "not read from the file")),
             ("start (keyframe)", m["keyframe"] or "the scene's state"),
             ("n0 (rad/s)", m["n0"]), ("theta0 (rad)", m["theta0"]),
-            ("group", m["group"]), ("n1 (rad/s)", m["n1"]), ("n4 (rad/s)", m["n4"]),
-            ("n_c (rad/s)", m["nc"]), ("theta_s for this spin (rad)", m["theta_s"]),
-            ("the theory's outcome", m["theory_outcome"]), ("stem", m["stem_note"])]
+            ("group", m["group"]), ("n1 (rad/s)", _or(m["n1"], group)),
+            ("n4 (rad/s)", _or(m["n4"], group)), ("n_c (rad/s)", _or(m["nc"], group)),
+            ("theta_s for this spin (rad)", _or(m["theta_s"], "none for this spin")),
+            ("the theory's outcome", m["theory_outcome"]),
+            ("stem", _or(m["stem_note"], "none in the file"))]
     return ("<section id='model'><h2>The top, read from the file</h2>"
             + html_table(["what", "value"], rows) + "</section>")
 
 
+def _or(value: Any, why: str) -> Any:
+    """A cell's value, or why there is none (never a bare ``-``)."""
+    return why if value is None else value
+
+
 def runs_section(res: Mapping[str, Any]) -> str:
-    """What each run ran and how it ended."""
+    """What each run ran and how it ended; a missing number says why."""
     rows = []
+    within = f"within the run's {res['t_end_s']:g} s"
     for m in _keys(res):
         r = res["runs"][m]
         s = r
+        failed = "the run failed" if r.get("error") or s.get("theta_final") is None else None
         note = f"<br><small>{esc(r['note'])}</small>" if r.get("note") else ""
+        drift = s.get("J_rel_drift")
         rows.append((_label(m), Html(f"<div class='wide'>{esc(r['ran'] or '-')}{note}</div>"),
-                     s.get("status", r.get("error")), s.get("t_invert"), s.get("t_stem"),
-                     s.get("theta_final"), r.get("end_state"),
-                     Html(fmt_num(s.get("J_rel_drift"), ".2e"))))
+                     s.get("status", r.get("error")),
+                     _or(s.get("t_invert"), failed or f"does not turn over {within}"),
+                     _or(s.get("t_stem"), failed or f"no stem contact {within}"),
+                     _or(s.get("theta_final"), failed or "not measured"),
+                     _or(r.get("end_state"), failed or "not measured"),
+                     (Html(fmt_num(drift, ".2e")) if math.isfinite(drift) else fmt(drift))
+                     if drift is not None else
+                     (failed or "not measured: the ball alone never touched before the stem")))
     return ("<section id='runs'><h2>The runs</h2>"
             + html_table(["mode", "what ran", "status", "t_invert (s)", "t_stem (s)",
-                          "theta_final (rad)", "ends", "J drift before the stem"], rows)
+                          "theta_final (rad)", "ends", "J drift before the stem (relative)"],
+                         rows)
             + "</section>")
 
 
@@ -216,8 +241,6 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     Each run's samples as points (log slip axis), the paper's law as the curve, and a sentence
     with the numbers per run (``friction_realised``).
     """
-    from tippetop.compare.analysis.friction_realised import realised_sentence
-
     keys = [k for k in _keys(res) if k in tables and res["runs"][k].get("friction_realised")]
     if not keys:
         return ""
@@ -228,7 +251,7 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
         fr = res["runs"][k]["friction_realised"]
         refit = (fr.get("refit") or {}).get("sentence")
         more = f"<br><span class='note'>Refit: {esc(refit)}.</span>" if refit else ""
-        return f"<li>{esc(realised_sentence(_label(k), fr))}{more}</li>"
+        return f"<li>{esc(realised_text(_label(k), fr))}{more}</li>"
 
     lines = "".join(sentence(k) for k in keys)
     return ("<section id='friction'><h2>The friction law as each run realises it</h2>"

@@ -15,7 +15,7 @@ import subprocess
 import sys
 import textwrap
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -432,3 +432,103 @@ def test_simulation_and_cli_never_set_up_opengl(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     assert "LOADED [] disable None" in out.stdout, out.stdout
     assert list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------- a full disk (issue 23)
+_FULL_ARGV = ["render", "fig3", "--engine", "ode", "--set", "run.t_end_s=0.5", "--speed", "1",
+              "--fps", "20", "--size", "320x240"]
+
+
+def _full_disk_line(code: int, err: str, path: Path) -> str:
+    """The one error line of a render that ran out of room: ENOSPC and the file, exit 1."""
+    lines = [x for x in err.splitlines() if x.startswith("tippetop:")]
+    assert code == 1 and len(lines) == 1, err
+    line = lines[0]
+    assert line.startswith(f"tippetop: video failed: could not write {path}: No space left on "
+                           "device (ENOSPC: "), line
+    assert "does not decode" not in line and line.endswith(f"{path} not written"), line
+    return line
+
+
+def test_a_full_disk_under_the_decoder_check_is_said_to_be_the_disk(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        backend: str) -> None:
+    """The issue: on a full disk ffmpeg ended without an error and left a cut file, and the
+    user read "the file does not decode (Could not load meta information)". The free space,
+    read while the cut file is still there, says what to fix."""
+    from tippetop.mujoco_runner import video
+
+    def cut(path: Path, *args: object) -> None:
+        raise video.VideoCheckFailed("the file does not decode (Could not load meta "
+                                     "information)")
+
+    monkeypatch.setenv("MUJOCO_GL", backend)
+    monkeypatch.setattr(video, "verify_video", cut)
+    monkeypatch.setattr(render, "free_bytes", lambda folder: 0)
+    out = tmp_path / "v.mp4"
+    code = _main([*_FULL_ARGV, "--out", str(out)], monkeypatch)
+    line = _full_disk_line(code, capsys.readouterr().err, out)
+    assert f"0 bytes free on the filesystem of {tmp_path}" in line
+    assert list(tmp_path.iterdir()) == []  # no partial file, no temporary
+
+
+def test_a_writer_that_hits_enospc_names_the_errno(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        backend: str) -> None:
+    import errno
+
+    from tippetop.mujoco_runner import mp4
+
+    def write(self: mp4.Mp4Writer, rgb: np.ndarray) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setenv("MUJOCO_GL", backend)
+    monkeypatch.setattr(mp4.Mp4Writer, "write", write)
+    out = tmp_path / "v.mp4"
+    code = _main([*_FULL_ARGV, "--out", str(out)], monkeypatch)
+    _full_disk_line(code, capsys.readouterr().err, out)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_cut_file_on_a_disk_with_room_is_not_called_a_full_disk(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+
+    from tippetop.mujoco_runner import video
+
+    cut = video.VideoCheckFailed("the file does not decode (moov atom not found)")
+    monkeypatch.setattr(render, "free_bytes", lambda folder: 10 << 30)
+    assert render.disk_full(cut, tmp_path) is None
+    monkeypatch.setattr(render, "free_bytes", lambda folder: 0)
+    assert render.disk_full(cut, tmp_path).errno == errno.ENOSPC
+    said = render.disk_full(RuntimeError("ffmpeg: No space left on device"), tmp_path)
+    assert said is not None and said.errno == errno.ENOSPC
+
+
+@pytest.fixture
+def tiny_disk(tmp_path: Path) -> Iterator[Path]:
+    """A 64 kB tmpfs, nearly filled: a real full disk (root only; skipped where it cannot be
+    mounted)."""
+    folder = tmp_path / "tiny"
+    folder.mkdir()
+    if not hasattr(os, "geteuid") or os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)],
+                             capture_output=True, text=True, check=False)
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {mounted.stderr.strip()}")
+    try:
+        (folder / "filler").write_bytes(b"\0" * (64 * 1024 - 8 * 1024))
+        yield folder
+    finally:
+        subprocess.run(["umount", str(folder)], check=False)
+
+
+def test_render_on_a_real_full_disk_says_the_disk_is_full(
+        tiny_disk: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        backend: str) -> None:
+    monkeypatch.setenv("MUJOCO_GL", backend)
+    out = tiny_disk / "v.mp4"
+    code = _main([*_FULL_ARGV, "--out", str(out)], monkeypatch)
+    _full_disk_line(code, capsys.readouterr().err, out)
+    assert sorted(p.name for p in tiny_disk.iterdir()) == ["filler"]

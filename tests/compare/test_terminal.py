@@ -83,7 +83,7 @@ def test_units_follow_the_key(key: str, unit: str) -> None:
 def test_fmt_value_says_what_none_means_and_reads_durations_and_phases() -> None:
     assert fmt_value("t_invert", None).startswith("never")
     assert fmt_value("theta_c", None) == MISSING
-    assert fmt_value("wall_s", 0.0247803) == "0.0248 s"
+    assert fmt_value("wall_s", 0.0247803) == "24.78 ms"  # four digits, as every number
     assert fmt_value("wall_s", 125.3) == "2 min 05 s"
     assert fmt_duration(3725) == "1 h 02 min"
     assert fmt_value("phases", [{"contact": "ball", "t_start": 0.0, "t_end": 2.5},
