@@ -248,11 +248,12 @@ def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         cls = cell_class(r)
         if cls == "agree":
             continue
-        head = f"{r['scene']} [{r['mode']}]: {'; '.join(r.get('reasons') or [])}"
-        if r.get("expected_departure") and cls == "depart":
-            expected.append(f"{head} -- expected: {r['expected_departure']}")
+        reasons = r.get("reasons") or []
+        if r.get("expected_departure") and cls == "depart":  # its numbers: the report's
+            expected.append(f"{r['scene']} [{r['mode']}]: {reasons[0] if reasons else cls}; "
+                            f"expected: {r['expected_departure']}")
         else:
-            unexpected.append(f"{cls}: {head}")
+            unexpected.append(f"{cls}: {r['scene']} [{r['mode']}]: {'; '.join(reasons)}")
             kinds[cls] = kinds.get(cls, 0) + 1
     agree = len(rows) - len(expected) - len(unexpected)
     if not rows:

@@ -75,8 +75,10 @@ def compile_note(plans: Sequence[Any]) -> str | None:
     where = f" into {NUMBA_CACHE_DIR}" if NUMBA_CACHE_DIR is not None else ""
     rolling = (f" ({ROLLING_S:.0f} s more if a run enters a rolling phase)"
                if needed & {"tippetop.reference_ode.top"} and todo else "")
-    return (f"tippetop: compiling {' and '.join(w for w, _ in todo)}{where}, once for this code:"
-            f" about {total:.0f} s{rolling}")
+    names = [w for w, _ in todo]
+    what = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+    return (f"tippetop: compiling {what}{where}, once for this code: about {total:.0f} s"
+            f"{rolling}")
 
 
 def say_compile(plans: Sequence[Any], stream: TextIO | None = None) -> None:
