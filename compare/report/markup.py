@@ -41,7 +41,7 @@ table.verdict-table tbody th{max-width:10.5em;font-weight:600}
 table.verdict-table td:nth-child(2){padding:.1em .35em;background:#f7f7f7}
 .j{color:#555;font-size:.92em}
 .agree{background:#c8e6c9}.depart{background:#ffcdd2;font-weight:600}
-.inconclusive{background:#fff3c4}.failed{background:#f8bbd0;font-weight:600}
+.expected{background:#e0e0e0}.inconclusive{background:#fff3c4}.failed{background:#f8bbd0;font-weight:600}
 td.na{background:repeating-linear-gradient(45deg,#fafafa,#fafafa 4px,#eee 4px,#eee 8px)}
 """
 

@@ -49,7 +49,8 @@ def _exp(x: float) -> str:
 
 
 _SHORT = {"intermediate": "intermed.", "inconclusive": "inconcl."}
-_MARK = {"agree": "", "depart": "&ne; ", "inconclusive": "? ", "failed": "&#x2716; "}
+_MARK = {"agree": "", "depart": "&ne; ", "expected": "&ne; ", "inconclusive": "? ",
+         "failed": "&#x2716; "}
 
 
 def _cell(row: Mapping[str, Any]) -> Html:
@@ -57,6 +58,8 @@ def _cell(row: Mapping[str, Any]) -> Html:
     from tippetop.compare.presentation.verdict import cell_class
 
     cls = cell_class(row)
+    if cls == "depart" and row.get("expected_departure"):
+        cls = "expected"  # the catalogue's deliberate departure: its reason in the tooltip
     outcome = row.get("outcome") or "-"
     line1 = f"{_MARK[cls]}{esc(_SHORT.get(outcome, outcome))}"
     if row.get("J_rel_drift") is not None:
@@ -94,6 +97,8 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     legend = (f"<p class='legend'><span class='agree'>&nbsp;agrees&nbsp;</span>: the theory's "
               f"outcome and |theta_asymp - theta_s| &le; {THETA_S_TOL[0]:g} rad; "
               f"<span class='depart'>&nbsp;&ne; departs&nbsp;</span> "
+              f"<span class='expected'>&nbsp;&ne; departs, as the catalogue expects&nbsp;"
+              f"</span> "
               f"<span class='inconclusive'>&nbsp;? still moving&nbsp;</span> "
               f"<span class='failed'>&nbsp;failed&nbsp;</span>. "
               f"&Delta;&theta; = theta_asymp - theta_s (rad); &Delta;t = t_invert - the reference "

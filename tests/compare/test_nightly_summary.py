@@ -103,3 +103,15 @@ def test_a_case_that_changes_its_scene_is_named_after_what_runs() -> None:
            "set": ["top.A_over_C=1.05", "init.n0=80"]}
     assert scene_key(rec) == "groupII-A105-e010 (top.A_over_C=1.05, init.n0=80)"
     assert scene_key({"scene": "fig3", "name": "fig3-x", "set": []}) == "fig3"
+
+
+def test_the_reports_verdict_table_greys_an_expected_departure() -> None:
+    from tippetop.compare.report.sections import crossval_section
+
+    rows = [_row("fig3", "ode-coulomb", 0.03, "rolls, no inversion"),
+            _row("fig4", "ode-coulomb", 0.03)]
+    html = crossval_section({"crossval": rows})
+    cells = html.split("<td class='")[1:]
+    classes = [c.split("'", 1)[0] for c in cells if not c.startswith(("na", "theory"))]
+    assert "expected" in classes and "depart" in classes
+    assert "rolls, no inversion" in html
