@@ -79,9 +79,6 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         row.update(case=r["id"], name=r["name"], category=r["category"],
                    paper_theta_asymp=expect.get("theta_asymp"),
                    expected_departure=r.get("expected_departure"))
-        if row["expected_departure"] and cell_class(row) == "depart":
-            row["notes"] = [*row.get("notes", []),
-                            f"expected by the catalogue: {row['expected_departure']}"]
         rows.append(row)
     return rows
 

@@ -53,6 +53,14 @@ _MARK = {"agree": "", "depart": "&ne; ", "expected": "&ne; ", "inconclusive": "?
          "failed": "&#x2716; "}
 
 
+def _expected(row: Mapping[str, Any]) -> list[str]:
+    """The catalogue's reason for a departure it expects, as a note (or none)."""
+    from tippetop.compare.presentation.verdict import cell_class
+
+    why = row.get("expected_departure")
+    return [f"expected by the catalogue: {why}"] if why and cell_class(row) == "depart" else []
+
+
 def _cell(row: Mapping[str, Any]) -> Html:
     """A verdict ``<td>``: the outcome (marked where it departs) and J; the differences below."""
     from tippetop.compare.presentation.verdict import cell_class
@@ -73,7 +81,8 @@ def _cell(row: Mapping[str, Any]) -> Html:
         nums.append(f"t {row['t_invert']:.2f}")
     if row.get("notes"):
         nums.append("*")
-    tip = "; ".join([*row.get("reasons", []), *row.get("notes", [])]) or "agrees"
+    tip = "; ".join([*row.get("reasons", []), *row.get("notes", []), *_expected(row)]) \
+        or "agrees"
     return Html(f"<td class='{cls}' title='{esc(tip)}'>{line1}<br>{' '.join(nums)}</td>")
 
 
@@ -127,7 +136,7 @@ def crossval_section(results: Mapping[str, Any]) -> str:
              + "".join(f"<th>{esc(m).replace('-', '-<wbr>')}</th>" for m in modes)
              + "</tr></thead><tbody>" + "".join(body) + "</tbody></table>")
     where = [f"<li><b>{esc(r.get('name') or r['scene'])}</b> [{esc(r['mode'])}]: "
-             f"{esc('; '.join([*r['reasons'], *r['notes']]))}</li>"
+             f"{esc('; '.join([*r['reasons'], *r['notes'], *_expected(r)]))}</li>"
              for r in rows if cell_class(r) != "agree" or r.get("notes")]
     where_html = (f"<details><summary>Where not, and why ({len(where)})</summary>"
                   f"<ul>{''.join(where)}</ul></details>" if where else "")
