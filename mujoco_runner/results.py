@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 import pandas as pd
 
+from tippetop.models.numbers import float_text
 from tippetop.models.params import FrictionParams, StemParams
 from tippetop.models.plan import MujocoPlan
 from tippetop.mujoco_runner import stepper
@@ -345,8 +346,8 @@ def result_from_samples(
     n_steps = n_intervals * steps if status == "ok" else n_good * steps
     wall = wall_s + (time.perf_counter() - start)
     if status == "ok":
-        message = (f"{mode} mode: {n_steps} steps of {integrator} at dt = {dt:g} s to "
-                   f"t = {n_intervals * steps * dt:g} s in {wall:.3g} s")
+        message = (f"{mode} mode: {n_steps:,} steps of {integrator} at dt = {float_text(dt)} s to "
+                   f"t = {float_text(n_intervals * steps * dt)} s in {float_text(wall)} s")
     else:
         message = f"diverged by t = {n_good * steps * dt:.6g} s ({mode} mode): {reason}"
     return MujocoResult(table=table, n_steps=n_steps, wall_s=wall, status=status,

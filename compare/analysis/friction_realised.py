@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tippetop.models.numbers import MISSING, number_text
+
 #: Slip speeds below this are not slipping for the fit and the angle (m/s): the direction of
 #: a slip of 1e-9 m/s is round-off.
 MIN_SLIP_MPS = 1e-9
@@ -145,18 +147,35 @@ def not_refit(reason: str) -> dict[str, Any]:
 
 
 def realised_sentence(name: str, fr: dict[str, Any]) -> str:
-    """One sentence with the numbers: where the engine's force reaches half of mu N."""
+    """The friction law a run realised (``friction_realised``), four digits and their units.
+
+    The one sentence every command and report says it in: ``NAME: the contact reaches half
+    of mu N at a slip of 5.765 mm/s, the paper's law at 5.774 mm/s (fit: mu 0.1, Lambda
+    10 mm/s, residual 1.1e-17 of |F_t|/N, RMS; F_t 0.17 rad from -v_P, RMS; creeping 84 % of
+    the time)``; with too few slipping samples, how many there were.
+
+    Args:
+        name: Who realised it (a mode, ``the run``, ``fig3 native mujoco``).
+        fr: The run's ``friction_realised`` (:func:`friction_realised`).
+    """
+    def mm_s(v: Any) -> str:
+        return number_text(1e3 * float(v), "mm/s") if v is not None else MISSING
+
     if fr.get("mu_fit") is None:
-        return f"{name}: too few slipping samples ({fr.get('samples', 0)}) to measure"
+        return (f"{name}: too few slipping samples ({number_text(fr.get('samples') or 0)}) "
+                "to measure")
     half = fr.get("half_mu_slip_mps")
-    where = (f"reaches half of mu N at a slip of {1e3 * half:.3g} mm/s" if half is not None
+    where = (f"reaches half of mu N at a slip of {mm_s(half)}" if half is not None
              else "never reaches half of mu N")
+    creep = fr.get("creep_fraction")
     return (f"{name}: the contact {where}, the paper's law at "
-            f"{1e3 * fr['law_half_mu_slip_mps']:.3g} mm/s (fit: mu {fr['mu_fit']:.4g}, Lambda "
-            f"{1e3 * fr['Lambda_fit_mps']:.3g} mm/s, residual {fr['residual']:.2g}; F_t "
-            f"{fr['angle_rms_rad']:.2g} rad from -v_P, RMS; creeping "
-            f"{100 * fr['creep_fraction']:.0f} % of the time)")
+            f"{mm_s(fr.get('law_half_mu_slip_mps'))} (fit: mu {number_text(fr['mu_fit'])}, "
+            f"Lambda {mm_s(fr.get('Lambda_fit_mps'))}, residual "
+            f"{number_text(fr.get('residual'), 'relative')} of |F_t|/N, RMS; F_t "
+            f"{number_text(fr.get('angle_rms_rad'), 'rad')} from -v_P, RMS; creeping "
+            f"{number_text(100 * float(creep or 0.0))} % of the time)")
 
 
-__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "fit_law", "friction_realised",
-           "law_mu", "not_refit", "realised_sentence", "samples"]
+__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "MISSING", "fit_law",
+           "friction_realised", "law_mu", "not_refit", "number_text", "realised_sentence",
+           "samples"]

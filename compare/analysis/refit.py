@@ -20,6 +20,7 @@ import pandas as pd
 from tippetop.compare.analysis.friction_realised import not_refit
 from tippetop.compare.analysis.metrics import first_inversion_time, theta_asymp
 from tippetop.compare.nightly.tolerances import TOLERANCES
+from tippetop.models.numbers import number_text
 
 #: The nightly's tolerances the refit's events are held to: t_invert and t_stem within
 #: ``TOLERANCES["t_invert"]`` (0.1 s), theta_asymp within ``TOLERANCES["theta_asymp"]``.
@@ -92,12 +93,12 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
     e, r, f = engine.get("t_invert"), reference.get("t_invert"), refit.get("t_invert")
     if e is not None and r is not None and f is not None and abs(e - r) > T_TOL_S:
         frac = 1.0 - abs(e - f) / abs(e - r)
-    law = (f"the reference with the realised law (mu {fr['mu_fit']:.4g}, Lambda "
-           f"{1e3 * fr['Lambda_fit_mps']:.3g} mm/s)")
+    law = (f"the reference with the realised law (mu {number_text(fr['mu_fit'])}, Lambda "
+           f"{number_text(1e3 * fr['Lambda_fit_mps'], 'mm/s')})")
 
     def when(ev: dict[str, float | None]) -> str:
         t = ev.get("t_invert")
-        return "does not turn over" if t is None else f"turns over at {t:.2f} s"
+        return "does not turn over" if t is None else f"turns over at {number_text(t, 's')}"
 
     if explains:
         sentence = (f"{law} {when(refit)}, the engine {when(engine)}: the friction law "
@@ -108,17 +109,18 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
         remains = []
         sink = ran.get("max_penetration_m")
         if sink is not None:
-            remains.append(f"the contact's sink (up to {1e3 * sink:.3g} mm)")
+            remains.append(f"the contact's sink (up to {number_text(1e3 * sink, 'mm')})")
         j = ran.get("J_rel_drift")
         if j is not None:
-            remains.append(f"Jellett's drift ({j:.1e}: a torque off the contact point, or a "
-                           "first-order integrator on a top with A != C)")
+            remains.append(f"Jellett's drift ({number_text(j, 'relative')} relative: a torque "
+                           "off the contact point, or a first-order integrator on a top with "
+                           "A != C)")
         if ran.get("integrator") and ran.get("timestep_s"):
             remains.append(f"the integration ({ran['integrator']} at dt = "
-                           f"{ran['timestep_s']:g} s)")
+                           f"{number_text(ran['timestep_s'], 's')})")
         share = ("" if frac is None else
-                 f"; the law accounts for {100 * max(frac, 0.0):.0f} % of the engine's "
-                 f"{abs(e - r):.2f} s from the reference's inversion")
+                 f"; the law accounts for {number_text(100 * max(frac, 0.0))} % of the "
+                 f"engine's {number_text(abs(e - r), 's')} from the reference's inversion")
         sentence = (f"{law} {when(refit)}, the engine {when(engine)}: the law does not "
                     f"explain it ({', '.join(misses)} outside the nightly's tolerances{share}); "
                     f"what remains: {', '.join(remains) or 'not measured'}")

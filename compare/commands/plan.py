@@ -67,15 +67,15 @@ def print_plan(plan: Any, engine: str) -> None:
               f"simulated, a sample every {fmt(plan.ode.sample_dt_s, 's')}")
     else:
         print(f"{plan.scene} in MuJoCo ({engine}, {mj.mode} mode): {fmt(mj.t_end_s, 's')} "
-              f"simulated, {mj.n_steps} steps of {fmt(mj.timestep_s, 's')}, a sample every "
-              f"{mj.steps_per_sample} steps ({mj.n_intervals + 1} rows)")
+              f"simulated, {fmt(mj.n_steps)} steps of {fmt(mj.timestep_s, 's')}, a sample "
+              f"every {fmt(mj.steps_per_sample)} steps ({fmt(mj.n_intervals + 1)} rows)")
         rows.append(("model", "generated from the scene's top" if mj.source is None else
                      f"{mj.source}, with the values here written into its document"))
         for c in mj.contacts:
             rows.append(("contact", f"{c.element} {c.name} ({c.role}): condim {c.condim}, "
                          f"friction {fmt_value('', list(c.friction))}, solref "
                          f"{fmt_value('solref', list(c.solref))}, solimp "
-                         f"{fmt_value('', list(c.solimp))}"
+                         f"{fmt_value('solimp', list(c.solimp))}"
                          + ("" if c.collides else ", collides with nothing")))
         if mj.paper_max_timestep_s is not None:
             rows.append(("law's step", f"at most {fmt(mj.paper_max_timestep_s, 's')} (the "

@@ -11,6 +11,7 @@ from tippetop.compare.presentation.video import (
     DEFAULT_MAX_FRAMES,
     DEFAULT_SIZE,
     DEFAULT_SPEED,
+    RenderResult,
 )
 
 
@@ -59,11 +60,26 @@ def run(args: argparse.Namespace) -> int:
     except VideoWriteFailed as exc:
         sys.stderr.write(f"tippetop: video failed: {exc}\n")
         return 1
-    print(f"wrote {res.path}: {res.n_frames} frames {res.width}x{res.height}, "
-          f"{res.video_s:.3g} s of video at {res.fps:g} fps for {scene.run.t_end_s:g} s "
-          f"simulated (--speed {res.speed:g}); {res.backend}, "
-          f"{res.ms_per_frame:.0f} ms a frame")
+    print(summary_line(res, scene.run.t_end_s))
     return 0
+
+
+def summary_line(res: RenderResult, t_end_s: float) -> str:
+    """What was written, every number in four significant digits with its unit.
+
+    ``wrote fig3.mp4: 29 frames 160x120, 0.9667 s of video at 30 fps for 8 s simulated
+    (--speed 8.3); egl, 26.53 ms a frame``.
+
+    Args:
+        res: The video written (:func:`tippetop.compare.presentation.video.render_scene`'s).
+        t_end_s: The simulated time it shows (s).
+    """
+    from tippetop.compare.presentation.terminal import fmt, fmt_duration
+
+    return (f"wrote {res.path}: {fmt(res.n_frames)} frames {res.width}x{res.height}, "
+            f"{fmt(float(res.video_s), 's')} of video at {fmt(float(res.fps))} fps for "
+            f"{fmt(float(t_end_s), 's')} simulated (--speed {res.speed:g}); {res.backend}, "
+            f"{fmt_duration(res.ms_per_frame / 1e3)} a frame")
 
 
 def _say(line: str) -> None:

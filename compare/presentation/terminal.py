@@ -3,8 +3,9 @@
 :func:`fmt` and :func:`fmt_value` turn a value into text with the unit its key implies,
 :func:`check_text` a verdict check's value, :func:`realised_text` the friction law a run
 realised; :func:`table` lines up columns, :func:`cache_line` says where a command's runs went. This
-module imports only the standard library (and, for the cache's folder,
-:mod:`tippetop.models.resources`).
+module imports only the standard library (and, when asked, for the cache's folder
+:mod:`tippetop.models.resources`, for the realised law's sentence
+:mod:`tippetop.compare.analysis.friction_realised`).
 """
 
 from __future__ import annotations
@@ -14,12 +15,9 @@ import shutil
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-# ---------------------------------------------------------------- values
-#: Text of a missing value (a quantity that does not exist, or was not measured).
-MISSING = "-"
-#: Text of a NaN: an undefined number is said, never shown as ``nan``.
-NAN_TEXT = "undefined (NaN)"
+from tippetop.models.numbers import MISSING, NAN_TEXT, float_text
 
+# ---------------------------------------------------------------- values
 #: Units of keys whose names do not carry one.
 _KEY_UNITS: dict[str, str] = {
     "n0": "rad/s", "n1": "rad/s", "n2": "rad/s", "n3": "rad/s", "n4": "rad/s", "nc": "rad/s",
@@ -73,22 +71,8 @@ def _exp(text: str) -> str:
 
 
 def fmt_float(x: float, digits: int = 4) -> str:
-    """A float in ``digits`` significant digits, scientific below 1e-3 and from 1e6 on."""
-    if math.isnan(x):
-        return NAN_TEXT
-    if math.isinf(x):
-        return "inf" if x > 0 else "-inf"
-    if x == 0:
-        return "0"
-    if 1e-3 <= abs(x) < 1e6:
-        mag = math.floor(math.log10(abs(x)))
-        decimals = max(0, digits - 1 - mag)
-        text = f"{x:.{decimals}f}"
-        return text.rstrip("0").rstrip(".") if "." in text else text
-    mant, _, exp = f"{x:.{max(0, digits - 1)}e}".partition("e")
-    if "." in mant:
-        mant = mant.rstrip("0").rstrip(".")
-    return _exp(f"{mant}e{exp}")
+    """A float in ``digits`` significant digits (:func:`tippetop.models.numbers.float_text`)."""
+    return float_text(x, digits)
 
 
 def fmt_percent(x: float | None, digits: int = 3) -> str:
@@ -215,22 +199,12 @@ def fmt_stiff(stiff: Any, rolling: Any = None) -> str:
 def realised_text(name: str, fr: dict[str, Any]) -> str:
     """The friction law a run realised (``friction_realised``), four digits and their units.
 
-    ``NAME: the contact reaches half of mu N at a slip of 5.765 mm/s, the paper's law at
-    5.774 mm/s (fit: mu 0.1, Lambda 10 mm/s, residual 1.1e-17 of |F_t|/N, RMS; ...)``.
+    :func:`tippetop.compare.analysis.friction_realised.realised_sentence`, the one sentence
+    every command and report says it in (imported when asked: it brings numpy and pandas).
     """
-    def mm_s(v: Any) -> str:
-        return fmt(1e3 * float(v), "mm/s") if v is not None else MISSING
+    from tippetop.compare.analysis.friction_realised import realised_sentence
 
-    if fr.get("mu_fit") is None:
-        return f"{name}: too few slipping samples ({fr.get('samples', 0)}) to measure"
-    half = fr.get("half_mu_slip_mps")
-    where = (f"reaches half of mu N at a slip of {mm_s(half)}" if half is not None
-             else "never reaches half of mu N")
-    return (f"{name}: the contact {where}, the paper's law at "
-            f"{mm_s(fr.get('law_half_mu_slip_mps'))} (fit: mu {fmt(fr['mu_fit'])}, Lambda "
-            f"{mm_s(fr.get('Lambda_fit_mps'))}, residual {fmt(fr.get('residual'), 'relative')} "
-            f"of |F_t|/N, RMS; F_t {fmt(fr.get('angle_rms_rad'), 'rad')} from -v_P, RMS; "
-            f"creeping {fmt(100 * float(fr.get('creep_fraction') or 0.0))} % of the time)")
+    return realised_sentence(name, fr)
 
 
 # ---------------------------------------------------------------- a verdict's checks

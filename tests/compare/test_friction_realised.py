@@ -19,8 +19,10 @@ from tippetop.compare.analysis.friction_realised import (
     fit_law,
     friction_realised,
     law_mu,
+    number_text,
     realised_sentence,
 )
+from tippetop.compare.presentation import terminal
 from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 
@@ -101,3 +103,45 @@ def test_with_a_stem_only_the_ball_phase_is_measured() -> None:
     assert s["t_stem"] is not None and fr["before_t_s"] == s["t_stem"]
     assert fr["mu_fit"] == pytest.approx(scene.friction.mu, rel=1e-9)
     assert fr["Lambda_fit_mps"] == pytest.approx(scene.friction.Lambda_mps, rel=1e-9)
+
+
+# ---------------------------------------------------------------- the sentence, as printed
+FR = {"samples": 4012, "mu_fit": 0.0944612, "Lambda_fit_mps": 0.0101634, "residual": 0.0053121,
+      "half_mu_slip_mps": 0.00552341, "law_half_mu_slip_mps": 0.01 / math.sqrt(3.0),
+      "angle_rms_rad": 0.167991, "creep_fraction": 0.842156}
+
+
+def test_the_sentence_has_four_digits_and_a_unit_after_every_number() -> None:
+    """What ``compare`` and ``matrix`` print: it said "5.52 mm/s", "Lambda 10.2 mm/s" and a
+    bare "residual 0.0053"."""
+    assert realised_sentence("mujoco-native", FR) == (
+        "mujoco-native: the contact reaches half of mu N at a slip of 5.523 mm/s, the paper's "
+        "law at 5.774 mm/s (fit: mu 0.09446, Lambda 10.16 mm/s, residual 0.0053 of |F_t|/N, "
+        "RMS; F_t 0.168 rad from -v_P, RMS; creeping 84.22 % of the time)")
+    never = realised_sentence("x", {**FR, "half_mu_slip_mps": None})
+    assert "the contact never reaches half of mu N, the paper's law at 5.774 mm/s" in never
+    assert realised_sentence("x", {"samples": 3, "mu_fit": None}) == (
+        "x: too few slipping samples (3) to measure")
+
+
+def test_the_terminal_says_the_realised_law_in_the_same_sentence() -> None:
+    """One sentence: ``simulate`` and ``validate`` (the terminal's) and ``compare`` and
+    ``matrix`` (the analysis') print the same words and digits."""
+    for fr in (FR, {**FR, "half_mu_slip_mps": None}, {"samples": 0, "mu_fit": None}):
+        assert terminal.realised_text("the run", fr) == realised_sentence("the run", fr)
+    assert terminal.fmt_value("friction_realised", FR) == realised_sentence("the run", FR)
+
+
+@pytest.mark.parametrize("x", [0.0, 1.0, 0.1, 2.0 / 3.0, 5.7735, 10.16342, 84.2156, 999.95,
+                               12345.678, 1e6, 2.5e7, 1e-3, 9.99949e-4, 2e-5, 1.4321e-6,
+                               -0.00552341, -3.1e-9, math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize("unit", ["", "s", "mm/s", "relative"])
+def test_numbers_read_as_the_terminal_prints_them(x: float, unit: str) -> None:
+    """The analysis may not import the terminal: its numbers follow the terminal's rule."""
+    assert number_text(x, unit) == terminal.fmt(x, unit)
+
+
+def test_counts_and_missing_numbers_read_as_the_terminal_prints_them() -> None:
+    for v in (0, 7, 4012, 1234567, np.int64(40000)):
+        assert number_text(v) == terminal.fmt(v) and number_text(v, "s") == terminal.fmt(v, "s")
+    assert number_text(None, "rad") == terminal.fmt(None, "rad") == terminal.MISSING

@@ -132,3 +132,18 @@ def test_bad_input_is_one_line_and_writes_nothing(argv, says, tmp_path, monkeypa
 
 def load_and_json() -> str:
     return plan_for(load_scene("fig3", ["run.t_end_s=0.01"]), "ode").to_json()
+
+
+def test_plan_says_each_contacts_solimp_width_in_metres(capsys) -> None:
+    """solimp's third value is a depth: the "what will run" line says "0.001 m" and the contact
+    lines said a bare "0.001"; counts have their thousands separated as simulate's."""
+    code, out, _ = _main(["plan", "fig3", "--engine", "mujoco-native"], capsys)
+    assert code == 0
+    assert "40,000 steps of 2e-4 s, a sample every 5 steps (8,001 rows)" in out.splitlines()[0]
+    contacts = [line for line in out.splitlines() if line.startswith("contact ")]
+    assert len(contacts) == 2, out
+    for line in contacts:
+        assert line.endswith("solref 0.002 s, 1, solimp 0.05, 0.95, 0.001 m, 0.5, 2"), line
+    # the same words as the what-will-run line above them
+    (said,) = [line for line in out.splitlines() if line.strip().startswith("solimp ")]
+    assert said.split(None, 1)[1] == "0.05, 0.95, 0.001 m, 0.5, 2"

@@ -60,8 +60,31 @@ def test_one_event_on_one_side_only_does_not_explain() -> None:
                                                          "timestep_s": 5e-4})
     assert r["explains"] is False
     # what remains is named with numbers
-    assert "0.02 mm" in r["sentence"] and "3.0e-04" in r["sentence"]
-    assert "Euler at dt = 0.0005 s" in r["sentence"]
+    assert "0.02 mm" in r["sentence"] and "Jellett's drift (3e-4 relative" in r["sentence"]
+    assert "Euler at dt = 5e-4 s" in r["sentence"]
+
+
+def test_the_sentence_has_four_digits_and_a_unit_after_every_number() -> None:
+    """Four significant digits as the terminal prints them, and what each number is in: the
+    sentence said "turns over at 2.45 s", "Lambda 8.12 mm/s" and "Jellett's drift (1.4e-06:"."""
+    fr = {"mu_fit": 0.0944612, "Lambda_fit_mps": 0.00812345}
+    ran = {"max_penetration_m": 2.74412e-7, "J_rel_drift": 1.4321e-6, "integrator": "RK4",
+           "timestep_s": 2e-4}
+    r = refit_result(fr, _ev(2.39612), _ev(1.32912), _ev(2.71234), ran)
+    s = r["sentence"]
+    assert s.startswith("the reference with the realised law (mu 0.09446, Lambda 8.123 mm/s) "
+                        "turns over at 2.712 s, the engine turns over at 2.396 s: the law does "
+                        "not explain it"), s
+    assert "the law accounts for 70.36 % of the engine's 1.067 s from the reference's" in s, s
+    assert "the contact's sink (up to 2.744e-4 mm)" in s, s
+    assert "Jellett's drift (1.4e-6 relative: a torque off the contact point" in s, s
+    assert "the integration (RK4 at dt = 2e-4 s)" in s, s
+    # explained: the same numbers, the same digits
+    r = refit_result(fr, _ev(2.39612), _ev(2.32912), _ev(2.40123), {})
+    assert r["sentence"] == ("the reference with the realised law (mu 0.09446, Lambda 8.123 "
+                             "mm/s) turns over at 2.401 s, the engine turns over at 2.396 s: "
+                             "the friction law explains the run (the reference with the "
+                             "scene's law turns over at 2.329 s)")
 
 
 def test_no_fit_no_refit() -> None:

@@ -392,6 +392,22 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig3.mp4"]
 
 
+def test_the_summary_line_has_four_digits_and_units() -> None:
+    """It said "0.967 s of video ... egl, 27 ms a frame" (three digits, then two)."""
+    res = render.RenderResult(path=Path("fig3.mp4"), engine="mujoco", backend="egl",
+                              n_frames=29, width=160, height=120, fps=30.0, speed=8.3,
+                              video_s=29 / 30, render_wall_s=0.7737)
+    assert render_command.summary_line(res, 8.0) == (
+        "wrote fig3.mp4: 29 frames 160x120, 0.9667 s of video at 30 fps for 8 s simulated "
+        "(--speed 8.3); egl, 26.68 ms a frame")
+    slow = render.RenderResult(path=Path("a.mp4"), engine="both", backend="osmesa",
+                               n_frames=1281, width=1280, height=480, fps=30.0, speed=0.25,
+                               video_s=1281 / 30, render_wall_s=1601.25)
+    assert render_command.summary_line(slow, 10.675) == (
+        "wrote a.mp4: 1,281 frames 1280x480, 42.7 s of video at 30 fps for 10.68 s simulated "
+        "(--speed 0.25); osmesa, 1.25 s a frame")
+
+
 # ---------------------------------------------------------------- OpenGL only when asked
 _GL_MODULES = ("OpenGL", "mujoco.egl", "mujoco.osmesa", "mujoco.glfw", "glfw",
                "tippetop.mujoco_runner.video", "tippetop.mujoco_runner.offscreen",

@@ -240,3 +240,101 @@ def test_validate_on_a_mu_1_file_says_its_mu_and_the_units() -> None:
         if unit is not None and re.search(r"\d", value):
             assert unit in f"{value} ", (mode, check, value)
     assert re.search(r"timestep_s 0\.002 s -> 0\.0002 s", out), out
+
+
+# ---------------------------------------------------------------- compare, matrix, the MuJoCo run
+#: A realised law as MuJoCo's native friction gives it on Fig. 3 (the digits beyond the fourth
+#: are there to be rounded away).
+_FR = {"samples": 4012, "mu_fit": 0.0944612, "Lambda_fit_mps": 0.0101634,
+       "residual": 0.0053121, "half_mu_slip_mps": 0.00552341,
+       "law_half_mu_slip_mps": 0.01 / 3 ** 0.5, "angle_rms_rad": 0.167991,
+       "creep_fraction": 0.842156}
+#: What the realised law's and the refit's sentences put after a number, besides simulate's.
+_SENTENCE_UNIT = re.compile(_UNIT.pattern + r"|^mm(?![\w/^])|^relative\b")
+
+
+def _bare_numbers(text: str) -> list[str]:
+    """The numbers in a sentence that no unit follows (a ``mu`` is a coefficient)."""
+    text = re.sub(r"\bmu \d[\d.e-]*", "mu", text)
+    return [m.group() for m in _NUMBER.finditer(text)
+            if not _SENTENCE_UNIT.match(text[m.end():].lstrip())]
+
+
+def _four_digits(text: str) -> list[str]:
+    """The numbers in ``text`` with more than four significant digits (none may have)."""
+    return [m.group() for m in _NUMBER.finditer(text)
+            if len(m.group().split("e")[0].lstrip("+-0.").replace(".", "")) > 4]
+
+
+def _block(out: str, head: str) -> str:
+    """The paragraph under ``head`` as one line (the terminal wraps it at any column)."""
+    lines = out.splitlines()
+    i = next(k for k, line in enumerate(lines) if line.startswith(head))
+    block = []
+    for line in lines[i + 1:]:
+        if not line.strip():
+            break
+        block.append(line)
+    return " ".join(" ".join(block).split())
+
+
+def _refit_fr() -> dict[str, Any]:
+    from tippetop.compare.analysis.refit import refit_result
+
+    ev = {"t_invert": 2.39612, "t_stem": None, "theta_asymp": 3.1041}
+    ref = {**ev, "t_invert": 2.32912}
+    refit = {**ev, "t_invert": 2.71234}
+    ran = {"max_penetration_m": 2.74412e-7, "J_rel_drift": 1.4321e-6, "integrator": "RK4",
+           "timestep_s": 2e-4}
+    return {**_FR, "refit": refit_result(_FR, ev, ref, refit, ran)}
+
+
+def test_compare_says_the_realised_law_and_its_refit_in_four_digits_and_units(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """``tippetop compare``'s friction block said "5.52 mm/s", "Lambda 10.2 mm/s", a bare
+    "residual 0.0053", "turns over at 2.45 s" and "Jellett's drift (1.4e-06:"."""
+    from tippetop.compare.commands.compare import print_compare
+
+    print_compare({"scene": "fig3", "group": "II",
+                   "theory": {"outcome": "inverted", "theta_s": 3.14159},
+                   "modes": {"ode": {"outcome": "inverted", "t_invert": 2.32912},
+                             "mujoco-native": {"outcome": "inverted", "t_invert": 2.39612,
+                                               "friction_realised": _refit_fr()}}})
+    block = _block(capsys.readouterr().out, "the friction law as each mode realises it")
+    assert block.startswith("mujoco-native the contact reaches half of mu N at a slip of "
+                            "5.523 mm/s, the paper's law at 5.774 mm/s (fit: mu 0.09446, "
+                            "Lambda 10.16 mm/s, residual 0.0053 of |F_t|/N, RMS;"), block
+    assert "refit: the reference with the realised law (mu 0.09446, Lambda 10.16 mm/s) turns " \
+           "over at 2.712 s, the engine turns over at 2.396 s" in block, block
+    assert "Jellett's drift (1.4e-6 relative:" in block and "dt = 2e-4 s" in block, block
+    assert _bare_numbers(block) == [] and _four_digits(block) == [], block
+
+
+def test_matrix_says_the_realised_law_in_four_digits_and_units(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from tippetop.compare.commands.matrix import print_matrix
+
+    run = {"scene": "fig3", "mode": "native", "engine": "mujoco", "agrees": True,
+           "status": "ok", "reasons": [], "friction_realised": _FR}
+    print_matrix({"scenes": ["fig3"], "modes": ["native"], "runs": [run], "differences": [],
+                  "engines": [{"spec": "mujoco", "implementation": "mujoco",
+                               "version": "4.0.0", "precision": "float64", "device": "cpu"}]})
+    block = _block(capsys.readouterr().out, "the friction law as each engine realises it")
+    assert block.startswith("fig3 native mujoco: the contact reaches half of mu N at a slip "
+                            "of 5.523 mm/s"), block
+    assert "creeping 84.22 % of the time" in block, block
+    assert _bare_numbers(block) == [] and _four_digits(block) == [], block
+
+
+def test_the_mujoco_runs_message_has_four_digits_and_units() -> None:
+    """It said "50000 steps of RK4 at dt = 2e-05 s to t = 1 s in 1.08 s"."""
+    r = tippetop("simulate", "fig3", "--engine", "mujoco", "--set", "run.t_end_s=0.05",
+                 "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    m = re.fullmatch(r"paper mode: 2,500 steps of RK4 at dt = 2e-5 s to t = 0\.05 s in (\S+) s",
+                     d["message"])
+    assert m, d["message"]
+    # the wall time the summary keeps, to four significant digits
+    assert float(m.group(1)) == float(f"{d['wall_s']:.4g}"), (d["message"], d["wall_s"])
+    assert _four_digits(d["message"]) == [], d["message"]

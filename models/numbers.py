@@ -1,0 +1,63 @@
+"""Numbers as text, one rule for every layer: four significant digits, then the unit.
+
+Fixed point from 1e-3 to 1e6 with trailing zeros dropped (``2.329``), ``1.3e-9`` outside,
+integers with thousands separators (``40,000``), a missing value ``-`` and a NaN said in words.
+The terminal (:func:`tippetop.compare.presentation.terminal.fmt`), the analysis layer's
+sentences and MuJoCo's run message all print numbers through it. Standard library only.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+#: Text of a missing number.
+MISSING = "-"
+#: Text of a NaN: an undefined number is said, never shown as ``nan``.
+NAN_TEXT = "undefined (NaN)"
+
+
+def float_text(x: float, digits: int = 4) -> str:
+    """A float in ``digits`` significant digits, scientific below 1e-3 and from 1e6 on.
+
+    Returns:
+        ``2.329``, ``0.0038``, ``2e-5``, ``1.2e6``, ``0``, ``inf`` or :data:`NAN_TEXT`.
+    """
+    x = float(x)
+    if math.isnan(x):
+        return NAN_TEXT
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if x == 0:
+        return "0"
+    if 1e-3 <= abs(x) < 1e6:
+        decimals = max(0, digits - 1 - math.floor(math.log10(abs(x))))
+        text = f"{x:.{decimals}f}"
+        return text.rstrip("0").rstrip(".") if "." in text else text
+    mant, _, exp = f"{x:.{max(0, digits - 1)}e}".partition("e")
+    if "." in mant:
+        mant = mant.rstrip("0").rstrip(".")
+    return f"{mant}e{int(exp)}"
+
+
+def number_text(value: float | int | None, unit: str = "", digits: int = 4) -> str:
+    """A number with its unit: ``5.774 mm/s``, ``40,000``, ``2e-5 s``.
+
+    Args:
+        value: The number (numpy scalars too); None reads :data:`MISSING`.
+        unit: Appended after the number, or ``"relative"``: two significant digits and no
+            unit (the sentence says what it is relative to).
+        digits: Significant digits of a float.
+    """
+    if value is None:
+        return MISSING
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        text = f"{int(value):,}"
+        return f"{text} {unit}" if unit and unit != "relative" else text
+    if unit == "relative":
+        digits, unit = 2, ""
+    text = float_text(float(value), digits)
+    return f"{text} {unit}" if unit and math.isfinite(float(value)) else text
+
+
+__all__ = ["MISSING", "NAN_TEXT", "float_text", "number_text"]
