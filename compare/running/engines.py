@@ -7,7 +7,6 @@ it did not read (``unused``).
 
 from __future__ import annotations
 
-import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -26,6 +25,7 @@ from tippetop.compare.analysis.metrics import (
 from tippetop.models.engines import EngineSpec
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
+from tippetop.models.numbers import number_text
 from tippetop.models.plan import ENGINES, RunPlan
 from tippetop.models.resolve import mode_engine, resolve_plan
 from tippetop.models.scene import Scene
@@ -65,32 +65,39 @@ class EngineRun:
 def describe_ran(summary: dict[str, Any]) -> str:
     """One line on what a run's summary says ran (the settings read back, not those asked for).
 
-    Example: ``MuJoCo RK4 at dt = 0.0002 s, native friction: pyramidal cone, condim 3,
-    mu 0.104, impratio 1.41, solref [0.002, 1], solimp [0.05, 0.95, 0.001, 0.5, 2]``.
+    Example: ``MuJoCo RK4 at dt = 2e-4 s, native friction: pyramidal cone, condim 3,
+    mu 0.104, impratio 1.41, solref [0.002 s, 1], solimp [0.05, 0.95, 0.001 m, 0.5, 2]``
+    (solref's time constant and solimp's width carry their units; with a negative solref,
+    MuJoCo's stiffness and damping, none).
     """
-    def nums(v: Any) -> str:
-        return "[" + ", ".join(f"{x:g}" for x in v) + "]" if v is not None else "-"
+    def nums(v: Any, units: tuple[str, ...] = ()) -> str:
+        if v is None:
+            return "-"
+        items = [number_text(x, units[i] if i < len(units) and x > 0 else "")
+                 for i, x in enumerate(v)]
+        return "[" + ", ".join(items) + "]"
 
     if summary.get("engine") == "ode":
         return (f"reference ODE, DOP853 on the {summary.get('formulation')} formulation at "
-                f"rtol {summary.get('rtol', math.nan):g}, law {summary.get('friction_law')}")
+                f"rtol {number_text(summary.get('rtol'))}, law {summary.get('friction_law')}")
     if summary.get("timestep_s") is None:
         return "MuJoCo (no settings recorded)"
-    head = f"MuJoCo {summary.get('integrator')} at dt = {summary['timestep_s']:g} s, "
-    contact = (f"condim {summary.get('condim')}, solref {nums(summary.get('solref'))}, "
-               f"solimp {nums(summary.get('solimp'))}")
+    head = f"MuJoCo {summary.get('integrator')} at dt = {number_text(summary['timestep_s'], 's')}, "
+    solref = "solref " + nums(summary.get("solref"), ("s",))
+    solimp = "solimp " + nums(summary.get("solimp"), ("", "", "m"))
+    contact = f"condim {summary.get('condim')}, {solref}, {solimp}"
     if summary.get("mode") == "paper":
         law = summary.get("friction_law")
         mu = summary.get("law_mu")
-        applied = f"the paper-mode law {law}" + (f" (mu {mu:g})" if mu is not None else "")
+        applied = f"the paper-mode law {law}" + (f" (mu {number_text(mu)})" if mu is not None
+                                                 else "")
         return f"{head}{applied} on a frictionless contact: {contact}"
-    friction = [f"{summary.get('cone')} cone", contact.split(", solref")[0]]
-    for key in ("mu", "torsional", "rolling"):
+    friction = [f"{summary.get('cone')} cone", f"condim {summary.get('condim')}"]
+    for key, unit in (("mu", ""), ("torsional", "m"), ("rolling", "m")):
         if summary.get(key) is not None:
-            friction.append(f"{key} {summary[key]:g}")
-    friction.append(f"impratio {summary.get('impratio', math.nan):g}")
-    friction.append("solref " + nums(summary.get("solref")))
-    friction.append("solimp " + nums(summary.get("solimp")))
+            friction.append(f"{key} {number_text(summary[key], unit if summary[key] else '')}")
+    friction.append(f"impratio {number_text(summary.get('impratio'))}")
+    friction += [solref, solimp]
     return f"{head}native friction: " + ", ".join(friction)
 
 

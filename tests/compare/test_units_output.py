@@ -338,3 +338,17 @@ def test_the_mujoco_runs_message_has_four_digits_and_units() -> None:
     # the wall time the summary keeps, to four significant digits
     assert float(m.group(1)) == float(f"{d['wall_s']:.4g}"), (d["message"], d["wall_s"])
     assert _four_digits(d["message"]) == [], d["message"]
+
+
+def test_what_ran_says_its_units() -> None:
+    from tippetop.compare.running.engines import describe_ran
+
+    native = {"engine": "mujoco", "mode": "native", "integrator": "RK4", "timestep_s": 2e-4,
+              "cone": "pyramidal", "condim": 3, "mu": 0.104, "torsional": 0.0, "rolling": 0.0,
+              "impratio": 1.41, "solref": [0.002, 1.0], "solimp": [0.05, 0.95, 0.001, 0.5, 2]}
+    text = describe_ran(native)
+    assert text == ("MuJoCo RK4 at dt = 2e-4 s, native friction: pyramidal cone, condim 3, "
+                    "mu 0.104, torsional 0, rolling 0, impratio 1.41, solref [0.002 s, 1], "
+                    "solimp [0.05, 0.95, 0.001 m, 0.5, 2]")
+    # MuJoCo's direct form (negative solref: stiffness and damping) has no time constant
+    assert "solref [-1000, -10]" in describe_ran({**native, "solref": [-1000.0, -10.0]})
