@@ -31,6 +31,7 @@ from tippetop.compare.analysis.verdict import FIRST_ORDER, run_entry, verdict
 from tippetop.compare.running.engines import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
+from tippetop.models.numbers import number_text
 
 #: The fit's step and integrator: RK4 (a first-order step drifts J on a top with A != C,
 #: docs/design.md) at the file's step or the calibration's 2e-4 s, whichever is shorter.
@@ -383,16 +384,18 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
     for v in verified:
         fr = v.get("friction_realised") or {}
         failed = {c["check"] for c in v["checks"] if not c["passed"]}
-        where = f"from n0 = {v['n0']:.4g} rad/s, theta0 = {v['theta0']:.3g} rad"
+        where = (f"from n0 = {number_text(v['n0'], 'rad/s')}, theta0 = "
+                 f"{number_text(v['theta0'], 'rad')}")
         if "jellett_before_stem" in failed and v.get("left_table_s") is not None:
-            why.append(f"{where} the ball leaves the table at {v['left_table_s']:.3f} s, "
+            why.append(f"{where} the ball leaves the table at "
+                       f"{number_text(v['left_table_s'], 's')}, "
                        f"before the stem lands: J is not kept in flight, and the reference's "
                        f"ball never leaves it")
             break
         if v["passed"] is False and fr.get("half_mu_slip_mps") is not None:
             why.append(f"{where} the contact reaches half of mu N at "
-                       f"{1e3 * fr['half_mu_slip_mps']:.3g} mm/s, the paper's law at "
-                       f"{1e3 * fr['law_half_mu_slip_mps']:.3g} mm/s")
+                       f"{number_text(1e3 * fr['half_mu_slip_mps'], 'mm/s')}, the paper's law "
+                       f"at {number_text(1e3 * fr['law_half_mu_slip_mps'], 'mm/s')}")
             break
     return (f"no setting within the bounds follows the reference from every start{extra}: "
             f"{len(departs)} check(s) depart ({'; '.join(departs[:3])}"
