@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tippetop.models.errors import TippetopError, expect
+from tippetop.models.numbers import number_text
 from tippetop.mujoco_runner.gl import use_gl_backend
 
 if TYPE_CHECKING:
@@ -250,7 +251,8 @@ def render_scene(
     runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
                         for name in engines)
     tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
-         f"{height}, {n_frames / fps:.3g} s of video at speed {speed:.3g} ({backend})...")
+         f"{height}, {number_text(n_frames / fps, 's')} of video at speed {number_text(speed)} "
+         f"({backend})...")
     stats: list[video.VideoStats] = []
 
     def write_checked(tmp: Path) -> None:
