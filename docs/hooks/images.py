@@ -1,0 +1,204 @@
+"""MkDocs hook: the site's pictures of a report and a video, made at build time by real commands.
+
+The pages show what ``tippetop validate``'s and ``tippetop nightly``'s ``report.html`` look
+like, and frames of ``tippetop render``'s video. No screenshot is committed: every build runs
+the commands below into a temporary folder, opens each report in headless Chromium, takes a
+few frames of the video (imageio), and adds the PNGs to the site as generated files
+(``images/*.png``), so a picture is always of the code that built the site.
+
+About 50 s on 2 cores (measured with a fresh and with a warm compile cache, which the commands
+share with the user's: ``$TIPPETOP_CACHE``). ``TIPPETOP_DOCS_IMAGES=0`` skips
+the commands for a quick local build: the pages then show placeholders, with one notice (not a
+warning). A missing Chromium, a missing offscreen OpenGL or a failing command is one warning
+line naming it, which fails ``mkdocs build --strict``.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from mkdocs.config.defaults import MkDocsConfig
+from mkdocs.structure.files import File, Files
+
+log = logging.getLogger("mkdocs.hooks.tippetop_images")
+
+#: Set to 0 to skip the commands (placeholders instead).
+ENV = "TIPPETOP_DOCS_IMAGES"
+
+#: Chromium's window (px) and the height each screenshot is cropped to (the report's top).
+WINDOW = (1300, 1800)
+CROP_VALIDATE = 1100
+CROP_NIGHTLY = 1560
+
+#: The MJCF top whose validation report is shown (relative to the repository).
+VALIDATE_MODEL = "examples/paper_loaded_sphere.xml"
+#: The nightly cases whose report is shown: the paper's Fig. 3 scene in every mode of the quick
+#: profile (a glob over the catalogue's case ids, models/nightly.toml).
+NIGHTLY_CASES = "paper/fig3*"
+#: Frames of the side-by-side video put in the strip (3 columns, 2 rows).
+STRIP_FRAMES = 6
+
+#: Each command's time limit (s): a hung command is a failed image, not a hung build.
+TIMEOUT_S = 600
+
+#: The generated images: site path -> (what it shows, for the placeholder).
+IMAGES = {
+    "images/validate-report.png": f"tippetop validate {VALIDATE_MODEL} --no-tune: report.html",
+    "images/nightly-report.png": (f"tippetop nightly --profile quick --cases '{NIGHTLY_CASES}':"
+                                  " report.html"),
+    "images/render-strip.png": "tippetop render fig3 --engine both: frames of the MP4",
+}
+
+
+class ImageError(Exception):
+    """An image that could not be made: one line saying why."""
+
+
+def on_files(files: Files, config: MkDocsConfig) -> Files:
+    """Add the images to the site as generated files (made here, or placeholders)."""
+    for name, data in _images(config).items():
+        files.append(File.generated(config, name, content=data))
+    return files
+
+
+def _images(config: MkDocsConfig) -> dict[str, bytes]:
+    if os.environ.get(ENV, "").strip() == "0":
+        log.info("%s=0: the report screenshots and the video strip are placeholders", ENV)
+        return {name: _placeholder(f"not built ({ENV}=0): {what}")
+                for name, what in IMAGES.items()}
+    root = Path(config.config_file_path).resolve().parent
+    start = time.perf_counter()
+    out: dict[str, bytes] = {}
+    makers: dict[str, Callable[[Path, Path], bytes]] = {
+        "images/validate-report.png": _validate_report,
+        "images/nightly-report.png": _nightly_report,
+        "images/render-strip.png": _render_strip,
+    }
+    if _chromium() is None:  # said once, before any command runs for a screenshot
+        log.warning("docs images: chromium not found: it screenshots the reports (Debian: bash "
+                    "scripts/install-system-packages.sh; %s=0 builds without images)", ENV)
+        for name in ("images/validate-report.png", "images/nightly-report.png"):
+            out[name] = _placeholder("failed: chromium not found")
+            del makers[name]
+    with tempfile.TemporaryDirectory(prefix="tippetop-docs-") as tmp:
+        for name, make in makers.items():
+            t0 = time.perf_counter()
+            try:
+                out[name] = make(root, Path(tmp))
+            except ImageError as exc:
+                log.warning("docs image %s: %s (%s=0 builds without images)", name, exc, ENV)
+                out[name] = _placeholder(f"failed: {exc}")
+            else:
+                log.info("docs image %s made in %.1f s", name, time.perf_counter() - t0)
+    log.info("docs images made in %.1f s", time.perf_counter() - start)
+    return out
+
+
+def _tippetop() -> str:
+    here = Path(sys.executable).parent / "tippetop"
+    found = str(here) if here.is_file() else shutil.which("tippetop")
+    if not found:
+        raise ImageError("the tippetop command is not installed (pip install -e .)")
+    return found
+
+
+def _run(args: list[str], cwd: Path, ok: tuple[int, ...] = (0,)) -> None:
+    try:
+        proc = subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S,
+                              check=False)
+    except subprocess.TimeoutExpired as exc:
+        raise ImageError(f"`{_show(args)}` took over {TIMEOUT_S} s") from exc
+    if proc.returncode not in ok:
+        lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.strip()]
+        why = lines[-1].strip() if lines else "no output"
+        raise ImageError(f"`{_show(args)}` exited {proc.returncode}: {why}")
+
+
+def _show(args: list[str]) -> str:
+    return " ".join(["tippetop", *args[1:]] if args and args[0].endswith("tippetop") else args)
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+def _screenshot(html: Path, crop_height: int, tmp: Path) -> bytes:
+    from PIL import Image
+
+    if not html.is_file():
+        raise ImageError(f"{html.name} was not written")
+    chromium = _chromium()
+    if chromium is None:
+        raise ImageError("chromium not found")
+    png = tmp / f"{html.parent.name}.png"
+    _run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+          f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--screenshot={png}", html.as_uri()], tmp)
+    if not png.is_file():
+        raise ImageError(f"chromium wrote no screenshot of {html}")
+    with Image.open(png) as im:
+        shot = im.convert("RGB").crop((0, 0, im.width, min(crop_height, im.height)))
+    return _png(shot)
+
+
+def _validate_report(root: Path, tmp: Path) -> bytes:
+    out = tmp / "validate-report"
+    # exit 1: a check departs (the file's own contact does not turn this top over)
+    _run([_tippetop(), "validate", VALIDATE_MODEL, "--no-tune", "--out", str(out)], root,
+         ok=(0, 1))
+    return _screenshot(out / "report.html", CROP_VALIDATE, tmp)
+
+
+def _nightly_report(root: Path, tmp: Path) -> bytes:
+    out = tmp / "nightly-report"
+    # exit 1 is a regression: the report shows it, as it would to a user
+    _run([_tippetop(), "nightly", "--profile", "quick", "--cases", NIGHTLY_CASES, "--out",
+          str(out)], tmp, ok=(0, 1))
+    return _screenshot(out / "report.html", CROP_NIGHTLY, tmp)
+
+
+def _render_strip(root: Path, tmp: Path) -> bytes:
+    import imageio.v3 as iio
+    from PIL import Image
+
+    mp4 = tmp / "fig3.mp4"
+    _run([_tippetop(), "render", "fig3", "--engine", "both", "--speed", "1", "--fps", "10",
+          "--set", "run.t_end_s=4", "--size", "320x240", "--max-frames", "90", "--out",
+          str(mp4)], tmp)
+    frames = iio.imread(mp4)
+    if len(frames) < STRIP_FRAMES:
+        raise ImageError(f"the video has {len(frames)} frames, fewer than {STRIP_FRAMES}")
+    picks = [round(i * (len(frames) - 1) / (STRIP_FRAMES - 1)) for i in range(STRIP_FRAMES)]
+    h, w = frames[0].shape[:2]
+    cols = 3
+    rows = -(-STRIP_FRAMES // cols)
+    strip = Image.new("RGB", (w * cols, h * rows), "white")
+    for k, i in enumerate(picks):
+        strip.paste(Image.fromarray(frames[i]), ((k % cols) * w, (k // cols) * h))
+    return _png(strip)
+
+
+def _placeholder(text: str) -> bytes:
+    from PIL import Image, ImageDraw
+
+    im = Image.new("RGB", (960, 120), (238, 238, 238))
+    ImageDraw.Draw(im).text((16, 50), text[:150], fill=(80, 80, 80))
+    return _png(im)
+
+
+def _png(im: object) -> bytes:
+    buf = io.BytesIO()
+    im.save(buf, format="PNG", optimize=True)  # type: ignore[attr-defined]
+    return buf.getvalue()
