@@ -5,7 +5,8 @@ The repository keeps its packages in top-level folders (``models/``, ``reference
 (pyproject.toml's ``package-dir``). griffe, which reads the source for mkdocstrings, finds a
 package by its folder's name, so this hook links the folders under
 ``build/docs-api/tippetop/`` (``build/`` is ignored by git), the search path mkdocs.yml gives
-the python handler. The handler is created on the first ``:::`` it renders, after ``on_config``.
+the python handler. The links are made at start-up (:func:`on_startup`), before mkdocstrings
+reads its paths.
 
 The docstrings name other objects with Sphinx roles (``:func:`simulate_ode```), which the Google
 style renders as text: the API pages drop the role and keep the name in code (``~`` and a
@@ -32,9 +33,17 @@ PACKAGES = ("models", "reference_ode", "mujoco_runner", "compare")
 API_SRC = Path("build") / "docs-api"
 
 
-def on_config(config: MkDocsConfig) -> MkDocsConfig:
-    """Link each package folder as ``build/docs-api/tippetop/<name>``."""
-    root = Path(config.config_file_path).resolve().parent
+def on_startup(command: str, dirty: bool) -> None:
+    """Link each package folder as ``build/docs-api/tippetop/<name>``.
+
+    At start-up, before any plugin's ``on_config``: mkdocstrings resolves the handler's
+    ``paths`` there, and leaves out one that does not exist yet (a fresh clone's first build).
+    """
+    link_packages(Path(__file__).resolve().parents[2])
+
+
+def link_packages(root: Path) -> None:
+    """Link each package folder of the repository at ``root`` under ``build/docs-api``."""
     ns = root / API_SRC / "tippetop"
     if ns.is_symlink() or ns.is_file():
         ns.unlink()
@@ -53,7 +62,6 @@ def on_config(config: MkDocsConfig) -> MkDocsConfig:
     # `mkdocs` run as a console script has its bin folder first on sys.path, and in it the
     # `tippetop` script, which griffe would take for a portion of the namespace package
     sys.path[:] = [p for p in sys.path if not (Path(p or ".") / "tippetop").is_file()]
-    return config
 
 
 #: A Sphinx role in front of the code it names, as the page's HTML has it.
