@@ -60,4 +60,9 @@ def number_text(value: float | int | None, unit: str = "", digits: int = 4) -> s
     return f"{text} {unit}" if unit and math.isfinite(float(value)) else text
 
 
-__all__ = ["MISSING", "NAN_TEXT", "float_text", "number_text"]
+def signed_text(value: float, unit: str = "") -> str:
+    """A signed difference with its unit: ``-3.109 rad``, ``+0.0012 rad/s`` (``+`` for 0)."""
+    return f"{'-' if value < 0 else '+'}{number_text(abs(value), unit)}"
+
+
+__all__ = ["MISSING", "NAN_TEXT", "float_text", "number_text", "signed_text"]

@@ -19,6 +19,7 @@ from tippetop.compare.running.engines import describe_ran, run_failed
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES, mode_task_parts
+from tippetop.models.numbers import number_text, signed_text
 from tippetop.models.params import TopParams
 
 REFERENCE_MODE = "ode"
@@ -100,7 +101,7 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
         outcome = "failed"
         reasons.append(f"the run failed: {error}")
     elif outcome == "inconclusive":
-        rate = f" at {trend:+.2g} rad/s" if trend is not None else ""
+        rate = f" at {signed_text(trend, 'rad/s')}" if trend is not None else ""
         reasons.append(f"theta is still moving at the end{rate}: inconclusive, not "
                        f"{theory_outcome}")
     elif outcome != theory_outcome:
@@ -111,25 +112,29 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
                    and abs(trend) * t_span_s >= abs(d_th) - tol)
         if closing and outcome == theory_outcome:
             still_moving = True
-            reasons.append(f"not settled: theta_asymp {theta_asymp:.3f} rad is {abs(d_th):.3f} "
-                           f"rad short of theta_s {theta_s:.3f} and still moving towards it "
-                           f"at {trend:+.2g} rad/s (a longer run would tell)")
+            reasons.append(f"not settled: theta_asymp {number_text(theta_asymp, 'rad')} is "
+                           f"{number_text(abs(d_th), 'rad')} short of theta_s "
+                           f"{number_text(theta_s, 'rad')} and still moving towards it at "
+                           f"{signed_text(trend, 'rad/s')} (a longer run would tell)")
         else:
-            reasons.append(f"theta_asymp {theta_asymp:.3f} rad against theta_s "
-                           f"{theta_s:.3f} ({d_th:+.3f} rad, beyond {tol:g} rad)")
+            reasons.append(f"theta_asymp {number_text(theta_asymp, 'rad')} against theta_s "
+                           f"{number_text(theta_s, 'rad')} ({signed_text(d_th, 'rad')}, beyond "
+                           f"{number_text(tol, 'rad')})")
     notes: list[str] = []
     if error is None and not reference:
         t_tol = TOLERANCES["t_invert"][0]
         if d_t is not None and abs(d_t) > t_tol:
-            notes.append(f"turns over {abs(d_t):.2f} s {'later' if d_t > 0 else 'earlier'} "
-                         f"than the reference (beyond {t_tol:g} s)")
+            notes.append(f"turns over {number_text(abs(d_t), 's')} "
+                         f"{'later' if d_t > 0 else 'earlier'} than the reference (beyond "
+                         f"{number_text(t_tol, 's')})")
         elif (t_invert is None) != (t_invert_ref is None) and t_invert_ref is not None:
             notes.append("never turns over; the reference does")
         elif (t_invert is None) != (t_invert_ref is None) and t_invert is not None:
             notes.append("turns over; the reference does not")
     j_tol = TOLERANCES["J_rel_drift"][0]
     if error is None and J_rel_drift is not None and J_rel_drift > j_tol:
-        notes.append(f"Jellett's J drifts by {J_rel_drift:.1e} (beyond {j_tol:g})")
+        notes.append(f"Jellett's J drifts by {number_text(J_rel_drift, 'relative')} (beyond "
+                     f"{number_text(j_tol, 'relative')})")
     return {"scene": scene, "mode": mode, "outcome": outcome, "theory_outcome": theory_outcome,
             "theta_asymp": theta_asymp, "theta_s": theta_s, "d_theta_asymp": d_th,
             "t_invert": t_invert, "d_t_invert": d_t, "J_rel_drift": J_rel_drift,
@@ -358,9 +363,11 @@ def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
                                  ("never inverts" if d["value"] is None else "inverts, the "
                                   "reference does not"))
                 elif d["metric"] == "J_rel_drift":
-                    parts.append(f"loses Jellett's constant (drift {d['value']:.1e})")
+                    parts.append("loses Jellett's constant (drift "
+                                 f"{number_text(d['value'], 'relative')})")
                 elif d["metric"] == "theta_asymp":
-                    parts.append(f"settles at {d['value']:.2f} rad, not {d['reference']:.2f}")
+                    parts.append(f"settles at {number_text(d['value'], 'rad')}, not "
+                                 f"{number_text(d['reference'], 'rad')}")
             verdict = "Departs: " + "; ".join(dict.fromkeys(parts)) if parts else \
                 "Follows a different theta(t) (RMS over tolerance) but ends the same"
         note = s.get("note", "")

@@ -78,7 +78,7 @@ class TuneStart:
 
     def label(self) -> str:
         """``n0 = 150 rad/s, theta0 = 0.04 rad``."""
-        return f"n0 = {self.n0:.4g} rad/s, theta0 = {self.theta0:.3g} rad"
+        return f"n0 = {number_text(self.n0, 'rad/s')}, theta0 = {number_text(self.theta0, 'rad')}"
 
 
 def starts_for(n0: float, theta0: float) -> list[TuneStart]:
@@ -187,8 +187,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         if integ in FIRST_ORDER and A_over_C is not None and abs(A_over_C - 1.0) > 1e-9:
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
                           "kept": False, "why": f"{integ} is first order: it moves Jellett's "
-                          f"constant in proportion to dt on a top with A/C = {A_over_C:.3g} "
-                          "(docs/design.md)"})
+                          "constant in proportion to dt on a top with A/C = "
+                          f"{number_text(A_over_C)} (docs/design.md)"})
             continue
         if best.timeconst_s < 2.0 * step:
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
@@ -201,7 +201,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         problem.rollouts += other.rollouts
         near = rms <= KEEP_FACTOR * found.rms_rad + KEEP_FLOOR_RAD
         needs.append({"integrator": integ, "timestep_s": step, "rms_rad": rms, "kept": False,
-                      "why": "" if near else f"its RMS {rms:.3g} rad is above "
+                      "why": "" if near else f"its RMS {number_text(rms, 'rad')} is above "
                       f"{KEEP_FACTOR:g} x the fit's + {KEEP_FLOOR_RAD:g} rad"})
         if near:
             options.append((integ, step))

@@ -31,6 +31,7 @@ from tippetop.compare.running.engines import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
+from tippetop.models.numbers import number_text
 
 #: The runs of a validation, in report order: the file as it says first.
 MODES: tuple[str, ...] = ("mujoco-file", "ode", "mujoco-paper", "mujoco-native")
@@ -99,15 +100,16 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
         a, b = fs.get(key), rs.get(key)
         if a is not None and b is not None and abs(a - b) > max(EVENT_TOL_S, EVENT_RTOL * b):
             later = "later" if a > b else "earlier"
-            out.append(f"its friction {what} {abs(a - b):.2f} s {later} than the reference "
-                       f"({a:.2f} s against {b:.2f} s)")
+            out.append(f"its friction {what} {number_text(abs(a - b), 's')} {later} than the "
+                       f"reference ({number_text(a, 's')} against {number_text(b, 's')})")
         elif (a is None) != (b is None):
             who = "the reference" if a is None else "the file"
             within = f"the run's {t_end_s:g} s" if t_end_s is not None else "the run"
             out.append(f"only {who} {what} within {within}")
     if f["end_state"] != ref["end_state"]:
-        out.append(f"it ends {f['end_state']} (theta {fs['theta_final']:.2f} rad) where the "
-                   f"reference ends {ref['end_state']} (theta {rs['theta_final']:.2f} rad)")
+        out.append(f"it ends {f['end_state']} (theta {number_text(fs['theta_final'], 'rad')}) "
+                   f"where the reference ends {ref['end_state']} (theta "
+                   f"{number_text(rs['theta_final'], 'rad')})")
     integ, dt = fs.get("integrator"), fs.get("timestep_s")
     step = f"its {integ} at dt = {dt:g} s" if integ and dt else "its integrator"
     j = fs.get("J_rel_drift")
@@ -119,16 +121,17 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
         gyro = gyroscopic_drift(fs, A_over_C)
         causes.append(f"the integration ({step} is {gyro})" if gyro else
                       f"the integration ({step}; RK4 or a shorter step tells)")
-        out.append(f"Jellett's constant drifts by {j:.1e} (relative) before the stem (a torque "
-                   f"off the contact point or an error: {', '.join(causes)})")
+        out.append(f"Jellett's constant drifts by {number_text(j, 'relative')} (relative) "
+                   f"before the stem (a torque off the contact point or an error: "
+                   f"{', '.join(causes)})")
     by_check = {c["check"]: c for c in checks if c["mode"] == "mujoco-file"}
     energy = by_check.get("energy_never_rises")
     if energy is not None and not energy["passed"] and energy["value"] is not None:
         hint = (": Euler integrates a spinning body's gyroscopic forces explicitly, which gains "
                 "energy; use integrator=\"implicitfast\" or \"RK4\"" if integ == "Euler"
                 else "; a shorter timestep or RK4 tells whether the integration gains it")
-        out.append(f"its energy rises by {energy['value']:.2g} of E0, more than its soft "
-                   f"contacts can give back ({step}){hint}")
+        out.append(f"its energy rises by {number_text(energy['value'], 'relative')} of E0, more "
+                   f"than its soft contacts can give back ({step}){hint}")
     return out
 
 
@@ -193,13 +196,13 @@ def scaled_mu_clause(file_mu: float | None, native_mu: float | None) -> str:
         known = file_mu if file_mu is not None else native_mu
         if known is None:
             return f"{head} and their friction scaled to this file's mu"
-        return f"{head} and their friction scaled to mu = {known:.4g}"
+        return f"{head} and their friction scaled to mu = {number_text(known)}"
     if math.isclose(native_mu, file_mu, rel_tol=1e-9):
-        return f"{head} and their friction scaled to the file's mu = {file_mu:.4g}"
+        return f"{head} and their friction scaled to the file's mu = {number_text(file_mu)}"
     at_calibration = native_mu / file_mu * CALIBRATION_MU
-    return (f"{head} (where MuJoCo's contact needs mu = {at_calibration:.4g} to follow the "
-            f"law's {CALIBRATION_MU:g}) and scaled to the file's mu = {file_mu:.4g}, which "
-            f"gives MuJoCo's contact mu = {native_mu:.4g}")
+    return (f"{head} (where MuJoCo's contact needs mu = {number_text(at_calibration)} to "
+            f"follow the law's {CALIBRATION_MU:g}) and scaled to the file's mu = "
+            f"{number_text(file_mu)}, which gives MuJoCo's contact mu = {number_text(native_mu)}")
 
 
 def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],

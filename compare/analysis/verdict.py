@@ -10,6 +10,7 @@ from typing import Any
 
 from tippetop.compare.analysis.metrics import classify_outcome
 from tippetop.compare.running.engines import describe_ran
+from tippetop.models.numbers import number_text
 from tippetop.models.resolve import nice_step_below
 
 #: An event time (inversion, first stem contact) agrees with the reference's within the larger
@@ -69,7 +70,8 @@ def _event_check(name: str, mode: str, mine: float | None, ref: float | None,
         return _check(name, mode, False, None, text, f"{what}: {who}")
     d = mine - ref
     return _check(name, mode, abs(d) <= tol, d, text,
-                  f"{what} at {mine:.3f} s, the reference at {ref:.3f} s")
+                  f"{what} at {number_text(mine, 's')}, the reference at "
+                  f"{number_text(ref, 's')}")
 
 
 def gyroscopic_drift(run: dict[str, Any], A_over_C: float | None) -> str | None:
@@ -87,9 +89,9 @@ def gyroscopic_drift(run: dict[str, Any], A_over_C: float | None) -> str | None:
     tol = J_TOL["mujoco"]
     keep = nice_step_below(dt * tol / j) if j > tol else dt
     return (f"first order: it integrates the gyroscopic torque of this top (A/C = "
-            f"{A_over_C:.3g}, not 1) from each step's start, which moves J in proportion to "
-            f"dt (none at A = C, dt^4 with RK4): dt <= {keep:g} s or RK4 keeps it within "
-            f"{tol:g}")
+            f"{number_text(A_over_C)}, not 1) from each step's start, which moves J in "
+            f"proportion to dt (none at A = C, dt^4 with RK4): dt <= {keep:g} s or RK4 keeps it "
+            f"within {tol:g}")
 
 
 def run_entry(res: Any) -> dict[str, Any]:
@@ -156,8 +158,8 @@ def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
             held = (s.get("contact_energy_bound_J") or 0.0) / abs(r["E0_J"])
             limit = held + ENERGY_RISE_FLOOR
             ok = rise is not None and rise <= limit
-            tol_text = (f"<= {limit:.2g} of E0 (the elastic energy the soft contacts held: "
-                        f"force x depth)")
+            tol_text = (f"<= {number_text(limit, 'relative')} of E0 (the elastic energy the "
+                        f"soft contacts held: force x depth)")
         out.append(_check("energy_never_rises", mode, ok, rise, tol_text,
                           "largest rise of E above its running minimum, as a fraction of E0: "
                           "friction and inelastic impacts only take energy"))

@@ -22,6 +22,8 @@ from tippetop.compare.commands.options import (
     number,
     print_json,
 )
+from tippetop.compare.presentation.terminal import fmt_duration
+from tippetop.models.numbers import number_text
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -107,7 +109,7 @@ def run_mjcf(args: argparse.Namespace) -> int:
         print_json(res)
     else:
         print(f"tippetop calibrate --mjcf {res['file']}: mu = {res['mu']}, n0 = "
-              f"{res['n0']:.4g} rad/s, theta0 = {res['theta0']:.3g} rad")
+              f"{number_text(res['n0'], 'rad/s')}, theta0 = {number_text(res['theta0'], 'rad')}")
         print_tuned(res["tuned"], indent="")
     return 0 if res["tuned"].get("agrees") else 1
 
@@ -117,8 +119,9 @@ def print_report(report: dict[str, Any]) -> None:
     p = report["provenance"]
     s = report["settings"]
     print(f"settings: {', '.join(f'{k}={v}' for k, v in s.items())}")
-    print(f"objective {p['objective']:.4f} rad on {', '.join(p['calibration_set'])} "
-          f"(MuJoCo defaults {p['objective_mujoco_defaults']:.4f}); {p['runs_used']} runs, "
+    print(f"objective {number_text(p['objective'], 'rad')} on "
+          f"{', '.join(p['calibration_set'])} (MuJoCo defaults "
+          f"{number_text(p['objective_mujoco_defaults'], 'rad')}); {p['runs_used']} runs, "
           f"{p['candidates_evaluated']} candidates, stop: {p['stop_reason']}")
     print(f"MuJoCo defaults: {p['mujoco_defaults']}")
     hdr = (f"{'scene':<12} {'role':<11} {'rms':>7} {'t_inv ode':>9} {'t_inv mj':>9} "
@@ -133,4 +136,4 @@ def print_report(report: dict[str, Any]) -> None:
               f"{f(r['theta_asymp_mujoco']):>9} {outcome:<24} {r['J_rel_drift']:>8.1e}")
     for line in p["findings"]:
         print(f"- {line}")
-    print(f"wrote {report['out']} in {p['wall_s']:.0f} s")
+    print(f"wrote {report['out']} in {fmt_duration(p['wall_s'])}")

@@ -8,6 +8,7 @@ from typing import Any
 from tippetop.compare.analysis.crossval import calibrated_native_text
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 from tippetop.compare.running.engines import describe_ran
+from tippetop.models.numbers import number_text
 
 #: Order of the rows of the friction-law table, with what each mode is.
 FRICTION_MODES: dict[str, str] = {
@@ -88,7 +89,8 @@ def friction_note(row: Mapping[str, Any], ref: Mapping[str, Any] | None) -> str:
     mode = row["mode"]
     if ref is None or row is ref:
         return ("The paper's law in the reference ODE: the row the others are compared with"
-                + (f"; it inverts at {v['t_invert']:.2f} s." if v.get("t_invert") is not None
+                + (f"; it inverts at {number_text(v['t_invert'], 's')}."
+                   if v.get("t_invert") is not None
                    else "."))
     rv = ref["values"]
     t, rt = v.get("t_invert"), rv.get("t_invert")
@@ -102,29 +104,32 @@ def friction_note(row: Mapping[str, Any], ref: Mapping[str, Any] | None) -> str:
     facts = []
     if t is None and rt is not None:
         facts.append(f"it does not invert within {row['params']['t_end_s']:g} s "
-                     f"(theta_asymp = {v['theta_asymp']:.3g} rad, the paper's law inverts at "
-                     f"{rt:.2f} s)")
+                     f"(theta_asymp = {number_text(v['theta_asymp'], 'rad')}, the paper's law "
+                     f"inverts at {number_text(rt, 's')})")
     elif t is not None and rt is None:
-        facts.append(f"it inverts at {t:.2f} s where the paper's law does not")
+        facts.append(f"it inverts at {number_text(t, 's')} where the paper's law does not")
     elif t is not None and rt is not None:
-        facts.append(f"it inverts at {t:.2f} s against {rt:.2f} s "
-                     f"({100 * (t / rt - 1):+.0f} %), theta_asymp {v['theta_asymp']:.3g} rad "
-                     f"against {rv['theta_asymp']:.3g}")
+        facts.append(f"it inverts at {number_text(t, 's')} against {number_text(rt, 's')} "
+                     f"({100 * (t / rt - 1):+.0f} %), theta_asymp "
+                     f"{number_text(v['theta_asymp'], 'rad')} against "
+                     f"{number_text(rv['theta_asymp'], 'rad')}")
     else:
-        facts.append(f"theta_asymp {v['theta_asymp']:.3g} rad against "
-                     f"{rv['theta_asymp']:.3g}")
+        facts.append(f"theta_asymp {number_text(v['theta_asymp'], 'rad')} against "
+                     f"{number_text(rv['theta_asymp'], 'rad')}")
     e0 = row.get("E0")
     el, rel_ = v.get("energy_lost"), rv.get("energy_lost")
     if el is not None and rel_:
-        pct = f" ({100 * el / e0:.0f} % of E0)" if e0 else ""
-        facts.append(f"it dissipates {el * 1e3:.3g} mJ{pct} against {rel_ * 1e3:.3g} mJ")
+        pct = f" ({number_text(100 * el / e0, '%')} of E0)" if e0 else ""
+        facts.append(f"it dissipates {number_text(el * 1e3, 'mJ')}{pct} against "
+                     f"{number_text(rel_ * 1e3, 'mJ')}")
     stick, rstick = row.get("slip_small_frac"), ref.get("slip_small_frac")
     if stick is not None and rstick is not None and abs(stick - rstick) > 0.2:
         lead = "the slip dies out: " if stick > 0.8 else ""
-        facts.append(f"{lead}|v_P| stays below Lambda/10 in {100 * stick:.0f} % of the "
-                     f"samples (paper's law: {100 * rstick:.0f} %)")
+        facts.append(f"{lead}|v_P| stays below Lambda/10 in {number_text(100 * stick, '%')} of "
+                     f"the samples (paper's law: {number_text(100 * rstick, '%')})")
     if j_bad:
-        facts.append(f"Jellett's J drifts by {j:.1e} (paper's law {rj:.1e})")
+        facts.append(f"Jellett's J drifts by {number_text(j, 'relative')} (paper's law "
+                     f"{number_text(rj, 'relative')})")
     head = FRICTION_MODES.get(mode, mode)
     text = f"{head}: {why}; " if why else f"{head}: "
     return text + "; ".join(facts) + "."

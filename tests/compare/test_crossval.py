@@ -16,6 +16,7 @@ from tippetop.compare.analysis.crossval import (
 )
 from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
 from tippetop.models.errors import TippetopError
+from tippetop.models.numbers import number_text
 
 SUMMARY_KEYS = {"engine", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
                 "energy_monotone", "contact_lost", "wall_s"}
@@ -85,4 +86,5 @@ def test_a_run_still_moving_is_inconclusive_with_its_trend() -> None:
     row = crossval_row("x", "mujoco-paper", outcome="inconclusive", theta_asymp=0.145,
                        theta_s=0.0, theory_outcome="upright", t_invert=None,
                        trend=theta_trend(table))
-    assert not row["agrees"] and "+0.01 rad/s" in row["reasons"][0]
+    trend = number_text(theta_trend(table), "rad/s")  # four digits: +0.01005 rad/s
+    assert not row["agrees"] and f"at +{trend}: inconclusive" in row["reasons"][0]

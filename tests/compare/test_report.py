@@ -31,6 +31,7 @@ import pytest
 
 from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.report import build_report, friction_note
+from tippetop.models.numbers import number_text
 
 TINY = """
 [profiles.tiny]
@@ -153,7 +154,7 @@ def test_report_has_every_section(nightly_out: Path) -> None:
     coulomb = friction_note(rows["ode-coulomb"], ref)
     assert "does not invert within 8 s" in coulomb and "sticks into rolling" in coulomb
     viscous = friction_note(rows["ode-viscous"], ref)
-    assert f"inverts at {rows['ode-viscous']['values']['t_invert']:.2f} s" in viscous
+    assert f"inverts at {number_text(rows['ode-viscous']['values']['t_invert'], 's')}" in viscous
     for note in (coulomb, viscous):
         assert note in text.replace("&#x27;", "'")
     # the threshold table: theory and measured side by side

@@ -21,6 +21,7 @@ from tippetop.compare.analysis.calibrate.scoring import (
 )
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.errors import TippetopError
+from tippetop.models.numbers import number_text
 
 #: The coarse grid: cone x impratio x solref time constant (s) x solimp d0, at mu = 0.1.
 GRID: dict[str, tuple[Any, ...]] = {
@@ -199,8 +200,8 @@ def search(ev: Evaluator, grid: list[Candidate], *, progress: bool = False) -> S
             steps = {k: v / 2.0 for k, v in steps.items()}
             path.append({"stage": "shrink", "objective": best.objective, "steps": dict(steps)})
         if progress:
-            print(f"calibrate: objective {best.objective:.4f} rad, {best.candidate.label()}, "
-                  f"{ev.used_runs} runs", file=sys.stderr, flush=True)
+            print(f"calibrate: objective {number_text(best.objective, 'rad')}, "
+                  f"{best.candidate.label()}, {ev.used_runs} runs", file=sys.stderr, flush=True)
     return SearchResult(best, grid_evals, path, stop)
 
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from tippetop.compare.analysis.calibrate.scoring import GRID_DT_S, Candidate
 from tippetop.models.errors import TippetopError
+from tippetop.models.numbers import number_text
 
 #: The fitted settings, in the order of the parameter vector.
 FITTED = ("mu", "timeconst_s", "impratio", "d0")
@@ -359,7 +360,7 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
         rms, per = problem.rms(s)
         scored.append((rms, per, s))
         if say:
-            say(f"seed {s.label()}: residual {rms:.4f} rad")
+            say(f"seed {s.label()}: residual {number_text(rms, 'rad')}")
     scored.sort(key=lambda x: x[0] if math.isfinite(x[0]) else math.inf)
     best = scored[0]
     fits = []
@@ -374,7 +375,8 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
                          "to": found.label(), "rms_rad": rms,
                          "rollouts": problem.rollouts - before, "iterations": iters})
             if say:
-                say(f"fit ({cone}): residual {rms0:.4f} -> {rms:.4f} rad, {found.label()}")
+                say(f"fit ({cone}): residual {number_text(rms0, 'rad')} -> "
+                    f"{number_text(rms, 'rad')}, {found.label()}")
             if rms < best[0]:
                 best = (rms, per, found)
     return Identified(best=best[2], rms_rad=best[0], per_start_rms_rad=best[1],

@@ -8,6 +8,7 @@ from dataclasses import asdict
 from typing import Any
 
 from tippetop.compare.analysis.calibrate.scoring import J_MAX, Candidate, Residual
+from tippetop.models.numbers import number_text, signed_text
 
 #: Held-out theta_asymp error that counts as "not reproduced" (rad); the same margin as the
 #: outcome classes (:data:`compare.analysis.metrics.OUTCOME_MARGIN`).
@@ -31,27 +32,32 @@ def findings(holdout: list[Residual], default: list[Residual]) -> list[str]:
         if not r.outcome_match:
             bad.append(f"outcome {r.outcome_mujoco} vs the reference's {r.outcome_ode}")
         if abs(r.theta_asymp_err) > ASYMP_TOL:
-            bad.append(f"theta_asymp {r.theta_asymp_mujoco:.3f} vs {r.theta_asymp_ode:.3f} rad "
-                       f"(error {r.theta_asymp_err:+.3f})")
+            bad.append(f"theta_asymp {number_text(r.theta_asymp_mujoco, 'rad')} vs "
+                       f"{number_text(r.theta_asymp_ode, 'rad')} (error "
+                       f"{signed_text(r.theta_asymp_err, 'rad')})")
         if (r.t_invert_err_s is not None
                 and abs(r.t_invert_err_s) > max(T_INV_TOL_S, T_INV_RTOL * r.t_invert_ode)):
-            bad.append(f"inverts at {r.t_invert_mujoco:.2f} s vs {r.t_invert_ode:.2f} s")
+            bad.append(f"inverts at {number_text(r.t_invert_mujoco, 's')} vs "
+                       f"{number_text(r.t_invert_ode, 's')}")
         elif r.t_invert_err_s is None and (r.t_invert_ode is None) != (r.t_invert_mujoco is None):
             who = "MuJoCo" if r.t_invert_mujoco is not None else "the reference"
             bad.append(f"only {who} turns over within {r.t_end_s:g} s")
-        base = (f"(MuJoCo defaults: RMS {d.rms_rad:.3f} rad, theta_asymp "
-                f"{d.theta_asymp_mujoco:.3f}, {d.outcome_mujoco})")
+        base = (f"(MuJoCo defaults: RMS {number_text(d.rms_rad, 'rad')}, theta_asymp "
+                f"{number_text(d.theta_asymp_mujoco, 'rad')}, {d.outcome_mujoco})")
         if r.J_rel_drift > J_MAX:
-            base += f"; Jellett drift {r.J_rel_drift:.1e} over {r.t_end_s:g} s, above {J_MAX:g}"
+            base += (f"; Jellett drift {number_text(r.J_rel_drift, 'relative')} over "
+                     f"{r.t_end_s:g} s, above {number_text(J_MAX, 'relative')}")
         if bad:
             out.append(f"{r.scene} over {r.t_end_s:g} s NOT reproduced: {'; '.join(bad)}; "
-                       f"theta RMS {r.rms_rad:.3f} rad {base}")
+                       f"theta RMS {number_text(r.rms_rad, 'rad')} {base}")
         else:
             inv = ("" if r.t_invert_err_s is None else
-                   f"t_invert error {r.t_invert_err_s:+.2f} s of {r.t_invert_ode:.2f} s, ")
+                   f"t_invert error {signed_text(r.t_invert_err_s, 's')} of "
+                   f"{number_text(r.t_invert_ode, 's')}, ")
             out.append(f"{r.scene} over {r.t_end_s:g} s reproduced: outcome "
-                       f"{r.outcome_mujoco}, {inv}theta_asymp error {r.theta_asymp_err:+.3f} "
-                       f"rad, theta RMS {r.rms_rad:.3f} rad {base}")
+                       f"{r.outcome_mujoco}, {inv}theta_asymp error "
+                       f"{signed_text(r.theta_asymp_err, 'rad')}, theta RMS "
+                       f"{number_text(r.rms_rad, 'rad')} {base}")
     return out
 
 
