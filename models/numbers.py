@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 
 #: Text of a missing number.
 MISSING = "-"
@@ -65,4 +66,25 @@ def signed_text(value: float, unit: str = "") -> str:
     return f"{'-' if value < 0 else '+'}{number_text(abs(value), unit)}"
 
 
-__all__ = ["MISSING", "NAN_TEXT", "float_text", "number_text", "signed_text"]
+#: The unit of each number of MuJoCo's solref (timeconst, dampratio) and solimp (d0, dwidth,
+#: width, midpoint, power). A solref with a negative first number is MuJoCo's direct stiffness
+#: and damping instead, said without units.
+SOLVER_UNITS = {"solref": ("s", ""), "solimp": ("", "", "m", "", "")}
+
+
+def solver_text(key: str, values: Sequence[float]) -> str:
+    """MuJoCo's solver settings as text, each number with its unit (:data:`SOLVER_UNITS`).
+
+    Returns:
+        ``0.002 s, 1`` for a solref, ``0.05, 0.95, 0.001 m, 0.5, 2`` for a solimp (brackets are
+        the caller's); another key's numbers, or a direct (negative) solref, without units.
+    """
+    units = SOLVER_UNITS.get(key, ())
+    if key == "solref" and values and values[0] <= 0:
+        units = ()
+    return ", ".join(number_text(x, units[i] if i < len(units) else "")
+                     for i, x in enumerate(values))
+
+
+__all__ = ["MISSING", "NAN_TEXT", "SOLVER_UNITS", "float_text", "number_text", "signed_text",
+           "solver_text"]

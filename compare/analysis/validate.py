@@ -31,7 +31,7 @@ from tippetop.compare.running.engines import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
-from tippetop.models.numbers import number_text
+from tippetop.models.numbers import number_text, solver_text
 
 #: The runs of a validation, in report order: the file as it says first.
 MODES: tuple[str, ...] = ("mujoco-file", "ode", "mujoco-paper", "mujoco-native")
@@ -155,12 +155,8 @@ def show_setting(setting: str, v: Any) -> str:
     """
     if setting == "timestep_s" and isinstance(v, int | float):
         return f"{v:g} s"
-    if setting == "solref" and isinstance(v, list | tuple) and len(v) == 2 and v[0] > 0:
-        return f"[{v[0]:g} s, {v[1]:g}]"
-    if setting == "solimp" and isinstance(v, list | tuple) and len(v) >= 3:
-        parts = [f"{x:g}" for x in v]
-        parts[2] += " m"
-        return "[" + ", ".join(parts) + "]"
+    if setting in ("solref", "solimp") and isinstance(v, list | tuple):
+        return f"[{solver_text(setting, v)}]"
     return show_value(v)
 
 

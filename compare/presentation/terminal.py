@@ -15,7 +15,7 @@ import shutil
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from tippetop.models.numbers import MISSING, NAN_TEXT, float_text
+from tippetop.models.numbers import MISSING, NAN_TEXT, float_text, solver_text
 
 # ---------------------------------------------------------------- values
 #: Units of keys whose names do not carry one.
@@ -298,12 +298,8 @@ def fmt_value(key: str, value: Any) -> str:
         return fmt_stiff(value)
     if key == "rolling" and isinstance(value, dict):
         return fmt_rolling(value)
-    if key == "solref" and isinstance(value, (list, tuple)) and len(value) == 2:
-        return f"{fmt(value[0])} s, {fmt(value[1])}"
-    if key == "solimp" and isinstance(value, (list, tuple)) and len(value) >= 3:
-        parts = [fmt(v) for v in value]
-        parts[2] += " m"  # (d0, dwidth, width, midpoint, power): the width is a depth
-        return ", ".join(parts)
+    if key in ("solref", "solimp") and isinstance(value, (list, tuple)):
+        return solver_text(key, value)
     if key == "atol" and isinstance(value, float):
         return f"{fmt(value)} (absolute, in each state variable's own unit)"
     unit = unit_of(key)

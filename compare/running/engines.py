@@ -25,7 +25,7 @@ from tippetop.compare.analysis.metrics import (
 from tippetop.models.engines import EngineSpec
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
-from tippetop.models.numbers import number_text
+from tippetop.models.numbers import number_text, solver_text
 from tippetop.models.plan import ENGINES, RunPlan
 from tippetop.models.resolve import mode_engine, resolve_plan
 from tippetop.models.scene import Scene
@@ -70,21 +70,14 @@ def describe_ran(summary: dict[str, Any]) -> str:
     (solref's time constant and solimp's width carry their units; with a negative solref,
     MuJoCo's stiffness and damping, none).
     """
-    def nums(v: Any, units: tuple[str, ...] = ()) -> str:
-        if v is None:
-            return "-"
-        items = [number_text(x, units[i] if i < len(units) and x > 0 else "")
-                 for i, x in enumerate(v)]
-        return "[" + ", ".join(items) + "]"
-
     if summary.get("engine") == "ode":
         return (f"reference ODE, DOP853 on the {summary.get('formulation')} formulation at "
                 f"rtol {number_text(summary.get('rtol'))}, law {summary.get('friction_law')}")
     if summary.get("timestep_s") is None:
         return "MuJoCo (no settings recorded)"
     head = f"MuJoCo {summary.get('integrator')} at dt = {number_text(summary['timestep_s'], 's')}, "
-    solref = "solref " + nums(summary.get("solref"), ("s",))
-    solimp = "solimp " + nums(summary.get("solimp"), ("", "", "m"))
+    solref, solimp = (f"{k} [{solver_text(k, summary[k])}]" if summary.get(k) is not None
+                      else f"{k} -" for k in ("solref", "solimp"))
     contact = f"condim {summary.get('condim')}, {solref}, {solimp}"
     if summary.get("mode") == "paper":
         law = summary.get("friction_law")
