@@ -77,8 +77,13 @@ class TuneStart:
                 "init.thetadot0=0.0")
 
     def label(self) -> str:
-        """``n0 = 150 rad/s, theta0 = 0.04 rad``."""
-        return f"n0 = {number_text(self.n0, 'rad/s')}, theta0 = {number_text(self.theta0, 'rad')}"
+        """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""
+        return start_label(self.n0, self.theta0)
+
+
+def start_label(n0: float, theta0: float) -> str:
+    """A start as every line and report names it: ``n0 = 150 rad/s, theta0 = 0.04 rad``."""
+    return f"n0 = {number_text(n0, 'rad/s')}, theta0 = {number_text(theta0, 'rad')}"
 
 
 def starts_for(n0: float, theta0: float) -> list[TuneStart]:
@@ -384,8 +389,7 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
     for v in verified:
         fr = v.get("friction_realised") or {}
         failed = {c["check"] for c in v["checks"] if not c["passed"]}
-        where = (f"from n0 = {number_text(v['n0'], 'rad/s')}, theta0 = "
-                 f"{number_text(v['theta0'], 'rad')}")
+        where = f"from {start_label(v['n0'], v['theta0'])}"
         if "jellett_before_stem" in failed and v.get("left_table_s") is not None:
             why.append(f"{where} the ball leaves the table at "
                        f"{number_text(v['left_table_s'], 's')}, "

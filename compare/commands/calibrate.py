@@ -96,6 +96,7 @@ def run_mjcf(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
+    from tippetop.compare.analysis.tune import start_label
     from tippetop.compare.analysis.validate import tune_only
     from tippetop.compare.commands.validate import print_tuned
     from tippetop.models.errors import expect
@@ -108,8 +109,8 @@ def run_mjcf(args: argparse.Namespace) -> int:
     if args.json:
         print_json(res)
     else:
-        print(f"tippetop calibrate --mjcf {res['file']}: mu = {res['mu']}, n0 = "
-              f"{number_text(res['n0'], 'rad/s')}, theta0 = {number_text(res['theta0'], 'rad')}")
+        print(f"tippetop calibrate --mjcf {res['file']}: mu = {res['mu']}, "
+              f"{start_label(res['n0'], res['theta0'])}")
         print_tuned(res["tuned"], indent="")
     return 0 if res["tuned"].get("agrees") else 1
 

@@ -178,22 +178,22 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
     if tuned.get("skipped"):
         print(f"{indent}tuned settings: not run ({tuned['skipped']})")
         return
+    from tippetop.compare.analysis.tune import start_label
     from tippetop.compare.presentation.terminal import fmt, fmt_duration
 
     fit = tuned["fit"]
     start = fit["starts"][0]
     print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}: "
           f"{tuned['note']}")
-    print(f"{indent}  fitted at n0 = {fmt(start['n0'], 'rad/s')}, theta0 = "
-          f"{fmt(start['theta0'], 'rad')} over {fmt(start['t_end_s'], 's')}: residual "
+    print(f"{indent}  fitted at {start_label(start['n0'], start['theta0'])} over "
+          f"{fmt(start['t_end_s'], 's')}: residual "
           f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs, "
           f"{fmt_duration(fit['wall_s'])} (mujoco.sysid"
           f"{'; from the cache' if tuned.get('cached') else ''})")
     for line in tuned["mjcf"].splitlines():
         print(f"{indent}  {line}")
     for v in tuned["verified"]:
-        where = (f"n0 = {fmt(v['n0'], 'rad/s')}, theta0 = {fmt(v['theta0'], 'rad')} "
-                 f"({v['role']})")
+        where = f"{start_label(v['n0'], v['theta0'])} ({v['role']})"
         if v["passed"] is None:
             state = v.get("note", "not verified")
         elif v["passed"]:

@@ -108,6 +108,8 @@ def verdict_section(res: Mapping[str, Any]) -> str:
 
 def tuned_section(res: Mapping[str, Any]) -> str:
     """The tuned settings: the MJCF to paste, the fit, each start's checks."""
+    from tippetop.compare.analysis.tune import start_label
+
     t = res.get("tuned") or {}
     if not t:
         return ""
@@ -120,7 +122,7 @@ def tuned_section(res: Mapping[str, Any]) -> str:
     head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
             f"{'AGREE' if ok else 'DEPART'}</span> {esc(t['note'])}.</p>")
     how = (f"<p class='note'>The file's contact settings fitted to the reference at its own "
-           f"start (n0 = {fmt(start['n0'], 'rad/s')}, theta0 = {fmt(start['theta0'], 'rad')}, "
+           f"start ({start_label(start['n0'], start['theta0'])}, "
            f"over {fmt(start['t_end_s'], 's')}) with MuJoCo's identification (mujoco.sysid): "
            f"residual {fmt(fit['residual'], 'rad')} ({esc(fit['residual_definition'])}), "
            f"{fit['runs']} MuJoCo runs, {fmt_duration(fit['wall_s'])}; then run by the "
@@ -131,8 +133,7 @@ def tuned_section(res: Mapping[str, Any]) -> str:
     names = list(dict.fromkeys(c["check"] for v in t["verified"] for c in v["checks"]))
     rows, classes = [], []
     for v in t["verified"]:
-        row: list[Any] = [f"n0 = {fmt(v['n0'], 'rad/s')}, theta0 = {fmt(v['theta0'], 'rad')}",
-                          v["role"]]
+        row: list[Any] = [start_label(v["n0"], v["theta0"]), v["role"]]
         by = {c["check"]: c for c in v["checks"]}
         row += [_cell(by[n], res["t_end_s"]) if n in by else "not checked" for n in names]
         if v["passed"] is None:
