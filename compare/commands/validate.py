@@ -131,7 +131,7 @@ def model_line(m: dict[str, Any]) -> str:
 
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     from tippetop.compare.analysis.validate import show_setting
-    from tippetop.compare.presentation.terminal import check_text
+    from tippetop.compare.presentation.terminal import check_note, check_text
 
     checks = res["verdict"]
     n_pass = sum(c["passed"] for c in checks)
@@ -143,9 +143,7 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     for c in checks:
         if not c["passed"]:
             shown = check_text(c, res["t_end_s"], res["runs"])
-            # an event neither time of which is a number: the text already says who never has it
-            said = c["value"] is None and c["check"] in ("t_invert", "t_stem")
-            why = "" if said or not c["note"] else f"; {c['note']}"
+            why = f"; {note}" if (note := check_note(c)) else ""
             print(f"  departs: {c['mode']:<{mwidth}} {c['check']:<{width}}  {shown}  "
                   f"(tolerance {c['tolerance']}{why})")
     for mode, r in res["runs"].items():

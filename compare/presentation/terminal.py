@@ -277,6 +277,17 @@ def check_text(check: dict[str, Any], t_end_s: float | None = None,
     return str(v)
 
 
+def check_note(check: dict[str, Any]) -> str:
+    """The note to show beside :func:`check_text`'s value, or "" when that text already says it.
+
+    An event check (``t_invert``, ``t_stem``) with no number says which run never has the
+    event, which is what its note says too.
+    """
+    if check["value"] is None and check["check"] in _EVENTS:
+        return ""
+    return str(check.get("note") or "")
+
+
 def fmt_value(key: str, value: Any) -> str:
     """A value as text with the unit its key implies (:func:`unit_of`).
 
@@ -397,6 +408,7 @@ def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str
     return f"runs: {counts} in {where}" if counts else f"runs: cached in {where}"
 
 
-__all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "check_text", "fmt", "fmt_duration",
-           "fmt_float", "fmt_percent", "fmt_rolling", "fmt_stiff", "fmt_value", "key_values",
-           "labelled", "ran_lines", "realised_text", "table", "text_width", "unit_of"]
+__all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "check_note", "check_text", "fmt",
+           "fmt_duration", "fmt_float", "fmt_percent", "fmt_rolling", "fmt_stiff", "fmt_value",
+           "key_values", "labelled", "ran_lines", "realised_text", "table", "text_width",
+           "unit_of"]

@@ -11,7 +11,13 @@ import pandas as pd
 
 from tippetop.compare.analysis.validate import MODES, mode_of, show_setting
 from tippetop.compare.presentation.figures import pyplot
-from tippetop.compare.presentation.terminal import check_text, fmt, fmt_duration, realised_text
+from tippetop.compare.presentation.terminal import (
+    check_note,
+    check_text,
+    fmt,
+    fmt_duration,
+    realised_text,
+)
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
@@ -54,9 +60,7 @@ def _cell(check: Mapping[str, Any], t_end_s: float | None = None,
     shown = esc(check_text(dict(check), t_end_s, dict(runs) if runs is not None else None))
     cls = "pass" if check["passed"] else "fail"
     mark = "agrees" if check["passed"] else "departs"
-    # an event neither time of which is a number: the text already says who never has it
-    said = check["value"] is None and check["check"] in ("t_invert", "t_stem")
-    note = "" if said or not check["note"] else f"<br><small>{esc(check['note'])}</small>"
+    note = f"<br><small>{esc(why)}</small>" if (why := check_note(dict(check))) else ""
     return Html(f"<span class='{cls}'>{shown} ({mark})</span>{note}")
 
 
