@@ -188,7 +188,7 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
     return [Case(id=f"{category}/{name}[{mode}]", name=name, category=category, kind=kind,
                  scene=scene, mode=mode, metrics=tuple(metrics), profiles=tuple(profs),
                  set=tuple(over), description=entry.get("description", ""),
-                 departs=(entry.get("departs") or {}).get(mode, "") if kind == "run" else "",
+                 departs=(entry.get("departs") or {}).get(mode, ""),  # run cases only
                  **extra)
             for mode in modes]
 

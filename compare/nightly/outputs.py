@@ -240,7 +240,7 @@ def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         (1 inconclusive, listed above)``), ``expected`` and ``unexpected``: a line per run
         that does not agree, an expected one with the catalogue's reason.
     """
-    from tippetop.compare.presentation.verdict import cell_class
+    from tippetop.compare.presentation.verdict import cell_class, expected_reason
 
     expected, unexpected = [], []
     kinds: dict[str, int] = {}
@@ -249,9 +249,9 @@ def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         if cls == "agree":
             continue
         reasons = r.get("reasons") or []
-        if r.get("expected_departure") and cls == "depart":  # its numbers: the report's
+        if (why := expected_reason(r)) is not None:  # its numbers: the report's
             expected.append(f"{r['scene']} [{r['mode']}]: {reasons[0] if reasons else cls}; "
-                            f"expected: {r['expected_departure']}")
+                            f"expected: {why}")
         else:
             unexpected.append(f"{cls}: {r['scene']} [{r['mode']}]: {'; '.join(reasons)}")
             kinds[cls] = kinds.get(cls, 0) + 1

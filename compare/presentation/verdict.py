@@ -106,6 +106,12 @@ def agreement_counts(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, i
     return out
 
 
+def expected_reason(row: Mapping[str, Any]) -> str | None:
+    """The catalogue's reason when the row departs as the catalogue expects it to, else None."""
+    why = row.get("expected_departure")
+    return why if why and cell_class(row) == "depart" else None
+
+
 def cell_class(row: Mapping[str, Any]) -> str:
     """``agree``, ``depart``, ``inconclusive`` or ``failed``."""
     if row.get("error") is not None or row.get("outcome") == "failed":

@@ -55,19 +55,18 @@ _MARK = {"agree": "", "depart": "&ne; ", "expected": "&ne; ", "inconclusive": "?
 
 def _expected(row: Mapping[str, Any]) -> list[str]:
     """The catalogue's reason for a departure it expects, as a note (or none)."""
-    from tippetop.compare.presentation.verdict import cell_class
+    from tippetop.compare.presentation.verdict import expected_reason
 
-    why = row.get("expected_departure")
-    return [f"expected by the catalogue: {why}"] if why and cell_class(row) == "depart" else []
+    why = expected_reason(row)
+    return [f"expected by the catalogue: {why}"] if why else []
 
 
 def _cell(row: Mapping[str, Any]) -> Html:
     """A verdict ``<td>``: the outcome (marked where it departs) and J; the differences below."""
-    from tippetop.compare.presentation.verdict import cell_class
+    from tippetop.compare.presentation.verdict import cell_class, expected_reason
 
-    cls = cell_class(row)
-    if cls == "depart" and row.get("expected_departure"):
-        cls = "expected"  # the catalogue's deliberate departure: its reason in the tooltip
+    # the catalogue's deliberate departure has a class of its own, its reason in the tooltip
+    cls = "expected" if expected_reason(row) else cell_class(row)
     outcome = row.get("outcome") or "-"
     line1 = f"{_MARK[cls]}{esc(_SHORT.get(outcome, outcome))}"
     if row.get("J_rel_drift") is not None:
