@@ -46,7 +46,8 @@ CI_RUN = ROOT / ".ci" / "run"
 INPUTS = ("examples", "models")
 
 #: Commands that install, or that CI runs itself: checked against .ci/run, never run here.
-CI_PROGRAMS = {"pip", "pip3", "apt-get", "apt", "uv", "pytest", "ruff", "mkdocs"}
+CI_PROGRAMS = {"pip", "pip3", "apt-get", "apt", "uv", "pytest", "ruff", "mkdocs", "venv", ".",
+               "source"}
 #: Flags that change only how much a CI command prints.
 QUIET_FLAGS = {"-q", "-qq", "--quiet", "--no-progress"}
 #: Fence languages that would hold commands outside the convention.

@@ -138,3 +138,16 @@ def test_this_environment_runs_what_the_lock_pins() -> None:
             differ.append(f"{name}: {got} installed, {version} locked")
     assert not differ, differ
     assert sys.version_info >= (3, 11)
+
+
+def test_ci_installs_into_a_venv_of_its_own_before_any_pip() -> None:
+    # CI's machine Python carries packages of its own (botocore wanting python-dateutil<3 was
+    # one): installed there, the lock's python-dateutil 4 made `pip check` fail on a package
+    # that is none of the project's. Every pip command must run in the venv .ci/run makes.
+    lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    venv = lines.index("python3 -m venv .venv")
+    activate = lines.index(". .venv/bin/activate")
+    pips = [i for i, ln in enumerate(lines) if re.search(r"\bpip\b", ln)]
+    assert venv < activate < min(pips)
+    assert "/.venv/" in (ROOT / ".gitignore").read_text().splitlines()
