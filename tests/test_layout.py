@@ -47,12 +47,20 @@ def test_every_package_folder_is_installed() -> None:
     conf = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     listed = set(conf["packages"])
     mapping = conf["package-dir"]
+    data = conf["package-data"]
     found = set()
     for top in TOP_LEVEL:
         assert mapping[f"tippetop.{top}"] == top
-        for init in (ROOT / top).rglob("__init__.py"):
-            rel = init.parent.relative_to(ROOT / top).parts
-            found.add(".".join(("tippetop", top, *rel)))
+        for folder in [ROOT / top, *(ROOT / top).rglob("*")]:
+            if not folder.is_dir() or folder.name == "__pycache__":
+                continue
+            name = ".".join(("tippetop", top, *folder.relative_to(ROOT / top).parts))
+            found.add(name)
+            if not (folder / "__init__.py").is_file():
+                # a data folder (scenes, baselines): listed too, or setuptools warns that it
+                # "would be ignored"; its files go in through package-data
+                assert not list(folder.glob("*.py")), f"{folder}: Python files without __init__"
+                assert data.get(name), f"{name}: a data folder with no package-data patterns"
     assert listed == found
 
 
