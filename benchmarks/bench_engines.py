@@ -72,6 +72,7 @@ from pathlib import Path
 from typing import Any
 
 from tippetop.compare.analysis.matrix import MODES
+from tippetop.compare.cli import command_line
 from tippetop.compare.running import engines
 from tippetop.compare.running.runner import (
     ResultCache,
@@ -168,19 +169,10 @@ class Plan:
     n_steps: int
 
 
-def tippetop_command() -> list[str]:
-    """The installed ``tippetop`` script beside this Python (not a shell shim), else ``-c``."""
-    script = Path(sys.executable).parent / "tippetop"
-    if script.is_file():
-        return [sys.executable, str(script)]
-    return [sys.executable, "-c", "import sys; from tippetop.compare.cli import main; "
-            "sys.exit(main())"]
-
-
 def matrix_command(scenes: Sequence[str], spec: str, modes: Sequence[str], t_end: float,
                    workers: int, *extra: str) -> list[str]:
     """The ``tippetop matrix`` command line timed."""
-    return [*tippetop_command(), "matrix", *scenes, "--engines", spec, "--modes",
+    return [*command_line(), "matrix", *scenes, "--engines", spec, "--modes",
             ",".join(modes), "--set", f"run.t_end_s={t_end!r}", "--workers", str(workers),
             "--json", *extra]
 

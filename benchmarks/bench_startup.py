@@ -28,7 +28,8 @@ import json
 import subprocess
 import sys
 import time
-from pathlib import Path
+
+from tippetop.compare.cli import command_line
 
 #: The Fig. 3 scene (models/scenes/fig3.toml) as numbers: the paper's eq. 3.10 top, the
 #: modified Coulomb law, theta0 = 0.1 and n0 = 100 rad/s, 8 s sampled every 1 ms.
@@ -47,18 +48,9 @@ THEORY_MAX_X_NUMPY = 3.0
 SIMULATE_MAX_X_BASELINE = 1.5
 
 
-def tippetop_command() -> list[str]:
-    """The installed ``tippetop`` script beside this Python (not a shell shim), else ``-c``."""
-    script = Path(sys.executable).parent / "tippetop"
-    if script.is_file():
-        return [sys.executable, str(script)]
-    return [sys.executable, "-c", "import sys; from tippetop.compare.cli import main; "
-            "sys.exit(main())"]
-
-
 def commands() -> dict[str, list[str]]:
     """The four commands timed, by name."""
-    tt = tippetop_command()
+    tt = command_line()
     return {"numpy": [sys.executable, "-c", "import numpy"],
             "baseline": [sys.executable, "-c", BASELINE_CODE],
             "theory": [*tt, *THEORY_ARGS],

@@ -188,6 +188,20 @@ def main(argv: list[str] | None = None) -> int:
     return run_main(args)
 
 
+def command_line() -> list[str]:
+    """The words that start this installation's ``tippetop`` in a new process.
+
+    The ``tippetop`` script beside this Python, run by this Python (as a user types it, and not
+    through a shell shim), else ``python -m tippetop.compare.cli``.
+    """
+    from pathlib import Path
+
+    script = Path(sys.executable).parent / "tippetop"
+    if script.is_file():
+        return [sys.executable, str(script)]
+    return [sys.executable, "-m", "tippetop.compare.cli"]
+
+
 def entry() -> int:
     """The ``tippetop`` script: :func:`main` in a process of its own (see ``own_process``)."""
     from tippetop.compare.running.interrupt import own_process

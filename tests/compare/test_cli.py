@@ -209,3 +209,16 @@ def test_every_command_is_one_module_with_the_same_two_entry_points() -> None:
         assert command.add_parser(sub) is None
         name = command.__name__.rpartition(".")[2]
         assert sub.choices[name].get_default("func") is command.run
+
+
+def test_command_line_starts_this_installations_tippetop() -> None:
+    # the benchmarks time `tippetop` as a user types it: the script beside this Python, run by
+    # this Python; without the script, `python -m tippetop.compare.cli` must do the same
+    from tippetop.compare.cli import command_line
+
+    words = command_line()
+    assert words[0] == sys.executable
+    for argv in (words, [sys.executable, "-m", "tippetop.compare.cli"]):
+        r = subprocess.run([*argv, "--version"], capture_output=True, text=True, timeout=120,
+                           check=False)
+        assert r.returncode == 0 and r.stdout.startswith("tippetop "), (argv, r.stderr)
