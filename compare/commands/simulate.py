@@ -20,6 +20,7 @@ from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_stiff, fmt_valu
 from tippetop.models.errors import TippetopError
 
 if TYPE_CHECKING:
+    from tippetop.models.engines import EngineSpec
     from tippetop.models.plan import RunPlan
 
 
@@ -33,6 +34,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_scene_options(p)
     p.add_argument("--engine", help="ode (the reference), mujoco, or a mode such as "
                    "mujoco-native (see 'tippetop --help'; default ode)")
+    p.add_argument("--on", metavar="SPEC", help="the MuJoCo the run goes on: mujoco (the one "
+                   "installed with tippetop), mujoco==X.Y.Z (a release, in an environment made "
+                   "with uv on first use), mujoco@PYTHON (the mujoco that interpreter imports), "
+                   "mjx, mjx-f32 or warp; with it, --engine defaults to mujoco (default: "
+                   "mujoco)")
     add_set_option(p)
     p.add_argument("--plan", metavar="FILE.json", help="run this plan (written by 'tippetop "
                    "plan --json', or by another program) exactly as it says, instead of a "
@@ -50,12 +56,13 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.running.engines import plan_for, run_failed, run_plan
     from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
 
+    spec = _engine_spec(args)
     target = args.out
     if args.plan:
         plan = read_plan(args)
     else:
         scene = load_scene(args)
-        plan = plan_for(scene, args.engine or "ode")
+        plan = plan_for(scene, args.engine or ("mujoco" if spec is not None else "ode"))
         if not target and scene.outputs.table:
             target = scene.outputs.table
             if scene.path is not None:
@@ -63,7 +70,12 @@ def run(args: argparse.Namespace) -> int:
     out_path = None
     if target:
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
-    run = run_plan(plan)
+    python = None
+    if spec is not None and not spec.in_process and plan.engine != "ode":
+        from tippetop.compare.running.engines import engine_python
+
+        python = engine_python(spec, say=_say)  # a managed environment is made on first use
+    run = run_plan(plan, spec=spec, python=python)
     failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)
@@ -75,6 +87,38 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"tippetop: run failed: {run.message}\n")
         return EXIT_RUN_FAILED
     return 0
+
+
+def _say(line: str) -> None:
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
+def _engine_spec(args: argparse.Namespace) -> EngineSpec | None:
+    """The engine spec of ``--on``, or None.
+
+    An engine spec given to ``--engine`` (``mjx``, say) is refused with where it goes.
+
+    Raises:
+        TippetopError: A bad ``--on``, or ``--engine`` given a spec such as ``mjx`` (one line).
+    """
+    from tippetop.models.engines import parse_engine
+
+    if args.engine and args.engine != "mujoco":
+        try:
+            given = parse_engine(args.engine)
+        except TippetopError:
+            given = None
+        if given is not None:
+            raise TippetopError(f"--engine: expected ode, mujoco or a mode, got "
+                                f"{args.engine!r}, an engine to run MuJoCo on: give it as "
+                                f"--on {args.engine}")
+    if not args.on:
+        return None
+    try:
+        return parse_engine(args.on)
+    except TippetopError as exc:
+        raise TippetopError(f"--on: {str(exc).removeprefix('engine: ')}") from None
 
 
 def read_plan(args: argparse.Namespace) -> RunPlan:

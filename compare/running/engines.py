@@ -246,8 +246,8 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
     return EngineRun(res.table, s, res.status, res.message)
 
 
-def run_plan(plan: RunPlan, *,
-             progress: bool | Callable[[float], None] = True) -> EngineRun:
+def run_plan(plan: RunPlan, *, progress: bool | Callable[[float], None] = True,
+             spec: EngineSpec | None = None, python: str | None = None) -> EngineRun:
     """Run a plan in its engine.
 
     Args:
@@ -255,21 +255,37 @@ def run_plan(plan: RunPlan, *,
         progress: True shows a bar over simulated time when stderr is a terminal; a callable
             is called with the simulated time reached instead (the engines call it now and
             then, and at the end).
+        spec: The engine a MuJoCo plan runs on (default: the MuJoCo installed here); another
+            one runs it through its worker (:func:`run_plan_on`).
+        python: That engine's interpreter, if already known (:func:`engine_python`).
+
+    Raises:
+        TippetopError: A reference ODE plan given another engine to run on, or an engine
+            that cannot run the plan (one line).
     """
+    remote = spec is not None and not spec.in_process
+    if remote and plan.engine == "ode":
+        raise TippetopError(f"engine {spec.spec}: expected a MuJoCo run (engine mujoco or a "
+                            f"mujoco-* mode) to run on it, got the reference ODE")
+
+    def go(tick: Callable[[float], None] | None) -> EngineRun:
+        if plan.engine == "ode":
+            return _run_ode(plan, tick)
+        if remote:
+            return run_plan_on(spec, plan, python=python, progress=tick)
+        return _run_mujoco(plan, tick)
+
     if callable(progress):
-        run = _run_ode if plan.engine == "ode" else _run_mujoco
-        return run(plan, progress)
+        return go(progress)
     if progress:  # a run for a person: say first when it will take long (stderr only)
         from tippetop.compare.running.compiling import say_compile
         from tippetop.compare.running.cost import say_long_run
 
         say_compile([plan])
         say_long_run([plan])
-    label = f"{plan.scene} [{plan.engine}]"
+    label = f"{plan.scene} [{plan.engine}{f' on {spec.spec}' if remote else ''}]"
     with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:
-        if plan.engine == "ode":
-            return _run_ode(plan, tick)
-        return _run_mujoco(plan, tick)
+        return go(tick)
 
 
 def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) -> str:
@@ -281,6 +297,7 @@ def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) ->
     own (:func:`tippetop.mujoco_runner.envs.accelerated_env_python`).
     """
     import os
+    import shutil
 
     if spec.implementation in ("mjx", "warp") and spec.python is None:
         from tippetop.mujoco_runner.envs import accelerated_env_python
@@ -291,10 +308,13 @@ def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) ->
 
         return str(env_python(spec.version, say=say))
     if spec.python is not None:
-        if not (os.path.isfile(spec.python) and os.access(spec.python, os.X_OK)):
+        # a path, or a command on PATH (mujoco@python3.12)
+        found = spec.python if os.sep in spec.python else shutil.which(spec.python)
+        if not (found and os.path.isfile(found) and os.access(found, os.X_OK)):
             raise TippetopError(f"engine {spec.spec}: expected the path of a Python "
-                                f"interpreter that can import mujoco, got {spec.python!r}")
-        return spec.python
+                                f"interpreter that can import mujoco, or its command on PATH, "
+                                f"got {spec.python!r}")
+        return found
     raise TippetopError(f"engine {spec.spec}: expected mujoco, mujoco==X.Y.Z, "
                         f"mujoco@PYTHON, mjx, mjx-f32 or warp, got {spec.spec!r}")
 

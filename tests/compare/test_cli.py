@@ -97,6 +97,12 @@ def test_simulate_parquet_and_no_overwrite(tmp_path: Path) -> None:
         (["simulate", "--set", "init.n0=nan"], "init.n0"),
         (["simulate", "--set", "top.colour=3"], "top.colour"),
         (["simulate", "--engine", "bullet"], "--engine"),
+        (["simulate", "--engine", "mjx"], "give it as --on mjx"),
+        (["simulate", "--on", "mjy"], "--on: expected mujoco, mujoco==X.Y.Z"),
+        (["simulate", "--on", "mujoco==3.x"], "--on: expected mujoco==X.Y.Z with a release"),
+        (["simulate", "--on", "mjx", "--engine", "ode", "--out", "t.csv"],
+         "expected a MuJoCo run"),
+        (["simulate", "--on", "mujoco@/no/such/python"], "expected the path of a Python"),
         (["simulate", "no_such_scene"], "no_such_scene"),
         (["simulate", "--set", "ode.formulation=paper", "--set", "init.theta0=0"], "singular"),
         (["simulate", "--out", "x.txt"], ".csv or .parquet"),
@@ -222,3 +228,21 @@ def test_command_line_starts_this_installations_tippetop() -> None:
         r = subprocess.run([*argv, "--version"], capture_output=True, text=True, timeout=120,
                            check=False)
         assert r.returncode == 0 and r.stdout.startswith("tippetop "), (argv, r.stderr)
+
+
+def test_simulate_on_an_engine_runs_there_and_says_so() -> None:
+    # mujoco@THIS_PYTHON is this very MuJoCo build, in a worker process: the same plan, the same
+    # build and the same steps, so the physics agrees to round-off (rel 1e-9 leaves room for a
+    # different summation order, far below any tolerance of the nightly's); what ran says where
+    spec = f"mujoco@{sys.executable}"
+    args = ("simulate", "fig3", "--set", "run.t_end_s=0.3", "--set", "mujoco.friction=native",
+            "--json")
+    here = json.loads(tippetop(*args, "--engine", "mujoco").stdout)
+    r = tippetop(*args, "--on", spec)  # --engine defaults to mujoco with --on
+    assert r.returncode == 0, r.stderr
+    there = json.loads(r.stdout)
+    assert there["engine"] == "mujoco" and there["engine_spec"] == spec
+    assert there["path"].startswith("worker") and here["engine_spec"] == "mujoco"
+    assert there["n_steps"] == here["n_steps"]
+    for k in ("theta_final", "theta_asymp", "J_rel_drift"):
+        assert there[k] == pytest.approx(here[k], rel=1e-9, abs=1e-15), k

@@ -8,6 +8,7 @@ kept; a user's own build is never cached; an engine the harness cannot run is re
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -71,6 +72,8 @@ def test_a_failing_worker_is_its_row_and_the_others_run(tmp_path: Path) -> None:
     ("mujoco@/no/such/python", "engine mujoco@/no/such/python: expected the path of a Python "
      "interpreter"),
     ("mujoco==4", "engine: expected mujoco==X.Y.Z"),
+    ("mujoco@no-such-python-9", "engine mujoco@no-such-python-9: expected the path of a Python "
+     "interpreter that can import mujoco, or its command on PATH"),
 ])
 def test_an_engine_that_cannot_run_is_refused_before_any_run(tmp_path: Path, spec: str,
                                                              says: str, monkeypatch) -> None:
@@ -85,3 +88,15 @@ def test_an_engine_that_cannot_run_is_refused_before_any_run(tmp_path: Path, spe
         run_tasks([Task("fig3", SHORT, "mujoco"), Task("fig3", SHORT, "mujoco", spec=spec)],
                   cache_dir=tmp_path)
     assert not any(tmp_path.rglob("*.json"))  # nothing ran, nothing cached
+
+
+def test_a_users_python_is_a_path_or_a_command_on_path(tmp_path: Path, monkeypatch) -> None:
+    # mujoco@python3.12 names an interpreter as a shell would find it: the worker is started
+    # with the absolute path PATH gives, the spec as the user wrote it
+    from tippetop.compare.running.engines import engine_python
+    from tippetop.models.engines import parse_engine
+
+    (tmp_path / "mypython").symlink_to(sys.executable)
+    monkeypatch.setenv("PATH", f"{tmp_path}{os.pathsep}{os.environ.get('PATH', '')}")
+    assert engine_python(parse_engine("mujoco@mypython")) == str(tmp_path / "mypython")
+    assert engine_python(parse_engine(f"mujoco@{tmp_path}/mypython")) == f"{tmp_path}/mypython"
