@@ -53,7 +53,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
-    from tippetop.compare.running.engines import plan_for, run_failed, run_plan
+    from tippetop.compare.running.cost import record_mujoco_runs
+    from tippetop.compare.running.engines import measured_steps, plan_for, run_failed, run_plan
     from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
 
     spec = _engine_spec(args)
@@ -76,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
 
         python = engine_python(spec, say=_say)  # a managed environment is made on first use
     run = run_plan(plan, spec=spec, python=python)
+    record_mujoco_runs(measured_steps([run.summary]))  # for the next run's estimate
     failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)

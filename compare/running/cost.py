@@ -5,32 +5,130 @@ batch's on the workers. The runner starts the longest runs first, the progress b
 (:class:`~tippetop.compare.running.progress.WorkProgress`) weighs each run by its cost, and a
 computation expected to take over :data:`LONG_RUN_S` says so first (:func:`say_long_run`).
 
-This module imports only the standard library (a run plan is read, never imported).
+A MuJoCo step's cost is measured on the machine: every batch and ``simulate`` of the MuJoCo
+installed here records its runs' wall time per step (:func:`record_mujoco_runs`) in the run
+cache folder, and the next estimate starts from that (:func:`mujoco_step_s`); until then it
+starts from :data:`MUJOCO_STEP_S`.
+
+This module imports only the standard library and :mod:`tippetop.models.resources` (a run
+plan is read, never imported).
 """
 
 from __future__ import annotations
 
+import functools
 import heapq
+import json
+import math
+import os
+import statistics
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any, TextIO
 
 # ---------------------------------------------------------------- cost of a run
-#: Expected wall time of one MuJoCo step, any integrator and mode (s). Measured on a 2-core
-#: machine: 21-90 us a step over the cached paper- and native-mode runs (median about 65 us;
-#: recording the observables costs as much as the physics). The bar measures the real speed.
-MUJOCO_STEP_S = 65e-6
+#: Expected wall time of one step of the MuJoCo installed here, any integrator and mode (s),
+#: until runs on this machine have measured it. Measured on the project's 2-core machine with
+#: MuJoCo 4.0.0: 16.5 us a step for fig3 in native (2e-4 s) and paper mode (2e-5 s, the
+#: compiled callback) alone, about 30 us with the other core busy; recording the observables
+#: is part of it. The bar measures the real speed as it goes.
+MUJOCO_STEP_S = 20e-6
+#: The file in the run cache folder that keeps the measured cost of a step.
+STEP_COST_FILE = "step_cost.json"
+#: Runs of fewer steps are not measured: their fixed costs (the model, the table) dominate.
+MIN_MEASURED_STEPS = 10_000
+#: Weight of a new batch's median step cost in the kept figure (the rest is the old figure):
+#: one unusually loaded batch moves it halfway, not all the way.
+LEARN_RATE = 0.5
+#: A step cost outside this range (s) is neither kept nor believed (a suspended machine, a
+#: file edited by hand).
+PLAUSIBLE_STEP_S = (1e-7, 1e-2)
 #: Fixed cost of a run in a worker: building the model or problem, the table, the cache (s).
 TASK_OVERHEAD_S = 0.3
 #: Expected wall time of the compiled reference ODE per simulated second (s): median 5 ms,
-#: at most 15 ms over the cached reference runs, so far below MuJoCo's (about 26 s at 2.5 us).
+#: at most 15 ms over the cached reference runs, so far below MuJoCo's.
 ODE_PER_SIM_S = 0.01
+
+
+def _step_cost_path() -> Path | None:
+    from tippetop.models.errors import TippetopError
+    from tippetop.models.resources import user_cache_dir
+
+    try:
+        return user_cache_dir() / STEP_COST_FILE
+    except TippetopError:  # no usable cache folder: the prior, and nothing kept
+        return None
+
+
+@functools.lru_cache(maxsize=8)
+def _read_step_cost(path: str, _mtime_ns: int) -> float | None:
+    """The kept step cost in ``path`` (read once per version of the file), None if unusable."""
+    try:
+        value = json.loads(Path(path).read_text(encoding="utf-8"))["mujoco_step_s"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    ok = (isinstance(value, (int, float)) and math.isfinite(value)
+          and PLAUSIBLE_STEP_S[0] <= value <= PLAUSIBLE_STEP_S[1])
+    return float(value) if ok else None
+
+
+def mujoco_step_s() -> tuple[float, bool]:
+    """The expected wall time of one step of the MuJoCo installed here (s), and whether so.
+
+    Returns:
+        ``(seconds, measured)``: the figure kept from this machine's runs and True, else
+        :data:`MUJOCO_STEP_S` and False.
+    """
+    path = _step_cost_path()
+    try:
+        mtime = path.stat().st_mtime_ns if path is not None else None
+    except OSError:
+        mtime = None
+    measured = _read_step_cost(str(path), mtime) if mtime is not None else None
+    return (measured, True) if measured is not None else (MUJOCO_STEP_S, False)
+
+
+def record_mujoco_runs(runs: Iterable[tuple[int, float]]) -> float | None:
+    """Keep what runs of the MuJoCo installed here cost a step, for the next estimate.
+
+    The median over the runs of at least :data:`MIN_MEASURED_STEPS` steps, blended into the
+    kept figure with :data:`LEARN_RATE`, written atomically to the run cache folder. Nothing is
+    written when no run qualifies or there is no usable cache folder; a failed write is
+    ignored (an estimate is never worth an error).
+
+    Args:
+        runs: ``(n_steps, wall_s)`` of each run computed (not read from the cache).
+
+    Returns:
+        The figure kept (s a step), or None when nothing was written.
+    """
+    costs = [wall / steps for steps, wall in runs
+             if steps >= MIN_MEASURED_STEPS and wall > 0 and math.isfinite(wall)
+             and PLAUSIBLE_STEP_S[0] <= wall / steps <= PLAUSIBLE_STEP_S[1]]
+    path = _step_cost_path()
+    if not costs or path is None:
+        return None
+    new = statistics.median(costs)
+    old, measured = mujoco_step_s()
+    kept = old + LEARN_RATE * (new - old) if measured else new
+    doc = {"mujoco_step_s": kept, "runs": len(costs), "last_median_s": new,
+           "note": "wall time of one MuJoCo step on this machine, as tippetop measured it; "
+                   "delete to start again from the default"}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError:
+        return None
+    return kept
 
 
 def expected_cost_s(plan: Any) -> float:
     """The expected wall time of one run on one core (s), from its plan.
 
-    MuJoCo: the plan's steps times :data:`MUJOCO_STEP_S`; the reference ODE:
+    MuJoCo: the plan's steps times :func:`mujoco_step_s`; the reference ODE:
     :data:`ODE_PER_SIM_S` per simulated second; both plus :data:`TASK_OVERHEAD_S`. Only the
     ratios matter to the bar; its ETA uses the speed measured while it runs.
 
@@ -38,7 +136,7 @@ def expected_cost_s(plan: Any) -> float:
         plan: A :class:`tippetop.models.plan.RunPlan`.
     """
     if plan.mujoco is not None:
-        return TASK_OVERHEAD_S + mujoco_steps(plan) * MUJOCO_STEP_S
+        return TASK_OVERHEAD_S + mujoco_steps(plan) * mujoco_step_s()[0]
     return TASK_OVERHEAD_S + float(plan.t_end_s) * ODE_PER_SIM_S
 
 
@@ -96,8 +194,8 @@ def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
         slots: Runs going at once.
 
     Returns:
-        ``tippetop: about 40 min of computing (2.0e+08 MuJoCo steps at ~65 us, on 2
-        workers)``, or None under :data:`LONG_RUN_S`.
+        ``tippetop: about 33 min of computing (2.0e+08 MuJoCo steps at ~20 us, as measured
+        here, on 2 workers)``, or None under :data:`LONG_RUN_S`.
     """
     if not plans:
         return None
@@ -107,7 +205,12 @@ def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
     steps = sum(mujoco_steps(p) for p in plans)
     parts = []
     if steps:
-        parts.append(f"{steps:.1e} MuJoCo steps at ~{MUJOCO_STEP_S * 1e6:.0f} us")
+        step_s, measured = mujoco_step_s()
+        us = step_s * 1e6
+        parts.append(f"{steps:.1e} MuJoCo steps at ~{us:.0f}" if us >= 100 else
+                     f"{steps:.1e} MuJoCo steps at ~{us:.3g}")
+        parts[-1] += (" us, "
+                     + ("as measured here" if measured else "not yet measured here"))
     n_ode = sum(1 for p in plans if mujoco_steps(p) == 0)
     if n_ode:
         parts.append(f"{n_ode} reference run{'s' if n_ode > 1 else ''}")
@@ -128,6 +231,6 @@ def say_long_run(plans: Sequence[Any], slots: int = 1, stream: TextIO | None = N
         out.flush()
 
 
-__all__ = ["LONG_RUN_S", "MUJOCO_STEP_S", "ODE_PER_SIM_S",
-           "TASK_OVERHEAD_S", "expected_cost_s", "long_run_note", "mujoco_steps",
-           "say_long_run", "schedule_s"]
+__all__ = ["LONG_RUN_S", "MUJOCO_STEP_S", "ODE_PER_SIM_S", "STEP_COST_FILE",
+           "TASK_OVERHEAD_S", "expected_cost_s", "long_run_note", "mujoco_step_s",
+           "mujoco_steps", "record_mujoco_runs", "say_long_run", "schedule_s"]

@@ -8,7 +8,7 @@ it did not read (``unused``).
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -43,13 +43,25 @@ RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_
 FINISHED_STATUSES = ("ok", "contact_lost", "hop")
 
 
+def measured_steps(summaries: Iterable[dict[str, Any] | None]) -> list[tuple[int, float]]:
+    """``(n_steps, wall_s)`` of each finished run of the MuJoCo installed here.
+
+    Runs in this process only, not a worker's, whose steps cost what its engine does; for the
+    cost model (:func:`tippetop.compare.running.cost.record_mujoco_runs`).
+    """
+    return [(int(s["n_steps"]), float(s["wall_s"])) for s in summaries
+            if s is not None and s.get("engine") == "mujoco"
+            and s.get("engine_spec") == "mujoco" and s.get("status") == "ok"
+            and s.get("n_steps") and s.get("wall_s")]
+
+
 def run_failed(summary: dict[str, Any]) -> bool:
     """Whether a run's summary is a failed run's (it carries no numbers, only the reason)."""
     return summary.get("status", "ok") not in FINISHED_STATUSES
 
 __all__ = ["ENGINES", "FINISHED_STATUSES", "EngineRun", "describe_ran", "mujoco_engine_run",
-           "check_engine", "engine_python", "plan_for", "progress_bar", "run_engine",
-           "run_failed", "run_plan", "run_plan_on"]
+           "check_engine", "engine_python", "measured_steps", "plan_for", "progress_bar",
+           "run_engine", "run_failed", "run_plan", "run_plan_on"]
 
 
 @dataclass

@@ -29,8 +29,13 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.running.compiling import say_compile
-from tippetop.compare.running.cost import expected_cost_s, say_long_run
-from tippetop.compare.running.engines import check_engine, plan_for, run_plan
+from tippetop.compare.running.cost import expected_cost_s, record_mujoco_runs, say_long_run
+from tippetop.compare.running.engines import (
+    check_engine,
+    measured_steps,
+    plan_for,
+    run_plan,
+)
 from tippetop.compare.running.io import write_atomic
 from tippetop.compare.running.leftovers import clean_cache_leftovers
 from tippetop.compare.running.progress import WorkProgress
@@ -361,6 +366,9 @@ def run_tasks(
             for i in todo[key]:
                 results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
         finished = True
+        if scheduler is None:  # what a step of the MuJoCo here cost, for the next estimate
+            record_mujoco_runs(measured_steps({r.key: r.summary for r in results
+                                               if r is not None and not r.cached}.values()))
     finally:  # erased on Ctrl-C too, so that 'tippetop: interrupted' starts its own line
         if bar is not None:
             bar.close()
