@@ -44,20 +44,10 @@ def _needs(plan: Any) -> set[str]:
     return out
 
 
-def compile_note(plans: Sequence[Any]) -> str | None:
-    """The line to print before running ``plans`` in this process's engines, or None.
-
-    Args:
-        plans: Run plans (:class:`tippetop.models.plan.RunPlan`) of the installed engines.
-
-    Returns:
-        ``tippetop: compiling the reference's integrator (DOP853) and the equations of motion
-        into FOLDER, once for this code: about 16 s (...)``, or None when the cache holds the
-        code or compiling takes under :data:`QUIET_BELOW_S`.
-    """
+def _todo(plans: Sequence[Any]) -> list[tuple[str, str, float]]:
+    """The parts of :data:`PARTS` that running ``plans`` here would compile (not yet cached)."""
     from importlib.util import find_spec
 
-    from tippetop.reference_ode import NUMBA_CACHE_DIR
     from tippetop.reference_ode._jit import is_compiled
 
     needed: set[str] = set()
@@ -70,6 +60,32 @@ def compile_note(plans: Sequence[Any]) -> str | None:
         spec = find_spec(module)  # not imported: importing the integrator compiles it
         if spec is not None and spec.origin and not is_compiled(spec.origin):
             todo.append((module, what, seconds))
+    return todo
+
+
+def compile_s(plans: Sequence[Any]) -> float:
+    """About how long running ``plans`` here compiles first (s); 0 under :data:`QUIET_BELOW_S`.
+
+    The progress bar says it while the workers compile (before any run has moved).
+    """
+    total = sum(s for _, _, s in _todo(plans))
+    return total if total >= QUIET_BELOW_S else 0.0
+
+
+def compile_note(plans: Sequence[Any]) -> str | None:
+    """The line to print before running ``plans`` in this process's engines, or None.
+
+    Args:
+        plans: Run plans (:class:`tippetop.models.plan.RunPlan`) of the installed engines.
+
+    Returns:
+        ``tippetop: compiling the reference's integrator (DOP853) and the equations of motion
+        into FOLDER, once for this code: about 16 s (...)``, or None when the cache holds the
+        code or compiling takes under :data:`QUIET_BELOW_S`.
+    """
+    from tippetop.reference_ode import NUMBA_CACHE_DIR
+
+    todo = _todo(plans)
     total = sum(s for _, _, s in todo)
     if total < QUIET_BELOW_S:
         return None
@@ -95,4 +111,4 @@ def say_compile(plans: Sequence[Any], stream: TextIO | None = None) -> None:
         out.flush()
 
 
-__all__ = ["PARTS", "QUIET_BELOW_S", "compile_note", "say_compile"]
+__all__ = ["PARTS", "QUIET_BELOW_S", "compile_note", "compile_s", "say_compile"]

@@ -38,6 +38,8 @@ class WorkProgress:
         enabled: Draw the bar (default: when ``stream`` is a terminal).
         clock: Time source (for tests).
         note: Shown after the run count (e.g. ``4 from the cache``).
+        compile_s: About how long the workers compile before any run moves (s; 0: nothing
+            to compile), said in place of the ETA until then.
     """
 
     #: Weight of the prior speed (1 expected second per second), in seconds of busy worker.
@@ -49,7 +51,7 @@ class WorkProgress:
     def __init__(self, label: str, costs: Sequence[float], *, slots: int = 1,
                  stream: TextIO | None = None, enabled: bool | None = None,
                  clock: Any = time.monotonic, note: str = "",
-                 min_interval_s: float = 0.2) -> None:
+                 min_interval_s: float = 0.2, compile_s: float = 0.0) -> None:
         self.label = label
         self.costs = [max(float(c), 1e-6) for c in costs]
         self.slots = max(1, int(slots))
@@ -59,6 +61,7 @@ class WorkProgress:
         self.enabled = enabled and bool(self.costs)
         self.clock = clock
         self.note = note
+        self.compile_s = max(0.0, float(compile_s))
         self.min_interval_s = min_interval_s
         self.t0 = clock()
         self._last_t = self.t0
@@ -157,7 +160,12 @@ class WorkProgress:
         pct = 100.0 * self.fraction()
         elapsed = self._last_t - self.t0
         eta = "done" if n == total else f"about {_clock_text(self.eta_s())} left"
-        if n < total and not self._measuring and elapsed >= 1.0:
+        if n < total and not self._measuring and self.compile_s > 0:
+            left = self.compile_s - elapsed  # the workers compile before any run moves
+            doing = (f"compiling, about {_clock_text(left)} more" if left >= 1.0
+                     else "compiling")
+            eta = f"{doing}, then about {_clock_text(self.eta_s())}"
+        elif n < total and not self._measuring and elapsed >= 1.0:
             eta = f"starting, then about {_clock_text(self.eta_s())}"  # workers importing
         note = f" ({self.note})" if self.note else ""
         tail = f" {pct:3.0f}%  {n}/{total} runs{note}  {_clock_text(elapsed)} elapsed, {eta}"

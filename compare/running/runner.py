@@ -28,7 +28,7 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.running.compiling import say_compile
+from tippetop.compare.running.compiling import compile_s, say_compile
 from tippetop.compare.running.cost import expected_cost_s, record_mujoco_runs, say_long_run
 from tippetop.compare.running.engines import (
     check_engine,
@@ -262,12 +262,13 @@ class ResultCache:
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
-              shared: int = 0) -> WorkProgress | None:
+              shared: int = 0, here: list[RunPlan] | None = None) -> WorkProgress | None:
     """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal.
 
     Its count is of the runs to compute; the note says what the others are (``cached`` taken
     from the cache, ``shared`` the same run as another task's, run once), so that the count
-    and the note add up to the tasks asked for.
+    and the note add up to the tasks asked for. Until a run moves it says how long the
+    compiling of ``here`` (the plans of this installation's engines) takes.
     """
     if not sys.stderr.isatty() or not plans:
         return None
@@ -275,7 +276,7 @@ def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
     if shared:
         note.append(f"{shared} the same as another, run once")
     return WorkProgress(label, [expected_cost_s(p) for p in plans], slots=slots,
-                        note=", ".join(note))
+                        note=", ".join(note), compile_s=compile_s(here or []))
 
 
 def _slots(scheduler: str | None, workers: int | None, n_tasks: int) -> int:
@@ -348,11 +349,12 @@ def run_tasks(
                     key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
     unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
     slots = _slots(scheduler, workers, len(unique))
-    say_compile([unique_plans[key] for key, t in unique if t.spec not in pythons])
+    here = [unique_plans[key] for key, t in unique if t.spec not in pythons]
+    say_compile(here)
     say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
     hits = sum(r is not None and r.cached for r in results)
     shared = sum(len(idx) - 1 for idx in todo.values())
-    bar = _progress(list(unique_plans.values()), label, slots, hits, shared)
+    bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here)
     writer = _CacheWriter(cache) if cache else None
     finished = False
     try:

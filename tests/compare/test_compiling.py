@@ -34,6 +34,16 @@ def test_a_fresh_cache_says_what_compiles_and_how_long(monkeypatch: pytest.Monke
 def test_nothing_is_said_when_the_code_is_cached(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(jit, "is_compiled", lambda source: True)
     assert compiling.compile_note([_plan("ode"), _plan("mujoco")]) is None
+    assert compiling.compile_s([_plan("ode"), _plan("mujoco")]) == 0.0  # the bar: no wait
+
+
+def test_the_bar_waits_as_long_as_the_note_says(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(jit, "is_compiled", lambda source: False)
+    plans = [_plan("ode")]
+    note = compiling.compile_note(plans)
+    assert note is not None and f"about {compiling.compile_s(plans):.0f} s" in note
+    # MuJoCo's stepper alone: under QUIET_BELOW_S, neither a note nor a wait on the bar
+    assert compiling.compile_s([_plan("mujoco", "mujoco.friction=native")]) == 0.0
 
 
 def test_said_once_and_only_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -189,6 +189,33 @@ def test_worker_start_up_does_not_count_as_slow_work() -> None:
     assert p.eta_s() < 12
 
 
+def test_while_the_workers_compile_the_bar_says_so_and_how_long() -> None:
+    # the issue's nightly: "0% ... about 0:12" for 51 s while code compiled. With the compile
+    # estimate the bar says what it waits for, counts it down, then gives the runs' own ETA
+    clock = _Clock()
+    p = WorkProgress("nightly", [10.0, 10.0], slots=2, clock=clock, enabled=False,
+                     compile_s=18.0)
+    assert "compiling, about 0:18 more, then about 0:10" in p.line()
+    clock.t = 12.0
+    p.tick()
+    assert "compiling, about 0:06 more, then about 0:10" in p.line()
+    clock.t = 25.0  # longer than said: still compiling, no negative countdown
+    p.tick()
+    assert "compiling, then about 0:10" in p.line()
+    clock.t = 26.0
+    p.reached(0, 0.1)
+    p.reached(1, 0.1)
+    assert "compiling" not in p.line() and "left" in p.line()
+
+
+def test_nothing_to_compile_is_starting_as_before() -> None:
+    clock = _Clock()
+    p = WorkProgress("sweep", [10.0], clock=clock, enabled=False, compile_s=0.0)
+    clock.t = 3.0
+    p.tick()
+    assert "starting, then about" in p.line() and "compiling" not in p.line()
+
+
 class _Tty(io.StringIO):
     encoding = "utf-8"
 
