@@ -193,6 +193,7 @@ class Search:
     rel_tol: float = REL_TOL
     max_runs: int = 12
     run_s: float = RUN_S
+    spec: str = "mujoco"
     points: dict[float, dict[str, Any]] = field(default_factory=dict)
     root: float | None = None
     bracket: list[float] = field(default_factory=list)
@@ -202,7 +203,7 @@ class Search:
     def task(self, n: float) -> Task:
         """The run at spin ``n`` near the state."""
         return Task(self.scene, (*self.overrides, *state_overrides(self.state, n, self.run_s)),
-                    self.engine)
+                    self.engine, spec=self.spec)
 
 
 def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]]) -> None:
@@ -270,8 +271,10 @@ def measure_growth(scene: str | None, engine: str, which: str,
                    overrides: tuple[str, ...] = (), *, rel_tol: float = REL_TOL,
                    run_s: float = RUN_S, max_runs: int = 12, scheduler: str | None = None,
                    workers: int | None = None, use_cache: bool = True,
-                   label: str = "growth rates") -> dict[str, Any]:
+                   label: str = "growth rates", spec: str = "mujoco") -> dict[str, Any]:
     """Measure ``n1``, ``n4`` or ``nc`` of a scene's top in ``engine`` from growth rates.
+
+    A MuJoCo ``engine`` runs on the engine spec ``spec`` (:mod:`tippetop.models.engines`).
 
     Returns:
         The threshold keys of :func:`tippetop.compare.analysis.threshold.measure_threshold`
@@ -296,7 +299,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
 
     states = {"n1": ("upright",), "n4": ("inverted",), "nc": ("upright", "inverted")}[which]
     searches = {state: Search(task.scene, engine, overrides, state, state_start(top, state),
-                              rel_tol, max_runs, run_s) for state in states}
+                              rel_tol, max_runs, run_s, spec) for state in states}
     run_searches(list(searches.values()), run)
     found = {state: s.root for state, s in searches.items()}
     brackets = {state: s.bracket for state, s in searches.items()}
@@ -315,7 +318,8 @@ def measure_growth(scene: str | None, engine: str, which: str,
     points = [p for sr in searches.values() for p in sr.points.values()]
     points.sort(key=lambda p: (p["state"], p["n0"]))
     out: dict[str, Any] = {
-        "which": which, "engine": engine, "scene": scene_obj.name, "method": "growth",
+        "which": which, "engine": engine, "engine_spec": spec, "scene": scene_obj.name,
+        "method": "growth",
         "measured": measured, "theory": th_value,
         "rel_diff": (measured / th_value - 1.0) if measured and th_value else None,
         "bracket": bracket,

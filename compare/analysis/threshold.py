@@ -66,6 +66,7 @@ def measure_threshold(
     scheduler: str | None = None,
     workers: int | None = None,
     use_cache: bool = True,
+    spec: str = "mujoco",
     **bisect_options: Any,
 ) -> dict[str, Any]:
     """Measure the critical spin ``which`` of a scene's top in ``engine``.
@@ -82,7 +83,14 @@ def measure_threshold(
         scheduler: A Dask scheduler address, or None for local processes.
         workers: Local worker processes.
         use_cache: Read and write the run cache.
+        spec: The engine a MuJoCo ``engine`` runs on (:mod:`tippetop.models.engines`):
+            ``mujoco`` (the one installed here), ``mujoco==X.Y.Z``, ``mujoco@PYTHON``,
+            ``mjx``, ``mjx-f32`` or ``warp``.
         **bisect_options: ``max_rounds``, ``points_per_round``, ``horizon_check`` (bisect).
+
+    Raises:
+        TippetopError: A bad ``which``, ``method``, option or spec, or the reference ODE on
+            another engine than ``mujoco`` (one line each).
 
     Returns:
         ``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs, horizon_s,
@@ -94,6 +102,7 @@ def measure_threshold(
 
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
+    check_spec(engine, spec)
     method = method or "growth"
     if method not in METHODS:
         raise TippetopError(f"--method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -103,7 +112,8 @@ def measure_threshold(
                                 f"--method bisect only")
         res = measure_growth(scene, engine, which, overrides,
                              **({"rel_tol": rel_tol} if rel_tol else {}),
-                             scheduler=scheduler, workers=workers, use_cache=use_cache)
+                             scheduler=scheduler, workers=workers, use_cache=use_cache,
+                             spec=spec)
         if res["measured"] is None and not res.get("failed_runs"):
             raise TippetopError(f"threshold: {res['warning']}")
         return res  # with failed_runs: the caller reports them (exit 1), the others kept
@@ -112,7 +122,22 @@ def measure_threshold(
                             "growth rates), got n4")
     return bisect_threshold(scene, engine, which, overrides, rel_tol=rel_tol or 0.005,
                             scheduler=scheduler, workers=workers, use_cache=use_cache,
-                            **bisect_options)
+                            spec=spec, **bisect_options)
+
+
+def check_spec(engine: str, spec: str) -> None:
+    """Refuse a bad engine spec, or the reference ODE on another engine than ``mujoco``.
+
+    Raises:
+        TippetopError: One line with what was expected and given.
+    """
+    from tippetop.models.engines import parse_engine
+    from tippetop.models.resolve import mode_engine
+
+    parse_engine(spec)
+    if spec != "mujoco" and mode_engine(engine)[0] == "ode":
+        raise TippetopError(f"engine {spec}: expected a MuJoCo engine (mujoco or a mujoco-* "
+                            f"mode) to run on it, got {engine!r}, the reference ODE")
 
 
 def bisect_threshold(
@@ -128,6 +153,7 @@ def bisect_threshold(
     workers: int | None = None,
     use_cache: bool = True,
     horizon_check: bool = True,
+    spec: str = "mujoco",
 ) -> dict[str, Any]:
     """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) in ``engine``.
 
@@ -155,7 +181,7 @@ def bisect_threshold(
     def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
                  record: bool = True) -> list[bool]:
         def batch(spins: list[float], more: tuple[str, ...]) -> list[Any]:
-            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine)
+            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine, spec=spec)
                      for n0 in spins]
             out = run_tasks(tasks, scheduler=scheduler, workers=workers,
                             use_cache=use_cache, label=f"{which} bisection")
@@ -202,12 +228,13 @@ def bisect_threshold(
         return flags
 
     try:
-        return _bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
-                       rel_tol=rel_tol, max_rounds=max_rounds, k=k,
-                       horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
-                       unsettled=unsettled)
+        return {**_bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
+                          rel_tol=rel_tol, max_rounds=max_rounds, k=k,
+                          horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
+                          unsettled=unsettled), "engine_spec": spec}
     except _Failed as exc:  # every run so far is kept; no threshold is claimed
-        return {"which": which, "engine": engine, "scene": base.name, "measured": None,
+        return {"which": which, "engine": engine, "engine_spec": spec, "scene": base.name,
+                "measured": None,
                 "theory": n_th, "rel_diff": None, "bracket": [],
                 "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),
                 "horizon_s": base.run.t_end_s, "converged": False, "method": "bisect",

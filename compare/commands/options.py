@@ -245,6 +245,16 @@ def scheduler_address(text: str) -> str:
     return text
 
 
+def engine_spec(text: str) -> str:
+    """An argparse type: an engine spec (``--on``), checked as the option is read."""
+    from tippetop.models.engines import parse_engine
+
+    try:
+        return parse_engine(text).spec
+    except TippetopError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("engine: ")) from None
+
+
 # ---------------------------------------------------------------- input
 def load_scene(args: argparse.Namespace) -> Any:
     """The scene a command names: ``args.scene`` with ``--set``, ``--mjcf`` and ``--keyframe``.
@@ -330,6 +340,18 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
                    "otherwise (default: the scene's top)")
     p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
                    "of the file (default: its first, unless --set init.* sets the state)")
+
+
+#: ``--on``'s help: the engines a MuJoCo run can go on.
+ON_HELP = ("the MuJoCo the run goes on: mujoco (the one installed with tippetop), mujoco==X.Y.Z "
+           "(a release, in an environment made with uv on first use), mujoco@PYTHON (the "
+           "mujoco that interpreter imports: a path, or a command on PATH), mjx, mjx-f32 or "
+           "warp")
+
+
+def add_on_option(p: argparse.ArgumentParser, help: str = ON_HELP) -> None:
+    """``--on SPEC`` (dest ``on``, default None): the engine spec a MuJoCo run goes on."""
+    p.add_argument("--on", type=engine_spec, metavar="SPEC", help=help)
 
 
 def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:

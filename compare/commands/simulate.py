@@ -9,8 +9,10 @@ from typing import TYPE_CHECKING, Any
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
+    ON_HELP,
     add_force_option,
     add_json_option,
+    add_on_option,
     add_scene_options,
     add_set_option,
     load_scene,
@@ -34,11 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_scene_options(p)
     p.add_argument("--engine", help="ode (the reference), mujoco, or a mode such as "
                    "mujoco-native (see 'tippetop --help'; default ode)")
-    p.add_argument("--on", metavar="SPEC", help="the MuJoCo the run goes on: mujoco (the one "
-                   "installed with tippetop), mujoco==X.Y.Z (a release, in an environment made "
-                   "with uv on first use), mujoco@PYTHON (the mujoco that interpreter imports), "
-                   "mjx, mjx-f32 or warp; with it, --engine defaults to mujoco (default: "
-                   "mujoco)")
+    add_on_option(p, help=ON_HELP + "; with it, --engine defaults to mujoco (default: mujoco)")
     add_set_option(p)
     p.add_argument("--plan", metavar="FILE.json", help="run this plan (written by 'tippetop "
                    "plan --json', or by another program) exactly as it says, instead of a "
@@ -102,7 +100,7 @@ def _engine_spec(args: argparse.Namespace) -> EngineSpec | None:
     An engine spec given to ``--engine`` (``mjx``, say) is refused with where it goes.
 
     Raises:
-        TippetopError: A bad ``--on``, or ``--engine`` given a spec such as ``mjx`` (one line).
+        TippetopError: ``--engine`` given a spec such as ``mjx`` (one line).
     """
     from tippetop.models.engines import parse_engine
 
@@ -115,12 +113,7 @@ def _engine_spec(args: argparse.Namespace) -> EngineSpec | None:
             raise TippetopError(f"--engine: expected ode, mujoco or a mode, got "
                                 f"{args.engine!r}, an engine to run MuJoCo on: give it as "
                                 f"--on {args.engine}")
-    if not args.on:
-        return None
-    try:
-        return parse_engine(args.on)
-    except TippetopError as exc:
-        raise TippetopError(f"--on: {str(exc).removeprefix('engine: ')}") from None
+    return parse_engine(args.on) if args.on else None  # checked as the option was read
 
 
 def read_plan(args: argparse.Namespace) -> RunPlan:

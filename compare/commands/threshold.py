@@ -8,8 +8,10 @@ from typing import Any
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
+    ON_HELP,
     add_force_option,
     add_json_option,
+    add_on_option,
     add_parallel_options,
     add_set_option,
     finite_float,
@@ -32,6 +34,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "from theta0 = 0.01 over 60 s)")
     p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
                    "(default ode)")
+    add_on_option(p, help=ON_HELP.replace("the run goes on", "a MuJoCo --engine runs on")
+                  + " (default mujoco)")
     p.add_argument("--which", required=True, choices=("n1", "n4", "nc"),
                    help="n1: the spin above which theta = 0 is unstable; n4: the spin at "
                    "theta = 0 that keeps the inverted state stable; nc: the spin above which "
@@ -66,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     method = {"method": args.method} if getattr(args, "method", None) else {}
     res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
-                            workers=args.workers, use_cache=not args.no_cache, **method)
+                            workers=args.workers, use_cache=not args.no_cache,
+                            spec=args.on or "mujoco", **method)
     files = _write_threshold(res, out_dir) if out_dir is not None else []
     if args.json:
         print_json(res)
@@ -121,7 +126,9 @@ def print_threshold(res: dict[str, Any]) -> None:
         how = f"from growth rates of {n_runs} runs of {fmt(horizon, 's')} near the steady state"
     else:
         how = f"by bisection on n0 over {n_runs} runs of {fmt(horizon, 's')}"
-    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}, {how}:")
+    spec = res.get("engine_spec", "mujoco")
+    on = f" on {spec}" if spec != "mujoco" else ""
+    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}{on}, {how}:")
     bracket = res.get("bracket") or [None, None]
     rows = [
         ("measured", fmt(res.get("measured"), "rad/s"),

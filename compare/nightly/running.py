@@ -205,7 +205,7 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
                                    if c.method == "bisect" else {})
         res = measure_threshold(c.scene, c.engine, c.which or "n1", c.overrides,
                                 method=c.method, rel_tol=c.rel_tol, scheduler=scheduler,
-                                workers=workers, use_cache=use_cache, **options)
+                                workers=workers, use_cache=use_cache, spec=c.spec, **options)
     except Exception as exc:  # noqa: BLE001 - a failed bisection is that case's error
         cr.error = error_text(exc)
         cr.wall_s = time.perf_counter() - t0

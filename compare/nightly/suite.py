@@ -173,8 +173,8 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
 def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], list[str]]:
     """Each MuJoCo case on each engine spec; the cases that cannot run on a spec, said.
 
-    Runs and sweeps run on any spec; thresholds and the atlas (searches the harness drives
-    in this process) on ``mujoco`` only.
+    Runs, sweeps and thresholds run on any spec; the atlas (modes over a grid of tops) on
+    ``mujoco`` only.
     """
     out, skipped = [], []
     for c in cases:
@@ -182,7 +182,7 @@ def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], lis
             out.append(c)
             continue
         for spec in specs:
-            if spec != "mujoco" and c.kind not in ("run", "sweep"):
+            if spec != "mujoco" and c.kind not in ("run", "sweep", "threshold"):
                 skipped.append(f"{c.id} on {spec} (a {c.kind} runs on the installed MuJoCo "
                                "only)")
                 continue

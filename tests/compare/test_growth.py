@@ -110,3 +110,22 @@ def test_mujoco_paper_mode_n1() -> None:
                                                    "mujoco.timestep_s=1e-4"), workers=2)
     assert res["settled"] and abs(res["rel_diff"]) <= 5e-3
     assert math.isfinite(res["measured"]) and res["n_runs"] <= 12
+
+
+def test_a_threshold_on_another_engine_runs_there(tmp_path: Path) -> None:
+    # mujoco@THIS_PYTHON is this very MuJoCo build in a worker process: every run is the
+    # in-process run (the same plan, build and steps), so n1 agrees to round-off (rel 1e-9, a
+    # different summation order at most); and the result says which engine it was measured on
+    import sys
+
+    here = measure_threshold(None, "mujoco-native", "n1", workers=2, use_cache=False)
+    there = measure_threshold(None, "mujoco-native", "n1", workers=2, use_cache=False,
+                              spec=f"mujoco@{sys.executable}")
+    assert here["engine_spec"] == "mujoco" and there["engine_spec"] == f"mujoco@{sys.executable}"
+    assert there["measured"] == pytest.approx(here["measured"], rel=1e-9)
+    assert there["n_runs"] == here["n_runs"] and there["settled"]
+    # the reference ODE has no other engine to run on; a bad spec is refused before any run
+    with pytest.raises(TippetopError, match="expected a MuJoCo engine"):
+        measure_threshold(None, "ode", "n1", spec="mjx")
+    with pytest.raises(TippetopError, match="engine: expected mujoco, mujoco==X.Y.Z"):
+        measure_threshold(None, "mujoco-native", "n1", spec="bullet")

@@ -517,7 +517,8 @@ def test_a_missing_spec_baseline_is_one_line(tiny: dict, tmp_path: Path,
     assert not (tmp_path / "out").exists()
 
 
-def test_threshold_cases_on_another_spec_are_said_not_run() -> None:
+def test_thresholds_go_on_another_spec_and_the_atlas_is_said_not_run(monkeypatch) -> None:
+    from tippetop.compare.nightly import running
     from tippetop.compare.nightly.suite import cases_on_specs, engine_specs
 
     cat = load_catalogue(None)
@@ -526,10 +527,24 @@ def test_threshold_cases_on_another_spec_are_said_not_run() -> None:
     picked = select_cases(cat, "full", kinds)
     cases, skipped = cases_on_specs(picked, specs)
     mj = [c for c in picked if c.engine == "mujoco"]
-    runnable = [c for c in mj if c.kind in ("run", "sweep")]
+    runnable = [c for c in mj if c.kind in ("run", "sweep", "threshold")]
+    assert any(c.kind == "threshold" for c in runnable)
     assert len(cases) == len(picked) + len(runnable)
     assert len(skipped) == len(mj) - len(runnable)
-    assert all("runs on the installed MuJoCo only" in s for s in skipped)
+    assert skipped and all("atlas runs on the installed MuJoCo only" in s for s in skipped)
+    # a threshold case on the release measures on it: its spec goes to the measurement
+    on = next(c for c in cases if c.kind == "threshold" and c.spec == "mujoco==3.3.7")
+    assert on.id.endswith("@mujoco==3.3.7")
+    seen = {}
+
+    def fake(*args, **kw):
+        seen.update(kw)
+        return {"measured": 34.3, "converged": True, "theory": 34.35, "n_runs": 1}
+
+    monkeypatch.setattr(running, "measure_threshold", fake)
+    running._run_threshold(running.CaseRun(on), scheduler=None, workers=1, use_cache=False,
+                           log=lambda s: None)
+    assert seen["spec"] == "mujoco==3.3.7"
     with pytest.raises(TippetopError, match="--engines: expected a comma-separated list of "
                        "ode and engine specs"):
         engine_specs(("ode", "bullet"))
