@@ -16,7 +16,6 @@ plan is read, never imported).
 
 from __future__ import annotations
 
-import functools
 import heapq
 import json
 import math
@@ -61,11 +60,14 @@ def _step_cost_path() -> Path | None:
         return None
 
 
-@functools.lru_cache(maxsize=8)
-def _read_step_cost(path: str, _mtime_ns: int) -> float | None:
-    """The kept step cost in ``path`` (read once per version of the file), None if unusable."""
+def _read_step_cost(path: Path) -> float | None:
+    """The kept step cost in ``path``, None if there is none or it is unusable.
+
+    Read each time (a few tens of microseconds): a file's mtime moves in steps of
+    milliseconds, too coarse to tell two quick writes apart for a cache.
+    """
     try:
-        value = json.loads(Path(path).read_text(encoding="utf-8"))["mujoco_step_s"]
+        value = json.loads(path.read_text(encoding="utf-8"))["mujoco_step_s"]
     except (OSError, ValueError, KeyError, TypeError):
         return None
     ok = (isinstance(value, (int, float)) and math.isfinite(value)
@@ -81,11 +83,7 @@ def mujoco_step_s() -> tuple[float, bool]:
         :data:`MUJOCO_STEP_S` and False.
     """
     path = _step_cost_path()
-    try:
-        mtime = path.stat().st_mtime_ns if path is not None else None
-    except OSError:
-        mtime = None
-    measured = _read_step_cost(str(path), mtime) if mtime is not None else None
+    measured = _read_step_cost(path) if path is not None else None
     return (measured, True) if measured is not None else (MUJOCO_STEP_S, False)
 
 
