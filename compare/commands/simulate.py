@@ -75,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
 
         python = engine_python(spec, say=_say)  # a managed environment is made on first use
     run = run_plan(plan, spec=spec, python=python)
-    record_mujoco_runs(measured_steps([run.summary]))  # for the next run's estimate
+    on = spec.spec if spec is not None else "mujoco"
+    record_mujoco_runs(measured_steps([run.summary], on), on)  # for the next run's estimate
     failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)

@@ -60,43 +60,55 @@ def _step_cost_path() -> Path | None:
         return None
 
 
-def _read_step_cost(path: Path) -> float | None:
-    """The kept step cost in ``path``, None if there is none or it is unusable.
+def _read_doc(path: Path) -> dict[str, Any]:
+    """The kept step costs, ``{}`` if there are none or the file is unusable.
 
     Read each time (a few tens of microseconds): a file's mtime moves in steps of
     milliseconds, too coarse to tell two quick writes apart for a cache.
     """
     try:
-        value = json.loads(path.read_text(encoding="utf-8"))["mujoco_step_s"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    ok = (isinstance(value, (int, float)) and math.isfinite(value)
-          and PLAUSIBLE_STEP_S[0] <= value <= PLAUSIBLE_STEP_S[1])
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) and isinstance(doc.get("engines"), dict) else {}
+
+
+def _plausible(value: Any) -> float | None:
+    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+          and math.isfinite(value) and PLAUSIBLE_STEP_S[0] <= value <= PLAUSIBLE_STEP_S[1])
     return float(value) if ok else None
 
 
-def mujoco_step_s() -> tuple[float, bool]:
-    """The expected wall time of one step of the MuJoCo installed here (s), and whether so.
+def mujoco_step_s(spec: str = "mujoco") -> tuple[float, bool]:
+    """The expected wall time of one MuJoCo step on the engine ``spec`` (s), and whether so.
+
+    Args:
+        spec: An engine spec (:mod:`tippetop.models.engines`): ``mujoco``, the one installed
+            here (its compiled stepper), or another, through its worker.
 
     Returns:
-        ``(seconds, measured)``: the figure kept from this machine's runs and True, else
-        :data:`MUJOCO_STEP_S` and False.
+        ``(seconds, measured)``: the figure kept from this machine's runs on that engine and
+        True, else :data:`MUJOCO_STEP_S` and False.
     """
     path = _step_cost_path()
-    measured = _read_step_cost(path) if path is not None else None
+    doc = _read_doc(path) if path is not None else {}
+    entry = doc.get("engines", {}).get(spec)
+    measured = _plausible(entry.get("step_s")) if isinstance(entry, dict) else None
     return (measured, True) if measured is not None else (MUJOCO_STEP_S, False)
 
 
-def record_mujoco_runs(runs: Iterable[tuple[int, float]]) -> float | None:
-    """Keep what runs of the MuJoCo installed here cost a step, for the next estimate.
+def record_mujoco_runs(runs: Iterable[tuple[int, float]], spec: str = "mujoco") -> float | None:
+    """Keep what runs on the engine ``spec`` cost a step, for the next estimate.
 
     The median over the runs of at least :data:`MIN_MEASURED_STEPS` steps, blended into the
-    kept figure with :data:`LEARN_RATE`, written atomically to the run cache folder. Nothing is
-    written when no run qualifies or there is no usable cache folder; a failed write is
-    ignored (an estimate is never worth an error).
+    figure kept for that engine with :data:`LEARN_RATE`, written atomically to the run cache
+    folder beside the other engines' figures. Nothing is written when no run qualifies or
+    there is no usable cache folder; a failed write is ignored (an estimate is never worth an
+    error).
 
     Args:
         runs: ``(n_steps, wall_s)`` of each run computed (not read from the cache).
+        spec: The engine spec that ran them.
 
     Returns:
         The figure kept (s a step), or None when nothing was written.
@@ -108,11 +120,12 @@ def record_mujoco_runs(runs: Iterable[tuple[int, float]]) -> float | None:
     if not costs or path is None:
         return None
     new = statistics.median(costs)
-    old, measured = mujoco_step_s()
+    old, measured = mujoco_step_s(spec)
     kept = old + LEARN_RATE * (new - old) if measured else new
-    doc = {"mujoco_step_s": kept, "runs": len(costs), "last_median_s": new,
-           "note": "wall time of one MuJoCo step on this machine, as tippetop measured it; "
-                   "delete to start again from the default"}
+    doc = _read_doc(path) or {"engines": {}}
+    doc["note"] = ("wall time of one MuJoCo step on this machine, by engine spec, as tippetop "
+                   "measured it; delete to start again from the default")
+    doc["engines"][spec] = {"step_s": kept, "runs": len(costs), "last_median_s": new}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -123,18 +136,20 @@ def record_mujoco_runs(runs: Iterable[tuple[int, float]]) -> float | None:
     return kept
 
 
-def expected_cost_s(plan: Any) -> float:
+def expected_cost_s(plan: Any, spec: str = "mujoco") -> float:
     """The expected wall time of one run on one core (s), from its plan.
 
-    MuJoCo: the plan's steps times :func:`mujoco_step_s`; the reference ODE:
-    :data:`ODE_PER_SIM_S` per simulated second; both plus :data:`TASK_OVERHEAD_S`. Only the
-    ratios matter to the bar; its ETA uses the speed measured while it runs.
+    MuJoCo: the plan's steps times :func:`mujoco_step_s` of the engine it runs on; the
+    reference ODE: :data:`ODE_PER_SIM_S` per simulated second; both plus
+    :data:`TASK_OVERHEAD_S`. Only the ratios matter to the bar; its ETA uses the speed
+    measured while it runs.
 
     Args:
         plan: A :class:`tippetop.models.plan.RunPlan`.
+        spec: The engine spec a MuJoCo plan runs on.
     """
     if plan.mujoco is not None:
-        return TASK_OVERHEAD_S + mujoco_steps(plan) * mujoco_step_s()[0]
+        return TASK_OVERHEAD_S + mujoco_steps(plan) * mujoco_step_s(spec)[0]
     return TASK_OVERHEAD_S + float(plan.t_end_s) * ODE_PER_SIM_S
 
 
@@ -181,7 +196,8 @@ def mujoco_steps(plan: Any) -> int:
     return 0 if plan.mujoco is None else plan.mujoco.n_steps
 
 
-def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
+def long_run_note(plans: Sequence[Any], slots: int = 1,
+                  specs: Sequence[str] | None = None) -> str | None:
     """The line to print before running ``plans`` on ``slots`` workers, or None if short.
 
     The estimate is the one the progress bar starts from (:func:`expected_cost_s`), scheduled
@@ -190,25 +206,33 @@ def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
     Args:
         plans: Run plans (:class:`tippetop.models.plan.RunPlan`).
         slots: Runs going at once.
+        specs: The engine spec each plan runs on (default: all on ``mujoco``).
 
     Returns:
         ``tippetop: about 33 min of computing (2.0e+08 MuJoCo steps at ~20 us, as measured
-        here, on 2 workers)``, or None under :data:`LONG_RUN_S`.
+        here, on 2 workers)``, or None under :data:`LONG_RUN_S`; each engine other than
+        ``mujoco`` has its own part (``1.0e+06 MuJoCo steps on mjx at ~1000 us, not yet
+        measured here``).
     """
     if not plans:
         return None
-    wall = schedule_s([], [expected_cost_s(p) for p in plans], max(1, slots))
+    specs = list(specs) if specs is not None else ["mujoco"] * len(plans)
+    wall = schedule_s([], [expected_cost_s(p, s) for p, s in zip(plans, specs, strict=True)],
+                      max(1, slots))
     if wall <= LONG_RUN_S:
         return None
-    steps = sum(mujoco_steps(p) for p in plans)
+    steps: dict[str, int] = {}
+    for p, s in zip(plans, specs, strict=True):
+        if mujoco_steps(p):
+            steps[s] = steps.get(s, 0) + mujoco_steps(p)
     parts = []
-    if steps:
-        step_s, measured = mujoco_step_s()
+    for spec, n in steps.items():
+        step_s, measured = mujoco_step_s(spec)
         us = step_s * 1e6
-        parts.append(f"{steps:.1e} MuJoCo steps at ~{us:.0f}" if us >= 100 else
-                     f"{steps:.1e} MuJoCo steps at ~{us:.3g}")
-        parts[-1] += (" us, "
-                     + ("as measured here" if measured else "not yet measured here"))
+        on = "" if spec == "mujoco" else f" on {spec}"
+        parts.append(f"{n:.1e} MuJoCo steps{on} at ~{us:.0f} us" if us >= 100 else
+                     f"{n:.1e} MuJoCo steps{on} at ~{us:.3g} us")
+        parts[-1] += ", as measured here" if measured else ", not yet measured here"
     n_ode = sum(1 for p in plans if mujoco_steps(p) == 0)
     if n_ode:
         parts.append(f"{n_ode} reference run{'s' if n_ode > 1 else ''}")
@@ -217,12 +241,13 @@ def long_run_note(plans: Sequence[Any], slots: int = 1) -> str | None:
     return f"tippetop: about {_duration(wall)} of computing ({', '.join(parts)})"
 
 
-def say_long_run(plans: Sequence[Any], slots: int = 1, stream: TextIO | None = None) -> None:
+def say_long_run(plans: Sequence[Any], slots: int = 1, stream: TextIO | None = None,
+                 specs: Sequence[str] | None = None) -> None:
     """Print :func:`long_run_note` on stderr (or ``stream``) when there is one.
 
     Only on stderr, never into ``--json`` output, and whether or not stderr is a terminal.
     """
-    note = long_run_note(plans, slots)
+    note = long_run_note(plans, slots, specs)
     if note is not None:
         out = stream or sys.stderr
         out.write(note + "\n")

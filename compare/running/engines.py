@@ -43,15 +43,16 @@ RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_
 FINISHED_STATUSES = ("ok", "contact_lost", "hop")
 
 
-def measured_steps(summaries: Iterable[dict[str, Any] | None]) -> list[tuple[int, float]]:
-    """``(n_steps, wall_s)`` of each finished run of the MuJoCo installed here.
+def measured_steps(summaries: Iterable[dict[str, Any] | None],
+                   spec: str = "mujoco") -> list[tuple[int, float]]:
+    """``(n_steps, wall_s)`` of each finished MuJoCo run on the engine ``spec``.
 
-    Runs in this process only, not a worker's, whose steps cost what its engine does; for the
-    cost model (:func:`tippetop.compare.running.cost.record_mujoco_runs`).
+    The runs of that engine only (the read-back ``engine_spec``): each engine's steps cost
+    what it does. For the cost model (:func:`tippetop.compare.running.cost.record_mujoco_runs`).
     """
     return [(int(s["n_steps"]), float(s["wall_s"])) for s in summaries
             if s is not None and s.get("engine") == "mujoco"
-            and s.get("engine_spec") == "mujoco" and s.get("status") == "ok"
+            and s.get("engine_spec") == spec and s.get("status") == "ok"
             and s.get("n_steps") and s.get("wall_s")]
 
 
@@ -294,7 +295,7 @@ def run_plan(plan: RunPlan, *, progress: bool | Callable[[float], None] = True,
         from tippetop.compare.running.cost import say_long_run
 
         say_compile([plan])
-        say_long_run([plan])
+        say_long_run([plan], specs=[spec.spec if remote else "mujoco"])
     label = f"{plan.scene} [{plan.engine}{f' on {spec.spec}' if remote else ''}]"
     with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:
         return go(tick)

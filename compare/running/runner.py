@@ -262,20 +262,24 @@ class ResultCache:
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
-              shared: int = 0, here: list[RunPlan] | None = None) -> WorkProgress | None:
+              shared: int = 0, here: list[RunPlan] | None = None,
+              specs: list[str] | None = None) -> WorkProgress | None:
     """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal.
 
     Its count is of the runs to compute; the note says what the others are (``cached`` taken
     from the cache, ``shared`` the same run as another task's, run once), so that the count
     and the note add up to the tasks asked for. Until a run moves it says how long the
-    compiling of ``here`` (the plans of this installation's engines) takes.
+    compiling of ``here`` (the plans of this installation's engines) takes. ``specs``: the
+    engine each plan runs on (default ``mujoco``), whose step cost weighs it.
     """
     if not sys.stderr.isatty() or not plans:
         return None
     note = [f"{cached} from the cache"] if cached else []
     if shared:
         note.append(f"{shared} the same as another, run once")
-    return WorkProgress(label, [expected_cost_s(p) for p in plans], slots=slots,
+    specs = specs or ["mujoco"] * len(plans)
+    return WorkProgress(label, [expected_cost_s(p, s) for p, s in zip(plans, specs, strict=True)],
+                        slots=slots,
                         note=", ".join(note), compile_s=compile_s(here or []))
 
 
@@ -346,15 +350,16 @@ def run_tasks(
             todo.setdefault(key, []).append(i)
     # longest first: the last runs to start are short, so the cores finish together
     unique = sorted(((key, tasks[idx[0]]) for key, idx in todo.items()),
-                    key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
+                    key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]], kt[1].spec))
     unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
+    specs = [t.spec for _, t in unique]  # in the order of unique_plans
     slots = _slots(scheduler, workers, len(unique))
     here = [unique_plans[key] for key, t in unique if t.spec not in pythons]
     say_compile(here)
-    say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
+    say_long_run(list(unique_plans.values()), slots, specs=specs)  # stderr, above a minute
     hits = sum(r is not None and r.cached for r in results)
     shared = sum(len(idx) - 1 for idx in todo.values())
-    bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here)
+    bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here, specs)
     writer = _CacheWriter(cache) if cache else None
     finished = False
     try:
@@ -368,9 +373,10 @@ def run_tasks(
             for i in todo[key]:
                 results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
         finished = True
-        if scheduler is None:  # what a step of the MuJoCo here cost, for the next estimate
-            record_mujoco_runs(measured_steps({r.key: r.summary for r in results
-                                               if r is not None and not r.cached}.values()))
+        if scheduler is None:  # what a step of each engine cost, for the next estimate
+            computed = {r.key: r.summary for r in results if r is not None and not r.cached}
+            for spec in dict.fromkeys(specs):
+                record_mujoco_runs(measured_steps(computed.values(), spec), spec)
     finally:  # erased on Ctrl-C too, so that 'tippetop: interrupted' starts its own line
         if bar is not None:
             bar.close()
