@@ -176,6 +176,5 @@ def realised_sentence(name: str, fr: dict[str, Any]) -> str:
             f"{number_text(100 * float(creep or 0.0))} % of the time)")
 
 
-__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "MISSING", "fit_law",
-           "friction_realised", "law_mu", "not_refit", "number_text", "realised_sentence",
-           "samples"]
+__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "fit_law", "friction_realised",
+           "law_mu", "not_refit", "realised_sentence", "samples"]

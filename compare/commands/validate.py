@@ -96,14 +96,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_friction(res: dict[str, Any]) -> None:
     """The law each MuJoCo run realised, and whether the refit reference explains the run."""
-    from tippetop.compare.presentation.terminal import realised_text
+    from tippetop.compare.analysis.friction_realised import realised_sentence
 
     lines = []
     for mode, r in res["runs"].items():
         fr = r.get("friction_realised")
         if mode == "ode" or not fr:
             continue
-        lines.append(f"    {realised_text(mode, fr)}")
+        lines.append(f"    {realised_sentence(mode, fr)}")
         refit = fr.get("refit")
         if refit:
             lines.append(f"      refit: {refit['sentence']}")

@@ -1,11 +1,10 @@
 """What a person reads in the terminal: values with units, and tables.
 
 :func:`fmt` and :func:`fmt_value` turn a value into text with the unit its key implies,
-:func:`check_text` a verdict check's value, :func:`realised_text` the friction law a run
-realised; :func:`table` lines up columns, :func:`cache_line` says where a command's runs went. This
-module imports only the standard library (and, when asked, for the cache's folder
-:mod:`tippetop.models.resources`, for the realised law's sentence
-:mod:`tippetop.compare.analysis.friction_realised`).
+:func:`check_text` a verdict check's value; :func:`table` lines up columns,
+:func:`cache_line` says where a command's runs went. This module imports only the standard
+library (and, when asked, for the cache's folder :mod:`tippetop.models.resources`, for the
+realised law's sentence :mod:`tippetop.compare.analysis.friction_realised`).
 """
 
 from __future__ import annotations
@@ -196,17 +195,6 @@ def fmt_stiff(stiff: Any, rolling: Any = None) -> str:
     return text
 
 
-def realised_text(name: str, fr: dict[str, Any]) -> str:
-    """The friction law a run realised (``friction_realised``), four digits and their units.
-
-    :func:`tippetop.compare.analysis.friction_realised.realised_sentence`, the one sentence
-    every command and report says it in (imported when asked: it brings numpy and pandas).
-    """
-    from tippetop.compare.analysis.friction_realised import realised_sentence
-
-    return realised_sentence(name, fr)
-
-
 # ---------------------------------------------------------------- a verdict's checks
 #: The events of the event checks (:mod:`tippetop.compare.analysis.verdict`): what a run does,
 #: what it does not.
@@ -304,7 +292,10 @@ def fmt_value(key: str, value: Any) -> str:
         if text is not None:
             return text
     if key == "friction_realised" and isinstance(value, dict):
-        return realised_text("the run", value)
+        # the one sentence every command and report says it in (it brings numpy and pandas)
+        from tippetop.compare.analysis.friction_realised import realised_sentence
+
+        return realised_sentence("the run", value)
     if key == "stiff":
         return fmt_stiff(value)
     if key == "rolling" and isinstance(value, dict):
@@ -410,5 +401,5 @@ def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str
 
 __all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "check_note", "check_text", "fmt",
            "fmt_duration", "fmt_float", "fmt_percent", "fmt_rolling", "fmt_stiff", "fmt_value",
-           "key_values", "labelled", "ran_lines", "realised_text", "table", "text_width",
+           "key_values", "labelled", "ran_lines", "table", "text_width",
            "unit_of"]

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tippetop.compare.analysis.friction_realised import realised_sentence
 from tippetop.compare.analysis.validate import MODES, mode_of, show_setting
 from tippetop.compare.presentation.figures import pyplot
 from tippetop.compare.presentation.terminal import (
@@ -16,7 +17,6 @@ from tippetop.compare.presentation.terminal import (
     check_text,
     fmt,
     fmt_duration,
-    realised_text,
 )
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
@@ -256,7 +256,7 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
         fr = res["runs"][k]["friction_realised"]
         refit = (fr.get("refit") or {}).get("sentence")
         more = f"<br><span class='note'>Refit: {esc(refit)}.</span>" if refit else ""
-        return f"<li>{esc(realised_text(_label(k), fr))}{more}</li>"
+        return f"<li>{esc(realised_sentence(_label(k), fr))}{more}</li>"
 
     lines = "".join(sentence(k) for k in keys)
     return ("<section id='friction'><h2>The friction law as each run realises it</h2>"

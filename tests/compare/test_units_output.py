@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from tippetop.compare.analysis.friction_realised import realised_sentence
 from tippetop.compare.analysis.validate import show_setting, suggestion
 from tippetop.compare.analysis.verdict import verdict
 from tippetop.compare.presentation.terminal import (
@@ -25,7 +26,6 @@ from tippetop.compare.presentation.terminal import (
     fmt_rolling,
     fmt_stiff,
     fmt_value,
-    realised_text,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -104,7 +104,7 @@ def test_the_realised_law_has_four_digits_and_units() -> None:
     fr = {"mu_fit": 0.0872912, "Lambda_fit_mps": 0.00491234, "residual": 0.0038123,
           "half_mu_slip_mps": 0.0139123, "law_half_mu_slip_mps": 0.01 / 3 ** 0.5,
           "angle_rms_rad": 1.761, "creep_fraction": 0.05}
-    text = realised_text("mujoco-file", fr)
+    text = realised_sentence("mujoco-file", fr)
     assert text.startswith("mujoco-file: the contact reaches half of mu N at a slip of "
                            "13.91 mm/s, the paper's law at 5.774 mm/s")
     assert "Lambda 4.912 mm/s" in text and "residual 0.0038 of |F_t|/N" in text
