@@ -104,7 +104,8 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
                        f"reference ({number_text(a, 's')} against {number_text(b, 's')})")
         elif (a is None) != (b is None):
             who = "the reference" if a is None else "the file"
-            within = f"the run's {t_end_s:g} s" if t_end_s is not None else "the run"
+            within = f"the run's {number_text(t_end_s, 's')}" if t_end_s is not None \
+                else "the run"
             out.append(f"only {who} {what} within {within}")
     if f["end_state"] != ref["end_state"]:
         out.append(f"it ends {f['end_state']} (theta {number_text(fs['theta_final'], 'rad')}) "

@@ -202,6 +202,12 @@ _EVENTS = {"t_invert": ("turns over", "does not turn over"),
            "t_stem": ("touches its stem", "does not touch its stem")}
 
 
+def within_run(t_end_s: float | None) -> str:
+    """What "never" means for an event: ``within the run's 8 s`` (``within the run`` unknown)."""
+    return f"within the run's {fmt(float(t_end_s), 's')}" if t_end_s is not None else \
+        "within the run"
+
+
 def _event_text(check: dict[str, Any], t_end_s: float | None,
                 times: tuple[float | None, float | None] | None) -> str:
     """An event check's value: how far from the reference's, or which run never has it."""
@@ -211,8 +217,7 @@ def _event_text(check: dict[str, Any], t_end_s: float | None,
         if d == 0:
             return "0 s from the reference's"
         return f"{fmt(abs(float(d)), 's')} {'later' if d > 0 else 'earlier'} than the reference"
-    within = f"within the run's {fmt(float(t_end_s), 's')}" if t_end_s is not None else \
-        "within the run"
+    within = within_run(t_end_s)
     mine, ref = times if times is not None else (None, None)
     note = str(check.get("note", ""))
     if check["passed"] or note.startswith("neither"):
@@ -402,4 +407,4 @@ def cache_line(computed: int | None, cached: int | None, use_cache: bool) -> str
 __all__ = ["MISSING", "NAN_TEXT", "RAN_KEYS", "cache_line", "check_note", "check_text", "fmt",
            "fmt_duration", "fmt_float", "fmt_percent", "fmt_rolling", "fmt_stiff", "fmt_value",
            "key_values", "labelled", "ran_lines", "table", "text_width",
-           "unit_of"]
+           "unit_of", "within_run"]

@@ -17,6 +17,7 @@ from tippetop.compare.presentation.terminal import (
     check_text,
     fmt,
     fmt_duration,
+    within_run,
 )
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
@@ -185,7 +186,7 @@ def _or(value: Any, why: str) -> Any:
 def runs_section(res: Mapping[str, Any]) -> str:
     """What each run ran and how it ended; a missing number says why."""
     rows = []
-    within = f"within the run's {res['t_end_s']:g} s"
+    within = within_run(res["t_end_s"])
     for m in _keys(res):
         r = res["runs"][m]
         s = r
