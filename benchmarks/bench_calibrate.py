@@ -30,8 +30,8 @@ from typing import Any
 
 def one(search: str, args: argparse.Namespace, folder: Path) -> dict[str, Any]:
     """One calibration with ``search`` into ``folder``, the results cache left alone."""
-    from tippetop.compare.analysis.calibrate.config import CalibrateConfig
-    from tippetop.compare.analysis.calibrate.run import calibrate
+    from tippetop.compare.studies.calibrate.config import CalibrateConfig
+    from tippetop.compare.studies.calibrate.run import calibrate
 
     config = CalibrateConfig(calibration=args.calibration, holdout=args.holdout,
                              out=folder / f"{search}.toml", budget_runs=args.budget_runs,
@@ -48,7 +48,7 @@ def one(search: str, args: argparse.Namespace, folder: Path) -> dict[str, Any]:
 
 def main() -> int:
     """Run both searches and print the comparison."""
-    from tippetop.compare.analysis.calibrate.config import (
+    from tippetop.compare.studies.calibrate.config import (
         DEFAULT_BUDGET_RUNS,
         DEFAULT_CALIBRATION,
         DEFAULT_HOLDOUT,

@@ -71,7 +71,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.analysis.matrix import MODES
 from tippetop.compare.cli import command_line
 from tippetop.compare.running import engines
 from tippetop.compare.running.runner import (
@@ -81,6 +80,7 @@ from tippetop.compare.running.runner import (
     run_tasks,
     task_key,
 )
+from tippetop.compare.studies.matrix import MODES
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.resources import user_cache_dir
 from tippetop.mujoco_runner import remote

@@ -15,7 +15,7 @@ phases and the largest |theta - theta_tight| over the run, where theta_tight is 
 rtol 1e-11 (``stiff="off"``), computed once per Lambda.
 
 With ``--frontier DIR`` it then runs the stiff case's work-precision study
-(:func:`tippetop.compare.analysis.accuracy.ode_study.stiff_work_precision`: fig3 at Lambda = 1e-6
+(:func:`tippetop.compare.studies.accuracy.ode_study.stiff_work_precision`: fig3 at Lambda = 1e-6
 m/s, the compiled DOP853 with rolling phases and the same on the law throughout, rtol 1e-3
 ... 1e-12, scored against the law at rtol 1e-11) and writes
 ``accuracy_ode_stiff.csv``, ``accuracy_ode_<scene>.png`` and ``pareto_ode_stiff.md`` there,
@@ -35,10 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tippetop.compare.analysis.accuracy.common import DEFAULT_THRESHOLDS
-from tippetop.compare.analysis.accuracy.figures import work_precision_figure
-from tippetop.compare.analysis.accuracy.ode_study import DEFAULT_BUDGET_S, stiff_work_precision
-from tippetop.compare.analysis.accuracy.pareto import pareto_markdown, pareto_table
+from tippetop.compare.studies.accuracy.common import DEFAULT_THRESHOLDS
+from tippetop.compare.studies.accuracy.figures import work_precision_figure
+from tippetop.compare.studies.accuracy.ode_study import DEFAULT_BUDGET_S, stiff_work_precision
+from tippetop.compare.studies.accuracy.pareto import pareto_markdown, pareto_table
 from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
 from tippetop.reference_ode.solve import OdeResult, simulate_ode

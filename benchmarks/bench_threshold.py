@@ -3,9 +3,9 @@
 Both measure n1 of the Fig. 9 (a) top (theory 34.35 rad/s) in MuJoCo with the paper's law at
 the same timestep, with the run cache off so every run is computed:
 
-* growth: :func:`tippetop.compare.analysis.growth.measure_growth`, 2-s runs started 0.01 rad
+* growth: :func:`tippetop.compare.studies.growth.measure_growth`, 2-s runs started 0.01 rad
   from the spinning upright state, false position on the zero of the growth rate (``rel_tol`` 1e-5);
-* bisect: :func:`tippetop.compare.analysis.threshold.bisect_threshold`, full runs over a horizon
+* bisect: :func:`tippetop.compare.studies.threshold.bisect_threshold`, full runs over a horizon
   (default 20 s, as the nightly's quick profile) to a 0.5 % bracket, the bracket's ends run
   again over twice the horizon.
 
@@ -21,8 +21,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from tippetop.compare.analysis.growth import measure_growth
-from tippetop.compare.analysis.threshold import bisect_threshold
+from tippetop.compare.studies.growth import measure_growth
+from tippetop.compare.studies.threshold import bisect_threshold
 
 
 def main() -> None:

@@ -21,6 +21,7 @@ from tippetop.compare.commands import (
     nightly,
     plan,
     render,
+    report,
     simulate,
     sweep,
     theory,
@@ -32,7 +33,7 @@ from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, ru
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
-            calibrate, render, validate, atlas, mjcf)
+            report, calibrate, render, validate, atlas, mjcf)
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {

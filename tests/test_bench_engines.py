@@ -14,8 +14,8 @@ from types import ModuleType
 
 import pytest
 
-from tippetop.compare.analysis import matrix
 from tippetop.compare.running.runner import task_key
+from tippetop.compare.studies import matrix
 from tippetop.models.engines import parse_engines
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_engines.py"

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.analysis import theory
+from tippetop.compare.measures import theory
 from tippetop.mujoco_runner.model import load_top, stem_from_model
 from tippetop.mujoco_runner.state import file_top
 

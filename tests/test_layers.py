@@ -133,17 +133,111 @@ def test_the_check_sees_a_lazy_upward_import(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- inside compare
 COMMANDS = "tippetop.compare.commands"
-#: Entry points, which compose the rooms as the command line does: ``tippetop``'s parser and
-#: the ``python -m`` mains of the nightly and the report.
-ENTRY_POINTS = {"tippetop.compare.cli", "tippetop.compare.nightly.__main__",
-                "tippetop.compare.report.__main__"}
+#: The rooms of compare (its folders and top-level modules), each importing only those before
+#: it: pure measurements at the bottom, the code that runs things above them, the commands and
+#: the parser at the top. ``_lazy`` is a helper for packages' ``__init__`` at the very bottom.
+ROOMS = ("_lazy", "measures", "running", "presentation", "studies", "report", "nightly",
+         "commands", "cli", "__main__")
+#: Rooms that must not know each other although the order puts one above the other: the
+#: nightly command composes the nightly and the report.
+APART = (("nightly", "report"),)
+
+
+def _room(module: str) -> str | None:
+    """The room of a module of compare: its folder, or its own name at compare's top."""
+    parts = module.split(".")
+    if parts[:2] != ["tippetop", "compare"] or len(parts) < 3:
+        return None
+    return parts[2]
+
+
+def _room_graph() -> dict[str, dict[str, list[str]]]:
+    """room -> the rooms it imports -> the module imports that make each arrow."""
+    rooms: dict[str, dict[str, list[str]]] = {}
+    for m, targets in _graph().items():
+        a = _room(m)
+        if a is None:
+            continue
+        rooms.setdefault(a, {})
+        for t in targets:
+            b = _room(t)
+            if b is not None and b != a:
+                rooms[a].setdefault(b, []).append(f"{m} -> {t}")
+    return rooms
+
+
+def test_every_room_of_compare_is_in_the_order() -> None:
+    rooms = set(_room_graph())
+    assert rooms <= set(ROOMS), sorted(rooms - set(ROOMS))
+    assert {"measures", "running", "studies", "commands"} <= rooms
+
+
+def test_the_rooms_of_compare_point_one_way() -> None:
+    """A room imports only rooms before it in ROOMS (lazy imports included): no loops."""
+    upward = sorted(arrow for a, targets in _room_graph().items() for b, arrows in
+                    targets.items() if ROOMS.index(b) > ROOMS.index(a) for arrow in arrows)
+    assert upward == []
+
+
+def test_the_room_graph_of_compare_has_no_cycle() -> None:
+    """Whatever the order says: the folder graph itself is acyclic (a depth-first search)."""
+    graph = {a: set(t) for a, t in _room_graph().items()}
+    state: dict[str, int] = {}
+    cycle: list[str] = []
+
+    def visit(v: str, path: list[str]) -> bool:
+        state[v] = 1
+        for w in sorted(graph.get(v, ())):
+            if state.get(w) == 1:
+                cycle.extend([*path, v, w])
+                return True
+            if w not in state and visit(w, [*path, v]):
+                return True
+        state[v] = 2
+        return False
+
+    for v in sorted(graph):
+        if v not in state and visit(v, []):
+            break
+    assert cycle == []
+
+
+def test_pure_measures_start_no_run() -> None:
+    """measures imports nothing of compare, and none of the modules that run an engine."""
+    runs = ("tippetop.reference_ode.solve", "tippetop.mujoco_runner.run",
+            "tippetop.mujoco_runner.batch", "tippetop.mujoco_runner.remote")
+    bad = sorted(f"{m} -> {t}" for m, targets in _graph().items()
+                 if _room(m) == "measures" for t in targets
+                 if (_room(t) not in (None, "measures")) or t in runs)
+    assert bad == []
+
+
+def test_the_room_check_sees_a_lazy_import_that_points_back(tmp_path: Path) -> None:
+    src = "def f():\n    from tippetop.compare.nightly.outputs import slug\n"
+    p = tmp_path / "x.py"
+    p.write_text(src)
+    found = _imports(p, "tippetop.compare.studies.x",
+                     {"tippetop.compare.nightly.outputs", "tippetop.compare.nightly"})
+    assert [_room(t) for t in found] == ["nightly"]
+    assert ROOMS.index("nightly") > ROOMS.index("studies")
+
+
+#: The longest a module of the four packages may be (lines): split by job past it.
+MAX_MODULE_LINES = 700
+
+
+def test_no_module_is_over_700_lines() -> None:
+    long = sorted(f"{p.relative_to(ROOT)}: {n}" for p in _modules().values()
+                  if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES)
+    assert long == []
 
 
 def test_no_room_of_compare_imports_a_command() -> None:
-    """analysis, running, presentation, the nightly and the report never import a command."""
+    """measures, running, presentation, the studies, the nightly and the report never import
+    a command (only the parser does, and ``python -m tippetop.compare``)."""
     upward = sorted(f"{m} -> {t}" for m, targets in _graph().items() for t in targets
-                    if _within(t, COMMANDS) and not _within(m, COMMANDS)
-                    and m not in ENTRY_POINTS)
+                    if _within(t, COMMANDS) and _room(m) not in ("commands", "cli",
+                                                                 "__main__"))
     assert upward == []
 
 

@@ -69,8 +69,8 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
     exported function of the same name would turn into the module."""
     import importlib
 
-    for pkg in ("tippetop.compare.nightly", "tippetop.compare.analysis.calibrate",
-                "tippetop.compare.analysis.accuracy", "tippetop.compare.report"):
+    for pkg in ("tippetop.compare.nightly", "tippetop.compare.studies.calibrate",
+                "tippetop.compare.studies.accuracy", "tippetop.compare.report"):
         mod = importlib.import_module(pkg)
         folder = Path(mod.__file__).parent
         submodules = {p.stem for p in folder.glob("*.py")}
@@ -80,10 +80,10 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
 
 
 def test_the_files_that_shape_a_cached_result_exist() -> None:
-    """The cache key hashes these files (runner._MODULES); a file moved away would silently
+    """The cache key hashes these files (cache.MODULES); a file moved away would silently
     drop out of it, and an edit to it would serve stale cached runs."""
-    from tippetop.compare.running import runner
+    from tippetop.compare.running import cache
     from tippetop.models.resources import data_path
 
-    for pkg, name in runner._MODULES:
+    for pkg, name in cache.MODULES:
         assert data_path(pkg, name).is_file(), (pkg, name)

@@ -6,11 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.analysis.defaults import (
-    DEFAULT_A_OVER_C,
-    DEFAULT_A_OVER_R,
-    DEFAULT_ENGINES_TEXT,
-)
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
@@ -19,6 +14,11 @@ from tippetop.compare.commands.options import (
     comma_list,
     json_text,
     print_json,
+)
+from tippetop.compare.studies.defaults import (
+    DEFAULT_A_OVER_C,
+    DEFAULT_A_OVER_R,
+    DEFAULT_ENGINES_TEXT,
 )
 
 
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
 
     An engine departing from the theory is a finding, printed and written, not a failure.
     """
-    from tippetop.compare.analysis.atlas import parse_grid, run_atlas
+    from tippetop.compare.studies.atlas import parse_grid, run_atlas
 
     ac = parse_grid(args.A_over_C, "--A-over-C")
     ar = parse_grid(args.a_over_R, "--a-over-R")
@@ -109,9 +109,9 @@ def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
 
     The folder is checked (new, empty or ``--force``) by the caller before the work.
     """
-    from tippetop.compare.analysis.atlas import atlas_table
     from tippetop.compare.presentation.figures import atlas_figure, pyplot
     from tippetop.compare.running.io import staged_output_dir
+    from tippetop.compare.studies.atlas import atlas_table
 
     names = ["atlas.csv", "atlas.png", "atlas.json"]
     with staged_output_dir(Path(out_dir)) as tmp:

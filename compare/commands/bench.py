@@ -58,7 +58,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """``tippetop bench ode`` or ``tippetop bench accuracy``."""
     if args.what == "accuracy":
-        from tippetop.compare.analysis.accuracy import (
+        from tippetop.compare.studies.accuracy import (
             DEFAULT_BUDGET_S,
             DEFAULT_MUJOCO_BUDGET_S,
             run_accuracy,
@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(res["report"])
         return 0
-    from tippetop.compare.analysis.bench import bench_ode
+    from tippetop.compare.studies.bench import bench_ode
 
     if args.what != "ode":
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")

@@ -5,16 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tippetop.compare.analysis.calibrate.config import (
-    DEFAULT_BUDGET_RUNS,
-    DEFAULT_CALIBRATION,
-    DEFAULT_HOLDOUT,
-    DEFAULT_INTEGRATOR,
-    DEFAULT_OUT,
-    DEFAULT_TIMESTEP_S,
-    CalibrateConfig,
-)
-from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
@@ -23,6 +13,16 @@ from tippetop.compare.commands.options import (
     print_json,
 )
 from tippetop.compare.presentation.terminal import fmt_duration
+from tippetop.compare.studies.calibrate.config import (
+    DEFAULT_BUDGET_RUNS,
+    DEFAULT_CALIBRATION,
+    DEFAULT_HOLDOUT,
+    DEFAULT_INTEGRATOR,
+    DEFAULT_OUT,
+    DEFAULT_TIMESTEP_S,
+    CalibrateConfig,
+)
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.models.numbers import number_text
 
 
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         budget_runs=args.budget_runs, timestep_s=args.timestep_s, integrator=args.integrator,
         scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
         progress=not args.json, search=args.search)
-    from tippetop.compare.analysis.calibrate.run import calibrate
+    from tippetop.compare.studies.calibrate.run import calibrate
 
     report = calibrate(config)
     if args.json:
@@ -96,9 +96,9 @@ def run_mjcf(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
-    from tippetop.compare.analysis.tune import start_label
-    from tippetop.compare.analysis.validate import tune_only
     from tippetop.compare.commands.validate import print_tuned
+    from tippetop.compare.studies.tune import start_label
+    from tippetop.compare.studies.validate import tune_only
     from tippetop.models.errors import expect
 
     t_end = DEFAULT_T_END_S if args.t_end_s is None else args.t_end_s

@@ -36,7 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop compare``: one scene in several engines/modes, against the theory."""
-    from tippetop.compare.analysis.crossval import compare_scene
+    from tippetop.compare.studies.crossval import compare_scene
     from tippetop.models.modes import parse_modes
 
     res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
@@ -65,7 +65,7 @@ def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
     why = d.get("why")
     if not why:
         try:
-            from tippetop.compare.analysis.crossval import TOLERANCES
+            from tippetop.compare.measures.verdict import TOLERANCES
 
             why = TOLERANCES.get(metric, (None, ""))[1]
         except ImportError:  # pragma: no cover - crossval is part of the package
@@ -168,7 +168,7 @@ def print_compare(res: dict[str, Any]) -> None:
     realised = [(m, s["friction_realised"]) for m, s in modes.items()
                 if m.startswith("mujoco") and (s.get("friction_realised") or {}).get("samples")]
     if realised:
-        from tippetop.compare.analysis.friction_realised import realised_sentence
+        from tippetop.compare.measures.friction_realised import realised_sentence
 
         print("\nthe friction law as each mode realises it (the ball's phase):")
         width = max(len(m) for m, _ in realised)
@@ -181,7 +181,7 @@ def print_compare(res: dict[str, Any]) -> None:
         if "engine" not in s:
             continue
         try:
-            from tippetop.compare.running.engines import describe_ran
+            from tippetop.compare.measures.summary import describe_ran
 
             text = describe_ran(s)
         except (KeyError, TypeError, ValueError):

@@ -1,6 +1,6 @@
 """``tippetop matrix``: scenes on several engines side by side.
 
-Against the theory and each other: :mod:`tippetop.compare.analysis.matrix` does the work.
+Against the theory and each other: :mod:`tippetop.compare.studies.matrix` does the work.
 """
 
 from __future__ import annotations
@@ -65,8 +65,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop matrix``: exit 1 when a run failed."""
-    from tippetop.compare.analysis.matrix import profile_scenes, run_matrix
     from tippetop.compare.running.io import check_output_dir, hold_output_lock
+    from tippetop.compare.studies.matrix import profile_scenes, run_matrix
     from tippetop.models.engines import parse_engines
 
     engines = parse_engines(args.engines)
@@ -171,7 +171,7 @@ def print_matrix(res: dict[str, Any]) -> None:
     realised = [r for r in res["runs"] if r["mode"] != "paper" and r["engine"] != "ode"
                 and (r.get("friction_realised") or {}).get("samples")]
     if realised:
-        from tippetop.compare.analysis.friction_realised import realised_sentence
+        from tippetop.compare.measures.friction_realised import realised_sentence
 
         print("\nthe friction law as each engine realises it (the ball's phase):")
         for r in realised:

@@ -276,26 +276,11 @@ def load_scene(args: argparse.Namespace) -> Any:
 
 
 # ---------------------------------------------------------------- output
-def _json_default(o: Any) -> Any:
-    if hasattr(o, "item"):
-        return o.item()
-    raise TypeError(type(o).__name__)
-
-
-def _clean(obj: Any) -> Any:
-    """NaN/inf -> None so the JSON stays standard."""
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    return obj
-
-
 def json_text(obj: Any, indent: int | None = None) -> str:
     """One JSON object as text: NaN and inf as null, numpy scalars as numbers."""
-    return json.dumps(_clean(obj), default=_json_default, indent=indent)
+    from tippetop.compare.running.io import json_ready
+
+    return json.dumps(json_ready(obj), indent=indent)
 
 
 def print_json(obj: Any) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from tippetop.compare.commands.options import add_force_option, add_set_option, load_scene
 from tippetop.compare.presentation.video import (
@@ -11,8 +12,10 @@ from tippetop.compare.presentation.video import (
     DEFAULT_MAX_FRAMES,
     DEFAULT_SIZE,
     DEFAULT_SPEED,
-    RenderResult,
 )
+
+if TYPE_CHECKING:
+    from tippetop.compare.studies.render import RenderResult
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -46,7 +49,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop render``: simulate and write the video; exit 0, or 1 for a failed run."""
-    from tippetop.compare.presentation.video import RunFailed, VideoWriteFailed, render_scene
+    from tippetop.compare.studies.render import RunFailed, VideoWriteFailed, render_scene
 
     scene = load_scene(args)
     out = args.out if args.out else f"{scene.name}.mp4"
@@ -71,7 +74,7 @@ def summary_line(res: RenderResult, t_end_s: float) -> str:
     (--speed 8.3); egl, 26.53 ms a frame``.
 
     Args:
-        res: The video written (:func:`tippetop.compare.presentation.video.render_scene`'s).
+        res: The video written (:func:`tippetop.compare.studies.render.render_scene`'s).
         t_end_s: The simulated time it shows (s).
     """
     from tippetop.compare.presentation.terminal import fmt, fmt_duration

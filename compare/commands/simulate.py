@@ -51,8 +51,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop simulate``: one scene in one engine; exit 1 when the run failed."""
+    from tippetop.compare.measures.summary import measured_steps, run_failed
     from tippetop.compare.running.cost import record_mujoco_runs
-    from tippetop.compare.running.engines import measured_steps, plan_for, run_failed, run_plan
+    from tippetop.compare.running.engines import plan_for, run_plan
     from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
 
     spec = _engine_spec(args)

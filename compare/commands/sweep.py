@@ -43,9 +43,9 @@ def run(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
-    from tippetop.compare.analysis.sweep import parse_range, run_sweep
     from tippetop.compare.presentation.figures import sweep_figure
     from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
+    from tippetop.compare.studies.sweep import parse_range, run_sweep
     from tippetop.models.modes import parse_modes
 
     n0s = parse_range(args.n0)

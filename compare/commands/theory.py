@@ -40,7 +40,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop theory``: the paper's predictions for a top."""
-    from tippetop.compare.analysis import theory
+    from tippetop.compare.measures import theory
     from tippetop.models.params import TopParams
 
     extra: dict[str, Any] = {}

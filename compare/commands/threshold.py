@@ -59,7 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop threshold``: n1 or nc by bisection on n0; ``--out`` writes the runs."""
-    from tippetop.compare.analysis.threshold import measure_threshold
+    from tippetop.compare.studies.threshold import measure_threshold
 
     out_dir = None
     if getattr(args, "out", None):

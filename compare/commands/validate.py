@@ -10,7 +10,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.analysis.defaults import DEFAULT_T_END_S
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
@@ -18,6 +17,7 @@ from tippetop.compare.commands.options import (
     finite_float,
     print_json,
 )
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 
 EXIT_AGREES, EXIT_DEPARTS = 0, 1
 
@@ -56,8 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
     Exit status 0 when every check agrees, 1 when one departs (2: bad input).
     """
-    from tippetop.compare.analysis.validate import ValidateConfig, validate
     from tippetop.compare.running.io import check_output_dir, staged_output_dir, write_table
+    from tippetop.compare.studies.validate import ValidateConfig, validate
     from tippetop.models.engines import parse_engines
 
     engines = tuple(e.spec for e in parse_engines(args.engines))
@@ -74,8 +74,8 @@ def run(args: argparse.Namespace) -> int:
     res = validate(config)
     tables = res.pop("tables")
     if out is not None:
-        from tippetop.compare.nightly.outputs import json_ready
         from tippetop.compare.report.validate import render
+        from tippetop.compare.running.io import json_ready
 
         text = json.dumps(json_ready(res), indent=1) + "\n"
         html = render(res, tables)
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_friction(res: dict[str, Any]) -> None:
     """The law each MuJoCo run realised, and whether the refit reference explains the run."""
-    from tippetop.compare.analysis.friction_realised import realised_sentence
+    from tippetop.compare.measures.friction_realised import realised_sentence
 
     lines = []
     for mode, r in res["runs"].items():
@@ -130,8 +130,8 @@ def model_line(m: dict[str, Any]) -> str:
 
 
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
-    from tippetop.compare.analysis.validate import show_setting
     from tippetop.compare.presentation.terminal import check_note, check_text
+    from tippetop.compare.studies.validate import show_setting
 
     checks = res["verdict"]
     n_pass = sum(c["passed"] for c in checks)
@@ -176,8 +176,8 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
     if tuned.get("skipped"):
         print(f"{indent}tuned settings: not run ({tuned['skipped']})")
         return
-    from tippetop.compare.analysis.tune import start_label
     from tippetop.compare.presentation.terminal import fmt, fmt_duration
+    from tippetop.compare.studies.tune import start_label
 
     fit = tuned["fit"]
     start = fit["starts"][0]

@@ -1,6 +1,6 @@
 """Nightly regression: the catalogue against the baselines in the repository, per metric.
 
-:mod:`.catalogue` (the cases), :mod:`.tolerances`, :mod:`.baselines`, :mod:`.running` (the
+:mod:`.catalogue` (the cases), :mod:`.baselines`, :mod:`.running` (the
 runs and bisections), :mod:`.checks` (a case against its baseline), :mod:`.outputs`
 (results.json values, junit.xml, the summary, the environment), :mod:`.videos` and
 :mod:`.suite` (:func:`run_nightly`). The command, which adds the report, is
@@ -37,17 +37,14 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "EXIT_REGRESSION": "suite",
     "NightlyOptions": "suite",
     "run_nightly": "suite",
-    "TOLERANCES": "tolerances",
-    "Tolerance": "tolerances",
-    "compare_value": "tolerances",
-    "tolerance_for": "tolerances",
+    "tolerance_for": "checks",
     "render_videos": "videos",
 })
 
 __all__ = [
     "BASELINE_DIR", "CATALOGUE_PATH", "ENGINES", "EXIT_OK", "EXIT_REGRESSION", "KINDS",
-    "KIND_METRICS", "PROFILES", "TOLERANCES", "Case", "CaseRun", "Catalogue", "NightlyOptions",
-    "Tolerance", "baseline_file", "case_record", "case_status", "check_case", "compare_value",
+    "KIND_METRICS", "PROFILES", "Case", "CaseRun", "Catalogue", "NightlyOptions",
+    "baseline_file", "case_record", "case_status", "check_case",
     "environment", "junit_xml", "load_baseline", "load_catalogue", "render_videos", "run_cases",
     "run_nightly", "select_cases", "summary_text", "tolerance_for", "update_baseline",
 ]

@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.nightly.outputs import json_ready, timestamp
-from tippetop.compare.running.io import write_atomic
+from tippetop.compare.nightly.outputs import timestamp
+from tippetop.compare.running.io import json_ready, write_atomic
 from tippetop.models.errors import TippetopError
 from tippetop.models.resources import data_path
 
@@ -63,7 +63,7 @@ def _check_entry(path: Path, case_id: str, entry: Any) -> None:
     Checked as the file is read, so that a hand-edited entry of the wrong type is one line
     and exit 2 before any run, not a traceback after them.
     """
-    from tippetop.compare.nightly.tolerances import TOLERANCES
+    from tippetop.compare.measures.tolerances import TOLERANCES
 
     where = f"--baseline {str(path)!r}, case {case_id!r}"
     if not isinstance(entry, dict):

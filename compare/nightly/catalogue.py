@@ -10,8 +10,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.analysis.sweep import parse_range
-from tippetop.compare.analysis.threshold import METHODS, WHICH
+from tippetop.compare.studies.sweep import parse_range
+from tippetop.compare.studies.threshold import METHODS, WHICH
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.resources import data_path
@@ -168,7 +168,7 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
                     raise TippetopError(f"{where}.{key}: applies to method = 'bisect' only")
                 _req(entry, key, int, where)
     elif kind == "atlas":
-        from tippetop.compare.analysis.atlas import parse_grid
+        from tippetop.compare.studies.atlas import parse_grid
 
         extra = {"A_over_C": _req(entry, "A_over_C", str, where),
                  "a_over_R": _req(entry, "a_over_R", str, where)}

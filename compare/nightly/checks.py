@@ -5,11 +5,28 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from tippetop.compare.measures.tolerances import (
+    GROWTH_MEASURED,
+    TOLERANCES,
+    Tolerance,
+    compare_value,
+    format_value,
+)
+from tippetop.compare.nightly.catalogue import Case
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
-from tippetop.compare.nightly.tolerances import compare_value, format_value, tolerance_for
 from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import RunPlan
 from tippetop.models.scene import Scene, load_scene
+
+
+def tolerance_for(metric: str, case: Case) -> Tolerance:
+    """The tolerance of ``metric`` for ``case`` (a threshold's is at least its ``rel_tol``)."""
+    tol = TOLERANCES[metric]
+    if metric == "measured" and case.method == "growth":
+        return GROWTH_MEASURED
+    if metric == "measured" and case.rel_tol is not None and case.rel_tol > tol.value:
+        return Tolerance(tol.kind, case.rel_tol, tol.floor, tol.unit, tol.why)
+    return tol
 
 
 def check_case(cr: CaseRun, baseline: Mapping[str, dict[str, Any]]) -> list[dict[str, Any]]:
@@ -63,8 +80,8 @@ def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
 
 
 def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, Any]]:
-    from tippetop.compare.analysis import theory
-    from tippetop.compare.analysis.metrics import outcome_of_angle
+    from tippetop.compare.measures import theory
+    from tippetop.compare.measures.series import outcome_of_angle
 
     top, ini = plan.top, plan.init
     law, mu, lam = _law(plan)

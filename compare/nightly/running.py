@@ -11,10 +11,10 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
-from tippetop.compare.analysis.threshold import measure_threshold
+from tippetop.compare.measures.series import classify_outcome, theta_trend
 from tippetop.compare.nightly.catalogue import ENGINES, Case
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
+from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, load_scene
 
@@ -230,7 +230,7 @@ def point_key(p: Mapping[str, Any]) -> str:
 
 def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
                use_cache: bool, log: Callable[[str], None]) -> None:
-    from tippetop.compare.analysis.atlas import parse_grid, run_atlas
+    from tippetop.compare.studies.atlas import parse_grid, run_atlas
 
     c = cr.case
     t0 = time.perf_counter()

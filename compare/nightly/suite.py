@@ -18,6 +18,7 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.measures.tolerances import TOLERANCES
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
     baseline_file,
@@ -38,7 +39,6 @@ from tippetop.compare.nightly.outputs import (
     count,
     downsample,
     environment,
-    json_ready,
     junit_xml,
     prepare_out_dir,
     slug,
@@ -46,11 +46,11 @@ from tippetop.compare.nightly.outputs import (
     timestamp,
 )
 from tippetop.compare.nightly.running import error_text, run_cases
-from tippetop.compare.nightly.tolerances import TOLERANCES
 from tippetop.compare.nightly.videos import render_videos
 from tippetop.compare.presentation.verdict import crossval_rows
 from tippetop.compare.running.io import (
     check_output_dir,
+    json_ready,
     locked_output_dir,
     staged_output_dir,
     write_atomic,

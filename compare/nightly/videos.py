@@ -74,7 +74,8 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
         ``{"requested": True, "status": "<k> written[, <m> failed]", "files": {scene:
         path relative to out_dir}, "failed": {scene: one-line reason}}``.
     """
-    from tippetop.compare.presentation.video import frame_count, render_scene
+    from tippetop.compare.presentation.video import frame_count
+    from tippetop.compare.studies.render import render_scene
     from tippetop.models.scene import load_scene
 
     scenes = video_scenes(cases)

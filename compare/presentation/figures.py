@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from tippetop.compare.analysis import theory
+from tippetop.compare.measures import theory
 from tippetop.compare.running.io import write_atomic
 
 

@@ -4,7 +4,7 @@
 :func:`check_text` a verdict check's value; :func:`table` lines up columns,
 :func:`cache_line` says where a command's runs went. This module imports only the standard
 library (and, when asked, for the cache's folder :mod:`tippetop.models.resources`, for the
-realised law's sentence :mod:`tippetop.compare.analysis.friction_realised`).
+realised law's sentence :mod:`tippetop.compare.measures.friction_realised`).
 """
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ def fmt_stiff(stiff: Any, rolling: Any = None) -> str:
 
 
 # ---------------------------------------------------------------- a verdict's checks
-#: The events of the event checks (:mod:`tippetop.compare.analysis.verdict`): what a run does,
+#: The events of the event checks (:mod:`tippetop.compare.measures.checks`): what a run does,
 #: what it does not.
 _EVENTS = {"t_invert": ("turns over", "does not turn over"),
            "t_stem": ("touches its stem", "does not touch its stem")}
@@ -240,7 +240,7 @@ def check_text(check: dict[str, Any], t_end_s: float | None = None,
     a bare ``None``: the JSON keeps ``value`` as it is (null), this is the text beside it.
 
     Args:
-        check: One check of :func:`tippetop.compare.analysis.verdict.verdict`.
+        check: One check of :func:`tippetop.compare.measures.checks.verdict`.
         t_end_s: The runs' simulated time (s), to say what "never" means.
         runs: The runs by key (``ode`` the reference), for the event times.
     """
@@ -298,7 +298,7 @@ def fmt_value(key: str, value: Any) -> str:
             return text
     if key == "friction_realised" and isinstance(value, dict):
         # the one sentence every command and report says it in (it brings numpy and pandas)
-        from tippetop.compare.analysis.friction_realised import realised_sentence
+        from tippetop.compare.measures.friction_realised import realised_sentence
 
         return realised_sentence("the run", value)
     if key == "stiff":

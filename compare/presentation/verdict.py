@@ -1,7 +1,7 @@
 """The verdict against the theory: one row per run (scene and mode), for the summary and report.
 
 Each run's outcome and theta_asymp against the theory's, its inversion time against the
-reference's and its Jellett drift (:func:`tippetop.compare.analysis.crossval.crossval_row`).
+reference's and its Jellett drift (:func:`tippetop.compare.measures.verdict.crossval_row`).
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from tippetop.compare.analysis.crossval import crossval_row, predicted_outcome
+from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
 from tippetop.models.params import TopParams
 
 #: The modes the verdict table shows first, in this order; others follow as they ran.

@@ -1,8 +1,9 @@
-"""An offscreen H.264 MP4 of a scene's run, MuJoCo's, the reference's or both side by side.
+"""A video's arguments, timing and progress, and what a full disk did to it, in words.
 
-:func:`render_scene` checks everything before it simulates, then draws, encodes and decodes
-the file back before it replaces any; what the picture shows and how time maps to frames is
-in docs/design.md. The drawing code is imported only when a video is asked for.
+How simulated time maps to frames (:func:`frame_count`, :func:`speed_to_fit`), the checks of
+the size and timing, the frame bar, and a failed write said as a full disk when it was one.
+:func:`tippetop.compare.studies.render.render_scene` runs the scene and draws it (what the
+picture shows: docs/design.md).
 """
 
 from __future__ import annotations
@@ -15,25 +16,16 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from tippetop.models.errors import TippetopError, expect
-from tippetop.models.numbers import number_text
-from tippetop.mujoco_runner.gl import use_gl_backend
-
-if TYPE_CHECKING:
-    from tippetop.models.scene import Scene
 
 #: ``--engine`` choices; ``both`` is MuJoCo (left) and the reference ODE (right).
 RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode", "both")
 #: Panel titles.
 ENGINE_LABELS = {"mujoco": "MuJoCo", "ode": "reference ODE"}
-#: The engines in the progress lines.
-_ENGINE_NAMES = {"mujoco": "MuJoCo", "ode": "the reference ODE"}
 #: Wall time between progress lines over the frames when stderr is not a terminal (s).
-_FRAME_REPORT_S = 15.0
+FRAME_REPORT_S = 15.0
 DEFAULT_FPS = 30.0  # (frames per second of video)
 DEFAULT_SPEED = 0.25  # (simulated seconds per second of video: quarter-speed slow motion)
 DEFAULT_SIZE = "640x480"  # (px, one panel)
@@ -44,17 +36,6 @@ VIDEO_SUFFIXES = (".mp4",)
 
 _SIZE_RE = re.compile(r"^\s*(\d+)\s*[xX]\s*(\d+)\s*$")
 _FRAME_SLACK = 1e-9  # relative: a frame time within this of t_end still counts
-
-
-class RunFailed(RuntimeError):
-    """An engine's run diverged or stopped short: there is nothing (complete) to draw."""
-
-
-class VideoWriteFailed(RuntimeError):
-    """The MP4 could not be written, or does not decode to the frames drawn.
-
-    A full disk or an encoder error; the output file, if there was one, is as it was.
-    """
 
 
 # ---------------------------------------------------------------- arguments
@@ -116,7 +97,7 @@ def _round_up(x: float, digits: int = 2) -> float:
     return math.ceil(x / scale * (1 - 1e-12)) * scale
 
 
-def _check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> int:
+def check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> int:
     """Validate --fps, --speed and --max-frames; return the frame count."""
     expect(isinstance(fps, (int, float)) and math.isfinite(fps) and 0 < fps <= 1000, "--fps",
            "a number of frames per second > 0 and <= 1000", fps)
@@ -139,158 +120,6 @@ def _check_timing(t_end_s: float, fps: float, speed: float, max_frames: int) -> 
     return n
 
 
-# ---------------------------------------------------------------- rendering a scene
-@dataclass(frozen=True)
-class RenderResult:
-    """What :func:`render_scene` wrote.
-
-    Attributes:
-        path: The MP4 file.
-        engine: ``mujoco``, ``ode`` or ``both``.
-        backend: The OpenGL backend used (``egl`` or ``osmesa``).
-        n_frames: Frames in the video.
-        width: Video width (px; two panels for ``both``).
-        height: Video height (px).
-        fps: Frames per second.
-        speed: Simulated seconds per second of video.
-        video_s: Length of the video (s).
-        render_wall_s: Wall time of drawing and encoding (s), the simulations excluded.
-    """
-
-    path: Path
-    engine: str
-    backend: str
-    n_frames: int
-    width: int
-    height: int
-    fps: float
-    speed: float
-    video_s: float
-    render_wall_s: float
-
-    @property
-    def ms_per_frame(self) -> float:
-        """Drawing and encoding wall time per frame (ms)."""
-        return 1e3 * self.render_wall_s / self.n_frames
-
-
-def render_scene(
-    scene: Scene,
-    out: str | Path,
-    *,
-    engine: str = "mujoco",
-    fps: float = DEFAULT_FPS,
-    speed: float = DEFAULT_SPEED,
-    size: str | tuple[int, int] = DEFAULT_SIZE,
-    max_frames: int = DEFAULT_MAX_FRAMES,
-    force: bool = False,
-    progress: bool = True,
-    say: Callable[[str], None] | None = None,
-) -> RenderResult:
-    """Simulate ``scene`` in the engine(s) and write an MP4 of the run.
-
-    Every argument is checked, and the backend chosen, before anything is simulated.
-
-    Args:
-        scene: A :class:`models.scene.Scene`.
-        out: The ``.mp4`` file to write.
-        engine: ``"mujoco"``, ``"ode"`` or ``"both"`` (side by side, MuJoCo left).
-        fps: Frames per second of the video.
-        speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
-        size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
-        max_frames: Refuse to make more frames than this.
-        force: Overwrite an existing ``out``.
-        progress: Show progress bars on stderr when it is a terminal.
-        say: Called with one line before each step (each engine's run, the frames) and, when
-            stderr is not a terminal, every 15 s of drawing; None says nothing.
-
-    Returns:
-        The file written and its frame count, size and render time.
-
-    Raises:
-        TippetopError: For bad arguments, an existing ``out`` without ``force``, or no working
-            OpenGL backend (no file is written).
-        RunFailed: If an engine's run diverged or stopped short (no file is written).
-        VideoWriteFailed: If writing failed (OSError: a full disk, said as ENOSPC with the
-            free space, :func:`disk_full`) or the file written does not decode to
-            ``n_frames`` frames: the temporary file is removed and an existing ``out`` is
-            left as it was.
-    """
-    from tippetop.compare.running.io import check_output_path
-
-    expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
-    width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
-    n_frames = _check_timing(scene.run.t_end_s, fps, speed, max_frames)
-    path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
-    backend = use_gl_backend()  # before anything below imports mujoco
-
-    from tippetop.compare.running.engines import plan_for, run_plan
-
-    engines = ("mujoco", "ode") if engine == "both" else (engine,)
-    plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
-    tell = say or (lambda _line: None)
-    tables = {}
-    for name in engines:
-        tell(f"simulating {scene.name} in {_ENGINE_NAMES[name]} "
-             f"({plans[name].t_end_s:g} s simulated)...")
-        run = run_plan(plans[name], progress=progress)
-        if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
-            raise RunFailed(f"{name}: {run.message}")
-        tables[name] = run.table
-
-    from tippetop.compare.running.io import write_atomic
-    from tippetop.mujoco_runner import video
-    from tippetop.mujoco_runner.drawn_model import render_model
-    from tippetop.mujoco_runner.poses import Track
-
-    first = plans[engines[0]]
-    top_model = render_model(first.top, scene.top_mjcf, width, height)
-    tracks = [Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
-                               paper_frame=name == "ode") for name in engines]
-    times = video.frame_times(n_frames, fps, speed)
-    runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
-                        for name in engines)
-    tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
-         f"{height}, {number_text(n_frames / fps, 's')} of video at speed {number_text(speed)} "
-         f"({backend})...")
-    stats: list[video.VideoStats] = []
-
-    def write_checked(tmp: Path) -> None:
-        """Encode into ``tmp``, then decode it: only a complete video replaces ``path``.
-
-        A failure on a full filesystem is said to be one (ENOSPC), whatever the encoder or
-        the decoder made of it: the free space is read while ``tmp`` still holds its bytes.
-        """
-        try:
-            stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
-                                           height=height, backend=backend, on_frame=tick))
-            video.verify_video(tmp, n_frames, width * len(engines), height)
-        except (OSError, video.VideoCheckFailed) as exc:
-            full = disk_full(exc, tmp.parent)
-            if full is not None:
-                raise full from exc
-            raise
-
-    try:
-        with _frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
-                        say) as tick:
-            write_atomic(path, write_checked)
-    except (OSError, video.VideoCheckFailed) as exc:
-        kept = "left as it was" if path.exists() else "not written"
-        full = exc if _is_full(exc) else disk_full(exc, path.parent)
-        if full is not None:
-            raise VideoWriteFailed(f"could not write {path}: {full_text(full, path)}; {path} "
-                                   f"{kept}") from exc
-        what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
-            else str(exc)
-        raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
-            from exc
-    s = stats[0]
-    return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
-                        width=s.width, height=s.height, fps=float(fps), speed=float(speed),
-                        video_s=n_frames / fps, render_wall_s=s.wall_s)
-
-
 # ---------------------------------------------------------------- a full disk
 #: The errnos of a filesystem with no room left for the file: no space, or the user's quota.
 FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
@@ -301,7 +130,8 @@ FULL_BELOW_BYTES = 1 << 20
 _NO_SPACE = "No space left on device"
 
 
-def _is_full(exc: BaseException) -> bool:
+def is_full(exc: BaseException) -> bool:
+    """Whether ``exc`` is the filesystem's own no-room error (ENOSPC, EDQUOT)."""
     return isinstance(exc, OSError) and exc.errno in FULL_ERRNOS
 
 
@@ -359,12 +189,12 @@ def _bytes(n: int) -> str:
 
 
 @contextmanager
-def _frame_bar(total: int, label: str, say: Callable[[str], None] | None = None
+def frame_bar(total: int, label: str, say: Callable[[str], None] | None = None
                ) -> Iterator[Callable[[], None] | None]:
     """Progress over the frames; yields its tick (call once a frame), or None.
 
     A tqdm bar on stderr when it is a terminal; otherwise, with ``say``, a line every
-    ``_FRAME_REPORT_S`` seconds of wall time.
+    ``FRAME_REPORT_S`` seconds of wall time.
     """
     if total <= 0:
         yield None
@@ -374,13 +204,13 @@ def _frame_bar(total: int, label: str, say: Callable[[str], None] | None = None
             yield None
             return
         start = time.perf_counter()
-        state = {"done": 0, "next": start + _FRAME_REPORT_S}
+        state = {"done": 0, "next": start + FRAME_REPORT_S}
 
         def tick() -> None:
             state["done"] += 1
             now = time.perf_counter()
             if now >= state["next"] and state["done"] < total:
-                state["next"] = now + _FRAME_REPORT_S
+                state["next"] = now + FRAME_REPORT_S
                 say(f"  {state['done']}/{total} frames drawn ({now - start:.0f} s)")
 
         yield tick
@@ -397,14 +227,16 @@ __all__ = [
     "DEFAULT_SIZE",
     "DEFAULT_SPEED",
     "ENGINE_LABELS",
+    "FRAME_REPORT_S",
     "RENDER_ENGINES",
-    "RenderResult",
-    "RunFailed",
-    "VideoWriteFailed",
+    "VIDEO_SUFFIXES",
+    "check_timing",
     "disk_full",
+    "frame_bar",
     "frame_count",
     "free_bytes",
+    "full_text",
+    "is_full",
     "parse_size",
-    "render_scene",
     "speed_to_fit",
 ]

@@ -1,43 +1,38 @@
-"""``python -m tippetop.compare.report RESULTS.json [--out FILE] [--accuracy-dir DIR]``.
+"""``python -m tippetop.compare.report RESULTS.json``: now ``tippetop report RESULTS.json``.
 
-An entry point, like :mod:`tippetop.compare.cli`: it may use the command line's shared options.
+Kept for one release: it says the new spelling on stderr, then rebuilds the report as
+``tippetop report`` does (:func:`tippetop.compare.report.rebuild.rebuild_report`).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from tippetop.compare.commands.options import EXIT_BAD_INPUT, add_force_option
-from tippetop.compare.report.build import build_report
-from tippetop.compare.report.markup import made_by_tippetop
+from tippetop.compare.report.rebuild import rebuild_report
 from tippetop.models.errors import TippetopError
+
+#: Bad input: one line on stderr, nothing written (``tippetop``'s own status for it).
+EXIT_BAD_INPUT = 2
 
 
 def main(argv: list[str] | None = None) -> int:
     """Rebuild a nightly's report from its ``results.json``; the exit status."""
     p = argparse.ArgumentParser(prog="python -m tippetop.compare.report",
                                 description="Rebuild the validation report from a nightly's "
-                                "results.json.")
+                                "results.json (now 'tippetop report').")
     p.add_argument("results", help="results.json of a nightly run")
     p.add_argument("--out", help="HTML file (default: report.html beside results.json, "
                    "replaced when tippetop wrote it)")
     p.add_argument("--accuracy-dir", dest="accuracy_dir", help="folder of PNG figures")
-    add_force_option(p, help="overwrite an existing --out, or a report.html beside "
-                     "results.json that tippetop did not write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out, or a "
+                   "report.html beside results.json that tippetop did not write")
     args = p.parse_args(argv)
-    beside = Path(args.results).parent / "report.html"
-    out = Path(args.out) if args.out else beside
+    sys.stderr.write("tippetop: note: 'python -m tippetop.compare.report' is now 'tippetop "
+                     "report'; this spelling goes in the next release\n")
     try:
-        if out.exists() and not args.force:
-            if args.out:
-                raise TippetopError(f"--out: expected a path that does not exist yet (or "
-                                    f"--force), got existing {str(out)!r}")
-            if not made_by_tippetop(out):
-                raise TippetopError(f"{str(out)!r} exists and tippetop did not write it: "
-                                    f"expected --force to replace it, or --out FILE")
-        build_report(args.results, out, accuracy_dir=args.accuracy_dir)
+        out = rebuild_report(args.results, args.out, force=args.force,
+                             accuracy_dir=args.accuracy_dir)
     except TippetopError as exc:
         sys.stderr.write(f"tippetop: error: {exc}\n")
         return EXIT_BAD_INPUT

@@ -10,8 +10,8 @@ from tippetop.compare.report.markup import Html, esc, html_table, png
 
 def atlas_section(results: Mapping[str, Any]) -> str:
     """The (a/R, A/C) plane with each engine's measured groups, the agreement and findings."""
-    from tippetop.compare.analysis.atlas import findings
     from tippetop.compare.presentation.figures import atlas_figure
+    from tippetop.compare.studies.atlas import findings
 
     recs = [r for r in results.get("cases", []) if r["kind"] == "atlas"]
     parts = ["<h2 id='atlas'>The group diagram, measured</h2>",

@@ -169,7 +169,7 @@ def friction_law_figure(runs: Sequence[tuple[str, str, pd.DataFrame, Mapping[str
 
     The curve is the paper's law, at the first run's ``mu_law`` and ``Lambda_law_mps``.
     """
-    from tippetop.compare.analysis.friction_realised import law_mu, samples
+    from tippetop.compare.measures.friction_realised import law_mu, samples
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(9.0, height))
@@ -202,7 +202,7 @@ def friction_law_figure(runs: Sequence[tuple[str, str, pd.DataFrame, Mapping[str
 
 def sweeps_section(results: Mapping[str, Any]) -> str:
     """theta_asymp against n0 with the theory's theta_s(n0), one figure per paper figure."""
-    from tippetop.compare.analysis import theory
+    from tippetop.compare.measures import theory
 
     sweeps = [r for r in results.get("cases", []) if r["kind"] == "sweep" and r.get("points")]
     parts = ["<h2 id='sweeps'>theta_asymp against n0 (Figs. 9, 10)</h2>",

@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from tippetop.compare.analysis.crossval import calibrated_native_text
+from tippetop.compare.measures.summary import describe_ran
+from tippetop.compare.measures.verdict import calibrated_native_text
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
-from tippetop.compare.running.engines import describe_ran
 from tippetop.models.numbers import number_text
 
 #: Order of the rows of the friction-law table, with what each mode is.

@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.analysis.matrix import table_key
 from tippetop.compare.presentation.figures import pyplot
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
+from tippetop.compare.studies.matrix import table_key
 
 _UNITS = {"theta_asymp": "rad", "theta_final": "rad", "t_invert": "s", "t_stem": "s"}
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
@@ -168,7 +168,7 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     Per scene of MuJoCo's own friction: each engine's samples as points, the paper's law as
     the curve, and a sentence per run.
     """
-    from tippetop.compare.analysis.friction_realised import realised_sentence
+    from tippetop.compare.measures.friction_realised import realised_sentence
 
     engines = [e["spec"] for e in res["engines"] if e["spec"] != "ode"]
     by = {(r["scene"], r["mode"], r["engine"]): r for r in res["runs"]}

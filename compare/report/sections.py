@@ -92,7 +92,7 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     tolerance of theta_s; it shows the differences and the Jellett drift, and (as a tooltip and
     in the list below the table) why it departs.
     """
-    from tippetop.compare.analysis.crossval import THETA_S_TOL, TOLERANCES
+    from tippetop.compare.measures.verdict import THETA_S_TOL, TOLERANCES
     from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
 
     rows = results.get("crossval") or []

@@ -9,8 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tippetop.compare.analysis.friction_realised import realised_sentence
-from tippetop.compare.analysis.validate import MODES, mode_of, show_setting
+from tippetop.compare.measures.friction_realised import realised_sentence
 from tippetop.compare.presentation.figures import pyplot
 from tippetop.compare.presentation.terminal import (
     check_note,
@@ -22,6 +21,7 @@ from tippetop.compare.presentation.terminal import (
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
+from tippetop.compare.studies.validate import MODES, mode_of, show_setting
 
 _COLOURS = {"mujoco-file": "#d62728", "ode": "#111111", "mujoco-paper": "#1f77b4",
             "mujoco-native": "#2ca02c"}
@@ -113,7 +113,7 @@ def verdict_section(res: Mapping[str, Any]) -> str:
 
 def tuned_section(res: Mapping[str, Any]) -> str:
     """The tuned settings: the MJCF to paste, the fit, each start's checks."""
-    from tippetop.compare.analysis.tune import start_label
+    from tippetop.compare.studies.tune import start_label
 
     t = res.get("tuned") or {}
     if not t:

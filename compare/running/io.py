@@ -5,17 +5,35 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import math
 import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from tippetop.models.errors import TippetopError
 
+if TYPE_CHECKING:  # pandas is imported by the table's own methods, not by this module
+    import pandas as pd
+
 TABLE_SUFFIXES = (".csv", ".parquet")
+
+
+def json_ready(obj: Any) -> Any:
+    """JSON-ready: NaN/inf -> None, numpy scalars -> Python, tuples -> lists."""
+    if isinstance(obj, dict):
+        return {str(k): json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
 
 
 def check_output_path(path: str | Path, *, force: bool, suffixes: tuple[str, ...]) -> Path:

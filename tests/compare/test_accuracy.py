@@ -1,4 +1,4 @@
-"""Work-precision data of the reference ODE (compare/analysis/accuracy/), on a short Fig. 3 run."""
+"""Work-precision data of the reference ODE (compare/studies/accuracy/), on a short Fig. 3 run."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare.analysis import accuracy as acc
-from tippetop.compare.analysis.accuracy.mujoco_study import predict_steps_wall
+from tippetop.compare.studies import accuracy as acc
+from tippetop.compare.studies.accuracy.mujoco_study import predict_steps_wall
 from tippetop.models.errors import TippetopError
 
 T_END_S = 1.0  # Fig. 3 cut to 1 s: through the first nutation dips towards theta = 0
@@ -391,7 +391,7 @@ def test_the_peers_run_in_the_accuracy_study(monkeypatch: pytest.MonkeyPatch) ->
     assert max(ours["theta_max_err"], peer["theta_max_err"]) < 1e-7
     assert by.loc["numbalsoda-LSODA", "theta_max_err"] < 1e-4
     # without numbalsoda: the peers leave the defaults, and asked for, they say why
-    import tippetop.compare.analysis.accuracy.ode_study as ode_study
+    import tippetop.compare.studies.accuracy.ode_study as ode_study
 
     monkeypatch.setattr(ode_study, "numbalsoda_missing", lambda: "numbalsoda is not installed")
     assert not set(acc.PEER_METHODS) & set(acc.default_methods())

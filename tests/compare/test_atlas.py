@@ -16,7 +16,7 @@ import matplotlib.image as mpimg
 import pandas as pd
 import pytest
 
-from tippetop.compare.analysis.atlas import group_of, parse_grid, run_atlas
+from tippetop.compare.studies.atlas import group_of, parse_grid, run_atlas
 from tippetop.models.errors import TippetopError
 
 

@@ -11,8 +11,8 @@ import sys
 
 import pytest
 
-from tippetop.compare.analysis.bench import EQUAL_ACCURACY_RAD, bench_ode
 from tippetop.compare.cli import main
+from tippetop.compare.studies.bench import EQUAL_ACCURACY_RAD, bench_ode
 from tippetop.reference_ode.peers import NUMBALSODA_METHODS, NUMBALSODA_MISSING
 
 SMALL = ["--t-end-s", "0.3", "--rounds", "1"]

@@ -19,7 +19,10 @@ import pandas as pd
 import pytest
 
 from tests.conftest import run_scene_ode
-from tippetop.compare.analysis.calibrate import (
+from tippetop.compare.commands.calibrate import add_parser as add_calibrate_parser
+from tippetop.compare.running.engines import run_engine
+from tippetop.compare.running.runner import TaskResult
+from tippetop.compare.studies.calibrate import (
     W_T,
     Candidate,
     Evaluator,
@@ -33,10 +36,7 @@ from tippetop.compare.analysis.calibrate import (
     residual,
     timestep_check,
 )
-from tippetop.compare.analysis.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
-from tippetop.compare.commands.calibrate import add_parser as add_calibrate_parser
-from tippetop.compare.running.engines import run_engine
-from tippetop.compare.running.runner import TaskResult
+from tippetop.compare.studies.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
 from tippetop.models.calibrated import (
     CALIBRATION_FILE,
     CALIBRATION_MU,
@@ -214,8 +214,8 @@ def test_mujoco_defaults_are_what_mujoco_says() -> None:
 
 
 def test_the_old_name_is_read_from_mujoco_too() -> None:
-    import tippetop.compare.analysis.calibrate as cal
-    from tippetop.compare.analysis.calibrate import scoring
+    import tippetop.compare.studies.calibrate as cal
+    from tippetop.compare.studies.calibrate import scoring
 
     assert cal.MUJOCO_DEFAULTS == scoring.MUJOCO_DEFAULTS == mujoco_defaults()
 

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import pytest
 
+from tippetop.compare.measures.summary import measured_steps
 from tippetop.compare.running import cost
-from tippetop.compare.running.engines import measured_steps, plan_for
+from tippetop.compare.running.engines import plan_for
 from tippetop.models.scene import load_scene
 
 

@@ -8,13 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare.analysis.crossval import (
-    THETA_S_TOL,
-    compare_scene,
-    crossval_row,
-    friction_law_table,
-)
-from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
+from tippetop.compare.measures.series import classify_outcome, theta_trend
+from tippetop.compare.measures.verdict import THETA_S_TOL, crossval_row
+from tippetop.compare.studies.crossval import compare_scene, friction_law_table
 from tippetop.models.errors import TippetopError
 from tippetop.models.numbers import number_text
 

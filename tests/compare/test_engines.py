@@ -137,7 +137,7 @@ def test_inversion_time_is_a_crossing_from_below() -> None:
     pi/2 upward. A start above pi/2 is not an inversion at t = 0."""
     import pandas as pd
 
-    from tippetop.compare.analysis.metrics import first_inversion_time
+    from tippetop.compare.measures.series import first_inversion_time
 
     t = np.arange(5) * 0.1
     assert first_inversion_time(pd.DataFrame({"t": t, "theta": [0.1, 1.0, 1.6, 2.0, 3.0]})) \

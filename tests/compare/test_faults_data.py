@@ -153,7 +153,7 @@ def test_update_baseline_still_creates_a_missing_file(tiny: dict[str, Path],
 
 
 def test_no_baseline_help_says_its_default() -> None:
-    out = subprocess.run([sys.executable, "-m", "tippetop.compare.nightly", "--help"],
+    out = subprocess.run([sys.executable, "-m", "tippetop.compare", "nightly", "--help"],
                          capture_output=True, text=True, timeout=60).stdout
     flat = " ".join(out.split())
     assert "--no-baseline run with no baseline on purpose" in flat

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare.analysis.friction_realised import (
+from tippetop.compare.measures.friction_realised import (
     fit_law,
     friction_realised,
     law_mu,

@@ -1,4 +1,4 @@
-"""Thresholds from growth rates (:mod:`tippetop.compare.analysis.growth`) against the paper's
+"""Thresholds from growth rates (:mod:`tippetop.compare.studies.growth`) against the paper's
 closed forms.
 
 The theory's n1 (eq. zeroStability4), n3/n4 (piStability4, critical1) and n_c (Sec. 4.3) are
@@ -18,9 +18,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.growth import growth_fit, jellett_pi_to_zero, measure_growth
-from tippetop.compare.analysis.threshold import measure_threshold
+from tippetop.compare.measures import theory
+from tippetop.compare.studies.growth import growth_fit, jellett_pi_to_zero, measure_growth
+from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 

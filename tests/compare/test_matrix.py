@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare import cli
-from tippetop.compare.analysis import matrix
+from tippetop.compare.studies import matrix
 from tippetop.models.engines import parse_engines
 
 HERE = f"mujoco@{sys.executable}"
@@ -161,8 +161,8 @@ def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
 
 def test_attribution_changes_read_back(tmp_path: Path, monkeypatch) -> None:
     """Each change's keys reach the compiled model: the run's summary reads them back."""
-    from tippetop.compare.analysis.attribution import changes_for
     from tippetop.compare.running.runner import Task, run_tasks
+    from tippetop.compare.studies.attribution import changes_for
 
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
     base = Task("fig3", ("run.t_end_s=0.05", "mujoco.friction=paper"), "mujoco")
@@ -183,7 +183,7 @@ def test_attribution_changes_read_back(tmp_path: Path, monkeypatch) -> None:
 
 
 def test_follows_names_the_subsystem() -> None:
-    from tippetop.compare.analysis.attribution import attribute
+    from tippetop.compare.studies.attribution import attribute
 
     def ev(change: str, agree: bool, gap: float) -> dict:
         return {"change": change, "a": 1.0, "b": 1.0 + gap, "difference": gap,
@@ -217,7 +217,7 @@ def test_follows_names_the_subsystem() -> None:
 
 
 def test_closer_is_the_nearer_to_the_reference_and_to_its_own_dt4_answer() -> None:
-    from tippetop.compare.analysis.attribution import closer
+    from tippetop.compare.studies.attribution import closer
 
     c = closer("t_invert", (2.40, 2.30), 2.33, (2.39, 2.20), ("a", "b"))
     assert c["reference"] == "b" and c["reference_distance"] == pytest.approx([0.07, 0.03])

@@ -19,13 +19,8 @@ import pytest
 
 from tippetop.compare import nightly
 from tippetop.compare.commands import nightly as nightly_command
-from tippetop.compare.nightly import (
-    TOLERANCES,
-    Tolerance,
-    compare_value,
-    load_catalogue,
-    select_cases,
-)
+from tippetop.compare.measures.tolerances import TOLERANCES, Tolerance, compare_value
+from tippetop.compare.nightly import load_catalogue, select_cases
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.scene import catalogue_names

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.analysis.crossval import crossval_row
+from tippetop.compare.measures.verdict import crossval_row
 from tippetop.compare.nightly.catalogue import load_catalogue
 from tippetop.compare.nightly.outputs import UNEXPECTED_LINES, summary_text, theory_answer
 from tippetop.compare.presentation.verdict import scene_key

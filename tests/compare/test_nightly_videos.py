@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 from tippetop.compare.nightly import videos
 from tippetop.compare.nightly.catalogue import Case, load_catalogue
-from tippetop.compare.presentation import video as render
+from tippetop.compare.presentation import video
+from tippetop.compare.studies import render
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, catalogue_names, load_scene
 from tippetop.mujoco_runner import gl
@@ -36,10 +37,10 @@ def test_every_scene_video_fits_the_frame_cap(name: str) -> None:
     """The nightly wrote 0 of 13 videos: each got VIDEO_MAX_FRAMES + 1 frames (241 > 240)."""
     t_end = load_scene(name, list(videos.VIDEO_OVERRIDES)).run.t_end_s
     speed = videos.video_speed(t_end)
-    n = render.frame_count(t_end, videos.VIDEO_FPS, speed)
+    n = video.frame_count(t_end, videos.VIDEO_FPS, speed)
     assert n <= videos.VIDEO_MAX_FRAMES
     # what render_scene checks before simulating anything, with the nightly's numbers
-    assert render._check_timing(t_end, videos.VIDEO_FPS, speed, videos.VIDEO_MAX_FRAMES) == n
+    assert video.check_timing(t_end, videos.VIDEO_FPS, speed, videos.VIDEO_MAX_FRAMES) == n
     assert speed >= videos.VIDEO_MIN_SPEED
     last = (n - 1) * speed / videos.VIDEO_FPS
     assert last <= t_end * (1 + 1e-9)
@@ -53,8 +54,8 @@ def test_every_scene_video_fits_the_frame_cap(name: str) -> None:
        max_frames=st.integers(2, 10_000), min_speed=st.sampled_from([0.0, 0.25, 1.0]))
 def test_speed_to_fit_never_exceeds_the_cap_and_shows_the_end(
         t_end: float, fps: float, max_frames: int, min_speed: float) -> None:
-    speed = render.speed_to_fit(t_end, fps, max_frames, min_speed=min_speed)
-    n = render.frame_count(t_end, fps, speed)
+    speed = video.speed_to_fit(t_end, fps, max_frames, min_speed=min_speed)
+    n = video.frame_count(t_end, fps, speed)
     assert 1 <= n <= max_frames
     if speed > min_speed:
         # all the frames allowed, the last one on t_end
@@ -66,7 +67,7 @@ def test_speed_to_fit_never_exceeds_the_cap_and_shows_the_end(
 
 def test_speed_to_fit_refuses_one_frame() -> None:
     with pytest.raises(ValueError, match="max_frames"):
-        render.speed_to_fit(8.0, 15.0, 1)
+        video.speed_to_fit(8.0, 15.0, 1)
 
 
 # ---------------------------------------------------------------- failures
@@ -87,7 +88,7 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
     def fake_render_scene(scene: Scene, out: Path, **kw: Any) -> render.RenderResult:
         calls[scene.name] = (scene.run.t_end_s, kw)
         out = Path(out)
-        n = render.frame_count(scene.run.t_end_s, kw["fps"], kw["speed"])
+        n = video.frame_count(scene.run.t_end_s, kw["fps"], kw["speed"])
         if scene.name == "fig3":  # a crash half-way through writing
             out.write_bytes(b"partial")
             (out.parent / f".{out.name}.x1y2.tmp").write_bytes(b"partial")
@@ -132,7 +133,7 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
     for t_end, kw in calls.values():
         assert kw["engine"] == "both" and kw["max_frames"] == videos.VIDEO_MAX_FRAMES
         assert kw["speed"] == videos.video_speed(t_end)
-        assert render.frame_count(t_end, kw["fps"], kw["speed"]) <= videos.VIDEO_MAX_FRAMES
+        assert video.frame_count(t_end, kw["fps"], kw["speed"]) <= videos.VIDEO_MAX_FRAMES
         assert callable(kw["say"]) and kw["progress"] is False
 
 

@@ -15,15 +15,15 @@ import math
 
 import pytest
 
-from tippetop.compare.analysis.friction_realised import friction_realised
-from tippetop.compare.analysis.refit import (
+from tippetop.compare.measures.friction_realised import friction_realised
+from tippetop.compare.running.engines import run_engine
+from tippetop.compare.studies.refit import (
     T_TOL_S,
     THETA_TOL_RAD,
     events,
     refit_overrides,
     refit_result,
 )
-from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 
 FR = {"mu_fit": 0.09, "Lambda_fit_mps": 0.008}
@@ -122,7 +122,7 @@ def test_the_refit_reproduces_a_run_whose_law_it_found(t_end: float) -> None:
 
 
 def test_compare_gives_each_mujoco_mode_its_refit() -> None:
-    from tippetop.compare.analysis.crossval import compare_scene
+    from tippetop.compare.studies.crossval import compare_scene
 
     res = compare_scene("fig3", ["mujoco-native"], ("run.t_end_s=8.0",), workers=1)
     refit = res["modes"]["mujoco-native"]["friction_realised"]["refit"]

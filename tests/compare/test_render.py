@@ -26,8 +26,9 @@ import pytest
 
 from tippetop.compare import cli
 from tippetop.compare.commands import render as render_command
-from tippetop.compare.presentation import video as render
+from tippetop.compare.presentation import video
 from tippetop.compare.running.engines import run_engine
+from tippetop.compare.studies import render
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.scene import load_scene
@@ -71,14 +72,14 @@ def videos(tmp_path_factory: pytest.TempPathFactory, backend: str) -> dict[str, 
 
 
 def test_frame_times_and_sizes() -> None:
-    assert render.frame_count(0.5, FPS, SPEED) == N_FRAMES
+    assert video.frame_count(0.5, FPS, SPEED) == N_FRAMES
     # the default: 8 s at quarter speed and 30 fps is 32 s of video
-    assert render.frame_count(8.0, 30.0, 0.25) == 961
-    assert render.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
+    assert video.frame_count(8.0, 30.0, 0.25) == 961
+    assert video.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
     # 240 frames show 239 intervals: 8 s at 15 fps fits at 8 * 15 / 239, not 8 * 15 / 240
-    assert render.frame_count(8.0, 15.0, 8.0 * 15.0 / 240) == 241
-    assert render.frame_count(8.0, 15.0, render.speed_to_fit(8.0, 15.0, 240)) == 240
-    assert render.speed_to_fit(8.0, 15.0, 240, min_speed=1.0) == 1.0
+    assert video.frame_count(8.0, 15.0, 8.0 * 15.0 / 240) == 241
+    assert video.frame_count(8.0, 15.0, video.speed_to_fit(8.0, 15.0, 240)) == 240
+    assert video.speed_to_fit(8.0, 15.0, 240, min_speed=1.0) == 1.0
 
 
 def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Path]) -> None:
@@ -480,7 +481,7 @@ def test_a_full_disk_under_the_decoder_check_is_said_to_be_the_disk(
 
     monkeypatch.setenv("MUJOCO_GL", backend)
     monkeypatch.setattr(video, "verify_video", cut)
-    monkeypatch.setattr(render, "free_bytes", lambda folder: 0)
+    monkeypatch.setattr(video, "free_bytes", lambda folder: 0)
     out = tmp_path / "v.mp4"
     code = _main([*_FULL_ARGV, "--out", str(out)], monkeypatch)
     line = _full_disk_line(code, capsys.readouterr().err, out)
@@ -513,11 +514,11 @@ def test_a_cut_file_on_a_disk_with_room_is_not_called_a_full_disk(
     from tippetop.mujoco_runner import video
 
     cut = video.VideoCheckFailed("the file does not decode (moov atom not found)")
-    monkeypatch.setattr(render, "free_bytes", lambda folder: 10 << 30)
-    assert render.disk_full(cut, tmp_path) is None
-    monkeypatch.setattr(render, "free_bytes", lambda folder: 0)
-    assert render.disk_full(cut, tmp_path).errno == errno.ENOSPC
-    said = render.disk_full(RuntimeError("ffmpeg: No space left on device"), tmp_path)
+    monkeypatch.setattr(video, "free_bytes", lambda folder: 10 << 30)
+    assert video.disk_full(cut, tmp_path) is None
+    monkeypatch.setattr(video, "free_bytes", lambda folder: 0)
+    assert video.disk_full(cut, tmp_path).errno == errno.ENOSPC
+    said = video.disk_full(RuntimeError("ffmpeg: No space left on device"), tmp_path)
     assert said is not None and said.errno == errno.ENOSPC
 
 

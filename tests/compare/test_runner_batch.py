@@ -19,7 +19,9 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.running import runner
+from tippetop.compare.running.cache import CacheWriter
 from tippetop.compare.running.cost import expected_cost_s
+from tippetop.compare.running.pool import sigint_deferred
 from tippetop.compare.running.runner import ResultCache, Task, execute, run_tasks, task_key
 
 pytestmark = pytest.mark.skipif(find_spec("mujoco.batch") is None,
@@ -120,7 +122,7 @@ class _SlowCache:
 
 def test_cache_writes_are_off_the_runs_path_and_done_by_close() -> None:
     cache = _SlowCache()
-    writer = runner._CacheWriter(cache)  # type: ignore[arg-type]
+    writer = CacheWriter(cache)  # type: ignore[arg-type]
     table = pd.DataFrame({"t": [0.0]})
     for key in ("a", "b"):
         writer.put(key, {"k": key}, table)  # returns at once: the write has not happened
@@ -132,7 +134,7 @@ def test_cache_writes_are_off_the_runs_path_and_done_by_close() -> None:
 
 def test_a_failed_cache_write_is_raised_by_close() -> None:
     cache = _SlowCache(fail=True)
-    writer = runner._CacheWriter(cache)  # type: ignore[arg-type]
+    writer = CacheWriter(cache)  # type: ignore[arg-type]
     writer.put("a", {}, pd.DataFrame({"t": [0.0]}))
     cache.release.set()
     with pytest.raises(OSError, match="No space left"):
@@ -157,7 +159,7 @@ def test_ctrl_c_during_the_first_imports_is_held_back_then_raised() -> None:
 
     done = []
     with pytest.raises(KeyboardInterrupt):
-        with runner._sigint_deferred():
+        with sigint_deferred():
             os.kill(os.getpid(), signal.SIGINT)
             for _ in range(1000):  # the handler runs between bytecodes: give it some
                 sum(range(100))

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.sweep import parse_range, run_sweep
-from tippetop.compare.analysis.threshold import measure_threshold
+from tippetop.compare.measures import theory
 from tippetop.compare.running.runner import Task, run_tasks, strip_timing
+from tippetop.compare.studies.sweep import parse_range, run_sweep
+from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
 

@@ -252,16 +252,15 @@ def test_run_tasks_is_quiet_when_stderr_is_not_a_terminal(capsys: pytest.Capture
 def test_a_mujoco_run_reports_how_far_it_got() -> None:
     """In a worker (here in-process) a MuJoCo run says the fraction of its simulated time done,
     under its key, the last report at the end (the bar's share of that run)."""
-    from tippetop.compare.running import runner
+    from tippetop.compare.running import tasks
 
     seen: list[tuple[str, float]] = []
-    before = runner._REPORTER
-    runner._REPORTER = lambda key, f: seen.append((key, f))
+    before = tasks.set_reporter(lambda key, f: seen.append((key, f)))
     try:
-        out = runner.execute(runner.Task("fig3", ("run.t_end_s=0.1",), "mujoco-native"), "k")
+        out = tasks.execute(tasks.Task("fig3", ("run.t_end_s=0.1",), "mujoco-native"), "k")
         assert "summary" in out
-        runner.execute(runner.Task("fig3", ("run.t_end_s=0.05",), "ode"), "k2")
+        tasks.execute(tasks.Task("fig3", ("run.t_end_s=0.05",), "ode"), "k2")
     finally:
-        runner._REPORTER = before
+        tasks.set_reporter(before)
     assert seen and {k for k, _ in seen} == {"k"}  # the reference is too quick to report
     assert seen[-1][1] == pytest.approx(1.0, abs=0.02)

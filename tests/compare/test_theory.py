@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from tippetop.compare.analysis import theory as th
+from tippetop.compare.measures import theory as th
 from tippetop.models.params import TopParams
 
 
@@ -422,7 +422,7 @@ def test_brentq_is_scipys_bit_for_bit() -> None:
     assert len(problems) > 30 and {k for k, *_ in problems} == {"D", "g2", "g3"}
     for _, f, lo, hi in problems:
         ours = th.brentq(f, lo, hi)
-        theirs = scipy_optimize.brentq(f, lo, hi, xtol=th.ROOT_XTOL, rtol=th._ROOT_RTOL,
+        theirs = scipy_optimize.brentq(f, lo, hi, xtol=th.ROOT_XTOL, rtol=th.ROOT_RTOL,
                                        maxiter=200)
         assert ours == theirs, (lo, hi, ours, theirs)
     # and on textbook functions, loose and tight tolerances (more extrapolation steps)
@@ -430,7 +430,7 @@ def test_brentq_is_scipys_bit_for_bit() -> None:
                       (lambda x: math.exp(x) - 10.0, -5.0, 5.0), (lambda x: x - 0.3, 0.0, 1.0)]:
         for xtol in (1e-3, 1e-8, 2e-12, 1e-15):
             assert th.brentq(f, lo, hi, xtol=xtol) == scipy_optimize.brentq(
-                f, lo, hi, xtol=xtol, rtol=th._ROOT_RTOL, maxiter=200)
+                f, lo, hi, xtol=xtol, rtol=th.ROOT_RTOL, maxiter=200)
 
 
 def test_brentq_refuses_an_unbracketed_root() -> None:

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.analysis.calibrate.identify import Bounds
-from tippetop.compare.analysis.tune import (
+from tippetop.compare.studies.calibrate.identify import Bounds
+from tippetop.compare.studies.tune import (
     FIT_INTEGRATOR,
     HELD_OUT,
     MIN_FIT_S,

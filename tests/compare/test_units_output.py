@@ -17,9 +17,8 @@ from typing import Any
 
 import pytest
 
-from tippetop.compare.analysis.friction_realised import realised_sentence
-from tippetop.compare.analysis.validate import show_setting, suggestion
-from tippetop.compare.analysis.verdict import verdict
+from tippetop.compare.measures.checks import verdict
+from tippetop.compare.measures.friction_realised import realised_sentence
 from tippetop.compare.presentation.terminal import (
     check_text,
     fmt_duration,
@@ -27,6 +26,7 @@ from tippetop.compare.presentation.terminal import (
     fmt_stiff,
     fmt_value,
 )
+from tippetop.compare.studies.validate import show_setting, suggestion
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
@@ -279,7 +279,7 @@ def _block(out: str, head: str) -> str:
 
 
 def _refit_fr() -> dict[str, Any]:
-    from tippetop.compare.analysis.refit import refit_result
+    from tippetop.compare.studies.refit import refit_result
 
     ev = {"t_invert": 2.39612, "t_stem": None, "theta_asymp": 3.1041}
     ref = {**ev, "t_invert": 2.32912}
@@ -341,7 +341,7 @@ def test_the_mujoco_runs_message_has_four_digits_and_units() -> None:
 
 
 def test_what_ran_says_its_units() -> None:
-    from tippetop.compare.running.engines import describe_ran
+    from tippetop.compare.measures.summary import describe_ran
 
     native = {"engine": "mujoco", "mode": "native", "integrator": "RK4", "timestep_s": 2e-4,
               "cone": "pyramidal", "condim": 3, "mu": 0.104, "torsional": 0.0, "rolling": 0.0,

@@ -1,7 +1,7 @@
 """``tippetop validate MODEL.xml``: the model-validation report of one MJCF top.
 
 Two kinds of test. The checks and findings are tested on hand-made runs, where the expected
-verdict follows from the tolerances stated in :mod:`tippetop.compare.analysis.validate`. The command
+verdict follows from the tolerances stated in :mod:`tippetop.compare.studies.validate`. The command
 is tested end to end on ``examples/paper_loaded_sphere.xml``, the paper's Fig. 3 top written as
 a user would: there the reference, the paper's law in MuJoCo and the calibrated native settings
 must agree with each other and with the theory (inverted, Group II), and the file's own contact
@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 
-from tippetop.compare.analysis.validate import (
+from tippetop.compare.studies.validate import (
     EVENT_TOL_S,
     J_TOL,
     MODES,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.analysis import theory
+from tippetop.compare.measures import theory
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import SCHEMA, catalogue_names, load_scene, parse_override
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.metrics import classify_outcome, theta_asymp
+from tippetop.compare.measures import theory
+from tippetop.compare.measures.series import classify_outcome, theta_asymp
 from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 

@@ -64,7 +64,7 @@ def test_box_slid_along_an_axis_and_a_diagonal(cone: str, angle_deg: float,
 def test_the_harness_says_what_the_pyramidal_cone_does() -> None:
     # The sentence the compare and report tables show for the pyramidal cone must state the
     # diagonal bound that MuJoCo gives (measured above: 0.709 mu g), not sqrt(2) mu N.
-    from tippetop.compare.analysis.crossval import MODE_NOTES, PYRAMIDAL_DIAGONAL
+    from tippetop.compare.measures.verdict import MODE_NOTES, PYRAMIDAL_DIAGONAL
 
     decel, _ = _deceleration("pyramidal", 45.0)
     assert decel == pytest.approx(PYRAMIDAL_DIAGONAL, abs=0.03)
@@ -75,7 +75,7 @@ def test_the_harness_says_what_the_pyramidal_cone_does() -> None:
 
 def test_the_calibrated_row_names_its_cone() -> None:
     # models/calibrated_native.toml is the truth about mode mujoco-native's cone
-    from tippetop.compare.analysis.crossval import MODE_NOTES
+    from tippetop.compare.measures.verdict import MODE_NOTES
     from tippetop.compare.report.friction import FRICTION_MODES
     from tippetop.models.calibrated import calibrated_native_settings
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.metrics import (
+from tippetop.compare.measures import theory
+from tippetop.compare.measures.series import (
     classify_outcome,
     energy_monotone,
     jellett_drift,

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_ode
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.metrics import energy_rise, jellett_drift
+from tippetop.compare.measures import theory
+from tippetop.compare.measures.series import energy_rise, jellett_drift
 from tippetop.models.params import TopParams
 
 LAWS = ["modified_coulomb", "coulomb", "viscous", "coulomb_viscous"]

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_scene_ode
-from tippetop.compare.analysis import theory
-from tippetop.compare.analysis.metrics import classify_outcome, theta_asymp
+from tippetop.compare.measures import theory
+from tippetop.compare.measures.series import classify_outcome, theta_asymp
 from tippetop.models.scene import load_scene
 
 # Fig. 11: theta_asymp printed in Sec. 4.4 for n0 = 30 ... 80 rad/s.
@@ -119,7 +119,7 @@ def test_fig3_xi_reaches_the_xi_minus_curve() -> None:
 def test_outcome_matches_the_scene_and_the_theory(name: str) -> None:
     """Each catalogue scene's final state is the one the paper reports (its ``expect.outcome``)
     and the one the theory predicts from theta_s, classified the same way."""
-    from tippetop.compare.analysis.metrics import outcome_of_angle
+    from tippetop.compare.measures.series import outcome_of_angle
 
     s = load_scene(name)
     got = classify_outcome(run_scene_ode(name).table)

@@ -196,7 +196,7 @@ def test_the_stiff_case_has_its_own_frontier() -> None:
     complete; with rolling phases theta is right to 1e-6 rad at rtol 1e-9 (measured 2e-10
     over 1 s) for at most 1 % of the law's evaluations at the same rtol, and the law itself
     is right to its tolerance (measured 3e-11 over 1 s; bound 1e-8)."""
-    from tippetop.compare.analysis.accuracy.ode_study import stiff_work_precision
+    from tippetop.compare.studies.accuracy.ode_study import stiff_work_precision
 
     df = stiff_work_precision(t_end_s=0.5, tolerances=(1e-9,))
     assert df["scene"].iloc[0] == "fig3_Lambda1e-06"

@@ -1,0 +1,295 @@
+"""Engines side by side: every scene on every engine and mode, against the theory and each other.
+
+:func:`run_matrix` runs the scenes (catalogue names, scene files or MJCF tops) on each engine
+spec (:mod:`tippetop.models.engines`) in native and paper mode, and the reference ODE once per
+scene; it says per run whether it agrees with the theory (the nightly's rule), and lists every
+metric on which two engines differ beyond the nightly's tolerance for it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+from collections.abc import Sequence
+from typing import Any
+
+from tippetop.compare.measures.series import classify_outcome, theta_trend
+from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
+from tippetop.compare.running.runner import Task, TaskResult, run_tasks
+from tippetop.models.engines import EngineSpec, parse_engine
+from tippetop.models.errors import TippetopError
+from tippetop.models.scene import catalogue_names
+
+#: The format of ``results.json``.
+FORMAT = "tippetop-matrix/1"
+#: ``--modes``: the scene keys each mode sets (native: the calibrated settings for a generated
+#: top, a file's own for an MJCF top; paper: the paper's law at the contact point).
+MODES: dict[str, tuple[str, ...]] = {"native": ("mujoco.friction=native",),
+                                     "paper": ("mujoco.friction=paper",)}
+#: ``--profile``: the scenes run when none are named.
+PROFILES: dict[str, tuple[str, ...]] = {"quick": ("fig3", "fig6", "fig8a", "fig11_n060")}
+#: The metrics two engines are compared on, with the nightly's tolerance of each: ``exact``,
+#: ``abs`` (|a - b| <= value) or ``ratio`` (the larger at most ``value`` x the smaller, or under
+#: ``floor``: a drift that may grow 10x, below 1e-8 noise).
+METRICS: dict[str, tuple[str, float, float, str]] = {
+    "status": ("exact", 0.0, 0.0, "ok / diverged: a different regime, never a tolerance"),
+    "outcome": ("exact", 0.0, 0.0, "upright / intermediate / inverted: the paper's claim"),
+    "theta_asymp": ("abs", 0.02, 0.0, "rad; the nightly's: below the 0.05 rad agreement with "
+                    "theta_s, so real shifts show"),
+    "t_invert": ("abs", 0.1, 0.0, "s; the nightly's: ~3 % of the Fig. 3 inversion time"),
+    "t_stem": ("abs", 0.1, 0.0, "s; as t_invert"),
+    "J_rel_drift": ("ratio", 10.0, 1e-8, "relative; the nightly's: 10x, below 1e-8 noise"),
+}
+
+
+def table_key(scene: str, mode: str, engine: str) -> str:
+    """The key of a run's table in ``run_matrix``'s ``tables``."""
+    return f"{scene}|{mode}|{engine}"
+
+
+def profile_scenes(profile: str) -> tuple[str, ...]:
+    """The scenes of ``--profile`` (``full``: the whole catalogue)."""
+    if profile == "full":
+        return tuple(catalogue_names())
+    if profile not in PROFILES:
+        raise TippetopError(f"--profile: expected quick or full, got {profile!r}")
+    return PROFILES[profile]
+
+
+def _scene_task_args(scene: str) -> tuple[str | None, tuple[str, ...], bool]:
+    """(scene for Task, overrides, is an MJCF top) of a scene name, scene file or MJCF file."""
+    if scene.lower().endswith(".xml"):
+        if not os.path.isfile(scene):
+            raise TippetopError(f"SCENE: expected a scene or an MJCF file, got {scene!r}")
+        return None, (f"top.mjcf={os.path.abspath(scene)!r}",), True
+    return scene, (), False
+
+
+def _differ(metric: str, a: Any, b: Any) -> bool:
+    kind, value, floor, _why = METRICS[metric]
+    if a is None or b is None:
+        return (a is None) != (b is None)
+    if kind == "exact":
+        return a != b
+    a, b = float(a), float(b)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return math.isfinite(a) != math.isfinite(b)
+    if kind == "abs":
+        return abs(a - b) > value
+    lo, hi = sorted((abs(a), abs(b)))
+    return hi > max(value * lo, floor)
+
+
+def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequence[str],
+               overrides: tuple[str, ...] = (), *, workers: int | None = None,
+               use_cache: bool = True, attribution: bool = True,
+               tables: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Every scene on every engine in every mode, the reference once per scene.
+
+    Returns:
+        ``format``, ``engines`` ({spec, implementation, version, precision, device}, the
+        version read back from the runs), ``runs`` ({scene, engine, mode, status, message,
+        t_invert, t_stem, theta_final, theta_asymp, J_rel_drift, agrees} and ``theta_s``,
+        ``outcome``, ``theory_outcome``, ``path``), ``differences`` ({scene, mode, engines: [A,
+        B], metric, values: [a, b], tolerance, why, attribution, closer}: see
+        :mod:`.attribution`; None for both with ``attribution`` False) and ``reference`` (the
+        ODE's per scene). ``tables``, when given, receives each run's table under
+        :func:`table_key` (the reference's: mode and engine ``ode``).
+    """
+    for m in modes:
+        if m not in MODES:
+            raise TippetopError(f"--modes: expected native and/or paper, got {m!r}")
+    jobs: list[tuple[str, str | None, Task]] = []  # (scene, mode or None, task)
+    for scene in scenes:
+        name, base, is_file = _scene_task_args(scene)
+        over = (*base, *overrides)
+        jobs.append((scene, None, Task(name, over, "ode", label=f"{scene} [ode]")))
+        for mode, spec in itertools.product(modes, engines):
+            fit = ("mujoco.fit_paper_timestep=true",) if is_file and mode == "paper" else ()
+            jobs.append((scene, mode, Task(name, (*over, *MODES[mode], *fit), "mujoco",
+                                           label=f"{scene} [{spec.spec} {mode}]",
+                                           spec=spec.spec)))
+    results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,
+                        label="matrix")
+    runs, reference = [], {}
+    done: dict[tuple[str, str, str], tuple[Task, TaskResult]] = {}
+    predictions: dict[str, tuple[float | None, str | None]] = {}
+    for scene in scenes:
+        mine = [(m, t, r) for (s, m, t), r in zip(jobs, results, strict=True) if s == scene]
+        ref = mine[0][2]
+        th_s, th_out = _prediction(mine[0][1], [r for _, _, r in mine])
+        predictions[scene] = th_s, th_out
+        reference[scene] = _run_row(scene, "ode", "ode", ref, th_s, th_out)
+        if tables is not None and ref.table is not None:
+            tables[table_key(scene, "ode", "ode")] = ref.table
+        for mode, task, res in mine[1:]:
+            runs.append(_run_row(scene, task.spec, mode, res, th_s, th_out))
+            done[scene, str(mode), task.spec] = task, res
+            if tables is not None and res.table is not None and res.error is None:
+                tables[table_key(scene, str(mode), task.spec)] = res.table
+    differences = _differences(runs, engines, modes, scenes)
+    if attribution:
+        _attribute(differences, done, reference, predictions, workers=workers,
+                   use_cache=use_cache)
+    else:
+        for d in differences:
+            d["attribution"] = d["closer"] = None
+    return {"format": FORMAT, "engines": _engines(engines, runs), "runs": runs,
+            "differences": differences, "attribution": attribution,
+            "reference": reference, "modes": list(modes), "scenes": list(scenes),
+            "tolerances": {k: {"kind": v[0], "value": v[1], "floor": v[2], "why": v[3]}
+                           for k, v in METRICS.items()}}
+
+
+def _attribute(differences: list[dict[str, Any]],
+               done: dict[tuple[str, str, str], tuple[Task, TaskResult]],
+               reference: dict[str, dict[str, Any]],
+               predictions: dict[str, tuple[float | None, str | None]], *,
+               workers: int | None, use_cache: bool) -> None:
+    """Fill each difference's ``attribution`` and ``closer`` (one batch of reruns)."""
+    from tippetop.compare.studies import attribution as attr
+
+    groups: dict[tuple[str, str], set[str]] = {}
+    for d in differences:
+        groups.setdefault((d["scene"], d["mode"]), set()).update(d["engines"])
+    jobs: list[tuple[str, str, str, attr.Change, Task]] = []
+    changes: dict[tuple[str, str], list[attr.Change]] = {}
+    integrators: dict[tuple[str, str], str] = {}
+    for (scene, mode), specs in groups.items():
+        first = next(iter(sorted(specs)))
+        task0 = done[scene, mode, first][0]
+        try:
+            plan = task0.plan().mujoco
+        except TippetopError:
+            plan = None
+        if plan is None:
+            changes[scene, mode] = []
+            continue
+        changes[scene, mode] = attr.changes_for(plan)
+        integrators[scene, mode] = plan.integrator
+        for spec in sorted(specs):
+            task = done[scene, mode, spec][0]
+            for ch in changes[scene, mode]:
+                if ch.overrides is None:
+                    continue
+                jobs.append((scene, mode, spec, ch, Task(
+                    task.scene, (*task.overrides, *ch.overrides), "mujoco",
+                    label=f"{scene} [{spec} {mode}, {ch.name}]", spec=spec)))
+    if jobs:
+        import sys
+
+        n = len(differences)
+        sys.stderr.write(f"matrix: {n} difference{'s' if n != 1 else ''} between engines: "
+                         f"{len(jobs)} more runs to attribute {'them' if n != 1 else 'it'} "
+                         "(each engine with one subsystem changed at a time; "
+                         "--no-attribution skips them)\n")
+        sys.stderr.flush()
+    results = run_tasks([j[4] for j in jobs], workers=workers, use_cache=use_cache,
+                        label="attribution") if jobs else []
+    rerun: dict[tuple[str, str, str, str], dict[str, Any]] = {}
+    tables: dict[tuple[str, str, str, str], Any] = {}
+    for (scene, mode, spec, ch, _t), res in zip(jobs, results, strict=True):
+        th_s, th_out = predictions[scene]
+        rerun[scene, mode, spec, ch.name] = _run_row(scene, spec, mode, res, th_s, th_out)
+        tables[scene, mode, spec, ch.name] = res.table if res.error is None else None
+    for d in differences:
+        scene, mode, metric = d["scene"], d["mode"], d["metric"]
+        a, b = d["engines"]
+        ta, tb = done[scene, mode, a][1].table, done[scene, mode, b][1].table
+        base_gap = attr.theta_gap(ta, tb)
+        evidence: list[dict[str, Any]] = []
+        for ch in changes[scene, mode]:
+            if ch.overrides is None:
+                evidence.append({"change": ch.name, "applies": False, "why": ch.why_not})
+                continue
+            ra, rb = rerun[scene, mode, a, ch.name], rerun[scene, mode, b, ch.name]
+            bad = [r for r in (ra, rb) if r["status"] == "failed"]
+            row: dict[str, Any] = {"change": ch.name, "a": ra[metric], "b": rb[metric],
+                                   "difference": attr.value_gap(ra[metric], rb[metric]),
+                                   "theta_gap_rad": attr.theta_gap(
+                                       tables[scene, mode, a, ch.name],
+                                       tables[scene, mode, b, ch.name]),
+                                   "agree": not _differ(metric, ra[metric], rb[metric])}
+            if bad:
+                row["failed"] = bad[0]["message"]
+            evidence.append(row)
+        d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence,
+                                          ran_integrator=integrators.get((scene, mode)),
+                                          precisions=(parse_engine(a).precision,
+                                                      parse_engine(b).precision))
+        d["attribution"]["theta_gap_rad"] = base_gap
+        quarter = next((c.name for c in changes[scene, mode] if c.name == "quarter timestep"),
+                       None)
+        conv = ((rerun[scene, mode, a, quarter][metric], rerun[scene, mode, b, quarter][metric])
+                if quarter else (None, None))
+        d["closer"] = attr.closer(metric, tuple(d["values"]), reference[scene].get(metric),
+                                  conv, (a, b))
+
+
+def _prediction(task: Task, results: list[TaskResult]) -> tuple[float | None, str | None]:
+    """The theory's theta_s and outcome for the scene's Jellett constant at t = 0."""
+    tables = [r.table for r in results if r.error is None and not run_failed(r.summary)
+              and r.table is not None and len(r.table)]
+    if not tables:
+        return None, None
+    top = task.plan().top
+    th, out = predicted_outcome(top, float(tables[0]["J"].iloc[0]))
+    return th, out
+
+
+def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float | None,
+             theory_outcome: str | None) -> dict[str, Any]:
+    s = res.summary or {}
+    failed = res.error is not None or run_failed(s)
+    outcome = "failed" if failed else classify_outcome(res.table)
+    row = crossval_row(scene, mode, outcome=outcome,
+                       theta_asymp=None if failed else s.get("theta_asymp"), theta_s=theta_s,
+                       theory_outcome=theory_outcome, t_invert=s.get("t_invert"),
+                       J_rel_drift=s.get("J_rel_drift"),
+                       trend=None if failed else theta_trend(res.table),
+                       error=res.error or (s.get("message") if failed else None),
+                       reference=engine == "ode")
+    return {"scene": scene, "engine": engine, "mode": mode,
+            "status": "failed" if res.error else s.get("status"),
+            "message": res.error or s.get("message"), "t_invert": s.get("t_invert"),
+            "t_stem": s.get("t_stem"), "theta_final": s.get("theta_final"),
+            "theta_asymp": s.get("theta_asymp"), "J_rel_drift": s.get("J_rel_drift"),
+            "agrees": row["agrees"], "outcome": row["outcome"], "theta_s": theta_s,
+            "theory_outcome": theory_outcome, "reasons": row["reasons"],
+            "version": s.get("version"), "path": s.get("path"),
+            "friction_realised": s.get("friction_realised")}
+
+
+def _engines(engines: Sequence[EngineSpec], runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for spec in engines:
+        ran = [r for r in runs if r["engine"] == spec.spec and r.get("version")]
+        out.append({"spec": spec.spec, "implementation": spec.implementation,
+                    "version": ran[0]["version"] if ran else spec.version,
+                    "precision": spec.precision, "device": "cpu"})
+    return out
+
+
+def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
+                 modes: Sequence[str], scenes: Sequence[str]) -> list[dict[str, Any]]:
+    by = {(r["scene"], r["mode"], r["engine"]): r for r in runs}
+    out = []
+    for scene, mode in itertools.product(scenes, modes):
+        for a, b in itertools.combinations([e.spec for e in engines], 2):
+            ra, rb = by[scene, mode, a], by[scene, mode, b]
+            metrics = ["status"]
+            if ra["status"] == rb["status"] == "ok":
+                metrics += ["outcome", "theta_asymp", "t_invert", "t_stem", "J_rel_drift"]
+            for metric in metrics:
+                if _differ(metric, ra[metric], rb[metric]):
+                    kind, value, floor, why = METRICS[metric]
+                    out.append({"scene": scene, "mode": mode, "engines": [a, b],
+                                "metric": metric, "values": [ra[metric], rb[metric]],
+                                "tolerance": None if kind == "exact" else value, "why": why})
+    return out
+
+
+__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "profile_scenes", "table_key",
+           "run_matrix"]

@@ -1,0 +1,204 @@
+"""An offscreen H.264 MP4 of a scene's run: MuJoCo's, the reference's, or both side by side.
+
+:func:`render_scene` checks everything before it simulates, then runs the scene, draws,
+encodes and decodes the file back before it replaces any; what the picture shows and how time
+maps to frames is in docs/design.md. The drawing code is imported only when a video is asked
+for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from tippetop.compare.presentation.video import (
+    DEFAULT_FPS,
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_SIZE,
+    DEFAULT_SPEED,
+    ENGINE_LABELS,
+    RENDER_ENGINES,
+    VIDEO_SUFFIXES,
+    check_timing,
+    disk_full,
+    frame_bar,
+    full_text,
+    is_full,
+    parse_size,
+)
+from tippetop.models.errors import expect
+from tippetop.models.numbers import number_text
+from tippetop.mujoco_runner.gl import use_gl_backend
+
+if TYPE_CHECKING:
+    from tippetop.models.scene import Scene
+
+#: The engines in the progress lines.
+_ENGINE_NAMES = {"mujoco": "MuJoCo", "ode": "the reference ODE"}
+
+
+class RunFailed(RuntimeError):
+    """An engine's run diverged or stopped short: there is nothing (complete) to draw."""
+
+
+class VideoWriteFailed(RuntimeError):
+    """The MP4 could not be written, or does not decode to the frames drawn.
+
+    A full disk or an encoder error; the output file, if there was one, is as it was.
+    """
+
+
+@dataclass(frozen=True)
+class RenderResult:
+    """What :func:`render_scene` wrote.
+
+    Attributes:
+        path: The MP4 file.
+        engine: ``mujoco``, ``ode`` or ``both``.
+        backend: The OpenGL backend used (``egl`` or ``osmesa``).
+        n_frames: Frames in the video.
+        width: Video width (px; two panels for ``both``).
+        height: Video height (px).
+        fps: Frames per second.
+        speed: Simulated seconds per second of video.
+        video_s: Length of the video (s).
+        render_wall_s: Wall time of drawing and encoding (s), the simulations excluded.
+    """
+
+    path: Path
+    engine: str
+    backend: str
+    n_frames: int
+    width: int
+    height: int
+    fps: float
+    speed: float
+    video_s: float
+    render_wall_s: float
+
+    @property
+    def ms_per_frame(self) -> float:
+        """Drawing and encoding wall time per frame (ms)."""
+        return 1e3 * self.render_wall_s / self.n_frames
+
+
+def render_scene(
+    scene: Scene,
+    out: str | Path,
+    *,
+    engine: str = "mujoco",
+    fps: float = DEFAULT_FPS,
+    speed: float = DEFAULT_SPEED,
+    size: str | tuple[int, int] = DEFAULT_SIZE,
+    max_frames: int = DEFAULT_MAX_FRAMES,
+    force: bool = False,
+    progress: bool = True,
+    say: Callable[[str], None] | None = None,
+) -> RenderResult:
+    """Simulate ``scene`` in the engine(s) and write an MP4 of the run.
+
+    Every argument is checked, and the backend chosen, before anything is simulated.
+
+    Args:
+        scene: A :class:`models.scene.Scene`.
+        out: The ``.mp4`` file to write.
+        engine: ``"mujoco"``, ``"ode"`` or ``"both"`` (side by side, MuJoCo left).
+        fps: Frames per second of the video.
+        speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
+        size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
+        max_frames: Refuse to make more frames than this.
+        force: Overwrite an existing ``out``.
+        progress: Show progress bars on stderr when it is a terminal.
+        say: Called with one line before each step (each engine's run, the frames) and, when
+            stderr is not a terminal, every 15 s of drawing; None says nothing.
+
+    Returns:
+        The file written and its frame count, size and render time.
+
+    Raises:
+        TippetopError: For bad arguments, an existing ``out`` without ``force``, or no working
+            OpenGL backend (no file is written).
+        RunFailed: If an engine's run diverged or stopped short (no file is written).
+        VideoWriteFailed: If writing failed (OSError: a full disk, said as ENOSPC with the
+            free space, :func:`disk_full`) or the file written does not decode to
+            ``n_frames`` frames: the temporary file is removed and an existing ``out`` is
+            left as it was.
+    """
+    from tippetop.compare.running.io import check_output_path
+
+    expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
+    width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
+    n_frames = check_timing(scene.run.t_end_s, fps, speed, max_frames)
+    path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
+    backend = use_gl_backend()  # before anything below imports mujoco
+
+    from tippetop.compare.running.engines import plan_for, run_plan
+
+    engines = ("mujoco", "ode") if engine == "both" else (engine,)
+    plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
+    tell = say or (lambda _line: None)
+    tables = {}
+    for name in engines:
+        tell(f"simulating {scene.name} in {_ENGINE_NAMES[name]} "
+             f"({plans[name].t_end_s:g} s simulated)...")
+        run = run_plan(plans[name], progress=progress)
+        if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
+            raise RunFailed(f"{name}: {run.message}")
+        tables[name] = run.table
+
+    from tippetop.compare.running.io import write_atomic
+    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner.drawn_model import render_model
+    from tippetop.mujoco_runner.poses import Track
+
+    first = plans[engines[0]]
+    top_model = render_model(first.top, scene.top_mjcf, width, height)
+    tracks = [Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
+                               paper_frame=name == "ode") for name in engines]
+    times = video.frame_times(n_frames, fps, speed)
+    runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
+                        for name in engines)
+    tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
+         f"{height}, {number_text(n_frames / fps, 's')} of video at speed {number_text(speed)} "
+         f"({backend})...")
+    stats: list[video.VideoStats] = []
+
+    def write_checked(tmp: Path) -> None:
+        """Encode into ``tmp``, then decode it: only a complete video replaces ``path``.
+
+        A failure on a full filesystem is said to be one (ENOSPC), whatever the encoder or
+        the decoder made of it: the free space is read while ``tmp`` still holds its bytes.
+        """
+        try:
+            stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
+                                           height=height, backend=backend, on_frame=tick))
+            video.verify_video(tmp, n_frames, width * len(engines), height)
+        except (OSError, video.VideoCheckFailed) as exc:
+            full = disk_full(exc, tmp.parent)
+            if full is not None:
+                raise full from exc
+            raise
+
+    try:
+        with frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
+                        say) as tick:
+            write_atomic(path, write_checked)
+    except (OSError, video.VideoCheckFailed) as exc:
+        kept = "left as it was" if path.exists() else "not written"
+        full = exc if is_full(exc) else disk_full(exc, path.parent)
+        if full is not None:
+            raise VideoWriteFailed(f"could not write {path}: {full_text(full, path)}; {path} "
+                                   f"{kept}") from exc
+        what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
+            else str(exc)
+        raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
+            from exc
+    s = stats[0]
+    return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
+                        width=s.width, height=s.height, fps=float(fps), speed=float(speed),
+                        video_s=n_frames / fps, render_wall_s=s.wall_s)
+
+
+__all__ = ["RenderResult", "RunFailed", "VideoWriteFailed", "render_scene"]

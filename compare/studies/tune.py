@@ -1,0 +1,409 @@
+"""Tuned contact settings for any top: fitted to the reference, verified on starts it did not see.
+
+``tippetop validate MODEL.xml`` (its ``tuned`` key) and ``tippetop calibrate --mjcf FILE``.
+The file's own contact settings (mu, solref, solimp, impratio, cone) are fitted to the
+reference's theta(t) at the file's start (:mod:`.calibrate.identify`: MuJoCo's own
+identification, ``mujoco.sysid``), at RK4 and a step of at most the calibration's 2e-4 s; the
+file's own integrator and step are kept when they follow as well (what it *needs*). The result
+is then run by the harness, as every run, from the file's start and from held-out starts (a
+faster and a slower spin, a larger tilt: none used by the fit), each checked against the
+theory and the reference with every check of ``validate``'s verdict.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from tippetop.compare.measures.checks import FIRST_ORDER, run_entry, verdict
+from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.running.runner import Task, run_tasks
+from tippetop.compare.studies.calibrate.identify import (
+    MAX_ITERS,
+    Bounds,
+    FitStart,
+    Problem,
+    identify,
+    reference_theta,
+)
+from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
+from tippetop.models.errors import TippetopError
+from tippetop.models.numbers import number_text
+
+#: The fit's step and integrator: RK4 (a first-order step drifts J on a top with A != C,
+#: docs/design.md) at the file's step or the calibration's 2e-4 s, whichever is shorter.
+FIT_TIMESTEP_S = 2e-4
+FIT_INTEGRATOR = "RK4"
+#: The file's own integrator and step are kept if, with the fitted contact, their RMS is
+#: within this factor of the fit's (plus :data:`KEEP_FLOOR_RAD`).
+KEEP_FACTOR = 1.2
+KEEP_FLOOR_RAD = 0.005
+#: Held-out starts, relative to the file's: (spin factor, tilt factor); a tilt at least
+#: :data:`MIN_TILT_STEP_RAD` above the file's. Near the file's start, where its settings are
+#: meant to hold: a faster spin, a slower one, a larger tilt.
+HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0))
+MIN_TILT_STEP_RAD = 0.05
+#: The fit follows each start until this many times its first event (the stem's contact, or
+#: else the inversion), at least :data:`MIN_FIT_S`: after the stem touches, theta(t) is the
+#: stem's contact's, which the ball's settings do not set.
+EVENT_FACTOR = 1.5
+MIN_FIT_S = 1.0
+#: The seeds' grid besides the calibrated settings and MuJoCo's defaults: solref time
+#: constants (s) and solimp d0 at impratio 1, in both cones.
+SEED_TIMECONSTS_S = (0.002, 0.01)
+SEED_D0 = (0.1, 0.9)
+
+
+@dataclass(frozen=True)
+class TuneStart:
+    """A start: spin n0 (rad/s) and tilt theta0 (rad), and whether the fit used it."""
+
+    n0: float
+    theta0: float
+    role: str  # "fit" or "held-out"
+
+    def overrides(self) -> tuple[str, ...]:
+        """``--set`` strings of this start.
+
+        None for the file's own (its keyframe as it is); a held-out one's spin and tilt
+        (from rest otherwise: no precession, no slip).
+        """
+        if self.role == "fit":
+            return ()
+        return (f"init.n0={self.n0!r}", f"init.theta0={self.theta0!r}", "init.Omega0=0.0",
+                "init.thetadot0=0.0")
+
+    def label(self) -> str:
+        """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""
+        return start_label(self.n0, self.theta0)
+
+
+def start_label(n0: float, theta0: float) -> str:
+    """A start as every line and report names it: ``n0 = 150 rad/s, theta0 = 0.04 rad``."""
+    return f"n0 = {number_text(n0, 'rad/s')}, theta0 = {number_text(theta0, 'rad')}"
+
+
+def starts_for(n0: float, theta0: float) -> list[TuneStart]:
+    """The file's start (fitted) and the held-out ones (:data:`HELD_OUT`)."""
+    out = [TuneStart(n0, theta0, "fit")]
+    for f, g in HELD_OUT:
+        tilt = theta0 if g == 1.0 else max(g * theta0, theta0 + MIN_TILT_STEP_RAD)
+        out.append(TuneStart(n0 * f, tilt, "held-out"))
+    return out
+
+
+def fit_horizon(summary: dict[str, Any], t_end_s: float) -> float:
+    """How long the fit follows a start (see :data:`EVENT_FACTOR`)."""
+    event = summary.get("t_stem") or summary.get("t_invert")
+    if event is None:
+        return t_end_s
+    return min(t_end_s, max(MIN_FIT_S, EVENT_FACTOR * float(event)))
+
+
+def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list[Candidate]:
+    """Where the fit starts.
+
+    The calibrated settings, MuJoCo's defaults in both cones, the file's own (each at the
+    file's mu; the calibrated one's mu scaled as the paper's 0.1 is).
+    """
+    out = standard_seeds(mu)  # the seeds are clipped to the fit's bounds where they are used
+    # and a few contacts between the calibrated (stiff, hard from the start) and MuJoCo's
+    # (soft) in both cones: scoring a seed is one rollout, a fit a few hundred
+    out += [Candidate(cone, 1.0, max(tc, 2.0 * timestep_s), d0, mu)
+            for cone in ("pyramidal", "elliptic") for tc in SEED_TIMECONSTS_S
+            for d0 in SEED_D0]
+    if file_run and file_run.get("solref") and file_run.get("solimp") and file_run.get("cone"):
+        out.append(Candidate(file_run["cone"], float(file_run.get("impratio") or 1.0),
+                             max(float(file_run["solref"][0]), 2.0 * timestep_s),
+                             float(file_run["solimp"][0]), mu))
+    return out
+
+
+def _say(progress: bool) -> Callable[[str], None] | None:
+    if not progress or not sys.stderr.isatty():
+        return None
+    return lambda line: print(f"tune: {line}", file=sys.stderr, flush=True)
+
+
+def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: float, *,
+         file_run: dict[str, Any] | None = None, file_timestep_s: float | None = None,
+         file_integrator: str | None = None, run_options: dict[str, Any] | None = None,
+         max_iters: int = MAX_ITERS, progress: bool = True,
+         theory: Callable[[float, float, str], str] | None = None,
+         A_over_C: float | None = None) -> dict[str, Any]:
+    """Fit the file's contact settings to the reference and verify them.
+
+    Args:
+        base: ``--set`` strings of the top (``top.mjcf=...``, a keyframe); the starts add
+            theirs.
+        mu: The file's friction coefficient.
+        n0: The file's spin (rad/s).
+        theta0: The file's tilt (rad).
+        t_end_s: Horizon of the verification runs (s).
+        file_run: The file's own run as validate has it (its settings seed the fit).
+        file_timestep_s: The file's timestep (s).
+        file_integrator: The file's integrator.
+        run_options: Keyword arguments of :func:`run_tasks`.
+        max_iters: Levenberg-Marquardt iterations per fit.
+        progress: Progress lines on a terminal.
+        theory: (n0, theta0, role) -> the theory's outcome at that start (``fit``: the
+            file's own start, with its precession).
+        A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
+
+    Returns:
+        ``settings``, ``mjcf``, ``fit`` ({starts, residual, ...}), ``verified``
+        ([{n0, theta0, role, checks, passed}]), ``agrees``, ``departs`` and ``note``.
+
+    Raises:
+        TippetopError: No spin to fit (n0 = 0), or a reference run that failed.
+    """
+    if not (math.isfinite(n0) and abs(n0) > 0):
+        raise TippetopError(f"tune: expected a spinning start (n0 != 0), got n0 = {n0!r}")
+    opts = dict(run_options or {})
+    say = _say(progress)
+    starts = starts_for(n0, theta0)
+    refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode")
+                      for s in starts], label="tune reference", **opts)
+    for s, r in zip(starts, refs, strict=True):
+        if r.error or r.table is None:
+            raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
+    fit_ref = refs[0]
+    t_fit = fit_horizon(fit_ref.summary or {}, t_end_s)
+    fit_start = FitStart(starts[0].label(), None,
+                         (*base, *starts[0].overrides(), f"run.t_end_s={t_fit!r}"), t_fit)
+    dt = min(file_timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
+    bounds = Bounds.around(mu, dt)
+    from tippetop.mujoco_runner.batch import default_threads
+
+    threads = max(1, default_threads())
+    stem = (fit_ref.summary or {}).get("t_stem")
+    ball_until = [math.inf if stem is None else float(stem)]
+    problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,
+                      bounds, threads, ball_until)
+    starting = seeds(mu, file_run, dt)
+    found = identify(problem, starting, max_iters=max_iters, say=say)
+    best, timestep, integrator = found.best, dt, FIT_INTEGRATOR
+    options: list[tuple[str, float]] = []
+    needs = []
+    for integ, step in _cheaper(file_integrator, file_timestep_s, dt):
+        if integ in FIRST_ORDER and A_over_C is not None and abs(A_over_C - 1.0) > 1e-9:
+            needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
+                          "kept": False, "why": f"{integ} is first order: it moves Jellett's "
+                          "constant in proportion to dt on a top with A/C = "
+                          f"{number_text(A_over_C)} (docs/design.md)"})
+            continue
+        if best.timeconst_s < 2.0 * step:
+            needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
+                          "kept": False, "why": f"the fitted solref time constant "
+                          f"{best.timeconst_s:g} s is below two of its steps"})
+            continue
+        other = Problem([fit_start], problem.references, step, integ, bounds, threads,
+                        ball_until)
+        rms = other.rms(best)[0]
+        problem.rollouts += other.rollouts
+        near = rms <= KEEP_FACTOR * found.rms_rad + KEEP_FLOOR_RAD
+        needs.append({"integrator": integ, "timestep_s": step, "rms_rad": rms, "kept": False,
+                      "why": "" if near else f"its RMS {number_text(rms, 'rad')} is above "
+                      f"{KEEP_FACTOR:g} x the fit's + {KEEP_FLOOR_RAD:g} rad"})
+        if near:
+            options.append((integ, step))
+    options.append((FIT_INTEGRATOR, dt))
+    # verification: the harness runs the tuned settings as every run, over the whole horizon,
+    # from every start; the cheapest step and integrator whose runs all pass is kept
+    for integrator, timestep in options:
+        verified, mj = _verify(base, starts, refs, best, timestep, integrator, t_end_s, opts,
+                               theory, A_over_C)
+        entry = next((n for n in needs if (n["integrator"], n["timestep_s"]) ==
+                      (integrator, timestep)), None)
+        ok = all(v["passed"] is not False for v in verified)
+        if entry is not None:
+            entry["kept"] = ok
+            if not ok:
+                entry["why"] = "with it the verification departs (" + "; ".join(
+                    _departs(verified)[:2]) + ")"
+        if ok:
+            break
+    chosen = "fit"
+    alternatives: list[dict[str, Any]] = []
+    if not _agrees(verified):
+        # the fit is local and holds at the file's start: where it departs elsewhere, the
+        # seeds it started from are verified too (the best of each cone, as scored, and the
+        # calibrated settings), and one that passes from every start is the answer, said so
+        tried = {best}
+        for seed in [*_seed_candidates(found), bounds.clip(starting[0]).rounded()]:
+            if seed in tried:
+                continue
+            tried.add(seed)
+            v2, mj2 = _verify(base, starts, refs, seed, dt, FIT_INTEGRATOR, t_end_s, opts,
+                              theory, A_over_C)
+            alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
+                                 "departs": _departs(v2)})
+            if _agrees(v2):
+                verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
+                chosen = f"seed: {seed.label()}"
+                break
+    agrees = _agrees(verified)
+    departs = _departs(verified)
+    ran = run_entry(mj[0])
+    return {
+        "settings": _settings(ran, best, timestep, integrator),
+        "mjcf": _mjcf(ran),
+        "fit": {"starts": [{"n0": starts[0].n0, "theta0": starts[0].theta0,
+                            "t_end_s": t_fit}],
+                "residual": found.rms_rad, "residual_definition": (
+                    "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
+                    "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
+                "runs": problem.rollouts, "seeds": found.seeds, "fits": found.fits,
+                "timestep_s": dt, "integrator": FIT_INTEGRATOR, "needs": needs,
+                "chosen": chosen, "alternatives": alternatives,
+                "bounds": {k: list(v) for k, v in bounds.values.items()},
+                "method": "mujoco.sysid.optimize (MuJoCo's bounded Levenberg-Marquardt, "
+                          "log10 settings, finite-difference step 0.01 decade) from the best "
+                          "seed per cone", "wall_s": found.wall_s},
+        "verified": verified,
+        "agrees": agrees,
+        "departs": departs,
+        "note": _note(agrees, departs, verified) + (
+            f" (the fit's own optimum departs from a held-out start; these are its {chosen})"
+            if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
+            f"depart too" if alternatives and not agrees else ""),
+    }
+
+
+def _agrees(verified: list[dict[str, Any]]) -> bool:
+    """Every start checked passes, and at least one held-out start was checked."""
+    checked = [v for v in verified if v["passed"] is not None]
+    return (bool(checked) and all(v["passed"] for v in checked)
+            and any(v["role"] == "held-out" for v in checked))
+
+
+def _seed_candidates(found: Any) -> list[Candidate]:
+    """The seeds the fits started from (each cone's best as scored), best first."""
+    order = sorted(range(len(found.fits)), key=lambda i: found.fits[i]["from_rms_rad"])
+    return [found.fit_seeds[i] for i in order]
+
+
+def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], best: Candidate,
+            timestep: float, integrator: str, t_end_s: float, opts: dict[str, Any],
+            theory: Callable[[float, float, str], str] | None,
+            A_over_C: float | None) -> tuple[list[dict[str, Any]], list[Any]]:
+    """Every start run by the harness with ``best``, checked with validate's verdict."""
+    tasks = [Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}",
+                         *best.overrides(timestep, integrator)), "mujoco") for s in starts]
+    mj = run_tasks(tasks, label="tune verify", **opts)
+    verified: list[dict[str, Any]] = []
+    for s, ref, run in zip(starts, refs, mj, strict=True):
+        runs = {"ode": run_entry(ref), "mujoco-tuned": run_entry(run)}
+        if runs["ode"].get("status") != "ok":  # the reference's model does not hold there
+            verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
+                             "theory_outcome": None, "checks": [], "passed": None,
+                             "note": f"not verifiable: the reference stops "
+                                     f"({runs['ode'].get('message')})"})
+            continue
+        outcome = theory(s.n0, s.theta0, s.role) if theory else runs["ode"]["outcome"]
+        checks = [c for c in verdict(runs, outcome, A_over_C) if c["mode"] == "mujoco-tuned"]
+        verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
+                         "theory_outcome": outcome, "checks": checks,
+                         "passed": all(c["passed"] for c in checks),
+                         "friction_realised": runs["mujoco-tuned"].get("friction_realised"),
+                         "left_table_s": _left_table(run)})
+    return verified, mj
+
+
+#: The first moments of a run, when a top dropped onto the table settles into its contact.
+SETTLING_S = 0.05
+
+
+def _left_table(run: Any) -> float | None:
+    """When the ball last left the table (N = 0) before the stem's first contact (s).
+
+    After :data:`SETTLING_S`; None if it never did. J is not kept in flight.
+    """
+    table, summary = run.table, run.summary or {}
+    if table is None or "N" not in table or not len(table):
+        return None
+    stem = summary.get("t_stem")
+    t, N = table["t"].to_numpy(), table["N"].to_numpy()
+    keep = (t > SETTLING_S) & (t < (stem if stem is not None else math.inf)) & (N <= 0.0)
+    return float(t[keep][-1]) if keep.any() else None
+
+
+def _departs(verified: list[dict[str, Any]]) -> list[str]:
+    return [f"{c['check']} from {TuneStart(v['n0'], v['theta0'], v['role']).label()} "
+            f"({v['role']}): {c['note']}"
+            for v in verified for c in v["checks"] if not c["passed"]]
+
+
+def _cheaper(integ: str | None, step: float | None,
+             dt_fit: float) -> list[tuple[str, float]]:
+    """The file's own integrator and step, then RK4 at the file's step.
+
+    Each only if it differs from the fit's (what the file would save by keeping them).
+    """
+    out: list[tuple[str, float]] = []
+    if integ and step and (integ, step) != (FIT_INTEGRATOR, dt_fit):
+        out.append((integ, step))
+    if step and step > dt_fit and (FIT_INTEGRATOR, step) not in out:
+        out.append((FIT_INTEGRATOR, step))
+    return out
+
+
+def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
+              integrator: str) -> dict[str, Any]:
+    """The tuned settings as the verification run ran them (read back), else as fitted."""
+    def get(key: str, default: Any) -> Any:
+        v = ran.get(key)
+        return default if v is None else v
+    return {"mu": get("mu", best.mu), "cone": get("cone", best.cone),
+            "impratio": get("impratio", best.impratio),
+            "solref": list(get("solref", best.solref)),
+            "solimp": list(get("solimp", best.solimp)),
+            "timestep_s": get("timestep_s", timestep), "integrator": get("integrator",
+                                                                         integrator),
+            "condim": get("condim", 3)}
+
+
+def _mjcf(ran: dict[str, Any]) -> str:
+    """The tuned settings as MJCF attributes to paste (``<option>`` and the contact's)."""
+    if ran.get("timestep_s") is None:
+        return ""
+    option, geom = mjcf_attributes(ran)
+    return f"{option}\n<geom ... {geom}/>"
+
+
+def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> str:
+    checked = [v for v in verified if v["passed"] is not None]
+    skipped = len(verified) - len(checked)
+    extra = (f" ({skipped} start(s) not verifiable: the reference's model stops there)"
+             if skipped else "")
+    if agrees:
+        return (f"these settings follow the reference from all {len(checked)} starts "
+                f"checked, {sum(v['role'] == 'held-out' for v in checked)} of them not used "
+                f"by the fit{extra}: paste them into the file")
+    if not departs:
+        return f"no held-out start could be verified{extra}"
+    why = []
+    for v in verified:
+        fr = v.get("friction_realised") or {}
+        failed = {c["check"] for c in v["checks"] if not c["passed"]}
+        where = f"from {start_label(v['n0'], v['theta0'])}"
+        if "jellett_before_stem" in failed and v.get("left_table_s") is not None:
+            why.append(f"{where} the ball leaves the table at "
+                       f"{number_text(v['left_table_s'], 's')}, "
+                       f"before the stem lands: J is not kept in flight, and the reference's "
+                       f"ball never leaves it")
+            break
+        if v["passed"] is False and fr.get("half_mu_slip_mps") is not None:
+            why.append(f"{where} the contact reaches half of mu N at "
+                       f"{number_text(1e3 * fr['half_mu_slip_mps'], 'mm/s')}, the paper's law "
+                       f"at {number_text(1e3 * fr['law_half_mu_slip_mps'], 'mm/s')}")
+            break
+    return (f"no setting within the bounds follows the reference from every start{extra}: "
+            f"{len(departs)} check(s) depart ({'; '.join(departs[:3])}"
+            f"{'; ...' if len(departs) > 3 else ''})" + (f"; why: {why[0]}" if why else ""))
+
+
+__all__ = ["HELD_OUT", "TuneStart", "fit_horizon", "seeds", "starts_for", "tune"]

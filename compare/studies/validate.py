@@ -1,0 +1,461 @@
+"""The work of ``tippetop validate``: one MJCF top against the theory and the reference.
+
+Four runs of the file's top, the checks, the findings and the settings to paste
+(:func:`validate`; docs/design.md).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tippetop.compare.measures import theory
+from tippetop.compare.measures.checks import (
+    ENERGY_RISE_FLOOR,
+    EVENT_RTOL,
+    EVENT_TOL_S,
+    FIRST_ORDER,
+    ISOTROPIC_TOL,
+    J_TOL,
+    gyroscopic_drift,
+    mode_of,
+    run_entry,
+    verdict,
+)
+from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.measures.verdict import predicted_outcome
+from tippetop.compare.running.runner import Task, run_tasks
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.models.calibrated import CALIBRATION_MU
+from tippetop.models.errors import TippetopError, expect
+from tippetop.models.numbers import number_text, solver_text
+
+#: The runs of a validation, in report order: the file as it says first.
+MODES: tuple[str, ...] = ("mujoco-file", "ode", "mujoco-paper", "mujoco-native")
+MUJOCO_MODES: tuple[str, ...] = ("mujoco-file", "mujoco-paper", "mujoco-native")
+
+
+@dataclass(frozen=True)
+class ValidateConfig:
+    """What ``tippetop validate`` was asked for.
+
+    Attributes:
+        model: The MJCF file.
+        t_end_s: Simulated time of every run (s).
+        keyframe: The file's keyframe to start from (None: its first).
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes (None: all cores).
+        use_cache: Read and write the runs cache.
+        engines: The engine specs the MuJoCo modes run on (:mod:`tippetop.models.engines`);
+            another spec than ``mujoco`` adds its runs as ``MODE@SPEC``.
+        tune: Fit the file's contact settings to the reference and verify them
+            (:mod:`tippetop.compare.studies.tune`; ``--no-tune`` skips it).
+        progress: Progress lines of the tuning on a terminal.
+    """
+
+    model: Path
+    t_end_s: float = DEFAULT_T_END_S
+    keyframe: str | None = None
+    scheduler: str | None = None
+    workers: int | None = None
+    use_cache: bool = True
+    engines: tuple[str, ...] = ("mujoco",)
+    tune: bool = True
+    progress: bool = True
+
+
+def run_key(mode: str, spec: str) -> str:
+    """A run's key in ``runs``: the mode, with ``@SPEC`` on another engine than ``mujoco``."""
+    return mode if spec in ("mujoco", "ode") or mode == "ode" else f"{mode}@{spec}"
+
+
+def _overrides(config: ValidateConfig) -> tuple[str, ...]:
+    over = [f"top.mjcf={str(config.model)!r}", f"run.t_end_s={config.t_end_s!r}"]
+    if config.keyframe is not None:
+        over.append(f"init.keyframe={config.keyframe!r}")
+    return tuple(over)
+
+
+def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
+             A_over_C: float | None = None, t_end_s: float | None = None) -> list[str]:
+    """What the file's own settings get wrong against the reference, with numbers.
+
+    With ``A_over_C`` (the top's) a Jellett drift under a first-order integrator names the
+    gyroscopic torque's integration among its causes (:func:`gyroscopic_drift`); with
+    ``t_end_s`` (the runs' horizon, s) an event only one run reaches says within how long.
+    """
+    f, ref = runs.get("mujoco-file"), runs.get("ode")
+    if not f or not ref:
+        return []
+    fs, rs = f, ref
+    if fs.get("theta_final") is None:
+        return [f"the file's own settings fail: {fs.get('message', f.get('error'))}"]
+    if rs.get("theta_final") is None:
+        return [f"the reference run failed: {rs.get('message', ref.get('error'))}"]
+    out = []
+    for key, what in (("t_invert", "turns the top over"), ("t_stem", "brings the stem down")):
+        a, b = fs.get(key), rs.get(key)
+        if a is not None and b is not None and abs(a - b) > max(EVENT_TOL_S, EVENT_RTOL * b):
+            later = "later" if a > b else "earlier"
+            out.append(f"its friction {what} {number_text(abs(a - b), 's')} {later} than the "
+                       f"reference ({number_text(a, 's')} against {number_text(b, 's')})")
+        elif (a is None) != (b is None):
+            who = "the reference" if a is None else "the file"
+            within = f"the run's {number_text(t_end_s, 's')}" if t_end_s is not None \
+                else "the run"
+            out.append(f"only {who} {what} within {within}")
+    if f["end_state"] != ref["end_state"]:
+        out.append(f"it ends {f['end_state']} (theta {number_text(fs['theta_final'], 'rad')}) "
+                   f"where the reference ends {ref['end_state']} (theta "
+                   f"{number_text(rs['theta_final'], 'rad')})")
+    integ, dt = fs.get("integrator"), fs.get("timestep_s")
+    step = f"its {integ} at dt = {dt:g} s" if integ and dt else "its integrator"
+    j = fs.get("J_rel_drift")
+    if j is not None and j > J_TOL["mujoco"]:
+        causes = ["a soft contact's sink"]
+        if (fs.get("condim") or 3) >= 4:
+            causes.append("torsional or rolling friction (condim "
+                          f"{fs.get('condim')})")
+        gyro = gyroscopic_drift(fs, A_over_C)
+        causes.append(f"the integration ({step} is {gyro})" if gyro else
+                      f"the integration ({step}; RK4 or a shorter step tells)")
+        out.append(f"Jellett's constant drifts by {number_text(j, 'relative')} (relative) "
+                   f"before the stem (a torque off the contact point or an error: "
+                   f"{', '.join(causes)})")
+    by_check = {c["check"]: c for c in checks if c["mode"] == "mujoco-file"}
+    energy = by_check.get("energy_never_rises")
+    if energy is not None and not energy["passed"] and energy["value"] is not None:
+        hint = (": Euler integrates a spinning body's gyroscopic forces explicitly, which gains "
+                "energy; use integrator=\"implicitfast\" or \"RK4\"" if integ == "Euler"
+                else "; a shorter timestep or RK4 tells whether the integration gains it")
+        out.append(f"its energy rises by {number_text(energy['value'], 'relative')} of E0, more "
+                   f"than its soft contacts can give back ({step}){hint}")
+    return out
+
+
+#: The settings ``suggestion`` lists where the file's run and the calibrated run differ.
+SETTINGS = ("timestep_s", "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu",
+            "solref", "solimp")
+
+
+def show_value(v: Any) -> str:
+    """A setting as the report and the terminal show it: ``0.02``, ``[0.02, 1]``, ``RK4``."""
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(f"{x:g}" for x in v) + "]"
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def show_setting(setting: str, v: Any) -> str:
+    """A setting of :data:`SETTINGS` with its units: ``0.002 s``, ``[0.02 s, 1]``.
+
+    solref's first number is a time (s) when it is positive (MuJoCo's timeconst, dampratio;
+    negative, it is a stiffness and a damping); solimp's third is a width (m).
+    """
+    if setting == "timestep_s" and isinstance(v, int | float):
+        return f"{v:g} s"
+    if setting in ("solref", "solimp") and isinstance(v, list | tuple):
+        return f"[{solver_text(setting, v)}]"
+    return show_value(v)
+
+
+def setting_changes(file_run: dict[str, Any], native: dict[str, Any]) -> list[dict[str, Any]]:
+    """Where the calibrated settings differ from the file's, as both ran (read back)."""
+    out = []
+    for key in SETTINGS:
+        a, b = file_run.get(key), native.get(key)
+        if a is None or b is None:
+            continue
+        same = (a == b if isinstance(a, str) else
+                len(a) == len(b) and all(math.isclose(x, y, rel_tol=1e-9) for x, y in
+                                         zip(a, b, strict=True))
+                if isinstance(a, list | tuple) else math.isclose(a, b, rel_tol=1e-9))
+        if not same:
+            out.append({"setting": key, "file": a, "calibrated": b})
+    return out
+
+
+def scaled_mu_clause(file_mu: float | None, native_mu: float | None) -> str:
+    """How the calibrated settings' friction came to this file: its mu and theirs, both said.
+
+    The calibration was made at :data:`CALIBRATION_MU` and its MuJoCo mu is scaled in
+    proportion to the law's: at the file's mu the calibrated contact's mu may differ from the
+    file's (1.04 for a file's 1, say), and then the sentence gives both.
+
+    Args:
+        file_mu: The file's mu (its ball geom's sliding friction), or None if unknown.
+        native_mu: The mu the calibrated run's contact ran with, or None if unknown.
+    """
+    head = f"They were calibrated on the paper's tops at mu = {CALIBRATION_MU:g}"
+    if file_mu is None or native_mu is None or file_mu <= 0:
+        known = file_mu if file_mu is not None else native_mu
+        if known is None:
+            return f"{head} and their friction scaled to this file's mu"
+        return f"{head} and their friction scaled to mu = {number_text(known)}"
+    if math.isclose(native_mu, file_mu, rel_tol=1e-9):
+        return f"{head} and their friction scaled to the file's mu = {number_text(file_mu)}"
+    at_calibration = native_mu / file_mu * CALIBRATION_MU
+    return (f"{head} (where MuJoCo's contact needs mu = {number_text(at_calibration)} to "
+            f"follow the law's {CALIBRATION_MU:g}) and scaled to the file's mu = "
+            f"{number_text(file_mu)}, which gives MuJoCo's contact mu = {number_text(native_mu)}")
+
+
+def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
+               file_run: dict[str, Any] | None = None,
+               file_mu: float | None = None) -> dict[str, Any]:
+    """The calibrated native settings that ran, as MJCF to paste, and whether they agree.
+
+    Args:
+        native: The ``mujoco-native`` run (:func:`run_entry`).
+        checks: The verdict's checks (:func:`verdict`).
+        file_run: The ``mujoco-file`` run, for the settings that differ from the file's.
+        file_mu: The file's mu as read from it (default: the file's run's ``mu``).
+
+    Returns:
+        ``option`` and ``geom`` (MJCF text), ``where`` (which geoms take the attributes),
+        ``changes`` (list of {setting, file, calibrated} where they differ from the file's),
+        ``agrees`` (every check of the ``mujoco-native`` run passed), ``departs`` (the checks
+        it fails) and ``note`` (one sentence: a fix, or why the calibration does not fix it).
+        Empty if the native run failed before it ran.
+    """
+    s = native
+    if s.get("timestep_s") is None:
+        return {}
+
+    option, geom = mjcf_attributes(s)
+    mine = [c for c in checks if c["mode"] == "mujoco-native"]
+    departs = [c["check"] for c in mine if not c["passed"]]
+    agrees = bool(mine) and not departs
+    paper = [c for c in checks if c["mode"] == "mujoco-paper"]
+    paper_agrees = bool(paper) and all(c["passed"] for c in paper)
+    if agrees:
+        note = ("with these settings MuJoCo's own friction passes every check against the "
+                "theory and the reference: paste them into the file")
+    else:
+        if file_mu is None and file_run is not None:
+            file_mu = file_run.get("mu")
+        note = (f"these settings do not fix it: with them MuJoCo still departs in "
+                f"{', '.join(departs)}. {scaled_mu_clause(file_mu, s.get('mu'))}: the "
+                f"calibration does not carry over to this top")
+        if paper_agrees:
+            note += ("; the paper's law in the same model (mujoco-paper, the harness's "
+                     "callback) does follow the reference")
+    return {
+        "option": option,
+        "geom": geom,
+        "where": "on the ball's, the stem's and the table's geoms (MuJoCo mixes the two "
+                 "geoms' values of a contact), or on the file's contact pairs if it has any "
+                 "(they override the geoms')",
+        "changes": setting_changes(file_run, s) if file_run else [],
+        "agrees": agrees,
+        "departs": departs,
+        "note": note,
+    }
+
+
+def validate(config: ValidateConfig) -> dict[str, Any]:
+    """Validate one MJCF top (see the module docstring).
+
+    Returns:
+        ``model``, ``runs`` (mode -> the simulate summary's keys, ``t_invert``, ``t_stem`` and
+        ``status`` always among them, and ``outcome``, ``end_state``, ``ran`` (one line),
+        ``E0_J``, ``error`` (None, or why the run could not start), ``note`` (where the run
+        differs from the file's settings)),
+        ``verdict``, ``agrees`` (every check passed), ``findings``, ``suggestion``,
+        ``t_end_s`` and ``tables`` (mode -> observables, not JSON: the caller writes them).
+
+    Raises:
+        TippetopError: A missing or invalid file, or a bad ``t_end_s`` (before any run).
+    """
+    expect(config.model.is_file(), "MODEL", "an existing MJCF file", str(config.model))
+    expect(math.isfinite(config.t_end_s) and 0 < config.t_end_s <= 600, "--t-end-s",
+           "a number of seconds in (0, 600]", config.t_end_s)
+    over = _overrides(config)
+    plan = Task(None, over, "ode").plan()  # validates the file and the keyframe before any run
+    loaded = plan_file_info(over)
+    # the paper's law runs at a step it can follow: the file's, or the largest 1-2-5 step
+    # below the law's limit, which the plan chooses and says (mujoco.fit_paper_timestep)
+    paper = (*over, "mujoco.fit_paper_timestep=true")
+    jobs = [(run_key(mode, spec), Task(None, paper if mode == "mujoco-paper" else over, mode,
+                                       spec=spec if mode != "ode" else "mujoco"))
+            for mode in MODES for spec in (config.engines if mode != "ode" else ("ode",))]
+    tasks = [t for _, t in jobs]
+    paper_note = "; ".join(next(t for k, t in jobs if mode_of(k) == "mujoco-paper")
+                           .plan().mujoco.notes)
+    results = run_tasks(tasks, scheduler=config.scheduler, workers=config.workers,
+                        use_cache=config.use_cache, label="validate")
+    top = plan.top
+    init = plan.init
+    J0 = float(theory.jellett_from_spin(top, init.n0, init.theta0, init.Omega0))
+    theta_pred, outcome_pred = predicted_outcome(top, J0)
+    th = theory.summary(top)
+    model = {
+        "file": str(config.model), "R_m": top.R_m, "a_m": top.a_m, "A": top.A_kgm2,
+        "C": top.C_kgm2, "M_kg": top.M_kg, "A_over_C": top.A_over_C,
+        "a_over_R": top.a_over_R, "mu": loaded["mu"], "group": th["group"], "n1": th["n1"],
+        "n4": th["n4"], "nc": th["nc"], "theta_s": theta_pred, "theory_outcome": outcome_pred,
+        "n0": init.n0, "theta0": init.theta0, "keyframe": loaded["keyframe"],
+        "stem": loaded["stem"], "stem_note": loaded["stem_note"],
+        "timestep_s": loaded["timestep_s"],
+    }
+    runs: dict[str, dict[str, Any]] = {}
+    tables = {}
+    for (mode, _task), res in zip(jobs, results, strict=True):
+        runs[mode] = run_entry(res)
+        if runs[mode]["error"]:
+            continue
+        if mode_of(mode) == "mujoco-paper" and paper_note:
+            runs[mode]["note"] = paper_note
+        if res.table is not None and len(res.table):
+            tables[mode] = res.table
+    refit(runs, tables, over, config)
+    checks = verdict(runs, outcome_pred, top.A_over_C)
+    tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
+             else {"skipped": "--no-tune"})
+    return {
+        "format": "tippetop-validate/1",
+        "model": model,
+        "t_end_s": config.t_end_s,
+        "engines": list(config.engines),
+        "runs": runs,
+        "verdict": checks,
+        "agrees": all(c["passed"] for c in checks),
+        "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
+        "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"),
+                                  file_mu=loaded["mu"])
+                       if "mujoco-native" in runs else {}),
+        "tuned": tuned,
+        "tables": tables,
+    }
+
+
+def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[str, ...],
+          config: ValidateConfig) -> None:
+    """Each MuJoCo run's ``friction_realised.refit`` (:func:`.refit.attach_refits`)."""
+    from tippetop.compare.studies.refit import attach_refits
+
+    attach_refits(runs, tables, "ode", lambda ov: Task(None, (*over, *ov), "ode"),
+                  {"scheduler": config.scheduler, "workers": config.workers,
+                   "use_cache": config.use_cache})
+
+
+def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, Any],
+              plan: Any, runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """``tuned``: the file's contact settings fitted and verified, or what stopped it.
+
+    See :func:`tippetop.compare.studies.tune.tune`: fitted to the reference at the file's
+    start, verified from held-out starts.
+    """
+    from tippetop.compare.studies.tune import tune
+
+    if (runs.get("ode") or {}).get("status") != "ok":
+        return {"skipped": "the reference run from the file's start did not complete",
+                "agrees": False}
+    top, init = plan.top, plan.init
+    file_run = runs.get("mujoco-file") or {}
+
+    def outcome_at(n0: float, theta0: float, role: str) -> str:
+        Omega0 = init.Omega0 if role == "fit" else 0.0
+        return predicted_outcome(top, float(theory.jellett_from_spin(top, n0, theta0,
+                                                                     Omega0)))[1]
+
+    base = tuple(o for o in over if not o.startswith("run.t_end_s="))
+    path = _tune_cache_path(over) if config.use_cache else None
+    if path is not None and path.is_file():
+        try:
+            cached = json.loads(path.read_text("utf-8"))
+            if isinstance(cached, dict) and cached.get("fit"):
+                return {**cached, "cached": True}
+        except (OSError, ValueError):  # a damaged entry is computed again
+            pass
+    try:
+        out = tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
+                    file_run=file_run, file_timestep_s=file_run.get("timestep_s"),
+                    file_integrator=file_run.get("integrator"),
+                    run_options={"scheduler": config.scheduler, "workers": config.workers,
+                                 "use_cache": config.use_cache},
+                    progress=config.progress, theory=outcome_at, A_over_C=top.A_over_C)
+    except TippetopError as exc:
+        return {"skipped": str(exc), "agrees": False}
+    if path is not None:
+        from tippetop.compare.running.io import json_ready, write_atomic
+
+        text = json.dumps(json_ready(out))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, lambda tmp: tmp.write_text(text, "utf-8"))
+    return {**out, "cached": False}
+
+
+def _tune_cache_path(over: tuple[str, ...]) -> Path:
+    """Where a tuning is kept in the cache.
+
+    Keyed by the file's run plan (its MJCF text, start and horizon) and the code, as every
+    cached run.
+    """
+    import hashlib
+
+    from tippetop.compare.measures import checks as verdict
+    from tippetop.compare.running.runner import code_fingerprint
+    from tippetop.compare.studies import tune
+    from tippetop.compare.studies.calibrate import identify, scoring
+    from tippetop.models.resources import user_cache_dir
+
+    plan = Task(None, over, "mujoco-file").plan()
+    # the runs' code, and the tuning's own (which the runs' fingerprint does not hold)
+    own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
+                                  for m in (tune, verdict, identify, scoring))).hexdigest()
+    key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
+                                     "tune": own, "what": "tune/1"}, sort_keys=True,
+                                    default=str).encode()).hexdigest()[:32]
+    return user_cache_dir() / "tune" / f"{key}.json"
+
+
+def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
+              workers: int | None = None, use_cache: bool = True,
+              progress: bool = True) -> dict[str, Any]:
+    """``tippetop calibrate --mjcf FILE``: the file's contact settings tuned, no report.
+
+    The reference and the file's own run at its start, then :func:`tune_file` (no paper or
+    calibrated runs).
+
+    Raises:
+        TippetopError: A missing or invalid file (before any run).
+    """
+    expect(model.is_file(), "--mjcf", "an existing MJCF file", str(model))
+    config = ValidateConfig(model=model, t_end_s=t_end_s, scheduler=scheduler,
+                            workers=workers, use_cache=use_cache, progress=progress)
+    over = _overrides(config)
+    plan = Task(None, over, "ode").plan()
+    loaded = plan_file_info(over)
+    results = run_tasks([Task(None, over, "ode"), Task(None, over, "mujoco-file")],
+                        scheduler=scheduler, workers=workers, use_cache=use_cache,
+                        label="calibrate --mjcf")
+    runs = {"ode": run_entry(results[0]), "mujoco-file": run_entry(results[1])}
+    return {"file": str(model), "mu": loaded["mu"], "n0": plan.init.n0,
+            "theta0": plan.init.theta0, "t_end_s": t_end_s,
+            "tuned": tune_file(config, over, loaded, plan, runs)}
+
+
+def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
+    """The file's mu, keyframe and stem as the plan reads them."""
+    from tippetop.models.scene import load_scene
+    from tippetop.mujoco_runner.state import file_top
+
+    scene = load_scene(None, list(overrides))
+    if scene.top_mjcf is None:  # pragma: no cover - the overrides always set it
+        raise TippetopError("validate: expected an MJCF top")
+    ft = file_top(scene.top_mjcf)
+    key = scene.init_keyframe or (ft.keyframes[0] if ft.keyframes else None)
+    stem = ft.stem
+    return {"mu": ft.mu, "keyframe": key, "timestep_s": ft.timestep_s,
+            "stem": None if stem is None else {"kind": stem.kind, "offset_m": stem.offset_m,
+                                               "radius_m": stem.radius_m},
+            "stem_note": ft.stem_note}
+
+
+__all__ = ["DEFAULT_T_END_S", "ENERGY_RISE_FLOOR", "EVENT_RTOL", "EVENT_TOL_S", "FIRST_ORDER",
+           "ISOTROPIC_TOL", "J_TOL", "MODES", "ValidateConfig", "findings",
+           "gyroscopic_drift", "mode_of", "run_entry", "run_key", "scaled_mu_clause",
+           "show_setting", "show_value", "suggestion", "validate", "verdict"]
