@@ -278,6 +278,70 @@ def test_readme_links_resolve() -> None:
     assert not bad, f"README.md links to missing files: {bad}"
 
 
+
+def _math_hook():
+    """docs/hooks/math.py as a module (by its path: its name would shadow the standard math)."""
+    import importlib.util
+
+    pytest.importorskip("latex2mathml", reason="the docs extra: pip install -e '.[docs]'")
+    spec = importlib.util.spec_from_file_location("tippetop_docs_math_hook",
+                                                  ROOT / "docs" / "hooks" / "math.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _math_headings() -> list[tuple[str, str]]:
+    """(where, heading line) of every heading of the docs with a formula in it."""
+    out = []
+    for path in sorted((ROOT / "docs").rglob("*.md")):
+        fence = None
+        for no, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            m = FENCE.match(line)
+            if m and (fence is None or m.group("fence").startswith(fence)):
+                fence = m.group("fence")[:3] if fence is None else None
+            elif fence is None and re.match(r"#{1,6}\s", line) and re.search(r"\$|\\\(", line):
+                out.append((f"{path.relative_to(ROOT)}:{no}", line))
+    return out
+
+
+def test_the_math_hook_leaves_no_raw_latex_in_headings() -> None:
+    """A formula in a heading shows as MathML in the table of contents (the sidebars) and as
+    text in the page's title, never as raw ``\\(\\xi\\)``: every such heading of the docs,
+    rendered as the site renders it (toc, arithmatex), then through the hook."""
+    markdown = pytest.importorskip("markdown")
+    pytest.importorskip("pymdownx.arithmatex")
+    toc_mod = pytest.importorskip("mkdocs.structure.toc")
+    hook = _math_hook()
+    headings = _math_headings()
+    assert any(where.startswith("docs/physics/theory.md") for where, _ in headings), headings
+    # a page whose first heading has a formula too (its title), and \( \) as well as $ $
+    lines = [r"# The \(\xi_\pm\) page", *(h for _, h in headings), r"### With \(a < b\)"]
+    md = markdown.Markdown(extensions=["toc", "pymdownx.arithmatex"],
+                           extension_configs={"pymdownx.arithmatex": {"generic": True}})
+    content = md.convert("\n\n".join(lines))
+    toc = toc_mod.get_toc(md.toc_tokens)
+    page = type("Page", (), {})()
+    page.file = type("File", (), {"src_uri": "test.md"})()
+    page.toc, page.title = toc, toc.items[0].title
+    assert "\\(" in page.title and "\\(" in toc.items[0].children[0].title  # as MkDocs has them
+
+    html = hook.on_page_content(content, page=page)
+
+    def entries(items):
+        for item in items:
+            yield item.title
+            yield from entries(item.children)
+
+    titles = list(entries(toc))
+    assert len(titles) == len(lines)
+    bad = [t for t in titles if "\\(" in t or "\\[" in t or "<math" not in t]
+    assert not bad, f"table-of-contents entries with raw LaTeX or no MathML: {bad}"
+    assert page.title == "The ξ± page"
+    assert "\\(" not in html and html.count("<math") == len(lines)
+    assert hook.title_text(r"\(a < b\)") == "a&lt;b"  # text, escaped for the HTML
+
+
 @pytest.fixture(scope="module")
 def docs_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     env = dict(os.environ)
@@ -370,3 +434,16 @@ def test_mkdocs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
     assert proc.returncode == 0 and not problems, log[-3000:]
     assert (tmp_path / "site" / "index.html").is_file()
     assert (tmp_path / "site" / "images" / "nightly-report.png").is_file()
+    # a formula in a heading: MathML in the tables of contents (both sidebars), text in the
+    # page's <title>, never the raw \( \) (docs/hooks/math.py)
+    raw = []
+    for page in sorted((tmp_path / "site").rglob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        labels = re.findall(r'<a [^>]*class="md-nav__link[^"]*"[^>]*>(.*?)</a>', text, re.S)
+        labels += re.findall(r"<title>(.*?)</title>", text, re.S)
+        raw += [f"{page.relative_to(tmp_path / 'site')}: {' '.join(label.split())}"
+                for label in labels if "\\(" in label or "\\[" in label]
+    assert not raw, "raw LaTeX in a table of contents or a title:\n" + "\n".join(raw)
+    theory = (tmp_path / "site" / "physics" / "theory.html").read_text(encoding="utf-8")
+    assert re.search(r'href="#the-gyroscopic[^"]*" class="md-nav__link">\s*<span[^>]*>\s*'
+                     r"The gyroscopic balance condition and the <math", theory)
