@@ -4,7 +4,7 @@ r"""MkDocs hook: the formulas as MathML, made at build time (no script, no netwo
 ``span.arithmatex`` (``\[...\]`` in a ``div`` for a displayed one); this hook converts each to
 MathML with latex2mathml, which browsers draw natively, so the site shows its formulas opened
 from disk as well as served. A formula latex2mathml cannot read is a warning naming the page and
-the formula, which fails ``mkdocs build --strict``.
+the formula, which fails ``properdocs build --strict``.
 
 A heading's formula also reaches the table of contents (the sidebars) and, in a page's first
 heading, the page's title, which the toc extension takes as text, before this hook: there it
