@@ -11,9 +11,9 @@ The convention (docs/development/docs.md says it for writers):
 - ``<!-- docs-test: slow -->`` on the line before the fence marks a block that takes more than
   about 20 s: it runs in the slow suite (``pytest -m slow``).
 - Commands that install or that CI itself runs (``pip``, ``apt-get``, ``uv``, ``bash
-  scripts/...``, ``pytest``, ``ruff``, ``mkdocs``) are not run here: each must be a command
-  ``.ci/run`` runs (``sudo`` and quiet flags aside), so the docs install exactly what CI tests.
-  ``mkdocs build --strict`` itself is run by :func:`test_mkdocs_build_strict`.
+  scripts/...``, ``pytest``, ``ruff``, ``properdocs``) are not run here: each must be a
+  command ``.ci/run`` runs (``sudo`` and quiet flags aside), so the docs install exactly what CI
+  tests. ``properdocs build --strict`` itself is run by :func:`test_docs_build_strict`.
 - Blocks of other languages (toml, xml, json, text, ...) are data, not commands; ``bash``,
   ``sh`` and ``shell`` blocks are refused, so that no command escapes the test.
 
@@ -46,8 +46,8 @@ CI_RUN = ROOT / ".ci" / "run"
 INPUTS = ("examples", "models")
 
 #: Commands that install, or that CI runs itself: checked against .ci/run, never run here.
-CI_PROGRAMS = {"pip", "pip3", "apt-get", "apt", "uv", "pytest", "ruff", "mkdocs", "venv", ".",
-               "source"}
+CI_PROGRAMS = {"pip", "pip3", "apt-get", "apt", "uv", "pytest", "ruff", "properdocs", "mkdocs",
+               "zensical", "venv", ".", "source"}
 #: Flags that change only how much a CI command prints.
 QUIET_FLAGS = {"-q", "-qq", "--quiet", "--no-progress"}
 #: Fence languages that would hold commands outside the convention.
@@ -278,13 +278,76 @@ def test_readme_links_resolve() -> None:
     assert not bad, f"README.md links to missing files: {bad}"
 
 
+
+def _math_hook():
+    """docs/hooks/math.py as a module (by its path: its name would shadow the standard math)."""
+    import importlib.util
+
+    pytest.importorskip("latex2mathml", reason="the docs extra: pip install -e '.[docs]'")
+    spec = importlib.util.spec_from_file_location("tippetop_docs_math_hook",
+                                                  ROOT / "docs" / "hooks" / "math.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _math_headings() -> list[tuple[str, str]]:
+    """(where, heading line) of every heading of the docs with a formula in it."""
+    out = []
+    for path in sorted((ROOT / "docs").rglob("*.md")):
+        fence = None
+        for no, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            m = FENCE.match(line)
+            if m and (fence is None or m.group("fence").startswith(fence)):
+                fence = m.group("fence")[:3] if fence is None else None
+            elif fence is None and re.match(r"#{1,6}\s", line) and re.search(r"\$|\\\(", line):
+                out.append((f"{path.relative_to(ROOT)}:{no}", line))
+    return out
+
+
+def test_the_math_hook_leaves_no_raw_latex_in_headings() -> None:
+    """A formula in a heading shows as MathML in the table of contents (the sidebars) and as
+    text in the page's title, never as raw ``\\(\\xi\\)``: every such heading of the docs,
+    rendered as the site renders it (toc, arithmatex), then through the hook."""
+    markdown = pytest.importorskip("markdown")
+    pytest.importorskip("pymdownx.arithmatex")
+    toc_mod = pytest.importorskip("properdocs.structure.toc")
+    hook = _math_hook()
+    headings = _math_headings()
+    assert any(where.startswith("docs/physics/theory.md") for where, _ in headings), headings
+    # a page whose first heading has a formula too (its title), and \( \) as well as $ $
+    lines = [r"# The \(\xi_\pm\) page", *(h for _, h in headings), r"### With \(a < b\)"]
+    md = markdown.Markdown(extensions=["toc", "pymdownx.arithmatex"],
+                           extension_configs={"pymdownx.arithmatex": {"generic": True}})
+    content = md.convert("\n\n".join(lines))
+    toc = toc_mod.get_toc(md.toc_tokens)
+    page = type("Page", (), {})()
+    page.file = type("File", (), {"src_uri": "test.md"})()
+    page.toc, page.title = toc, toc.items[0].title
+    assert "\\(" in page.title and "\\(" in toc.items[0].children[0].title  # as MkDocs has them
+
+    html = hook.on_page_content(content, page=page)
+
+    def entries(items):
+        for item in items:
+            yield item.title
+            yield from entries(item.children)
+
+    titles = list(entries(toc))
+    assert len(titles) == len(lines)
+    bad = [t for t in titles if "\\(" in t or "\\[" in t or "<math" not in t]
+    assert not bad, f"table-of-contents entries with raw LaTeX or no MathML: {bad}"
+    assert page.title == "The ξ± page"
+    assert "\\(" not in html and html.count("<math") == len(lines)
+    assert hook.title_text(r"\(a < b\)") == "a&lt;b"  # text, escaped for the HTML
+
+
 @pytest.fixture(scope="module")
 def docs_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     env = dict(os.environ)
     env["TIPPETOP_CACHE"] = str(tmp_path_factory.mktemp("tippetop-cache"))
     env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
     env.pop("NUMBA_CACHE_DIR", None)
-    env.setdefault("NO_MKDOCS_2_WARNING", "1")
     return env
 
 
@@ -352,21 +415,39 @@ def test_docs_commands_slow(block: Block, docs_env: dict[str, str], tmp_path: Pa
     _run_block(block, docs_env, tmp_path)
 
 
-def test_mkdocs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
-    """The site builds with warnings as errors (links, anchors, the API pages' docstrings);
-    the images are left out here (TIPPETOP_DOCS_IMAGES=0): CI builds them in its own step."""
-    pytest.importorskip("mkdocs", reason="the docs extra: pip install -e '.[docs]'")
+def test_docs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
+    """The site builds with warnings as errors (links, anchors, the API pages' docstrings),
+    printing only INFO lines (no notice, no deprecation: a newcomer reads what it prints); the
+    images are left out here (TIPPETOP_DOCS_IMAGES=0): CI builds them in its own step."""
+    pytest.importorskip("properdocs", reason="the docs extra: pip install -e '.[docs]'")
     pytest.importorskip("mkdocstrings_handlers.python", reason="pip install -e '.[docs]'")
     env = dict(docs_env, TIPPETOP_DOCS_IMAGES="0")
     # as in a fresh clone: the API hook's links (build/docs-api) made by this build (a first
     # build once failed where a second passed: mkdocstrings left out a path not there yet)
     shutil.rmtree(ROOT / "build" / "docs-api", ignore_errors=True)
-    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
-                           str(tmp_path / "site"), "--config-file", str(ROOT / "mkdocs.yml")],
+    # the README's command, as a newcomer runs it (no config file named: properdocs.yml is
+    # found by its name; no variable to hide a notice); only the site folder is a temporary one
+    proc = subprocess.run(["properdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
                           check=False)
     log = proc.stdout + proc.stderr
-    problems = [ln for ln in log.splitlines() if ln.startswith(("WARNING", "ERROR"))]
-    assert proc.returncode == 0 and not problems, log[-3000:]
+    assert proc.returncode == 0, log[-3000:]
+    # every line it prints is an INFO line
+    not_info = [ln for ln in log.splitlines() if ln.strip() and not ln.startswith("INFO")]
+    assert not not_info, "the docs build printed more than INFO lines:\n" + log[-3000:]
+    assert "NO_MKDOCS_2_WARNING" not in log and "end of life" not in log
     assert (tmp_path / "site" / "index.html").is_file()
     assert (tmp_path / "site" / "images" / "nightly-report.png").is_file()
+    # a formula in a heading: MathML in the tables of contents (both sidebars), text in the
+    # page's <title>, never the raw \( \) (docs/hooks/math.py)
+    raw = []
+    for page in sorted((tmp_path / "site").rglob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        labels = re.findall(r'<a [^>]*class="md-nav__link[^"]*"[^>]*>(.*?)</a>', text, re.S)
+        labels += re.findall(r"<title>(.*?)</title>", text, re.S)
+        raw += [f"{page.relative_to(tmp_path / 'site')}: {' '.join(label.split())}"
+                for label in labels if "\\(" in label or "\\[" in label]
+    assert not raw, "raw LaTeX in a table of contents or a title:\n" + "\n".join(raw)
+    theory = (tmp_path / "site" / "physics" / "theory.html").read_text(encoding="utf-8")
+    assert re.search(r'href="#the-gyroscopic[^"]*" class="md-nav__link">\s*<span[^>]*>\s*'
+                     r"The gyroscopic balance condition and the <math", theory)

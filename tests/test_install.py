@@ -82,6 +82,18 @@ def test_readme_and_ci_use_the_same_script_and_the_lock() -> None:
     assert "pip install -q --no-deps -e ." in ci
 
 
+
+def test_ci_builds_the_docs_with_the_readmes_command_and_no_hidden_variable() -> None:
+    # issue 29: the README's `mkdocs build --strict` printed Material's end-of-life notice and a
+    # variable to hide it that only CI set. The site is built by ProperDocs, which prints
+    # neither: CI runs the README's command as it stands (tests/test_docs.py checks what it
+    # prints)
+    ci = (ROOT / ".ci" / "run").read_text()
+    readme = (ROOT / "README.md").read_text()
+    assert "`properdocs build --strict`" in readme
+    assert re.search(r"^properdocs build --strict$", ci, re.M)
+    assert "NO_MKDOCS_2_WARNING" not in ci and "mkdocs build" not in ci
+
 def _lock() -> dict[str, tuple[Version, str]]:
     """name -> (version, environment marker) of every pin that applies to this interpreter."""
     env = default_environment()

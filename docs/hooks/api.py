@@ -4,7 +4,7 @@ The repository keeps its packages in top-level folders (``models/``, ``reference
 ``mujoco_runner/``, ``compare/``) and installs them as ``tippetop.models`` and so on
 (pyproject.toml's ``package-dir``). griffe, which reads the source for mkdocstrings, finds a
 package by its folder's name, so this hook links the folders under
-``build/docs-api/tippetop/`` (``build/`` is ignored by git), the search path mkdocs.yml gives
+``build/docs-api/tippetop/`` (``build/`` is ignored by git), the search path properdocs.yml gives
 the python handler. The links are made at start-up (:func:`on_startup`), before mkdocstrings
 reads its paths.
 
@@ -29,7 +29,7 @@ from mkdocs.structure.pages import Page
 #: The packages: import name under ``tippetop`` -> folder in the repository.
 PACKAGES = ("models", "reference_ode", "mujoco_runner", "compare")
 
-#: The search path, relative to mkdocs.yml (the python handler's ``paths``).
+#: The search path, relative to properdocs.yml (the python handler's ``paths``).
 API_SRC = Path("build") / "docs-api"
 
 
@@ -59,8 +59,9 @@ def link_packages(root: Path) -> None:
         elif link.is_dir():
             shutil.rmtree(link)
         link.symlink_to(src, target_is_directory=True)
-    # `mkdocs` run as a console script has its bin folder first on sys.path, and in it the
-    # `tippetop` script, which griffe would take for a portion of the namespace package
+    # `properdocs` (or `mkdocs`) run as a console script has its bin folder first on
+    # sys.path, and in it the `tippetop` script, which griffe would take for a portion of the
+    # namespace package
     sys.path[:] = [p for p in sys.path if not (Path(p or ".") / "tippetop").is_file()]
 
 

@@ -10,7 +10,7 @@ About 50 s on 2 cores (measured with a fresh and with a warm compile cache, whic
 share with the user's: ``$TIPPETOP_CACHE``). ``TIPPETOP_DOCS_IMAGES=0`` skips
 the commands for a quick local build: the pages then show placeholders, with one notice (not a
 warning). A missing Chromium, a missing offscreen OpenGL or a failing command is one warning
-line naming it, which fails ``mkdocs build --strict``.
+line naming it, which fails ``properdocs build --strict``.
 """
 
 from __future__ import annotations
