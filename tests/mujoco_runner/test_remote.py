@@ -1,12 +1,12 @@
 """A plan run by the worker in another Python is the in-process run; a broken worker is one
 failed run with its reason.
 
-The worker (``mujoco_runner/worker.py``) needs nothing but ``mujoco`` and ``numpy``: it steps
-from Python (``mj_step`` per sample interval) with paper mode's law as a Python passive callback,
-where an in-process run steps in the compiled loop with the compiled callback. In this very
-interpreter (the same MuJoCo) both do the same floating-point operations on the same states, so
-the tables are compared bit for bit: native and paper mode, a stem the law also acts at, a
-file's keyframe as the start.
+The worker (the folder ``mujoco_runner/worker/``, started by path) needs nothing but ``mujoco``
+and ``numpy``: it steps from Python (``mj_step`` per sample interval) with paper mode's law as a
+Python passive callback, where an in-process run steps in the compiled loop with the compiled
+callback. In this very interpreter (the same MuJoCo) both do the same floating-point operations
+on the same states, so the tables are compared bit for bit: native and paper mode, a stem the
+law also acts at, a file's keyframe as the start.
 """
 
 from __future__ import annotations
@@ -119,22 +119,29 @@ def test_a_python_without_mujoco_says_so(tmp_path: Path) -> None:
 
 
 def test_the_worker_imports_nothing_but_mujoco_numpy_and_the_standard_library() -> None:
-    tree = ast.parse(remote.WORKER.read_text())
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            names.add((node.module or "").split(".")[0])
-    assert names <= {"__future__", "contextlib", "importlib", "json", "math", "os", "sys",
-                     "time", "traceback", "typing", "mujoco", "numpy", "jax", "warp",
-                     "mujoco_warp"}, names
-    # MJX's and Warp's packages only where those engines run (a plain MuJoCo needs neither)
-    top = {a.name.split(".")[0] for node in tree.body if isinstance(node, ast.Import)
-           for a in node.names}
-    top |= {(node.module or "").split(".")[0] for node in tree.body
-            if isinstance(node, ast.ImportFrom)}
-    assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, top
+    files = sorted(remote.WORKER.glob("*.py"))
+    own = {p.stem for p in files}
+    assert {"__init__", "__main__"} <= own
+    for path in files:
+        tree = ast.parse(path.read_text())
+        names = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level:  # its own files alone
+                targets = {node.module} if node.module else {a.name for a in node.names}
+                assert node.level == 1 and targets <= own, (path.name, node.module)
+            elif isinstance(node, ast.ImportFrom):
+                names.add((node.module or "").split(".")[0])
+        assert names <= {"__future__", "contextlib", "importlib", "json", "math", "os", "sys",
+                         "time", "traceback", "types", "typing", "mujoco", "numpy", "jax",
+                         "warp", "mujoco_warp"}, (path.name, names)
+        # MJX's and Warp's packages only where those engines run (a plain MuJoCo needs neither)
+        top = {a.name.split(".")[0] for node in tree.body if isinstance(node, ast.Import)
+               for a in node.names}
+        top |= {(node.module or "").split(".")[0] for node in tree.body
+                if isinstance(node, ast.ImportFrom) and not node.level}
+        assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, (path.name, top)
 
 
 def test_a_worker_answers_one_request_after_another() -> None:

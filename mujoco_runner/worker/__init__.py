@@ -1,12 +1,13 @@
-"""Run one MuJoCo plan in another Python: a script that needs nothing but ``mujoco`` and ``numpy``.
+"""Run one MuJoCo plan in another Python: a worker that needs nothing but ``mujoco`` and ``numpy``.
 
-``PYTHON worker.py`` reads requests (JSON, one line each) on stdin until its end; for each it
-steps the plan's model sample by sample as the harness does from Python, and writes the samples,
-the contacts at each sample and paper mode's forces to the ``.npz`` file the request names;
-stdout carries progress lines and then one JSON line that says how the request ended (its
-reply). The harness keeps a worker for its next request. The harness turns that into a run's result
-(:mod:`tippetop.mujoco_runner.remote`). This file imports nothing of tippetop's, so it runs in
-any interpreter that can ``import mujoco`` (a managed environment, a user's own build).
+``PYTHON path/to/worker`` (this folder, started by path: :mod:`.__main__`) reads requests (JSON,
+one line each) on stdin until its end; for each it steps the plan's model sample by sample as
+the harness does from Python, and writes the samples, the contacts at each sample and paper
+mode's forces to the ``.npz`` file the request names; stdout carries progress lines and then one
+JSON line that says how the request ended (its reply). The harness keeps a worker for its next
+request. The harness turns that into a run's result (:mod:`tippetop.mujoco_runner.remote`).
+This folder imports nothing of tippetop's, so it runs in any interpreter that can ``import
+mujoco`` (a managed environment, a user's own build), from its own files alone.
 
 The request's optional ``engine`` (``{"implementation": "mujoco"|"mjx"|"warp", "precision":
 "float64"|"float32"}``) picks what steps the plan: MuJoCo C (``mj_step``, the default), MuJoCo
@@ -58,7 +59,7 @@ PROGRESS_S = 0.2
 
 
 #: Where progress lines and the reply go: the process's stdout as it was at the start (see
-#: :func:`_keep_stdout_for_replies`).
+#: :func:`keep_stdout_for_replies`).
 _OUT = sys.stdout
 
 
@@ -71,7 +72,7 @@ def _say(obj: dict) -> None:
     _OUT.flush()
 
 
-def _keep_stdout_for_replies() -> None:
+def keep_stdout_for_replies() -> None:
     """Keep fd 1 for the replies alone.
 
     Anything else printed (JAX's or Warp's banners, their kernels' compile lines, C
@@ -799,7 +800,3 @@ def answer(line: str) -> dict:
         return {"status": "error",
                 "message": " ".join(f"{type(exc).__name__}: {exc}{where}".split())[:2000]}
 
-
-if __name__ == "__main__":
-    _keep_stdout_for_replies()
-    raise SystemExit(main())
