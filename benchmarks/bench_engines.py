@@ -4,7 +4,7 @@ Issue 21's benchmark, in one run, on ``mujoco==--version`` (default 3.3.7; its m
 environment is made first, outside the timing, if it is missing):
 
 * ``in process`` (the baseline): one fresh process of the environment's own Python that loads
-  the harness's worker script (``mujoco_runner/worker.py``) as a module by path and calls its
+  the harness's worker (the folder ``mujoco_runner/worker/``) as a package by path and calls its
   ``run(request)`` for each plan, one after another: the plan's MJCF compiled, stepped sample by
   sample, the contacts recomputed at each sample (the worker's post-pass) and the arrays written
   to an ``.npz``, exactly as a worker does. The requests are the ones the matrix sends
@@ -92,15 +92,18 @@ from tippetop.mujoco_runner.settings import build_model
 MATRIX_MAX_X = 1.2
 FIND_ENV_MAX_S = 1.0
 
-#: Runs in the environment's Python: loads the worker by path and runs each request in turn;
-#: its last stdout line is a JSON object of timings. ``numpy.savez`` is wrapped to time the
-#: ``.npz`` writing (``run`` looks it up on the module at each call).
+#: Runs in the environment's Python: loads the worker's folder by path as its ``__main__.py``
+#: does (its ``load``) and runs each request in turn; its last stdout line is a JSON object of
+#: timings. ``numpy.savez`` is wrapped to time the ``.npz`` writing (``run`` looks it up on the
+#: module at each call).
 BASELINE_CODE = """\
-import importlib.util, json, sys, time
+import importlib.util, json, os, sys, time
 t0 = time.perf_counter()
-spec = importlib.util.spec_from_file_location("tippetop_worker", sys.argv[1])
-worker = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(worker)
+spec = importlib.util.spec_from_file_location("tippetop_worker_start",
+                                              os.path.join(sys.argv[1], "__main__.py"))
+start = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(start)
+worker = start.load(sys.argv[1])
 import mujoco, numpy
 import_s = time.perf_counter() - t0
 savez, saved = numpy.savez, [0.0]

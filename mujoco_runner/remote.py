@@ -1,9 +1,10 @@
 """Run a MuJoCo plan in another Python (another MuJoCo) through :mod:`.worker`.
 
-:func:`simulate_in` sends the plan's model, start, grid and law to ``worker.py`` started in the
-given interpreter, which needs nothing but ``mujoco`` and ``numpy``; its samples, contacts and
-forces come back in a ``.npz`` file, and this process turns them into the same
-:class:`~.results.MujocoResult` as an in-process run (:func:`~.results.result_from_samples`).
+:func:`simulate_in` sends the plan's model, start, grid and law to the worker (the folder
+``worker/``, started by path) in the given interpreter, which needs nothing but ``mujoco`` and
+``numpy``; its samples, contacts and forces come back in a ``.npz`` file, and this process turns
+them into the same :class:`~.results.MujocoResult` as an in-process run
+(:func:`~.results.result_from_samples`).
 A worker that crashes, hangs past its budget or answers with anything but its reply is one
 failed run, with the reason (:class:`WorkerFailed`).
 """
@@ -37,8 +38,9 @@ from tippetop.mujoco_runner.record import ContactRecord, SampleRecord
 from tippetop.mujoco_runner.results import MujocoResult, result_from_samples
 from tippetop.mujoco_runner.settings import build_model, friction_that_acts
 
-#: The worker script, run by path in the other interpreter.
-WORKER = Path(worker.__file__)
+#: The worker's folder, run by path in the other interpreter (``PYTHON -u WORKER``: its
+#: ``__main__.py``).
+WORKER = Path(worker.__file__).parent
 #: Wall time a worker may take beyond its expected cost before it is stopped (s), and the
 #: factor on the expected cost: a hung worker is a failed run, not a hung harness.
 BUDGET_MIN_S = 60.0

@@ -1,17 +1,18 @@
 """A plan run by the worker in another Python is the in-process run; a broken worker is one
 failed run with its reason.
 
-The worker (``mujoco_runner/worker.py``) needs nothing but ``mujoco`` and ``numpy``: it steps
-from Python (``mj_step`` per sample interval) with paper mode's law as a Python passive callback,
-where an in-process run steps in the compiled loop with the compiled callback. In this very
-interpreter (the same MuJoCo) both do the same floating-point operations on the same states, so
-the tables are compared bit for bit: native and paper mode, a stem the law also acts at, a
-file's keyframe as the start.
+The worker (the folder ``mujoco_runner/worker/``, started by path) needs nothing but ``mujoco``
+and ``numpy``: it steps from Python (``mj_step`` per sample interval) with paper mode's law as a
+Python passive callback, where an in-process run steps in the compiled loop with the compiled
+callback. In this very interpreter (the same MuJoCo) both do the same floating-point operations
+on the same states, so the tables are compared bit for bit: native and paper mode, a stem the
+law also acts at, a file's keyframe as the start.
 """
 
 from __future__ import annotations
 
 import ast
+import os
 import sys
 from pathlib import Path
 
@@ -119,22 +120,105 @@ def test_a_python_without_mujoco_says_so(tmp_path: Path) -> None:
 
 
 def test_the_worker_imports_nothing_but_mujoco_numpy_and_the_standard_library() -> None:
-    tree = ast.parse(remote.WORKER.read_text())
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            names.add((node.module or "").split(".")[0])
-    assert names <= {"__future__", "contextlib", "importlib", "json", "math", "os", "sys",
-                     "time", "traceback", "typing", "mujoco", "numpy", "jax", "warp",
-                     "mujoco_warp"}, names
-    # MJX's and Warp's packages only where those engines run (a plain MuJoCo needs neither)
-    top = {a.name.split(".")[0] for node in tree.body if isinstance(node, ast.Import)
-           for a in node.names}
-    top |= {(node.module or "").split(".")[0] for node in tree.body
-            if isinstance(node, ast.ImportFrom)}
-    assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, top
+    files = sorted(remote.WORKER.glob("*.py"))
+    own = {p.stem for p in files}
+    assert {"__init__", "__main__"} <= own
+    for path in files:
+        tree = ast.parse(path.read_text())
+        names = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level:  # its own files alone
+                targets = {node.module} if node.module else {a.name for a in node.names}
+                assert node.level == 1 and targets <= own, (path.name, node.module)
+            elif isinstance(node, ast.ImportFrom):
+                names.add((node.module or "").split(".")[0])
+        assert names <= {"__future__", "contextlib", "importlib", "json", "math", "os", "sys",
+                         "time", "traceback", "types", "typing", "mujoco", "numpy", "jax",
+                         "warp", "mujoco_warp"}, (path.name, names)
+        # MJX's and Warp's packages only where those engines run (a plain MuJoCo needs neither)
+        top = {a.name.split(".")[0] for node in tree.body if isinstance(node, ast.Import)
+               for a in node.names}
+        top |= {(node.module or "").split(".")[0] for node in tree.body
+                if isinstance(node, ast.ImportFrom) and not node.level}
+        assert not top & {"mujoco", "numpy", "jax", "warp", "mujoco_warp"}, (path.name, top)
+
+
+def test_the_worker_modules_shadow_nothing_it_imports() -> None:
+    """Its modules are reached through its package alone (off ``sys.path`` when run by path);
+    even so none is named like a module of the standard library or of the engines' packages."""
+    own = {p.stem for p in remote.WORKER.glob("*.py")} - {"__init__", "__main__"}
+    assert own == {"protocol", "serve", "paper_law", "mjx_stepper", "warp_stepper"}
+    assert not own & (set(sys.stdlib_module_names) | {"mujoco", "numpy", "jax", "jaxlib",
+                                                       "warp", "mujoco_warp", "glfw"})
+
+
+def _python_without_tippetop(root: Path) -> tuple[str, Path]:
+    """A Python that imports this one's ``mujoco`` and ``numpy`` (and what they import) but not
+    tippetop: a virtual environment without pip whose ``.pth`` names a folder of links to those
+    packages alone. Returns its interpreter and that folder."""
+    import subprocess
+    import venv
+
+    import mujoco
+    import numpy
+
+    lean = root / "lean-site"
+    lean.mkdir()
+    site = Path(mujoco.__file__).parents[1]
+    assert Path(numpy.__file__).parents[1] == site
+    for entry in site.iterdir():  # the packages, their .libs and .dist-info folders
+        if entry.name.lower().startswith(("mujoco", "numpy", "glfw")):
+            (lean / entry.name).symlink_to(entry)
+    venv.create(root / "venv", with_pip=False, symlinks=True)
+    python = str(root / "venv" / "bin" / "python")
+    purelib = subprocess.run([python, "-I", "-c", "import sysconfig; "
+                              "print(sysconfig.get_path('purelib'))"], capture_output=True,
+                             text=True, check=True, timeout=60).stdout.strip()
+    (Path(purelib) / "lean.pth").write_text(f"{lean}\n")
+    return python, lean
+
+
+def test_the_worker_runs_from_its_files_alone_in_a_python_without_tippetop(
+        tmp_path: Path, monkeypatch) -> None:
+    """Its folder copied elsewhere and started by path, as the harness starts it, in a Python
+    that cannot import tippetop, with modules of its modules' names on that Python's path: it
+    answers the handshake, then runs a paper-mode plan as this process does, to the bit."""
+    import json
+    import shutil
+    import subprocess
+
+    python, lean = _python_without_tippetop(tmp_path)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    env["MUJOCO_GL"] = "disable"
+    bare = subprocess.run([python, "-I", "-c", "import mujoco, numpy, tippetop"],
+                          capture_output=True, text=True, timeout=120, env=env)
+    assert "No module named 'tippetop'" in bare.stderr, bare.stderr
+    for name in ("protocol", "serve", "paper_law", "__main__"):  # never these
+        (lean / f"{name}.py").write_text("raise SystemExit('shadowed: wrong module')\n")
+    copy = tmp_path / "elsewhere" / "worker"
+    shutil.copytree(remote.WORKER, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    said = subprocess.run([python, "-I", "-u", str(copy)], input='{"protocol": 3}\n',
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path, env=env)
+    assert said.returncode == 0, said.stderr
+    (line,) = said.stdout.splitlines()
+    reply = json.loads(line)
+    assert reply["protocol"] == remote.worker.PROTOCOL and reply["status"] == "error"
+    assert reply["message"].startswith("ValueError: expected protocol 4, got 3")
+    assert reply["executable"] == python and reply["version"] == alone_version()
+
+    monkeypatch.setattr(remote, "WORKER", copy)
+    plan = mujoco_plan("run.t_end_s=0.05", "mujoco.friction=paper")
+    try:
+        there, info = remote.simulate_in(python, plan, env=env)
+    finally:
+        remote.close_workers()
+    alone = simulate_plan(plan)
+    assert info.executable == python and info.path == "plain loop"
+    assert there.status == alone.status == "ok" and there.ran == alone.ran
+    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+    assert there.contacts.tobytes() == alone.contacts.tobytes()
 
 
 def test_a_worker_answers_one_request_after_another() -> None:
