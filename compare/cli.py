@@ -35,6 +35,17 @@ from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, ru
 COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
             report, calibrate, render, validate, atlas, mjcf)
 
+#: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
+ENGINES: dict[str, str] = {
+    "ode": "the reference: the paper's equations, compiled (the default)",
+    "mujoco": "the MuJoCo installed with tippetop, in this process",
+    "mujoco==X.Y.Z": "a MuJoCo release, in an environment made with uv on first use",
+    "mujoco@PYTHON": "the mujoco that interpreter imports (a build of your own): a path, or a "
+                     "command on PATH",
+    "mjx, mjx-f32": "MuJoCo MJX on JAX, float64 and float32, on the CPU here",
+    "warp": "MuJoCo Warp, float32, on the CPU here",
+}
+
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {
     "TIPPETOP_CACHE": "folder of the run cache and the compiled code (default "
@@ -107,10 +118,10 @@ def _help_width() -> int:
 
 
 def top_epilog() -> str:
-    """The end of ``tippetop --help``: scenes, modes, environment and exit statuses."""
+    """The end of ``tippetop --help``: scenes, engines, modes, environment and exit statuses."""
     import textwrap
 
-    from tippetop.models.modes import MODES
+    from tippetop.models.modes import MODES, runs_on
 
     width = _help_width()
 
@@ -128,8 +139,14 @@ def top_epilog() -> str:
     lines = block("scenes (SCENE is one of these or a scene .toml file; without one, simulate "
                   "and render run the paper's eq. 3.10 top from the Fig. 3 start):",
                   scene_catalogue())
-    lines += [""] + wrap("modes (--modes; --engine takes ode, mujoco or a mode): "
-                         + ", ".join(MODES))
+    lines += [""] + block("engines (--engine, --engines: what integrates a run):",
+                          list(ENGINES.items()))
+    lines += [""] + block("modes (--mode, --modes: how the contact force is made):",
+                          [(name, f"{m.meaning} ({runs_on(name)})")
+                           for name, m in MODES.items()])
+    lines += [""] + wrap("a run is named ENGINE/MODE (mujoco/native, ode/paper); a pairing "
+                         "that cannot run (native on ode, coulomb on mujoco) is refused in one "
+                         "line")
     lines += [""] + block("environment:", list(ENVIRONMENT.items()))
     lines += [""] + block("exit status:", [(str(k), v) for k, v in EXIT_STATUSES.items()])
     lines += [""] + wrap("'tippetop COMMAND --help' lists a command's options, each with its "

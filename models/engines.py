@@ -1,9 +1,12 @@
-"""Engine specs: which implementation of MuJoCo runs a plan, from where, at what precision.
+"""Engines: what integrates a run, from where, at what precision.
 
-``mujoco`` is the MuJoCo installed beside tippetop, in this process; ``mujoco==X.Y.Z`` a
-release in a managed environment; ``mujoco@PYTHON`` the ``mujoco`` that interpreter imports (a
-build from source, a nightly wheel); ``mjx`` and ``mjx-f32`` MuJoCo MJX on JAX in float64 and
-float32; ``warp`` MuJoCo Warp (float32). :func:`parse_engine` reads one.
+An *engine* is what integrates (a *mode*, :mod:`tippetop.models.modes`, is how the contact
+force is made). ``ode`` is the reference ODE; ``mujoco`` the MuJoCo installed beside tippetop,
+in this process; ``mujoco==X.Y.Z`` a release in a managed environment; ``mujoco@PYTHON`` the
+``mujoco`` that interpreter imports (a build from source, a nightly wheel); ``mjx`` and
+``mjx-f32`` MuJoCo MJX on JAX in float64 and float32; ``warp`` MuJoCo Warp (float32).
+:func:`parse_engine` reads one. Every engine but ``ode`` runs MuJoCo's plans: its *family* is
+``mujoco``.
 """
 
 from __future__ import annotations
@@ -14,19 +17,25 @@ from dataclasses import dataclass
 from tippetop.models.errors import TippetopError
 
 #: The implementations an engine spec can name.
-IMPLEMENTATIONS: tuple[str, ...] = ("mujoco", "mjx", "warp")
-#: How to write an engine spec, for messages.
-SPEC_FORMS = "mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp"
+IMPLEMENTATIONS: tuple[str, ...] = ("ode", "mujoco", "mjx", "warp")
+#: The engine families: which plan an engine runs (the reference's, or MuJoCo's).
+FAMILIES: tuple[str, ...] = ("ode", "mujoco")
+#: How to write an engine, for messages.
+SPEC_FORMS = "ode, mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp"
+#: How to write a MuJoCo engine (every engine but the reference), for messages.
+MUJOCO_SPEC_FORMS = "mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp"
+#: Every engine that can be named without an argument, for suggestions.
+NAMED: tuple[str, ...] = ("ode", "mujoco", "mjx", "mjx-f32", "warp")
 _VERSION = re.compile(r"^\d+\.\d+\.\d+$")
 
 
 @dataclass(frozen=True)
 class EngineSpec:
-    """One engine under test.
+    """One engine.
 
     Attributes:
         spec: As written (``mujoco==3.3.7``).
-        implementation: ``mujoco`` (MuJoCo C), ``mjx`` or ``warp``.
+        implementation: ``ode`` (the reference), ``mujoco`` (MuJoCo C), ``mjx`` or ``warp``.
         version: A release to install in a managed environment (``3.3.7``); None: the one
             that is there (beside tippetop, or in ``python``).
         python: ``mujoco@PYTHON``'s interpreter; None otherwise.
@@ -41,17 +50,30 @@ class EngineSpec:
 
     @property
     def in_process(self) -> bool:
-        """The MuJoCo installed beside tippetop, run in this process."""
-        return self.implementation == "mujoco" and self.version is None and self.python is None
+        """The reference, or the MuJoCo installed beside tippetop: run in this process."""
+        return (self.implementation in ("ode", "mujoco") and self.version is None
+                and self.python is None)
+
+    @property
+    def is_reference(self) -> bool:
+        """The reference ODE."""
+        return self.implementation == "ode"
+
+    @property
+    def family(self) -> str:
+        """``ode`` for the reference; ``mujoco`` for every engine that runs MuJoCo's plans."""
+        return "ode" if self.is_reference else "mujoco"
 
 
 def parse_engine(text: str) -> EngineSpec:
-    """The engine spec ``text`` names.
+    """The engine ``text`` names.
 
     Raises:
         TippetopError: Anything but one of :data:`SPEC_FORMS` (one line, with what was given).
     """
     spec = text.strip()
+    if spec == "ode":
+        return EngineSpec(spec, "ode")
     if spec == "mujoco":
         return EngineSpec(spec, "mujoco")
     if spec.startswith("mujoco=="):
@@ -74,10 +96,10 @@ def parse_engine(text: str) -> EngineSpec:
 
 
 def parse_engines(text: str) -> list[EngineSpec]:
-    """A comma-separated list of engine specs (``--engines``), each at most once.
+    """A comma-separated list of engines (``--engines``), each at most once.
 
     Raises:
-        TippetopError: An empty list, a bad spec or one given twice.
+        TippetopError: An empty list, a bad engine or one given twice.
     """
     specs = [parse_engine(s) for s in text.split(",") if s.strip()]
     if not specs:
@@ -90,4 +112,5 @@ def parse_engines(text: str) -> list[EngineSpec]:
     return specs
 
 
-__all__ = ["IMPLEMENTATIONS", "SPEC_FORMS", "EngineSpec", "parse_engine", "parse_engines"]
+__all__ = ["FAMILIES", "IMPLEMENTATIONS", "MUJOCO_SPEC_FORMS", "NAMED", "SPEC_FORMS", "EngineSpec",
+           "parse_engine", "parse_engines"]

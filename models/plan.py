@@ -23,13 +23,18 @@ from typing import Any
 
 from tippetop.models.contacts import ContactSetting, MixedContact, ball_table_contact
 from tippetop.models.errors import TippetopError, expect
+from tippetop.models.modes import LAW_MODES
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 
-#: The engines a plan can be made for.
+#: The engine families a plan can be made for: the reference's plan, or MuJoCo's (which every
+#: MuJoCo engine runs: a release, a build, MJX, Warp).
 ENGINES: tuple[str, ...] = ("ode", "mujoco")
-#: The ``format`` of a plan's JSON; another is refused.
-PLAN_FORMAT = "tippetop-plan/1"
+#: The ``format`` of a plan's JSON (2: the engine it runs on and its mode); another is refused.
+PLAN_FORMAT = "tippetop-plan/2"
+#: The formats read: the first one's plans run on the family's own engine, in the mode their
+#: settings say.
+READ_FORMATS = ("tippetop-plan/1", PLAN_FORMAT)
 #: Finest default row spacing of the observables table (s).
 DEFAULT_SAMPLE_DT_S = 1e-3
 #: Longest default table (rows): long runs get a coarser default spacing.
@@ -235,8 +240,9 @@ class MujocoPlan:
     """What MuJoCo runs: every value resolved, and the MJCF text that holds them.
 
     Attributes:
-        mode: ``paper`` (the harness applies ``law`` at the contact point) or ``native``
-            (MuJoCo's own contact friction).
+        friction: Who makes the friction: ``paper`` (the harness applies ``law`` at the
+            contact point) or ``native`` (MuJoCo's own contact friction); the scene's
+            ``mujoco.friction``.
         top: The top's parameters (the scene's, or those read from its file).
         law: Paper mode: the law the harness applies at the contact point (its mu resolved);
             None when no friction is applied by the harness (native mode, or sliding off).
@@ -274,7 +280,7 @@ class MujocoPlan:
             mode too.
     """
 
-    mode: str
+    friction: str
     top: TopParams
     law: FrictionParams | None
     init: InitialState
@@ -322,7 +328,7 @@ class MujocoPlan:
         """
         law = self.law
         out: dict[str, Any] = {
-            "mode": self.mode, "timestep_s": self.timestep_s, "integrator": self.integrator,
+            "timestep_s": self.timestep_s, "integrator": self.integrator,
             "cone": self.cone, "impratio": self.impratio,
             "noslip_iterations": self.noslip_iterations, "gravity_mps2": -self.gravity_mps2[2],
             "iterations": self.iterations, "tolerance": self.tolerance,
@@ -330,7 +336,7 @@ class MujocoPlan:
         contact = self.ball_contact
         if contact is not None:
             out.update(contact.acting())
-        out["friction_law"] = ("mujoco-native" if self.mode == "native"
+        out["friction_law"] = (NATIVE_LAW if self.friction == "native"
                                else law.law if law is not None else "none")
         if law is not None:
             out["law_mu"] = law.mu
@@ -341,21 +347,35 @@ class MujocoPlan:
 
 @dataclass(frozen=True)
 class RunPlan:
-    """A scene resolved for one engine.
+    """A scene resolved for one engine in one mode: what runs, and where.
 
     Attributes:
         scene: The scene's name.
-        engine: ``ode`` or ``mujoco``.
+        engine: The engine it runs on, as given (``ode``, ``mujoco``, ``mujoco==3.3.7``,
+            ``mjx`` ...: :mod:`tippetop.models.engines`).
+        mode: How the contact force is made (``paper``, ``native`` ...:
+            :mod:`tippetop.models.modes`).
         ode: The reference's plan (engine ``ode``), else None.
-        mujoco: MuJoCo's plan (engine ``mujoco``), else None.
+        mujoco: MuJoCo's plan (every other engine), else None.
         unused: ``--set`` keys the engine does not read, in the order given.
     """
 
     scene: str
     engine: str
+    mode: str
     ode: OdePlan | None
     mujoco: MujocoPlan | None
     unused: tuple[str, ...] = ()
+
+    @property
+    def is_reference(self) -> bool:
+        """The reference ODE's plan (else MuJoCo's)."""
+        return self.ode is not None
+
+    @property
+    def family(self) -> str:
+        """``ode`` or ``mujoco``: which of the two plans this is."""
+        return "ode" if self.ode is not None else "mujoco"
 
     @property
     def sub(self) -> OdePlan | MujocoPlan:
@@ -381,11 +401,15 @@ class RunPlan:
 
     def what_runs(self) -> dict[str, Any]:
         """What will run, as a summary's ``what ran`` keys say it (its engine's)."""
-        return self.sub.what_runs()
+        return {"mode": self.mode, **self.sub.what_runs()}
 
     def physics(self) -> dict[str, Any]:
-        """Everything that defines the run's numbers, JSON-ready (the runs cache's key)."""
-        return {"engine": self.engine, "plan": to_data(self.sub)}
+        """Everything that defines the run's numbers, JSON-ready (the runs cache's key).
+
+        The family's plan; not the engine (the cache adds it where it is not this process's
+        own) nor the mode's name (two names of the same settings are the same run).
+        """
+        return {"family": self.family, "plan": to_data(self.sub)}
 
     def to_json(self) -> str:
         """The plan as JSON text: ``format`` (:data:`PLAN_FORMAT`) and every field."""
@@ -404,10 +428,38 @@ class RunPlan:
         except ValueError as exc:
             raise TippetopError(f"plan: expected JSON, got: {exc}") from None
         got = data.get("format") if isinstance(data, dict) else type(data).__name__
-        expect(isinstance(data, dict) and got == PLAN_FORMAT, "plan format",
-               f"{PLAN_FORMAT!r}", got)
+        expect(isinstance(data, dict) and got in READ_FORMATS, "plan format",
+               " or ".join(repr(f) for f in READ_FORMATS), got)
         body = {k: v for k, v in data.items() if k != "format"}
+        if got == "tippetop-plan/1":
+            body = _from_first_format(body)
         return from_data(cls, body, "plan")
+
+
+#: ``friction_law`` of a run whose friction is MuJoCo's own contact (no law is applied).
+NATIVE_LAW = "mujoco_contact"
+
+
+def _from_first_format(body: dict[str, Any]) -> dict[str, Any]:
+    """A ``tippetop-plan/1`` body as the second format has it (the same run).
+
+    The first format's ``engine`` was ``ode`` or ``mujoco`` (the family, on its own engine)
+    and it had no mode: the mode is what the settings say (the reference's law; MuJoCo's
+    ``mode``, now ``friction``, with ``native`` for MuJoCo's own contact).
+    """
+    out = dict(body)
+    mj = out.get("mujoco")
+    if isinstance(mj, dict) and "mode" in mj:
+        mj = dict(mj)
+        mj["friction"] = mj.pop("mode")
+        out["mujoco"] = mj
+    if "mode" not in out:
+        if isinstance(mj, dict):
+            out["mode"] = "paper" if mj.get("friction") == "paper" else "native"
+        else:
+            law = ((out.get("ode") or {}).get("friction") or {}).get("law")
+            out["mode"] = LAW_MODES.get(str(law), "paper")
+    return out
 
 
 # ---------------------------------------------------------------- JSON
@@ -479,7 +531,7 @@ def from_data(kind: Any, data: Any, where: str) -> Any:
 
 
 __all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "GRID_RTOL",
-           "MUJOCO_MAX_STEPS", "PLAN_FORMAT", "SAMPLE_BUDGET_ENV", "SAMPLE_BUDGET_GIB",
-           "SAMPLE_COLUMNS", "FileTop", "MujocoPlan", "OdePlan", "RunPlan", "check_mujoco_steps",
-           "check_samples", "default_sample_dt", "from_data", "sample_grid",
-           "samples_budget_gib", "to_data"]
+           "MUJOCO_MAX_STEPS", "NATIVE_LAW", "PLAN_FORMAT", "READ_FORMATS", "SAMPLE_BUDGET_ENV",
+           "SAMPLE_BUDGET_GIB", "SAMPLE_COLUMNS", "FileTop", "MujocoPlan", "OdePlan", "RunPlan",
+           "check_mujoco_steps", "check_samples", "default_sample_dt", "from_data",
+           "sample_grid", "samples_budget_gib", "to_data"]

@@ -17,6 +17,7 @@ import numpy as np
 from tippetop.models import mjcf_document
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.contacts import ContactSetting
+from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import free_joint_start
 from tippetop.models.mjcf import (
@@ -27,11 +28,10 @@ from tippetop.models.mjcf import (
     TABLE_GEOM,
     make_mjcf,
 )
-from tippetop.models.modes import MODES
+from tippetop.models.modes import MODES, check_pair, scene_mode
 from tippetop.models.options import GENERATED_NOSLIP_ITERATIONS, MujocoOptions
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.models.plan import (
-    ENGINES,
     FileTop,
     MujocoPlan,
     OdePlan,
@@ -132,16 +132,6 @@ def _unused(set_keys: tuple[str, ...], used: set[str]) -> tuple[str, ...]:
     wild = {k[:-1] for k in used if k.endswith(".*")}
     return tuple(k for k in set_keys
                  if k not in used and not any(k.startswith(w) for w in wild))
-
-
-def mode_engine(mode: str) -> tuple[str, tuple[str, ...]]:
-    """(engine, overrides) of a mode name, or of a bare engine name (no overrides)."""
-    if mode in ENGINES:
-        return mode, ()
-    if mode not in MODES:
-        raise TippetopError(f"mode: expected an engine ({', '.join(ENGINES)}) or a mode "
-                            f"({', '.join(MODES)}), got {mode!r}")
-    return MODES[mode]
 
 
 # ---------------------------------------------------------------- the reference
@@ -317,11 +307,11 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                  file_top: FileTop | None) -> tuple[MujocoPlan, set[str]]:
     mj = scene.mujoco
     loaded = file_top is not None
-    # a loaded file runs its own friction unless the scene picks a mode
-    mode = mj.friction if not loaded or scene.is_set("mujoco.friction") else "native"
+    # a loaded file runs its own friction unless the scene (or the mode) says otherwise
+    friction_by = mj.friction if not loaded or scene.is_set("mujoco.friction") else "native"
     want = _Wanted(scene, loaded)
     law = None
-    if mode == "paper":
+    if friction_by == "paper":
         law = _paper_wanted(scene, friction, want)
     else:
         _native_wanted(scene, friction, want)
@@ -340,9 +330,9 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                    "iterations": 100 if mj.iterations is None else mj.iterations,
                    "tolerance": 1e-8 if mj.tolerance is None else mj.tolerance}
         solimp = _full_solimp(solimp)
-        contacts = _generated_contacts(
-            top, stem, w["condim"], (w["mu"], w["torsional"], w["rolling"]) if mode == "native"
-            else (0.0, 0.0, 0.0), solref, solimp)
+        coefficients = ((w["mu"], w["torsional"], w["rolling"]) if friction_by == "native"
+                        else (0.0, 0.0, 0.0))
+        contacts = _generated_contacts(top, stem, w["condim"], coefficients, solref, solimp)
         reach = generated_contact_reach_m(top, stem)
     else:
         options = {key: (w[key] if w[key] is not None else getattr(file_top, key))
@@ -371,8 +361,8 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     check_mujoco_steps(scene.run.t_end_s, dt)
     sample_dt, steps, n_intervals = sample_grid(scene.run.t_end_s, scene.run.sample_dt_s, dt)
     if file_top is None:
-        mjcf = make_mjcf(top, friction_mode=mode, condim=w["condim"],
-                         mu=float(w["mu"] or 0.0) if mode == "native" else 0.0,
+        mjcf = make_mjcf(top, friction_mode=friction_by, condim=w["condim"],
+                         mu=float(w["mu"] or 0.0) if friction_by == "native" else 0.0,
                          timestep_s=dt, integrator=options["integrator"], cone=options["cone"],
                          impratio=options["impratio"], solref=solref, solimp=solimp,
                          torsional=float(w["torsional"] or 0.0),
@@ -395,7 +385,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
         start = {"keyframe": keyframe,
                  "keyframe_name": file_top.keyframes[keyframe] or f"#{keyframe}"}
     plan = MujocoPlan(
-        mode=mode, top=top, law=law, init=init, t_end_s=scene.run.t_end_s, timestep_s=dt,
+        friction=friction_by, top=top, law=law, init=init, t_end_s=scene.run.t_end_s, timestep_s=dt,
         integrator=options["integrator"], cone=options["cone"],
         impratio=float(options["impratio"]),
         noslip_iterations=int(options["noslip_iterations"]),
@@ -463,20 +453,31 @@ def _start(scene: Scene, file_top: FileTop | None) -> tuple[InitialState, int | 
 
 
 # ---------------------------------------------------------------- the one resolution
-def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) -> RunPlan:
-    """The one resolution of a scene for an engine (its rules: docs/design.md).
+def resolve_plan(scene: Scene, engine: str | EngineSpec = "ode", mode: str | None = None, *,
+                 file_top: FileTop | None = None) -> RunPlan:
+    """The one resolution of a scene for an engine in a mode (its rules: docs/design.md).
 
     Args:
         scene: A validated scene.
-        engine: ``ode`` or ``mujoco`` (which MuJoCo mode: the scene's ``mujoco.friction``; the
-            file's own friction for a loaded top that does not set it).
+        engine: The engine it runs on (``ode``, ``mujoco``, ``mujoco==3.3.7``, ``mjx`` ...):
+            the reference's plan for ``ode``, MuJoCo's for every other.
+        mode: How the contact force is made (:mod:`tippetop.models.modes`): its scene keys
+            are set over the scene's. None: what the scene's own keys say
+            (:func:`~tippetop.models.modes.scene_mode`).
         file_top: For a scene whose top is an MJCF file, what the file says
             (:func:`tippetop.mujoco_runner.state.file_top` reads it; this layer cannot).
 
     Raises:
-        TippetopError: An unknown engine, or effects and settings the engine cannot run.
+        TippetopError: An unknown engine or mode, a mode the engine cannot run, or effects and
+            settings the engine cannot run (one line).
     """
-    expect(engine in ENGINES, "--engine", "|".join(ENGINES), engine)
+    spec = engine if isinstance(engine, EngineSpec) else parse_engine(engine)
+    asked = scene.set_keys  # the user's --set keys: a mode's own keys are never "unused"
+    if mode is None:
+        mode = scene_mode(scene, spec.family)
+    else:
+        check_pair(spec.family, mode, spec.spec)
+        scene = scene.with_overrides(list(MODES[mode].overrides(spec.family)))
     if scene.top_mjcf is not None:
         if file_top is None:
             raise TypeError("resolve_plan: a scene with top.mjcf needs file_top")
@@ -502,14 +503,14 @@ def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) 
         if stem is not None:
             used.add("stem.*")
     ode = mujoco = None
-    if engine == "ode":
+    if spec.is_reference:
         ode, more = _ode_plan(scene, top, init, friction, stem)
     else:
         mujoco, more = _mujoco_plan(scene, top, init, keyframe, friction, stem, file_top)
-    return RunPlan(scene=scene.name, engine=engine, ode=ode, mujoco=mujoco,
-                   unused=_unused(scene.set_keys, used | more))
+    return RunPlan(scene=scene.name, engine=spec.spec, mode=mode, ode=ode, mujoco=mujoco,
+                   unused=_unused(asked, used | more))
 
 
 __all__ = ["PAPER_LAW_MAX_DT_RATE", "PAPER_SOLREF", "friction_keys",
-           "generated_contact_reach_m", "mode_engine", "native_condim", "nice_step_below",
+           "generated_contact_reach_m", "native_condim", "nice_step_below",
            "paper_max_timestep", "resolve_plan"]

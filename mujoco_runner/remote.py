@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from tippetop.models.mjcf import HARNESS_USERDATA
-from tippetop.models.plan import MujocoPlan
+from tippetop.models.plan import NATIVE_LAW, MujocoPlan
 from tippetop.models.resources import user_cache_dir
 from tippetop.mujoco_runner import worker
 from tippetop.mujoco_runner.friction_callback import law_parameters
@@ -141,7 +141,7 @@ def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
     out.update(friction_that_acts(r["condim"], *r["coefficients"]), solref=r["solref"],
                solimp=r["solimp"], contact_source=r["contact_source"])
     law = plan.law
-    out["friction_law"] = ("mujoco-native" if plan.mode == "native"
+    out["friction_law"] = (NATIVE_LAW if plan.friction == "native"
                            else law.law if law is not None else "none")
     if law is not None:
         out["law_mu"] = float(law.mu)

@@ -294,7 +294,7 @@ def result_from_samples(
     Returns:
         The run's result.
     """
-    mode, law, stem = plan.mode, plan.law, plan.stem
+    mode, law, stem = plan.friction, plan.law, plan.stem
     steps, n_intervals = plan.steps_per_sample, plan.n_intervals
     start = time.perf_counter()
     model = top_model.model

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from tippetop.models.params import FrictionParams
-from tippetop.models.plan import MujocoPlan
+from tippetop.models.plan import NATIVE_LAW, MujocoPlan
 from tippetop.mujoco_runner import stepper
 from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
@@ -36,7 +36,7 @@ def ran_settings(top_model: TopModel, data: mujoco.MjData, plan: MujocoPlan) -> 
     model = top_model.model
     ran = settings_that_ran(top_model, data)
     law = plan.law
-    ran["friction_law"] = ("mujoco-native" if plan.mode == "native"
+    ran["friction_law"] = (NATIVE_LAW if plan.friction == "native"
                            else law.law if law is not None else "none")
     if law is not None:
         ran["law_mu"] = float(law.mu)

@@ -11,7 +11,7 @@ from tippetop.compare.commands.options import (
     add_json_option,
     add_parallel_options,
     add_set_option,
-    comma_list,
+    engines_and_modes,
     json_text,
     print_json,
 )
@@ -19,6 +19,7 @@ from tippetop.compare.studies.defaults import (
     DEFAULT_A_OVER_C,
     DEFAULT_A_OVER_R,
     DEFAULT_ENGINES_TEXT,
+    DEFAULT_MODES_TEXT,
 )
 
 
@@ -26,20 +27,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop atlas`` and its options."""
     p = sub.add_parser(
         "atlas", help="the paper's group diagram measured: n1, n4 and the group at every "
-        "(A/C, a/R) point in each engine",
+        "(A/C, a/R) point on each engine and mode",
         description="At every point of an (A/C, a/R) grid, measure n1 (the upright state's "
         "growth rate crosses zero) and n4 (the inverted state's, carried to theta = 0 by "
-        "Jellett's constant) in each engine's own dynamics, the group they imply (I: no n1; "
-        "II: n1 and n4; III: n1, no n4), against the theory's group and thresholds.")
+        "Jellett's constant) in each engine's own dynamics, in every mode of --modes it can "
+        "run, the group they imply (I: no n1; II: n1 and n4; III: n1, no n4), against the "
+        "theory's group and thresholds. It runs on the reference and the MuJoCo installed "
+        "here.")
     p.add_argument("--A-over-C", dest="A_over_C", default=DEFAULT_A_OVER_C, metavar="LO:HI:N",
                    help=f"A/C values: N evenly spaced from LO to HI (default "
                    f"{DEFAULT_A_OVER_C})")
     p.add_argument("--a-over-R", dest="a_over_R", default=DEFAULT_A_OVER_R, metavar="LO:HI:N",
                    help=f"a/R values, in (0, 1): N evenly spaced from LO to HI (default "
                    f"{DEFAULT_A_OVER_R})")
-    p.add_argument("--engines", default=DEFAULT_ENGINES_TEXT, metavar="MODES",
-                   help=f"comma-separated modes, listed in 'tippetop --help' (default "
-                   f"{DEFAULT_ENGINES_TEXT})")
+    p.add_argument("--engines", metavar="ENGINE,...", help=f"comma-separated engines: ode "
+                   f"(the reference) and/or mujoco (the MuJoCo installed with tippetop) "
+                   f"(default {DEFAULT_ENGINES_TEXT})")
+    p.add_argument("--modes", metavar="MODE,...", help=f"comma-separated modes: paper, "
+                   f"native, native-pyramidal, native-elliptic, native-condim4, "
+                   f"native-condim6, file, coulomb, viscous, coulomb_viscous (default "
+                   f"{DEFAULT_MODES_TEXT})")
     add_set_option(p)
     p.add_argument("--out", metavar="DIR", help="folder for atlas.csv, atlas.png and "
                    "atlas.json, new or empty, or --force (default: none, printed only)")
@@ -59,14 +66,15 @@ def run(args: argparse.Namespace) -> int:
 
     ac = parse_grid(args.A_over_C, "--A-over-C")
     ar = parse_grid(args.a_over_R, "--a-over-R")
-    engines = comma_list(args.engines)
+    runs = engines_and_modes(args, engines=DEFAULT_ENGINES_TEXT, modes=DEFAULT_MODES_TEXT,
+                             old_option="--engines")
     out_dir = None
     if args.out:
         from tippetop.compare.running.io import check_output_dir, hold_output_lock
 
         out_dir = check_output_dir(args.out, force=args.force)  # before any run
         hold_output_lock(out_dir)
-    res = run_atlas(ac, ar, engines, tuple(args.set or []), scheduler=args.scheduler,
+    res = run_atlas(ac, ar, runs, tuple(args.set or []), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     files = write_atlas(res, out_dir) if out_dir is not None else []
     if args.json:
@@ -81,20 +89,20 @@ def run(args: argparse.Namespace) -> int:
 
 
 def print_atlas(res: dict[str, Any]) -> None:
-    """The human summary: agreement per engine, the findings, and the points that depart."""
+    """The human summary: agreement per run, the findings, and the points that depart."""
     g = res["grid"]
     print(f"tippetop atlas: {len(g['A_over_C'])} x {len(g['a_over_R'])} points (A/C "
           f"{g['A_over_C'][0]:g}..{g['A_over_C'][-1]:g}, a/R {g['a_over_R'][0]:g}.."
           f"{g['a_over_R'][-1]:g}), {res['n_runs']} runs of 2 s")
     for eng, frac in res["agreement"].items():
-        pts = [p for p in res["points"] if p["engine"] == eng]
+        pts = [p for p in res["points"] if p["run"] == eng]
         print(f"  {eng:<16} groups agree with the theory at {round(frac * len(pts))} of "
               f"{len(pts)} points ({100 * frac:.0f} %)")
     for f in res["findings"]:
         print(f"  {f}")
     wrong = [p for p in res["points"] if not p["agrees"]]
     for p in wrong:
-        print(f"  departs: {p['engine']} at A/C = {p['A_over_C']:.3g}, a/R = "
+        print(f"  departs: {p['run']} at A/C = {p['A_over_C']:.3g}, a/R = "
               f"{p['a_over_R']:.3g}: Group {p['group_measured']} (theory {p['group_theory']});"
               f" n1 {_fmt(p['n1_measured'])} (theory {_fmt(p['n1_theory'])}), n4 "
               f"{_fmt(p['n4_measured'])} (theory {_fmt(p['n4_theory'])}) rad/s")

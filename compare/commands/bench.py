@@ -35,8 +35,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--budget-s", dest="budget_s", type=finite_float, default=None,
                    metavar="S", help="accuracy: wall-time budget per point (s; default 20 for "
                    "the ODE, 30 for MuJoCo)")
-    p.add_argument("--engines", default="ode,mujoco",
-                   help="accuracy: comma-separated engines (default: ode,mujoco)")
+    p.add_argument("--engines", default="ode,mujoco", metavar="ENGINE,...",
+                   help="accuracy: comma-separated engines, ode (the reference's methods and "
+                   "tolerances) and/or mujoco (the installed MuJoCo's integrators and "
+                   "timesteps, in modes paper and native) (default: ode,mujoco)")
     add_workers_option(p, help="accuracy: processes for the MuJoCo series (default: all cores)")
     add_force_option(p, help="accuracy: overwrite results in --out")
     p.add_argument("--n0", type=finite_float, default=60.0, metavar="RAD_S",

@@ -8,7 +8,9 @@ import sys
 from typing import Any
 
 from tippetop.compare.commands.options import (
+    ENGINE_HELP,
     EXIT_RUN_FAILED,
+    MODE_HELP,
     add_json_option,
     add_parallel_options,
     add_set_option,
@@ -19,15 +21,19 @@ from tippetop.compare.presentation.terminal import MISSING, fmt, fmt_value, labe
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop compare`` and its options."""
-    p = sub.add_parser("compare", help="run a scene in several engines/modes and compare",
-                       description="Run a scene in each mode and the reference ODE; print one "
-                       "line per mode (outcome, agreement with the theory, inversion time, "
-                       "theta_asymp, Jellett's drift, energy) and every metric that departs "
-                       "from the reference, naming the tolerance it broke.")
+    p = sub.add_parser("compare", help="run a scene on several engines and modes, and compare",
+                       description="Run a scene on every pairing of --engines and --modes that "
+                       "can run, and the reference ODE; print one line per run (outcome, "
+                       "agreement with the theory, inversion time, theta_asymp, Jellett's "
+                       "drift, energy) and every metric that departs from the reference, "
+                       "naming the tolerance it broke.")
     p.add_argument("scene", help="scene .toml file or catalogue name (required)")
-    p.add_argument("--modes", default="ode,mujoco-paper,mujoco-native",
-                   help="comma-separated modes, listed in 'tippetop --help' (default: "
-                   "ode,mujoco-paper,mujoco-native)")
+    p.add_argument("--engines", metavar="ENGINE,...", help="comma-separated engines: "
+                   + ENGINE_HELP.removeprefix("what integrates the run: ")
+                   + " (default: ode,mujoco)")
+    p.add_argument("--modes", metavar="MODE,...", help="comma-separated modes: "
+                   + MODE_HELP.removeprefix("how the contact force is made: ")
+                   + " (default: paper,native)")
     add_set_option(p)
     add_parallel_options(p)
     add_json_option(p)
@@ -36,20 +42,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop compare``: one scene in several engines/modes, against the theory."""
+    from tippetop.compare.commands.options import engines_and_modes
     from tippetop.compare.studies.crossval import compare_scene
-    from tippetop.models.modes import parse_modes
 
-    res = compare_scene(args.scene, parse_modes(args.modes), tuple(args.set or []),
-                        scheduler=args.scheduler, workers=args.workers,
-                        use_cache=not args.no_cache)
+    runs = engines_and_modes(args, engines="ode,mujoco", modes="paper,native")
+    res = compare_scene(args.scene, runs, tuple(args.set or []), scheduler=args.scheduler,
+                        workers=args.workers, use_cache=not args.no_cache)
     if args.json:
         print_json(res)
     else:
         print_compare(res)
     # a failed run is reported in its row (the others kept), and the command exits 1
-    failed = [m for m, s in res["modes"].items() if s.get("outcome") == "failed"]
+    failed = [s["run"] for s in res["runs"] if s.get("outcome") == "failed"]
     if failed:
-        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['modes'])} runs "
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['runs'])} runs "
                          f"failed ({', '.join(failed)}); the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0
@@ -110,7 +116,7 @@ def difference_text(d: dict[str, Any]) -> str:
 
 
 def print_compare(res: dict[str, Any]) -> None:
-    """``tippetop compare`` for a person: the theory, one line per mode, what differs and why.
+    """``tippetop compare`` for a person: the theory, one line per run, what differs and why.
 
     Robust to the keys a result has: a missing value is ``-``.
     """
@@ -123,33 +129,33 @@ def print_compare(res: dict[str, Any]) -> None:
     else:
         print(head + f"the theory predicts {th.get('outcome', '?')}, theta_s = "
               f"{fmt(theta_s, 'rad')}")
-    modes: dict[str, dict[str, Any]] = res.get("modes") or {}
+    runs = {str(s.get("run")): s for s in res.get("runs") or []}
     rows = []
-    for m, s in modes.items():
+    for m, s in runs.items():
         matches = s.get("matches_theory")
         if s.get("outcome") == "failed":
             rows.append((m, "failed", "DIFFERS" if matches is False else MISSING,
                          *[MISSING] * 5))
             continue
         rows.append((
-            m + (" (reference)" if m == "ode" else ""),
+            m + (" (reference)" if s.get("reference") else ""),
             fmt(s.get("outcome")),
             {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches)),
             fmt_value("t_invert", s.get("t_invert")).split(" (")[0],
             fmt(s.get("theta_asymp"), "rad"),
             fmt(s.get("J_rel_drift"), "relative"),
             fmt(s.get("energy_dissipated_J"), "J"),
-            MISSING if m == "ode" else fmt(s.get("theta_rms_vs_ref"), "rad"),
+            MISSING if s.get("reference") else fmt(s.get("theta_rms_vs_ref"), "rad"),
         ))
     if rows:
         print()
-        print(table(("mode", "outcome", "theory", "t_invert", "theta_asymp", "J drift",
+        print(table(("run", "outcome", "theory", "t_invert", "theta_asymp", "J drift",
                      "energy lost", "theta RMS vs ref"), rows))
     agree_rule = (f"agrees: the theory's outcome, and theta_asymp within "
                   f"{fmt(tol_s, 'rad')} of theta_s" if tol_s is not None else
                   "agrees: the theory's outcome")
-    print(f"  ({agree_rule}; J drift: Jellett's constant, relative)")
-    against = [(str(r.get("mode")), r.get("reasons") or []) for r in res.get("crossval") or []
+    print(f"  (run: engine/mode; {agree_rule}; J drift: Jellett's constant, relative)")
+    against = [(str(r.get("run")), r.get("reasons") or []) for r in res.get("crossval") or []
                if not r.get("agrees", True)]
     if against:
         print("\nagainst the theory:")
@@ -161,23 +167,25 @@ def print_compare(res: dict[str, Any]) -> None:
     if not diffs:
         print("differences from the reference beyond their tolerances: none")
     else:
-        print("differences from the reference beyond their tolerances:")
-        width = max(len(str(d.get("mode", ""))) for d in diffs)
+        print(f"differences from the reference ({res.get('reference', 'ode')}) beyond their "
+              "tolerances:")
+        width = max(len(str(d.get("run", ""))) for d in diffs)
         for d in diffs:
-            print(labelled(str(d.get("mode", "?")), difference_text(d), width))
-    realised = [(m, s["friction_realised"]) for m, s in modes.items()
-                if m.startswith("mujoco") and (s.get("friction_realised") or {}).get("samples")]
+            print(labelled(str(d.get("run", "?")), difference_text(d), width))
+    realised = [(m, s["friction_realised"]) for m, s in runs.items()
+                if s.get("engine") != "ode"
+                and (s.get("friction_realised") or {}).get("samples")]
     if realised:
         from tippetop.compare.measures.friction_realised import realised_sentence
 
-        print("\nthe friction law as each mode realises it (the ball's phase):")
+        print("\nthe friction law as each run realises it (the ball's phase):")
         width = max(len(m) for m, _ in realised)
         for m, fr in realised:
             print(labelled(m, realised_sentence(m, fr).split(": ", 1)[1], width))
             if (fr.get("refit") or {}).get("sentence"):
                 print(labelled("", f"refit: {fr['refit']['sentence']}", width))
     ran = []
-    for m, s in modes.items():
+    for m, s in runs.items():
         if "engine" not in s:
             continue
         try:
@@ -192,9 +200,10 @@ def print_compare(res: dict[str, Any]) -> None:
         width = max(len(m) for m, _ in ran)
         for m, text in ran:
             print(labelled(m, text, width))
-    notes = [(m, str(s.get("note"))) for m, s in modes.items() if s.get("note") and m != "ode"]
+    notes = [(m, str(s.get("note"))) for m, s in runs.items()
+             if s.get("note") and not s.get("reference")]
     if notes:
-        print("\nwhy a mode may depart from the paper's law:")
+        print("\nwhy a run may depart from the paper's law:")
         width = max(len(m) for m, _ in notes)
         for m, note in notes:
             print(labelled(m, note, width))

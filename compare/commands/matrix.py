@@ -42,12 +42,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--profile", choices=("quick", "full"), default="quick",
                    help="the scenes when none are named: quick (fig3, fig6, fig8a, fig11_n060) "
                    "or full (the whole catalogue) (default quick)")
-    p.add_argument("--engines", required=True, metavar="SPEC,SPEC,...",
-                   help="comma-separated engine specs: mujoco, mujoco==X.Y.Z, mujoco@PYTHON, "
-                   "mjx, mjx-f32, warp (no default: required)")
-    p.add_argument("--modes", default="native,paper", help="native (MuJoCo's own friction: "
-                   "the calibrated settings, or an MJCF top's own) and/or paper (the paper's "
-                   "law at the contact point) (default: native,paper)")
+    p.add_argument("--engines", required=True, metavar="ENGINE,...",
+                   help="comma-separated MuJoCo engines: mujoco, mujoco==X.Y.Z, mujoco@PYTHON, "
+                   "mjx, mjx-f32, warp; the reference ODE runs once per scene anyway (no "
+                   "default: required)")
+    p.add_argument("--modes", metavar="MODE,...", help="comma-separated MuJoCo modes: paper "
+                   "(the paper's law at the contact point), native (MuJoCo's own contact, "
+                   "calibrated), file (the model's own contact settings), native-pyramidal, "
+                   "native-elliptic, native-condim4, native-condim6 (default: native,paper for "
+                   "a catalogue scene, file,paper for an MJCF top)")
     add_set_option(p)
     p.add_argument("--out", metavar="DIR", help="folder for results.json (the --json result) "
                    "and report.html, new or empty, or --force (default: none, printed only)")
@@ -68,9 +71,10 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.running.io import check_output_dir, hold_output_lock
     from tippetop.compare.studies.matrix import profile_scenes, run_matrix
     from tippetop.models.engines import parse_engines
+    from tippetop.models.modes import parse_modes
 
     engines = parse_engines(args.engines)
-    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    modes = parse_modes(args.modes) if args.modes else None
     scenes = list(args.scenes) or list(profile_scenes(args.profile))
     out_dir = None
     if args.out:
@@ -142,12 +146,14 @@ def print_matrix(res: dict[str, Any]) -> None:
     rows = []
     for e in engines:
         for mode in res["modes"]:
-            mine = [r for r in res["runs"] if r["engine"] == e["spec"] and r["mode"] == mode]
+            mine = [r for r in res["runs"] if r["engine"] == e["engine"] and r["mode"] == mode]
+            if not mine:
+                continue
             agree = sum(r["agrees"] for r in mine)
             failed = sum(r["status"] not in ("ok", "contact_lost", "hop") for r in mine)
             why = [f"{r['scene']}: {'; '.join(r['reasons']) or 'departs'}" for r in mine
                    if not r["agrees"]]
-            rows.append((e["spec"], mode, f"{agree} of {len(mine)}", str(failed),
+            rows.append((e["engine"], mode, f"{agree} of {len(mine)}", str(failed),
                          why[0] + (f" (and {len(why) - 1} more)" if len(why) > 1 else "")
                          if why else ""))
     print(table(("engine", "mode", "agree", "failed", "first departure"), rows, indent="  "))
@@ -178,6 +184,6 @@ def print_matrix(res: dict[str, Any]) -> None:
             name = f"{r['scene']} {r['mode']} {r['engine']}"
             print(f"  {realised_sentence(name, r['friction_realised'])}")
     print("\nengines (read back from their runs):")
-    print(table(("spec", "implementation", "version", "precision", "device"),
-                [(e["spec"], e["implementation"], fmt(e["version"]), e["precision"],
+    print(table(("engine", "implementation", "version", "precision", "device"),
+                [(e["engine"], e["implementation"], fmt(e["version"]), e["precision"],
                   e["device"]) for e in engines], indent="  "))

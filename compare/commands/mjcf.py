@@ -7,17 +7,20 @@ import os
 import sys
 
 from tippetop.compare.commands.options import (
+    add_engine_option,
     add_force_option,
     add_json_option,
+    add_mode_option,
     add_scene_options,
     add_set_option,
+    engine_and_mode,
     load_scene,
     print_json,
 )
 
 DESCRIPTION = (
     "Write the MuJoCo model of a scene exactly as 'tippetop simulate' compiles and steps it: "
-    "the friction mode, the contact settings (condim, friction, solref, solimp) and the "
+    "the mode, the contact settings (condim, friction, solref, solimp) and the "
     "options (timestep, integrator, cone, impratio, noslip iterations, gravity) of the run, "
     "with the run's initial state as the keyframe 'tippetop_start'. Loaded with "
     "mujoco.MjModel.from_xml_path, reset with mj_resetDataKeyframe and stepped with mj_step, "
@@ -31,9 +34,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("mjcf", help="write a scene's MuJoCo model as a run compiles it",
                        description=DESCRIPTION)
     add_scene_options(p)
-    p.add_argument("--engine", default="mujoco", help="mujoco (the scene's mujoco.friction "
-                   "mode), or a MuJoCo mode such as mujoco-native or mujoco-paper (see "
-                   "'tippetop --help'; default mujoco)")
+    add_engine_option(p, default="mujoco", help="the MuJoCo engine whose run's model is "
+                      "written: mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp (its "
+                      "model is the plan's, compiled here)")
+    add_mode_option(p)
     add_set_option(p)
     p.add_argument("--out", metavar="FILE.xml", required=True, help="the MJCF file to write, "
                    "in an existing folder (no default: required)")
@@ -50,8 +54,11 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.running.mjcf_export import write_mjcf
 
     out = check_output_path(args.out, force=args.force, suffixes=(".xml",))
+    spec, mode, extra = engine_and_mode(args, default="mujoco")
     scene = load_scene(args)
-    res = write_mjcf(scene, args.engine, out)
+    if extra:
+        scene = scene.with_overrides(list(extra))
+    res = write_mjcf(scene, spec.spec, out, mode)
     if res["note"] and not res["friction_in_file"]:
         sys.stderr.write(f"tippetop: note: paper mode: {res['note']}\n")
     if args.json:
@@ -62,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     def nums(v: list[float]) -> str:
         return "[" + ", ".join(f"{x:g}" for x in v) + "]"
 
-    print(f"wrote {res['out']}: {res['scene']} in {res['engine']} ({res['mode']} mode), "
+    print(f"wrote {res['out']}: {res['scene']} on {res['engine']} in mode {res['mode']}, "
           f"keyframe '{res['keyframe']}' (index {res['keyframe_index']})")
     print(f"  {ran['integrator']} at dt = {ran['timestep_s']:g} s, {ran['cone']} cone, "
           f"impratio {ran['impratio']:g}, noslip_iterations {ran['noslip_iterations']}, "

@@ -44,13 +44,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", help="output folder (default: a new "
                    "nightly-YYYYMMDD-HHMMSS in the current folder)")
     add_force_option(p, help="write into a non-empty --out")
-    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated: ode (the "
-                   "reference) and engine specs the MuJoCo cases run on: mujoco (the installed "
-                   "one), mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32, warp; each spec keeps "
-                   "its own baseline file, <profile>@<spec>.json beside <profile>.json "
+    p.add_argument("--engines", default=",".join(ENGINES), metavar="ENGINE,...",
+                   help="comma-separated engines: ode (the reference) and the MuJoCo engines "
+                   "the catalogue's MuJoCo cases run on: mujoco (the installed one), "
+                   "mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32, warp; each MuJoCo engine keeps "
+                   "its own baseline file, <profile>@<engine>.json beside <profile>.json "
                    f"(default: {','.join(ENGINES)})")
+    p.add_argument("--modes", metavar="MODE,...", help="only the cases in these comma-"
+                   "separated modes, e.g. paper or native,native-condim4 (default: every mode "
+                   "of the catalogue)")
     p.add_argument("--cases", metavar="GLOBS", help="only case ids matching these "
-                   "comma-separated globs, e.g. 'paper/*[ode]' (default: every case of the "
+                   "comma-separated globs, e.g. 'paper/*[ode/*]' (default: every case of the "
                    "profile)")
     p.add_argument("--catalogue", metavar="FILE", help="catalogue file (default: "
                    "models/nightly.toml)")
@@ -70,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     """``tippetop nightly``: build the :class:`NightlyOptions` and run them, with the report."""
     from tippetop.compare.nightly.baselines import BASELINE_DIR
     from tippetop.compare.nightly.suite import NightlyOptions, run_nightly
+    from tippetop.models.modes import parse_modes
 
     opts = NightlyOptions(
         profile=args.profile, catalogue=Path(args.catalogue) if args.catalogue else None,
@@ -77,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         update_baseline=args.update_baseline, no_baseline=args.no_baseline, out=args.out,
         force=args.force,
         engines=comma_list(args.engines), cases=comma_list(args.cases or ""),
+        modes=tuple(parse_modes(args.modes)) if args.modes else (),
         scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
         accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
         argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
@@ -92,7 +98,7 @@ def write_report(results: Mapping[str, Any], path: Path, tables: Mapping[str, An
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m tippetop.compare.nightly [options]``: the same as ``tippetop nightly``."""
+    """``tippetop nightly [options]`` as a function of its arguments (for tests and tools)."""
     parser = Parser(prog="tippetop")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     add_parser(sub)

@@ -246,13 +246,157 @@ def scheduler_address(text: str) -> str:
 
 
 def engine_spec(text: str) -> str:
-    """An argparse type: an engine spec (``--on``), checked as the option is read."""
-    from tippetop.models.engines import parse_engine
+    """An argparse type: an engine (``--engine``, ``--on``), checked as the option is read.
 
+    A compound name of the release before (``mujoco-native``) passes: :func:`engine_and_mode`
+    reads it as its engine and mode and says the new spelling.
+    """
+    from tippetop.models.engines import parse_engine
+    from tippetop.models.modes import MODES, old_spelling
+
+    if old_spelling(text) is not None:
+        return text.strip()
     try:
         return parse_engine(text).spec
     except TippetopError as exc:
-        raise argparse.ArgumentTypeError(str(exc).removeprefix("engine: ")) from None
+        msg = str(exc).removeprefix("engine: ")
+        if text.strip() in MODES:
+            msg += f", which is a mode: give --mode {text.strip()}"
+        raise argparse.ArgumentTypeError(msg) from None
+
+
+def mode_name(text: str) -> str:
+    """An argparse type: a mode (``--mode``), checked as the option is read."""
+    from tippetop.models.engines import NAMED
+    from tippetop.models.modes import MODES
+
+    name = text.strip()
+    if name in MODES:
+        return name
+    hint = f", which is an engine: give --engine {name}" if name in NAMED else ""
+    raise argparse.ArgumentTypeError(f"expected a mode ({', '.join(MODES)}), got "
+                                     f"{text!r}{hint}")
+
+
+#: ``--engine``'s help: what each engine is.
+ENGINE_HELP = ("what integrates the run: ode (the reference), mujoco (the MuJoCo installed "
+               "with tippetop), mujoco==X.Y.Z (a release, in an environment made with uv on "
+               "first use), mujoco@PYTHON (the mujoco that interpreter imports: a path, or a "
+               "command on PATH), mjx, mjx-f32 (MuJoCo MJX, float64 and float32) or warp "
+               "(MuJoCo Warp)")
+#: ``--mode``'s help: what each mode is (``tippetop --help`` lists them).
+MODE_HELP = ("how the contact force is made: paper (the paper's law, every engine), native, "
+             "native-pyramidal, native-elliptic, native-condim4, native-condim6 (MuJoCo's own "
+             "contact, calibrated), file (MuJoCo's own contact as the model file sets it), "
+             "coulomb, viscous, coulomb_viscous (the reference's other laws)")
+
+
+def add_engine_option(p: argparse.ArgumentParser, *, default: str = "ode",
+                      help: str = ENGINE_HELP) -> None:
+    """``--engine ENGINE`` (dest ``engine``, None when not given: ``default`` is said only).
+
+    With ``--on``, the release before's spelling of ``--engine`` for a MuJoCo engine, hidden
+    from the help and read by :func:`engine_and_mode` with a note.
+    """
+    p.add_argument("--engine", type=engine_spec, metavar="ENGINE",
+                   help=f"{help} (default {default})")
+    p.add_argument("--on", type=engine_spec, metavar="ENGINE", help=argparse.SUPPRESS)
+
+
+def add_mode_option(p: argparse.ArgumentParser, *, default: str = "what the scene says: "
+                    "paper, or file for an MJCF top on MuJoCo", help: str = MODE_HELP) -> None:
+    """``--mode MODE`` (dest ``mode``, None when not given: the scene's)."""
+    p.add_argument("--mode", type=mode_name, metavar="MODE", help=f"{help} (default: "
+                   f"{default})")
+
+
+def engine_and_mode(args: argparse.Namespace, default: str = "ode"
+                    ) -> tuple[Any, str | None, tuple[str, ...]]:
+    """The engine and mode a command runs in, from ``--engine`` and ``--mode``.
+
+    The release before's spellings are read for one more release, each with one line on
+    stderr giving the new one: a compound name (``--engine mujoco-native``), and ``--on
+    SPEC`` for a MuJoCo engine.
+
+    Returns:
+        The engine (:class:`~tippetop.models.engines.EngineSpec`), the mode (None: the
+        scene's) and the scene keys an old compound name also set (``ode-paper-form``'s
+        formulation).
+
+    Raises:
+        TippetopError: Both spellings at once, the reference on another engine, or a mode
+            the engine cannot run (one line).
+    """
+    from tippetop.models.engines import parse_engine
+    from tippetop.models.modes import check_pair, new_spelling, note, old_spelling
+
+    engine = getattr(args, "engine", None)
+    mode = getattr(args, "mode", None)
+    on = getattr(args, "on", None)
+    extra: tuple[str, ...] = ()
+    old = old_spelling(engine) if engine else None
+    if old is not None and engine not in ("ode", "mujoco"):
+        if mode is not None:
+            raise TippetopError(f"--engine: expected an engine beside --mode {mode}, got "
+                                f"{engine!r}, which names an engine and a mode: "
+                                f"{new_spelling(engine)}")
+        note(f"--engine {engine} is now {new_spelling(engine)} (the old spelling goes in the "
+             "next release)")
+        engine, mode, extra = old
+    if on is not None:
+        if old_spelling(on) is not None and on not in ("ode", "mujoco"):
+            raise TippetopError(f"--on: expected an engine, got {on!r}")
+        note(f"--on {on} is now --engine {on} (the old spelling goes in the next release)")
+        if engine not in (None, "mujoco"):
+            if parse_engine(engine).is_reference:
+                raise TippetopError(f"--on: expected a MuJoCo run to go on {on}, got the "
+                                    "reference ODE (--engine ode)")
+            raise TippetopError(f"--on: expected --engine once, got --engine {engine} and "
+                                f"--on {on}: give --engine {on}")
+        if parse_engine(on).is_reference:
+            raise TippetopError("--on: expected a MuJoCo engine, got 'ode'")
+        engine = on
+    spec = parse_engine(engine or default)
+    if mode is not None:
+        check_pair(spec.family, mode, spec.spec)
+    return spec, mode, extra
+
+
+def engines_and_modes(args: argparse.Namespace, *, engines: str, modes: str,
+                      old_option: str = "--modes") -> list[tuple[str, str | None,
+                                                                   tuple[str, ...]]]:
+    """The runs of ``--engines`` x ``--modes`` that can run: (engine, mode, extra keys).
+
+    A list of the release before's compound names in ``old_option`` (``compare --modes
+    ode,mujoco-native``, ``atlas --engines ode,mujoco-paper``) is read as its runs, with one
+    line on stderr giving the new spelling.
+
+    Args:
+        args: The parsed options (``engines`` and ``modes``, None when not given).
+        engines: The default ``--engines``.
+        modes: The default ``--modes``.
+        old_option: The option that took compound names before.
+
+    Raises:
+        TippetopError: A bad engine or mode, a mode none of the engines runs, or an engine
+            that runs none of the modes (one line).
+    """
+    from tippetop.models.engines import parse_engines
+    from tippetop.models.modes import pairs, parse_modes, read_old_list
+
+    given = getattr(args, "modes" if old_option == "--modes" else "engines", None)
+    if given:
+        old = read_old_list(given.split(","), old_option)
+        if old is not None:
+            other = getattr(args, "engines" if old_option == "--modes" else "modes", None)
+            if other:
+                raise TippetopError(f"{old_option}: expected engines and modes apart, got "
+                                    f"compound names beside --"
+                                    f"{'engines' if old_option == '--modes' else 'modes'}")
+            return old
+    specs = parse_engines(getattr(args, "engines", None) or engines)
+    names = parse_modes(getattr(args, "modes", None) or modes)
+    return [(e, m, ()) for e, m in pairs(specs, names)]
 
 
 # ---------------------------------------------------------------- input
@@ -325,18 +469,6 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
                    "otherwise (default: the scene's top)")
     p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start from this keyframe "
                    "of the file (default: its first, unless --set init.* sets the state)")
-
-
-#: ``--on``'s help: the engines a MuJoCo run can go on.
-ON_HELP = ("the MuJoCo the run goes on: mujoco (the one installed with tippetop), mujoco==X.Y.Z "
-           "(a release, in an environment made with uv on first use), mujoco@PYTHON (the "
-           "mujoco that interpreter imports: a path, or a command on PATH), mjx, mjx-f32 or "
-           "warp")
-
-
-def add_on_option(p: argparse.ArgumentParser, help: str = ON_HELP) -> None:
-    """``--on SPEC`` (dest ``on``, default None): the engine spec a MuJoCo run goes on."""
-    p.add_argument("--on", type=engine_spec, metavar="SPEC", help=help)
 
 
 def add_force_option(p: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:

@@ -6,10 +6,13 @@ import argparse
 from typing import Any
 
 from tippetop.compare.commands.options import (
+    add_engine_option,
     add_force_option,
     add_json_option,
+    add_mode_option,
     add_scene_options,
     add_set_option,
+    engine_and_mode,
     load_scene,
 )
 
@@ -17,21 +20,22 @@ from tippetop.compare.commands.options import (
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop plan`` and its options."""
     p = sub.add_parser("plan", help="print what a run would run, without running it",
-                       description="Resolve a scene for one engine exactly as 'tippetop "
-                       "simulate' does and print what would run, without running it: the same "
-                       "'what ran' lines a run's summary prints, the start, the model, every "
-                       "contact's settings and the --set keys the engine would not read. "
-                       "--json prints the plan itself (every value resolved, the MJCF text "
-                       "that would be compiled), which 'tippetop simulate --plan FILE.json' "
-                       "runs in any process.")
+                       description="Resolve a scene for one engine in one mode exactly as "
+                       "'tippetop simulate' does and print what would run and where, without "
+                       "running it: the same 'what ran' lines a run's summary prints, the "
+                       "start, the model, every contact's settings and the --set keys the "
+                       "engine would not read. --json prints the plan itself (the engine it "
+                       "runs on, its mode, every value resolved, the MJCF text that would be "
+                       "compiled), which 'tippetop simulate --plan FILE.json' runs on that "
+                       "engine in any process.")
     add_scene_options(p)
-    p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
-                   "such as mujoco-native (see 'tippetop --help'; default ode)")
+    add_engine_option(p)
+    add_mode_option(p)
     add_set_option(p)
     p.add_argument("--out", metavar="FILE.json", help="also write the plan's JSON to this file "
                    "(default: none)")
     add_force_option(p, help="overwrite an existing --out file")
-    add_json_option(p, help="print the plan as JSON (format tippetop-plan/1) instead of text")
+    add_json_option(p, help="print the plan as JSON (format tippetop-plan/2) instead of text")
     p.set_defaults(func=run)
 
 
@@ -42,31 +46,37 @@ def run(args: argparse.Namespace) -> int:
 
     out = check_output_path(args.out, force=args.force, suffixes=(".json",)) if args.out \
         else None
-    plan = plan_for(load_scene(args), args.engine)
+    spec, mode, extra = engine_and_mode(args)
+    scene = load_scene(args)
+    if extra:
+        scene = scene.with_overrides(list(extra))
+    plan = plan_for(scene, spec, mode)
     text = plan.to_json()
     if out is not None:
         write_atomic(out, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
     if args.json:
         print(text)
     else:
-        print_plan(plan, args.engine)
+        print_plan(plan)
         if out is not None:
             print(f"wrote {out}: run it with 'tippetop simulate --plan {out}'")
     return 0
 
 
-def print_plan(plan: Any, engine: str) -> None:
-    """A plan for a person: what will run, in the lines a run's summary says what ran with."""
+def print_plan(plan: Any) -> None:
+    """A plan for a person: what will run and where, in the lines a run's summary says."""
     from tippetop.compare.presentation.terminal import fmt, fmt_value, ran_lines
 
     said = plan.what_runs()
     rows: list[tuple[str, str]] = [("start", _start(plan))]
     mj = plan.mujoco
     if mj is None:
-        print(f"{plan.scene} in the reference ODE ({engine}): {fmt(plan.t_end_s, 's')} "
-              f"simulated, a sample every {fmt(plan.ode.sample_dt_s, 's')}")
+        print(f"{plan.scene} on engine {plan.engine} (the reference ODE) in mode {plan.mode}: "
+              f"{fmt(plan.t_end_s, 's')} simulated, a sample every "
+              f"{fmt(plan.ode.sample_dt_s, 's')}")
     else:
-        print(f"{plan.scene} in MuJoCo ({engine}, {mj.mode} mode): {fmt(mj.t_end_s, 's')} "
+        print(f"{plan.scene} on engine {plan.engine} in mode {plan.mode}: "
+              f"{fmt(mj.t_end_s, 's')} "
               f"simulated, {fmt(mj.n_steps)} steps of {fmt(mj.timestep_s, 's')}, a sample "
               f"every {fmt(mj.steps_per_sample)} steps ({fmt(mj.n_intervals + 1)} rows)")
         rows.append(("model", "generated from the scene's top" if mj.source is None else

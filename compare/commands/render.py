@@ -1,4 +1,8 @@
-"""``tippetop render``: an offscreen H.264 MP4 of a run, MuJoCo's, the reference's or both."""
+"""``tippetop render``: an offscreen H.264 MP4 of a run, MuJoCo's, the reference's or both.
+
+``--engine mujoco`` or ``--engine ode`` draws one; ``--engines mujoco,ode`` both side by side;
+``--mode`` is MuJoCo's mode.
+"""
 
 from __future__ import annotations
 
@@ -6,13 +10,20 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from tippetop.compare.commands.options import add_force_option, add_set_option, load_scene
+from tippetop.compare.commands.options import (
+    MODE_HELP,
+    add_force_option,
+    add_mode_option,
+    add_set_option,
+    load_scene,
+)
 from tippetop.compare.presentation.video import (
     DEFAULT_FPS,
     DEFAULT_MAX_FRAMES,
     DEFAULT_SIZE,
     DEFAULT_SPEED,
 )
+from tippetop.models.errors import TippetopError
 
 if TYPE_CHECKING:
     from tippetop.compare.studies.render import RenderResult
@@ -27,8 +38,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "(MUJOCO_GL=egl or osmesa; unset picks one).")
     p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
                    "paper's top and Fig. 3 start)")
-    p.add_argument("--engine", default="mujoco", help="mujoco, ode (the reference replayed "
-                   "in the same MJCF) or both, side by side (default mujoco)")
+    p.add_argument("--engine", metavar="ENGINE", help="mujoco (the MuJoCo installed with "
+                   "tippetop) or ode (the reference replayed in the same MJCF) (default mujoco)")
+    p.add_argument("--engines", metavar="ENGINE,...", help="mujoco,ode: both side by side, "
+                   "MuJoCo left, same time base and camera (default: --engine's one)")
+    add_mode_option(p, default="the scene's: paper for a generated top, file for an MJCF top",
+                    help="MuJoCo's mode: " + MODE_HELP.removeprefix(
+                        "how the contact force is made: ").split(", coulomb")[0])
     p.add_argument("--out", metavar="FILE", help="the .mp4 file (default: <scene name>.mp4 "
                    "in the current folder)")
     p.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="FPS",
@@ -51,10 +67,12 @@ def run(args: argparse.Namespace) -> int:
     """``tippetop render``: simulate and write the video; exit 0, or 1 for a failed run."""
     from tippetop.compare.studies.render import RunFailed, VideoWriteFailed, render_scene
 
+    engines = _engines(args)
     scene = load_scene(args)
     out = args.out if args.out else f"{scene.name}.mp4"
     try:
-        res = render_scene(scene, out, engine=args.engine, fps=args.fps, speed=args.speed,
+        res = render_scene(scene, out, engines=engines, mode=args.mode, fps=args.fps,
+                           speed=args.speed,
                            size=args.size, max_frames=args.max_frames, force=args.force,
                            say=_say)
     except RunFailed as exc:
@@ -83,6 +101,29 @@ def summary_line(res: RenderResult, t_end_s: float) -> str:
             f"{fmt(float(res.video_s), 's')} of video at {fmt(float(res.fps))} fps for "
             f"{fmt(float(t_end_s), 's')} simulated (--speed {res.speed:g}); {res.backend}, "
             f"{fmt_duration(res.ms_per_frame / 1e3)} a frame")
+
+
+def _engines(args: argparse.Namespace) -> tuple[str, ...]:
+    """The engines drawn, from ``--engine`` or ``--engines``.
+
+    ``--engine both``, the release before's spelling of ``--engines mujoco,ode``, is read with
+    a note.
+
+    Raises:
+        TippetopError: Both options at once (one line).
+    """
+    from tippetop.models.modes import note
+
+    if args.engine and args.engines:
+        raise TippetopError(f"--engines: expected --engine or --engines, got --engine "
+                            f"{args.engine} and --engines {args.engines}")
+    if args.engine == "both":
+        note("--engine both is now --engines mujoco,ode (the old spelling goes in the next "
+             "release)")
+        return ("mujoco", "ode")
+    if args.engines:
+        return tuple(e.strip() for e in args.engines.split(",") if e.strip())
+    return (args.engine or "mujoco",)
 
 
 def _say(line: str) -> None:

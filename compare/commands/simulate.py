@@ -9,12 +9,13 @@ from typing import TYPE_CHECKING, Any
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
-    ON_HELP,
+    add_engine_option,
     add_force_option,
     add_json_option,
-    add_on_option,
+    add_mode_option,
     add_scene_options,
     add_set_option,
+    engine_and_mode,
     load_scene,
     print_json,
 )
@@ -22,25 +23,25 @@ from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_stiff, fmt_valu
 from tippetop.models.errors import TippetopError
 
 if TYPE_CHECKING:
-    from tippetop.models.engines import EngineSpec
     from tippetop.models.plan import RunPlan
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop simulate`` and its options."""
-    p = sub.add_parser("simulate", help="run a scene in one engine and print its summary",
-                       description="Run a scene in one engine and print its summary: the "
-                       "results (theta, the inversion time, Jellett's drift, the energy), what "
-                       "ran (read back from the engine) and the --set keys it did not read. "
-                       "Exit 1 if the run failed.")
+    p = sub.add_parser("simulate", help="run a scene on one engine in one mode and print its "
+                       "summary",
+                       description="Run a scene on one engine in one mode and print its "
+                       "summary: the results (theta, the inversion time, Jellett's drift, the "
+                       "energy), what ran (read back from the engine) and the --set keys it did "
+                       "not read. Exit 1 if the run failed.")
     add_scene_options(p)
-    p.add_argument("--engine", help="ode (the reference), mujoco, or a mode such as "
-                   "mujoco-native (see 'tippetop --help'; default ode)")
-    add_on_option(p, help=ON_HELP + "; with it, --engine defaults to mujoco (default: mujoco)")
+    add_engine_option(p)
+    add_mode_option(p)
     add_set_option(p)
     p.add_argument("--plan", metavar="FILE.json", help="run this plan (written by 'tippetop "
-                   "plan --json', or by another program) exactly as it says, instead of a "
-                   "scene: not with SCENE, --engine, --set, --mjcf or --keyframe (default: none)")
+                   "plan --json', or by another program) exactly as it says, on the engine it "
+                   "names, instead of a scene: not with SCENE, --engine, --mode, --set, --mjcf "
+                   "or --keyframe (default: none)")
     p.add_argument("--out", metavar="FILE", help="write the observables table, one row per "
                    "sample, to this .csv or .parquet file (default: the scene's outputs.table, "
                    "else none)")
@@ -55,14 +56,17 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.running.cost import record_mujoco_runs
     from tippetop.compare.running.engines import plan_for, run_plan
     from tippetop.compare.running.io import TABLE_SUFFIXES, check_output_path, write_table
+    from tippetop.models.engines import parse_engine
 
-    spec = _engine_spec(args)
     target = args.out
     if args.plan:
         plan = read_plan(args)
     else:
+        spec, mode, extra = engine_and_mode(args)
         scene = load_scene(args)
-        plan = plan_for(scene, args.engine or ("mujoco" if spec is not None else "ode"))
+        if extra:
+            scene = scene.with_overrides(list(extra))
+        plan = plan_for(scene, spec, mode)
         if not target and scene.outputs.table:
             target = scene.outputs.table
             if scene.path is not None:
@@ -71,13 +75,14 @@ def run(args: argparse.Namespace) -> int:
     if target:
         out_path = check_output_path(target, force=args.force, suffixes=TABLE_SUFFIXES)
     python = None
-    if spec is not None and not spec.in_process and plan.engine != "ode":
+    engine = parse_engine(plan.engine)  # the plan says where it runs
+    if not engine.in_process:
         from tippetop.compare.running.engines import engine_python
 
-        python = engine_python(spec, say=_say)  # a managed environment is made on first use
-    run = run_plan(plan, spec=spec, python=python)
-    on = spec.spec if spec is not None else "mujoco"
-    record_mujoco_runs(measured_steps([run.summary], on), on)  # for the next run's estimate
+        python = engine_python(engine, say=_say)  # a managed environment is made on first use
+    run = run_plan(plan, python=python)
+    # for the next run's estimate
+    record_mujoco_runs(measured_steps([run.summary], plan.engine), plan.engine)
     failed = run_failed(run.summary)
     if out_path is not None and not failed:
         write_table(run.table, out_path)
@@ -96,28 +101,6 @@ def _say(line: str) -> None:
     sys.stderr.flush()
 
 
-def _engine_spec(args: argparse.Namespace) -> EngineSpec | None:
-    """The engine spec of ``--on``, or None.
-
-    An engine spec given to ``--engine`` (``mjx``, say) is refused with where it goes.
-
-    Raises:
-        TippetopError: ``--engine`` given a spec such as ``mjx`` (one line).
-    """
-    from tippetop.models.engines import parse_engine
-
-    if args.engine and args.engine != "mujoco":
-        try:
-            given = parse_engine(args.engine)
-        except TippetopError:
-            given = None
-        if given is not None:
-            raise TippetopError(f"--engine: expected ode, mujoco or a mode, got "
-                                f"{args.engine!r}, an engine to run MuJoCo on: give it as "
-                                f"--on {args.engine}")
-    return parse_engine(args.on) if args.on else None  # checked as the option was read
-
-
 def read_plan(args: argparse.Namespace) -> RunPlan:
     """The plan of ``--plan FILE.json``; the options a plan replaces must not be given.
 
@@ -128,6 +111,7 @@ def read_plan(args: argparse.Namespace) -> RunPlan:
     from tippetop.models.plan import RunPlan
 
     given = [name for name, value in (("SCENE", args.scene), ("--engine", args.engine),
+                                      ("--on", args.on), ("--mode", args.mode),
                                       ("--set", args.set), ("--mjcf", args.mjcf),
                                       ("--keyframe", args.keyframe)) if value]
     if given:
@@ -152,13 +136,15 @@ def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) 
     said to be relative); a value that is not there says why.
     """
     ran = [k for k in RAN_KEYS if k in summary]
-    rest = [(k, v) for k, v in summary.items() if k not in RAN_KEYS and k != "unused"]
+    # the rolling phases are said beside what ran for stiff friction
+    rest = [(k, v) for k, v in summary.items()
+            if k not in RAN_KEYS and k not in ("unused", "rolling_phases")]
     pairs = [("scene", scene), *rest]
     width = max(len(k) for k in [*(k for k, _ in pairs), *ran, "unused"])
 
     def said(k: str, v: Any) -> str:
         # what ran for stiff friction, beside the rolling phases the run did (or did not) enter
-        return fmt_stiff(v, summary.get("rolling")) if k == "stiff" else fmt_value(k, v)
+        return fmt_stiff(v, summary.get("rolling_phases")) if k == "stiff" else fmt_value(k, v)
 
     print("\n".join(f"{k:<{width}}  {said(k, v)}" for k, v in pairs))
     if ran:

@@ -8,7 +8,9 @@ import sys
 from typing import Any
 
 from tippetop.compare.commands.options import (
+    ENGINE_HELP,
     EXIT_RUN_FAILED,
+    MODE_HELP,
     add_force_option,
     add_json_option,
     add_parallel_options,
@@ -21,15 +23,20 @@ from tippetop.models.errors import TippetopError
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop sweep`` and its options."""
-    p = sub.add_parser("sweep", help="theta_asymp against n0 per mode, with theta_s(n0)",
-                       description="theta_asymp against the initial spin n0 in each mode, "
-                       "with the theory's theta_s(n0) (the paper's Figs. 9, 10).")
+    p = sub.add_parser("sweep", help="theta_asymp against n0 per engine and mode, with "
+                       "theta_s(n0)",
+                       description="theta_asymp against the initial spin n0 on each engine in "
+                       "each mode, with the theory's theta_s(n0) (the paper's Figs. 9, 10). "
+                       "Every pairing of --engines and --modes that can run is swept.")
     p.add_argument("scene", help="scene .toml file or catalogue name (required)")
     p.add_argument("--n0", required=True, metavar="START:STOP:STEP",
                    help="initial spins, rad/s; STOP is included when it falls on the grid, "
                    "at most 2000 points (no default: required)")
-    p.add_argument("--modes", default="ode", help="comma-separated modes, listed in "
-                   "'tippetop --help' (default: ode)")
+    p.add_argument("--engines", metavar="ENGINE,...", help="comma-separated engines: "
+                   + ENGINE_HELP.removeprefix("what integrates the run: ") + " (default: ode)")
+    p.add_argument("--modes", metavar="MODE,...", help="comma-separated modes: "
+                   + MODE_HELP.removeprefix("how the contact force is made: ")
+                   + " (default: paper)")
     add_set_option(p)
     p.add_argument("--out", metavar="DIR", help="folder for sweep.csv, theory.csv and "
                    "sweep.png (default: none, printed only)")
@@ -43,13 +50,13 @@ def run(args: argparse.Namespace) -> int:
     """``tippetop sweep``: theta_asymp against n0 per mode, optionally written to ``--out``."""
     from pathlib import Path
 
+    from tippetop.compare.commands.options import engines_and_modes
     from tippetop.compare.presentation.figures import sweep_figure
     from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
     from tippetop.compare.studies.sweep import parse_range, run_sweep
-    from tippetop.models.modes import parse_modes
 
     n0s = parse_range(args.n0)
-    modes = parse_modes(args.modes)
+    runs = engines_and_modes(args, engines="ode", modes="paper")
     out_dir = None
     if args.out:
         out_dir = Path(args.out)
@@ -64,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
             raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
         check_writable(base)  # before the runs, not after them
         hold_output_lock(out_dir)  # a second sweep into it is refused now
-    res = run_sweep(args.scene, n0s, modes, tuple(args.set or []), scheduler=args.scheduler,
+    res = run_sweep(args.scene, n0s, runs, tuple(args.set or []), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -93,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def print_sweep(res: dict[str, Any]) -> None:
-    """A sweep for a person: per mode and n0, theta_asymp against the theory's theta_s(n0)."""
+    """A sweep for a person: per run and n0, theta_asymp against the theory's theta_s(n0)."""
     import numpy as np
 
     rows_in = res["table"].to_dict(orient="records")
@@ -107,10 +114,10 @@ def print_sweep(res: dict[str, Any]) -> None:
         theta_s = None
         if th is not None and len(th):
             theta_s = float(np.interp(r["n0"], th["n0"], th["theta_s"]))
-        rows.append((r.get("mode"), fmt(r.get("n0"), "rad/s"), fmt(r.get("theta_asymp"), "rad"),
+        rows.append((r.get("run"), fmt(r.get("n0"), "rad/s"), fmt(r.get("theta_asymp"), "rad"),
                      fmt(theta_s, "rad"), fmt(r.get("outcome")),
                      fmt_value("t_invert", r.get("t_invert")).split(" (")[0],
                      fmt(r.get("J_rel_drift"), "relative"), fmt(r.get("status")),
                      "cache" if r.get("cached") else "run"))
-    print(table(("mode", "n0", "theta_asymp", "theta_s", "outcome", "t_invert", "J drift",
+    print(table(("run", "n0", "theta_asymp", "theta_s", "outcome", "t_invert", "J drift",
                  "status", "from"), rows))

@@ -8,12 +8,13 @@ from typing import Any
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
-    ON_HELP,
+    add_engine_option,
     add_force_option,
     add_json_option,
-    add_on_option,
+    add_mode_option,
     add_parallel_options,
     add_set_option,
+    engine_and_mode,
     finite_float,
     json_text,
     print_json,
@@ -23,19 +24,18 @@ from tippetop.compare.presentation.terminal import cache_line, fmt, fmt_percent,
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop threshold`` and its options."""
-    p = sub.add_parser("threshold", help="measure n1, n4 or nc in an engine, against the "
+    p = sub.add_parser("threshold", help="measure n1, n4 or nc on an engine, against the "
                        "theory",
-                       description="Measure a critical spin in an engine's own dynamics and "
-                       "compare it with the theory: by default from growth rates (short runs "
-                       "started 0.01 rad from the upright or inverted state; the spin where "
+                       description="Measure a critical spin in an engine's own dynamics (in a "
+                       "mode) and compare it with the theory: by default from growth rates "
+                       "(short runs started 0.01 rad from the upright or inverted state; the "
+                       "spin where "
                        "the tilt stops decaying), or by bisection on n0 over full runs (their "
                        "final states; the bracket's ends are rerun over twice the horizon).")
     p.add_argument("scene", nargs="?", help="scene (default: fig11_n060, the Fig. 9 (a) top "
                    "from theta0 = 0.01 over 60 s)")
-    p.add_argument("--engine", default="ode", help="ode (the reference), mujoco, or a mode "
-                   "(default ode)")
-    add_on_option(p, help=ON_HELP.replace("the run goes on", "a MuJoCo --engine runs on")
-                  + " (default mujoco)")
+    add_engine_option(p)
+    add_mode_option(p)
     p.add_argument("--which", required=True, choices=("n1", "n4", "nc"),
                    help="n1: the spin above which theta = 0 is unstable; n4: the spin at "
                    "theta = 0 that keeps the inverted state stable; nc: the spin above which "
@@ -68,10 +68,11 @@ def run(args: argparse.Namespace) -> int:
         out_dir = check_output_dir(args.out, force=args.force)
         hold_output_lock(out_dir)  # a second run into it is refused now, not mixed in later
     method = {"method": args.method} if getattr(args, "method", None) else {}
-    res = measure_threshold(args.scene, args.engine, args.which, tuple(args.set or []),
+    spec, mode, extra = engine_and_mode(args)
+    res = measure_threshold(args.scene, spec.spec, args.which, (*extra, *(args.set or [])),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
-                            workers=args.workers, use_cache=not args.no_cache,
-                            spec=args.on or "mujoco", **method)
+                            workers=args.workers, use_cache=not args.no_cache, mode=mode,
+                            **method)
     files = _write_threshold(res, out_dir) if out_dir is not None else []
     if args.json:
         print_json(res)
@@ -126,9 +127,8 @@ def print_threshold(res: dict[str, Any]) -> None:
         how = f"from growth rates of {n_runs} runs of {fmt(horizon, 's')} near the steady state"
     else:
         how = f"by bisection on n0 over {n_runs} runs of {fmt(horizon, 's')}"
-    spec = res.get("engine_spec", "mujoco")
-    on = f" on {spec}" if spec != "mujoco" else ""
-    print(f"{which} of {res.get('scene', '?')} in {res.get('engine', '?')}{on}, {how}:")
+    print(f"{which} of {res.get('scene', '?')} on {res.get('engine', '?')} in mode "
+          f"{res.get('mode', '?')}, {how}:")
     bracket = res.get("bracket") or [None, None]
     rows = [
         ("measured", fmt(res.get("measured"), "rad/s"),

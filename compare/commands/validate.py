@@ -82,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
         with staged_output_dir(out) as stage:  # all files or none, even on Ctrl-C
             (stage / "tables").mkdir()
             for mode, table in tables.items():
-                name = re.sub(r"[^A-Za-z0-9._=@+-]", "_", mode)  # a spec may hold a path
+                # a run's name holds a "/" (ENGINE/MODE), and an engine may hold a path
+                name = re.sub(r"[^A-Za-z0-9._=@+-]", "_", mode)
                 write_table(table, stage / "tables" / f"{name}.csv")
             (stage / "results.json").write_text(text, "utf-8")
             (stage / "report.html").write_text(html, "utf-8")
@@ -101,7 +102,7 @@ def _print_friction(res: dict[str, Any]) -> None:
     lines = []
     for mode, r in res["runs"].items():
         fr = r.get("friction_realised")
-        if mode == "ode" or not fr:
+        if mode.startswith("ode/") or not fr:
             continue
         lines.append(f"    {realised_sentence(mode, fr)}")
         refit = fr.get("refit")
@@ -139,12 +140,12 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
           f"checks pass, {res['t_end_s']:g} s simulated)")
     width = max(len(c["check"]) for c in checks)
-    mwidth = max(len(c["mode"]) for c in checks)
+    mwidth = max(len(c["run"]) for c in checks)
     for c in checks:
         if not c["passed"]:
             shown = check_text(c, res["t_end_s"], res["runs"])
             why = f"; {note}" if (note := check_note(c)) else ""
-            print(f"  departs: {c['mode']:<{mwidth}} {c['check']:<{width}}  {shown}  "
+            print(f"  departs: {c['run']:<{mwidth}} {c['check']:<{width}}  {shown}  "
                   f"(tolerance {c['tolerance']}{why})")
     for mode, r in res["runs"].items():
         if r.get("note"):
@@ -155,7 +156,7 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     sug = res.get("suggestion") or {}
     if sug and not res["agrees"]:
         title = ("settings that follow the reference" if sug["agrees"]
-                 else "the calibrated settings (mujoco-native)")
+                 else "the calibrated settings (mujoco/native)")
         print(f"  {title}: {sug['note']}")
         if sug.get("changes"):
             print("    changes from the file's: " + "; ".join(

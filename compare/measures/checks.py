@@ -1,7 +1,8 @@
 """The verdict's checks of a run against the theory and the reference.
 
-Shared by ``validate`` (:mod:`.validate`) and the tuning (:mod:`.tune`): a finished run as the
-checks read it (:func:`run_entry`), and one check per (check, mode) (:func:`verdict`).
+Shared by ``validate`` and the tuning (:mod:`tippetop.compare.studies.tune`): a finished run
+as the checks read it (:func:`run_entry`), and one check per (check, run) (:func:`verdict`).
+Runs are named ``ENGINE/MODE`` (:func:`tippetop.models.modes.run_label`).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 
 from tippetop.compare.measures.series import classify_outcome
 from tippetop.compare.measures.summary import describe_ran
+from tippetop.models.modes import REFERENCE_RUN, split_label
 from tippetop.models.numbers import number_text
 from tippetop.models.resolve import nice_step_below
 
@@ -42,8 +44,13 @@ ENERGY_RISE_FLOOR = 1e-6
 
 
 def mode_of(key: str) -> str:
-    """The mode of a run key (``mujoco-file@mujoco==3.3.7`` -> ``mujoco-file``)."""
-    return key.split("@", 1)[0]
+    """The mode of a run's name (``mujoco==3.3.7/file`` -> ``file``)."""
+    return split_label(key)[1]
+
+
+def engine_of(key: str) -> str:
+    """The engine of a run's name (``mujoco==3.3.7/file`` -> ``mujoco==3.3.7``)."""
+    return split_label(key)[0]
 
 
 def _end_state(summary: dict[str, Any], outcome: str) -> str:
@@ -53,10 +60,11 @@ def _end_state(summary: dict[str, Any], outcome: str) -> str:
     return outcome
 
 
-def _check(check: str, mode: str, passed: bool | None, value: Any, tolerance: str,
+def _check(check: str, run: str, passed: bool | None, value: Any, tolerance: str,
            note: str) -> dict[str, Any]:
-    return {"check": check, "mode": mode, "passed": passed, "value": value,
-            "tolerance": tolerance, "note": note}
+    engine, mode = split_label(run)
+    return {"check": check, "run": run, "engine": engine, "mode": mode, "passed": passed,
+            "value": value, "tolerance": tolerance, "note": note}
 
 
 def _event_check(name: str, mode: str, mine: float | None, ref: float | None,
@@ -115,15 +123,20 @@ def run_entry(res: Any) -> dict[str, Any]:
 
 
 def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
-            A_over_C: float | None = None) -> list[dict[str, Any]]:
-    """One check per (check, mode): the run's outcome, events, Jellett, energy.
+            A_over_C: float | None = None,
+            reference: str = REFERENCE_RUN) -> list[dict[str, Any]]:
+    """One check per (check, run): the run's outcome, events, Jellett, energy.
 
-    With ``A_over_C`` (the top's), a MuJoCo paper-mode run whose Jellett drift departs under a
-    first-order integrator is said to be the integrator's (:func:`gyroscopic_drift`): the law
-    acts at the contact point and keeps J.
+    Args:
+        runs: Run name (``ENGINE/MODE``) -> the run as :func:`run_entry` reads it.
+        theory_outcome: The theory's outcome for the runs' start.
+        A_over_C: The top's; a MuJoCo paper-mode run whose Jellett drift departs under a
+            first-order integrator is then said to be the integrator's
+            (:func:`gyroscopic_drift`): the law acts at the contact point and keeps J.
+        reference: The reference's run among ``runs``.
     """
     out: list[dict[str, Any]] = []
-    ref = runs.get("ode", {})
+    ref = runs.get(reference, {})
     for mode, r in runs.items():
         s = r
         if r.get("error") or s.get("theta_final") is None:
@@ -135,7 +148,7 @@ def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
         passed = (turned if theory_outcome == "inverted" else r["outcome"] == theory_outcome)
         out.append(_check("outcome", mode, passed, end, f"the theory's: {theory_outcome}",
                           "a top that reaches its stem counts as turned over"))
-        if mode != "ode" and ref.get("theta_final") is not None:
+        if mode != reference and ref.get("theta_final") is not None:
             rs = ref
             out.append(_event_check("t_invert", mode, s.get("t_invert"), rs.get("t_invert"),
                                     "turns over (theta = pi/2)"))
@@ -143,16 +156,16 @@ def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
                 out.append(_event_check("t_stem", mode, s.get("t_stem"), rs.get("t_stem"),
                                         "the stem touches"))
         j = s.get("J_rel_drift")
-        tol = J_TOL["ode" if mode == "ode" else "mujoco"]
+        tol = J_TOL["ode" if engine_of(mode) == "ode" else "mujoco"]
         note = "relative drift of Jellett's constant while the ball alone touches"
         cause = gyroscopic_drift(s, A_over_C) if j is not None and j > tol else None
-        if cause and mode_of(mode) == "mujoco-paper":
+        if cause and mode_of(mode) == "paper" and engine_of(mode) != "ode":
             note += ("; not the law's: it acts at the contact point, where it keeps J (to "
                      f"1e-14 at A = C under any integrator); {s['integrator']} is {cause}")
         out.append(_check("jellett_before_stem", mode, j is not None and j <= tol, j,
                           f"<= {tol:g}", note))
         rise = s.get("energy_rise_rel")
-        if mode == "ode":
+        if engine_of(mode) == "ode":
             ok, tol_text = bool(s.get("energy_monotone")), "within the integration tolerance"
         else:
             held = (s.get("contact_energy_bound_J") or 0.0) / abs(r["E0_J"])
@@ -167,4 +180,5 @@ def verdict(runs: dict[str, dict[str, Any]], theory_outcome: str,
 
 
 __all__ = ["ENERGY_RISE_FLOOR", "EVENT_RTOL", "EVENT_TOL_S", "FIRST_ORDER", "ISOTROPIC_TOL",
-           "J_TOL", "gyroscopic_drift", "mode_of", "run_entry", "verdict"]
+           "J_TOL", "REFERENCE_RUN", "engine_of", "gyroscopic_drift", "mode_of", "run_entry",
+           "verdict"]

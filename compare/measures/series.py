@@ -72,6 +72,7 @@ def summary(
     table: pd.DataFrame,
     *,
     engine: str,
+    mode: str,
     rtol: float,
     t_invert: float | None,
     contact_lost: bool,
@@ -83,7 +84,8 @@ def summary(
 
     Args:
         table: The observables table.
-        engine: ``ode`` or ``mujoco``.
+        engine: The engine that ran it, as given (``ode``, ``mujoco``, ``mujoco==3.3.7`` ...).
+        mode: The mode it ran in (``paper``, ``native`` ...).
         rtol: The relative accuracy the run was computed to (for the energy check).
         t_invert: First time theta > pi/2 if the engine located it; None if never.
         contact_lost: Whether the run stopped because the sphere left the table.
@@ -93,6 +95,7 @@ def summary(
     """
     return {
         "engine": engine,
+        "mode": mode,
         "theta_final": float(table["theta"].iloc[-1]),
         "theta_asymp": theta_asymp(table),
         "t_invert": t_invert,

@@ -11,6 +11,10 @@ from collections.abc import Iterable
 from typing import Any
 
 from tippetop.models.numbers import number_text, solver_text
+from tippetop.models.plan import NATIVE_LAW
+
+#: ``friction_law`` of a run on MuJoCo's own contact: today's, and the release before's.
+NATIVE_LAWS = (NATIVE_LAW, "mujoco-native")
 
 #: The summary keys of a failed run that would be numbers: a failed run reports none.
 RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone",
@@ -25,12 +29,11 @@ def measured_steps(summaries: Iterable[dict[str, Any] | None],
                    spec: str = "mujoco") -> list[tuple[int, float]]:
     """``(n_steps, wall_s)`` of each finished MuJoCo run on the engine ``spec``.
 
-    The runs of that engine only (the read-back ``engine_spec``): each engine's steps cost
-    what it does. For the cost model (:func:`tippetop.compare.running.cost.record_mujoco_runs`).
+    The runs of that engine only (a summary's ``engine``): each engine's steps cost what it
+    does. For the cost model (:func:`tippetop.compare.running.cost.record_mujoco_runs`).
     """
     return [(int(s["n_steps"]), float(s["wall_s"])) for s in summaries
-            if s is not None and s.get("engine") == "mujoco"
-            and s.get("engine_spec") == spec and s.get("status") == "ok"
+            if s is not None and s.get("engine") == spec and s.get("status") == "ok"
             and s.get("n_steps") and s.get("wall_s")]
 
 
@@ -56,7 +59,7 @@ def describe_ran(summary: dict[str, Any]) -> str:
     solref, solimp = (f"{k} [{solver_text(k, summary[k])}]" if summary.get(k) is not None
                       else f"{k} -" for k in ("solref", "solimp"))
     contact = f"condim {summary.get('condim')}, {solref}, {solimp}"
-    if summary.get("mode") == "paper":
+    if summary.get("friction_law") not in NATIVE_LAWS:
         law = summary.get("friction_law")
         mu = summary.get("law_mu")
         applied = f"the paper-mode law {law}" + (f" (mu {number_text(mu)})" if mu is not None
@@ -90,5 +93,5 @@ def mjcf_attributes(summary: dict[str, Any]) -> tuple[str, str]:
              f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'))
 
 
-__all__ = ["FINISHED_STATUSES", "RESULT_KEYS", "describe_ran", "measured_steps",
+__all__ = ["FINISHED_STATUSES", "NATIVE_LAWS", "RESULT_KEYS", "describe_ran", "measured_steps",
            "mjcf_attributes", "run_failed"]

@@ -12,10 +12,12 @@ from typing import Any
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.series import outcome_of_angle
+from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text, signed_text
 from tippetop.models.params import TopParams
 
-REFERENCE_MODE = "ode"
+#: The run every other is compared with: the reference ODE in the scene's own law.
+REFERENCE_ENGINE = "ode"
 
 #: metric -> (tolerance, why). A mode "differs" where |value - reference| exceeds it.
 TOLERANCES: dict[str, tuple[float, str]] = {
@@ -51,7 +53,8 @@ def _finite(x: float | None) -> float | None:
     return x if x is not None and math.isfinite(x) else None
 
 
-def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: float | None,
+def crossval_row(scene: str, mode: str, *, engine: str = "ode", outcome: str | None,
+                 theta_asymp: float | None,
                  theta_s: float | None, theory_outcome: str | None, t_invert: float | None,
                  t_invert_ref: float | None = None, J_rel_drift: float | None = None,
                  trend: float | None = None, error: str | None = None,
@@ -60,7 +63,8 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
 
     Args:
         scene: The scene's name (with its overrides, if any).
-        mode: ``ode``, ``mujoco-paper``, ``mujoco-native``, ...
+        mode: The run's mode (``paper``, ``native``, ...).
+        engine: The engine it ran on (``ode``, ``mujoco``, ``mujoco==3.3.7``, ...).
         outcome: The run's outcome class (``failed`` if it did not run).
         theta_asymp: Mean theta over the run's last 10 % (rad).
         theta_s: The theory's asymptotic angle for the run's Jellett constant (rad).
@@ -77,7 +81,8 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
 
     Returns:
         ``scene, mode, outcome, theory_outcome, theta_asymp, theta_s, d_theta_asymp, t_invert,
-        d_t_invert, J_rel_drift, agrees`` (the contract), plus ``t_invert_ref``,
+        d_t_invert, J_rel_drift, agrees`` (the contract), plus ``engine``, ``run``
+        (``ENGINE/MODE``), ``t_invert_ref``,
         ``theta_trend_rad_s``, ``still_moving``, ``reasons`` (why it does not agree, in
         words), ``notes``
         (differences from the reference beyond their tolerances) and ``error``.
@@ -128,7 +133,8 @@ def crossval_row(scene: str, mode: str, *, outcome: str | None, theta_asymp: flo
     if error is None and J_rel_drift is not None and J_rel_drift > j_tol:
         notes.append(f"Jellett's J drifts by {number_text(J_rel_drift, 'relative')} (beyond "
                      f"{number_text(j_tol, 'relative')})")
-    return {"scene": scene, "mode": mode, "outcome": outcome, "theory_outcome": theory_outcome,
+    return {"scene": scene, "engine": engine, "mode": mode, "run": run_label(engine, mode),
+            "outcome": outcome, "theory_outcome": theory_outcome,
             "theta_asymp": theta_asymp, "theta_s": theta_s, "d_theta_asymp": d_th,
             "t_invert": t_invert, "d_t_invert": d_t, "J_rel_drift": J_rel_drift,
             "agrees": bool(agrees), "t_invert_ref": t_invert_ref,
@@ -157,33 +163,40 @@ def calibrated_native_text() -> str:
     return ", ".join(p for p in parts if p)
 
 
-#: Why each mode departs from the paper's law where it does (the numbers say whether it does).
-MODE_NOTES: dict[str, str] = {
-    "ode": "the reference: the paper's equations (Appendix A) with the scene's law",
-    "ode-paper-form": "the same law in the paper's own variables, singular at theta = 0 and pi",
-    "ode-coulomb": "exact Coulomb keeps the full mu N down to v_P = 0, so slip is killed "
-                   "quickly and the top rolls instead of sliding",
-    "ode-viscous": "viscous friction with the paper's slope at v_P = 0: the same below "
-                   "Lambda, unbounded above it",
-    "ode-coulomb_viscous": "Or's hybrid: exact Coulomb plus the viscous term",
-    "mujoco-paper": "the paper's law applied by the harness in MuJoCo (normal force lagged by "
-                    "one evaluation, soft contact)",
-    "mujoco-native": f"MuJoCo's own soft friction with the calibrated settings "
-                     f"({calibrated_native_text()}), a steep viscous law below saturation set "
-                     f"by solref/impratio and dt",
-    "mujoco-file": "MuJoCo's own friction with the model's own settings (a loaded MJCF file "
-                   "as it says)",
-    "mujoco-native-pyramidal": f"pyramidal cone: the friction bound mu N holds along each "
-                               f"pyramid edge (the table's axes), so along a diagonal the "
-                               f"force is at most mu N / sqrt(2) = {PYRAMIDAL_DIAGONAL:.2f} mu "
-                               f"N: the friction depends on the slip direction",
-    "mujoco-native-elliptic": "elliptic cone: |F| <= mu N in every direction, as in Coulomb's "
-                              "law",
-    "mujoco-native-condim4": "torsional friction adds a torque about the normal that is not "
-                             "through P: Jellett's constant is no longer conserved",
-    "mujoco-native-condim6": "torsional and rolling friction add torques not through P: J is "
-                             "not conserved and the spin is damped",
+#: Why each run departs from the paper's law where it does (the numbers say whether it does),
+#: by engine family and mode.
+MODE_NOTES: dict[tuple[str, str], str] = {
+    ("ode", "paper"): "the reference: the paper's equations (Appendix A) with the scene's law",
+    ("ode", "coulomb"): "exact Coulomb keeps the full mu N down to v_P = 0, so slip is killed "
+                        "quickly and the top rolls instead of sliding",
+    ("ode", "viscous"): "viscous friction with the paper's slope at v_P = 0: the same below "
+                        "Lambda, unbounded above it",
+    ("ode", "coulomb_viscous"): "Or's hybrid: exact Coulomb plus the viscous term",
+    ("mujoco", "paper"): "the paper's law applied by the harness in MuJoCo (normal force lagged "
+                         "by one evaluation, soft contact)",
+    ("mujoco", "native"): f"MuJoCo's own soft friction with the calibrated settings "
+                          f"({calibrated_native_text()}), a steep viscous law below saturation "
+                          f"set by solref/impratio and dt",
+    ("mujoco", "file"): "MuJoCo's own friction with the model's own settings (a loaded MJCF "
+                        "file as it says)",
+    ("mujoco", "native-pyramidal"): f"pyramidal cone: the friction bound mu N holds along each "
+                                    f"pyramid edge (the table's axes), so along a diagonal the "
+                                    f"force is at most mu N / sqrt(2) = "
+                                    f"{PYRAMIDAL_DIAGONAL:.2f} mu N: the friction depends on "
+                                    f"the slip direction",
+    ("mujoco", "native-elliptic"): "elliptic cone: |F| <= mu N in every direction, as in "
+                                   "Coulomb's law",
+    ("mujoco", "native-condim4"): "torsional friction adds a torque about the normal that is "
+                                  "not through P: Jellett's constant is no longer conserved",
+    ("mujoco", "native-condim6"): "torsional and rolling friction add torques not through P: J "
+                                  "is not conserved and the spin is damped",
 }
+
+
+def mode_note(engine: str, mode: str) -> str:
+    """Why a run on ``engine`` in ``mode`` may depart from the paper's law ("" if unknown)."""
+    family = "ode" if engine == REFERENCE_ENGINE else "mujoco"
+    return MODE_NOTES.get((family, mode), "")
 
 
 def predicted_outcome(top: TopParams, J0: float) -> tuple[float, str]:

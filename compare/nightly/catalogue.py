@@ -13,13 +13,15 @@ from typing import Any
 from tippetop.compare.studies.sweep import parse_range
 from tippetop.compare.studies.threshold import METHODS, WHICH
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import MODES
+from tippetop.models.modes import MODES, OLD_NAMES, note, run_label
 from tippetop.models.resources import data_path
 
 #: The catalogue shipped with the package.
 CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
 PROFILES = ("quick", "full", "stress")
 KINDS = ("run", "threshold", "sweep", "atlas")
+#: The engine families a catalogue names: ``ode`` (the reference) and ``mujoco`` (the MuJoCo
+#: engines ``--engines`` gives: the installed one by default).
 ENGINES = ("ode", "mujoco")
 
 #: Metrics each kind of case can check.
@@ -34,10 +36,11 @@ KIND_METRICS: dict[str, tuple[str, ...]] = {
 
 @dataclass(frozen=True)
 class Case:
-    """One case of the catalogue in one mode.
+    """One case of the catalogue on one engine in one mode.
 
-    ``spec``: the engine spec a MuJoCo case runs on (:mod:`tippetop.models.engines`); a case
-    on another spec than ``mujoco`` has ``@SPEC`` at the end of its id.
+    Its id is ``CATEGORY/NAME[ENGINE/MODE]`` (``paper/fig3[mujoco/native]``). ``engine`` is
+    ``ode`` or ``mujoco`` as the catalogue names it, and the engine it runs on after
+    :func:`on_engine` (``mujoco==3.3.7``: its id says so).
     """
 
     id: str
@@ -45,6 +48,7 @@ class Case:
     category: str
     kind: str
     scene: str
+    engine: str
     mode: str
     metrics: tuple[str, ...]
     profiles: tuple[str, ...]
@@ -60,18 +64,26 @@ class Case:
     label: str = ""
     A_over_C: str = ""
     a_over_R: str = ""
-    spec: str = "mujoco"
     departs: str = ""
+    extra: tuple[str, ...] = ()
 
     @property
-    def engine(self) -> str:
-        """``ode`` or ``mujoco``."""
-        return MODES[self.mode][0]
+    def family(self) -> str:
+        """``ode`` (the reference) or ``mujoco`` (every MuJoCo engine)."""
+        return "ode" if self.engine == "ode" else "mujoco"
+
+    @property
+    def run(self) -> str:
+        """``ENGINE/MODE``."""
+        return run_label(self.engine, self.mode)
 
     @property
     def overrides(self) -> tuple[str, ...]:
-        """The case's ``set`` then its mode's overrides."""
-        return (*self.set, *MODES[self.mode][1])
+        """The case's ``set`` (and the scene keys an old compound mode name also set).
+
+        The mode's own keys are set by the plan (:func:`tippetop.models.resolve.resolve_plan`).
+        """
+        return (*self.set, *self.extra)
 
 
 @dataclass(frozen=True)
@@ -83,8 +95,8 @@ class Catalogue:
     cases: tuple[Case, ...]
 
 
-_COMMON_KEYS = {"name", "category", "kind", "scene", "set", "modes", "profiles", "metrics",
-                "description"}
+_COMMON_KEYS = {"name", "category", "kind", "scene", "set", "engines", "modes", "profiles",
+                "metrics", "description"}
 _KIND_KEYS = {"run": {"departs"}, "atlas": {"A_over_C", "a_over_R"},
               "threshold": {"which", "method", "rel_tol", "max_rounds", "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
@@ -132,10 +144,7 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
     if not (isinstance(over, list) and all(isinstance(x, str) for x in over)):
         raise TippetopError(f"{where}.set: expected a list of 'section.key=value' strings, "
                             f"got {over!r}")
-    for m in modes:
-        if m not in MODES:
-            raise TippetopError(f"{where}.modes: expected names from {', '.join(MODES)}, "
-                                f"got {m!r}")
+    runs = _runs(entry, modes, where)
     for p in profs:
         if p not in profiles:
             raise TippetopError(f"{where}.profiles: expected names from "
@@ -144,7 +153,7 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
         if m not in KIND_METRICS[kind]:
             raise TippetopError(f"{where}.metrics: expected names from "
                                 f"{', '.join(KIND_METRICS[kind])} for a {kind} case, got {m!r}")
-    if not (modes and profs and metrics):
+    if not (runs and profs and metrics):
         raise TippetopError(f"{where}: expected non-empty modes, profiles and metrics")
     extra: dict[str, Any] = {}
     if kind == "threshold":
@@ -176,21 +185,70 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
         parse_grid(extra["a_over_R"], f"{where}.a_over_R")
     elif kind == "run" and "departs" in entry:
         departs = entry["departs"]
-        if not (isinstance(departs, dict) and departs and all(
-                m in modes and isinstance(why, str) and why.strip()
-                for m, why in departs.items())):
+        names = {m for _e, m, _x in runs}
+        ok = isinstance(departs, dict) and bool(departs)
+        if ok:
+            departs = {_mode_name(m): why for m, why in departs.items()}
+            ok = all(m in names and isinstance(why, str) and why.strip()
+                     for m, why in departs.items())
+        if not ok:
             raise TippetopError(f"{where}.departs: expected a table of the case's modes "
-                                f"({', '.join(modes)}) = 'why it departs from the theory', got "
-                                f"{departs!r}")
+                                f"({', '.join(sorted(names))}) = 'why it departs from the "
+                                f"theory', got {entry['departs']!r}")
+        extra = {"departs_by_mode": departs}
     elif kind == "sweep":
         extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
                  "figure": entry.get("figure", ""), "label": entry.get("label", "")}
-    return [Case(id=f"{category}/{name}[{mode}]", name=name, category=category, kind=kind,
-                 scene=scene, mode=mode, metrics=tuple(metrics), profiles=tuple(profs),
-                 set=tuple(over), description=entry.get("description", ""),
-                 departs=(entry.get("departs") or {}).get(mode, ""),  # run cases only
+    departs_by_mode = extra.pop("departs_by_mode", {})
+    return [Case(id=f"{category}/{name}[{run_label(engine, mode)}]", name=name,
+                 category=category, kind=kind, scene=scene, engine=engine, mode=mode,
+                 metrics=tuple(metrics), profiles=tuple(profs), set=tuple(over),
+                 description=entry.get("description", ""),
+                 departs=departs_by_mode.get(mode, ""), extra=more,  # run cases only
                  **extra)
-            for mode in modes]
+            for engine, mode, more in runs]
+
+
+def _mode_name(name: str) -> str:
+    """A mode, or the mode of a compound name of the release before (``mujoco-native``)."""
+    old = OLD_NAMES.get(name)
+    return old[1] or "paper" if old is not None and name not in MODES else name
+
+
+def _runs(entry: dict[str, Any], modes: list[str],
+          where: str) -> list[tuple[str, str, tuple[str, ...]]]:
+    """(engine, mode, extra scene keys) of each case of a catalogue entry.
+
+    ``modes`` on every engine family of ``engines`` (default: every family that can run
+    it); a compound name of the release before (``mujoco-native``, ``ode-coulomb``) is its
+    engine and mode, with a note.
+    """
+    families = entry.get("engines")
+    if families is not None:
+        if not (isinstance(families, list) and families
+                and all(f in ENGINES for f in families)):
+            raise TippetopError(f"{where}.engines: expected a list of {' and '.join(ENGINES)}, "
+                                f"got {families!r}")
+    out: list[tuple[str, str, tuple[str, ...]]] = []
+    old_given = []
+    for m in modes:
+        if m in MODES:
+            fams = [f for f in (families or ENGINES) if f in MODES[m].families]
+            if not fams:
+                raise TippetopError(f"{where}.modes: expected modes the engines "
+                                    f"{', '.join(families or ENGINES)} can run, got {m!r}")
+            out += [(f, m, ()) for f in fams]
+        elif m in OLD_NAMES:
+            engine, mode, extra = OLD_NAMES[m]
+            old_given.append(m)
+            out.append((engine, mode or "paper", extra))
+        else:
+            raise TippetopError(f"{where}.modes: expected names from {', '.join(MODES)}, got "
+                                f"{m!r}")
+    if old_given:
+        note(f"{where}: modes {', '.join(old_given)} name engines and modes together: now "
+             "engines = [...] and modes = [...] (the old spelling goes in the next release)")
+    return out
 
 
 def load_catalogue(path: str | Path | None = None) -> Catalogue:
@@ -239,29 +297,31 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
 
 
 def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = ENGINES,
-                 patterns: Sequence[str] = ()) -> list[Case]:
-    """The cases of ``profile`` on ``engines`` whose id matches one of ``patterns``.
+                 patterns: Sequence[str] = (), modes: Sequence[str] = ()) -> list[Case]:
+    """The cases of ``profile`` on ``engines`` (families) whose id matches one of ``patterns``.
 
     Patterns are globs with ``*`` and ``?``; brackets are literal, so ``paper/fig3[*`` selects
-    every mode of ``paper/fig3``.
+    every run of ``paper/fig3``. ``modes``: only the cases in these modes (default: all).
     """
     if profile not in catalogue.profiles:
         raise TippetopError(f"--profile: expected one of {'|'.join(catalogue.profiles)}, got "
                             f"{profile!r}")
-    out = [c for c in catalogue.cases if profile in c.profiles and c.engine in engines]
+    out = [c for c in catalogue.cases if profile in c.profiles and c.family in engines
+           and (not modes or c.mode in modes)]
     if patterns:
         globs = [_literal_brackets(p) for p in patterns]
         out = [c for c in out if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
     return out
 
 
-def on_spec(case: Case, spec: str) -> Case:
-    """``case`` (a MuJoCo case) on the engine spec ``spec``: its id gains ``@spec``."""
-    if spec == "mujoco":
+def on_engine(case: Case, engine: str) -> Case:
+    """``case`` (a MuJoCo case) on the MuJoCo engine ``engine``: its id says so."""
+    if engine == case.engine:
         return case
-    return replace(case, id=f"{case.id}@{spec}", spec=spec)
+    return replace(case, id=f"{case.category}/{case.name}[{run_label(engine, case.mode)}]",
+                   engine=engine)
 
 
 def _literal_brackets(pattern: str) -> str:
-    """A glob in which ``[`` and ``]`` match themselves (case ids end in ``[mode]``)."""
+    """A glob in which ``[`` and ``]`` match themselves (case ids end in ``[engine/mode]``)."""
     return pattern.replace("[", "\0").replace("]", "[]]").replace("\0", "[[]")

@@ -15,7 +15,7 @@ from tippetop.compare.measures.tolerances import (
 from tippetop.compare.nightly.catalogue import Case
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
 from tippetop.compare.running.engines import plan_for
-from tippetop.models.plan import RunPlan
+from tippetop.models.plan import NATIVE_LAW, RunPlan
 from tippetop.models.scene import Scene, load_scene
 
 
@@ -71,11 +71,11 @@ def _law(plan: RunPlan) -> tuple[str, float | None, float | None]:
         fr = plan.mujoco.law
     else:
         contact = plan.mujoco.ball_contact if plan.mujoco is not None else None
-        native = plan.mujoco is not None and plan.mujoco.mode == "native"
+        native = plan.mujoco is not None and plan.mujoco.friction == "native"
         # MuJoCo's own friction: the ball's contact's mu; no friction at all: mu 0
         mu = (contact.friction[0] if native and contact is not None
               else None if contact is None else 0.0)
-        return "mujoco-native" if native else "none", mu, None
+        return NATIVE_LAW if native else "none", mu, None
     return fr.law, fr.mu, fr.Lambda_mps
 
 
@@ -106,10 +106,10 @@ def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
     """The results.json entry of a case."""
     c = cr.case
     scene = load_scene(c.scene, list(c.overrides))
-    params, th = _top_record(scene, plan_for(scene, c.engine))
+    params, th = _top_record(scene, plan_for(scene, c.engine, c.mode))
     rec: dict[str, Any] = {
-        "id": c.id, "name": c.name, "category": c.category, "kind": c.kind, "mode": c.mode,
-        "engine": c.engine, "engine_spec": c.spec if c.engine != "ode" else "ode",
+        "id": c.id, "name": c.name, "category": c.category, "kind": c.kind,
+        "engine": c.engine, "mode": c.mode, "run": c.run,
         "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
         "overrides": list(c.overrides), "description": c.description or scene.description,
         "metrics": list(c.metrics), "status": case_status(checks), "error": cr.error,

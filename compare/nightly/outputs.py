@@ -73,6 +73,8 @@ def environment() -> dict[str, Any]:
 
 def junit_xml(results: Mapping[str, Any]) -> bytes:
     """JUnit XML: a suite per category, a testcase per case and metric."""
+    from tippetop.compare.presentation.verdict import run_of
+
     cases = results["cases"]
     profile = results["profile"]
     counts = results["counts"]
@@ -102,7 +104,7 @@ def junit_xml(results: Mapping[str, Any]) -> bytes:
             n = max(1, len(r["checks"]))
             for ch in r["checks"]:
                 tc = ET.SubElement(suite, "testcase", {
-                    "classname": f"nightly.{profile}.{cat}.{r['name']}[{r['mode']}]",
+                    "classname": f"nightly.{profile}.{cat}.{r['name']}[{run_of(r)}]",
                     "name": ch["metric"], "time": f"{r['wall_s'] / n:.3f}"})
                 detail = (f"case {r['id']}\nmetric {ch['metric']}\nvalue {ch['value']!r}\n"
                           f"baseline {ch['baseline']!r}\ntolerance {ch['tolerance']['text']}"
@@ -235,10 +237,10 @@ def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             continue
         reasons = r.get("reasons") or []
         if (why := expected_reason(r)) is not None:  # its numbers: the report's
-            expected.append(f"{r['scene']} [{r['mode']}]: {reasons[0] if reasons else cls}; "
+            expected.append(f"{r['scene']} [{r['run']}]: {reasons[0] if reasons else cls}; "
                             f"expected: {why}")
         else:
-            unexpected.append(f"{cls}: {r['scene']} [{r['mode']}]: {'; '.join(reasons)}")
+            unexpected.append(f"{cls}: {r['scene']} [{r['run']}]: {'; '.join(reasons)}")
             kinds[cls] = kinds.get(cls, 0) + 1
     agree = len(rows) - len(expected) - len(unexpected)
     if not rows:
@@ -259,12 +261,12 @@ def theory_answer(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 
 def crossval_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """Per mode, how many runs agree with the theory (the runs that do not: theory_answer)."""
-    from tippetop.compare.presentation.verdict import agreement_counts, mode_order
+    """Per run (``ENGINE/MODE``), how many agree with the theory (see :func:`theory_answer`)."""
+    from tippetop.compare.presentation.verdict import agreement_counts, run_order
 
     counts = agreement_counts(rows)
     out = []
-    for m in mode_order(rows):
+    for m in run_order(rows):
         k = counts[m]
         rest = ", ".join(f"{k[c]} {c}" for c in ("depart", "inconclusive", "failed") if k[c])
         out.append(f"{m}: {k['agree']} of {k['runs']} agree" + (f" ({rest})" if rest else ""))

@@ -132,13 +132,13 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
         for engine in ENGINES:
             jobs: list[tuple[Case, float | None, Task]] = []
             for c in cases:
-                if c.engine != engine:
+                if c.family != engine:
                     continue
                 if c.kind == "run":
-                    jobs.append((c, None, Task(c.scene, c.overrides, engine, spec=c.spec)))
+                    jobs.append((c, None, Task(c.scene, c.overrides, c.engine, c.mode)))
                 elif c.kind == "sweep":
-                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), engine,
-                                          spec=c.spec)) for n0 in c.n0]
+                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), c.engine,
+                                          c.mode)) for n0 in c.n0]
             if not jobs:
                 continue
             log(f"nightly: {len(jobs)} {engine} runs")
@@ -205,7 +205,7 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
                                    if c.method == "bisect" else {})
         res = measure_threshold(c.scene, c.engine, c.which or "n1", c.overrides,
                                 method=c.method, rel_tol=c.rel_tol, scheduler=scheduler,
-                                workers=workers, use_cache=use_cache, spec=c.spec, **options)
+                                workers=workers, use_cache=use_cache, mode=c.mode, **options)
     except Exception as exc:  # noqa: BLE001 - a failed bisection is that case's error
         cr.error = error_text(exc)
         cr.wall_s = time.perf_counter() - t0
@@ -237,7 +237,8 @@ def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
     log(f"nightly: atlas {c.id} (A/C {c.A_over_C}, a/R {c.a_over_R})")
     try:
         res = run_atlas(parse_grid(c.A_over_C, "A_over_C"), parse_grid(c.a_over_R, "a_over_R"),
-                        (c.mode,), tuple(c.set), scheduler=scheduler, workers=workers,
+                        [(c.engine, c.mode, c.extra)], tuple(c.set), scheduler=scheduler,
+                        workers=workers,
                         use_cache=use_cache)
     except Exception as exc:  # noqa: BLE001 - a failed atlas is that case's error
         cr.error = error_text(exc)
@@ -248,10 +249,10 @@ def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
     pts = res["points"]
     cr.values = {
         "groups_measured": {point_key(p): p["group_measured"] for p in pts},
-        "agreement": res["agreement"][c.mode],
+        "agreement": res["agreement"][c.run],
         "n1_measured": {point_key(p): p["n1_measured"] for p in pts},
         "n4_measured": {point_key(p): p["n4_measured"] for p in pts},
     }
     cr.detail = {"atlas": res}
-    log(f"  groups agree at {100 * res['agreement'][c.mode]:.0f} % of {len(pts)} points, "
+    log(f"  groups agree at {100 * res['agreement'][c.run]:.0f} % of {len(pts)} points, "
         f"{res['n_runs']} runs, {cr.wall_s:.1f} s")

@@ -30,7 +30,7 @@ from tippetop.compare.nightly.catalogue import (
     Case,
     Catalogue,
     load_catalogue,
-    on_spec,
+    on_engine,
     select_cases,
 )
 from tippetop.compare.nightly.checks import case_record, check_case
@@ -80,6 +80,7 @@ class NightlyOptions:
     out: str | None = None
     force: bool = False
     engines: tuple[str, ...] = ENGINES
+    modes: tuple[str, ...] = ()
     cases: tuple[str, ...] = ()
     scheduler: str | None = None
     workers: int | None = None
@@ -108,12 +109,13 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
     started, t0 = timestamp(), time.perf_counter()
     kinds, specs = engine_specs(opts.engines)
     catalogue = load_catalogue(opts.catalogue)
-    cases, skipped = cases_on_specs(select_cases(catalogue, opts.profile, kinds, opts.cases),
-                                    specs)
+    cases, skipped = cases_on_specs(select_cases(catalogue, opts.profile, kinds, opts.cases,
+                                                 opts.modes), specs)
     if not cases:
+        modes = f", modes {','.join(opts.modes)}" if opts.modes else ""
         raise TippetopError(f"nightly: expected at least one case for profile "
-                            f"{opts.profile!r}, engines {','.join(opts.engines)} and cases "
-                            f"{','.join(opts.cases) or '*'}, got none")
+                            f"{opts.profile!r}, engines {','.join(opts.engines)}{modes} and "
+                            f"cases {','.join(opts.cases) or '*'}, got none")
     if opts.no_baseline and opts.update_baseline:
         raise TippetopError("--no-baseline: expected without --update-baseline (which "
                             "compares with and writes the baseline file), got both")
@@ -139,13 +141,14 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
 
 
 def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
-    """``--engines`` read: (the case kinds to select, ``ode``/``mujoco``; the MuJoCo specs).
+    """``--engines`` read: the engine families to select, and the MuJoCo engines.
 
-    ``ode`` is the reference; every other entry is an engine spec
-    (:func:`tippetop.models.engines.parse_engine`) the MuJoCo cases run on.
+    The families are ``ode``/``mujoco``; the catalogue's MuJoCo cases run on each MuJoCo
+    engine. ``ode`` is the reference; every other entry is a MuJoCo engine
+    (:func:`tippetop.models.engines.parse_engine`).
 
     Raises:
-        TippetopError: A bad spec, or none at all (one line).
+        TippetopError: A bad engine, or none at all (one line).
     """
     from tippetop.models.engines import SPEC_FORMS, parse_engine
 
@@ -171,14 +174,14 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
 
 
 def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], list[str]]:
-    """Each MuJoCo case on each engine spec; the cases that cannot run on a spec, said.
+    """Each MuJoCo case on each MuJoCo engine; the cases that cannot run on one, said.
 
-    Runs, sweeps and thresholds run on any spec; the atlas (modes over a grid of tops) on
+    Runs, sweeps and thresholds run on any engine; the atlas (modes over a grid of tops) on
     ``mujoco`` only.
     """
     out, skipped = [], []
     for c in cases:
-        if c.engine == "ode":
+        if c.family == "ode":
             out.append(c)
             continue
         for spec in specs:
@@ -186,7 +189,7 @@ def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], lis
                 skipped.append(f"{c.id} on {spec} (a {c.kind} runs on the installed MuJoCo "
                                "only)")
                 continue
-            out.append(on_spec(c, spec))
+            out.append(on_engine(c, spec))
     return out, skipped
 
 
@@ -198,15 +201,15 @@ def spec_slug(spec: str) -> str:
 
 
 def baseline_files(base_dir: Path, profile: str, cases: list[Case]) -> dict[str, Path]:
-    """The baseline file of each engine spec the cases run on.
+    """The baseline file of each engine the cases run on.
 
     The reference's and the installed MuJoCo's (``mujoco``) cases: ``DIR/<profile>.json`` as
-    always; another spec's: ``DIR/<profile>@<spec>.json``, so a release, a build or MJX is
+    always; another engine's: ``DIR/<profile>@<engine>.json``, so a release, a build or MJX is
     compared with its own past, never with another engine's.
     """
     out: dict[str, Path] = {}
     for c in cases:
-        key = "mujoco" if c.engine == "ode" else c.spec
+        key = "mujoco" if c.engine == "ode" else c.engine
         if key not in out:
             out[key] = (baseline_file(base_dir, profile) if key == "mujoco"
                         else base_dir / f"{profile}@{spec_slug(key)}.json")
@@ -216,13 +219,14 @@ def baseline_files(base_dir: Path, profile: str, cases: list[Case]) -> dict[str,
 def _update_baselines(files: dict[str, Path], profile: str, catalogue: Catalogue,
                       cases: list[Case], records: list[dict[str, Any]],
                       env: dict[str, Any]) -> dict[str, int]:
-    """Write each spec's baseline file from its cases' records; the counts summed."""
-    ids = {c.id for c in catalogue.cases if profile in c.profiles}
-    spec_of = {c.id: ("mujoco" if c.engine == "ode" else c.spec) for c in cases}
+    """Write each engine's baseline file from its cases' records; the counts summed."""
+    mine_ids = [c for c in catalogue.cases if profile in c.profiles]
+    spec_of = {c.id: ("mujoco" if c.engine == "ode" else c.engine) for c in cases}
     total: dict[str, int] = {}
     for key, path in files.items():
         mine = [r for r in records if spec_of.get(r["id"]) == key]
-        profile_ids = ids if key == "mujoco" else {f"{i}@{key}" for i in ids}
+        profile_ids = ({c.id for c in mine_ids} if key == "mujoco" else
+                       {on_engine(c, key).id for c in mine_ids if c.family == "mujoco"})
         counts = update_baseline(path, profile, mine, profile_ids, env)
         for k, v in counts.items():
             total[k] = total.get(k, 0) + v

@@ -23,15 +23,15 @@ def pyplot():
 
 
 def sweep_figure(result: dict[str, Any], path: Path) -> None:
-    """theta_asymp against n0 per mode, with theta_s(n0) and the critical spins (PNG/SVG)."""
+    """theta_asymp against n0 per run, with theta_s(n0) and the critical spins (PNG/SVG)."""
     plt = pyplot()
     top = result["top"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
     th = result["theory"]
     ax.plot(th["n0"], th["theta_s"], "k-", lw=1, label=r"theory $\theta_s(n_0)$")
     markers = iter("os^vD<>p*")
-    for mode, grp in result["table"].groupby("mode", sort=False):
-        ax.plot(grp["n0"], grp["theta_asymp"], next(markers), mfc="none", label=mode)
+    for run, grp in result["table"].groupby("run", sort=False):
+        ax.plot(grp["n0"], grp["theta_asymp"], next(markers), mfc="none", label=run)
     for name, val in (("n1", theory.n1(top)), ("n4", theory.n4(top))):
         if val is not None and th["n0"].min() <= val <= th["n0"].max():
             ax.axvline(val, color="0.6", ls=":", lw=1)
@@ -47,15 +47,15 @@ def sweep_figure(result: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
-_MARKERS = {"ode": "o", "mujoco-paper": "s", "mujoco-native": "^"}
+_MARKERS = {"ode/paper": "o", "mujoco/paper": "s", "mujoco/native": "^"}
 _GROUP_COLOURS = {"I": "#1565c0", "II": "#e65100", "III": "#6a1b9a"}
 
 
 def atlas_figure(result: dict[str, Any]) -> Any:
-    """The (a/R, A/C) plane with each engine's measured groups.
+    """The (a/R, A/C) plane with each run's (engine and mode's) measured groups.
 
-    The boundaries A/C = 1 -+ a/R and r_c are drawn; each engine's measured group is a marker
-    (colour: group; shape: engine); departures from the theory are circled.
+    The boundaries A/C = 1 -+ a/R and r_c are drawn; each run's measured group is a marker
+    (colour: group; shape: run); departures from the theory are circled.
     """
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8.0, 5.6))
@@ -71,11 +71,11 @@ def atlas_figure(result: dict[str, Any]) -> Any:
     rc = [theory.r_c(TopParams(R_m=1.0, a_m=x, M_kg=1.0, A_kgm2=1.0, C_kgm2=1.0))
           for x in xs[1:-1]]
     ax.plot(xs[1:-1], rc, ":", color="0.3", lw=1.2, label="A/C = r_c (n_c = n1 | n4)")
-    engines = result["engines"]
+    engines = result["runs"]
     k = len(engines)
     dx = 0.012 * (x_hi / 0.3)
     for j, eng in enumerate(engines):
-        pts = [p for p in result["points"] if p["engine"] == eng]
+        pts = [p for p in result["points"] if p["run"] == eng]
         off = (j - (k - 1) / 2) * dx
         for p in pts:
             x, y = p["a_over_R"] + off, p["A_over_C"]
@@ -97,7 +97,8 @@ def atlas_figure(result: dict[str, Any]) -> Any:
     ax.set_ylim(y_lo, y_hi)
     ax.set_xlabel("a/R")
     ax.set_ylabel("A/C")
-    ax.set_title("Groups measured from n1 and n4 (growth rates) in each engine", fontsize=10)
+    ax.set_title("Groups measured from n1 and n4 (growth rates), each engine and mode",
+                 fontsize=10)
     ax.grid(alpha=0.3)
     fig.subplots_adjust(left=0.09, right=0.70, bottom=0.1, top=0.93)
     return fig

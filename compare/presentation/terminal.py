@@ -14,6 +14,7 @@ import shutil
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+from tippetop.models.modes import REFERENCE_RUN
 from tippetop.models.numbers import MISSING, NAN_TEXT, float_text, solver_text
 
 # ---------------------------------------------------------------- values
@@ -242,14 +243,14 @@ def check_text(check: dict[str, Any], t_end_s: float | None = None,
     Args:
         check: One check of :func:`tippetop.compare.measures.checks.verdict`.
         t_end_s: The runs' simulated time (s), to say what "never" means.
-        runs: The runs by key (``ode`` the reference), for the event times.
+        runs: The runs by name (``ode/paper`` the reference), for the event times.
     """
     name, v = check["check"], check["value"]
     if name in _EVENTS:
         times = None
         if runs is not None:
-            times = ((runs.get(check["mode"]) or {}).get(name),
-                     (runs.get("ode") or {}).get(name))
+            times = ((runs.get(check["run"]) or {}).get(name),
+                     (runs.get(REFERENCE_RUN) or {}).get(name))
         return _event_text(check, t_end_s, times)
     if isinstance(v, bool):
         return "yes" if v else "no"
@@ -303,7 +304,7 @@ def fmt_value(key: str, value: Any) -> str:
         return realised_sentence("the run", value)
     if key == "stiff":
         return fmt_stiff(value)
-    if key == "rolling" and isinstance(value, dict):
+    if key == "rolling_phases" and isinstance(value, dict):
         return fmt_rolling(value)
     if key in ("solref", "solimp") and isinstance(value, (list, tuple)):
         return solver_text(key, value)
@@ -319,7 +320,7 @@ def fmt_value(key: str, value: Any) -> str:
 
 #: The keys of what ran (a summary's settings read back from the engine, or a plan's), in the
 #: order they are listed.
-RAN_KEYS = ("mode", "friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
+RAN_KEYS = ("friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
             "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
             "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
 

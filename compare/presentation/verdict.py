@@ -1,4 +1,4 @@
-"""The verdict against the theory: one row per run (scene and mode), for the summary and report.
+"""The verdict against the theory: a row per run (scene, engine, mode), for summary and report.
 
 Each run's outcome and theta_asymp against the theory's, its inversion time against the
 reference's and its Jellett drift (:func:`tippetop.compare.measures.verdict.crossval_row`).
@@ -10,10 +10,28 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
+from tippetop.models.modes import OLD_NAMES, REFERENCE_RUN, run_label, split_label
 from tippetop.models.params import TopParams
 
-#: The modes the verdict table shows first, in this order; others follow as they ran.
-MAIN_MODES = ("ode", "mujoco-paper", "mujoco-native")
+#: The runs (``ENGINE/MODE``) the verdict table shows first, in this order; others follow as
+#: they ran.
+MAIN_RUNS = ("ode/paper", "mujoco/paper", "mujoco/native")
+
+
+def run_of(rec: Mapping[str, Any]) -> str:
+    """A case record's run, ``ENGINE/MODE``.
+
+    A record of the release before named it by a compound mode (``mujoco-native``) and,
+    on another engine, its ``engine_spec``: read as today's name.
+    """
+    if rec.get("run"):
+        return str(rec["run"])
+    old = OLD_NAMES.get(str(rec.get("mode")))
+    if old is None:
+        return run_label(str(rec.get("engine", "?")), str(rec.get("mode", "?")))
+    spec = rec.get("engine_spec")
+    engine = spec if spec not in (None, "mujoco", "ode") else old[0]
+    return run_label(engine, old[1] or "paper")
 
 
 def scene_key(rec: Mapping[str, Any]) -> str:
@@ -39,19 +57,20 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The ``crossval`` list of results.json: a row per run case, in catalogue order.
 
     Each row: ``scene, mode, outcome, theory_outcome, theta_asymp, theta_s, d_theta_asymp,
-    t_invert, d_t_invert, J_rel_drift, agrees`` plus ``case`` (its id), ``category``,
+    t_invert, d_t_invert, J_rel_drift, agrees`` plus ``engine``, ``run`` (``ENGINE/MODE``),
+    ``case`` (its id), ``category``,
     ``paper_theta_asymp`` (the paper's printed value, when the scene has one), ``t_invert_ref``,
     ``theta_trend_rad_s``, ``reasons``, ``notes`` and ``error``.
     """
     runs = [r for r in records if r["kind"] == "run"]
     ref_t: dict[str, float | None] = {}
     for r in runs:
-        if r["mode"] == "ode" and r.get("error") is None:
+        if run_of(r) == REFERENCE_RUN and r.get("error") is None:
             ref_t.setdefault(scene_key(r), (r.get("values") or {}).get("t_invert"))
     rows = []
     for r in runs:
         key = scene_key(r)
-        mode = mode_label(r)
+        engine, mode = split_label(run_of(r))
         v = r.get("values") or {}
         th = r.get("theory") or {}
         theta_s, theory_out = th.get("theta_s"), th.get("outcome")
@@ -64,15 +83,16 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         if error is None and v.get("status") == "diverged":
             error = (r.get("summary") or {}).get("message") or "the run diverged"
         if error is not None:
-            row = crossval_row(key, mode, outcome="failed", theta_asymp=None,
+            row = crossval_row(key, mode, engine=engine, outcome="failed", theta_asymp=None,
                                theta_s=theta_s, theory_outcome=theory_out, t_invert=None,
                                error=error)
         else:
-            row = crossval_row(key, mode, outcome=v.get("outcome"),
+            row = crossval_row(key, mode, engine=engine, outcome=v.get("outcome"),
                                theta_asymp=v.get("theta_asymp"), theta_s=theta_s,
                                theory_outcome=theory_out, t_invert=v.get("t_invert"),
                                t_invert_ref=ref_t.get(key), J_rel_drift=v.get("J_rel_drift"),
-                               trend=r.get("theta_trend_rad_s"), reference=r["mode"] == "ode",
+                               trend=r.get("theta_trend_rad_s"),
+                               reference=run_of(r) == REFERENCE_RUN,
                                t_span_s=(r.get("summary") or {}).get("t_end_s")
                                or r["params"].get("t_end_s"))
         expect = r.get("expect") or {}
@@ -83,23 +103,17 @@ def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-def mode_label(rec: Mapping[str, Any]) -> str:
-    """A case's column: its mode, with ``@SPEC`` when it ran on another engine than ``mujoco``."""
-    spec = rec.get("engine_spec")
-    return rec["mode"] if spec in (None, "mujoco", "ode") else f"{rec['mode']}@{spec}"
-
-
-def mode_order(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The verdict table's columns: the main modes that ran, then the others in catalogue order."""
-    seen = list(dict.fromkeys(r["mode"] for r in rows))
-    return [m for m in MAIN_MODES if m in seen] + [m for m in seen if m not in MAIN_MODES]
+def run_order(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The verdict table's columns: the main runs that ran, then the others in catalogue order."""
+    seen = list(dict.fromkeys(r["run"] for r in rows))
+    return [m for m in MAIN_RUNS if m in seen] + [m for m in seen if m not in MAIN_RUNS]
 
 
 def agreement_counts(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, int]]:
-    """Per mode: runs, how many agree with the theory, depart, are inconclusive or failed."""
+    """Per run (``ENGINE/MODE``): how many agree, depart, are inconclusive or failed."""
     out: dict[str, dict[str, int]] = {}
     for r in rows:
-        c = out.setdefault(r["mode"], {"runs": 0, "agree": 0, "depart": 0, "inconclusive": 0,
+        c = out.setdefault(r["run"], {"runs": 0, "agree": 0, "depart": 0, "inconclusive": 0,
                                        "failed": 0})
         c["runs"] += 1
         c[cell_class(r)] += 1

@@ -20,8 +20,9 @@ from pathlib import Path
 
 from tippetop.models.errors import TippetopError, expect
 
-#: ``--engine`` choices; ``both`` is MuJoCo (left) and the reference ODE (right).
-RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode", "both")
+#: The engines a video draws: the MuJoCo installed here, and the reference replayed in the same
+#: MJCF; ``--engines mujoco,ode`` draws both side by side, MuJoCo left.
+RENDER_ENGINES: tuple[str, ...] = ("mujoco", "ode")
 #: Panel titles.
 ENGINE_LABELS = {"mujoco": "MuJoCo", "ode": "reference ODE"}
 #: Wall time between progress lines over the frames when stderr is not a terminal (s).

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from tippetop.compare.presentation.figures import pyplot
-from tippetop.compare.presentation.verdict import scene_key, top_of
+from tippetop.compare.presentation.verdict import run_of, scene_key, top_of
 from tippetop.compare.report.markup import esc, html_table, png
 
 _LABEL_MARKERS = {"(a)": "o", "(b)": "s", "(c)": "D", "(d)": "X"}
@@ -60,7 +60,7 @@ def _timeseries_figure(key: str, recs: Sequence[Mapping[str, Any]],
     for i, (r, f) in enumerate(zip(recs, frames, strict=True)):
         c = colours[i % len(colours)]
         lw = 1.4 if i == 0 else 1.0
-        ax_t.plot(f["t"], f["theta"], lw=lw, color=c, label=r["mode"])
+        ax_t.plot(f["t"], f["theta"], lw=lw, color=c, label=run_of(r))
         ax_x.plot(f["t"], f["xi"] * scale, lw=lw, color=c)
         slip = np.hypot(f["vPX"].to_numpy(dtype=float), f["vPY"].to_numpy(dtype=float))
         ok = np.isfinite(slip) & (slip > 0)
@@ -113,41 +113,41 @@ def _timeseries_figure(key: str, recs: Sequence[Mapping[str, Any]],
                 frameon=False)
     for ax in (ax_t, ax_d, ax_x, ax_s):
         ax.grid(alpha=0.3)
-    fig.text(0.01, 0.97, f"{key}: theta(t) and theta - theta[{ref_rec['mode']}]; xi(t) with "
+    fig.text(0.01, 0.97, f"{key}: theta(t) and theta - theta[{run_of(ref_rec)}]; xi(t) with "
              "xi_plus, xi_minus; slip speed of the contact point", fontsize=9, va="top")
     return png(fig)
 
 
 def timeseries_section(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
-    """theta(t), xi(t) and the slip, one figure per scene: the main modes, the rest folded."""
-    from tippetop.compare.presentation.verdict import MAIN_MODES
+    """theta(t), xi(t) and the slip, one figure per scene: the main runs, the rest folded."""
+    from tippetop.compare.presentation.verdict import MAIN_RUNS, REFERENCE_RUN
 
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in results.get("cases", []):
         if r["kind"] == "run" and r["id"] in tables:
             groups.setdefault(scene_key(r), []).append(r)
     parts = ["<h2 id='timeseries'>theta(t), xi(t) and the slip (Figs. 3-8)</h2>",
-             "<p class='note'>The main modes (the reference ODE, MuJoCo with the paper's law, "
+             "<p class='note'>The main runs (the reference ODE, MuJoCo with the paper's law, "
              "MuJoCo's calibrated native friction) are overlaid; under theta(t), each one's "
-             "difference from the reference. Other modes of a scene are one click away. xi = 0 "
+             "difference from the reference. Other runs of a scene are one click away. xi = 0 "
              "is the gyroscopic balance condition; xi_plus and xi_minus are its two steady "
              "values (N = M g) along the reference's trajectory. Right: the slip speed of the "
              "contact point (the paper's Fig. 5) on a log scale, each sample a dot.</p>"]
     if not groups:
         parts.append("<p>No run tables in these results.</p>")
     for key, recs in groups.items():
-        recs = sorted(recs, key=lambda r: (r["mode"] != "ode",))
-        main = [r for r in recs if r["mode"] in MAIN_MODES]
-        rest = [r for r in recs if r["mode"] not in MAIN_MODES]
+        recs = sorted(recs, key=lambda r: (run_of(r) != REFERENCE_RUN,))
+        main = [r for r in recs if run_of(r) in MAIN_RUNS]
+        rest = [r for r in recs if run_of(r) not in MAIN_RUNS]
         desc = recs[0].get("description", "")
         first = main or rest[:1]
         parts.append(f"<figure>{_timeseries_figure(key, first, tables)}"
                      f"<figcaption><b>{esc(key)}</b>: {esc(desc)}</figcaption></figure>")
         others = [r for r in rest if r not in first]
         if others:
-            ref = [r for r in first if r["mode"] == "ode"]
-            parts.append(f"<details><summary>{esc(key)}: {len(others)} more modes ("
-                         f"{esc(', '.join(r['mode'] for r in others))})</summary>"
+            ref = [r for r in first if run_of(r) == REFERENCE_RUN]
+            parts.append(f"<details><summary>{esc(key)}: {len(others)} more runs ("
+                         f"{esc(', '.join(run_of(r) for r in others))})</summary>"
                          f"<figure>{_timeseries_figure(key, [*ref, *others], tables)}"
                          "</figure></details>")
     return "".join(parts)
@@ -232,12 +232,12 @@ def sweeps_section(results: Mapping[str, Any]) -> str:
                 drawn.add(label)
             mk = _LABEL_MARKERS.get(label, "o")
             ax.plot(n0s, [p["theta_asymp"] for p in r["points"]], mk, ms=5,
-                    mfc="none" if r["mode"] != "ode" else None,
-                    label=f"{label} {r['mode']}")
+                    mfc="none" if r.get("engine") != "ode" else None,
+                    label=f"{label} {run_of(r)}")
             dev = [abs(p["theta_asymp"] - theory.theta_s(top, p["n0"])) for p in r["points"]
                    if p["theta_asymp"] is not None]
             th = r.get("theory", {})
-            rows.append((label, r["mode"], r["params"]["A_over_C"], r["params"]["a_over_R"],
+            rows.append((label, run_of(r), r["params"]["A_over_C"], r["params"]["a_over_R"],
                          th.get("group", "-"), th.get("n1"), th.get("n4"), len(n0s),
                          max(dev) if dev else None, float(np.median(dev)) if dev else None))
         ax.set_xlabel("n0 (rad/s)")
@@ -247,10 +247,10 @@ def sweeps_section(results: Mapping[str, Any]) -> str:
         ax.legend(fontsize=7, loc="upper left")
         ax.set_title(f"{title}: theta_asymp against n0", fontsize=10)
         fig.tight_layout()
-        caption = "; ".join(f"{r.get('label') or r['name']} {r['mode']}: "
+        caption = "; ".join(f"{r.get('label') or r['name']} {run_of(r)}: "
                             f"{r.get('description', '')}" for r in recs)
         parts.append(f"<figure>{png(fig)}<figcaption>{esc(title)}: {esc(caption)}"
                      "</figcaption></figure>")
-        parts.append(html_table(["top", "mode", "A/C", "a/R", "group", "n1", "n4", "points",
+        parts.append(html_table(["top", "run", "A/C", "a/R", "group", "n1", "n4", "points",
                                  "max |theta_asymp - theta_s|", "median"], rows))
     return "".join(parts)

@@ -7,86 +7,87 @@ from typing import Any
 
 from tippetop.compare.measures.summary import describe_ran
 from tippetop.compare.measures.verdict import calibrated_native_text
+from tippetop.compare.presentation.verdict import run_of
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 from tippetop.models.numbers import number_text
 
-#: Order of the rows of the friction-law table, with what each mode is.
+#: Order of the rows of the friction-law table (runs, ``ENGINE/MODE``), with what each is.
 FRICTION_MODES: dict[str, str] = {
-    "ode": "reference ODE, modified Coulomb (the paper's eq. 2.12)",
-    "ode-coulomb": "reference ODE, exact Coulomb",
-    "ode-viscous": "reference ODE, viscous F = -c v_P",
-    "ode-coulomb_viscous": "reference ODE, Coulomb + viscous",
-    "mujoco-paper": "MuJoCo, the paper's law applied at the contact point",
-    "mujoco-native": f"MuJoCo native friction, the calibrated settings "
+    "ode/paper": "reference ODE, modified Coulomb (the paper's eq. 2.12)",
+    "ode/coulomb": "reference ODE, exact Coulomb",
+    "ode/viscous": "reference ODE, viscous F = -c v_P",
+    "ode/coulomb_viscous": "reference ODE, Coulomb + viscous",
+    "mujoco/paper": "MuJoCo, the paper's law applied at the contact point",
+    "mujoco/native": f"MuJoCo native friction, the calibrated settings "
                      f"({calibrated_native_text()})",
-    "mujoco-file": "MuJoCo native friction, the model's own settings",
-    "mujoco-native-elliptic": "MuJoCo native friction, elliptic cone",
-    "mujoco-native-pyramidal": "MuJoCo native friction, pyramidal cone",
-    "mujoco-native-condim4": "MuJoCo native friction + torsional (condim 4)",
-    "mujoco-native-condim6": "MuJoCo native friction + torsional + rolling (condim 6)",
+    "mujoco/file": "MuJoCo native friction, the model's own settings",
+    "mujoco/native-elliptic": "MuJoCo native friction, elliptic cone",
+    "mujoco/native-pyramidal": "MuJoCo native friction, pyramidal cone",
+    "mujoco/native-condim4": "MuJoCo native friction + torsional (condim 4)",
+    "mujoco/native-condim6": "MuJoCo native friction + torsional + rolling (condim 6)",
 }
 #: The scene whose runs fill the friction-law table.
 FRICTION_SCENE = "fig3"
-#: Why a mode departs from the paper's law (used when its numbers depart), and why it agrees.
+#: Why a run departs from the paper's law (used when its numbers depart), and why it agrees.
 _WHY_DEPART: dict[str, str] = {
-    "ode-coulomb": "exact Coulomb has no smoothing at v_P = 0, so the slip dies out, the top "
+    "ode/coulomb": "exact Coulomb has no smoothing at v_P = 0, so the slip dies out, the top "
                    "sticks into rolling and the sliding friction that lifts it vanishes",
-    "ode-viscous": "viscous friction has the paper's slope at v_P = 0 (c = mu M g / Lambda) "
+    "ode/viscous": "viscous friction has the paper's slope at v_P = 0 (c = mu M g / Lambda) "
                    "but does not saturate at mu N, so it is stronger at large slip and lifts "
                    "the top faster; it still vanishes with v_P, so the final state is the "
                    "paper's (its Sec. 4.4 argument)",
-    "ode-coulomb_viscous": "its Coulomb part is discontinuous at v_P = 0 like exact Coulomb, so "
+    "ode/coulomb_viscous": "its Coulomb part is discontinuous at v_P = 0 like exact Coulomb, so "
                            "the slip dies out and the top sticks into rolling",
-    "mujoco-paper": "the law is the paper's, but MuJoCo's soft contact (penetration, its "
+    "mujoco/paper": "the law is the paper's, but MuJoCo's soft contact (penetration, its "
                     "normal force) and the fixed timestep change N and the contact point",
-    "mujoco-native": "MuJoCo's own friction is a soft-constraint Coulomb cone whose behaviour "
+    "mujoco/native": "MuJoCo's own friction is a soft-constraint Coulomb cone whose behaviour "
                      "at small slip is set by solref/impratio, not by Lambda",
-    "mujoco-native-elliptic": "MuJoCo's own friction is a soft-constraint Coulomb cone whose "
+    "mujoco/native-elliptic": "MuJoCo's own friction is a soft-constraint Coulomb cone whose "
                               "behaviour at small slip is set by solref/impratio, not by Lambda",
-    "mujoco-native-pyramidal": "a soft-constraint Coulomb cone as in native mode, here "
+    "mujoco/native-pyramidal": "a soft-constraint Coulomb cone as in native mode, here "
                                "pyramidal (friction depends on the slip direction), whose "
                                "behaviour at small slip is set by solref/impratio, not by "
                                "Lambda",
-    "mujoco-native-condim4": "torsional friction adds a torque about the contact normal that "
+    "mujoco/native-condim4": "torsional friction adds a torque about the contact normal that "
                              "the paper's model does not have: it brakes the spin and J",
-    "mujoco-native-condim6": "torsional and rolling friction add torques the paper's model "
+    "mujoco/native-condim6": "torsional and rolling friction add torques the paper's model "
                              "does not have: rolling resistance opposes the motion that lifts "
                              "the top",
 }
 _WHY_AGREE: dict[str, str] = {
-    "ode-coulomb": "exact Coulomb differs from the paper's law only below Lambda",
-    "ode-viscous": "viscous friction is continuous and vanishes with v_P like the paper's law, "
+    "ode/coulomb": "exact Coulomb differs from the paper's law only below Lambda",
+    "ode/viscous": "viscous friction is continuous and vanishes with v_P like the paper's law, "
                    "so the steady states are the same (the paper's Sec. 4.4 argument) and only "
                    "the rate differs",
-    "ode-coulomb_viscous": "the viscous part keeps the law continuous near v_P = 0",
-    "mujoco-paper": "the paper's law applied at MuJoCo's contact point",
-    "mujoco-native": "MuJoCo's own friction, calibrated against the reference",
-    "mujoco-native-elliptic": "MuJoCo's own friction, calibrated against the reference",
-    "mujoco-native-pyramidal": "the pyramidal cone's anisotropy is small here",
-    "mujoco-native-condim4": "the torsional torque is small against the sliding friction",
-    "mujoco-native-condim6": "the torsional and rolling torques are small against the sliding "
+    "ode/coulomb_viscous": "the viscous part keeps the law continuous near v_P = 0",
+    "mujoco/paper": "the paper's law applied at MuJoCo's contact point",
+    "mujoco/native": "MuJoCo's own friction, calibrated against the reference",
+    "mujoco/native-elliptic": "MuJoCo's own friction, calibrated against the reference",
+    "mujoco/native-pyramidal": "the pyramidal cone's anisotropy is small here",
+    "mujoco/native-condim4": "the torsional torque is small against the sliding friction",
+    "mujoco/native-condim6": "the torsional and rolling torques are small against the sliding "
                              "friction",
 }
 
 
 def _friction_rows(results: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     rows = [r for r in results.get("cases", []) if r["kind"] == "run"
-            and r["scene"] == FRICTION_SCENE and not r.get("set") and r["mode"] in
+            and r["scene"] == FRICTION_SCENE and not r.get("set") and run_of(r) in
             FRICTION_MODES and r.get("error") is None]
     seen: dict[str, Mapping[str, Any]] = {}
     for r in rows:
-        seen.setdefault(r["mode"], r)
+        seen.setdefault(run_of(r), r)
     return [seen[m] for m in FRICTION_MODES if m in seen]
 
 
 def friction_note(row: Mapping[str, Any], ref: Mapping[str, Any] | None) -> str:
-    """One sentence on where and why a friction mode departs from the paper's law.
+    """One sentence on where and why a friction law or MuJoCo mode departs from the paper's.
 
     The sentence is built from the row's numbers against the reference row (the paper's law in
     the reference ODE): whether it inverts, when, the final angle, J drift and the energy lost.
     """
     v = row["values"]
-    mode = row["mode"]
+    mode = run_of(row)
     if ref is None or row is ref:
         return ("The paper's law in the reference ODE: the row the others are compared with"
                 + (f"; it inverts at {number_text(v['t_invert'], 's')}."
@@ -146,19 +147,19 @@ def friction_section(results: Mapping[str, Any]) -> str:
     if not rows:
         parts.append("<p>No friction-law runs in these results.</p>")
         return "".join(parts)
-    ref = next((r for r in rows if r["mode"] == "ode"), None)
+    ref = next((r for r in rows if run_of(r) == "ode/paper"), None)
     table_rows = []
     for r in rows:
         v = r["values"]
         inverts = v.get("t_invert") is not None
         table_rows.append((
-            r["mode"], Html(f"{esc(FRICTION_MODES[r['mode']])}<br><small>ran: "
+            run_of(r), Html(f"{esc(FRICTION_MODES[run_of(r)])}<br><small>ran: "
                             f"{esc(describe_ran(r['summary']) if r.get('summary') else '-')}"
                             "</small>"), "yes" if inverts else "no",
             v.get("t_invert"), v.get("theta_asymp"), v.get("outcome"),
             Html(fmt_num(v.get("J_rel_drift"), ".2e")), v.get("energy_lost"),
             Html(esc(friction_note(r, ref)))))
-    parts.append(html_table(["mode", "law / contact", "inverts", "t_invert (s)",
+    parts.append(html_table(["run (engine/mode)", "law / contact", "inverts", "t_invert (s)",
                              "theta_asymp (rad)", "outcome", "J drift", "E0 - E_end (J)", "note"],
                             table_rows))
     return "".join(parts)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from tippetop.compare.presentation.figures import pyplot
+from tippetop.compare.presentation.verdict import run_of
 from tippetop.compare.report.markup import html_table, png
 
 #: Groups are shaded in pale neutral tints and outcomes drawn in saturated colours that none
@@ -16,7 +17,7 @@ from tippetop.compare.report.markup import html_table, png
 GROUP_COLOURS = {"I": "#e6e6e6", "II": "#fff5cc", "III": "#ecdff5"}
 _OUTCOME_COLOURS = {"upright": "#1565c0", "intermediate": "#e65100", "inverted": "#1b5e20",
                     "inconclusive": "#9e9e9e", None: "#c62828"}
-_ENGINE_MARKERS = {"ode": "o", "mujoco-paper": "s", "mujoco-native": "^"}
+_ENGINE_MARKERS = {"ode/paper": "o", "mujoco/paper": "s", "mujoco/native": "^"}
 
 
 def draw_groups(ax: Any, xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
@@ -74,14 +75,14 @@ def group_map_section(results: Mapping[str, Any]) -> str:
             shift = offset_copy(ax_zoom.transData, fig=fig, units="points",
                                 x=radius * math.cos(ang), y=radius * math.sin(ang))
             outcome = (r.get("values") or {}).get("outcome")
-            mk = _ENGINE_MARKERS.get(r["mode"], "o" if r["engine"] == "ode" else "v")
+            mk = _ENGINE_MARKERS.get(run_of(r), "o" if r["engine"] == "ode" else "v")
             colour = _OUTCOME_COLOURS.get(outcome, "#7f7f7f")
             ax_all.plot(x, y, mk, ms=5, color=colour, mec="k", mew=0.4)
             ax_zoom.plot(x, y, mk, ms=6, color=colour, mec="k", mew=0.4, transform=shift)
         if len(runs) > 1:
             ax_zoom.plot(x, y, ".", ms=2, color="k")
-        names = ", ".join(f"{r['name']}[{r['mode']}]: {(r.get('values') or {}).get('outcome')}"
-                          if r["kind"] == "run" else f"{r['name']}[{r['mode']}]: sweep"
+        names = ", ".join(f"{r['name']}[{run_of(r)}]: {(r.get('values') or {}).get('outcome')}"
+                          if r["kind"] == "run" else f"{r['name']}[{run_of(r)}]: sweep"
                           for r in group)
         th = group[0].get("theory", {})
         rows.append((num, x, y, th.get("group", "-"), names))

@@ -42,11 +42,13 @@ def _cell(run: Mapping[str, Any]) -> tuple[Html, str]:
 
 def verdict_section(res: Mapping[str, Any]) -> str:
     """One row per (scene, mode), one column per engine: agrees with the theory or not."""
-    engines = [e["spec"] for e in res["engines"]]
+    engines = [e["engine"] for e in res["engines"]]
     by = {(r["scene"], r["mode"], r["engine"]): r for r in res["runs"]}
     rows = []
     for scene in res["scenes"]:
         for mode in res["modes"]:
+            if not any((scene, mode, e) in by for e in engines):
+                continue  # this scene does not run in this mode (an MJCF top runs file)
             row: list[Any] = [scene, mode]
             for spec in engines:
                 run = by.get((scene, mode, spec))
@@ -125,7 +127,7 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
     Below it, each engine minus the first engine.
     """
     plt = pyplot()
-    engines = [e["spec"] for e in res["engines"]]
+    engines = [e["engine"] for e in res["engines"]]
     parts = ["<section id='theta'><h2>theta(t) on every engine</h2><p class='note'>Dashed: "
              f"the reference ODE. Below: each engine minus {esc(engines[0])}.</p>"]
     for scene in res["scenes"]:
@@ -170,7 +172,7 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     """
     from tippetop.compare.measures.friction_realised import realised_sentence
 
-    engines = [e["spec"] for e in res["engines"] if e["spec"] != "ode"]
+    engines = [e["engine"] for e in res["engines"] if e["engine"] != "ode"]
     by = {(r["scene"], r["mode"], r["engine"]): r for r in res["runs"]}
     parts: list[str] = []
     items: list[str] = []
@@ -199,8 +201,8 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
 
 def ran_section(res: Mapping[str, Any]) -> str:
     """The engines and every run's path, version and message, as read back."""
-    eng = html_table(["spec", "implementation", "version", "precision", "device"],
-                     [(e["spec"], e["implementation"], e["version"], e["precision"],
+    eng = html_table(["engine", "implementation", "version", "precision", "device"],
+                     [(e["engine"], e["implementation"], e["version"], e["precision"],
                        e["device"]) for e in res["engines"]])
     runs = html_table(["scene", "mode", "engine", "version", "path", "status", "message"],
                       [(r["scene"], r["mode"], r["engine"], r.get("version"), r.get("path"),
@@ -212,7 +214,7 @@ def ran_section(res: Mapping[str, Any]) -> str:
 def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
     """The page: verdict, differences with their attribution, theta(t), what ran."""
     title = (f"tippetop matrix: {len(res['scenes'])} scenes on "
-             + ", ".join(e["spec"] for e in res["engines"]))
+             + ", ".join(e["engine"] for e in res["engines"]))
     body = [f"<h1>{esc(title)}</h1>", verdict_section(res), differences_section(res),
             theta_section(res, tables), friction_section(res, tables), ran_section(res)]
     return page(title, body)

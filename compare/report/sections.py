@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.presentation.verdict import scene_key
+from tippetop.compare.presentation.verdict import REFERENCE_RUN, run_of, scene_key
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table
 
 
@@ -76,7 +76,7 @@ def _cell(row: Mapping[str, Any]) -> Html:
         nums.append(f"&Delta;&theta;{row['d_theta_asymp']:+.2f}")
     if row.get("d_t_invert") is not None:
         nums.append(f"&Delta;t{row['d_t_invert']:+.2f}")
-    elif row.get("t_invert") is not None and row.get("mode") == "ode":
+    elif row.get("t_invert") is not None and row.get("run") == REFERENCE_RUN:
         nums.append(f"t {row['t_invert']:.2f}")
     if row.get("notes"):
         nums.append("*")
@@ -86,20 +86,21 @@ def _cell(row: Mapping[str, Any]) -> Html:
 
 
 def crossval_section(results: Mapping[str, Any]) -> str:
-    """``<section id="verdict">``: every scene (rows) in every mode (columns) against the theory.
+    """``<section id="verdict">``: every scene (rows) in every run (columns) against the theory.
 
     A cell agrees when the outcome class is the theory's and theta_asymp is within the stated
     tolerance of theta_s; it shows the differences and the Jellett drift, and (as a tooltip and
     in the list below the table) why it departs.
     """
     from tippetop.compare.measures.verdict import THETA_S_TOL, TOLERANCES
-    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, mode_order
+    from tippetop.compare.presentation.verdict import agreement_counts, cell_class, run_order
 
-    rows = results.get("crossval") or []
+    # a results.json of the release before named a row's run by its compound mode
+    rows = [{**r, "run": r.get("run") or r["mode"]} for r in results.get("crossval") or []]
     head = "<section id='verdict'><h2>Does each engine agree with the theory?</h2>"
     if not rows:
         return head + "<p>No runs in these results.</p></section>"
-    modes = mode_order(rows)
+    modes = run_order(rows)
     counts = agreement_counts(rows)
     summary = "; ".join(f"{esc(m)} {counts[m]['agree']}/{counts[m]['runs']}" for m in modes)
     legend = (f"<p class='legend'><span class='agree'>&nbsp;agrees&nbsp;</span>: the theory's "
@@ -116,7 +117,7 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     by_scene: dict[str, dict[str, Mapping[str, Any]]] = {}
     first: dict[str, Mapping[str, Any]] = {}
     for r in rows:
-        by_scene.setdefault(r["scene"], {})[r["mode"]] = r
+        by_scene.setdefault(r["scene"], {})[r["run"]] = r
         first.setdefault(r["scene"], r)
     body = []
     for scene, cells in by_scene.items():
@@ -132,9 +133,10 @@ def crossval_section(results: Mapping[str, Any]) -> str:
         body.append(f"<tr><th scope='row' title='{esc(scene)}'>{label}</th><td>{th}</td>"
                     f"{tds}</tr>")
     table = ("<table class='verdict-table'><thead><tr><th>scene</th><th>theory</th>"
-             + "".join(f"<th>{esc(m).replace('-', '-<wbr>')}</th>" for m in modes)
+             + "".join(f"<th>{esc(m).replace('/', '/<wbr>').replace('-', '-<wbr>')}</th>"
+                       for m in modes)
              + "</tr></thead><tbody>" + "".join(body) + "</tbody></table>")
-    where = [f"<li><b>{esc(r.get('name') or r['scene'])}</b> [{esc(r['mode'])}]: "
+    where = [f"<li><b>{esc(r.get('name') or r['scene'])}</b> [{esc(r['run'])}]: "
              f"{esc('; '.join([*r['reasons'], *r['notes'], *_expected(r)]))}</li>"
              for r in rows if cell_class(r) != "agree" or r.get("notes")]
     where_html = (f"<details><summary>Where not, and why ({len(where)})</summary>"
@@ -190,7 +192,7 @@ def scenes_section(results: Mapping[str, Any]) -> str:
     key_rows, all_rows = [], []
     for key, recs in by_scene.items():
         p, th = recs[0]["params"], recs[0].get("theory", {})
-        outcomes = "; ".join(f"{r['mode']}: {r['values'].get('outcome', 'error')}"
+        outcomes = "; ".join(f"{run_of(r)}: {r['values'].get('outcome', 'error')}"
                              for r in recs)
         key_rows.append((key, th.get("group", "-"), p["A_over_C"], p["a_over_R"], p["theta0"],
                          p["n0"], p["t_end_s"], th.get("theta_s"), th.get("outcome", "-"),
@@ -237,7 +239,7 @@ def threshold_section(results: Mapping[str, Any]) -> str:
     for r in recs:
         th = r.get("threshold")
         if th is None:
-            rows.append((r["scene_name"], r["name"], r["mode"], "-", "-", "-", "-", "-", "-",
+            rows.append((r["scene_name"], r["name"], run_of(r), "-", "-", "-", "-", "-", "-",
                          "-", "-", f"error: {r.get('error')}"))
             classes.append("error")
             continue
@@ -257,14 +259,14 @@ def threshold_section(results: Mapping[str, Any]) -> str:
                        f"{100 * abs(th['theory'] / end - 1):.2f} % from its "
                        f"{'low' if below else 'high'} end")
             cls = "depart"
-        rows.append((r["scene_name"], th["which"], r["mode"], th.get("method", "bisect"),
+        rows.append((r["scene_name"], th["which"], run_of(r), th.get("method", "bisect"),
                      th["theory"],
                      Html(f"[{lo:.4g}, {hi:.4g}]"), th["measured"],
                      Html(f"{100 * th['rel_diff']:+.3f} %"), th["n_runs"], th.get("horizon_s"),
                      "yes" if th.get("bracket_converged", th.get("converged")) else "no",
                      verdict))
         classes.append(cls)
-    parts.append(html_table(["scene", "which", "mode", "method", "theory (rad/s)",
+    parts.append(html_table(["scene", "which", "run (engine/mode)", "method", "theory (rad/s)",
                              "bracket (rad/s)", "measured (rad/s)", "measured / theory - 1",
                              "runs", "run length (s)", "converged", "against the theory"],
                             rows, classes))

@@ -21,12 +21,19 @@ from tippetop.compare.presentation.terminal import (
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
-from tippetop.compare.studies.validate import MODES, mode_of, show_setting
+from tippetop.compare.studies.validate import (
+    REFERENCE_RUN,
+    RUNS,
+    engine_of,
+    mode_of,
+    show_setting,
+)
 
-_COLOURS = {"mujoco-file": "#d62728", "ode": "#111111", "mujoco-paper": "#1f77b4",
-            "mujoco-native": "#2ca02c"}
-_LABELS = {"mujoco-file": "MuJoCo, the file's own settings", "ode": "reference ODE",
-           "mujoco-paper": "MuJoCo, the paper's law", "mujoco-native": "MuJoCo, calibrated"}
+_COLOURS = {"mujoco/file": "#d62728", "ode/paper": "#111111", "mujoco/paper": "#1f77b4",
+            "mujoco/native": "#2ca02c"}
+#: What each mode of a validation's runs is, in words.
+_LABELS = {"file": "MuJoCo, the file's own settings", "paper": "MuJoCo, the paper's law",
+           "native": "MuJoCo, calibrated"}
 _CHECKS = {"completed": "the run completed", "outcome": "outcome against the theory",
            "t_invert": "inversion time against the reference's",
            "t_stem": "first stem contact against the reference's",
@@ -37,12 +44,15 @@ _CHECKS = {"completed": "the run completed", "outcome": "outcome against the the
 def _keys(res: Mapping[str, Any]) -> list[str]:
     """The runs' keys in the page's order: each mode, then its runs on other engines."""
     keys = list(res["runs"])
-    return [k for m in MODES for k in keys if mode_of(k) == m]
+    return [k for fam, m in RUNS for k in keys
+            if mode_of(k) == m and (engine_of(k) == "ode") == (fam == "ode")]
 
 
 def _label(key: str) -> str:
-    mode, _, spec = key.partition("@")
-    return _LABELS.get(mode, mode) + (f" [{spec}]" if spec else "")
+    engine, mode = engine_of(key), mode_of(key)
+    if engine == "ode":
+        return "reference ODE"
+    return _LABELS.get(mode, key) + (f" [{engine}]" if engine != "mujoco" else "")
 
 
 _OTHER = ("#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
@@ -75,9 +85,9 @@ def verdict_section(res: Mapping[str, Any]) -> str:
         row: list[Any] = [_CHECKS.get(name, name)]
         tol = next(c["tolerance"] for c in checks if c["check"] == name)
         for m in modes:
-            c = next((c for c in checks if c["check"] == name and c["mode"] == m), None)
+            c = next((c for c in checks if c["check"] == name and c["run"] == m), None)
             row.append(_cell(c, res["t_end_s"], res["runs"]) if c else
-                       "the reference itself" if m == "ode" else "not checked")
+                       "the reference itself" if m == REFERENCE_RUN else "not checked")
         row.append(tol)
         rows.append(row)
         bad = any(not c["passed"] for c in checks if c["check"] == name)
@@ -98,7 +108,7 @@ def verdict_section(res: Mapping[str, Any]) -> str:
         title = ("Settings that follow the reference" if sug["agrees"]
                  else "The calibrated settings do not fix it")
         parts.append(f"<h3>{title}</h3><p class='note'>MuJoCo's own friction with the "
-                     "calibrated settings (the <code>mujoco-native</code> column): "
+                     "calibrated settings (the <code>mujoco/native</code> column): "
                      f"{esc(sug['note'])}. As MJCF; the contact attributes go "
                      f"{esc(sug['where'])}:</p><pre>{esc(sug['option'])}\n"
                      f"&lt;geom ... {esc(sug['geom'])}/&gt;</pre>")
@@ -203,7 +213,7 @@ def runs_section(res: Mapping[str, Any]) -> str:
                      if drift is not None else
                      (failed or "not measured: the ball alone never touched before the stem")))
     return ("<section id='runs'><h2>The runs</h2>"
-            + html_table(["mode", "what ran", "status", "t_invert (s)", "t_stem (s)",
+            + html_table(["run (engine/mode)", "what ran", "status", "t_invert (s)", "t_stem (s)",
                           "theta_final (rad)", "ends", "J drift before the stem (relative)"],
                          rows)
             + "</section>")
@@ -214,18 +224,19 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
     plt = pyplot()
     fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9.5, 6.2), sharex=True,
                                    gridspec_kw={"height_ratios": [3, 2]})
-    ref = tables.get("ode")
+    ref = tables.get(REFERENCE_RUN)
     keys = _keys(res)
     for m in keys:
         t = tables.get(m)
         if t is None:
             continue
-        ax.plot(t["t"], t["theta"], color=_colour(m, keys), lw=1.4 if m == "ode" else 1.0,
+        ax.plot(t["t"], t["theta"], color=_colour(m, keys), lw=1.4 if m == REFERENCE_RUN
+                else 1.0,
                 label=_label(m))
         t_stem = res["runs"][m].get("t_stem")
         if t_stem is not None:
             ax.axvline(t_stem, color=_colour(m, keys), ls=":", lw=0.8)
-        if ref is not None and m != "ode":
+        if ref is not None and m != REFERENCE_RUN:
             d = t["theta"].to_numpy() - np.interp(t["t"], ref["t"], ref["theta"])
             ax_d.plot(t["t"], d, color=_colour(m, keys), lw=1.0)
     ax.axhline(math.pi / 2, color="0.7", lw=0.8, ls="--")

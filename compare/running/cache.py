@@ -55,18 +55,18 @@ def code_fingerprint() -> str:
 def task_key(task: Task, plan: RunPlan | None = None) -> str:
     """The cache key of a task: its plan's physics (its MJCF text included), the code.
 
-    And for a MuJoCo plan the engine spec that runs it.
+    And the engine that runs it, where it is not this process's own (a release, a build, MJX).
     """
     plan = plan or task.plan()
     payload: dict[str, Any] = {**plan.physics(), "code": code_fingerprint()}
-    if plan.engine != "ode" and task.spec != "mujoco":
-        payload["spec"] = task.spec
+    if plan.engine not in ("ode", "mujoco"):
+        payload["engine"] = plan.engine
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:24]
 
 
 def cacheable(task: Task) -> bool:
     """A user's own build (``mujoco@PYTHON``) changes behind its name: never cached."""
-    return not task.spec.startswith("mujoco@")
+    return not task.engine.startswith("mujoco@")
 
 
 def default_cache_dir() -> Path:

@@ -79,12 +79,12 @@ def _plausible(value: Any) -> float | None:
     return float(value) if ok else None
 
 
-def mujoco_step_s(spec: str = "mujoco") -> tuple[float, bool]:
-    """The expected wall time of one MuJoCo step on the engine ``spec`` (s), and whether so.
+def mujoco_step_s(engine: str = "mujoco") -> tuple[float, bool]:
+    """The expected wall time of one MuJoCo step on ``engine`` (s), and whether so.
 
     Args:
-        spec: An engine spec (:mod:`tippetop.models.engines`): ``mujoco``, the one installed
-            here (its compiled stepper), or another, through its worker.
+        engine: A MuJoCo engine (:mod:`tippetop.models.engines`): ``mujoco``, the one
+            installed here (its compiled stepper), or another, through its worker.
 
     Returns:
         ``(seconds, measured)``: the figure kept from this machine's runs on that engine and
@@ -92,13 +92,14 @@ def mujoco_step_s(spec: str = "mujoco") -> tuple[float, bool]:
     """
     path = _step_cost_path()
     doc = _read_doc(path) if path is not None else {}
-    entry = doc.get("engines", {}).get(spec)
+    entry = doc.get("engines", {}).get(engine)
     measured = _plausible(entry.get("step_s")) if isinstance(entry, dict) else None
     return (measured, True) if measured is not None else (MUJOCO_STEP_S, False)
 
 
-def record_mujoco_runs(runs: Iterable[tuple[int, float]], spec: str = "mujoco") -> float | None:
-    """Keep what runs on the engine ``spec`` cost a step, for the next estimate.
+def record_mujoco_runs(runs: Iterable[tuple[int, float]],
+                       engine: str = "mujoco") -> float | None:
+    """Keep what runs on ``engine`` cost a step, for the next estimate.
 
     The median over the runs of at least :data:`MIN_MEASURED_STEPS` steps, blended into the
     figure kept for that engine with :data:`LEARN_RATE`, written atomically to the run cache
@@ -108,7 +109,7 @@ def record_mujoco_runs(runs: Iterable[tuple[int, float]], spec: str = "mujoco") 
 
     Args:
         runs: ``(n_steps, wall_s)`` of each run computed (not read from the cache).
-        spec: The engine spec that ran them.
+        engine: The engine that ran them.
 
     Returns:
         The figure kept (s a step), or None when nothing was written.
@@ -120,12 +121,12 @@ def record_mujoco_runs(runs: Iterable[tuple[int, float]], spec: str = "mujoco") 
     if not costs or path is None:
         return None
     new = statistics.median(costs)
-    old, measured = mujoco_step_s(spec)
+    old, measured = mujoco_step_s(engine)
     kept = old + LEARN_RATE * (new - old) if measured else new
     doc = _read_doc(path) or {"engines": {}}
-    doc["note"] = ("wall time of one MuJoCo step on this machine, by engine spec, as tippetop "
+    doc["note"] = ("wall time of one MuJoCo step on this machine, by engine, as tippetop "
                    "measured it; delete to start again from the default")
-    doc["engines"][spec] = {"step_s": kept, "runs": len(costs), "last_median_s": new}
+    doc["engines"][engine] = {"step_s": kept, "runs": len(costs), "last_median_s": new}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -136,7 +137,7 @@ def record_mujoco_runs(runs: Iterable[tuple[int, float]], spec: str = "mujoco") 
     return kept
 
 
-def expected_cost_s(plan: Any, spec: str = "mujoco") -> float:
+def expected_cost_s(plan: Any, engine: str | None = None) -> float:
     """The expected wall time of one run on one core (s), from its plan.
 
     MuJoCo: the plan's steps times :func:`mujoco_step_s` of the engine it runs on; the
@@ -146,10 +147,10 @@ def expected_cost_s(plan: Any, spec: str = "mujoco") -> float:
 
     Args:
         plan: A :class:`tippetop.models.plan.RunPlan`.
-        spec: The engine spec a MuJoCo plan runs on.
+        engine: The engine a MuJoCo plan runs on (default: the plan's own).
     """
     if plan.mujoco is not None:
-        return TASK_OVERHEAD_S + mujoco_steps(plan) * mujoco_step_s(spec)[0]
+        return TASK_OVERHEAD_S + mujoco_steps(plan) * mujoco_step_s(engine or plan.engine)[0]
     return TASK_OVERHEAD_S + float(plan.t_end_s) * ODE_PER_SIM_S
 
 
@@ -197,7 +198,7 @@ def mujoco_steps(plan: Any) -> int:
 
 
 def long_run_note(plans: Sequence[Any], slots: int = 1,
-                  specs: Sequence[str] | None = None) -> str | None:
+                  engines: Sequence[str] | None = None) -> str | None:
     """The line to print before running ``plans`` on ``slots`` workers, or None if short.
 
     The estimate is the one the progress bar starts from (:func:`expected_cost_s`), scheduled
@@ -206,7 +207,7 @@ def long_run_note(plans: Sequence[Any], slots: int = 1,
     Args:
         plans: Run plans (:class:`tippetop.models.plan.RunPlan`).
         slots: Runs going at once.
-        specs: The engine spec each plan runs on (default: all on ``mujoco``).
+        engines: The engine each plan runs on (default: each plan's own).
 
     Returns:
         ``tippetop: about 33 min of computing (2.0e+08 MuJoCo steps at ~20 us, as measured
@@ -216,20 +217,20 @@ def long_run_note(plans: Sequence[Any], slots: int = 1,
     """
     if not plans:
         return None
-    specs = list(specs) if specs is not None else ["mujoco"] * len(plans)
-    wall = schedule_s([], [expected_cost_s(p, s) for p, s in zip(plans, specs, strict=True)],
+    engines = list(engines) if engines is not None else [p.engine for p in plans]
+    wall = schedule_s([], [expected_cost_s(p, e) for p, e in zip(plans, engines, strict=True)],
                       max(1, slots))
     if wall <= LONG_RUN_S:
         return None
     steps: dict[str, int] = {}
-    for p, s in zip(plans, specs, strict=True):
+    for p, e in zip(plans, engines, strict=True):
         if mujoco_steps(p):
-            steps[s] = steps.get(s, 0) + mujoco_steps(p)
+            steps[e] = steps.get(e, 0) + mujoco_steps(p)
     parts = []
-    for spec, n in steps.items():
-        step_s, measured = mujoco_step_s(spec)
+    for engine, n in steps.items():
+        step_s, measured = mujoco_step_s(engine)
         us = step_s * 1e6
-        on = "" if spec == "mujoco" else f" on {spec}"
+        on = "" if engine == "mujoco" else f" on {engine}"
         parts.append(f"{n:.1e} MuJoCo steps{on} at ~{us:.0f} us" if us >= 100 else
                      f"{n:.1e} MuJoCo steps{on} at ~{us:.3g} us")
         parts[-1] += ", as measured here" if measured else ", not yet measured here"
@@ -242,12 +243,12 @@ def long_run_note(plans: Sequence[Any], slots: int = 1,
 
 
 def say_long_run(plans: Sequence[Any], slots: int = 1, stream: TextIO | None = None,
-                 specs: Sequence[str] | None = None) -> None:
+                 engines: Sequence[str] | None = None) -> None:
     """Print :func:`long_run_note` on stderr (or ``stream``) when there is one.
 
     Only on stderr, never into ``--json`` output, and whether or not stderr is a terminal.
     """
-    note = long_run_note(plans, slots, specs)
+    note = long_run_note(plans, slots, engines)
     if note is not None:
         out = stream or sys.stderr
         out.write(note + "\n")

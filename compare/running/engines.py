@@ -23,11 +23,11 @@ from tippetop.compare.measures.series import (
     summary,
 )
 from tippetop.compare.measures.summary import FINISHED_STATUSES, RESULT_KEYS
-from tippetop.models.engines import EngineSpec
+from tippetop.models.engines import MUJOCO_SPEC_FORMS, EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import MODES
-from tippetop.models.plan import ENGINES, RunPlan
-from tippetop.models.resolve import mode_engine, resolve_plan
+from tippetop.models.modes import new_spelling, note, old_spelling, run_label
+from tippetop.models.plan import RunPlan
+from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import Scene
 
 #: Stand-in for an integration tolerance in MuJoCo's energy check: soft contacts store a
@@ -36,8 +36,8 @@ from tippetop.models.scene import Scene
 MUJOCO_ENERGY_RTOL = 1e-6
 
 
-__all__ = ["ENGINES", "EngineRun", "check_engine", "engine_python", "mujoco_engine_run",
-           "plan_for", "progress_bar", "run_engine", "run_plan", "run_plan_on"]
+__all__ = ["EngineRun", "engine_python", "mujoco_engine_run", "plan_for", "progress_bar",
+           "run_engine", "run_plan", "run_plan_on"]
 
 
 @dataclass
@@ -50,21 +50,35 @@ class EngineRun:
     message: str
 
 
-def plan_for(scene: Scene, engine: str) -> RunPlan:
-    """The run plan of ``scene`` in ``engine`` (``ode``, ``mujoco``, or a mode name).
+def plan_for(scene: Scene, engine: str | EngineSpec = "ode", mode: str | None = None) -> RunPlan:
+    """The run plan of ``scene`` on ``engine`` in ``mode``: where it runs and what runs.
 
-    A mode (``mujoco-native-elliptic``, ...) is its engine plus the overrides that select it.
+    Args:
+        scene: A validated scene.
+        engine: ``ode``, ``mujoco``, ``mujoco==X.Y.Z``, ``mujoco@PYTHON``, ``mjx``,
+            ``mjx-f32`` or ``warp`` (:mod:`tippetop.models.engines`). A compound name of the
+            release before (``mujoco-native``) is read as its engine and mode, with a note.
+        mode: How the contact force is made (:mod:`tippetop.models.modes`); None: what the
+            scene's keys say.
+
+    Raises:
+        TippetopError: A bad engine or mode, or a pairing that cannot run (one line).
     """
-    check_engine(engine)
-    engine, overrides = mode_engine(engine)
-    if overrides:
-        scene = scene.with_overrides(list(overrides))
+    if isinstance(engine, str) and mode is None:
+        old = old_spelling(engine)
+        if old is not None and engine.strip() not in ("ode", "mujoco"):
+            note(f"engine {engine.strip()!r} names an engine and a mode: now "
+                 f"{new_spelling(engine.strip())} (the old spelling goes in the next release)")
+            engine, mode, extra = old
+            if extra:
+                scene = scene.with_overrides(list(extra))
+    spec = parse_engine(engine) if isinstance(engine, str) else engine
     loaded = None
     if scene.top_mjcf is not None:
         from tippetop.mujoco_runner.state import file_top
 
         loaded = file_top(scene.top_mjcf)
-    return resolve_plan(scene, engine, file_top=loaded)
+    return resolve_plan(scene, spec, mode, file_top=loaded)
 
 
 @contextmanager
@@ -94,27 +108,30 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
     ran = {"friction_law": p.friction.law, "formulation": p.options.formulation,
            "rtol": p.options.rtol, "atol": p.options.atol, "sample_dt_s": p.sample_dt_s,
            # what ran for stiff friction: "rolling" (rolling phases where the law is stiff),
-           # "off", or "none (why)"; the phases themselves under "rolling"
+           # "off", or "none (why)"; the phases themselves under "rolling_phases"
            "stiff": res.stiff}
     rolling = {"phases": len(res.rolling), "t_s": res.t_rolling_s}
     if res.status not in FINISHED_STATUSES:
         # a run that stopped short (max_steps, a step-size underflow, ...) is a failed run
         # with its reason, never numbers, as a diverged MuJoCo run; its table keeps the
         # samples before the stop (at least t = 0), which the runner's cache needs
-        s = {"engine": "ode", **dict.fromkeys(RESULT_KEYS), "contact_lost": False,
-             "wall_s": res.wall_s, "n_rhs": res.n_rhs}
+        s = {"engine": plan.engine, "mode": plan.mode, **dict.fromkeys(RESULT_KEYS),
+             "contact_lost": False, "wall_s": res.wall_s, "n_rhs": res.n_rhs}
         s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
                  phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
-                         for ph in res.phases], rolling=rolling, unused=list(plan.unused))
+                         for ph in res.phases], rolling_phases=rolling,
+                 unused=list(plan.unused))
         return EngineRun(res.table, s, res.status, res.message)
     top = p.top
-    s = summary(res.table, engine="ode", rtol=res.rtol, t_invert=res.t_invert,
+    s = summary(res.table, engine=plan.engine, mode=plan.mode, rtol=res.rtol,
+                t_invert=res.t_invert,
                 contact_lost=res.status in ("contact_lost", "hop"), wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_rhs=res.n_rhs)
     s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
              phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
-                     for ph in res.phases], rolling=rolling, unused=list(plan.unused))
+                     for ph in res.phases], rolling_phases=rolling,
+             unused=list(plan.unused))
     s["friction_realised"] = friction_realised(res.table, p.friction.mu,
                                                p.friction.Lambda_mps, t_stem=res.t_stem)
     s["friction_realised"]["refit"] = not_refit("the reference itself integrates the law")
@@ -134,30 +151,29 @@ def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> Engi
     return mujoco_engine_run(plan, simulate_plan(plan.mujoco, progress=progress))
 
 
-def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRun:
+def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
     """The engine run (summary and table) of a MuJoCo result of ``plan``.
 
     Args:
-        plan: A MuJoCo plan (:func:`plan_for`).
+        plan: A MuJoCo plan (:func:`plan_for`), on the engine that ran it.
         res: Its :class:`tippetop.mujoco_runner.results.MujocoResult`, from a single run, a
             batch (:mod:`tippetop.mujoco_runner.batch`) or a worker (``.remote``).
-        spec: The engine spec that ran it (:mod:`tippetop.models.engines`).
     """
     p = plan.mujoco
     assert p is not None
     ran = {k: v for k, v in res.ran.items() if k != "contact_source"}
-    ran.update(engine_spec=spec, **res.engine)  # what ran the steps, read back
+    ran.update(**res.engine)  # what ran the steps, read back
     if not res.ok:
         # a diverged run is a failed run with its reason, never numbers
-        s = {"engine": "mujoco", **dict.fromkeys(RESULT_KEYS),
+        s = {"engine": plan.engine, "mode": plan.mode, **dict.fromkeys(RESULT_KEYS),
              "contact_lost": "contact lost" in res.message, "wall_s": res.wall_s,
              "n_steps": res.n_steps}
-        s.update(status=res.status, message=res.message, mode=p.mode, **ran,
+        s.update(status=res.status, message=res.message, **ran,
                  t_stem=res.t_stem, phases=res.phases(), unused=list(plan.unused))
         # the table keeps the samples before the failure (the runner's cache needs a row)
         return EngineRun(res.table, s, res.status, res.message)
     top = p.top
-    s = summary(res.table, engine="mujoco", rtol=MUJOCO_ENERGY_RTOL,
+    s = summary(res.table, engine=plan.engine, mode=plan.mode, rtol=MUJOCO_ENERGY_RTOL,
                 t_invert=first_inversion_time(res.table), contact_lost=False,
                 wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
@@ -169,7 +185,7 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
         s["J_rel_drift"] = (jellett_drift(before, jellett_scale(before, top.R_m, top.A_kgm2,
                                                                 top.C_kgm2))
                             if len(before) > 1 else None)
-    s.update(status=res.status, message=res.message, mode=p.mode, **ran, t_stem=t_stem,
+    s.update(status=res.status, message=res.message, **ran, t_stem=t_stem,
              phases=res.phases(), max_penetration_m=res.max_penetration_m,
              contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
     law = p.law or p.reference_law
@@ -184,29 +200,32 @@ def mujoco_engine_run(plan: RunPlan, res: Any, spec: str = "mujoco") -> EngineRu
 
 
 def run_plan(plan: RunPlan, *, progress: bool | Callable[[float], None] = True,
-             spec: EngineSpec | None = None, python: str | None = None) -> EngineRun:
-    """Run a plan in its engine.
+             python: str | None = None) -> EngineRun:
+    """Run a plan on the engine it names (``plan.engine``).
+
+    The reference and the MuJoCo installed here run in this process; any other engine runs
+    the plan through its worker (:func:`run_plan_on`).
 
     Args:
-        plan: From :func:`plan_for`.
+        plan: From :func:`plan_for` (or read from its JSON).
         progress: True shows a bar over simulated time when stderr is a terminal; a callable
             is called with the simulated time reached instead (the engines call it now and
             then, and at the end).
-        spec: The engine a MuJoCo plan runs on (default: the MuJoCo installed here); another
-            one runs it through its worker (:func:`run_plan_on`).
-        python: That engine's interpreter, if already known (:func:`engine_python`).
+        python: The engine's interpreter, if already known (:func:`engine_python`).
 
     Raises:
-        TippetopError: A reference ODE plan given another engine to run on, or an engine
-            that cannot run the plan (one line).
+        TippetopError: A plan whose engine cannot run it (one line).
     """
-    remote = spec is not None and not spec.in_process
-    if remote and plan.engine == "ode":
-        raise TippetopError(f"engine {spec.spec}: expected a MuJoCo run (engine mujoco or a "
-                            f"mujoco-* mode) to run on it, got the reference ODE")
+    spec = parse_engine(plan.engine)
+    if spec.is_reference != plan.is_reference:
+        want = "the reference's" if spec.is_reference else "a MuJoCo"
+        got = "the reference's" if plan.is_reference else "a MuJoCo"
+        raise TippetopError(f"plan: expected {want} plan on engine {plan.engine!r}, got {got} "
+                            "plan")
+    remote = not spec.in_process
 
     def go(tick: Callable[[float], None] | None) -> EngineRun:
-        if plan.engine == "ode":
+        if plan.is_reference:
             return _run_ode(plan, tick)
         if remote:
             return run_plan_on(spec, plan, python=python, progress=tick)
@@ -219,8 +238,8 @@ def run_plan(plan: RunPlan, *, progress: bool | Callable[[float], None] = True,
         from tippetop.compare.running.cost import say_long_run
 
         say_compile([plan])
-        say_long_run([plan], specs=[spec.spec if remote else "mujoco"])
-    label = f"{plan.scene} [{plan.engine}{f' on {spec.spec}' if remote else ''}]"
+        say_long_run([plan])
+    label = f"{plan.scene} [{run_label(plan.engine, plan.mode)}]"
     with progress_bar(plan.t_end_s if progress else 0.0, label) as tick:
         return go(tick)
 
@@ -252,8 +271,8 @@ def engine_python(spec: EngineSpec, say: Callable[[str], None] | None = None) ->
                                 f"interpreter that can import mujoco, or its command on PATH, "
                                 f"got {spec.python!r}")
         return found
-    raise TippetopError(f"engine {spec.spec}: expected mujoco, mujoco==X.Y.Z, "
-                        f"mujoco@PYTHON, mjx, mjx-f32 or warp, got {spec.spec!r}")
+    raise TippetopError(f"engine {spec.spec}: expected {MUJOCO_SPEC_FORMS} to run through "
+                        f"a worker, got {spec.spec!r}")
 
 
 def run_plan_on(spec: EngineSpec, plan: RunPlan, *, python: str | None = None,
@@ -274,16 +293,10 @@ def run_plan_on(spec: EngineSpec, plan: RunPlan, *, python: str | None = None,
                                          "precision": spec.precision})
     except WorkerFailed as exc:
         raise TippetopError(f"engine {spec.spec}: {exc}") from None
-    return mujoco_engine_run(plan, res, spec.spec)
+    return mujoco_engine_run(plan, res)
 
 
-def run_engine(scene: Scene, engine: str, *, progress: bool = True) -> EngineRun:
-    """Run ``scene`` in ``engine`` (``ode``, ``mujoco`` or a mode name): plan, then run."""
-    return run_plan(plan_for(scene, engine), progress=progress)
-
-
-def check_engine(engine: str) -> None:
-    """Refuse an engine that is neither ``ode``, ``mujoco`` nor a mode name (one line)."""
-    if engine not in ENGINES and engine not in MODES:
-        raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)} or a mode "
-                            f"({', '.join(MODES)}), got {engine!r}")
+def run_engine(scene: Scene, engine: str | EngineSpec = "ode", mode: str | None = None, *,
+               progress: bool = True) -> EngineRun:
+    """Run ``scene`` on ``engine`` in ``mode`` (:func:`plan_for`): plan, then run."""
+    return run_plan(plan_for(scene, engine, mode), progress=progress)

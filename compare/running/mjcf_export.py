@@ -82,7 +82,7 @@ def model_differences(run_model: Any, file_model: Any) -> list[str]:
 
 
 # ---------------------------------------------------------------- the command
-def _header(scene: str, engine: str, plan: Any, run: dict[str, Any], key: str,
+def _header(scene: str, run_plan: Any, run: dict[str, Any], key: str,
             key_index: int, note: str | None) -> str:
     from importlib import metadata
 
@@ -92,10 +92,11 @@ def _header(scene: str, engine: str, plan: Any, run: dict[str, Any], key: str,
         version = metadata.version("tippetop")
     except metadata.PackageNotFoundError:  # pragma: no cover - the package is installed
         version = "?"
+    plan = run_plan.mujoco
     steps = plan.n_steps
     lines = [
         f"Written by 'tippetop mjcf' (tippetop {version}, MuJoCo {mujoco.__version__}): "
-        f"scene {scene}, {engine}, {plan.mode} mode.",
+        f"scene {scene}, engine {run_plan.engine}, mode {run_plan.mode}.",
         "This is the model 'tippetop simulate' compiles and steps, every option and contact "
         "setting as it runs:",
         f"  {run['integrator']} at timestep {run['timestep_s']!r} s, {run['cone']} cone, "
@@ -128,8 +129,11 @@ def _paper_note(plan: Any) -> str:
             "stepping this file alone gives a frictionless top, not the run.")
 
 
-def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
-    """Write the run's model of ``scene_obj`` in ``engine`` to ``out``; what was written.
+def write_mjcf(scene_obj: Any, engine: str, out: Path, mode: str | None = None
+               ) -> dict[str, Any]:
+    """Write the model of a run of ``scene_obj`` (on ``engine`` in ``mode``) to ``out``.
+
+    Returns what was written (the ``tippetop mjcf --json`` keys).
 
     Raises:
         TippetopError: ``engine`` is not a MuJoCo one, or the model cannot be written exactly.
@@ -141,18 +145,17 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
     from tippetop.compare.running.engines import plan_for
     from tippetop.compare.running.io import write_atomic
     from tippetop.models import mjcf_document
-    from tippetop.models.resolve import mode_engine
     from tippetop.mujoco_runner.model import TopModelWarning, top_from_model
     from tippetop.mujoco_runner.settings import build_model, settings_that_ran
     from tippetop.mujoco_runner.stepping import start_data
 
-    if mode_engine(engine)[0] != "mujoco":
-        raise TippetopError(f"--engine: expected mujoco or a mujoco-* mode, got {engine!r} "
-                            "(the reference ODE has no MuJoCo model)")
     # what a run refuses (e.g. a timestep the paper's law cannot be followed with), so does
     # its file: the plan refuses it
-    plan = plan_for(scene_obj, engine).mujoco
-    assert plan is not None
+    run_plan = plan_for(scene_obj, engine, mode)
+    if run_plan.mujoco is None:
+        raise TippetopError(f"--engine: expected a MuJoCo engine, got {run_plan.engine!r} "
+                            "(the reference ODE has no MuJoCo model)")
+    plan = run_plan.mujoco
     top_model = build_model(plan)  # the run's own model: the plan's MJCF text
     model = top_model.model
     root = mjcf_document.parse(plan.mjcf)
@@ -170,10 +173,10 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
     ran = settings_that_ran(top_model, data)
     ran.pop("contact_source", None)
     ran["sample_dt_s"] = plan.sample_dt_s
-    note = _paper_note(plan) if plan.mode == "paper" else None
+    note = _paper_note(plan) if plan.friction == "paper" else None
     key_index = model.nkey  # appended after the file's own keyframes
-    text = mjcf_document.to_text(root, _header(scene_obj.name, engine, plan, ran, key,
-                                               key_index, note))
+    text = mjcf_document.to_text(root, _header(scene_obj.name, run_plan, ran, key, key_index,
+                                               note))
 
     def write(tmp: Path) -> None:
         tmp.write_text(text, encoding="utf-8")
@@ -199,10 +202,11 @@ def write_mjcf(scene_obj: Any, engine: str, out: Path) -> dict[str, Any]:
                                 "state exactly: not written")
 
     write_atomic(out, write)
-    return {"out": str(out), "scene": scene_obj.name, "engine": engine, "mode": plan.mode,
+    return {"out": str(out), "scene": scene_obj.name, "engine": run_plan.engine,
+            "mode": run_plan.mode,
             "source": "generated" if plan.source is None else plan.source,
             "keyframe": key, "keyframe_index": key_index, "t_end_s": plan.t_end_s,
-            "friction_in_file": plan.mode == "native" or plan.law is None,
+            "friction_in_file": plan.friction == "native" or plan.law is None,
             "note": note, "ran": ran}
 
 

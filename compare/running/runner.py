@@ -30,7 +30,6 @@ from tippetop.compare.running.cache import (
 from tippetop.compare.running.cluster import dispatch_dask
 from tippetop.compare.running.compiling import compile_s, say_compile
 from tippetop.compare.running.cost import expected_cost_s, record_mujoco_runs, say_long_run
-from tippetop.compare.running.engines import check_engine
 from tippetop.compare.running.pool import (
     TICK_S,
     drain,
@@ -49,29 +48,28 @@ from tippetop.compare.running.tasks import (
     set_reporter,
     strip_timing,
 )
+from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import old_spelling, parse_mode
 from tippetop.models.plan import RunPlan
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
-              shared: int = 0, here: list[RunPlan] | None = None,
-              specs: list[str] | None = None) -> WorkProgress | None:
+              shared: int = 0, here: list[RunPlan] | None = None) -> WorkProgress | None:
     """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal.
 
     Its count is of the runs to compute; the note says what the others are (``cached`` taken
     from the cache, ``shared`` the same run as another task's, run once), so that the count
     and the note add up to the tasks asked for. Until a run moves it says how long the
-    compiling of ``here`` (the plans of this installation's engines) takes. ``specs``: the
-    engine each plan runs on (default ``mujoco``), whose step cost weighs it.
+    compiling of ``here`` (the plans of this installation's engines) takes. Each plan is
+    weighed by the step cost of the engine it runs on.
     """
     if not sys.stderr.isatty() or not plans:
         return None
     note = [f"{cached} from the cache"] if cached else []
     if shared:
         note.append(f"{shared} the same as another, run once")
-    specs = specs or ["mujoco"] * len(plans)
-    return WorkProgress(label, [expected_cost_s(p, s) for p, s in zip(plans, specs, strict=True)],
-                        slots=slots,
+    return WorkProgress(label, [expected_cost_s(p) for p in plans], slots=slots,
                         note=", ".join(note), compile_s=compile_s(here or []))
 
 
@@ -109,8 +107,7 @@ def run_tasks(
     if cache is not None:
         clean_cache_once(str(cache.root))  # what a killed run left (SIGKILL)
     for t in tasks:  # validate everything before any work
-        check_engine(t.engine)
-    pythons = _engine_pythons(tasks, scheduler)  # managed environments made now, not midway
+        _check_task(t)
     # a scene that does not load stops everything; a plan refused for its settings (a step the
     # paper's law cannot follow, effects an engine cannot run) is that task's own row
     scenes = [t.load() for t in tasks]
@@ -122,6 +119,8 @@ def run_tasks(
         except TippetopError as exc:
             plans.append(None)
             results[i] = TaskResult(task, "", None, None, str(exc), False)
+    # managed environments made now, before any run, not midway
+    pythons = _engine_pythons([p for p in plans if p is not None], scheduler)
     keys = [task_key(t, p) if p is not None else "" for t, p in zip(tasks, plans, strict=True)]
 
     def own(i: int, res_summary: dict[str, Any] | None) -> dict[str, Any] | None:
@@ -142,16 +141,16 @@ def run_tasks(
             todo.setdefault(key, []).append(i)
     # longest first: the last runs to start are short, so the cores finish together
     unique = sorted(((key, tasks[idx[0]]) for key, idx in todo.items()),
-                    key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]], kt[1].spec))
+                    key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
     unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
-    specs = [t.spec for _, t in unique]  # in the order of unique_plans
+    engines = [p.engine for p in unique_plans.values()]
     slots = _slots(scheduler, workers, len(unique))
-    here = [unique_plans[key] for key, t in unique if t.spec not in pythons]
+    here = [p for p in unique_plans.values() if p.engine not in pythons]
     say_compile(here)
-    say_long_run(list(unique_plans.values()), slots, specs=specs)  # stderr, above a minute
+    say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
     hits = sum(r is not None and r.cached for r in results)
     shared = sum(len(idx) - 1 for idx in todo.values())
-    bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here, specs)
+    bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here)
     writer = CacheWriter(cache) if cache else None
     finished = False
     try:
@@ -167,8 +166,8 @@ def run_tasks(
         finished = True
         if scheduler is None:  # what a step of each engine cost, for the next estimate
             computed = {r.key: r.summary for r in results if r is not None and not r.cached}
-            for spec in dict.fromkeys(specs):
-                record_mujoco_runs(measured_steps(computed.values(), spec), spec)
+            for engine in dict.fromkeys(engines):
+                record_mujoco_runs(measured_steps(computed.values(), engine), engine)
     finally:  # erased on Ctrl-C too, so that 'tippetop: interrupted' starts its own line
         if bar is not None:
             bar.close()
@@ -177,16 +176,23 @@ def run_tasks(
     return [r for r in results if r is not None]
 
 
-def _engine_pythons(tasks: Sequence[Task], scheduler: str | None) -> dict[str, str]:
-    """The interpreter of each engine spec the tasks name other than this process's MuJoCo.
+def _check_task(task: Task) -> None:
+    """Refuse a task's engine or mode that does not exist (one line), before any work."""
+    if old_spelling(task.engine) is None or task.mode is not None:
+        parse_engine(task.engine)
+    if task.mode is not None:
+        parse_mode(task.mode)
+
+
+def _engine_pythons(plans: Sequence[RunPlan], scheduler: str | None) -> dict[str, str]:
+    """The interpreter of each engine the plans run on other than this process's own.
 
     Managed environments are made here, before any run (each says so on stderr); an engine
     that cannot run is refused in one line. Dask runs this process's MuJoCo only.
     """
     from tippetop.compare.running.engines import engine_python
-    from tippetop.models.engines import parse_engine
 
-    specs = {t.spec: parse_engine(t.spec) for t in tasks}
+    specs = {p.engine: parse_engine(p.engine) for p in plans}
     others = {k: spec for k, spec in specs.items() if not spec.in_process}
     if others and scheduler:
         raise TippetopError(f"--scheduler: expected the MuJoCo installed with tippetop on a "
@@ -203,10 +209,9 @@ def _execute_remote(task: Task, plan: RunPlan, python: str,
                     report: Callable[[float], None] | None) -> dict[str, Any]:
     """Run one MuJoCo plan on another engine (its worker); a failure is ``{"error": ...}``."""
     from tippetop.compare.running.engines import run_plan_on
-    from tippetop.models.engines import parse_engine
 
     try:
-        run = run_plan_on(parse_engine(task.spec), plan, python=python, progress=report)
+        run = run_plan_on(parse_engine(plan.engine), plan, python=python, progress=report)
     except TippetopError as exc:
         return {"error": str(exc)}
     return {"summary": run.summary, "table": downsample(run.table)}
@@ -242,10 +247,10 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
         return
     n = workers or os.cpu_count() or 1
     pythons = pythons or {}
-    remote_tasks = [(k, t) for k, t in unique if plans[k].engine != "ode" and t.spec in pythons]
+    remote_tasks = [(k, t) for k, t in unique if plans[k].engine in pythons]
     mujoco_tasks = [(k, t) for k, t in unique
-                    if plans[k].engine != "ode" and t.spec not in pythons]
-    ode_tasks = [(k, t) for k, t in unique if plans[k].engine == "ode"]
+                    if not plans[k].is_reference and plans[k].engine not in pythons]
+    ode_tasks = [(k, t) for k, t in unique if plans[k].is_reference]
     pooled = n > 1 and len(ode_tasks) > 1
     pool = queue = threads = None
     futures: dict[Any, str] = {}
@@ -263,7 +268,7 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
             def tick(t: float, key: str = key, t_end: float = plan.t_end_s) -> None:
                 report(key, t / t_end)
 
-            futures[threads.submit(_execute_remote, task, plan, pythons[task.spec],
+            futures[threads.submit(_execute_remote, task, plan, pythons[plan.engine],
                                    tick if bar is not None else None)] = key
     waiting = set(futures)
     try:

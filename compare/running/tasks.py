@@ -25,17 +25,18 @@ CACHED_TABLE_ROWS = 4000
 
 @dataclass(frozen=True)
 class Task:
-    """One run: a scene, its overrides, an engine (or a mode name), and who runs it.
+    """One run: a scene, its overrides, the engine it runs on and the mode it runs in.
 
-    ``spec``: the engine spec that runs a MuJoCo plan (``mujoco``: this process's MuJoCo;
-    :mod:`tippetop.models.engines`).
+    ``engine``: ``ode``, ``mujoco``, ``mujoco==X.Y.Z``, ``mujoco@PYTHON``, ``mjx``,
+    ``mjx-f32`` or ``warp`` (:mod:`tippetop.models.engines`); ``mode``: how the contact force
+    is made (:mod:`tippetop.models.modes`), None for what the scene says.
     """
 
     scene: str | None
     overrides: tuple[str, ...] = ()
     engine: str = "ode"
+    mode: str | None = None
     label: str = field(default="", compare=False)
-    spec: str = "mujoco"
 
     def load(self) -> Scene:
         """The validated scene."""
@@ -43,7 +44,7 @@ class Task:
 
     def plan(self, scene: Scene | None = None) -> RunPlan:
         """The run plan (:func:`tippetop.compare.running.engines.plan_for`)."""
-        return plan_for(scene or self.load(), self.engine)
+        return plan_for(scene or self.load(), self.engine, self.mode)
 
 
 @dataclass
@@ -121,7 +122,7 @@ def execute_plan(plan_json: str, report_key: str | None = None) -> dict[str, Any
             plan = RunPlan.from_json(plan_json)
             progress: bool | Callable[[float], None] = False
             reporter = _REPORTER
-            if report_key is not None and reporter is not None and plan.engine != "ode" \
+            if report_key is not None and reporter is not None and not plan.is_reference \
                     and plan.t_end_s > 0:
                 t_end = plan.t_end_s
 

@@ -18,6 +18,7 @@ from tippetop.compare.studies.defaults import (  # noqa: F401 - re-exported
     DEFAULT_A_OVER_C,
     DEFAULT_A_OVER_R,
     DEFAULT_ENGINES_TEXT,
+    DEFAULT_MODES_TEXT,
 )
 from tippetop.compare.studies.growth import (
     SCAN_SPINS,
@@ -27,12 +28,16 @@ from tippetop.compare.studies.growth import (
     settled,
     state_start,
 )
+from tippetop.compare.studies.sweep import Run
+from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import MODES
+from tippetop.models.modes import run_label
 
 #: The top every grid point starts from (R, M, mu, Lambda of the paper's eq. 3.10).
 ATLAS_SCENE = "fig11_n060"
-DEFAULT_ENGINES = tuple(DEFAULT_ENGINES_TEXT.split(","))
+#: The runs the atlas measures by default: the reference, and MuJoCo in both of its main modes.
+DEFAULT_RUNS: tuple[Run, ...] = (("ode", "paper", ()), ("mujoco", "paper", ()),
+                                 ("mujoco", "native", ()))
 #: Relative tolerance of each threshold in the atlas (a group needs far less than n1's 1e-5).
 ATLAS_REL_TOL = 1e-4
 #: A measured threshold "moves" when it is this far from the theory's (relative).
@@ -62,15 +67,16 @@ def group_of(n1: float | None, n4: float | None) -> str:
 
 
 def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
-              engines: Sequence[str] = DEFAULT_ENGINES, overrides: tuple[str, ...] = (), *,
+              runs: Sequence[Run] = DEFAULT_RUNS, overrides: tuple[str, ...] = (), *,
               rel_tol: float = ATLAS_REL_TOL, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
-    """Measure n1 and n4 at every grid point in every engine, against the theory.
+    """Measure n1 and n4 at every grid point on every engine and mode, against the theory.
 
     Args:
         A_over_C: The grid's A/C values.
         a_over_R: The grid's a/R values (each in (0, 1)).
-        engines: Modes to measure in (``ode``, ``mujoco-paper``, ``mujoco-native``, ...).
+        runs: (engine, mode, more scene keys) to measure in; the engines ``ode`` and
+            ``mujoco`` (the MuJoCo installed here) only.
         overrides: Scene overrides applied at every point (e.g. a MuJoCo timestep).
         rel_tol: Relative tolerance of each threshold.
         scheduler: A Dask scheduler address, or None for local processes.
@@ -78,15 +84,20 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
         use_cache: Read and write the run cache.
 
     Returns:
-        ``points`` (one per grid point and engine: ``A_over_C, a_over_R, engine,
+        ``points`` (one per grid point and run: ``A_over_C, a_over_R, engine, mode, run,
         group_theory, group_measured, n1_theory, n1_measured, n4_theory, n4_measured``, and
-        ``agrees``, ``n_runs``, ``settled``), ``agreement`` (engine -> fraction of points whose
-        group matches), ``findings`` (sentences: where an engine moves a threshold or a
-        group boundary, with the numbers), ``grid`` and ``n_runs``.
+        ``agrees``, ``n_runs``, ``settled``), ``agreement`` (run, ``ENGINE/MODE`` -> fraction
+        of points whose group matches), ``findings`` (sentences: where a run moves a threshold
+        or a group boundary, with the numbers), ``runs``, ``grid`` and ``n_runs``.
     """
-    for e in engines:
-        if e not in MODES:
-            raise TippetopError(f"--engines: expected modes from {', '.join(MODES)}, got {e!r}")
+    labels = []
+    for engine, mode, _extra in runs:
+        if not parse_engine(engine).in_process:
+            raise TippetopError(f"--engines: expected ode or mujoco (the atlas runs on the "
+                                f"MuJoCo installed here), got {engine!r}")
+        if mode is None:
+            raise TippetopError(f"atlas: expected a mode for engine {engine!r}, got none")
+        labels.append(run_label(engine, mode))
     for e in a_over_R:
         if not 0.0 < e < 1.0:
             raise TippetopError(f"--a-over-R: expected values in (0, 1), got {e:g}")
@@ -95,12 +106,13 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
         for e in a_over_R:
             over = (f"top.A_over_C={r!r}", f"top.a_over_R={e!r}", *overrides)
             top = Task(ATLAS_SCENE, over, "ode").load().top
-            for eng in engines:
-                up = Search(ATLAS_SCENE, eng, over, "upright", state_start(top, "upright"),
-                            rel_tol)
-                inv = Search(ATLAS_SCENE, eng, over, "inverted", state_start(top, "inverted"),
-                             rel_tol)
-                cells.append((r, e, eng, up, inv, top))
+            for (engine, mode, extra), label in zip(runs, labels, strict=True):
+                more = (*over, *extra)
+                up = Search(ATLAS_SCENE, engine, more, "upright", state_start(top, "upright"),
+                            rel_tol, mode=mode)
+                inv = Search(ATLAS_SCENE, engine, more, "inverted",
+                             state_start(top, "inverted"), rel_tol, mode=mode)
+                cells.append((r, e, label, up, inv, top))
 
     def run(tasks: list[Task]) -> list[Any]:
         return list(run_tasks(tasks, scheduler=scheduler, workers=workers,
@@ -108,24 +120,24 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
 
     run_searches([s for c in cells for s in c[3:5]], run)
     points = []
-    for r, e, eng, up, inv, top in cells:
+    for r, e, label, up, inv, top in cells:
         n1 = up.root
         n4 = jellett_pi_to_zero(top, inv.root) if inv.root is not None else None
         g_th, g_me = theory.group(top), group_of(n1, n4)
         fits = [p for s in (up, inv) for p in s.points.values()]
         points.append({
-            "A_over_C": r, "a_over_R": e, "engine": eng,
+            "A_over_C": r, "a_over_R": e, "engine": up.engine, "mode": up.mode, "run": label,
             "group_theory": g_th, "group_measured": g_me,
             "n1_theory": theory.n1(top), "n1_measured": n1,
             "n4_theory": theory.n4(top), "n4_measured": n4,
             "agrees": g_th == g_me, "n_runs": len(fits),
             "settled": settled(fits, [up.root, inv.root]),
         })
-    agreement = {eng: float(np.mean([p["agrees"] for p in points if p["engine"] == eng]))
-                 for eng in engines}
+    agreement = {lab: float(np.mean([p["agrees"] for p in points if p["run"] == lab]))
+                 for lab in labels}
     return {"points": points, "agreement": agreement, "findings": findings(points),
             "grid": {"A_over_C": list(A_over_C), "a_over_R": list(a_over_R)},
-            "engines": list(engines), "scan_spins": list(SCAN_SPINS),
+            "runs": labels, "scan_spins": list(SCAN_SPINS),
             "n_runs": sum(p["n_runs"] for p in points)}
 
 
@@ -134,10 +146,10 @@ def _rel(measured: float | None, th: float | None) -> float | None:
 
 
 def findings(points: Sequence[dict[str, Any]]) -> list[str]:
-    """Sentences on where each engine departs from the theory: groups, then moved thresholds."""
+    """Sentences on where each run departs from the theory: groups, then moved thresholds."""
     out = []
-    for eng in dict.fromkeys(p["engine"] for p in points):
-        mine = [p for p in points if p["engine"] == eng]
+    for eng in dict.fromkeys(p["run"] for p in points):
+        mine = [p for p in points if p["run"] == eng]
         wrong = [p for p in mine if not p["agrees"]]
         if wrong:
             where = "; ".join(f"A/C = {p['A_over_C']:.3g}, a/R = {p['a_over_R']:.3g}: "
@@ -166,6 +178,7 @@ def atlas_table(result: dict[str, Any]) -> Any:
     """The points as a pandas DataFrame (the atlas.csv columns)."""
     import pandas as pd
 
-    cols = ["A_over_C", "a_over_R", "engine", "group_theory", "group_measured", "n1_theory",
+    cols = ["A_over_C", "a_over_R", "engine", "mode", "run", "group_theory", "group_measured",
+            "n1_theory",
             "n1_measured", "n4_theory", "n4_measured", "agrees", "n_runs", "settled"]
     return pd.DataFrame([{c: p[c] for c in cols} for p in result["points"]], columns=cols)

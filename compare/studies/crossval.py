@@ -17,157 +17,174 @@ from tippetop.compare.measures import theory
 from tippetop.compare.measures.series import classify_outcome, theta_rms, theta_trend
 from tippetop.compare.measures.summary import describe_ran, run_failed
 from tippetop.compare.measures.verdict import (
-    MODE_NOTES,
-    REFERENCE_MODE,
     THETA_S_TOL,
     TOLERANCES,
     crossval_row,
+    mode_note,
     predicted_outcome,
 )
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
+from tippetop.compare.studies.sweep import Run
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import MODES, mode_task_parts
+from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text
 
 
-def compare_scene(scene: str | None, modes: list[str], overrides: tuple[str, ...] = (), *,
+def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...] = (), *,
                   scheduler: str | None = None, workers: int | None = None,
                   use_cache: bool = True) -> dict[str, Any]:
-    """Run ``scene`` in every mode (and the reference) and compare them.
+    """Run ``scene`` on every (engine, mode) of ``runs`` and the reference, and compare them.
+
+    Args:
+        scene: A scene name or file.
+        runs: (engine, mode or None for the scene's, more scene keys) of each run
+            (:data:`~tippetop.compare.studies.sweep.Run`). The reference (``ode`` in the
+            scene's own law) runs whether it is among them or not.
+        overrides: Scene overrides for every run.
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes.
+        use_cache: Read and write the run cache.
 
     Returns:
-        ``scene``, ``group``, ``theory`` (predicted theta_s and outcome), ``modes`` (per mode:
-        the simulate summary keys plus ``outcome``, ``matches_theory`` (outcome class and
-        theta_asymp within ``THETA_S_TOL`` of theta_s), ``d_theta_asymp``,
-        ``theta_trend_rad_s``, ``theta_rms_vs_ref``), ``crossval`` (one :func:`crossval_row`
-        per mode), ``differences`` (mode, metric, value, reference, tolerance, why),
-        ``tolerances``.
+        ``scene``, ``group``, ``theory`` (predicted theta_s and outcome), ``runs`` (one per
+        run asked for, the reference first if asked: ``engine``, ``mode``, ``run``
+        (``ENGINE/MODE``), the simulate summary keys, ``outcome``, ``matches_theory``
+        (outcome class and theta_asymp within ``THETA_S_TOL`` of theta_s),
+        ``d_theta_asymp``, ``theta_trend_rad_s``, ``theta_rms_vs_ref``, ``reference``),
+        ``crossval`` (one :func:`crossval_row` per run), ``differences`` (engine, mode, run,
+        metric, value, reference, tolerance, why), ``tolerances``.
     """
-    for m in modes:
-        if m not in MODES:
-            raise TippetopError(f"--modes: expected modes from {', '.join(MODES)}, got {m!r}")
-    run_modes = list(dict.fromkeys([REFERENCE_MODE, *modes]))
-    tasks = []
-    for m in run_modes:
-        engine, mo = mode_task_parts(m)
-        tasks.append(Task(scene, (*overrides, *mo), engine))
-    results: dict[str, TaskResult] = dict(zip(run_modes, run_tasks(
-        tasks, scheduler=scheduler, workers=workers, use_cache=use_cache, label="compare"),
-        strict=True))
-    for m, r in results.items():
+    tasks = [Task(scene, overrides, "ode")]  # the reference: the scene's own law
+    tasks += [Task(scene, (*overrides, *extra), engine, mode) for engine, mode, extra in runs]
+    results: list[TaskResult] = run_tasks(tasks, scheduler=scheduler, workers=workers,
+                                          use_cache=use_cache, label="compare")
+    for task, r in zip(tasks, results, strict=True):
         if r.error:
-            raise TippetopError(f"{m}: {r.error}")
+            raise TippetopError(f"{run_label(task.engine, task.mode or 'scene')}: {r.error}")
     sc = tasks[0].load()
     top = tasks[0].plan(sc).top  # for an MJCF top, the parameters read from its file
-    ref = results[REFERENCE_MODE]
+    ref = results[0]
+    ref_label = run_label(ref.summary["engine"], ref.summary["mode"])
     ref_failed = run_failed(ref.summary)
     # Jellett's constant at t = 0 from a run that has a table (a failed run has none)
-    tables = [r.table for r in results.values() if not run_failed(r.summary) and len(r.table)]
+    tables = [r.table for r in results if not run_failed(r.summary) and len(r.table)]
     th_pred, out_pred = (predicted_outcome(top, float(tables[0]["J"].iloc[0])) if tables
                          else (math.nan, None))
-    per_mode: dict[str, Any] = {}
+    mine: dict[str, TaskResult] = {}
+    for r in results[1:]:
+        mine.setdefault(run_label(r.summary["engine"], r.summary["mode"]), r)
+    per_run: dict[str, Any] = {}
     diffs: list[dict[str, Any]] = []
     rows: list[dict[str, Any]] = []
     ref_t = None if ref_failed else ref.summary.get("t_invert")
-    for m in modes:
-        r = results[m]
+    for label, r in mine.items():
         s = dict(r.summary)
+        is_ref = label == ref_label
+        who = {"engine": s["engine"], "mode": s["mode"], "run": label}
+        s.update(run=label, reference=is_ref)
         if run_failed(s):
             s.update(outcome="failed", matches_theory=False, theta_rms_vs_ref=None)
-            diffs.append({"mode": m, "metric": "status", "value": s.get("status"),
+            diffs.append({**who, "metric": "status", "value": s.get("status"),
                           "reference": ref.summary.get("status", "ok"), "tolerance": None,
                           "note": s.get("message", "")})
-            per_mode[m] = s
-            rows.append(crossval_row(sc.name, m, outcome="failed", theta_asymp=None,
-                                     theta_s=th_pred, theory_outcome=out_pred, t_invert=None,
+            per_run[label] = s
+            rows.append(crossval_row(sc.name, s["mode"], engine=s["engine"], outcome="failed",
+                                     theta_asymp=None, theta_s=th_pred,
+                                     theory_outcome=out_pred, t_invert=None,
                                      error=s.get("message") or str(s.get("status"))))
             continue
         s["outcome"] = classify_outcome(r.table)
         s["theta_trend_rad_s"] = theta_trend(r.table)
-        row = crossval_row(sc.name, m, outcome=s["outcome"], theta_asymp=s["theta_asymp"],
-                           theta_s=th_pred, theory_outcome=out_pred, t_invert=s["t_invert"],
+        row = crossval_row(sc.name, s["mode"], engine=s["engine"], outcome=s["outcome"],
+                           theta_asymp=s["theta_asymp"], theta_s=th_pred,
+                           theory_outcome=out_pred, t_invert=s["t_invert"],
                            t_invert_ref=ref_t, J_rel_drift=s["J_rel_drift"],
-                           trend=s["theta_trend_rad_s"], reference=m == REFERENCE_MODE,
+                           trend=s["theta_trend_rad_s"], reference=is_ref,
                            t_span_s=float(r.table["t"].iloc[-1] - r.table["t"].iloc[0]))
         rows.append(row)
         s["matches_theory"] = row["agrees"]
         s["d_theta_asymp"] = row["d_theta_asymp"]
-        s["theta_rms_vs_ref"] = (0.0 if m == REFERENCE_MODE else None if ref_failed
+        s["theta_rms_vs_ref"] = (0.0 if is_ref else None if ref_failed
                                  else theta_rms(r.table, ref.table))
         s["energy_dissipated_J"] = float(r.table["E"].iloc[0] - r.table["E"].iloc[-1])
-        s["note"] = MODE_NOTES.get(m, "")
-        per_mode[m] = s
-        if m == REFERENCE_MODE or ref_failed:  # nothing to compare with a failed reference
+        s["note"] = mode_note(s["engine"], s["mode"])
+        per_run[label] = s
+        if is_ref or ref_failed:  # nothing to compare with a failed reference
             continue
         ref_s = ref.summary
         ref_out = classify_outcome(ref.table)
         if s["outcome"] != ref_out:
-            diffs.append({"mode": m, "metric": "outcome", "value": s["outcome"],
+            diffs.append({**who, "metric": "outcome", "value": s["outcome"],
                           "reference": ref_out, "tolerance": None})
         checks = {
             "theta_asymp": (s["theta_asymp"], ref_s["theta_asymp"]),
             "theta_rms": (s["theta_rms_vs_ref"], 0.0),
         }
         if (s["t_invert"] is None) != (ref_s["t_invert"] is None):
-            diffs.append({"mode": m, "metric": "t_invert", "value": s["t_invert"],
+            diffs.append({**who, "metric": "t_invert", "value": s["t_invert"],
                           "reference": ref_s["t_invert"], "tolerance": None})
         elif s["t_invert"] is not None:
             checks["t_invert"] = (s["t_invert"], ref_s["t_invert"])
         for metric, (v, rv) in checks.items():
             tol, why = TOLERANCES[metric]
             if not math.isfinite(v) or abs(v - rv) > tol:
-                diffs.append({"mode": m, "metric": metric, "value": v, "reference": rv,
+                diffs.append({**who, "metric": metric, "value": v, "reference": rv,
                               "tolerance": tol, "why": why})
         tol, why = TOLERANCES["J_rel_drift"]
         if s["J_rel_drift"] > tol:
-            diffs.append({"mode": m, "metric": "J_rel_drift", "value": s["J_rel_drift"],
+            diffs.append({**who, "metric": "J_rel_drift", "value": s["J_rel_drift"],
                           "reference": ref_s["J_rel_drift"], "tolerance": tol, "why": why})
-    # each MuJoCo mode's realised law, rerun in the reference: does it explain the mode?
-    mj = {m: per_mode[m] for m in modes if m.startswith("mujoco") and m != REFERENCE_MODE
-          and (per_mode[m].get("friction_realised") or {}).get("samples")}
+    # each MuJoCo run's realised law, rerun in the reference: does it explain the run?
+    mj = {k: v for k, v in per_run.items() if v["engine"] != "ode"
+          and (v.get("friction_realised") or {}).get("samples")}
     if mj:
         from tippetop.compare.studies.refit import attach_refits
 
-        ref_engine, ref_over = mode_task_parts(REFERENCE_MODE)
-        attach_refits({REFERENCE_MODE: dict(ref.summary), **mj},
-                      {k: results[k].table for k in (REFERENCE_MODE, *mj)}, REFERENCE_MODE,
-                      lambda ov: Task(scene, (*overrides, *ref_over, *ov), ref_engine),
+        ref_key = "reference"
+        mj_tables = {k: mine[k].table for k in mj}
+        attach_refits({ref_key: dict(ref.summary), **mj}, {ref_key: ref.table, **mj_tables},
+                      ref_key, lambda ov: Task(scene, (*overrides, *ov), "ode"),
                       {"scheduler": scheduler, "workers": workers, "use_cache": use_cache})
     return {
         "scene": sc.name,
         "group": theory.group(top),
         "theory": {"theta_s": th_pred, "outcome": out_pred, "theta_s_tol": THETA_S_TOL[0],
                    "theta_s_tol_why": THETA_S_TOL[1]},
-        "modes": per_mode,
+        "reference": ref_label,
+        "runs": list(per_run.values()),
         "crossval": rows,
         "differences": diffs,
         "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL[0]},
     }
 
 
-FRICTION_LAW_MODES = ("ode", "ode-coulomb", "ode-viscous", "ode-coulomb_viscous",
-                      "mujoco-paper", "mujoco-native", "mujoco-native-elliptic",
-                      "mujoco-native-pyramidal", "mujoco-native-condim4",
-                      "mujoco-native-condim6")
+#: The friction-law runs: the reference in each of its laws, MuJoCo in each of its modes.
+FRICTION_LAW_RUNS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("ode", "paper", ()), ("ode", "coulomb", ()), ("ode", "viscous", ()),
+    ("ode", "coulomb_viscous", ()), ("mujoco", "paper", ()), ("mujoco", "native", ()),
+    ("mujoco", "native-elliptic", ()), ("mujoco", "native-pyramidal", ()),
+    ("mujoco", "native-condim4", ()), ("mujoco", "native-condim6", ()))
 
 
 def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
-    """The friction-law table of a :func:`compare_scene` result, one row per mode.
+    """The friction-law table of a :func:`compare_scene` result, one row per run.
 
-    Columns: inverts or not, inversion time, theta_asymp, J drift, energy dissipated, a
-    sentence on where (from the numbers) and why (from the law) it departs from the paper's,
-    and what ran (the settings read back from the engine, :func:`describe_ran`).
+    Columns: the run (``ENGINE/MODE``), inverts or not, inversion time, theta_asymp, J drift,
+    energy dissipated, a sentence on where (from the numbers) and why (from the law) it
+    departs from the paper's, and what ran (the settings read back from the engine,
+    :func:`describe_ran`).
     """
     rows = []
-    for m, s in result["modes"].items():
+    for s in result["runs"]:
+        label = s["run"]
         if s.get("outcome") == "failed":
-            rows.append({"mode": m, "inverts": None, "t_invert_s": None, "theta_asymp": None,
-                         "J_rel_drift": None, "energy_dissipated_J": None,
+            rows.append({"run": label, "inverts": None, "t_invert_s": None,
+                         "theta_asymp": None, "J_rel_drift": None, "energy_dissipated_J": None,
                          "departs": f"the run failed: {s.get('message', '')}",
                          "ran": describe_ran(s)})
             continue
-        mine = [d for d in result["differences"] if d["mode"] == m]
-        if m == REFERENCE_MODE:
+        mine = [d for d in result["differences"] if d["run"] == label]
+        if s.get("reference"):
             verdict = "The reference"
         elif not mine:
             verdict = "Agrees with the paper's law within tolerance"
@@ -191,13 +208,13 @@ def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
                 "Follows a different theta(t) (RMS over tolerance) but ends the same"
         note = s.get("note", "")
         rows.append({
-            "mode": m,
+            "run": label,
             "inverts": s["t_invert"] is not None,
             "t_invert_s": s["t_invert"],
             "theta_asymp": s["theta_asymp"],
             "J_rel_drift": s["J_rel_drift"],
             "energy_dissipated_J": s.get("energy_dissipated_J"),
-            "departs": f"{verdict}{': ' + note if note and m != REFERENCE_MODE else ''}.",
+            "departs": f"{verdict}{': ' + note if note and not s.get('reference') else ''}.",
             "ran": describe_ran(s),
         })
     return pd.DataFrame(rows)

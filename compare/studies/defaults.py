@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-#: ``tippetop atlas``: the grid, A/C and a/R as ``LO:HI:N``, and the modes measured.
+#: ``tippetop atlas``: the grid, A/C and a/R as ``LO:HI:N``, and the engines and modes measured
+#: (every pairing of the two that can run).
 DEFAULT_A_OVER_C = "0.8:1.4:4"
 DEFAULT_A_OVER_R = "0.05:0.25:3"
-DEFAULT_ENGINES_TEXT = "ode,mujoco-paper,mujoco-native"
+DEFAULT_ENGINES_TEXT = "ode,mujoco"
+DEFAULT_MODES_TEXT = "paper,native"
 
 #: ``tippetop validate``: simulated seconds of every run unless --t-end-s says otherwise.
 DEFAULT_T_END_S = 8.0

@@ -193,7 +193,7 @@ class Search:
     rel_tol: float = REL_TOL
     max_runs: int = 12
     run_s: float = RUN_S
-    spec: str = "mujoco"
+    mode: str | None = None
     points: dict[float, dict[str, Any]] = field(default_factory=dict)
     root: float | None = None
     bracket: list[float] = field(default_factory=list)
@@ -203,7 +203,7 @@ class Search:
     def task(self, n: float) -> Task:
         """The run at spin ``n`` near the state."""
         return Task(self.scene, (*self.overrides, *state_overrides(self.state, n, self.run_s)),
-                    self.engine, spec=self.spec)
+                    self.engine, self.mode)
 
 
 def run_searches(searches: list[Search], run: Callable[[list[Task]], list[Any]]) -> None:
@@ -271,23 +271,25 @@ def measure_growth(scene: str | None, engine: str, which: str,
                    overrides: tuple[str, ...] = (), *, rel_tol: float = REL_TOL,
                    run_s: float = RUN_S, max_runs: int = 12, scheduler: str | None = None,
                    workers: int | None = None, use_cache: bool = True,
-                   label: str = "growth rates", spec: str = "mujoco") -> dict[str, Any]:
-    """Measure ``n1``, ``n4`` or ``nc`` of a scene's top in ``engine`` from growth rates.
+                   label: str = "growth rates", mode: str | None = None) -> dict[str, Any]:
+    """Measure ``n1``, ``n4`` or ``nc`` of a scene's top on ``engine`` from growth rates.
 
-    A MuJoCo ``engine`` runs on the engine spec ``spec`` (:mod:`tippetop.models.engines`).
+    ``engine``: :mod:`tippetop.models.engines`; ``mode``: :mod:`tippetop.models.modes` (None:
+    the scene's).
 
     Returns:
         The threshold keys of :func:`tippetop.compare.studies.threshold.measure_threshold`
-        (``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs,
+        (``which, engine, mode, scene, measured, theory, rel_diff, bracket, runs, n_runs,
         horizon_s, converged``) plus ``method`` ("growth"), ``rates`` (each ``{n0, state,
         rate_per_s}``), ``settled`` (every fit clean: two modes describe every run), and
         ``n1``/``n4`` (each measured or None) and ``n3`` (the inverted state's spin).
     """
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
-    task = Task(scene or "fig11_n060", overrides, engine)
+    task = Task(scene or "fig11_n060", overrides, engine, mode)
     scene_obj = task.load()
-    top = task.plan(scene_obj).top
+    plan = task.plan(scene_obj)  # the engine and mode are checked here, before any run
+    engine, mode, top = plan.engine, plan.mode, plan.top
     th_value = {"n1": theory.n1, "n4": theory.n4, "nc": theory.n_c}[which](top)
     if which == "nc" and th_value is None:
         raise TippetopError(f"--which: nc exists for Group II tops only, got a Group "
@@ -299,7 +301,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
 
     states = {"n1": ("upright",), "n4": ("inverted",), "nc": ("upright", "inverted")}[which]
     searches = {state: Search(task.scene, engine, overrides, state, state_start(top, state),
-                              rel_tol, max_runs, run_s, spec) for state in states}
+                              rel_tol, max_runs, run_s, mode) for state in states}
     run_searches(list(searches.values()), run)
     found = {state: s.root for state, s in searches.items()}
     brackets = {state: s.bracket for state, s in searches.items()}
@@ -318,7 +320,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
     points = [p for sr in searches.values() for p in sr.points.values()]
     points.sort(key=lambda p: (p["state"], p["n0"]))
     out: dict[str, Any] = {
-        "which": which, "engine": engine, "engine_spec": spec, "scene": scene_obj.name,
+        "which": which, "engine": engine, "mode": mode, "scene": scene_obj.name,
         "method": "growth",
         "measured": measured, "theory": th_value,
         "rel_diff": (measured / th_value - 1.0) if measured and th_value else None,

@@ -1,9 +1,11 @@
 """Engines side by side: every scene on every engine and mode, against the theory and each other.
 
 :func:`run_matrix` runs the scenes (catalogue names, scene files or MJCF tops) on each engine
-spec (:mod:`tippetop.models.engines`) in native and paper mode, and the reference ODE once per
-scene; it says per run whether it agrees with the theory (the nightly's rule), and lists every
-metric on which two engines differ beyond the nightly's tolerance for it.
+(:mod:`tippetop.models.engines`) in each mode (:mod:`tippetop.models.modes`: by default the
+scene's own contact, ``native`` for a catalogue scene and ``file`` for an MJCF top, and the
+paper's law, ``paper``), and the reference ODE once per scene; it says per run whether it
+agrees with the theory (the nightly's rule), and lists every metric on which two engines
+differ beyond the nightly's tolerance for it.
 """
 
 from __future__ import annotations
@@ -20,14 +22,16 @@ from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import check_pair, run_label
 from tippetop.models.scene import catalogue_names
 
-#: The format of ``results.json``.
-FORMAT = "tippetop-matrix/1"
-#: ``--modes``: the scene keys each mode sets (native: the calibrated settings for a generated
-#: top, a file's own for an MJCF top; paper: the paper's law at the contact point).
-MODES: dict[str, tuple[str, ...]] = {"native": ("mujoco.friction=native",),
-                                     "paper": ("mujoco.friction=paper",)}
+#: The format of ``results.json`` (2: a run's ``engine`` and ``mode`` apart, ``engines`` by
+#: ``engine``).
+FORMAT = "tippetop-matrix/2"
+#: The modes run when ``--modes`` is not given: the scene's own contact (the calibrated
+#: settings of a catalogue scene, ``native``; an MJCF top's own, ``file``), then the paper's law.
+DEFAULT_MODES = ("native", "paper")
+DEFAULT_FILE_MODES = ("file", "paper")
 #: ``--profile``: the scenes run when none are named.
 PROFILES: dict[str, tuple[str, ...]] = {"quick": ("fig3", "fig6", "fig8a", "fig11_n060")}
 #: The metrics two engines are compared on, with the nightly's tolerance of each: ``exact``,
@@ -82,15 +86,26 @@ def _differ(metric: str, a: Any, b: Any) -> bool:
     return hi > max(value * lo, floor)
 
 
-def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequence[str],
-               overrides: tuple[str, ...] = (), *, workers: int | None = None,
-               use_cache: bool = True, attribution: bool = True,
+def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
+               modes: Sequence[str] | None = None, overrides: tuple[str, ...] = (), *,
+               workers: int | None = None, use_cache: bool = True, attribution: bool = True,
                tables: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Every scene on every engine in every mode, the reference once per scene.
+    """Every scene on every MuJoCo engine in every mode, the reference once per scene.
+
+    Args:
+        scenes: Catalogue names, scene files or MJCF tops.
+        engines: MuJoCo engines (the reference runs once per scene anyway).
+        modes: MuJoCo modes (:mod:`tippetop.models.modes`); None: :data:`DEFAULT_MODES` for a
+            scene, :data:`DEFAULT_FILE_MODES` for an MJCF top.
+        overrides: Scene overrides for every run.
+        workers: Local worker processes.
+        use_cache: Read and write the run cache.
+        attribution: Rerun each difference with one subsystem changed at a time.
+        tables: Receives each run's table under :func:`table_key`.
 
     Returns:
-        ``format``, ``engines`` ({spec, implementation, version, precision, device}, the
-        version read back from the runs), ``runs`` ({scene, engine, mode, status, message,
+        ``format``, ``engines`` ({engine, implementation, version, precision, device}, the
+        version read back from the runs), ``runs`` ({scene, engine, mode, run, status, message,
         t_invert, t_stem, theta_final, theta_asymp, J_rel_drift, agrees} and ``theta_s``,
         ``outcome``, ``theory_outcome``, ``path``), ``differences`` ({scene, mode, engines: [A,
         B], metric, values: [a, b], tolerance, why, attribution, closer}: see
@@ -98,19 +113,24 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
         ODE's per scene). ``tables``, when given, receives each run's table under
         :func:`table_key` (the reference's: mode and engine ``ode``).
     """
-    for m in modes:
-        if m not in MODES:
-            raise TippetopError(f"--modes: expected native and/or paper, got {m!r}")
+    for spec in engines:
+        if spec.is_reference:
+            raise TippetopError("--engines: expected MuJoCo engines (the reference runs once "
+                                "per scene anyway), got 'ode'")
+    for m in modes or ():
+        check_pair("mujoco", m)
     jobs: list[tuple[str, str | None, Task]] = []  # (scene, mode or None, task)
+    scene_modes: dict[str, tuple[str, ...]] = {}
     for scene in scenes:
         name, base, is_file = _scene_task_args(scene)
         over = (*base, *overrides)
         jobs.append((scene, None, Task(name, over, "ode", label=f"{scene} [ode]")))
-        for mode, spec in itertools.product(modes, engines):
+        scene_modes[scene] = tuple(modes) if modes else (
+            DEFAULT_FILE_MODES if is_file else DEFAULT_MODES)
+        for mode, spec in itertools.product(scene_modes[scene], engines):
             fit = ("mujoco.fit_paper_timestep=true",) if is_file and mode == "paper" else ()
-            jobs.append((scene, mode, Task(name, (*over, *MODES[mode], *fit), "mujoco",
-                                           label=f"{scene} [{spec.spec} {mode}]",
-                                           spec=spec.spec)))
+            jobs.append((scene, mode, Task(name, (*over, *fit), spec.spec, mode,
+                                           label=f"{scene} [{run_label(spec.spec, mode)}]")))
     results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,
                         label="matrix")
     runs, reference = [], {}
@@ -121,15 +141,16 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
         ref = mine[0][2]
         th_s, th_out = _prediction(mine[0][1], [r for _, _, r in mine])
         predictions[scene] = th_s, th_out
-        reference[scene] = _run_row(scene, "ode", "ode", ref, th_s, th_out)
+        ref_mode = (ref.summary or {}).get("mode") or "paper"
+        reference[scene] = _run_row(scene, "ode", ref_mode, ref, th_s, th_out)
         if tables is not None and ref.table is not None:
             tables[table_key(scene, "ode", "ode")] = ref.table
         for mode, task, res in mine[1:]:
-            runs.append(_run_row(scene, task.spec, mode, res, th_s, th_out))
-            done[scene, str(mode), task.spec] = task, res
+            runs.append(_run_row(scene, task.engine, str(mode), res, th_s, th_out))
+            done[scene, str(mode), task.engine] = task, res
             if tables is not None and res.table is not None and res.error is None:
-                tables[table_key(scene, str(mode), task.spec)] = res.table
-    differences = _differences(runs, engines, modes, scenes)
+                tables[table_key(scene, str(mode), task.engine)] = res.table
+    differences = _differences(runs, engines, scene_modes, scenes)
     if attribution:
         _attribute(differences, done, reference, predictions, workers=workers,
                    use_cache=use_cache)
@@ -138,7 +159,9 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
             d["attribution"] = d["closer"] = None
     return {"format": FORMAT, "engines": _engines(engines, runs), "runs": runs,
             "differences": differences, "attribution": attribution,
-            "reference": reference, "modes": list(modes), "scenes": list(scenes),
+            "reference": reference,
+            "modes": list(dict.fromkeys(m for ms in scene_modes.values() for m in ms)),
+            "scenes": list(scenes),
             "tolerances": {k: {"kind": v[0], "value": v[1], "floor": v[2], "why": v[3]}
                            for k, v in METRICS.items()}}
 
@@ -175,8 +198,8 @@ def _attribute(differences: list[dict[str, Any]],
                 if ch.overrides is None:
                     continue
                 jobs.append((scene, mode, spec, ch, Task(
-                    task.scene, (*task.overrides, *ch.overrides), "mujoco",
-                    label=f"{scene} [{spec} {mode}, {ch.name}]", spec=spec)))
+                    task.scene, (*task.overrides, *ch.overrides), spec, mode,
+                    label=f"{scene} [{run_label(spec, mode)}, {ch.name}]")))
     if jobs:
         import sys
 
@@ -244,14 +267,14 @@ def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float
     s = res.summary or {}
     failed = res.error is not None or run_failed(s)
     outcome = "failed" if failed else classify_outcome(res.table)
-    row = crossval_row(scene, mode, outcome=outcome,
+    row = crossval_row(scene, mode, engine=engine, outcome=outcome,
                        theta_asymp=None if failed else s.get("theta_asymp"), theta_s=theta_s,
                        theory_outcome=theory_outcome, t_invert=s.get("t_invert"),
                        J_rel_drift=s.get("J_rel_drift"),
                        trend=None if failed else theta_trend(res.table),
                        error=res.error or (s.get("message") if failed else None),
                        reference=engine == "ode")
-    return {"scene": scene, "engine": engine, "mode": mode,
+    return {"scene": scene, "engine": engine, "mode": mode, "run": run_label(engine, mode),
             "status": "failed" if res.error else s.get("status"),
             "message": res.error or s.get("message"), "t_invert": s.get("t_invert"),
             "t_stem": s.get("t_stem"), "theta_final": s.get("theta_final"),
@@ -266,17 +289,18 @@ def _engines(engines: Sequence[EngineSpec], runs: list[dict[str, Any]]) -> list[
     out = []
     for spec in engines:
         ran = [r for r in runs if r["engine"] == spec.spec and r.get("version")]
-        out.append({"spec": spec.spec, "implementation": spec.implementation,
+        out.append({"engine": spec.spec, "implementation": spec.implementation,
                     "version": ran[0]["version"] if ran else spec.version,
                     "precision": spec.precision, "device": "cpu"})
     return out
 
 
 def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
-                 modes: Sequence[str], scenes: Sequence[str]) -> list[dict[str, Any]]:
+                 scene_modes: dict[str, tuple[str, ...]],
+                 scenes: Sequence[str]) -> list[dict[str, Any]]:
     by = {(r["scene"], r["mode"], r["engine"]): r for r in runs}
     out = []
-    for scene, mode in itertools.product(scenes, modes):
+    for scene, mode in ((sc, m) for sc in scenes for m in scene_modes[sc]):
         for a, b in itertools.combinations([e.spec for e in engines], 2):
             ra, rb = by[scene, mode, a], by[scene, mode, b]
             metrics = ["status"]
@@ -291,5 +315,5 @@ def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
     return out
 
 
-__all__ = ["FORMAT", "METRICS", "MODES", "PROFILES", "profile_scenes", "table_key",
-           "run_matrix"]
+__all__ = ["DEFAULT_FILE_MODES", "DEFAULT_MODES", "FORMAT", "METRICS", "PROFILES",
+           "profile_scenes", "run_matrix", "table_key"]

@@ -56,7 +56,8 @@ class RenderResult:
 
     Attributes:
         path: The MP4 file.
-        engine: ``mujoco``, ``ode`` or ``both``.
+        engines: The engines drawn, left to right: ``("mujoco",)``, ``("ode",)`` or
+            ``("mujoco", "ode")`` (side by side).
         backend: The OpenGL backend used (``egl`` or ``osmesa``).
         n_frames: Frames in the video.
         width: Video width (px; two panels for ``both``).
@@ -68,7 +69,7 @@ class RenderResult:
     """
 
     path: Path
-    engine: str
+    engines: tuple[str, ...]
     backend: str
     n_frames: int
     width: int
@@ -88,7 +89,8 @@ def render_scene(
     scene: Scene,
     out: str | Path,
     *,
-    engine: str = "mujoco",
+    engines: tuple[str, ...] = ("mujoco",),
+    mode: str | None = None,
     fps: float = DEFAULT_FPS,
     speed: float = DEFAULT_SPEED,
     size: str | tuple[int, int] = DEFAULT_SIZE,
@@ -104,7 +106,10 @@ def render_scene(
     Args:
         scene: A :class:`models.scene.Scene`.
         out: The ``.mp4`` file to write.
-        engine: ``"mujoco"``, ``"ode"`` or ``"both"`` (side by side, MuJoCo left).
+        engines: The engines drawn side by side, left to right: ``mujoco`` (the MuJoCo
+            installed here) and/or ``ode`` (the reference replayed in the same MJCF).
+        mode: MuJoCo's mode (:mod:`tippetop.models.modes`); None: the scene's. The reference
+            runs the scene's own law.
         fps: Frames per second of the video.
         speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
         size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
@@ -128,7 +133,12 @@ def render_scene(
     """
     from tippetop.compare.running.io import check_output_path
 
-    expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES), engine)
+    engines = tuple(engines)
+    for engine in engines:
+        expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES)
+               + " (the MuJoCo installed here, and the reference replayed)", engine)
+    expect(0 < len(engines) == len(set(engines)), "--engines",
+           "mujoco, ode or mujoco,ode (each once)", ",".join(engines))
     width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
     n_frames = check_timing(scene.run.t_end_s, fps, speed, max_frames)
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
@@ -136,8 +146,8 @@ def render_scene(
 
     from tippetop.compare.running.engines import plan_for, run_plan
 
-    engines = ("mujoco", "ode") if engine == "both" else (engine,)
-    plans = {name: plan_for(scene, name) for name in engines}  # bad input fails before runs
+    # bad input fails before runs
+    plans = {name: plan_for(scene, name, mode if name != "ode" else None) for name in engines}
     tell = say or (lambda _line: None)
     tables = {}
     for name in engines:
@@ -182,7 +192,7 @@ def render_scene(
             raise
 
     try:
-        with frame_bar(n_frames if progress else 0, f"{scene.name} [{engine}] video",
+        with frame_bar(n_frames if progress else 0, f"{scene.name} [{','.join(engines)}] video",
                         say) as tick:
             write_atomic(path, write_checked)
     except (OSError, video.VideoCheckFailed) as exc:
@@ -196,7 +206,7 @@ def render_scene(
         raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
             from exc
     s = stats[0]
-    return RenderResult(path=path, engine=engine, backend=backend, n_frames=s.n_frames,
+    return RenderResult(path=path, engines=engines, backend=backend, n_frames=s.n_frames,
                         width=s.width, height=s.height, fps=float(fps), speed=float(speed),
                         video_s=n_frames / fps, render_wall_s=s.wall_s)
 

@@ -16,7 +16,10 @@ from tippetop.compare.measures.series import classify_outcome
 from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import mode_task_parts
+from tippetop.models.modes import run_label
+
+#: A run of a study: (engine, mode or None for the scene's, more scene keys).
+Run = tuple[str, str | None, tuple[str, ...]]
 
 
 def parse_range(text: str) -> list[float]:
@@ -35,25 +38,41 @@ def parse_range(text: str) -> list[float]:
     return [round(start + i * step, 12) for i in range(n)]
 
 
-def run_sweep(scene: str | None, n0_values: list[float], modes: list[str],
+def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
               overrides: tuple[str, ...] = (), *, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
-    """Run every (mode, n0) and return the table, the theory curve and the cache hits."""
-    tasks, meta = [], []
-    for mode in modes:
-        engine, mode_over = mode_task_parts(mode)
+    """Run every (engine, mode, n0) and return the table, the theory curve and the cache hits.
+
+    Args:
+        scene: A scene name or file.
+        n0_values: The initial spins (rad/s).
+        runs: (engine, mode, more scene keys) of each curve (:data:`Run`).
+        overrides: Scene overrides for every run.
+        scheduler: A Dask scheduler address, or None for local processes.
+        workers: Local worker processes.
+        use_cache: Read and write the run cache.
+
+    Returns:
+        ``table`` (a row per run: ``engine``, ``mode``, ``run`` (``ENGINE/MODE``), ``n0``,
+        ``theta_asymp``, ``outcome``, ``t_invert``, ``J_rel_drift``, ``status``, ``cached``),
+        ``theory`` (theta_s(n0)), ``top``, ``scene``, ``computed`` and ``cached``.
+    """
+    tasks = []
+    for engine, mode, extra in runs:
         for n0 in n0_values:
-            tasks.append(Task(scene, (*overrides, *mode_over, f"init.n0={n0!r}"), engine))
-            meta.append((mode, n0))
+            tasks.append(Task(scene, (*overrides, *extra, f"init.n0={n0!r}"), engine, mode))
     results = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
                         label="sweep")
     rows = []
-    for (mode, n0), res in zip(meta, results, strict=True):
+    n0s = [n0 for _ in runs for n0 in n0_values]
+    for n0, res in zip(n0s, results, strict=True):
         if res.error:
             raise TippetopError(res.error)
         s = res.summary
         failed = run_failed(s)
-        rows.append({"mode": mode, "n0": n0, "theta_asymp": s["theta_asymp"],
+        rows.append({"engine": s["engine"], "mode": s["mode"],
+                     "run": run_label(s["engine"], s["mode"]), "n0": n0,
+                     "theta_asymp": s["theta_asymp"],
                      "outcome": "failed" if failed else classify_outcome(res.table),
                      "t_invert": s["t_invert"],
                      "J_rel_drift": s["J_rel_drift"], "status": s.get("status", "ok"),

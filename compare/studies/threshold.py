@@ -66,14 +66,15 @@ def measure_threshold(
     scheduler: str | None = None,
     workers: int | None = None,
     use_cache: bool = True,
-    spec: str = "mujoco",
+    mode: str | None = None,
     **bisect_options: Any,
 ) -> dict[str, Any]:
-    """Measure the critical spin ``which`` of a scene's top in ``engine``.
+    """Measure the critical spin ``which`` of a scene's top on ``engine`` in ``mode``.
 
     Args:
         scene: A scene name or file (default: the Fig. 9 (a) top, ``DEFAULT_SCENE``).
-        engine: ``ode``, ``mujoco`` or a mode name.
+        engine: The engine (``ode``, ``mujoco``, ``mujoco==X.Y.Z``, ``mujoco@PYTHON``,
+            ``mjx``, ``mjx-f32``, ``warp``: :mod:`tippetop.models.engines`).
         which: ``n1``, ``n4`` or ``nc``.
         overrides: Scene overrides.
         method: ``growth`` (default: the zero of a steady state's growth rate, from short
@@ -83,26 +84,25 @@ def measure_threshold(
         scheduler: A Dask scheduler address, or None for local processes.
         workers: Local worker processes.
         use_cache: Read and write the run cache.
-        spec: The engine a MuJoCo ``engine`` runs on (:mod:`tippetop.models.engines`):
-            ``mujoco`` (the one installed here), ``mujoco==X.Y.Z``, ``mujoco@PYTHON``,
-            ``mjx``, ``mjx-f32`` or ``warp``.
+        mode: How the contact force is made (:mod:`tippetop.models.modes`); None: the
+            scene's.
         **bisect_options: ``max_rounds``, ``points_per_round``, ``horizon_check`` (bisect).
 
     Raises:
-        TippetopError: A bad ``which``, ``method``, option or spec, or the reference ODE on
-            another engine than ``mujoco`` (one line each).
+        TippetopError: A bad ``which``, ``method``, option, engine or mode, or a mode the
+            engine cannot run (one line each).
 
     Returns:
-        ``which, engine, scene, measured, theory, rel_diff, bracket, runs, n_runs, horizon_s,
-        converged`` and ``method``, ``rates`` (growth: each {n0, state, rate_per_s}; bisect:
-        []), ``settled`` (growth: every fit clean; bisect: no run still moving and the answer
+        ``which, engine, mode, scene, measured, theory, rel_diff, bracket, runs, n_runs,
+        horizon_s, converged`` and ``method``, ``rates`` (growth: each {n0, state,
+        rate_per_s}; bisect: []), ``settled`` (growth: every fit clean; bisect: no run still
+        moving and the answer
         does not depend on the horizon), and each method's own keys.
     """
     from tippetop.compare.studies.growth import measure_growth
 
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
-    check_spec(engine, spec)
     method = method or "growth"
     if method not in METHODS:
         raise TippetopError(f"--method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -113,7 +113,7 @@ def measure_threshold(
         res = measure_growth(scene, engine, which, overrides,
                              **({"rel_tol": rel_tol} if rel_tol else {}),
                              scheduler=scheduler, workers=workers, use_cache=use_cache,
-                             spec=spec)
+                             mode=mode)
         if res["measured"] is None and not res.get("failed_runs"):
             raise TippetopError(f"threshold: {res['warning']}")
         return res  # with failed_runs: the caller reports them (exit 1), the others kept
@@ -122,22 +122,7 @@ def measure_threshold(
                             "growth rates), got n4")
     return bisect_threshold(scene, engine, which, overrides, rel_tol=rel_tol or 0.005,
                             scheduler=scheduler, workers=workers, use_cache=use_cache,
-                            spec=spec, **bisect_options)
-
-
-def check_spec(engine: str, spec: str) -> None:
-    """Refuse a bad engine spec, or the reference ODE on another engine than ``mujoco``.
-
-    Raises:
-        TippetopError: One line with what was expected and given.
-    """
-    from tippetop.models.engines import parse_engine
-    from tippetop.models.resolve import mode_engine
-
-    parse_engine(spec)
-    if spec != "mujoco" and mode_engine(engine)[0] == "ode":
-        raise TippetopError(f"engine {spec}: expected a MuJoCo engine (mujoco or a mujoco-* "
-                            f"mode) to run on it, got {engine!r}, the reference ODE")
+                            mode=mode, **bisect_options)
 
 
 def bisect_threshold(
@@ -153,9 +138,9 @@ def bisect_threshold(
     workers: int | None = None,
     use_cache: bool = True,
     horizon_check: bool = True,
-    spec: str = "mujoco",
+    mode: str | None = None,
 ) -> dict[str, Any]:
-    """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) in ``engine``.
+    """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) on ``engine``.
 
     With ``horizon_check``, the two ends of the final bracket are run again over twice the
     scene's horizon; if either changes side, the answer depends on the run length: it is
@@ -171,9 +156,11 @@ def bisect_threshold(
     if which not in ("n1", "nc"):
         raise TippetopError(f"--which: expected n1|nc, got {which!r}")
     scene = scene or DEFAULT_SCENE
-    task = Task(scene, overrides, engine)
+    task = Task(scene, overrides, engine, mode)
     base = task.load()
-    n_th = theory_value(which, task.plan(base).top)
+    plan = task.plan(base)  # the engine and mode are checked here, before any run
+    engine, mode = plan.engine, plan.mode
+    n_th = theory_value(which, plan.top)
     k = points_per_round or max(2, workers or 2)
     runs: list[dict[str, Any]] = []
     unsettled: list[float] = []
@@ -181,7 +168,7 @@ def bisect_threshold(
     def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
                  record: bool = True) -> list[bool]:
         def batch(spins: list[float], more: tuple[str, ...]) -> list[Any]:
-            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine, spec=spec)
+            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine, mode)
                      for n0 in spins]
             out = run_tasks(tasks, scheduler=scheduler, workers=workers,
                             use_cache=use_cache, label=f"{which} bisection")
@@ -231,9 +218,9 @@ def bisect_threshold(
         return {**_bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
                           rel_tol=rel_tol, max_rounds=max_rounds, k=k,
                           horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
-                          unsettled=unsettled), "engine_spec": spec}
+                          unsettled=unsettled), "mode": mode}
     except _Failed as exc:  # every run so far is kept; no threshold is claimed
-        return {"which": which, "engine": engine, "engine_spec": spec, "scene": base.name,
+        return {"which": which, "engine": engine, "mode": mode, "scene": base.name,
                 "measured": None,
                 "theory": n_th, "rel_diff": None, "bracket": [],
                 "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),

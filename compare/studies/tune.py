@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from tippetop.compare.measures.checks import FIRST_ORDER, run_entry, verdict
+from tippetop.compare.measures.checks import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.measures.summary import mjcf_attributes
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
@@ -31,6 +31,7 @@ from tippetop.compare.studies.calibrate.identify import (
 )
 from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
 from tippetop.models.errors import TippetopError
+from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text
 
 #: The fit's step and integrator: RK4 (a first-order step drifts J on a top with A != C,
@@ -165,8 +166,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     opts = dict(run_options or {})
     say = _say(progress)
     starts = starts_for(n0, theta0)
-    refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode")
-                      for s in starts], label="tune reference", **opts)
+    refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode",
+                           "paper") for s in starts], label="tune reference", **opts)
     for s, r in zip(starts, refs, strict=True):
         if r.error or r.table is None:
             raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
@@ -296,19 +297,22 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
     mj = run_tasks(tasks, label="tune verify", **opts)
     verified: list[dict[str, Any]] = []
     for s, ref, run in zip(starts, refs, mj, strict=True):
-        runs = {"ode": run_entry(ref), "mujoco-tuned": run_entry(run)}
-        if runs["ode"].get("status") != "ok":  # the reference's model does not hold there
+        # the tuned settings run in MuJoCo's own contact: the mode the run read back
+        tuned = run_label("mujoco", (run.summary or {}).get("mode") or "file")
+        runs = {REFERENCE_RUN: run_entry(ref), tuned: run_entry(run)}
+        if runs[REFERENCE_RUN].get("status") != "ok":  # the reference's model does not hold
             verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
                              "theory_outcome": None, "checks": [], "passed": None,
                              "note": f"not verifiable: the reference stops "
-                                     f"({runs['ode'].get('message')})"})
+                                     f"({runs[REFERENCE_RUN].get('message')})"})
             continue
-        outcome = theory(s.n0, s.theta0, s.role) if theory else runs["ode"]["outcome"]
-        checks = [c for c in verdict(runs, outcome, A_over_C) if c["mode"] == "mujoco-tuned"]
+        outcome = theory(s.n0, s.theta0, s.role) if theory else \
+            runs[REFERENCE_RUN]["outcome"]
+        checks = [c for c in verdict(runs, outcome, A_over_C) if c["run"] == tuned]
         verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
                          "theory_outcome": outcome, "checks": checks,
                          "passed": all(c["passed"] for c in checks),
-                         "friction_realised": runs["mujoco-tuned"].get("friction_realised"),
+                         "friction_realised": runs[tuned].get("friction_realised"),
                          "left_table_s": _left_table(run)})
     return verified, mj
 

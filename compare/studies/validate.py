@@ -20,6 +20,7 @@ from tippetop.compare.measures.checks import (
     FIRST_ORDER,
     ISOTROPIC_TOL,
     J_TOL,
+    engine_of,
     gyroscopic_drift,
     mode_of,
     run_entry,
@@ -31,11 +32,17 @@ from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
+from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text, solver_text
 
-#: The runs of a validation, in report order: the file as it says first.
-MODES: tuple[str, ...] = ("mujoco-file", "ode", "mujoco-paper", "mujoco-native")
-MUJOCO_MODES: tuple[str, ...] = ("mujoco-file", "mujoco-paper", "mujoco-native")
+#: The runs of a validation (engine family, mode), in report order: the file as it says first,
+#: the reference, the paper's law in MuJoCo, the calibrated settings.
+RUNS: tuple[tuple[str, str], ...] = (("mujoco", "file"), ("ode", "paper"), ("mujoco", "paper"),
+                                     ("mujoco", "native"))
+#: The modes of the MuJoCo runs, in report order.
+MUJOCO_MODES: tuple[str, ...] = ("file", "paper", "native")
+#: The names of the runs on the MuJoCo installed here (``ENGINE/MODE``).
+FILE_RUN, REFERENCE_RUN, PAPER_RUN, CALIBRATED_RUN = (run_label(e, m) for e, m in RUNS)
 
 
 @dataclass(frozen=True)
@@ -49,8 +56,8 @@ class ValidateConfig:
         scheduler: A Dask scheduler address, or None for local processes.
         workers: Local worker processes (None: all cores).
         use_cache: Read and write the runs cache.
-        engines: The engine specs the MuJoCo modes run on (:mod:`tippetop.models.engines`);
-            another spec than ``mujoco`` adds its runs as ``MODE@SPEC``.
+        engines: The engines the MuJoCo runs run on (:mod:`tippetop.models.engines`); each
+            names its runs (``mujoco==3.3.7/file``).
         tune: Fit the file's contact settings to the reference and verify them
             (:mod:`tippetop.compare.studies.tune`; ``--no-tune`` skips it).
         progress: Progress lines of the tuning on a terminal.
@@ -67,9 +74,9 @@ class ValidateConfig:
     progress: bool = True
 
 
-def run_key(mode: str, spec: str) -> str:
-    """A run's key in ``runs``: the mode, with ``@SPEC`` on another engine than ``mujoco``."""
-    return mode if spec in ("mujoco", "ode") or mode == "ode" else f"{mode}@{spec}"
+def run_key(engine: str, mode: str) -> str:
+    """A run's key in ``runs``: its name, ``ENGINE/MODE``."""
+    return run_label(engine, mode)
 
 
 def _overrides(config: ValidateConfig) -> tuple[str, ...]:
@@ -87,7 +94,7 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
     gyroscopic torque's integration among its causes (:func:`gyroscopic_drift`); with
     ``t_end_s`` (the runs' horizon, s) an event only one run reaches says within how long.
     """
-    f, ref = runs.get("mujoco-file"), runs.get("ode")
+    f, ref = runs.get(FILE_RUN), runs.get(REFERENCE_RUN)
     if not f or not ref:
         return []
     fs, rs = f, ref
@@ -125,7 +132,7 @@ def findings(runs: dict[str, dict[str, Any]], checks: list[dict[str, Any]],
         out.append(f"Jellett's constant drifts by {number_text(j, 'relative')} (relative) "
                    f"before the stem (a torque off the contact point or an error: "
                    f"{', '.join(causes)})")
-    by_check = {c["check"]: c for c in checks if c["mode"] == "mujoco-file"}
+    by_check = {c["check"]: c for c in checks if c["run"] == FILE_RUN}
     energy = by_check.get("energy_never_rises")
     if energy is not None and not energy["passed"] and energy["value"] is not None:
         hint = (": Euler integrates a spinning body's gyroscopic forces explicitly, which gains "
@@ -208,15 +215,16 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
     """The calibrated native settings that ran, as MJCF to paste, and whether they agree.
 
     Args:
-        native: The ``mujoco-native`` run (:func:`run_entry`).
+        native: The calibrated run, ``mujoco/native`` (:func:`run_entry`).
         checks: The verdict's checks (:func:`verdict`).
-        file_run: The ``mujoco-file`` run, for the settings that differ from the file's.
+        file_run: The file's own run, ``mujoco/file``, for the settings that differ from the
+            file's.
         file_mu: The file's mu as read from it (default: the file's run's ``mu``).
 
     Returns:
         ``option`` and ``geom`` (MJCF text), ``where`` (which geoms take the attributes),
         ``changes`` (list of {setting, file, calibrated} where they differ from the file's),
-        ``agrees`` (every check of the ``mujoco-native`` run passed), ``departs`` (the checks
+        ``agrees`` (every check of the ``mujoco/native`` run passed), ``departs`` (the checks
         it fails) and ``note`` (one sentence: a fix, or why the calibration does not fix it).
         Empty if the native run failed before it ran.
     """
@@ -225,10 +233,10 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
         return {}
 
     option, geom = mjcf_attributes(s)
-    mine = [c for c in checks if c["mode"] == "mujoco-native"]
+    mine = [c for c in checks if c["run"] == CALIBRATED_RUN]
     departs = [c["check"] for c in mine if not c["passed"]]
     agrees = bool(mine) and not departs
-    paper = [c for c in checks if c["mode"] == "mujoco-paper"]
+    paper = [c for c in checks if c["run"] == PAPER_RUN]
     paper_agrees = bool(paper) and all(c["passed"] for c in paper)
     if agrees:
         note = ("with these settings MuJoCo's own friction passes every check against the "
@@ -240,7 +248,7 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
                 f"{', '.join(departs)}. {scaled_mu_clause(file_mu, s.get('mu'))}: the "
                 f"calibration does not carry over to this top")
         if paper_agrees:
-            note += ("; the paper's law in the same model (mujoco-paper, the harness's "
+            note += ("; the paper's law in the same model (mujoco/paper, the harness's "
                      "callback) does follow the reference")
     return {
         "option": option,
@@ -259,12 +267,13 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     """Validate one MJCF top (see the module docstring).
 
     Returns:
-        ``model``, ``runs`` (mode -> the simulate summary's keys, ``t_invert``, ``t_stem`` and
-        ``status`` always among them, and ``outcome``, ``end_state``, ``ran`` (one line),
+        ``model``, ``runs`` (run, ``ENGINE/MODE`` -> the simulate summary's keys,
+        ``t_invert``, ``t_stem`` and ``status`` always among them, and ``outcome``,
+        ``end_state``, ``ran`` (one line),
         ``E0_J``, ``error`` (None, or why the run could not start), ``note`` (where the run
         differs from the file's settings)),
         ``verdict``, ``agrees`` (every check passed), ``findings``, ``suggestion``,
-        ``t_end_s`` and ``tables`` (mode -> observables, not JSON: the caller writes them).
+        ``t_end_s`` and ``tables`` (run -> observables, not JSON: the caller writes them).
 
     Raises:
         TippetopError: A missing or invalid file, or a bad ``t_end_s`` (before any run).
@@ -273,17 +282,18 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     expect(math.isfinite(config.t_end_s) and 0 < config.t_end_s <= 600, "--t-end-s",
            "a number of seconds in (0, 600]", config.t_end_s)
     over = _overrides(config)
-    plan = Task(None, over, "ode").plan()  # validates the file and the keyframe before any run
+    plan = Task(None, over, "ode", "paper").plan()  # the file and keyframe, before any run
     loaded = plan_file_info(over)
     # the paper's law runs at a step it can follow: the file's, or the largest 1-2-5 step
     # below the law's limit, which the plan chooses and says (mujoco.fit_paper_timestep)
     paper = (*over, "mujoco.fit_paper_timestep=true")
-    jobs = [(run_key(mode, spec), Task(None, paper if mode == "mujoco-paper" else over, mode,
-                                       spec=spec if mode != "ode" else "mujoco"))
-            for mode in MODES for spec in (config.engines if mode != "ode" else ("ode",))]
+    jobs = [(run_key(engine, mode), Task(None, paper if (family, mode) == ("mujoco", "paper")
+                                         else over, engine, mode))
+            for family, mode in RUNS
+            for engine in (config.engines if family == "mujoco" else ("ode",))]
     tasks = [t for _, t in jobs]
-    paper_note = "; ".join(next(t for k, t in jobs if mode_of(k) == "mujoco-paper")
-                           .plan().mujoco.notes)
+    paper_note = "; ".join(next(t for k, t in jobs if k == PAPER_RUN or (
+        mode_of(k) == "paper" and engine_of(k) != "ode")).plan().mujoco.notes)
     results = run_tasks(tasks, scheduler=config.scheduler, workers=config.workers,
                         use_cache=config.use_cache, label="validate")
     top = plan.top
@@ -306,12 +316,12 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         runs[mode] = run_entry(res)
         if runs[mode]["error"]:
             continue
-        if mode_of(mode) == "mujoco-paper" and paper_note:
+        if mode_of(mode) == "paper" and engine_of(mode) != "ode" and paper_note:
             runs[mode]["note"] = paper_note
         if res.table is not None and len(res.table):
             tables[mode] = res.table
     refit(runs, tables, over, config)
-    checks = verdict(runs, outcome_pred, top.A_over_C)
+    checks = verdict(runs, outcome_pred, top.A_over_C, reference=REFERENCE_RUN)
     tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
              else {"skipped": "--no-tune"})
     return {
@@ -323,9 +333,9 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "verdict": checks,
         "agrees": all(c["passed"] for c in checks),
         "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
-        "suggestion": (suggestion(runs["mujoco-native"], checks, runs.get("mujoco-file"),
+        "suggestion": (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN),
                                   file_mu=loaded["mu"])
-                       if "mujoco-native" in runs else {}),
+                       if CALIBRATED_RUN in runs else {}),
         "tuned": tuned,
         "tables": tables,
     }
@@ -336,7 +346,8 @@ def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[s
     """Each MuJoCo run's ``friction_realised.refit`` (:func:`.refit.attach_refits`)."""
     from tippetop.compare.studies.refit import attach_refits
 
-    attach_refits(runs, tables, "ode", lambda ov: Task(None, (*over, *ov), "ode"),
+    attach_refits(runs, tables, REFERENCE_RUN,
+                  lambda ov: Task(None, (*over, *ov), "ode", "paper"),
                   {"scheduler": config.scheduler, "workers": config.workers,
                    "use_cache": config.use_cache})
 
@@ -350,11 +361,11 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
     """
     from tippetop.compare.studies.tune import tune
 
-    if (runs.get("ode") or {}).get("status") != "ok":
+    if (runs.get(REFERENCE_RUN) or {}).get("status") != "ok":
         return {"skipped": "the reference run from the file's start did not complete",
                 "agrees": False}
     top, init = plan.top, plan.init
-    file_run = runs.get("mujoco-file") or {}
+    file_run = runs.get(FILE_RUN) or {}
 
     def outcome_at(n0: float, theta0: float, role: str) -> str:
         Omega0 = init.Omega0 if role == "fit" else 0.0
@@ -402,7 +413,7 @@ def _tune_cache_path(over: tuple[str, ...]) -> Path:
     from tippetop.compare.studies.calibrate import identify, scoring
     from tippetop.models.resources import user_cache_dir
 
-    plan = Task(None, over, "mujoco-file").plan()
+    plan = Task(None, over, "mujoco", "file").plan()
     # the runs' code, and the tuning's own (which the runs' fingerprint does not hold)
     own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
                                   for m in (tune, verdict, identify, scoring))).hexdigest()
@@ -427,12 +438,12 @@ def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
     config = ValidateConfig(model=model, t_end_s=t_end_s, scheduler=scheduler,
                             workers=workers, use_cache=use_cache, progress=progress)
     over = _overrides(config)
-    plan = Task(None, over, "ode").plan()
+    plan = Task(None, over, "ode", "paper").plan()
     loaded = plan_file_info(over)
-    results = run_tasks([Task(None, over, "ode"), Task(None, over, "mujoco-file")],
+    results = run_tasks([Task(None, over, "ode", "paper"), Task(None, over, "mujoco", "file")],
                         scheduler=scheduler, workers=workers, use_cache=use_cache,
                         label="calibrate --mjcf")
-    runs = {"ode": run_entry(results[0]), "mujoco-file": run_entry(results[1])}
+    runs = {REFERENCE_RUN: run_entry(results[0]), FILE_RUN: run_entry(results[1])}
     return {"file": str(model), "mu": loaded["mu"], "n0": plan.init.n0,
             "theta0": plan.init.theta0, "t_end_s": t_end_s,
             "tuned": tune_file(config, over, loaded, plan, runs)}
@@ -456,6 +467,7 @@ def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
 
 
 __all__ = ["DEFAULT_T_END_S", "ENERGY_RISE_FLOOR", "EVENT_RTOL", "EVENT_TOL_S", "FIRST_ORDER",
-           "ISOTROPIC_TOL", "J_TOL", "MODES", "ValidateConfig", "findings",
+           "ISOTROPIC_TOL", "J_TOL", "MUJOCO_MODES", "REFERENCE_RUN", "RUNS", "ValidateConfig",
+           "engine_of", "findings",
            "gyroscopic_drift", "mode_of", "run_entry", "run_key", "scaled_mu_clause",
            "show_setting", "show_value", "suggestion", "validate", "verdict"]

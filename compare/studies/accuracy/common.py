@@ -20,9 +20,11 @@ from tippetop.reference_ode.solve import simulate_ode
 #: (rad); ``theta_final_err`` (rad), ``n_final_rel_err`` (relative) and ``Omega_final_err``
 #: (rad/s) at t_end; ``final_state_err`` the larger of the first two; ``J_drift`` max
 #: |J / J0 - 1|. ``n_steps`` is NaN where ``solve_ivp`` does not report it; errors are NaN for
-#: points that did not complete (``status`` says why).
+#: points that did not complete (``status`` says why). ``mode``: how the contact force is made
+#: (:mod:`tippetop.models.modes`); ``formulation``: the reference's equations (``vector`` or
+#: ``paper``), and for MuJoCo its mode again (the column's meaning before ``mode`` existed).
 ACCURACY_COLUMNS: tuple[str, ...] = (
-    "engine", "scene", "method", "formulation", "rtol", "atol", "timestep_s", "t_end_s",
+    "engine", "mode", "scene", "method", "formulation", "rtol", "atol", "timestep_s", "t_end_s",
     "wall_s", "wall_per_sim_s", "n_rhs", "n_steps", "theta_max_err", "theta_final_err",
     "n_final_rel_err", "Omega_final_err", "final_state_err", "J_drift", "status",
 )

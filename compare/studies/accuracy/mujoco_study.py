@@ -147,7 +147,8 @@ def _mujoco_series(s: Scene, integrator: str, mode: str, timesteps: Sequence[flo
     over = False
     for dt in timesteps:
         n_needed = round(T / dt)
-        base = {"engine": "mujoco", "scene": s.name, "method": method, "formulation": mode,
+        base = {"engine": "mujoco", "mode": mode, "scene": s.name, "method": method,
+                "formulation": mode,
                 "rtol": math.nan, "atol": math.nan, "timestep_s": dt, "t_end_s": T,
                 "n_rhs": math.nan}
         pred = predict_steps_wall(runs, n_needed)

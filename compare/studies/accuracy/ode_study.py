@@ -250,7 +250,7 @@ def ode_work_precision(
         over = False
         for rtol in tols:
             atol = ATOL_PER_RTOL * rtol
-            base = {"engine": "ode", "scene": s.name, "method": method,
+            base = {"engine": "ode", "mode": "paper", "scene": s.name, "method": method,
                     "formulation": COMPILED_METHODS.get(method, "vector"), "rtol": rtol,
                     "atol": atol, "timestep_s": math.nan, "t_end_s": T}
             pred = _predict_wall(walls, rtol, method)
