@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 
 #: mode -> (engine, overrides). Every mode is a plain scene run, so it caches like one.
 MODES: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -33,7 +33,7 @@ def parse_modes(text: str) -> list[str]:
     for m in modes:
         if m not in MODES:
             raise TippetopError(f"--modes: expected a comma-separated list of "
-                                f"{', '.join(MODES)}, got {m!r}")
+                                f"{', '.join(MODES)}, got {m!r}{did_you_mean(m, MODES)}")
     if not modes:
         raise TippetopError(f"--modes: expected at least one mode, got {text!r}")
     return modes

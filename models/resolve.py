@@ -17,7 +17,7 @@ import numpy as np
 from tippetop.models import mjcf_document
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.contacts import ContactSetting
-from tippetop.models.errors import TippetopError, expect
+from tippetop.models.errors import TippetopError, did_you_mean, expect
 from tippetop.models.frames import free_joint_start
 from tippetop.models.mjcf import (
     BALL_GEOM,
@@ -140,7 +140,8 @@ def mode_engine(mode: str) -> tuple[str, tuple[str, ...]]:
         return mode, ()
     if mode not in MODES:
         raise TippetopError(f"mode: expected an engine ({', '.join(ENGINES)}) or a mode "
-                            f"({', '.join(MODES)}), got {mode!r}")
+                            f"({', '.join(MODES)}), got {mode!r}"
+                            f"{did_you_mean(mode, (*ENGINES, *MODES))}")
     return MODES[mode]
 
 
@@ -449,7 +450,7 @@ def _start(scene: Scene, file_top: FileTop | None) -> tuple[InitialState, int | 
         expect(scene.init_keyframe in names, "init.keyframe",
                "the name of one of the file's keyframes (" + ", ".join(
                    repr(n) for n in names if n) + ")" if any(names) else
-               "a file with named keyframes (this one has none)", scene.init_keyframe)
+               "a file with named keyframes (this one has none)", scene.init_keyframe, names)
         index = names.index(scene.init_keyframe)
     else:
         index = 0
@@ -476,7 +477,7 @@ def resolve_plan(scene: Scene, engine: str, *, file_top: FileTop | None = None) 
     Raises:
         TippetopError: An unknown engine, or effects and settings the engine cannot run.
     """
-    expect(engine in ENGINES, "--engine", "|".join(ENGINES), engine)
+    expect(engine in ENGINES, "--engine", "|".join(ENGINES), engine, ENGINES)
     if scene.top_mjcf is not None:
         if file_top is None:
             raise TypeError("resolve_plan: a scene with top.mjcf needs file_top")

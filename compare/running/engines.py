@@ -23,7 +23,7 @@ from tippetop.compare.analysis.metrics import (
     summary,
 )
 from tippetop.models.engines import EngineSpec
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import MODES
 from tippetop.models.numbers import number_text, solver_text
 from tippetop.models.plan import ENGINES, RunPlan
@@ -362,4 +362,5 @@ def check_engine(engine: str) -> None:
     """Refuse an engine that is neither ``ode``, ``mujoco`` nor a mode name (one line)."""
     if engine not in ENGINES and engine not in MODES:
         raise TippetopError(f"--engine: expected one of {'|'.join(ENGINES)} or a mode "
-                            f"({', '.join(MODES)}), got {engine!r}")
+                            f"({', '.join(MODES)}), got {engine!r}"
+                            f"{did_you_mean(engine, (*ENGINES, *MODES))}")
