@@ -19,7 +19,7 @@ from tippetop.compare.analysis.metrics import classify_outcome, theta_trend
 from tippetop.compare.running.engines import run_failed
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.scene import catalogue_names
 
 #: The format of ``results.json``.
@@ -54,7 +54,8 @@ def profile_scenes(profile: str) -> tuple[str, ...]:
     if profile == "full":
         return tuple(catalogue_names())
     if profile not in PROFILES:
-        raise TippetopError(f"--profile: expected quick or full, got {profile!r}")
+        raise TippetopError(f"--profile: expected quick or full, got {profile!r}"
+                            f"{did_you_mean(profile, ('quick', 'full'))}")
     return PROFILES[profile]
 
 
@@ -100,7 +101,8 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec], modes: Sequ
     """
     for m in modes:
         if m not in MODES:
-            raise TippetopError(f"--modes: expected native and/or paper, got {m!r}")
+            raise TippetopError(f"--modes: expected native and/or paper, got {m!r}"
+                                f"{did_you_mean(m, MODES)}")
     jobs: list[tuple[str, str | None, Task]] = []  # (scene, mode or None, task)
     for scene in scenes:
         name, base, is_file = _scene_task_args(scene)
