@@ -330,3 +330,77 @@ def test_a_full_disk_while_writing_an_output_is_one_line(tmp_path: Path,
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("tippetop: failed: could not write")
     assert "No space left on device" in err and list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------- a name mistyped
+def _bad_input_in_process(args: list[str], capsys: pytest.CaptureFixture) -> str:
+    """``main(args)`` in this process: exit 2, no output, one ``tippetop: error:`` line."""
+    from tippetop.compare.cli import main
+
+    try:
+        status = main(args)
+    except SystemExit as exc:  # argparse's errors
+        status = exc.code
+    out, err = capsys.readouterr()
+    assert status == 2, (status, err)
+    assert not out, out
+    return _one_line(err, "tippetop: error:")
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["simulate", "fig3", "--set", "run.t_end=4"], "'run.t_end' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig3", "--set", "Run.T_END_S=4"], "'Run.T_END_S' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig3", "--set", "t_end_s=4"], "got 't_end_s' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig33"], "got 'fig33' (did you mean 'fig3'?)"),
+    (["simulate", "fig3", "--engine", "mujoco-nativ"],
+     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
+    (["compare", "fig3", "--modes", "ode,mujoco-nativ"],
+     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
+    (["plan", "fig3", "--engine", "mujoco-papr"], "(did you mean 'mujoco-paper'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "mjxx"],
+     "got 'mjxx' (did you mean 'mjx'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "warpp"],
+     "got 'warpp' (did you mean 'warp'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "mujoco=3.3.7"],
+     "got 'mujoco=3.3.7' (did you mean 'mujoco==X.Y.Z'?)"),
+    (["simulate", "fig3", "--set", "friction.law=coulmb"],
+     "got 'coulmb' (did you mean 'coulomb'?)"),
+    (["simulate", "fig3", "--set", "mujoco.integrator=rk4"], "got 'rk4' (did you mean 'RK4'?)"),
+    (["simulat", "fig3"], "invalid choice: 'simulat' (did you mean 'simulate'?)"),
+    (["threshold", "--which", "N1"], "invalid choice: 'N1' (did you mean 'n1'?)"),
+    (["nightly", "--profile", "quik"], "got 'quik' (did you mean 'quick'?)"),
+    (["nightly", "--engines", "ode,mjxx"], "got 'mjxx' (did you mean 'mjx'?)"),
+    (["nightly", "--cases", "paper/fig33[ode]"], "(did you mean 'paper/fig3[ode]'?)"),
+])
+def test_a_mistyped_name_says_which_was_meant(args: list[str], says: str,
+                                              capsys: pytest.CaptureFixture) -> None:
+    """Issue 29: one line, the name given and then the name meant."""
+    line = _bad_input_in_process(args, capsys)
+    assert says in line
+    assert "did you mean" in line
+
+
+def test_a_mistyped_scene_key_lists_its_section_not_every_key(
+        capsys: pytest.CaptureFixture) -> None:
+    line = _bad_input_in_process(["simulate", "fig3", "--set", "run.t_end=4"], capsys)
+    assert line == ("tippetop: error: --set: unknown key 'run.t_end' (did you mean "
+                    "'run.t_end_s'?) (expected one of the [run] keys: run.t_end_s, "
+                    "run.sample_dt_s)")
+    # nothing close and no section known: every key, as before
+    line = _bad_input_in_process(["simulate", "fig3", "--set", "foo.bar=4"], capsys)
+    assert "did you mean" not in line and "init.n0" in line and "mujoco.cone" in line
+
+
+def test_a_mistyped_key_in_a_scene_file(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    scene = tmp_path / "s.toml"
+    scene.write_text("[run]\nt_end = 0.05\n")
+    line = _bad_input_in_process(["simulate", str(scene)], capsys)
+    assert "scene s.toml: unknown key 'run.t_end' (did you mean 'run.t_end_s'?)" in line
+    scene.write_text("[rn]\nt_end_s = 0.05\n")
+    line = _bad_input_in_process(["simulate", str(scene)], capsys)
+    assert "unknown section [rn] (did you mean 'run'?)" in line
+
+
+def test_a_name_nothing_is_close_to_gets_no_suggestion(capsys: pytest.CaptureFixture) -> None:
+    line = _bad_input_in_process(["simulate", "zzz"], capsys)
+    assert "got 'zzz'" in line and "did you mean" not in line
