@@ -412,7 +412,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
 def _file_document(file_top: FileTop, options: dict[str, Any],
                    contacts: tuple[ContactSetting, ...]) -> str:
     """The loaded file's document with the plan's options and contact settings written in."""
-    root = mjcf_document.parse(file_top.text)
+    root = mjcf_document.parse(file_top.text, str(file_top.path))
     folder = file_top.path.parent
     mjcf_document.inline_includes(root, folder)
     mjcf_document.absolute_asset_dirs(root, folder)
