@@ -404,3 +404,117 @@ def test_a_mistyped_key_in_a_scene_file(tmp_path: Path, capsys: pytest.CaptureFi
 def test_a_name_nothing_is_close_to_gets_no_suggestion(capsys: pytest.CaptureFixture) -> None:
     line = _bad_input_in_process(["simulate", "zzz"], capsys)
     assert "got 'zzz'" in line and "did you mean" not in line
+
+
+# ---------------------------------------------------------------- a broken MJCF file
+def _line(text: str, needle: str) -> int:
+    """The line (from 1) of the first ``needle`` in ``text``."""
+    return text[:text.index(needle)].count("\n") + 1
+
+
+def _broken(name: str, text: str) -> tuple[bytes, list[str]]:
+    """The example top broken as ``name`` says, and what the one line must say."""
+    option, body, world = _line(text, "<option"), _line(text, "<body"), \
+        _line(text, "</worldbody>")
+    if name == "truncated":  # cut in the middle of <option ...>
+        return text[:text.index("<option") + 30].encode(), [
+            f"an XML error at line {option}, column 3: unclosed token"]
+    if name == "missing closing tag":
+        cut = text.rindex("</body>")
+        return (text[:cut] + text[cut + len("</body>"):]).encode(), [
+            f"an XML error at line {world}, column 5: mismatched tag (expected the end of the "
+            f"<body> of line {body})"]
+    if name == "unknown attribute":
+        return text.replace("<geom friction=", '<geom colour="red" friction=', 1).encode(), [
+            f"a MuJoCo error at line {_line(text, '<geom friction=')} (<geom>): Schema "
+            "violation: unrecognized attribute: 'colour'"]
+    if name == "empty":
+        return b"", ["got an empty file"]
+    if name == "binary":
+        return bytes(range(256)) * 4, ["got binary data (a NUL byte at line 1, column 1)"]
+    if name == "utf-16":
+        return text.encode("utf-16"), ["got UTF-16 text"]
+    if name == "include of a missing file":
+        return text.replace("<worldbody>", '<include file="no_such_part.xml"/><worldbody>',
+                            1).encode(), [
+            f"a MuJoCo error at line {_line(text, '<worldbody>')} (<include>): Error opening "
+            "file 'no_such_part.xml'"]
+    assert name == "include of a truncated file"
+    return text.replace("<worldbody>", '<include file="cut_part.xml"/><worldbody>',
+                        1).encode(), [
+        "cut_part.xml (included by ", f"at line {_line(text, '<worldbody>')}): expected a "
+        "valid MJCF document, got an XML error at line 2, column 3: unclosed token"]
+
+
+BROKEN = ["truncated", "missing closing tag", "unknown attribute", "empty", "binary", "utf-16",
+          "include of a missing file", "include of a truncated file"]
+MJCF_COMMANDS = {
+    "simulate": ["simulate", "--engine", "mujoco", *SHORT, "--out", "OUT/t.csv", "--mjcf"],
+    "validate": ["validate", "--no-tune", "--t-end-s", "0.05", "--out", "OUT/v", "FILE"],
+    "theory": ["theory", "--mjcf"],
+}
+
+
+@pytest.mark.parametrize("command", sorted(MJCF_COMMANDS))
+@pytest.mark.parametrize("broken", BROKEN)
+def test_a_broken_mjcf_file_is_one_line_with_its_line_number(
+        tmp_path: Path, broken: str, command: str, capsys: pytest.CaptureFixture) -> None:
+    """Issue 29: the file, the line and column, and the reason; not MuJoCo's first line."""
+    data, says = _broken(broken, EXAMPLE.read_text())
+    xml = tmp_path / "top.xml"
+    xml.write_bytes(data)
+    (tmp_path / "cut_part.xml").write_text("<mujoco>\n  <option timestep=")
+    (tmp_path / "OUT").mkdir()
+    args = [str(tmp_path / a) if a.startswith("OUT") else a for a in MJCF_COMMANDS[command]]
+    args = [str(xml) if a == "FILE" else a for a in args]
+    if str(xml) not in args:
+        args.append(str(xml))
+    line = _bad_input_in_process(args, capsys)
+    for fragment in says:
+        assert fragment in line, line
+    if not broken.startswith("include of a truncated"):
+        assert f"{xml}: expected a valid MJCF document, got " in line
+    assert "XML_ERROR" not in line and "ErrorID" not in line
+    # nothing written; validate's lock on its --out folder goes when the process exits
+    assert [p.name for p in (tmp_path / "OUT").iterdir()
+            if not p.name.endswith(".tippetop.lock")] == []
+
+
+@pytest.mark.parametrize(("name", "change", "says"), [
+    # MuJoCo's parser reads these; tippetop, which writes the run's settings into the
+    # document, reads it with Python's stricter one
+    ("not UTF-8", lambda t: t.replace("paper loaded sphere", "caf\u00e9 top").encode("latin-1"),
+     "expected an MJCF (XML) text file in UTF-8, got a byte that is not UTF-8 (0xE9) at line "),
+    ("an unescaped &", lambda t: t.replace("paper loaded sphere", "a & b").encode(),
+     "expected a well-formed XML document, got an XML error at line "),
+])
+def test_a_file_mujoco_reads_but_xml_does_not_is_one_line(
+        tmp_path: Path, name: str, change: object, says: str,
+        capsys: pytest.CaptureFixture) -> None:
+    text = EXAMPLE.read_text()
+    xml = tmp_path / "top.xml"
+    xml.write_bytes(change(text))  # type: ignore[operator]
+    out = tmp_path / "t.csv"
+    line = _bad_input_in_process(["simulate", "--engine", "mujoco", *SHORT, "--mjcf", str(xml),
+                                  "--out", str(out)], capsys)
+    assert f"{xml}: {says}{_line(text, '<mujoco model=')}, column " in line
+    assert not out.exists()
+
+
+def test_a_file_with_a_byte_order_mark_runs(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from tippetop.compare.cli import main
+
+    xml = tmp_path / "bom.xml"
+    xml.write_bytes(b"\xef\xbb\xbf" + EXAMPLE.read_bytes())
+    assert main(["theory", "--mjcf", str(xml), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)
+
+
+def test_a_truncated_mjcf_file_through_the_command(tmp_path: Path) -> None:
+    """The same, as a user runs it: one line on stderr, exit 2, nothing on stdout."""
+    text = EXAMPLE.read_text()
+    xml = tmp_path / "cut.xml"
+    xml.write_text(text[:text.index("<option") + 30])
+    line = _bad_input("theory", "--mjcf", str(xml))
+    assert line == (f"tippetop: error: {xml}: expected a valid MJCF document, got an XML error "
+                    f"at line {_line(text, '<option')}, column 3: unclosed token")
