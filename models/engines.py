@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 
 #: The implementations an engine spec can name.
 IMPLEMENTATIONS: tuple[str, ...] = ("ode", "mujoco", "mjx", "warp")
@@ -92,7 +92,8 @@ def parse_engine(text: str) -> EngineSpec:
         return EngineSpec(spec, "mjx", precision="float32")
     if spec == "warp":
         return EngineSpec(spec, "warp", precision="float32")
-    raise TippetopError(f"engine: expected {SPEC_FORMS}, got {text!r}")
+    raise TippetopError(f"engine: expected {SPEC_FORMS}, got {text!r}"
+                        f"{did_you_mean(spec, (*NAMED, 'mujoco==X.Y.Z', 'mujoco@PYTHON'))}")
 
 
 def parse_engines(text: str) -> list[EngineSpec]:

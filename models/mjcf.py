@@ -86,7 +86,7 @@ def _validate(
 ) -> int:
     """Check the arguments of :func:`make_mjcf`; return the effective condim."""
     expect(friction_mode in FRICTION_MODES, "friction_mode", "one of " + "|".join(FRICTION_MODES),
-           friction_mode)
+           friction_mode, FRICTION_MODES)
     if condim is None:
         condim = 1 if friction_mode == "paper" else 3
     expect(isinstance(condim, int) and condim in CONDIMS, "condim",
@@ -98,8 +98,9 @@ def _validate(
                "a finite number >= 0", value)
     expect(isinstance(timestep_s, (int, float)) and math.isfinite(timestep_s) and timestep_s > 0,
            "timestep_s", "a finite number > 0 (seconds)", timestep_s)
-    expect(integrator in INTEGRATORS, "integrator", "one of " + "|".join(INTEGRATORS), integrator)
-    expect(cone in CONES, "cone", "one of " + "|".join(CONES), cone)
+    expect(integrator in INTEGRATORS, "integrator", "one of " + "|".join(INTEGRATORS), integrator,
+           INTEGRATORS)
+    expect(cone in CONES, "cone", "one of " + "|".join(CONES), cone, CONES)
     expect(isinstance(impratio, (int, float)) and math.isfinite(impratio) and impratio > 0,
            "impratio", "a finite number > 0", impratio)
     ref = _finite_seq("solref", solref, (2,))

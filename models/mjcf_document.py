@@ -31,20 +31,99 @@ def fmt(values: Any) -> str:
     return " ".join(repr(float(v)) for v in np.ravel(np.asarray(values, dtype=float)))
 
 
-def parse(text: str) -> ET.Element:
+def _lax_comments(text: str) -> str:
+    """``text`` with ``--`` inside comments made ``- -``: MuJoCo's parser takes it, XML not."""
+    return re.sub(r"<!--(.*?)-->", lambda m: "<!--" + m.group(1).replace("--", "- -") + "-->",
+                  text, flags=re.DOTALL)
+
+
+def parse(text: str, source: str = "mjcf") -> ET.Element:
     """The document's element tree, its comments kept.
 
+    Args:
+        text: The document.
+        source: What to call it in an error: its file, or ``mjcf``.
+
     Raises:
-        TippetopError: The text is not XML.
+        TippetopError: The text is not XML (one line: where, and Python's parser's reason).
     """
-    # MuJoCo's parser takes "--" inside a comment (strict XML does not): keep such comments
-    text = re.sub(r"<!--(.*?)-->", lambda m: "<!--" + m.group(1).replace("--", "- -") + "-->",
-                  text, flags=re.DOTALL)
     parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
     try:
-        return ET.fromstring(text, parser=parser)
+        return ET.fromstring(_lax_comments(text), parser=parser)
     except ET.ParseError as exc:
-        raise TippetopError(f"mjcf: expected an MJCF (XML) document, got: {exc}") from None
+        raise TippetopError(f"{source}: expected a well-formed XML document, got "
+                            f"{xml_error(exc)}") from None
+
+
+def xml_error(exc: ET.ParseError) -> str:
+    """Python's XML parser's error as ``an XML error at line L, column C: REASON``.
+
+    The column counts from 1, as editors do (the parser's own counts from 0).
+    """
+    line, column = exc.position
+    reason = re.sub(r": line \d+, column \d+$", "", str(exc))
+    return f"an XML error at line {line}, column {column + 1}: {reason}"
+
+
+def text_problem(data: bytes) -> str | None:
+    """What makes ``data`` no XML text at all: empty, binary, not UTF-8; None: it is text.
+
+    Returns:
+        ``an empty file``, ``UTF-16 text``, ``binary data (a NUL byte at line L, column C)``
+        or ``a byte that is not UTF-8 (0xE9) at line L, column C``; a UTF-8 byte-order mark is
+        fine.
+    """
+    if not data.strip():
+        return "an empty file"
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "UTF-16 text (MuJoCo reads UTF-8: save it as UTF-8)"
+    if b"\0" in data:
+        line, column = _position(data, data.index(b"\0"))
+        return f"binary data (a NUL byte at line {line}, column {column})"
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line, column = _position(data, exc.start)
+        return (f"a byte that is not UTF-8 (0x{data[exc.start]:02X}) at line {line}, column "
+                f"{column}")
+    return None
+
+
+def _position(data: bytes, offset: int) -> tuple[int, int]:
+    """(line, column) of byte ``offset`` in ``data``, both from 1 (the column in bytes)."""
+    start = data.rfind(b"\n", 0, offset) + 1
+    return data.count(b"\n", 0, offset) + 1, offset - start + 1
+
+
+def xml_problem(data: bytes) -> str | None:
+    """What Python's XML parser finds wrong with a document; None if it reads it.
+
+    Returns:
+        :func:`text_problem`'s answer, or :func:`xml_error`'s.
+    """
+    problem = text_problem(data)
+    if problem is not None:
+        return problem
+    try:
+        ET.fromstring(_lax_comments(data.decode("utf-8-sig")))
+    except ET.ParseError as exc:
+        return xml_error(exc)
+    return None
+
+
+def read_text(path: str | os.PathLike[str]) -> str:
+    """An MJCF file's text, read as UTF-8 (a byte-order mark dropped).
+
+    Raises:
+        TippetopError: The file is empty, binary or not UTF-8 (one line: the file, and where).
+        OSError: It cannot be read.
+    """
+    data = Path(path).read_bytes()
+    problem = text_problem(data)
+    if problem is not None:
+        raise TippetopError(f"{os.fspath(path)}: expected an MJCF (XML) text file in UTF-8, "
+                            f"got {problem}")
+    return data.decode("utf-8-sig")
 
 
 def to_text(root: ET.Element, header: str = "") -> str:
@@ -115,7 +194,7 @@ def inline_includes(root: ET.Element, folder: Path) -> None:
             name = child.get("file", "")
             path = Path(name) if os.path.isabs(name) else folder / name
             try:
-                sub = parse(path.read_text(encoding="utf-8"))
+                sub = parse(read_text(path), str(path))
             except OSError as exc:
                 raise TippetopError(f"mjcf: expected the included file {str(path)!r}, got "
                                     f"{type(exc).__name__}: {exc.strerror}") from None
@@ -210,5 +289,6 @@ def add_keyframe(root: ET.Element, name: str, values: Iterable[tuple[str, Any]])
 
 
 __all__ = ["absolute_asset_dirs", "add_keyframe", "body_elements", "comment", "fmt",
-           "geom_elements", "inline_includes", "pair_elements", "parse", "set_attributes",
-           "to_text", "write_values"]
+           "geom_elements", "inline_includes", "pair_elements", "parse", "read_text",
+           "set_attributes", "text_problem", "to_text", "write_values", "xml_error",
+           "xml_problem"]

@@ -20,7 +20,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 
 if TYPE_CHECKING:
     from tippetop.models.engines import EngineSpec
@@ -157,7 +157,8 @@ def parse_mode(text: str, option: str = "--mode") -> str:
     hint = ""
     if name in OLD_NAMES:
         hint = f" ({name!r} is an engine and a mode: {new_spelling(name)})"
-    raise TippetopError(f"{option}: expected a mode ({_choices()}), got {text!r}{hint}")
+    raise TippetopError(f"{option}: expected a mode ({_choices()}), got "
+                        f"{text!r}{hint or did_you_mean(name, MODES)}")
 
 
 def parse_modes(text: str, option: str = "--modes") -> list[str]:

@@ -36,7 +36,7 @@ class OdeOptions:
 
     def __post_init__(self) -> None:
         expect(self.formulation in FORMULATIONS, "ode.formulation", "|".join(FORMULATIONS),
-               self.formulation)
+               self.formulation, FORMULATIONS)
         for name in ("rtol", "atol", "singular_sin"):
             v = getattr(self, name)
             expect(_positive(v), f"ode.{name}", "a finite number > 0", v)
@@ -105,10 +105,11 @@ class MujocoOptions:
 
     def __post_init__(self) -> None:
         expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",
-               "|".join(MUJOCO_FRICTION_MODES), self.friction)
+               "|".join(MUJOCO_FRICTION_MODES), self.friction, MUJOCO_FRICTION_MODES)
         expect(self.integrator in MUJOCO_INTEGRATORS, "mujoco.integrator",
-               "|".join(MUJOCO_INTEGRATORS), self.integrator)
-        expect(self.cone in MUJOCO_CONES, "mujoco.cone", "|".join(MUJOCO_CONES), self.cone)
+               "|".join(MUJOCO_INTEGRATORS), self.integrator, MUJOCO_INTEGRATORS)
+        expect(self.cone in MUJOCO_CONES, "mujoco.cone", "|".join(MUJOCO_CONES), self.cone,
+               MUJOCO_CONES)
         expect(_positive(self.timestep_s), "mujoco.timestep_s", "a finite number > 0",
                self.timestep_s)
         expect(self.condim is None or self.condim in (1, 3, 4, 6), "mujoco.condim",

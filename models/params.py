@@ -163,7 +163,7 @@ class FrictionParams:
 
     def __post_init__(self) -> None:
         expect(self.law in FRICTION_LAWS, "friction.law", "one of " + "|".join(FRICTION_LAWS),
-               self.law)
+               self.law, FRICTION_LAWS)
         mu = _finite("friction.mu", self.mu)
         expect(mu >= 0, "friction.mu", "a finite number >= 0", self.mu)
         object.__setattr__(self, "mu", mu)
@@ -235,7 +235,8 @@ class StemParams:
     radius_m: float
 
     def __post_init__(self) -> None:
-        expect(self.kind in STEM_KINDS, "stem.kind", "|".join(STEM_KINDS), self.kind)
+        expect(self.kind in STEM_KINDS, "stem.kind", "|".join(STEM_KINDS), self.kind,
+               STEM_KINDS)
         for name in ("offset_m", "radius_m"):
             object.__setattr__(self, name, _finite_positive(f"stem.{name}", getattr(self, name)))
 

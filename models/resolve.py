@@ -401,7 +401,7 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
 def _file_document(file_top: FileTop, options: dict[str, Any],
                    contacts: tuple[ContactSetting, ...]) -> str:
     """The loaded file's document with the plan's options and contact settings written in."""
-    root = mjcf_document.parse(file_top.text)
+    root = mjcf_document.parse(file_top.text, str(file_top.path))
     folder = file_top.path.parent
     mjcf_document.inline_includes(root, folder)
     mjcf_document.absolute_asset_dirs(root, folder)
@@ -439,7 +439,7 @@ def _start(scene: Scene, file_top: FileTop | None) -> tuple[InitialState, int | 
         expect(scene.init_keyframe in names, "init.keyframe",
                "the name of one of the file's keyframes (" + ", ".join(
                    repr(n) for n in names if n) + ")" if any(names) else
-               "a file with named keyframes (this one has none)", scene.init_keyframe)
+               "a file with named keyframes (this one has none)", scene.init_keyframe, names)
         index = names.index(scene.init_keyframe)
     else:
         index = 0

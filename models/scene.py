@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tippetop.models.errors import TippetopError, expect
+from tippetop.models.errors import TippetopError, closest_name, did_you_mean, expect
 from tippetop.models.options import MujocoOptions, OdeOptions
 from tippetop.models.params import (
     DEFAULT_STEM_OFFSET_R,
@@ -197,18 +197,42 @@ def _validate_raw(raw: dict[str, Any], origin: str) -> dict[str, dict[str, Any]]
     for section, body in raw.items():
         if section not in SCHEMA:
             raise TippetopError(
-                f"{origin}: unknown section [{section}] (expected one of: "
-                f"{', '.join(SCHEMA)})")
+                f"{origin}: unknown section [{section}]{did_you_mean(section, SCHEMA)} "
+                f"(expected one of: {', '.join(SCHEMA)})")
         if not isinstance(body, dict):
             raise TippetopError(f"{origin}: [{section}] must be a table, got {body!r}")
         out[section] = {}
         for key, value in body.items():
             if key not in SCHEMA[section]:
-                raise TippetopError(
-                    f"{origin}: unknown key '{section}.{key}' (expected one of: "
-                    f"{', '.join(section + '.' + k for k in SCHEMA[section])})")
+                raise unknown_key_error(origin, f"{section}.{key}")
             out[section][key] = _check_type(f"{section}.{key}", SCHEMA[section][key], value)
     return out
+
+
+def scene_keys(section: str | None = None) -> list[str]:
+    """Every ``section.key`` name of :data:`SCHEMA`, or those of one section."""
+    return [f"{s}.{k}" for s in SCHEMA for k in SCHEMA[s] if section in (None, s)]
+
+
+def unknown_key_error(origin: str, key: str) -> TippetopError:
+    """The error for a ``section.key`` that :data:`SCHEMA` does not have (one line).
+
+    It names the key meant when one is close (:func:`~.errors.did_you_mean`), then the keys
+    of the section given (or of the section of the key meant); the whole list of keys only when
+    neither is known. ``[scene]`` and ``[expect]``, which no run reads, are left out of that
+    list, not out of the keys suggested.
+    """
+    meant = closest_name(key, scene_keys())
+    section = key.partition(".")[0]
+    if section not in SCHEMA and meant is not None:
+        section = meant.partition(".")[0]
+    hint = f" (did you mean {meant!r}?)" if meant is not None else ""
+    if section in SCHEMA:
+        known = f"one of the [{section}] keys: {', '.join(scene_keys(section))}"
+    else:
+        known = "one of: " + ", ".join(k for k in scene_keys()
+                                       if not k.startswith(("scene.", "expect.")))
+    return TippetopError(f"{origin}: unknown key {key!r}{hint} (expected {known})")
 
 
 def parse_override(item: str) -> tuple[str, str, Any]:
@@ -218,12 +242,11 @@ def parse_override(item: str) -> tuple[str, str, Any]:
     key, text = item.split("=", 1)
     key = key.strip()
     if key.count(".") != 1:
-        raise TippetopError(f"--set: expected a key of the form section.key, got {key!r}")
+        raise TippetopError(f"--set: expected a key of the form section.key, got {key!r}"
+                            f"{did_you_mean(key, scene_keys())}")
     section, name = key.split(".")
     if section not in SCHEMA or name not in SCHEMA[section]:
-        known = ", ".join(f"{s}.{k}" for s in SCHEMA for k in SCHEMA[s]
-                          if s not in ("scene", "expect"))
-        raise TippetopError(f"--set: unknown key {key!r} (expected one of: {known})")
+        raise unknown_key_error("--set", key)
     text = text.strip()
     try:
         value = tomllib.loads(f"v = {text}")["v"]
@@ -261,9 +284,10 @@ def resolve_scene_path(name_or_path: str) -> Path:
     cand = SCENES_DIR / f"{name_or_path}.toml"
     if cand.is_file():
         return cand
+    names = catalogue_names()
     raise TippetopError(
-        f"scene: expected a .toml file or a catalogue name ({', '.join(catalogue_names())}), "
-        f"got {name_or_path!r}")
+        f"scene: expected a .toml file or a catalogue name ({', '.join(names)}), got "
+        f"{name_or_path!r}{did_you_mean(name_or_path, names)}")
 
 
 def catalogue_names() -> list[str]:
@@ -337,7 +361,8 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
     outputs = Outputs(**sec["outputs"])
     exp = sec["expect"]
     if "outcome" in exp:
-        expect(exp["outcome"] in OUTCOMES, "expect.outcome", "|".join(OUTCOMES), exp["outcome"])
+        expect(exp["outcome"] in OUTCOMES, "expect.outcome", "|".join(OUTCOMES), exp["outcome"],
+               OUTCOMES)
     name = meta.get("name") or (path.stem if path is not None else "default")
     return Scene(
         name=name,

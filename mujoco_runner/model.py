@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import warnings
 from collections import deque
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from tippetop.models import mjcf_document
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import quat_to_mat
 from tippetop.models.mjcf import HARNESS_USERDATA
@@ -119,9 +122,116 @@ def load_model(mjcf: str | os.PathLike[str]) -> mujoco.MjModel:
     except ValueError as exc:
         if isinstance(exc, TippetopError):
             raise
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise TippetopError(f"mjcf: expected a valid MJCF document, got MuJoCo error: {first}")\
-            from None
+        path = None if is_text else os.fspath(mjcf)
+        raise TippetopError(load_error(str(exc), path, mjcf if is_text else None)) from None
+
+
+#: The errors of MuJoCo's XML parser (tinyxml2) in words, for a document Python's XML parser
+#: reads (which says what is wrong, and where, better: :func:`load_error` asks it first).
+_TINYXML_REASONS = {
+    "XML_ERROR_PARSING_ELEMENT": "a malformed element",
+    "XML_ERROR_PARSING_ATTRIBUTE": "a malformed attribute",
+    "XML_ERROR_PARSING_TEXT": "malformed text",
+    "XML_ERROR_PARSING_CDATA": "a malformed CDATA section",
+    "XML_ERROR_PARSING_COMMENT": "a malformed comment",
+    "XML_ERROR_PARSING_DECLARATION": "a malformed declaration",
+    "XML_ERROR_PARSING_UNKNOWN": "a malformed <!...> element",
+    "XML_ERROR_EMPTY_DOCUMENT": "no element",
+    "XML_ERROR_MISMATCHED_ELEMENT": "a closing tag that does not match",
+    "XML_ELEMENT_DEPTH_EXCEEDED": "elements nested too deep",
+}
+#: MuJoCo's messages: its XML parser's (multi-line), an included file's, an element's, and
+#: the compiler's.
+_PARSE_ERROR = re.compile(r"XML parse error \d+:\s*Error=(\w+).*?Line number=(\d+)"
+                          r"(?::\s*XMLElement name=(\S+))?", re.DOTALL)
+_INCLUDE_ERROR = re.compile(r"^XML Error: Include error: '(.*)'\s*Element 'include', line "
+                            r"(\d+)\s*$", re.DOTALL)
+_ELEMENT_ERROR = re.compile(r"^(?:XML )?Error: (.*?)\s*\n\s*Element '([^']*)', line (\d+)\s*$",
+                            re.DOTALL)
+_COMPILE_ERROR = re.compile(r"^Error: (.*?)\s*\n\s*Element name '([^']*)', id \d+, line "
+                            r"(\d+)\s*$", re.DOTALL)
+
+
+def load_error(message: str, path: str | None, text: str | None = None, *,
+               label: str | None = None) -> str:
+    """MuJoCo's error loading a document as one line: the file, the line, the reason.
+
+    MuJoCo's messages run over several lines, and its XML parser's name no reason a reader
+    knows (``XML parse error 7: Error=XML_ERROR_PARSING_ATTRIBUTE ... Line number=9``): such
+    a document is read again with Python's XML parser, which names the line, the column and
+    the reason (``unclosed token``); an empty, binary or non-UTF-8 file is said to be one. An
+    error in an included file names that file, and the line that includes it.
+
+    Args:
+        message: MuJoCo's message (its ``ValueError``).
+        path: The file loaded; None for a document given as text.
+        text: The document given as text (when ``path`` is None).
+        label: What to call the document (default: ``path``, or ``mjcf`` for text).
+
+    Returns:
+        ``FILE: expected a valid MJCF document, got ...``.
+    """
+    where = label or (path if path is not None else "mjcf")
+    included = _INCLUDE_ERROR.match(message.strip())
+    if included is not None:
+        inner, line = included.group(1), int(included.group(2))
+        by = f"included by {where} at line {line}"
+        name = _included_name(path, text, line)
+        if name is None:
+            return load_error(inner, None, label=f"the file {by}")
+        # MuJoCo's rule: an included file's name is relative to the main file's folder
+        sub = name if path is None else os.path.join(os.path.dirname(path), name)
+        return load_error(inner, sub if os.path.isfile(sub) else None, label=f"{sub} ({by})")
+    return f"{where}: expected a valid MJCF document, got {_mujoco_reason(message, path, text)}"
+
+
+def _included_name(path: str | None, text: str | None, line: int) -> str | None:
+    """The file named by the ``<include>`` on line ``line`` of the document, if it says."""
+    try:
+        source = Path(path).read_text(encoding="utf-8", errors="replace") if path is not None \
+            else (text or "")
+    except OSError:
+        return None
+    lines = source.splitlines()
+    found = re.search(r"""<include\s[^>]*?file\s*=\s*["']([^"']*)["']""",
+                      lines[line - 1] if 0 < line <= len(lines) else "")
+    return found.group(1) if found else None
+
+
+def _mujoco_reason(message: str, path: str | None, text: str | None) -> str:
+    """What :func:`load_error` says went wrong (after ``got``)."""
+    message = message.strip()
+    parse_error = _PARSE_ERROR.search(message)
+    if parse_error is not None or "empty file" in message:
+        data = b""
+        try:
+            data = Path(path).read_bytes() if path is not None else (text or "").encode()
+        except OSError:
+            pass
+        problem = mjcf_document.xml_problem(data)
+        if problem is not None and parse_error is not None:
+            code, line, element = parse_error.groups()
+            if code == "XML_ERROR_MISMATCHED_ELEMENT" and element and \
+                    problem.endswith("mismatched tag"):
+                problem += f" (expected the end of the <{element}> of line {line})"
+        if problem is not None:
+            return problem
+    if parse_error is not None:
+        code, line, element = parse_error.groups()
+        reason = _TINYXML_REASONS.get(code, code.removeprefix("XML_ERROR_").replace("_", " ")
+                                      .lower())
+        return f"an XML error at line {line}: {reason}" + (f" (<{element}>)" if element else "")
+    found = _ELEMENT_ERROR.match(message)
+    if found is not None:
+        reason, element, line = found.groups()
+        return f"a MuJoCo error at line {line} (<{element}>): {reason.removeprefix('Error: ')}"
+    found = _COMPILE_ERROR.match(message)
+    if found is not None:
+        reason, name, line = found.groups()
+        return f"a MuJoCo error at line {line}" + (f" ('{name}')" if name else "") + \
+            f": {reason}"
+    lines = [" ".join(ln.split()) for ln in message.splitlines() if ln.strip()]
+    return "a MuJoCo error: " + ("; ".join(lines).removeprefix("Error: ") or "(no message)")
 
 
 def load_top(mjcf: str | os.PathLike[str]) -> TopModel:
@@ -440,6 +550,7 @@ __all__ = [
     "AXISYMMETRY_RTOL",
     "TopModelWarning",
     "TopModel",
+    "load_error",
     "load_model",
     "load_top",
     "quat_between",

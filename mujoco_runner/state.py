@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tippetop.models import mjcf_document
 from tippetop.models.contacts import ContactSetting, ball_table_contact
 from tippetop.models.frames import free_joint_start
 from tippetop.models.observables import SIN_THETA_UNDEFINED
@@ -212,7 +213,7 @@ def file_top(mjcf: str | os.PathLike[str]) -> FileTop:
     ball = ball_table_contact(contacts)
     opt = model.opt
     return FileTop(
-        top=top_model.top, path=path.resolve(), text=path.read_text(encoding="utf-8"),
+        top=top_model.top, path=path.resolve(), text=mjcf_document.read_text(path),
         timestep_s=float(opt.timestep), integrator=integrator_name(int(opt.integrator)),
         cone=cone_name(int(opt.cone)), impratio=float(opt.impratio),
         noslip_iterations=int(opt.noslip_iterations),

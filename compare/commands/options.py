@@ -20,7 +20,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any, NoReturn
 
-from tippetop.models.errors import RunFailedError, TippetopError
+from tippetop.models.errors import RunFailedError, TippetopError, did_you_mean
 
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
@@ -65,6 +65,22 @@ class Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
+
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        """Check a value against the option's ``choices`` (a command's name too), as argparse.
+
+        The error names the choice meant when one is close: ``invalid choice: 'simulat' (did
+        you mean 'simulate'?) (choose from ...)``.
+        """
+        try:
+            super()._check_value(action, value)
+        except argparse.ArgumentError as exc:
+            hint = did_you_mean(value, action.choices or ()) if isinstance(value, str) else ""
+            given = repr(value)
+            if not hint or given not in exc.message:
+                raise
+            raise argparse.ArgumentError(action, exc.message.replace(given, given + hint, 1)) \
+                from None
 
     def error(self, message: str) -> NoReturn:
         """Write ``tippetop: error: MESSAGE (see 'PROG --help')`` and exit 2."""
@@ -273,7 +289,8 @@ def mode_name(text: str) -> str:
     name = text.strip()
     if name in MODES:
         return name
-    hint = f", which is an engine: give --engine {name}" if name in NAMED else ""
+    hint = (f", which is an engine: give --engine {name}" if name in NAMED
+            else did_you_mean(name, MODES))
     raise argparse.ArgumentTypeError(f"expected a mode ({', '.join(MODES)}), got "
                                      f"{text!r}{hint}")
 

@@ -12,7 +12,7 @@ from typing import Any
 
 from tippetop.compare.studies.sweep import parse_range
 from tippetop.compare.studies.threshold import METHODS, WHICH
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import MODES, OLD_NAMES, note, run_label
 from tippetop.models.resources import data_path
 
@@ -128,12 +128,14 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
         raise TippetopError(f"{where}: expected a table, got {entry!r}")
     kind = _req(entry, "kind", str, where)
     if kind not in KINDS:
-        raise TippetopError(f"{where}.kind: expected one of {'|'.join(KINDS)}, got {kind!r}")
+        raise TippetopError(f"{where}.kind: expected one of {'|'.join(KINDS)}, got {kind!r}"
+                            f"{did_you_mean(kind, KINDS)}")
     allowed = _COMMON_KEYS | _KIND_KEYS[kind]
     for key in entry:
         if key not in allowed:
-            raise TippetopError(f"{where}: unknown key {key!r} for a {kind} case (expected "
-                                f"one of: {', '.join(sorted(allowed))})")
+            raise TippetopError(f"{where}: unknown key {key!r}{did_you_mean(key, allowed)} "
+                                f"for a {kind} case (expected one of: "
+                                f"{', '.join(sorted(allowed))})")
     name = _req(entry, "name", str, where)
     category = _req(entry, "category", str, where)
     scene = _req(entry, "scene", str, where)
@@ -148,24 +150,26 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
     for p in profs:
         if p not in profiles:
             raise TippetopError(f"{where}.profiles: expected names from "
-                                f"{', '.join(profiles)}, got {p!r}")
+                                f"{', '.join(profiles)}, got {p!r}{did_you_mean(p, profiles)}")
     for m in metrics:
         if m not in KIND_METRICS[kind]:
             raise TippetopError(f"{where}.metrics: expected names from "
-                                f"{', '.join(KIND_METRICS[kind])} for a {kind} case, got {m!r}")
+                                f"{', '.join(KIND_METRICS[kind])} for a {kind} case, got {m!r}"
+                                f"{did_you_mean(m, KIND_METRICS[kind])}")
     if not (runs and profs and metrics):
         raise TippetopError(f"{where}: expected non-empty modes, profiles and metrics")
     extra: dict[str, Any] = {}
     if kind == "threshold":
         which = _req(entry, "which", str, where)
         if which not in WHICH:
-            raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}")
+            raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}"
+                                f"{did_you_mean(which, WHICH)}")
         # a case that sets bisection's own keys is a bisection unless it says otherwise
         method = entry.get("method") or ("bisect" if {"max_rounds", "points_per_round"}
                                          & set(entry) else "growth")
         if method not in METHODS:
             raise TippetopError(f"{where}.method: expected {'|'.join(METHODS)}, got "
-                                f"{method!r}")
+                                f"{method!r}{did_you_mean(method, METHODS)}")
         extra = {"which": which, "method": method,
                  "rel_tol": (float(_req(entry, "rel_tol", float, where))
                              if method == "bisect" or "rel_tol" in entry else None),
@@ -244,7 +248,7 @@ def _runs(entry: dict[str, Any], modes: list[str],
             out.append((engine, mode or "paper", extra))
         else:
             raise TippetopError(f"{where}.modes: expected names from {', '.join(MODES)}, got "
-                                f"{m!r}")
+                                f"{m!r}{did_you_mean(m, MODES)}")
     if old_given:
         note(f"{where}: modes {', '.join(old_given)} name engines and modes together: now "
              "engines = [...] and modes = [...] (the old spelling goes in the next release)")
@@ -267,7 +271,8 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
         raise TippetopError(f"catalogue {p.name}: expected valid TOML, got: {exc}") from None
     for key in data:
         if key not in ("profiles", "case"):
-            raise TippetopError(f"catalogue {p.name}: unknown top-level key {key!r} (expected "
+            raise TippetopError(f"catalogue {p.name}: unknown top-level key {key!r}"
+                                f"{did_you_mean(key, ('profiles', 'case'))} (expected "
                                 f"[profiles.NAME] and [[case]])")
     prof_raw = data.get("profiles", {})
     if not isinstance(prof_raw, dict):
@@ -305,7 +310,7 @@ def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = EN
     """
     if profile not in catalogue.profiles:
         raise TippetopError(f"--profile: expected one of {'|'.join(catalogue.profiles)}, got "
-                            f"{profile!r}")
+                            f"{profile!r}{did_you_mean(profile, catalogue.profiles)}")
     out = [c for c in catalogue.cases if profile in c.profiles and c.family in engines
            and (not modes or c.mode in modes)]
     if patterns:

@@ -56,7 +56,7 @@ from tippetop.compare.running.io import (
     write_atomic,
 )
 from tippetop.compare.running.runner import default_cache_dir
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 
 EXIT_OK, EXIT_REGRESSION = 0, 1
 
@@ -113,9 +113,11 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
                                                  opts.modes), specs)
     if not cases:
         modes = f", modes {','.join(opts.modes)}" if opts.modes else ""
+        ids = [c.id for c in catalogue.cases if opts.profile in c.profiles]
+        hint = next((h for h in (did_you_mean(p, ids) for p in opts.cases) if h), "")
         raise TippetopError(f"nightly: expected at least one case for profile "
                             f"{opts.profile!r}, engines {','.join(opts.engines)}{modes} and "
-                            f"cases {','.join(opts.cases) or '*'}, got none")
+                            f"cases {','.join(opts.cases) or '*'}{hint}, got none")
     if opts.no_baseline and opts.update_baseline:
         raise TippetopError("--no-baseline: expected without --update-baseline (which "
                             "compares with and writes the baseline file), got both")
@@ -161,8 +163,10 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
         try:
             spec = parse_engine(e).spec
         except TippetopError:
+            names = ("ode", *SPEC_FORMS.replace(" or ", ", ").split(", "))
             raise TippetopError(f"--engines: expected a comma-separated list of ode and "
-                                f"engine specs ({SPEC_FORMS}), got {e!r}") from None
+                                f"engine specs ({SPEC_FORMS}), got {e!r}"
+                                f"{did_you_mean(e, names)}") from None
         if spec not in specs:
             specs.append(spec)
     if specs:

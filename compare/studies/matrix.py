@@ -21,7 +21,7 @@ from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
-from tippetop.models.errors import TippetopError
+from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import check_pair, run_label
 from tippetop.models.scene import catalogue_names
 
@@ -58,7 +58,8 @@ def profile_scenes(profile: str) -> tuple[str, ...]:
     if profile == "full":
         return tuple(catalogue_names())
     if profile not in PROFILES:
-        raise TippetopError(f"--profile: expected quick or full, got {profile!r}")
+        raise TippetopError(f"--profile: expected quick or full, got {profile!r}"
+                            f"{did_you_mean(profile, ('quick', 'full'))}")
     return PROFILES[profile]
 
 

@@ -330,3 +330,191 @@ def test_a_full_disk_while_writing_an_output_is_one_line(tmp_path: Path,
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("tippetop: failed: could not write")
     assert "No space left on device" in err and list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------- a name mistyped
+def _bad_input_in_process(args: list[str], capsys: pytest.CaptureFixture) -> str:
+    """``main(args)`` in this process: exit 2, no output, one ``tippetop: error:`` line."""
+    from tippetop.compare.cli import main
+
+    try:
+        status = main(args)
+    except SystemExit as exc:  # argparse's errors
+        status = exc.code
+    out, err = capsys.readouterr()
+    assert status == 2, (status, err)
+    assert not out, out
+    return _one_line(err, "tippetop: error:")
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["simulate", "fig3", "--set", "run.t_end=4"], "'run.t_end' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig3", "--set", "Run.T_END_S=4"], "'Run.T_END_S' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig3", "--set", "t_end_s=4"], "got 't_end_s' (did you mean 'run.t_end_s'?)"),
+    (["simulate", "fig33"], "got 'fig33' (did you mean 'fig3'?)"),
+    (["simulate", "fig3", "--engine", "mujoco-nativ"],
+     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
+    (["compare", "fig3", "--modes", "ode,mujoco-nativ"],
+     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
+    (["plan", "fig3", "--engine", "mujoco-papr"], "(did you mean 'mujoco-paper'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "mjxx"],
+     "got 'mjxx' (did you mean 'mjx'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "warpp"],
+     "got 'warpp' (did you mean 'warp'?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--on", "mujoco=3.3.7"],
+     "got 'mujoco=3.3.7' (did you mean 'mujoco==X.Y.Z'?)"),
+    (["simulate", "fig3", "--set", "friction.law=coulmb"],
+     "got 'coulmb' (did you mean 'coulomb'?)"),
+    (["simulate", "fig3", "--set", "mujoco.integrator=rk4"], "got 'rk4' (did you mean 'RK4'?)"),
+    (["simulat", "fig3"], "invalid choice: 'simulat' (did you mean 'simulate'?)"),
+    (["threshold", "--which", "N1"], "invalid choice: 'N1' (did you mean 'n1'?)"),
+    (["nightly", "--profile", "quik"], "got 'quik' (did you mean 'quick'?)"),
+    (["nightly", "--engines", "ode,mjxx"], "got 'mjxx' (did you mean 'mjx'?)"),
+    (["nightly", "--cases", "paper/fig33[ode]"], "(did you mean 'paper/fig3[ode]'?)"),
+])
+def test_a_mistyped_name_says_which_was_meant(args: list[str], says: str,
+                                              capsys: pytest.CaptureFixture) -> None:
+    """Issue 29: one line, the name given and then the name meant."""
+    line = _bad_input_in_process(args, capsys)
+    assert says in line
+    assert "did you mean" in line
+
+
+def test_a_mistyped_scene_key_lists_its_section_not_every_key(
+        capsys: pytest.CaptureFixture) -> None:
+    line = _bad_input_in_process(["simulate", "fig3", "--set", "run.t_end=4"], capsys)
+    assert line == ("tippetop: error: --set: unknown key 'run.t_end' (did you mean "
+                    "'run.t_end_s'?) (expected one of the [run] keys: run.t_end_s, "
+                    "run.sample_dt_s)")
+    # nothing close and no section known: every key, as before
+    line = _bad_input_in_process(["simulate", "fig3", "--set", "foo.bar=4"], capsys)
+    assert "did you mean" not in line and "init.n0" in line and "mujoco.cone" in line
+
+
+def test_a_mistyped_key_in_a_scene_file(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    scene = tmp_path / "s.toml"
+    scene.write_text("[run]\nt_end = 0.05\n")
+    line = _bad_input_in_process(["simulate", str(scene)], capsys)
+    assert "scene s.toml: unknown key 'run.t_end' (did you mean 'run.t_end_s'?)" in line
+    scene.write_text("[rn]\nt_end_s = 0.05\n")
+    line = _bad_input_in_process(["simulate", str(scene)], capsys)
+    assert "unknown section [rn] (did you mean 'run'?)" in line
+
+
+def test_a_name_nothing_is_close_to_gets_no_suggestion(capsys: pytest.CaptureFixture) -> None:
+    line = _bad_input_in_process(["simulate", "zzz"], capsys)
+    assert "got 'zzz'" in line and "did you mean" not in line
+
+
+# ---------------------------------------------------------------- a broken MJCF file
+def _line(text: str, needle: str) -> int:
+    """The line (from 1) of the first ``needle`` in ``text``."""
+    return text[:text.index(needle)].count("\n") + 1
+
+
+def _broken(name: str, text: str) -> tuple[bytes, list[str]]:
+    """The example top broken as ``name`` says, and what the one line must say."""
+    option, body, world = _line(text, "<option"), _line(text, "<body"), \
+        _line(text, "</worldbody>")
+    if name == "truncated":  # cut in the middle of <option ...>
+        return text[:text.index("<option") + 30].encode(), [
+            f"an XML error at line {option}, column 3: unclosed token"]
+    if name == "missing closing tag":
+        cut = text.rindex("</body>")
+        return (text[:cut] + text[cut + len("</body>"):]).encode(), [
+            f"an XML error at line {world}, column 5: mismatched tag (expected the end of the "
+            f"<body> of line {body})"]
+    if name == "unknown attribute":
+        return text.replace("<geom friction=", '<geom colour="red" friction=', 1).encode(), [
+            f"a MuJoCo error at line {_line(text, '<geom friction=')} (<geom>): Schema "
+            "violation: unrecognized attribute: 'colour'"]
+    if name == "empty":
+        return b"", ["got an empty file"]
+    if name == "binary":
+        return bytes(range(256)) * 4, ["got binary data (a NUL byte at line 1, column 1)"]
+    if name == "utf-16":
+        return text.encode("utf-16"), ["got UTF-16 text"]
+    if name == "include of a missing file":
+        return text.replace("<worldbody>", '<include file="no_such_part.xml"/><worldbody>',
+                            1).encode(), [
+            f"a MuJoCo error at line {_line(text, '<worldbody>')} (<include>): Error opening "
+            "file 'no_such_part.xml'"]
+    assert name == "include of a truncated file"
+    return text.replace("<worldbody>", '<include file="cut_part.xml"/><worldbody>',
+                        1).encode(), [
+        "cut_part.xml (included by ", f"at line {_line(text, '<worldbody>')}): expected a "
+        "valid MJCF document, got an XML error at line 2, column 3: unclosed token"]
+
+
+BROKEN = ["truncated", "missing closing tag", "unknown attribute", "empty", "binary", "utf-16",
+          "include of a missing file", "include of a truncated file"]
+MJCF_COMMANDS = {
+    "simulate": ["simulate", "--engine", "mujoco", *SHORT, "--out", "OUT/t.csv", "--mjcf"],
+    "validate": ["validate", "--no-tune", "--t-end-s", "0.05", "--out", "OUT/v", "FILE"],
+    "theory": ["theory", "--mjcf"],
+}
+
+
+@pytest.mark.parametrize("command", sorted(MJCF_COMMANDS))
+@pytest.mark.parametrize("broken", BROKEN)
+def test_a_broken_mjcf_file_is_one_line_with_its_line_number(
+        tmp_path: Path, broken: str, command: str, capsys: pytest.CaptureFixture) -> None:
+    """Issue 29: the file, the line and column, and the reason; not MuJoCo's first line."""
+    data, says = _broken(broken, EXAMPLE.read_text())
+    xml = tmp_path / "top.xml"
+    xml.write_bytes(data)
+    (tmp_path / "cut_part.xml").write_text("<mujoco>\n  <option timestep=")
+    (tmp_path / "OUT").mkdir()
+    args = [str(tmp_path / a) if a.startswith("OUT") else a for a in MJCF_COMMANDS[command]]
+    args = [str(xml) if a == "FILE" else a for a in args]
+    if str(xml) not in args:
+        args.append(str(xml))
+    line = _bad_input_in_process(args, capsys)
+    for fragment in says:
+        assert fragment in line, line
+    if not broken.startswith("include of a truncated"):
+        assert f"{xml}: expected a valid MJCF document, got " in line
+    assert "XML_ERROR" not in line and "ErrorID" not in line
+    # nothing written; validate's lock on its --out folder goes when the process exits
+    assert [p.name for p in (tmp_path / "OUT").iterdir()
+            if not p.name.endswith(".tippetop.lock")] == []
+
+
+@pytest.mark.parametrize(("name", "change", "says"), [
+    # MuJoCo's parser reads these; tippetop, which writes the run's settings into the
+    # document, reads it with Python's stricter one
+    ("not UTF-8", lambda t: t.replace("paper loaded sphere", "caf\u00e9 top").encode("latin-1"),
+     "expected an MJCF (XML) text file in UTF-8, got a byte that is not UTF-8 (0xE9) at line "),
+    ("an unescaped &", lambda t: t.replace("paper loaded sphere", "a & b").encode(),
+     "expected a well-formed XML document, got an XML error at line "),
+])
+def test_a_file_mujoco_reads_but_xml_does_not_is_one_line(
+        tmp_path: Path, name: str, change: object, says: str,
+        capsys: pytest.CaptureFixture) -> None:
+    text = EXAMPLE.read_text()
+    xml = tmp_path / "top.xml"
+    xml.write_bytes(change(text))  # type: ignore[operator]
+    out = tmp_path / "t.csv"
+    line = _bad_input_in_process(["simulate", "--engine", "mujoco", *SHORT, "--mjcf", str(xml),
+                                  "--out", str(out)], capsys)
+    assert f"{xml}: {says}{_line(text, '<mujoco model=')}, column " in line
+    assert not out.exists()
+
+
+def test_a_file_with_a_byte_order_mark_runs(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from tippetop.compare.cli import main
+
+    xml = tmp_path / "bom.xml"
+    xml.write_bytes(b"\xef\xbb\xbf" + EXAMPLE.read_bytes())
+    assert main(["theory", "--mjcf", str(xml), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)
+
+
+def test_a_truncated_mjcf_file_through_the_command(tmp_path: Path) -> None:
+    """The same, as a user runs it: one line on stderr, exit 2, nothing on stdout."""
+    text = EXAMPLE.read_text()
+    xml = tmp_path / "cut.xml"
+    xml.write_text(text[:text.index("<option") + 30])
+    line = _bad_input("theory", "--mjcf", str(xml))
+    assert line == (f"tippetop: error: {xml}: expected a valid MJCF document, got an XML error "
+                    f"at line {_line(text, '<option')}, column 3: unclosed token")

@@ -23,6 +23,7 @@ from tippetop.models.mjcf import (
 from tippetop.models.params import InitialState, StemParams, TopParams
 from tippetop.mujoco_runner.model import (
     TopModelWarning,
+    load_error,
     load_model,
     load_top,
     stem_from_model,
@@ -306,3 +307,34 @@ def test_visual_stem_does_not_warn() -> None:
     _, caught = _load_with(f'<geom name="stem" type="capsule" fromto="0 0 0 0 0 {2 * _R}" '
                            f'size="{0.1 * _R}" contype="0" conaffinity="0"/>')
     assert caught == []
+
+
+# --- MuJoCo's errors, one line each (issue 29) ---------------------------------------------
+@pytest.mark.parametrize(("message", "says"), [
+    # MuJoCo's XML parser, on a document Python's parser reads: its line and its reason
+    ("XML parse error 7:\nError=XML_ERROR_PARSING_ATTRIBUTE ErrorID=7 (0x7) Line number=9: "
+     "XMLElement name=option\n", "got an XML error at line 9: a malformed attribute (<option>)"),
+    ("XML Error: Schema violation: unrecognized attribute: 'colour'\nElement 'geom', line 12\n",
+     "got a MuJoCo error at line 12 (<geom>): Schema violation: unrecognized attribute: "
+     "'colour'"),
+    ("XML Error: Error: repeated name 'ball' in geom\nElement 'geom', line 22\n",
+     "got a MuJoCo error at line 22 (<geom>): repeated name 'ball' in geom"),
+    ("Error: size 0 must be positive in geom\nElement name 'ball', id 1, line 22",
+     "got a MuJoCo error at line 22 ('ball'): size 0 must be positive in geom"),
+    ("Error: Error opening file 'nope.stl'", "got a MuJoCo error: Error opening file 'nope.stl'"),
+    ("first\nsecond\n", "got a MuJoCo error: first; second"),
+])
+def test_mujoco_load_errors_are_one_line(message: str, says: str) -> None:
+    line = load_error(message, None, "<mujoco/>")
+    assert line == f"mjcf: expected a valid MJCF document, {says}"
+
+
+def test_an_error_in_an_included_file_names_that_file(tmp_path) -> None:
+    (tmp_path / "part.xml").write_text("<mujoco>\n  <option timestep=")
+    main = tmp_path / "main.xml"
+    main.write_text('<mujoco>\n  <include file="part.xml"/>\n  <worldbody/>\n</mujoco>\n')
+    with pytest.raises(TippetopError) as err:
+        load_top(str(main))
+    assert str(err.value) == (f"{tmp_path / 'part.xml'} (included by {main} at line 2): "
+                              "expected a valid MJCF document, got an XML error at line 2, "
+                              "column 3: unclosed token")
