@@ -80,8 +80,8 @@ from tippetop.compare.running.runner import (
     run_tasks,
     task_key,
 )
-from tippetop.compare.studies.matrix import MODES
 from tippetop.models.engines import EngineSpec, parse_engine
+from tippetop.models.modes import run_label
 from tippetop.models.resources import user_cache_dir
 from tippetop.mujoco_runner import remote
 from tippetop.mujoco_runner.envs import READY, env_folder, envs_root
@@ -185,7 +185,7 @@ def matrix_tasks(scenes: Sequence[str], spec: str, modes: Sequence[str],
     """The reference's tasks and the engine's, as ``run_matrix`` makes them for catalogue scenes."""
     over = (f"run.t_end_s={t_end!r}",)
     ode = [Task(s, over, "ode", label=f"{s} [ode]") for s in scenes]
-    eng = [Task(s, (*over, *MODES[m]), "mujoco", label=f"{s} {m}", spec=spec)
+    eng = [Task(s, over, spec, m, label=f"{s} [{run_label(spec, m)}]")
            for s in scenes for m in modes]
     return ode, eng
 

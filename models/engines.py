@@ -96,15 +96,35 @@ def parse_engine(text: str) -> EngineSpec:
                         f"{did_you_mean(spec, (*NAMED, 'mujoco==X.Y.Z', 'mujoco@PYTHON'))}")
 
 
-def parse_engines(text: str) -> list[EngineSpec]:
+def parse_engines(text: str, *, mujoco_only: bool = False) -> list[EngineSpec]:
     """A comma-separated list of engines (``--engines``), each at most once.
+
+    Args:
+        text: The list as given.
+        mujoco_only: Only MuJoCo engines (a command whose reference always runs, such as
+            ``validate``): ``ode``, or any engine but the MuJoCo forms, is one line.
 
     Raises:
         TippetopError: An empty list, a bad engine or one given twice.
     """
-    specs = [parse_engine(s) for s in text.split(",") if s.strip()]
+    forms = MUJOCO_SPEC_FORMS if mujoco_only else SPEC_FORMS
+    specs = []
+    for s in text.split(","):
+        if not s.strip():
+            continue
+        try:
+            spec = parse_engine(s)
+        except TippetopError as e:
+            if not mujoco_only:
+                raise
+            hint = did_you_mean(s.strip(), (*NAMED[1:], "mujoco==X.Y.Z", "mujoco@PYTHON"))
+            raise TippetopError(f"engine: expected {forms}, got {s.strip()!r}{hint}") from e
+        if mujoco_only and spec.is_reference:
+            raise TippetopError(f"engine: expected {forms}, got 'ode' (the reference runs "
+                                "anyway: it is what every engine is checked against)")
+        specs.append(spec)
     if not specs:
-        raise TippetopError(f"--engines: expected at least one of {SPEC_FORMS}, got {text!r}")
+        raise TippetopError(f"--engines: expected at least one of {forms}, got {text!r}")
     seen = [s.spec for s in specs]
     twice = sorted({s for s in seen if seen.count(s) > 1})
     if twice:

@@ -155,8 +155,10 @@ def parse_mode(text: str, option: str = "--mode") -> str:
     if name in MODES:
         return name
     hint = ""
-    if name in OLD_NAMES:
-        hint = f" ({name!r} is an engine and a mode: {new_spelling(name)})"
+    if name in OLD_NAMES and name not in ("ode", "mujoco"):
+        hint = f" ({name!r} names an engine and a mode: {new_spelling(name)})"
+    elif name in ("ode", "mujoco"):
+        hint = f" ({name!r} is an engine: --engine {name})"
     raise TippetopError(f"{option}: expected a mode ({_choices()}), got "
                         f"{text!r}{hint or did_you_mean(name, MODES)}")
 
@@ -274,8 +276,9 @@ def read_old_list(items: Iterable[str], option: str) -> list[tuple[str, str | No
     mode or engine of today), every item is read that way and one line says the new spelling.
     """
     names = [i.strip() for i in items if i.strip()]
-    if not any(n in OLD_NAMES and n not in MODES and n not in ("ode", "mujoco")
-               for n in names):
+    engines_too = option == "--engines"  # there ode and mujoco are today's engines
+    if not any(n in OLD_NAMES and n not in MODES
+               and not (engines_too and n in ("ode", "mujoco")) for n in names):
         return None
     bad = [n for n in names if n not in OLD_NAMES]
     if bad:

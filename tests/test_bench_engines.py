@@ -48,8 +48,8 @@ def test_the_benchmarks_tasks_are_the_matrixs(monkeypatch: pytest.MonkeyPatch) -
         matrix.run_matrix(["fig3", "fig6"], parse_engines(spec), ["native", "paper"],
                           ("run.t_end_s=1.0",))
     ode, eng = bench.matrix_tasks(["fig3", "fig6"], spec, ["native", "paper"], 1.0)
-    theirs = {(t.engine, t.spec, task_key(t)) for t in seen}
-    ours = {(t.engine, t.spec, task_key(t)) for t in [*ode, *eng]}
+    theirs = {(t.engine, t.mode, task_key(t)) for t in seen}
+    ours = {(t.engine, t.mode, task_key(t)) for t in [*ode, *eng]}
     assert ours == theirs and len(ours) == 6
     cmd = bench.matrix_command(["fig3", "fig6"], spec, ["native", "paper"], 1.0, 1)
     assert cmd[cmd.index("--set") + 1] == "run.t_end_s=1.0"

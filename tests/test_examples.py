@@ -89,10 +89,10 @@ def test_capsule_top_validates_through_the_stem(tmp_path: Path) -> None:
     assert proc.returncode in (0, 1), proc.stderr
     res = json.loads(proc.stdout)
     assert res["model"]["group"] == "II" and res["model"]["theory_outcome"] == "inverted"
-    for mode in ("ode", "mujoco-paper"):
-        mine = [c for c in res["verdict"] if c["mode"] == mode]
+    for run in ("ode/paper", "mujoco/paper"):
+        mine = [c for c in res["verdict"] if c["run"] == run]
         assert {c["check"] for c in mine} >= {"outcome", "jellett_before_stem"}
         assert all(c["passed"] for c in mine), mine
-    ode, paper = res["runs"]["ode"], res["runs"]["mujoco-paper"]
+    ode, paper = res["runs"]["ode/paper"], res["runs"]["mujoco/paper"]
     assert ode["t_stem"] is not None and paper["t_stem"] is not None
     assert paper["note"].startswith("ran at dt = 0.0002 s")  # the file's 0.5 ms is too long

@@ -267,8 +267,9 @@ def engine_spec(text: str) -> str:
     A compound name of the release before (``mujoco-native``) passes: :func:`engine_and_mode`
     reads it as its engine and mode and says the new spelling.
     """
-    from tippetop.models.engines import parse_engine
-    from tippetop.models.modes import MODES, old_spelling
+    from tippetop.models.engines import NAMED, parse_engine
+    from tippetop.models.errors import closest_name
+    from tippetop.models.modes import MODES, OLD_NAMES, new_spelling, old_spelling
 
     if old_spelling(text) is not None:
         return text.strip()
@@ -276,8 +277,20 @@ def engine_spec(text: str) -> str:
         return parse_engine(text).spec
     except TippetopError as exc:
         msg = str(exc).removeprefix("engine: ")
-        if text.strip() in MODES:
-            msg += f", which is a mode: give --mode {text.strip()}"
+        name = text.strip()
+        if name in MODES:
+            msg += f", which is a mode: give --mode {name}"
+        else:  # closer to a compound name of the release before: today's spelling of it
+            from difflib import SequenceMatcher
+
+            old = closest_name(name, [n for n in OLD_NAMES if n not in NAMED])
+            now = closest_name(name, NAMED)
+
+            def ratio(other: str | None) -> float:
+                return SequenceMatcher(None, name, other).ratio() if other else 0.0
+
+            if old is not None and ratio(old) > ratio(now):
+                msg = msg.split(" (did you mean")[0] + f" (did you mean {new_spelling(old)}?)"
         raise argparse.ArgumentTypeError(msg) from None
 
 
@@ -399,7 +412,7 @@ def engines_and_modes(args: argparse.Namespace, *, engines: str, modes: str,
             that runs none of the modes (one line).
     """
     from tippetop.models.engines import parse_engines
-    from tippetop.models.modes import pairs, parse_modes, read_old_list
+    from tippetop.models.modes import MODES, pairs, parse_modes, read_old_list
 
     given = getattr(args, "modes" if old_option == "--modes" else "engines", None)
     if given:
@@ -411,8 +424,15 @@ def engines_and_modes(args: argparse.Namespace, *, engines: str, modes: str,
                                     f"compound names beside --"
                                     f"{'engines' if old_option == '--modes' else 'modes'}")
             return old
-    specs = parse_engines(getattr(args, "engines", None) or engines)
-    names = parse_modes(getattr(args, "modes", None) or modes)
+    given_engines, given_modes = getattr(args, "engines", None), getattr(args, "modes", None)
+    specs = parse_engines(given_engines or engines)
+    names = parse_modes(given_modes or modes)
+    # a default that cannot pair with what was given is left out, not an error: --engines ode
+    # runs the reference's modes of the default ones, --modes coulomb the engines that can
+    if not given_modes:
+        names = [m for m in names if any(e.family in MODES[m].families for e in specs)] or names
+    if not given_engines:
+        specs = [e for e in specs if any(e.family in MODES[m].families for m in names)] or specs
     return [(e, m, ()) for e, m in pairs(specs, names)]
 
 

@@ -40,8 +40,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "(default: its first)")
     p.add_argument("--engines", default="mujoco", metavar="SPEC,SPEC,...", help="the engines "
                    "the MuJoCo runs run on: mujoco (the installed one), mujoco==X.Y.Z, "
-                   "mujoco@PYTHON, mjx, mjx-f32, warp; another engine's runs are named "
-                   "MODE@SPEC beside the installed one's (default: mujoco)")
+                   "mujoco@PYTHON, mjx, mjx-f32, warp; each runs the file and the paper's "
+                   "law, named ENGINE/MODE (mujoco==3.3.7/file); the reference ode/paper "
+                   "always runs (default: mujoco)")
     p.add_argument("--no-tune", dest="tune", action="store_false", help="skip the tuning: "
                    "the file's contact settings fitted to the reference at its start and "
                    "verified from held-out starts (the results' 'tuned'; about 1-3 min)")
@@ -60,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.studies.validate import ValidateConfig, validate
     from tippetop.models.engines import parse_engines
 
-    engines = tuple(e.spec for e in parse_engines(args.engines))
+    engines = tuple(e.spec for e in parse_engines(args.engines, mujoco_only=True))
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
     if out is not None:

@@ -59,8 +59,9 @@ def describe_ran(summary: dict[str, Any]) -> str:
     solref, solimp = (f"{k} [{solver_text(k, summary[k])}]" if summary.get(k) is not None
                       else f"{k} -" for k in ("solref", "solimp"))
     contact = f"condim {summary.get('condim')}, {solref}, {solimp}"
-    if summary.get("friction_law") not in NATIVE_LAWS:
-        law = summary.get("friction_law")
+    law = summary.get("friction_law")
+    native = law in NATIVE_LAWS or (law is None and summary.get("mode") != "paper")
+    if not native:
         mu = summary.get("law_mu")
         applied = f"the paper-mode law {law}" + (f" (mu {number_text(mu)})" if mu is not None
                                                  else "")

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.nightly.catalogue import migrate_case_id
 from tippetop.compare.nightly.outputs import timestamp
 from tippetop.compare.running.io import json_ready, write_atomic
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import OLD_NAMES, run_label
 from tippetop.models.resources import data_path
 
 #: Where the baselines live in the repository (one JSON file per profile).
@@ -20,21 +19,6 @@ BASELINE_DIR = data_path("tippetop.compare", "baselines")
 BASELINE_FORMAT = "tippetop-nightly-baseline/2"
 #: The formats read: the first one's case ids are migrated (:func:`migrate_case_id`).
 READ_FORMATS = ("tippetop-nightly-baseline/1", BASELINE_FORMAT)
-_OLD_ID = re.compile(r"^(?P<head>.*)\[(?P<mode>[^\]/]+)\](?:@(?P<engine>.+))?$")
-
-
-def migrate_case_id(case_id: str) -> str:
-    """A case id of the release before in today's spelling (today's ids are returned as given).
-
-    ``paper/fig3[mujoco-native]`` -> ``paper/fig3[mujoco/native]``;
-    ``paper/fig3[mujoco-native]@mujoco==3.3.7`` -> ``paper/fig3[mujoco==3.3.7/native]``;
-    ``paper/fig3[ode]`` -> ``paper/fig3[ode/paper]``.
-    """
-    m = _OLD_ID.match(case_id)
-    if m is None or m["mode"] not in OLD_NAMES:
-        return case_id
-    family, mode, _extra = OLD_NAMES[m["mode"]]
-    return f"{m['head']}[{run_label(m['engine'] or family, mode or 'paper')}]"
 
 
 def baseline_file(directory: Path, profile: str) -> Path:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import fnmatch
+import re
 import sys
 import tomllib
 from collections.abc import Sequence
@@ -301,6 +302,24 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
     return Catalogue(p, profiles, tuple(cases))
 
 
+#: A case id of the release before: ``HEAD[COMPOUND]`` or ``HEAD[COMPOUND]@ENGINE``.
+_OLD_ID = re.compile(r"^(?P<head>.*)\[(?P<mode>[^\]/]+)\](?:@(?P<engine>.+))?$")
+
+
+def migrate_case_id(case_id: str) -> str:
+    """A case id of the release before in today's spelling (today's ids are returned as given).
+
+    ``paper/fig3[mujoco-native]`` -> ``paper/fig3[mujoco/native]``;
+    ``paper/fig3[mujoco-native]@mujoco==3.3.7`` -> ``paper/fig3[mujoco==3.3.7/native]``;
+    ``paper/fig3[ode]`` -> ``paper/fig3[ode/paper]``.
+    """
+    m = _OLD_ID.match(case_id)
+    if m is None or m["mode"] not in OLD_NAMES:
+        return case_id
+    family, mode, _extra = OLD_NAMES[m["mode"]]
+    return f"{m['head']}[{run_label(m['engine'] or family, mode or 'paper')}]"
+
+
 def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = ENGINES,
                  patterns: Sequence[str] = (), modes: Sequence[str] = ()) -> list[Case]:
     """The cases of ``profile`` on ``engines`` (families) whose id matches one of ``patterns``.
@@ -314,7 +333,11 @@ def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = EN
     out = [c for c in catalogue.cases if profile in c.profiles and c.family in engines
            and (not modes or c.mode in modes)]
     if patterns:
-        globs = [_literal_brackets(p) for p in patterns]
+        new = [migrate_case_id(p) for p in patterns]
+        for old, now in zip(patterns, new, strict=True):
+            if old != now:
+                note(f"--cases {old} is now {now} (the old spelling goes in the next release)")
+        globs = [_literal_brackets(p) for p in new]
         out = [c for c in out if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
     return out
 

@@ -94,7 +94,8 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
             speed = video_speed(scene.run.t_end_s)
             n_frames = frame_count(scene.run.t_end_s, VIDEO_FPS, speed)
             say(f"{n_frames} frames at {VIDEO_FPS:g} fps, speed {speed:.3g}")
-            res = render_scene(scene, path, engines=("mujoco", "ode"), fps=VIDEO_FPS, speed=speed,
+            res = render_scene(scene, path, engines=("mujoco", "ode"), fps=VIDEO_FPS,
+                               speed=speed,
                                size=VIDEO_SIZE, max_frames=VIDEO_MAX_FRAMES, force=True,
                                progress=False, say=say)
             if res.n_frames != n_frames or not path.is_file() or path.stat().st_size == 0:

@@ -39,7 +39,7 @@ def _needs(plan: Any) -> set[str]:
             out.add("tippetop.reference_ode.paper")
         return out
     out = {"tippetop.mujoco_runner.stepper"}
-    if plan.mujoco.mode == "paper" and plan.mujoco.law is not None:
+    if plan.mujoco.friction == "paper" and plan.mujoco.law is not None:
         out.add("tippetop.mujoco_runner.friction_callback")
     return out
 

@@ -53,7 +53,7 @@ def changes_for(plan: MujocoPlan) -> list[Change]:
     out.append(Change("contacts off", ("mujoco.contacts=false",)))
     out.append(Change("friction off", ("effects.sliding=false",)))
     other = "pyramidal" if plan.cone == "elliptic" else "elliptic"
-    out.append(Change(f"cone {other}", (f"mujoco.cone={other}",)) if plan.mode == "native"
+    out.append(Change(f"cone {other}", (f"mujoco.cone={other}",)) if plan.friction == "native"
                else Change(f"cone {other}", None, "paper mode's contact has no friction rows"))
     it = max(SOLVER_ITERATIONS_FACTOR * plan.iterations, 1000)
     out.append(Change(f"solver {it} iterations, tolerance {SOLVER_TOLERANCE:g}",

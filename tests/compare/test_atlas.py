@@ -27,10 +27,10 @@ def _private_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_the_reference_reproduces_groups_one_to_three() -> None:
     # a/R = 0.1: Group I below A/C = 0.9, II between 0.9 and 1.1, III above 1.1
-    res = run_atlas([0.8, 1.0, 1.3], [0.1], ("ode",), workers=2)
+    res = run_atlas([0.8, 1.0, 1.3], [0.1], [("ode", "paper", ())], workers=2)
     by = {p["A_over_C"]: p for p in res["points"]}
     assert [by[r]["group_theory"] for r in (0.8, 1.0, 1.3)] == ["I", "II", "III"]
-    assert all(p["agrees"] for p in res["points"]) and res["agreement"] == {"ode": 1.0}
+    assert all(p["agrees"] for p in res["points"]) and res["agreement"] == {"ode/paper": 1.0}
     assert by[0.8]["n1_measured"] is None and by[1.3]["n4_measured"] is None
     for p in res["points"]:
         for key in ("n1", "n4"):
@@ -62,9 +62,9 @@ def test_the_command_writes_csv_png_json_and_refuses_bad_input(tmp_path: Path) -
     r = _tippetop(*args, "--out", str(out), "--json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    assert set(data) >= {"points", "agreement"} and data["agreement"] == {"ode": 1.0}
-    keys = {"A_over_C", "a_over_R", "engine", "group_theory", "group_measured", "n1_theory",
-            "n1_measured", "n4_theory", "n4_measured"}
+    assert set(data) >= {"points", "agreement"} and data["agreement"] == {"ode/paper": 1.0}
+    keys = {"A_over_C", "a_over_R", "engine", "mode", "run", "group_theory", "group_measured",
+            "n1_theory", "n1_measured", "n4_theory", "n4_measured"}
     assert all(keys <= set(p) for p in data["points"]) and len(data["points"]) == 2
     table = pd.read_csv(out / "atlas.csv")
     assert list(table["group_measured"]) == ["I", "II"]

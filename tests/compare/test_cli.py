@@ -97,15 +97,19 @@ def test_simulate_parquet_and_no_overwrite(tmp_path: Path) -> None:
         (["simulate", "--set", "init.n0=nan"], "init.n0"),
         (["simulate", "--set", "top.colour=3"], "top.colour"),
         (["simulate", "--engine", "bullet"], "--engine"),
-        (["simulate", "--engine", "mjx"], "give it as --on mjx"),
-        (["simulate", "--on", "mjy"], "--on: expected mujoco, mujoco==X.Y.Z"),
-        (["simulate", "--on", "mujoco==3.x"], "--on: expected mujoco==X.Y.Z with a release"),
-        (["simulate", "--on", "mjx", "--engine", "ode", "--out", "t.csv"],
-         "expected a MuJoCo run"),
-        (["simulate", "--on", "mujoco@/no/such/python"], "expected the path of a Python"),
-        (["threshold", "--which", "n1", "--on", "mjx"], "expected a MuJoCo engine"),
-        (["threshold", "--which", "n1", "--engine", "mujoco", "--on", "mujoco=3"],
-         "argument --on: expected mujoco"),
+        (["simulate", "--engine", "native"], "which is a mode: give --mode native"),
+        (["simulate", "--mode", "mujoco"], "which is an engine: give --engine mujoco"),
+        (["simulate", "--engine", "mjy"], "--engine: expected ode, mujoco, mujoco==X.Y.Z"),
+        (["simulate", "--engine", "mujoco==3.x"], "expected mujoco==X.Y.Z with a release"),
+        (["simulate", "--engine", "ode", "--mode", "native", "--out", "t.csv"],
+         "expected a mode the reference ODE runs"),
+        (["simulate", "--engine", "mjx", "--mode", "coulomb", "--out", "t.csv"],
+         "expected a mode a MuJoCo engine runs"),
+        (["simulate", "--engine", "mujoco@/no/such/python"], "expected the path of a Python"),
+        (["threshold", "--which", "n1", "--engine", "mujoco", "--mode", "viscous"],
+         "'viscous' is a law of the reference's, run on the reference ODE only"),
+        (["threshold", "--which", "n1", "--engine", "mujoco=3"],
+         "argument --engine: expected ode, mujoco"),
         (["simulate", "no_such_scene"], "no_such_scene"),
         (["simulate", "--set", "ode.formulation=paper", "--set", "init.theta0=0"], "singular"),
         (["simulate", "--out", "x.txt"], ".csv or .parquet"),
@@ -241,11 +245,12 @@ def test_simulate_on_an_engine_runs_there_and_says_so() -> None:
     args = ("simulate", "fig3", "--set", "run.t_end_s=0.3", "--set", "mujoco.friction=native",
             "--json")
     here = json.loads(tippetop(*args, "--engine", "mujoco").stdout)
-    r = tippetop(*args, "--on", spec)  # --engine defaults to mujoco with --on
+    r = tippetop(*args, "--engine", spec)
     assert r.returncode == 0, r.stderr
     there = json.loads(r.stdout)
-    assert there["engine"] == "mujoco" and there["engine_spec"] == spec
-    assert there["path"].startswith("worker") and here["engine_spec"] == "mujoco"
+    assert there["engine"] == spec and here["engine"] == "mujoco"
+    assert there["mode"] == here["mode"] == "native" and "engine_spec" not in there
+    assert there["path"].startswith("worker")
     assert there["n_steps"] == here["n_steps"]
     for k in ("theta_final", "theta_asymp", "J_rel_drift"):
         assert there[k] == pytest.approx(here[k], rel=1e-9, abs=1e-15), k

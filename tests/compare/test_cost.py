@@ -51,16 +51,18 @@ def test_each_engine_keeps_its_own_figure(cache: Path) -> None:
     assert cost.mujoco_step_s() == (pytest.approx(15e-6), True)
     assert cost.mujoco_step_s("mjx") == (pytest.approx(1e-3), True)
     assert cost.mujoco_step_s("warp") == (cost.MUJOCO_STEP_S, False)
-    plan = plan_for(load_scene("fig3", ["run.t_end_s=20"]), "mujoco-native")  # 1e5 steps
+    plan = plan_for(load_scene("fig3", ["run.t_end_s=20"]), "mujoco", "native")  # 1e5 steps
     assert cost.expected_cost_s(plan, "mjx") == pytest.approx(cost.TASK_OVERHEAD_S + 100.0)
-    note = cost.long_run_note([plan, plan], slots=2, specs=["mujoco", "mjx"])
+    on_mjx = plan_for(load_scene("fig3", ["run.t_end_s=20"]), "mjx", "native")
+    assert cost.expected_cost_s(on_mjx) == pytest.approx(cost.TASK_OVERHEAD_S + 100.0)
+    note = cost.long_run_note([plan, on_mjx], slots=2)
     assert note.startswith("tippetop: about 100 s of computing (")
     assert "1.0e+05 MuJoCo steps at ~15 us, as measured here" in note
     assert "1.0e+05 MuJoCo steps on mjx at ~1000 us, as measured here" in note
 
 
 def test_the_estimate_uses_it_and_says_whether_it_was_measured(cache: Path) -> None:
-    long = plan_for(load_scene("fig3", ["run.t_end_s=200"]), "mujoco-paper")  # 1e7 steps
+    long = plan_for(load_scene("fig3", ["run.t_end_s=200"]), "mujoco", "paper")  # 1e7 steps
     assert cost.expected_cost_s(long) == pytest.approx(cost.TASK_OVERHEAD_S + 1e7 * 20e-6)
     assert "at ~20 us, not yet measured here" in cost.long_run_note([long])
     cost.record_mujoco_runs([(1_000_000, 40.0)])  # 40 us a step on a slow machine
@@ -107,10 +109,10 @@ def test_no_usable_cache_folder_is_the_default_and_nothing_kept(tmp_path: Path,
 
 
 def test_only_finished_runs_of_the_engine_are_measured() -> None:
-    here = {"engine": "mujoco", "engine_spec": "mujoco", "status": "ok", "n_steps": 20_000,
+    here = {"engine": "mujoco", "mode": "native", "status": "ok", "n_steps": 20_000,
             "wall_s": 0.3}
     assert measured_steps([here]) == [(20_000, 0.3)]
-    others = [None, {**here, "engine_spec": "mjx"}, {**here, "engine": "ode"},
+    others = [None, {**here, "engine": "mjx"}, {**here, "engine": "ode"},
               {**here, "status": "diverged"}, {**here, "n_steps": None}]
     assert measured_steps(others) == []
     assert measured_steps(others, "mjx") == [(20_000, 0.3)]  # each engine its own runs
@@ -119,7 +121,7 @@ def test_only_finished_runs_of_the_engine_are_measured() -> None:
 def test_a_simulate_of_the_mujoco_here_keeps_what_its_steps_cost(tmp_path: Path) -> None:
     env_cache = tmp_path / "cache"
     args = [sys.executable, "-m", "tippetop.compare.cli", "simulate", "fig3", "--engine",
-            "mujoco-paper", "--set", "run.t_end_s=0.5", "--json"]
+            "mujoco", "--mode", "paper", "--set", "run.t_end_s=0.5", "--json"]
     env = {**os.environ, "TIPPETOP_CACHE": str(env_cache)}
     r = subprocess.run(args, capture_output=True, text=True, env=env, timeout=300, check=False)
     assert r.returncode == 0, r.stderr
@@ -129,7 +131,8 @@ def test_a_simulate_of_the_mujoco_here_keeps_what_its_steps_cost(tmp_path: Path)
     assert doc["mujoco"]["step_s"] == pytest.approx(run["wall_s"] / run["n_steps"])
     # the reference ODE has no step to measure: the figure stays as it was
     before = (env_cache / cost.STEP_COST_FILE).read_text()
-    r = subprocess.run([*args[:5], "--set", "run.t_end_s=0.5"], capture_output=True,
+    r = subprocess.run([*args[:5], "--engine", "ode", "--set", "run.t_end_s=0.5"],
+                       capture_output=True,
                        text=True, env=env, timeout=300, check=False)
     assert r.returncode == 0 and (env_cache / cost.STEP_COST_FILE).read_text() == before
 
@@ -150,7 +153,7 @@ def test_a_batch_keeps_its_computed_runs_not_its_cached_ones(cache: Path) -> Non
     assert all(r.cached for r in again) and kept.read_text() == before
     # a worker's run is its engine's, kept apart: the installed MuJoCo's figure stays
     spec = f"mujoco@{sys.executable}"
-    there = run_tasks([Task("fig3", short, "mujoco", spec=spec)], workers=1,
+    there = run_tasks([Task("fig3", short, spec)], workers=1,
                       cache_dir=cache / "runs")
     assert there[0].error is None
     engines = json.loads(kept.read_text())["engines"]

@@ -26,47 +26,52 @@ def _private_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 def test_fig3_modes_and_differences() -> None:
     """Fig. 3 over its 8 s: the paper's law in MuJoCo agrees with the reference (inverts, J kept);
     exact Coulomb does not invert (it rolls) and is listed as a difference on its outcome."""
-    res = compare_scene("fig3", ["ode", "ode-coulomb", "mujoco-paper"],
+    res = compare_scene("fig3", [("ode", "paper", ()), ("ode", "coulomb", ()),
+                                 ("mujoco", "paper", ())],
                         ("mujoco.timestep_s=1e-4",), workers=1)
     assert res["group"] == "II" and res["theory"]["outcome"] == "inverted"
-    modes = res["modes"]
-    for s in modes.values():
-        assert SUMMARY_KEYS | {"outcome", "matches_theory"} <= set(s)
-    assert modes["ode"]["outcome"] == "inverted" and modes["ode"]["matches_theory"]
-    assert modes["mujoco-paper"]["outcome"] == "inverted"
-    assert modes["mujoco-paper"]["matches_theory"]
-    assert modes["ode-coulomb"]["outcome"] == "upright"
-    assert not modes["ode-coulomb"]["matches_theory"]
-    flagged = {(d["mode"], d["metric"]) for d in res["differences"]}
-    assert ("ode-coulomb", "outcome") in flagged
-    assert not any(m == "mujoco-paper" for m, _ in flagged)
-    rows = {r["mode"]: r for r in res["crossval"]}
-    assert set(rows) == {"ode", "ode-coulomb", "mujoco-paper"}
+    runs = {s["run"]: s for s in res["runs"]}
+    for s in runs.values():
+        assert SUMMARY_KEYS | {"outcome", "matches_theory", "engine", "mode"} <= set(s)
+    assert runs["ode/paper"]["outcome"] == "inverted" and runs["ode/paper"]["matches_theory"]
+    assert runs["mujoco/paper"]["outcome"] == "inverted"
+    assert runs["mujoco/paper"]["matches_theory"]
+    assert runs["ode/coulomb"]["outcome"] == "upright"
+    assert not runs["ode/coulomb"]["matches_theory"]
+    flagged = {(d["run"], d["metric"]) for d in res["differences"]}
+    assert ("ode/coulomb", "outcome") in flagged
+    assert not any(m == "mujoco/paper" for m, _ in flagged)
+    rows = {r["run"]: r for r in res["crossval"]}
+    assert set(rows) == {"ode/paper", "ode/coulomb", "mujoco/paper"}
+    assert (rows["mujoco/paper"]["engine"], rows["mujoco/paper"]["mode"]) == ("mujoco", "paper")
     # the theory says theta_s = pi; both inverting runs end within THETA_S_TOL of it
-    assert rows["ode"]["agrees"] and abs(rows["ode"]["d_theta_asymp"]) <= THETA_S_TOL[0]
-    assert rows["mujoco-paper"]["agrees"] and rows["mujoco-paper"]["d_t_invert"] is not None
-    assert not rows["ode-coulomb"]["agrees"] and rows["ode-coulomb"]["reasons"]
+    assert rows["ode/paper"]["agrees"]
+    assert abs(rows["ode/paper"]["d_theta_asymp"]) <= THETA_S_TOL[0]
+    assert rows["mujoco/paper"]["agrees"] and rows["mujoco/paper"]["d_t_invert"] is not None
+    assert not rows["ode/coulomb"]["agrees"] and rows["ode/coulomb"]["reasons"]
     table = friction_law_table(res)
-    assert list(table["mode"]) == ["ode", "ode-coulomb", "mujoco-paper"]
-    row = table.set_index("mode").loc["ode-coulomb"]
+    assert list(table["run"]) == ["ode/paper", "ode/coulomb", "mujoco/paper"]
+    row = table.set_index("run").loc["ode/coulomb"]
     assert not row["inverts"] and "upright" in row["departs"]
 
 
 def test_unknown_mode() -> None:
-    with pytest.raises(TippetopError, match="--modes"):
-        compare_scene("fig3", ["bullet"])
+    with pytest.raises(TippetopError, match="expected a mode"):
+        compare_scene("fig3", [("mujoco", "bullet", ())])
+    with pytest.raises(TippetopError, match="expected a mode the reference ODE runs"):
+        compare_scene("fig3", [("ode", "native", ())])
 
 
 def test_matching_the_theory_needs_the_angle_too() -> None:
     # the issue's case: a native elliptic-cone run ending 'inverted' at 2.600 rad where the
     # theory's theta_s is 2.752 (also 'inverted' by class) does not match the theory
-    row = crossval_row("fig11_n070", "mujoco-native-elliptic", outcome="inverted",
+    row = crossval_row("fig11_n070", "native-elliptic", engine="mujoco", outcome="inverted",
                        theta_asymp=2.600, theta_s=2.752, theory_outcome="inverted",
                        t_invert=3.0, t_invert_ref=2.9, J_rel_drift=1e-6)
     assert not row["agrees"]
     assert row["d_theta_asymp"] == pytest.approx(-0.152)
     assert "beyond 0.05 rad" in row["reasons"][0]
-    near = crossval_row("x", "ode", outcome="inverted", theta_asymp=2.73, theta_s=2.752,
+    near = crossval_row("x", "paper", outcome="inverted", theta_asymp=2.73, theta_s=2.752,
                         theory_outcome="inverted", t_invert=3.0, reference=True)
     assert near["agrees"] and near["d_t_invert"] is None
 
@@ -79,7 +84,7 @@ def test_a_run_still_moving_is_inconclusive_with_its_trend() -> None:
     table = pd.DataFrame({"t": t, "theta": 0.05 + 0.01 * t})
     assert classify_outcome(table) == "inconclusive"
     assert theta_trend(table) == pytest.approx(0.01, rel=0.01)  # windows of 100 samples: 1 %
-    row = crossval_row("x", "mujoco-paper", outcome="inconclusive", theta_asymp=0.145,
+    row = crossval_row("x", "paper", engine="mujoco", outcome="inconclusive", theta_asymp=0.145,
                        theta_s=0.0, theory_outcome="upright", t_invert=None,
                        trend=theta_trend(table))
     trend = number_text(theta_trend(table), "rad/s")  # four digits: +0.01005 rad/s

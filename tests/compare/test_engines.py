@@ -94,7 +94,7 @@ def test_the_summary_reports_what_ran_and_what_was_not_used() -> None:
     mj = _run("mujoco", "mujoco.friction=native", "mujoco.cone=elliptic", "ode.rtol=1e-6",
               "run.t_end_s=0.05")
     s = mj.summary
-    assert s["condim"] == 3 and s["friction_law"] == "mujoco-native"
+    assert s["condim"] == 3 and s["friction_law"] == "mujoco_contact"
     assert s["unused"] == ["ode.rtol"]
     for key in ("timestep_s", "integrator", "impratio", "mu", "solref", "solimp"):
         assert s[key] is not None, key
@@ -112,7 +112,7 @@ def _slide_deceleration(mode: str, angle_deg: float) -> float:
     scene = load_scene("fig3", ["init.theta0=0.0", "init.n0=0.0", f"init.uOX={0.5 * math.cos(a)!r}",
                                 f"init.uOY={0.5 * math.sin(a)!r}", "run.t_end_s=0.1",
                                 "run.sample_dt_s=0.001"])
-    run = run_engine(scene, mode, progress=False)
+    run = run_engine(scene, "mujoco", mode, progress=False)
     t = run.table["t"].to_numpy()
     speed = np.hypot(np.gradient(run.table["x"].to_numpy(), t),
                      np.gradient(run.table["y"].to_numpy(), t))
@@ -126,9 +126,9 @@ def test_the_cone_setting_takes_effect() -> None:
     # direction (facts.md: a box decelerated at 0.70 mu g against ~1.0). The tippe top on its
     # calibrated native contact: measured 1.009 mu g elliptic at 0 and 45 degrees, 1.011 mu g
     # pyramidal along x, 0.711 mu g pyramidal along the diagonal. Bounds 0.03 mu g.
-    assert _slide_deceleration("mujoco-native-elliptic", 45.0) == pytest.approx(1.0, abs=0.03)
-    assert _slide_deceleration("mujoco-native-pyramidal", 0.0) == pytest.approx(1.0, abs=0.03)
-    assert _slide_deceleration("mujoco-native-pyramidal", 45.0) == pytest.approx(
+    assert _slide_deceleration("native-elliptic", 45.0) == pytest.approx(1.0, abs=0.03)
+    assert _slide_deceleration("native-pyramidal", 0.0) == pytest.approx(1.0, abs=0.03)
+    assert _slide_deceleration("native-pyramidal", 45.0) == pytest.approx(
         1.0 / math.sqrt(2.0), abs=0.03)
 
 

@@ -38,7 +38,8 @@ category = "paper"
 kind = "run"
 scene = "fig3"
 set = ["run.t_end_s=0.05"]
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["theta_asymp", "J_rel_drift"]
 """
@@ -319,7 +320,7 @@ def test_old_entry_without_checksums_or_for_another_key_is_recomputed(
 @pytest.mark.parametrize("command", [
     ("atlas", "--engines", "ode", "--A-over-C", "1:1:1", "--a-over-R", "0.1:0.1:1"),
     ("threshold", "--which", "n1"),
-    ("sweep", "fig3", "--n0", "40:50:10", "--modes", "ode"),
+    ("sweep", "fig3", "--n0", "40:50:10", "--engines", "ode"),
     ("validate", str(Path(__file__).resolve().parents[2] / "examples"
                      / "paper_loaded_sphere.xml")),
 ])

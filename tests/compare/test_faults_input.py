@@ -82,7 +82,8 @@ def test_set_integer_past_pythons_digit_limit() -> None:
     ("case = [1, 2]\n[profiles.quick]\n", "expected a table"),
     ("profiles = 3\n", "profiles"),
     ('[profiles.quick]\n[[case]]\nname = "a"\ncategory = "c"\nkind = "threshold"\n'
-     'scene = "fig3"\nmodes = ["ode"]\nprofiles = ["quick"]\nmetrics = ["measured"]\n'
+     'scene = "fig3"\nengines = ["ode"]\nmodes = ["paper"]\nprofiles = ["quick"]\n'
+     'metrics = ["measured"]\n'
      f'which = "n1"\nmethod = "bisect"\nrel_tol = {BIG_INT}\n', "rel_tol"),
     ("[profiles.quick]\nx = " + "1" * 5000 + "\n", "4300 digits"),
 ])
@@ -114,13 +115,14 @@ def test_failed_ode_run_prints_no_numbers(tmp_path: Path) -> None:
 
 
 def test_failed_runs_inside_compare_are_reported_per_run() -> None:
-    r = _run("compare", "fig3", "--modes", "ode,ode-coulomb", *STOP_SHORT, "--json")
+    r = _run("compare", "fig3", "--engines", "ode", "--modes", "paper,coulomb", *STOP_SHORT,
+             "--json")
     assert r.returncode == 1, r.stderr
     _one_line(r.stderr, "tippetop: run failed:")
-    modes = json.loads(r.stdout)["modes"]
-    assert set(modes) == {"ode", "ode-coulomb"}  # every run kept, each with its reason
+    runs = {s["run"]: s for s in json.loads(r.stdout)["runs"]}
+    assert set(runs) == {"ode/paper", "ode/coulomb"}  # every run kept, each with its reason
     assert all(s["outcome"] == "failed" and s["status"] == "max_steps" and
-               s["theta_asymp"] is None for s in modes.values())
+               s["theta_asymp"] is None for s in runs.values())
 
 
 def test_failed_runs_inside_sweep_are_rows(tmp_path: Path) -> None:
@@ -217,7 +219,8 @@ def test_mjcf_with_timestep_0_is_bad_input(tmp_path: Path, command: tuple[str, .
 # ---------------------------------------------------------------- MuJoCo's own warnings
 def test_mujoco_warning_is_folded_into_the_one_line() -> None:
     """MuJoCo's 'WARNING: Nan, Inf or huge value in QVEL ...' is not printed beside the line."""
-    r = _run("simulate", "fig3", "--engine", "mujoco-native", "--set", "init.n0=1e150",
+    r = _run("simulate", "fig3", "--engine", "mujoco", "--mode", "native", "--set",
+             "init.n0=1e150",
              *SHORT, "--json")
     assert r.returncode == 1, r.stderr
     line = _one_line(r.stderr, "tippetop: run failed:")
@@ -226,15 +229,16 @@ def test_mujoco_warning_is_folded_into_the_one_line() -> None:
 
 
 def test_diverged_mujoco_run_inside_compare_keeps_the_others() -> None:
-    r = _run("compare", "fig3", "--modes", "ode,mujoco-native", "--set",
-             "mujoco.integrator=Euler", "--set", "mujoco.timestep_s=0.02", "--set",
+    r = _run("compare", "fig3", "--engines", "ode,mujoco", "--modes", "native,coulomb",
+             "--set", "mujoco.integrator=Euler", "--set", "mujoco.timestep_s=0.02", "--set",
              "run.t_end_s=0.3", "--no-cache", "--workers", "1", "--json")
     assert r.returncode == 1, r.stderr
-    assert "mujoco-native" in _one_line(r.stderr, "tippetop: run failed:")
-    modes = json.loads(r.stdout)["modes"]
-    assert modes["mujoco-native"]["outcome"] == "failed"
-    assert modes["mujoco-native"]["status"] == "diverged"
-    assert modes["ode"]["outcome"] != "failed" and modes["ode"]["theta_final"] is not None
+    assert "mujoco/native" in _one_line(r.stderr, "tippetop: run failed:")
+    runs = {s["run"]: s for s in json.loads(r.stdout)["runs"]}
+    assert runs["mujoco/native"]["outcome"] == "failed"
+    assert runs["mujoco/native"]["status"] == "diverged"
+    assert runs["ode/coulomb"]["outcome"] != "failed"
+    assert runs["ode/coulomb"]["theta_final"] is not None
 
 
 @pytest.mark.parametrize(("entry", "says"), [
@@ -247,18 +251,18 @@ def test_baseline_entry_of_the_wrong_type(tmp_path: Path, entry: object, says: s
     from tippetop.compare.nightly.baselines import BASELINE_DIR
 
     data = json.loads((BASELINE_DIR / "quick.json").read_text())
-    data["cases"]["paper/fig3[ode]"] = entry
+    data["cases"]["paper/fig3[ode/paper]"] = entry
     (tmp_path / "base").mkdir()
     (tmp_path / "base" / "quick.json").write_text(json.dumps(data))
     line = _bad_input("nightly", "--baseline", str(tmp_path / "base"), "--cases",
-                      "paper/fig3[ode]", "--out", str(tmp_path / "out"))
-    assert says in line and "paper/fig3[ode]" in line
+                      "paper/fig3[ode/paper]", "--out", str(tmp_path / "out"))
+    assert says in line and "paper/fig3[ode/paper]" in line
     assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("args", [
     ("simulate", "fig3", "--out", "/proc/tippetop-x.csv"),
-    ("sweep", "fig3", "--n0", "40:50:10", "--modes", "ode", "--out", "/proc/tippetop-x"),
+    ("sweep", "fig3", "--n0", "40:50:10", "--engines", "ode", "--out", "/proc/tippetop-x"),
     ("threshold", "--which", "n1", "--out", "/proc/tippetop-x"),
     ("atlas", "--engines", "ode", "--out", "/proc/tippetop-x"),
     ("render", "fig3", "--out", "/proc/tippetop-x.mp4"),
@@ -353,10 +357,13 @@ def _bad_input_in_process(args: list[str], capsys: pytest.CaptureFixture) -> str
     (["simulate", "fig3", "--set", "t_end_s=4"], "got 't_end_s' (did you mean 'run.t_end_s'?)"),
     (["simulate", "fig33"], "got 'fig33' (did you mean 'fig3'?)"),
     (["simulate", "fig3", "--engine", "mujoco-nativ"],
-     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
-    (["compare", "fig3", "--modes", "ode,mujoco-nativ"],
-     "got 'mujoco-nativ' (did you mean 'mujoco-native'?)"),
-    (["plan", "fig3", "--engine", "mujoco-papr"], "(did you mean 'mujoco-paper'?)"),
+     "got 'mujoco-nativ' (did you mean --engine mujoco --mode native?)"),
+    (["simulate", "fig3", "--engine", "mujoco", "--mode", "nativ"],
+     "got 'nativ' (did you mean 'native'?)"),
+    (["compare", "fig3", "--modes", "paper,nativ"], "got 'nativ' (did you mean 'native'?)"),
+    (["compare", "fig3", "--engines", "ode,mujocoo"], "got 'mujocoo' (did you mean 'mujoco'?)"),
+    (["plan", "fig3", "--engine", "mujoco-papr"],
+     "(did you mean --engine mujoco --mode paper?)"),
     (["simulate", "fig3", "--engine", "mujoco", "--on", "mjxx"],
      "got 'mjxx' (did you mean 'mjx'?)"),
     (["simulate", "fig3", "--engine", "mujoco", "--on", "warpp"],
@@ -370,7 +377,8 @@ def _bad_input_in_process(args: list[str], capsys: pytest.CaptureFixture) -> str
     (["threshold", "--which", "N1"], "invalid choice: 'N1' (did you mean 'n1'?)"),
     (["nightly", "--profile", "quik"], "got 'quik' (did you mean 'quick'?)"),
     (["nightly", "--engines", "ode,mjxx"], "got 'mjxx' (did you mean 'mjx'?)"),
-    (["nightly", "--cases", "paper/fig33[ode]"], "(did you mean 'paper/fig3[ode]'?)"),
+    (["nightly", "--cases", "paper/fig33[ode/paper]"],
+     "(did you mean 'paper/fig3[ode/paper]'?)"),
 ])
 def test_a_mistyped_name_says_which_was_meant(args: list[str], says: str,
                                               capsys: pytest.CaptureFixture) -> None:

@@ -93,7 +93,7 @@ def _stopped_within(proc: subprocess.Popen[str], limit_s: float) -> tuple[float,
     return elapsed, stderr
 
 
-SWEEP = ["sweep", "fig3", "--n0", "40:100:10", "--modes", "ode,mujoco-paper"]
+SWEEP = ["sweep", "fig3", "--n0", "40:100:10", "--engines", "ode,mujoco", "--modes", "paper"]
 THRESHOLD = ["threshold", "--engine", "mujoco", "--which", "n1", "--set",
              "mujoco.friction=paper"]
 

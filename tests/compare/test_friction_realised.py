@@ -27,18 +27,19 @@ from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 
 
-def _run(mode: str, t_end: float = 3.0) -> tuple[dict, float, float]:
+def _run(run_name: str, t_end: float = 3.0) -> tuple[dict, float, float]:
     scene = load_scene("fig3", [f"run.t_end_s={t_end}"])
-    run = run_engine(scene, mode, progress=False)
+    engine, mode = run_name.split("/")
+    run = run_engine(scene, engine, mode, progress=False)
     return run.summary, scene.friction.mu, scene.friction.Lambda_mps
 
 
 @pytest.mark.parametrize(("mode", "tol"), [
     # the reference integrates the law itself: the fit's residual is round-off
-    ("ode", 1e-9),
+    ("ode/paper", 1e-9),
     # paper mode: the law at the callback's normal force, one evaluation behind the table's
     # (4e-11 of the force, measured): 1e-6 bounds what that does to the fitted parameters
-    ("mujoco-paper", 1e-6),
+    ("mujoco/paper", 1e-6),
 ])
 def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float) -> None:
     s, mu, lam = _run(mode)
@@ -56,7 +57,7 @@ def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float) -> None
 
 
 def test_mujoco_native_friction_is_measured() -> None:
-    s, mu, lam = _run("mujoco-native")
+    s, mu, lam = _run("mujoco/native")
     fr = s["friction_realised"]
     contact_mu = s["mu"]  # the ball-table contact's, read back
     assert fr["mu_law"] == mu and fr["Lambda_law_mps"] == lam
@@ -114,8 +115,8 @@ FR = {"samples": 4012, "mu_fit": 0.0944612, "Lambda_fit_mps": 0.0101634, "residu
 def test_the_sentence_has_four_digits_and_a_unit_after_every_number() -> None:
     """What ``compare`` and ``matrix`` print: it said "5.52 mm/s", "Lambda 10.2 mm/s" and a
     bare "residual 0.0053"."""
-    assert realised_sentence("mujoco-native", FR) == (
-        "mujoco-native: the contact reaches half of mu N at a slip of 5.523 mm/s, the paper's "
+    assert realised_sentence("mujoco/native", FR) == (
+        "mujoco/native: the contact reaches half of mu N at a slip of 5.523 mm/s, the paper's "
         "law at 5.774 mm/s (fit: mu 0.09446, Lambda 10.16 mm/s, residual 0.0053 of |F_t|/N, "
         "RMS; F_t 0.168 rad from -v_P, RMS; creeping 84.22 % of the time)")
     never = realised_sentence("x", {**FR, "half_mu_slip_mps": None})

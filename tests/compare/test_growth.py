@@ -118,14 +118,15 @@ def test_a_threshold_on_another_engine_runs_there(tmp_path: Path) -> None:
     # different summation order at most); and the result says which engine it was measured on
     import sys
 
-    here = measure_threshold(None, "mujoco-native", "n1", workers=2, use_cache=False)
-    there = measure_threshold(None, "mujoco-native", "n1", workers=2, use_cache=False,
-                              spec=f"mujoco@{sys.executable}")
-    assert here["engine_spec"] == "mujoco" and there["engine_spec"] == f"mujoco@{sys.executable}"
+    here = measure_threshold(None, "mujoco", "n1", workers=2, use_cache=False, mode="native")
+    there = measure_threshold(None, f"mujoco@{sys.executable}", "n1", workers=2,
+                              use_cache=False, mode="native")
+    assert here["engine"] == "mujoco" and there["engine"] == f"mujoco@{sys.executable}"
+    assert here["mode"] == there["mode"] == "native"
     assert there["measured"] == pytest.approx(here["measured"], rel=1e-9)
     assert there["n_runs"] == here["n_runs"] and there["settled"]
-    # the reference ODE has no other engine to run on; a bad spec is refused before any run
-    with pytest.raises(TippetopError, match="expected a MuJoCo engine"):
-        measure_threshold(None, "ode", "n1", spec="mjx")
-    with pytest.raises(TippetopError, match="engine: expected mujoco, mujoco==X.Y.Z"):
-        measure_threshold(None, "mujoco-native", "n1", spec="bullet")
+    # a pairing that cannot run, and a bad engine, are refused before any run
+    with pytest.raises(TippetopError, match="expected a mode the reference ODE runs"):
+        measure_threshold(None, "ode", "n1", mode="native")
+    with pytest.raises(TippetopError, match="engine: expected ode, mujoco, mujoco==X.Y.Z"):
+        measure_threshold(None, "bullet", "n1", mode="native")

@@ -48,6 +48,8 @@ def _options() -> list[tuple[str, argparse.Action]]:
         for action in sub._actions:
             if isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
                 continue
+            if action.help is argparse.SUPPRESS:  # the release before's spelling, hidden
+                continue
             out.append((f"{name} {'/'.join(action.option_strings) or action.dest}", action))
     return out
 
@@ -162,27 +164,30 @@ def test_simulate_and_theory_print_units_and_no_raw_values() -> None:
 
 
 def _compare_result() -> dict:
-    mode = {"engine": "mujoco", "theta_asymp": 2.278123456789, "t_invert": 2.4960000001,
+    mode = {"engine": "mujoco", "mode": "native", "run": "mujoco/native",
+            "theta_asymp": 2.278123456789, "t_invert": 2.4960000001,
             "J_rel_drift": 6.9e-6, "outcome": "inverted", "matches_theory": True,
             "theta_rms_vs_ref": 0.06458, "energy_dissipated_J": 0.0017, "note": "because",
-            "timestep_s": 2e-4, "integrator": "RK4", "mode": "native"}
+            "timestep_s": 2e-4, "integrator": "RK4"}
     return {
-        "scene": "fig3", "group": "II",
+        "scene": "fig3", "group": "II", "reference": "ode/paper",
         "theory": {"theta_s": math.pi, "outcome": "inverted", "theta_s_tol": 0.05},
-        "modes": {"ode": {"engine": "ode", "theta_asymp": 3.1041, "t_invert": 2.329259,
-                          "J_rel_drift": 1.3e-9, "outcome": "inverted", "matches_theory": True,
-                          "theta_rms_vs_ref": 0.0, "energy_dissipated_J": math.nan},
-                  "mujoco-native": mode,
-                  "mujoco-x": {"outcome": "failed", "matches_theory": False}},
-        "crossval": [{"mode": "mujoco-x", "agrees": False, "reasons": ["the run failed: boom"]}],
+        "runs": [{"engine": "ode", "mode": "paper", "run": "ode/paper", "reference": True,
+                  "theta_asymp": 3.1041, "t_invert": 2.329259,
+                  "J_rel_drift": 1.3e-9, "outcome": "inverted", "matches_theory": True,
+                  "theta_rms_vs_ref": 0.0, "energy_dissipated_J": math.nan},
+                 mode,
+                 {"run": "mujoco/native-x", "outcome": "failed", "matches_theory": False}],
+        "crossval": [{"run": "mujoco/native-x", "agrees": False,
+                      "reasons": ["the run failed: boom"]}],
         "differences": [
-            {"mode": "mujoco-native", "metric": "t_invert", "value": 2.4960000001,
+            {"run": "mujoco/native", "metric": "t_invert", "value": 2.4960000001,
              "reference": 2.329259, "tolerance": 0.1},
-            {"mode": "mujoco-native", "metric": "J_rel_drift", "value": 6.9e-6,
+            {"run": "mujoco/native", "metric": "J_rel_drift", "value": 6.9e-6,
              "reference": 1.3e-9, "tolerance": 1e-6, "why": "relative; J is exact"},
-            {"mode": "mujoco-x", "metric": "status", "value": "diverged", "reference": "ok",
-             "tolerance": None, "note": "energy rose"},
-            {"mode": "mujoco-native", "metric": "t_invert", "value": None,
+            {"run": "mujoco/native-x", "metric": "status", "value": "diverged",
+             "reference": "ok", "tolerance": None, "note": "energy rose"},
+            {"run": "mujoco/native", "metric": "t_invert", "value": None,
              "reference": 2.329259, "tolerance": None},
         ],
         "tolerances": {"t_invert": 0.1},
@@ -205,7 +210,7 @@ def test_compare_names_the_tolerance_each_difference_broke(
 
 
 def test_compare_output_copes_with_missing_keys(capsys: pytest.CaptureFixture) -> None:
-    print_compare({"modes": {"ode": {}}, "differences": [{"metric": "theta_asymp"}]})
+    print_compare({"runs": [{"run": "ode/paper"}], "differences": [{"metric": "theta_asymp"}]})
     out = capsys.readouterr().out
     assert "None" not in out and "theta_asymp" in out
 
@@ -241,7 +246,7 @@ def test_threshold_by_growth_rates_says_so(capsys: pytest.CaptureFixture) -> Non
 
 
 def test_sweep_prints_theta_s_beside_each_point(capsys: pytest.CaptureFixture) -> None:
-    table = pd.DataFrame({"mode": ["ode", "ode"], "n0": [40.0, 60.0],
+    table = pd.DataFrame({"run": ["ode/paper", "ode/paper"], "n0": [40.0, 60.0],
                           "theta_asymp": [0.0123456789, 1.45342], "outcome": ["upright", "x"],
                           "t_invert": [None, 3.2], "J_rel_drift": [1e-9, math.nan],
                           "status": ["ok", "ok"], "cached": [True, False]})
@@ -249,7 +254,7 @@ def test_sweep_prints_theta_s_beside_each_point(capsys: pytest.CaptureFixture) -
     print_sweep({"scene": "s", "table": table, "theory": theory})
     out = capsys.readouterr().out
     assert "None" not in out and not _LONG_FLOAT.search(out)
-    assert re.search(r"ode\s+60 rad/s\s+1\.453 rad\s+1\.5 rad", out)
+    assert re.search(r"ode/paper\s+60 rad/s\s+1\.453 rad\s+1\.5 rad", out)
     assert "never" in out and "cache" in out
 
 

@@ -20,7 +20,7 @@ from tippetop.models.engines import parse_engines
 HERE = f"mujoco@{sys.executable}"
 RUN_KEYS = {"scene", "engine", "mode", "status", "message", "t_invert", "t_stem", "theta_final",
             "theta_asymp", "J_rel_drift", "agrees"}
-ENGINE_KEYS = {"spec", "implementation", "version", "precision", "device"}
+ENGINE_KEYS = {"engine", "implementation", "version", "precision", "device"}
 DIFF_KEYS = {"scene", "mode", "engines", "metric", "values", "tolerance"}
 
 
@@ -34,7 +34,7 @@ def test_the_same_mujoco_here_and_in_a_worker_is_the_same_matrix(tmp_path: Path,
     assert code == 0
     res = json.loads(printed)
     assert json.loads((out / "results.json").read_text()) == res
-    assert [e["spec"] for e in res["engines"]] == ["mujoco", HERE]
+    assert [e["engine"] for e in res["engines"]] == ["mujoco", HERE]
     import mujoco
 
     for e in res["engines"]:
@@ -72,7 +72,7 @@ def test_differences_are_named_metric_by_metric() -> None:
 
     runs = [run("mujoco"), run("mujoco==3.3.7", theta_asymp=3.125, t_invert=2.50,
                                 J_rel_drift=5e-9)]
-    diffs = matrix._differences(runs, engines, ["native"], ["fig3"])
+    diffs = matrix._differences(runs, engines, {"fig3": ("native",)}, ["fig3"])
     # theta_asymp 0.025 rad apart (over 0.02), t_invert 0.17 s (over 0.1); J 5e-9 and 1e-9
     # are both under the 1e-8 floor: no difference
     assert [(d["metric"], d["values"], d["tolerance"]) for d in diffs] == [
@@ -81,20 +81,25 @@ def test_differences_are_named_metric_by_metric() -> None:
                for d in diffs)
     # a failed run: only its status is compared
     runs[1] = run("mujoco==3.3.7", status="diverged", theta_asymp=None)
-    assert [d["metric"] for d in matrix._differences(runs, engines, ["native"], ["fig3"])] == [
+    native = {"fig3": ("native",)}
+    assert [d["metric"] for d in matrix._differences(runs, engines, native, ["fig3"])] == [
         "status"]
     # a drift 10x and over the floor is one
     runs[1] = run("mujoco==3.3.7", J_rel_drift=2e-7)
     runs[0] = run("mujoco", J_rel_drift=1e-8)
-    assert [d["metric"] for d in matrix._differences(runs, engines, ["native"], ["fig3"])] == [
+    assert [d["metric"] for d in matrix._differences(runs, engines, native, ["fig3"])] == [
         "J_rel_drift"]
 
 
 @pytest.mark.parametrize(("argv", "says"), [
-    (["matrix", "--engines", "mujoco,bullet"], "engine: expected mujoco, mujoco==X.Y.Z"),
+    (["matrix", "--engines", "mujoco,bullet"], "engine: expected ode, mujoco, mujoco==X.Y.Z"),
+    (["matrix", "--engines", "ode,mujoco"], "--engines: expected MuJoCo engines (the reference "
+     "runs once per scene anyway), got 'ode'"),
     (["matrix", "--engines", "mujoco,mujoco"], "--engines: expected each engine once"),
     (["matrix", "fig3", "--engines", "mujoco", "--modes", "exact"], "--modes: expected "
-     "native and/or paper, got 'exact'"),
+     "a mode (paper, native"),
+    (["matrix", "fig3", "--engines", "mujoco", "--modes", "coulomb"], "--mode: expected a mode "
+     "a MuJoCo engine runs"),
     (["matrix", "nope.xml", "--engines", "mujoco"], "SCENE: expected a scene or an MJCF file"),
     (["matrix", "fig3", "--engines", "mujoco@/no/such/python"], "engine mujoco@/no/such/python: "
      "expected the path of a Python interpreter"),
@@ -117,8 +122,8 @@ def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
     real = matrix._differences
 
-    def injected(runs, engines, modes, scenes):
-        out = real(runs, engines, modes, scenes)
+    def injected(runs, engines, scene_modes, scenes):
+        out = real(runs, engines, scene_modes, scenes)
         assert out == []
         r = {x["engine"]: x for x in runs}
         return [{"scene": "fig3", "mode": "native", "engines": ["mujoco", HERE],
@@ -136,7 +141,7 @@ def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
     # the other cone, and the rest
     from tippetop.compare.running.runner import Task
 
-    plan = Task("fig3", ("run.t_end_s=0.3", "mujoco.friction=native"), "mujoco").plan().mujoco
+    plan = Task("fig3", ("run.t_end_s=0.3",), "mujoco", "native").plan().mujoco
     other = "pyramidal" if plan.cone == "elliptic" else "elliptic"
     assert changes == [*(f"integrator {i}" for i in ("Euler", "implicitfast", "RK4")
                          if i != plan.integrator), "contacts off", "friction off",

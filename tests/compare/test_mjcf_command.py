@@ -127,8 +127,9 @@ def test_mujocos_own_xml_writer_would_not_do(native: dict) -> None:
 def test_a_loaded_file_with_the_calibrated_settings_is_the_run(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, extra: list[str],
         n_keys: int) -> None:
-    """A user's file with mujoco-native's settings written back onto its geoms and pairs."""
-    args = ["--mjcf", str(EXAMPLES / f"{name}.xml"), *extra, "--engine", "mujoco-native",
+    """A user's file with the native mode's settings written back onto its geoms and pairs."""
+    args = ["--mjcf", str(EXAMPLES / f"{name}.xml"), *extra, "--engine", "mujoco", "--mode",
+            "native",
             "--set", "run.t_end_s=0.3"]
     xml, table = tmp_path / "c.xml", tmp_path / "c.parquet"
     rc, out, err = run_cli(capsys, "mjcf", *args, "--out", str(xml), "--json")
@@ -150,8 +151,8 @@ def test_a_loaded_file_with_the_calibrated_settings_is_the_run(
 def test_paper_mode_says_the_law_is_not_in_the_file(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     xml = tmp_path / "p.xml"
-    rc, out, err = run_cli(capsys, "mjcf", "fig3", "--engine", "mujoco-paper", "--out",
-                           str(xml), "--json")
+    rc, out, err = run_cli(capsys, "mjcf", "fig3", "--engine", "mujoco", "--mode", "paper",
+                           "--out", str(xml), "--json")
     assert rc == 0, err
     res = json.loads(out)
     assert res["mode"] == "paper" and res["friction_in_file"] is False
@@ -168,7 +169,7 @@ def test_paper_mode_says_the_law_is_not_in_the_file(tmp_path: Path,
     (["fig3", "--engine", "ode"], "--engine"),
     (["fig3", "--set", "init.n0=oops"], "init.n0"),
     # a step the paper's law cannot be followed with: a run refuses it, and so does its file
-    (["fig3", "--engine", "mujoco-paper", "--set", "mujoco.timestep_s=0.01"],
+    (["fig3", "--engine", "mujoco", "--mode", "paper", "--set", "mujoco.timestep_s=0.01"],
      "mujoco.timestep_s"),
 ])
 def test_bad_input_is_one_line_exit_2_and_no_file(tmp_path: Path, argv: list[str], says: str,

@@ -38,7 +38,8 @@ category = "paper"
 kind = "run"
 scene = "fig3"
 set = ["run.t_end_s=4"]
-modes = ["ode", "ode-viscous"]
+engines = ["ode"]
+modes = ["paper", "viscous"]
 profiles = ["tiny"]
 metrics = ["outcome", "matches_expect", "theta_asymp", "t_invert", "J_rel_drift",
            "energy_monotone", "energy_lost", "status"]
@@ -49,7 +50,8 @@ category = "groups"
 kind = "run"
 scene = "fig7b"
 set = ["run.t_end_s=2"]
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny", "other"]
 metrics = ["outcome", "theta_asymp", "J_rel_drift"]
 
@@ -58,7 +60,8 @@ name = "fig3"
 category = "paper"
 kind = "run"
 scene = "fig3"
-modes = ["mujoco-paper"]
+engines = ["mujoco"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["outcome", "theta_asymp"]
 
@@ -72,7 +75,8 @@ which = "n1"
 rel_tol = 0.1
 max_rounds = 4
 points_per_round = 2
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["measured", "converged"]
 
@@ -85,13 +89,14 @@ set = ["run.t_end_s=20"]
 n0 = "30:60:15"
 figure = "Fig. 9"
 label = "(a)"
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["theta_asymp_vs_n0", "outcomes_vs_n0"]
 """
 
-FIG3 = "paper/fig3-short[ode]"
-MUJOCO_ID = "paper/fig3[mujoco-paper]"
+FIG3 = "paper/fig3-short[ode/paper]"
+MUJOCO_ID = "paper/fig3[mujoco/paper]"
 
 
 def run_nightly(*args: str) -> tuple[int, str, str]:
@@ -148,7 +153,8 @@ def _check(results: dict, case_id: str, metric: str) -> dict:
 def test_update_baseline_writes_the_ode_cases(tiny: dict) -> None:
     base = json.loads((tiny["baselines"] / "tiny.json").read_text())
     ids = set(base["cases"])
-    assert FIG3 in ids and "thresholds/n1-20s[ode]" in ids and "sweeps/fig9a-tiny[ode]" in ids
+    assert FIG3 in ids and "thresholds/n1-20s[ode/paper]" in ids
+    assert "sweeps/fig9a-tiny[ode/paper]" in ids
     assert MUJOCO_ID not in ids  # --engines ode: the MuJoCo case did not run
     assert set(base["cases"][FIG3]) == {"outcome", "matches_expect", "theta_asymp",
                                         "t_invert", "J_rel_drift", "energy_monotone",
@@ -185,8 +191,8 @@ def test_untouched_baselines_exit_0_and_are_not_written(cached: dict,
 @pytest.mark.parametrize(("case_id", "metric", "edit"), [
     (FIG3, "theta_asymp", lambda v: v + 0.5),
     (FIG3, "outcome", lambda v: "upright" if v != "upright" else "inverted"),
-    ("thresholds/n1-20s[ode]", "measured", lambda v: 1.5 * v),
-    ("sweeps/fig9a-tiny[ode]", "theta_asymp_vs_n0", lambda v: {**v, "45": v["45"] + 0.4}),
+    ("thresholds/n1-20s[ode/paper]", "measured", lambda v: 1.5 * v),
+    ("sweeps/fig9a-tiny[ode/paper]", "theta_asymp_vs_n0", lambda v: {**v, "45": v["45"] + 0.4}),
 ])
 def test_injected_regression_exits_1_and_names_the_metric(
         cached: dict, tmp_path: Path, case_id: str, metric: str, edit) -> None:
@@ -224,13 +230,13 @@ def test_missing_case_is_new_not_a_regression(cached: dict, tmp_path: Path) -> N
     bdir = tmp_path / "baselines"
     shutil.copytree(cached["baselines"], bdir)
     doc = json.loads((bdir / "tiny.json").read_text())
-    del doc["cases"]["groups/fig7b-short[ode]"]
+    del doc["cases"]["groups/fig7b-short[ode/paper]"]
     (bdir / "tiny.json").write_text(json.dumps(doc))
     code, out, err = run_nightly(*_args(cached, tmp_path / "out", bdir))
     assert code == 0, out + err
-    assert "NEW" in out and "groups/fig7b-short[ode]: all 3 metrics" in out
+    assert "NEW" in out and "groups/fig7b-short[ode/paper]: all 3 metrics" in out
     res = _results(tmp_path / "out")
-    rec = next(r for r in res["cases"] if r["id"] == "groups/fig7b-short[ode]")
+    rec = next(r for r in res["cases"] if r["id"] == "groups/fig7b-short[ode/paper]")
     assert rec["status"] == "new" and res["counts"]["checks_new"] == 3
     root = ET.parse(tmp_path / "out" / "junit.xml").getroot()
     assert len(list(root.iter("skipped"))) == 3
@@ -246,7 +252,7 @@ def test_update_baseline_restores_merges_and_drops(cached: dict,
     good = doc["cases"][FIG3]["theta_asymp"]
     doc["cases"][FIG3]["theta_asymp"] = good + 1.0
     doc["cases"][MUJOCO_ID] = {"outcome": "inverted", "theta_asymp": 3.1}
-    doc["cases"]["paper/gone[ode]"] = {"outcome": "upright"}
+    doc["cases"]["paper/gone[ode/paper]"] = {"outcome": "upright"}
     (bdir / "tiny.json").write_text(json.dumps(doc))
     code, out, err = run_nightly(*_args(cached, tmp_path / "out", bdir, "--update-baseline"))
     assert code == 0, out + err  # regressions are accepted when updating
@@ -254,7 +260,7 @@ def test_update_baseline_restores_merges_and_drops(cached: dict,
     new = json.loads((bdir / "tiny.json").read_text())["cases"]
     assert new[FIG3]["theta_asymp"] == good
     assert new[MUJOCO_ID] == {"outcome": "inverted", "theta_asymp": 3.1}
-    assert "paper/gone[ode]" not in new
+    assert "paper/gone[ode/paper]" not in new
     # the run still reports what it found against the old values
     assert _check(_results(tmp_path / "out"), FIG3, "theta_asymp")["status"] == "fail"
 
@@ -323,7 +329,7 @@ def test_case_that_cannot_run_is_an_error_and_exits_1(cached: dict,
     args[1] = str(cat)
     code, out, err = run_nightly(*args, "--cases", "thresholds/*")
     assert code == 1, out + err
-    assert "ERRORS" in out and "thresholds/n1-20s[ode]" in out
+    assert "ERRORS" in out and "thresholds/n1-20s[ode/paper]" in out
     res = _results(tmp_path / "out")
     assert res["counts"]["cases_error"] == 1 and res["verdict"] == "ERROR"
     root = ET.parse(tmp_path / "out" / "junit.xml").getroot()
@@ -358,8 +364,14 @@ def test_missing_baseline_folder_exits_2(cached: dict, tmp_path: Path) -> None:
 @pytest.mark.parametrize(("edit", "message"), [
     (lambda s: s.replace('kind = "sweep"', 'kind = "sweep"\ncolour = "red"'), "unknown key"),
     (lambda s: s.replace('"theta_asymp_vs_n0", ', '"theta_asymp", '), "metrics"),
-    (lambda s: s.replace('modes = ["ode"]\nprofiles = ["tiny", "other"]',
-                         'modes = ["ode-magic"]\nprofiles = ["tiny", "other"]'), "modes"),
+    (lambda s: s.replace('modes = ["paper"]\nprofiles = ["tiny", "other"]',
+                         'modes = ["paper-magic"]\nprofiles = ["tiny", "other"]'), "modes"),
+    (lambda s: s.replace('engines = ["ode"]\nmodes = ["paper"]\nprofiles = ["tiny", "other"]',
+                         'engines = ["ode"]\nmodes = ["native"]\nprofiles = ["tiny", "other"]'),
+     "expected modes the engines ode can run, got 'native'"),
+    (lambda s: s.replace('engines = ["ode"]\nmodes = ["paper"]\nprofiles = ["tiny", "other"]',
+                         'engines = ["bullet"]\nmodes = ["paper"]\nprofiles = ["tiny", "other"]'),
+     "engines: expected a list of ode and mujoco"),
     (lambda s: s.replace('profiles = ["tiny", "other"]', 'profiles = ["tiny", "nightly"]'),
      "profiles"),
     (lambda s: s + s[s.index("[[case]]"):s.index("[[case]]", s.index("[[case]]") + 1)],
@@ -409,18 +421,18 @@ def test_shipped_catalogue_covers_the_issue() -> None:
     assert set(cat.profiles) == {"quick", "full", "stress"}
     for prof in ("quick", "full"):
         cases = select_cases(cat, prof)
-        ode_scenes = {c.scene for c in cases if c.kind == "run" and c.mode == "ode"
+        ode_scenes = {c.scene for c in cases if c.kind == "run" and c.run == "ode/paper"
                       and not c.set}
         assert ode_scenes == set(catalogue_names())  # every paper scene in the reference
         for key in ("fig3", "fig7a"):
-            assert {c.mode for c in cases if c.scene == key and not c.set} >= {
-                "ode", "mujoco-paper"}
+            assert {c.run for c in cases if c.scene == key and not c.set} >= {
+                "ode/paper", "mujoco/paper"}
         thresholds = {c.engine for c in cases if c.kind == "threshold"}
         assert thresholds == {"ode", "mujoco"}  # at least one bisection per engine
-        friction = {c.mode for c in cases if c.category == "friction"}
-        assert friction >= {"ode-coulomb", "ode-viscous", "ode-coulomb_viscous",
-                            "mujoco-native-condim4", "mujoco-native-condim6",
-                            "mujoco-native-pyramidal"}
+        friction = {c.run for c in cases if c.category == "friction"}
+        assert friction >= {"ode/coulomb", "ode/viscous", "ode/coulomb_viscous",
+                            "mujoco/native-condim4", "mujoco/native-condim6",
+                            "mujoco/native-pyramidal"}
         for c in cases:
             assert c.mode in MODES and all(m in TOLERANCES for m in c.metrics)
     quick_sweeps = {(c.figure, c.label) for c in select_cases(cat, "quick") if c.kind == "sweep"}
@@ -449,7 +461,7 @@ def test_quick_subset_matches_the_repository_baselines(tmp_path: Path,
     folder). If the reference ODE changed on purpose, update them with --update-baseline."""
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
     code, out, err = run_nightly("--profile", "quick", "--engines", "ode", "--cases",
-                                 "paper/fig3[*,paper/fig7b[*,friction/fig3[ode-viscous],groups/groupI*",
+                                 "paper/fig3[*,paper/fig7b[*,friction/fig3[ode/viscous],groups/groupI*",
                                  "--out", str(tmp_path / "out"), "--workers", "1")
     assert code == 0, out + err
     res = _results(tmp_path / "out")
@@ -463,7 +475,7 @@ def test_engine_specs_keep_their_own_baselines(tiny: dict, tmp_path: Path,
     """``--engines mujoco,mujoco@PYTHON``: the MuJoCo case on both, each with its own file.
 
     The same MuJoCo in a worker (``mujoco@`` this interpreter) runs the case as
-    ``paper/fig3[mujoco-paper]@mujoco@...``; its baseline goes to ``tiny@<spec>.json``, not
+    ``paper/fig3[mujoco@.../paper]``; its baseline goes to ``tiny@<engine>.json``, not
     into ``tiny.json``; a second run compares each with its own (no check is new). The
     threshold case is not run on the other spec, and says so.
     """
@@ -474,8 +486,9 @@ def test_engine_specs_keep_their_own_baselines(tiny: dict, tmp_path: Path,
     base = tmp_path / "baselines"
     cat = tmp_path / "short.toml"
     # the tiny catalogue's paper-mode fig3, cut to 0.5 s (the worker's Python callback is slow)
-    cat.write_text(TINY.replace('modes = ["mujoco-paper"]',
-                                'set = ["run.t_end_s=0.5"]\nmodes = ["mujoco-paper"]'))
+    cat.write_text(TINY.replace('engines = ["mujoco"]\nmodes = ["paper"]',
+                                'set = ["run.t_end_s=0.5"]\nengines = ["mujoco"]\n'
+                                'modes = ["paper"]'))
     args = ["--catalogue", str(cat), "--profile", "tiny", "--engines",
             f"mujoco,{here}", "--cases", "paper/fig3[*", "--baseline", str(base),
             "--workers", "1", "--cache"]
@@ -486,17 +499,18 @@ def test_engine_specs_keep_their_own_baselines(tiny: dict, tmp_path: Path,
     own = base / f"tiny@{spec_slug(here)}.json"
     main_ids = set(json.loads((base / "tiny.json").read_text())["cases"])
     spec_ids = set(json.loads(own.read_text())["cases"])
-    assert main_ids == {MUJOCO_ID} and spec_ids == {f"{MUJOCO_ID}@{here}"}
+    there = f"paper/fig3[{here}/paper]"
+    assert main_ids == {MUJOCO_ID} and spec_ids == {there}
     code, out, err = run_nightly(*args, "--out", str(tmp_path / "b"))
     assert code == 0, out + err
     res = _results(tmp_path / "b")
     assert res["counts"]["checks_new"] == 0 and res["counts"]["checks_fail"] == 0
     by = {r["id"]: r for r in res["cases"]}
-    assert by[f"{MUJOCO_ID}@{here}"]["engine_spec"] == here
+    assert by[there]["engine"] == here and by[there]["mode"] == "paper"
     # the verdict table has a column for the other engine
-    assert {r["mode"] for r in res["crossval"]} == {"mujoco-paper", f"mujoco-paper@{here}"}
+    assert {r["run"] for r in res["crossval"]} == {"mujoco/paper", f"{here}/paper"}
     # the same MuJoCo in a worker: the same values to the bit
-    assert by[MUJOCO_ID]["values"] == by[f"{MUJOCO_ID}@{here}"]["values"]
+    assert by[MUJOCO_ID]["values"] == by[there]["values"]
 
 
 def test_a_missing_spec_baseline_is_one_line(tiny: dict, tmp_path: Path,
@@ -521,15 +535,15 @@ def test_thresholds_go_on_another_spec_and_the_atlas_is_said_not_run(monkeypatch
     assert kinds == ("ode", "mujoco") and specs == ["mujoco", "mujoco==3.3.7"]
     picked = select_cases(cat, "full", kinds)
     cases, skipped = cases_on_specs(picked, specs)
-    mj = [c for c in picked if c.engine == "mujoco"]
+    mj = [c for c in picked if c.family == "mujoco"]
     runnable = [c for c in mj if c.kind in ("run", "sweep", "threshold")]
     assert any(c.kind == "threshold" for c in runnable)
     assert len(cases) == len(picked) + len(runnable)
     assert len(skipped) == len(mj) - len(runnable)
     assert skipped and all("atlas runs on the installed MuJoCo only" in s for s in skipped)
     # a threshold case on the release measures on it: its spec goes to the measurement
-    on = next(c for c in cases if c.kind == "threshold" and c.spec == "mujoco==3.3.7")
-    assert on.id.endswith("@mujoco==3.3.7")
+    on = next(c for c in cases if c.kind == "threshold" and c.engine == "mujoco==3.3.7")
+    assert on.id.endswith(f"[mujoco==3.3.7/{on.mode}]")
     seen = {}
 
     def fake(*args, **kw):
@@ -539,7 +553,7 @@ def test_thresholds_go_on_another_spec_and_the_atlas_is_said_not_run(monkeypatch
     monkeypatch.setattr(running, "measure_threshold", fake)
     running._run_threshold(running.CaseRun(on), scheduler=None, workers=1, use_cache=False,
                            log=lambda s: None)
-    assert seen["spec"] == "mujoco==3.3.7"
+    assert seen["mode"] == on.mode and on.engine == "mujoco==3.3.7"
     with pytest.raises(TippetopError, match="--engines: expected a comma-separated list of "
                        "ode and engine specs"):
         engine_specs(("ode", "bullet"))

@@ -21,11 +21,13 @@ from tippetop.models.errors import TippetopError
 PI = math.pi
 
 
-def _row(scene: str, mode: str, theta: float, expected: str | None = None) -> dict:
-    row = crossval_row(scene, mode, outcome="inverted" if theta > 1.6 else "upright",
+def _row(scene: str, run: str, theta: float, expected: str | None = None) -> dict:
+    engine, mode = run.split("/")
+    row = crossval_row(scene, mode, engine=engine,
+                       outcome="inverted" if theta > 1.6 else "upright",
                        theta_asymp=theta, theta_s=PI, theory_outcome="inverted",
-                       t_invert=None, reference=mode == "ode")
-    row.update(case=f"x/{scene}[{mode}]", name=scene, category="x",
+                       t_invert=None, reference=run == "ode/paper")
+    row.update(case=f"x/{scene}[{run}]", name=scene, category="x",
                expected_departure=expected)
     return row
 
@@ -41,18 +43,19 @@ def _results(rows: list[dict], fail: int = 0) -> dict:
 
 
 def test_expected_and_unexpected_departures_are_told_apart() -> None:
-    rows = [_row("fig3", "ode", PI), _row("fig3", "ode-coulomb", 0.03, "rolls, no inversion"),
-            _row("fig4", "mujoco-native", 0.05)]
+    rows = [_row("fig3", "ode/paper", PI),
+            _row("fig3", "ode/coulomb", 0.03, "rolls, no inversion"),
+            _row("fig4", "mujoco/native", 0.05)]
     ans = theory_answer(rows)
     assert ans["text"] == ("1 of 3 runs agree; 1 departs as the catalogue expects; 1 not "
                            "expected (1 departing, listed above)")
     assert len(ans["expected"]) == 1 and "expected: rolls, no inversion" in ans["expected"][0]
     assert len(ans["unexpected"]) == 1 and ans["unexpected"][0].startswith(
-        "depart: fig4 [mujoco-native]")
+        "depart: fig4 [mujoco/native]")
 
 
 def test_last_lines_give_both_answers_separately() -> None:
-    rows = [_row("fig3", "ode", PI), _row("fig3", "ode-coulomb", 0.03, "rolls")]
+    rows = [_row("fig3", "ode/paper", PI), _row("fig3", "ode/coulomb", 0.03, "rolls")]
     text = summary_text(_results(rows), Path("/out"))
     last = text.splitlines()[-3:]
     assert last[0].startswith("regression against the baseline (compare/baselines/quick.json)"
@@ -61,18 +64,18 @@ def test_last_lines_give_both_answers_separately() -> None:
                        "catalogue expects; none unexpected")
     assert last[2].startswith("result: OK (regression against the baseline")
     # a regression is said on its own line, whatever the theory says
-    text = summary_text(_results([_row("fig3", "ode", PI)], fail=2), Path("/out"))
+    text = summary_text(_results([_row("fig3", "ode/paper", PI)], fail=2), Path("/out"))
     assert "regression against the baseline (compare/baselines/quick.json): REGRESSION, 2 of " \
            "10 checks" in text
     assert "agreement with the theory: 1 of 1 runs agree; none unexpected" in text
 
 
 def test_every_unexpected_run_is_listed_or_counted_with_where() -> None:
-    few = [_row(f"s{i:02d}", "mujoco-native", 0.05) for i in range(5)]
+    few = [_row(f"s{i:02d}", "mujoco/native", 0.05) for i in range(5)]
     text = summary_text(_results(few), Path("/out"))
-    assert all(f"s{i:02d} [mujoco-native]" in text for i in range(5))
+    assert all(f"s{i:02d} [mujoco/native]" in text for i in range(5))
     assert "more" not in text
-    many = [_row(f"s{i:02d}", "mujoco-native", 0.05) for i in range(UNEXPECTED_LINES + 7)]
+    many = [_row(f"s{i:02d}", "mujoco/native", 0.05) for i in range(UNEXPECTED_LINES + 7)]
     text = summary_text(_results(many), Path("/out"))
     assert f"... {UNEXPECTED_LINES + 7} in all: every one in /out/report.html" in text
     assert f"{UNEXPECTED_LINES + 7} not expected" in text.splitlines()[-2]
@@ -80,19 +83,20 @@ def test_every_unexpected_run_is_listed_or_counted_with_where() -> None:
 
 def test_the_shipped_catalogue_marks_its_deliberate_departures() -> None:
     cases = {c.id: c for c in load_catalogue().cases}
-    for mode in ("ode-coulomb", "ode-coulomb_viscous", "mujoco-native-condim4",
-                 "mujoco-native-condim6"):
-        assert cases[f"friction/fig3[{mode}]"].departs, mode
+    for run in ("ode/coulomb", "ode/coulomb_viscous", "mujoco/native-condim4",
+                "mujoco/native-condim6"):
+        assert cases[f"friction/fig3[{run}]"].departs, run
     # the paper's law and the calibrated friction are expected to agree: no excuse for them
     assert not any(c.departs for c in cases.values()
-                   if c.mode in ("ode", "mujoco-paper", "mujoco-native"))
+                   if c.run in ("ode/paper", "mujoco/paper", "mujoco/native"))
 
 
-@pytest.mark.parametrize("departs", ['{ode-magic = "x"}', '{ode = ""}', '"not a table"'])
+@pytest.mark.parametrize("departs", ['{magic = "x"}', '{paper = ""}', '"not a table"'])
 def test_a_bad_departs_entry_is_one_line(tmp_path: Path, departs: str) -> None:
     cat = tmp_path / "c.toml"
     cat.write_text('[profiles]\ntiny = "t"\n\n[[case]]\nname = "fig3"\ncategory = "paper"\n'
-                   'kind = "run"\nscene = "fig3"\nmodes = ["ode"]\nprofiles = ["tiny"]\n'
+                   'kind = "run"\nscene = "fig3"\nengines = ["ode"]\nmodes = ["paper"]\n'
+                   'profiles = ["tiny"]\n'
                    f'metrics = ["outcome"]\ndeparts = {departs}\n')
     with pytest.raises(TippetopError, match=r"departs: expected a table of the case's modes"):
         load_catalogue(cat)
@@ -108,8 +112,8 @@ def test_a_case_that_changes_its_scene_is_named_after_what_runs() -> None:
 def test_the_reports_verdict_table_greys_an_expected_departure() -> None:
     from tippetop.compare.report.sections import crossval_section
 
-    rows = [_row("fig3", "ode-coulomb", 0.03, "rolls, no inversion"),
-            _row("fig4", "ode-coulomb", 0.03)]
+    rows = [_row("fig3", "ode/coulomb", 0.03, "rolls, no inversion"),
+            _row("fig4", "ode/coulomb", 0.03)]
     html = crossval_section({"crossval": rows})
     cells = html.split("<td class='")[1:]
     classes = [c.split("'", 1)[0] for c in cells if not c.startswith(("na", "theory"))]

@@ -102,7 +102,8 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
             raise KeyError("qpos")
         if scene.name == "fig6":
             out.write_bytes(b"a video")
-        return render.RenderResult(path=out, engine="both", backend="egl", n_frames=n,
+        return render.RenderResult(path=out, engines=("mujoco", "ode"), backend="egl",
+                                   n_frames=n,
                                    width=640, height=240, fps=kw["fps"], speed=kw["speed"],
                                    video_s=1.0, render_wall_s=0.5)
 
@@ -131,7 +132,7 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
     # the arguments: side by side, within the cap, said as it goes
     assert sorted(calls) == ["fig3", "fig4", "fig6", "fig8a", "fig8b"]
     for t_end, kw in calls.values():
-        assert kw["engine"] == "both" and kw["max_frames"] == videos.VIDEO_MAX_FRAMES
+        assert kw["engines"] == ("mujoco", "ode") and kw["max_frames"] == videos.VIDEO_MAX_FRAMES
         assert kw["speed"] == videos.video_speed(t_end)
         assert video.frame_count(t_end, kw["fps"], kw["speed"]) <= videos.VIDEO_MAX_FRAMES
         assert callable(kw["say"]) and kw["progress"] is False

@@ -52,7 +52,7 @@ def test_the_file_runs_as_it_says() -> None:
     # what ran is the file's: nothing the user did not set is changed, and the row spacing
     # follows the file's 2-ms timestep without an error about it
     assert (s["mode"], s["timestep_s"], s["integrator"], s["cone"]) == (
-        "native", 0.002, "RK4", "pyramidal")
+        "file", 0.002, "RK4", "pyramidal")
     assert (s["condim"], s["mu"], s["solref"], s["keyframe"]) == (
         3, 1.0, [0.02, 1.0], "spinning")
     assert s["sample_dt_s"] == 0.002 and s["unused"] == []

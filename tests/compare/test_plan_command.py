@@ -23,12 +23,12 @@ STRANGER = ROOT / "tests" / "data" / "stranger" / "top.xml"
 SHORT = ("--set", "run.t_end_s=0.05")
 CASES = [
     ("fig3", "ode", ()),
-    ("fig3", "mujoco-paper", ()),
-    ("fig3", "mujoco-native", ()),
-    ("fig8a", "mujoco-native-condim4", ()),
+    ("fig3", "mujoco/paper", ()),
+    ("fig3", "mujoco/native", ()),
+    ("fig8a", "mujoco/native-condim4", ()),
     (None, "mujoco", ("--mjcf", str(ROOT / "examples" / "cylinder_stem_ballast.xml"),
                       "--keyframe", "slow")),
-    (None, "mujoco-paper", ("--mjcf", str(STRANGER), "--set",
+    (None, "mujoco/paper", ("--mjcf", str(STRANGER), "--set",
                             "mujoco.fit_paper_timestep=true")),
     (None, "ode", ("--mjcf", str(STRANGER))),
 ]
@@ -42,7 +42,10 @@ def _main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str
 
 
 def _args(scene: str | None, engine: str, extra: tuple[str, ...]) -> list[str]:
-    return [*([scene] if scene else []), "--engine", engine, *SHORT, *extra]
+    """The command line of a case's run: ``engine`` is an engine or ``ENGINE/MODE``."""
+    engine, _, mode = engine.partition("/")
+    return [*([scene] if scene else []), "--engine", engine, *(["--mode", mode] if mode else []),
+            *SHORT, *extra]
 
 
 def _block(text: str, head: str) -> list[str]:
@@ -61,14 +64,15 @@ def _block(text: str, head: str) -> list[str]:
 def test_plan_json_is_the_plan_a_run_makes(scene, engine, extra, capsys) -> None:
     code, out, _ = _main(["plan", *_args(scene, engine, extra), "--json"], capsys)
     assert code == 0
-    assert json.loads(out)["format"] == "tippetop-plan/1"
+    assert json.loads(out)["format"] == "tippetop-plan/2"
     over = list(SHORT[1::2])
     if "--mjcf" in extra:
         over.append(f"top.mjcf={str(Path(extra[extra.index('--mjcf') + 1]))!r}")
     if "--keyframe" in extra:
         over.append(f"init.keyframe={extra[extra.index('--keyframe') + 1]!r}")
     over += [v for k, v in zip(extra[::2], extra[1::2], strict=True) if k == "--set"]
-    assert RunPlan.from_json(out) == plan_for(load_scene(scene, over), engine)
+    name, _, mode = engine.partition("/")
+    assert RunPlan.from_json(out) == plan_for(load_scene(scene, over), name, mode or None)
 
 
 @pytest.mark.parametrize(("scene", "engine", "extra"), CASES)
@@ -108,11 +112,13 @@ def test_simulate_plan_is_simulate_bit_for_bit(scene, engine, extra, tmp_path, c
     (["simulate", "--plan", "plan.json", "--set", "init.n0=3"], "got --set beside it"),
     (["simulate", "--plan", "missing.json"], "--plan: expected an existing plan file"),
     (["simulate", "--plan", "notjson.json"], "plan: expected JSON"),
-    (["simulate", "--plan", "other.json"], "plan format: expected 'tippetop-plan/1', got "
-     "'tippetop-sweep/1'"),
-    (["plan", "fig3", "--engine", "warp"], "--engine: expected one of ode|mujoco or a mode"),
+    (["simulate", "--plan", "other.json"], "plan format: expected 'tippetop-plan/1' or "
+     "'tippetop-plan/2', got 'tippetop-sweep/1'"),
+    (["simulate", "--plan", "plan.json", "--engine", "mujoco"], "got --engine beside it"),
+    (["plan", "fig3", "--engine", "ode", "--mode", "file"], "expected a mode the reference ODE "
+     "runs"),
     (["plan", "--mjcf", str(ROOT / "tests" / "data" / "tutorial_tippe_top.xml"), "--engine",
-      "mujoco-paper"], "mujoco.timestep_s: expected at most 0.000166 s"),
+      "mujoco", "--mode", "paper"], "mujoco.timestep_s: expected at most 0.000166 s"),
     (["plan", "fig3", "--out", "taken.json"], "--out: expected a path that does not exist"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, says, tmp_path, monkeypatch,
@@ -137,7 +143,7 @@ def load_and_json() -> str:
 def test_plan_says_each_contacts_solimp_width_in_metres(capsys) -> None:
     """solimp's third value is a depth: the "what will run" line says "0.001 m" and the contact
     lines said a bare "0.001"; counts have their thousands separated as simulate's."""
-    code, out, _ = _main(["plan", "fig3", "--engine", "mujoco-native"], capsys)
+    code, out, _ = _main(["plan", "fig3", "--engine", "mujoco", "--mode", "native"], capsys)
     assert code == 0
     assert "40,000 steps of 2e-4 s, a sample every 5 steps (8,001 rows)" in out.splitlines()[0]
     contacts = [line for line in out.splitlines() if line.startswith("contact ")]

@@ -26,7 +26,7 @@ import pytest
 
 from tippetop.compare import cli
 from tippetop.compare.commands import render as render_command
-from tippetop.compare.presentation import video
+from tippetop.compare.presentation import video as pvideo
 from tippetop.compare.running.engines import run_engine
 from tippetop.compare.studies import render
 from tippetop.models.errors import TippetopError
@@ -64,7 +64,8 @@ def videos(tmp_path_factory: pytest.TempPathFactory, backend: str) -> dict[str, 
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("MUJOCO_GL", backend)  # restored afterwards; render_scene writes it
         for engine in ("mujoco", "both"):
-            res = render.render_scene(scene, folder / f"{engine}.mp4", engine=engine, fps=FPS,
+            engines = ("mujoco", "ode") if engine == "both" else (engine,)
+            res = render.render_scene(scene, folder / f"{engine}.mp4", engines=engines, fps=FPS,
                                       speed=SPEED, size=(W, H), progress=False)
             assert res.n_frames == N_FRAMES and res.backend == backend
             out[engine] = res.path
@@ -72,14 +73,14 @@ def videos(tmp_path_factory: pytest.TempPathFactory, backend: str) -> dict[str, 
 
 
 def test_frame_times_and_sizes() -> None:
-    assert video.frame_count(0.5, FPS, SPEED) == N_FRAMES
+    assert pvideo.frame_count(0.5, FPS, SPEED) == N_FRAMES
     # the default: 8 s at quarter speed and 30 fps is 32 s of video
-    assert video.frame_count(8.0, 30.0, 0.25) == 961
-    assert video.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
+    assert pvideo.frame_count(8.0, 30.0, 0.25) == 961
+    assert pvideo.parse_size("641x481") == (640, 480)  # yuv420p needs even sides
     # 240 frames show 239 intervals: 8 s at 15 fps fits at 8 * 15 / 239, not 8 * 15 / 240
-    assert video.frame_count(8.0, 15.0, 8.0 * 15.0 / 240) == 241
-    assert video.frame_count(8.0, 15.0, video.speed_to_fit(8.0, 15.0, 240)) == 240
-    assert video.speed_to_fit(8.0, 15.0, 240, min_speed=1.0) == 1.0
+    assert pvideo.frame_count(8.0, 15.0, 8.0 * 15.0 / 240) == 241
+    assert pvideo.frame_count(8.0, 15.0, pvideo.speed_to_fit(8.0, 15.0, 240)) == 240
+    assert pvideo.speed_to_fit(8.0, 15.0, 240, min_speed=1.0) == 1.0
 
 
 def test_mujoco_video_decodes_with_expected_frames_and_size(videos: dict[str, Path]) -> None:
@@ -333,7 +334,10 @@ def _main(argv: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
     (["--size", "10xabc"], None, "--size: expected WIDTHxHEIGHT"),
     (["--fps", "0"], None, "--fps: expected"),
     (["--speed", "-1"], None, "--speed: expected"),
-    (["--engine", "blender"], None, "--engine: expected one of mujoco|ode|both"),
+    (["--engine", "blender"], None, "--engine: expected one of mujoco|ode"),
+    (["--engines", "mujoco,mujoco"], None, "--engines: expected mujoco, ode or mujoco,ode"),
+    (["--engine", "ode", "--engines", "mujoco,ode"], None, "--engines: expected --engine or "
+     "--engines"),
     (["--out", "video.avi"], None, "--out: expected a file ending in .mp4"),
     (["--out", "taken.mp4"], None, "--out: expected a path that does not exist yet"),
     (["--speed", "0.004"], None, "--max-frames: expected at most 3000 frames, got 3751"),
@@ -395,13 +399,13 @@ def test_cli_writes_the_default_name_and_refuses_to_overwrite(
 
 def test_the_summary_line_has_four_digits_and_units() -> None:
     """It said "0.967 s of video ... egl, 27 ms a frame" (three digits, then two)."""
-    res = render.RenderResult(path=Path("fig3.mp4"), engine="mujoco", backend="egl",
+    res = render.RenderResult(path=Path("fig3.mp4"), engines=("mujoco",), backend="egl",
                               n_frames=29, width=160, height=120, fps=30.0, speed=8.3,
                               video_s=29 / 30, render_wall_s=0.7737)
     assert render_command.summary_line(res, 8.0) == (
         "wrote fig3.mp4: 29 frames 160x120, 0.9667 s of video at 30 fps for 8 s simulated "
         "(--speed 8.3); egl, 26.68 ms a frame")
-    slow = render.RenderResult(path=Path("a.mp4"), engine="both", backend="osmesa",
+    slow = render.RenderResult(path=Path("a.mp4"), engines=("mujoco", "ode"), backend="osmesa",
                                n_frames=1281, width=1280, height=480, fps=30.0, speed=0.25,
                                video_s=1281 / 30, render_wall_s=1601.25)
     assert render_command.summary_line(slow, 10.675) == (
@@ -481,7 +485,7 @@ def test_a_full_disk_under_the_decoder_check_is_said_to_be_the_disk(
 
     monkeypatch.setenv("MUJOCO_GL", backend)
     monkeypatch.setattr(video, "verify_video", cut)
-    monkeypatch.setattr(video, "free_bytes", lambda folder: 0)
+    monkeypatch.setattr(pvideo, "free_bytes", lambda folder: 0)
     out = tmp_path / "v.mp4"
     code = _main([*_FULL_ARGV, "--out", str(out)], monkeypatch)
     line = _full_disk_line(code, capsys.readouterr().err, out)
@@ -514,11 +518,11 @@ def test_a_cut_file_on_a_disk_with_room_is_not_called_a_full_disk(
     from tippetop.mujoco_runner import video
 
     cut = video.VideoCheckFailed("the file does not decode (moov atom not found)")
-    monkeypatch.setattr(video, "free_bytes", lambda folder: 10 << 30)
-    assert video.disk_full(cut, tmp_path) is None
-    monkeypatch.setattr(video, "free_bytes", lambda folder: 0)
-    assert video.disk_full(cut, tmp_path).errno == errno.ENOSPC
-    said = video.disk_full(RuntimeError("ffmpeg: No space left on device"), tmp_path)
+    monkeypatch.setattr(pvideo, "free_bytes", lambda folder: 10 << 30)
+    assert pvideo.disk_full(cut, tmp_path) is None
+    monkeypatch.setattr(pvideo, "free_bytes", lambda folder: 0)
+    assert pvideo.disk_full(cut, tmp_path).errno == errno.ENOSPC
+    said = pvideo.disk_full(RuntimeError("ffmpeg: No space left on device"), tmp_path)
     assert said is not None and said.errno == errno.ENOSPC
 
 

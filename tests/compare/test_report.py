@@ -42,7 +42,8 @@ name = "fig3"
 category = "paper"
 kind = "run"
 scene = "fig3"
-modes = ["ode", "ode-viscous", "ode-coulomb"]
+engines = ["ode"]
+modes = ["paper", "viscous", "coulomb"]
 profiles = ["tiny"]
 metrics = ["outcome", "theta_asymp", "t_invert", "J_rel_drift", "energy_lost"]
 
@@ -52,7 +53,8 @@ category = "groups"
 kind = "run"
 scene = "fig7b"
 set = ["run.t_end_s=2"]
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["outcome"]
 
@@ -65,7 +67,8 @@ set = ["run.t_end_s=20"]
 which = "n1"
 rel_tol = 0.1
 points_per_round = 2
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["measured"]
 
@@ -78,7 +81,8 @@ set = ["run.t_end_s=20"]
 n0 = "30:60:15"
 figure = "Fig. 9"
 label = "(a)"
-modes = ["ode"]
+engines = ["ode"]
+modes = ["paper"]
 profiles = ["tiny"]
 metrics = ["theta_asymp_vs_n0"]
 """
@@ -150,11 +154,11 @@ def test_report_has_every_section(nightly_out: Path) -> None:
     # the friction-law table: a row per mode, with its sentence written from the numbers
     res = json.loads((nightly_out / "results.json").read_text())
     rows = {r["mode"]: r for r in res["cases"] if r["name"] == "fig3"}
-    ref = rows["ode"]
-    coulomb = friction_note(rows["ode-coulomb"], ref)
+    ref = rows["paper"]
+    coulomb = friction_note(rows["coulomb"], ref)
     assert "does not invert within 8 s" in coulomb and "sticks into rolling" in coulomb
-    viscous = friction_note(rows["ode-viscous"], ref)
-    assert f"inverts at {number_text(rows['ode-viscous']['values']['t_invert'], 's')}" in viscous
+    viscous = friction_note(rows["viscous"], ref)
+    assert f"inverts at {number_text(rows['viscous']['values']['t_invert'], 's')}" in viscous
     for note in (coulomb, viscous):
         assert note in text.replace("&#x27;", "'")
     # the threshold table: theory and measured side by side
@@ -365,13 +369,13 @@ def test_results_crossval_rows(nightly_out: Path) -> None:
     rows = {(r["scene"], r["mode"]): r for r in res["crossval"]}
     for r in rows.values():
         assert keys <= set(r)
-    ode = rows[("fig3", "ode")]
+    ode = rows[("fig3", "paper")]
     assert ode["agrees"] and ode["theory_outcome"] == "inverted"
     assert abs(ode["theta_s"] - np.pi) < 1e-9 and abs(ode["d_theta_asymp"]) <= 0.05
-    coulomb = rows[("fig3", "ode-coulomb")]
+    coulomb = rows[("fig3", "coulomb")]
     assert not coulomb["agrees"] and coulomb["outcome"] == "upright"
     assert coulomb["d_t_invert"] is None
-    viscous = rows[("fig3", "ode-viscous")]
+    viscous = rows[("fig3", "viscous")]
     assert viscous["d_t_invert"] == pytest.approx(viscous["t_invert"] - ode["t_invert"])
 
 

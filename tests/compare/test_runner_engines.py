@@ -21,17 +21,17 @@ from tippetop.models.errors import TippetopError
 SHORT = ("run.t_end_s=0.2",)
 HERE = f"mujoco@{sys.executable}"
 #: What says who ran a run, read back, and the wall time: the rest is the physics
-_WHO = ("wall_s", "engine_spec", "path", "message")
+_WHO = ("wall_s", "engine", "path", "message")
 
 
 def _physics(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k not in _WHO}
 
 
-def _tasks(spec: str) -> list[Task]:
-    return [Task("fig3", (*SHORT, "mujoco.friction=paper"), "mujoco", spec=spec),
-            Task("fig3", (*SHORT, "mujoco.friction=native", "init.n0=80"), "mujoco", spec=spec),
-            Task("fig3", SHORT, "ode", spec=spec)]
+def _tasks(engine: str) -> list[Task]:
+    return [Task("fig3", SHORT, engine, "paper"),
+            Task("fig3", (*SHORT, "init.n0=80"), engine, "native"),
+            Task("fig3", SHORT, "ode")]
 
 
 def test_runs_on_a_worker_equal_the_in_process_runs(tmp_path: Path) -> None:
@@ -42,9 +42,9 @@ def test_runs_on_a_worker_equal_the_in_process_runs(tmp_path: Path) -> None:
         assert _physics(a.summary) == _physics(b.summary)
         assert a.table.equals(b.table)
     mj = there[0].summary
-    assert mj["engine_spec"] == HERE and mj["path"] == "worker: plain loop"
-    assert here[0].summary["engine_spec"] == "mujoco"
-    assert "engine_spec" not in there[2].summary  # the reference ODE is no MuJoCo engine
+    assert mj["engine"] == HERE and mj["path"] == "worker: plain loop"
+    assert here[0].summary["engine"] == "mujoco"
+    assert there[2].summary["engine"] == "ode"  # the reference runs here, whatever the rest
     # a user's own build is never cached: run again, computed again
     again = run_tasks(_tasks(HERE)[:1], workers=2, cache_dir=tmp_path / "b")
     assert not again[0].cached
@@ -59,8 +59,8 @@ def _fake_python(tmp_path: Path) -> str:
 
 def test_a_failing_worker_is_its_row_and_the_others_run(tmp_path: Path) -> None:
     broken = f"mujoco@{_fake_python(tmp_path)}"
-    tasks = [Task("fig3", SHORT, "mujoco", spec=broken), Task("fig3", SHORT, "mujoco"),
-             Task("fig3", SHORT, "mujoco", spec=HERE)]
+    tasks = [Task("fig3", SHORT, broken), Task("fig3", SHORT, "mujoco"),
+             Task("fig3", SHORT, HERE)]
     bad, ok, also = run_tasks(tasks, workers=2, cache_dir=tmp_path / "c")
     assert bad.summary is None and bad.error.startswith(f"engine {broken}: the worker in ")
     assert "exit status 139" in bad.error and "Segmentation fault" in bad.error
@@ -85,7 +85,7 @@ def test_an_engine_that_cannot_run_is_refused_before_any_run(tmp_path: Path, spe
 
     monkeypatch.setattr(envs, "accelerated_env_python", no_env)
     with pytest.raises(TippetopError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
-        run_tasks([Task("fig3", SHORT, "mujoco"), Task("fig3", SHORT, "mujoco", spec=spec)],
+        run_tasks([Task("fig3", SHORT, "mujoco"), Task("fig3", SHORT, spec)],
                   cache_dir=tmp_path)
     assert not any(tmp_path.rglob("*.json"))  # nothing ran, nothing cached
 

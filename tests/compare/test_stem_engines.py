@@ -23,7 +23,8 @@ T_END = 3.5  # s: 0.8 s past the first stem contact
 @pytest.fixture(scope="module")
 def runs():
     scene = load_scene("fig3", ["effects.stem=true", f"run.t_end_s={T_END}"])
-    return {mode: run_engine(scene, mode, progress=False) for mode in ("ode", "mujoco-paper")}
+    return {engine: run_engine(scene, engine, "paper", progress=False)
+            for engine in ("ode", "mujoco")}
 
 
 def _at(table, t):
@@ -31,7 +32,7 @@ def _at(table, t):
 
 
 def test_paper_mode_follows_the_reference_through_the_stem_contact(runs) -> None:
-    ode, mj = runs["ode"].summary, runs["mujoco-paper"].summary
+    ode, mj = runs["ode"].summary, runs["mujoco"].summary
     assert ode["status"] == mj["status"] == "ok"
     # The first contact of the end: MuJoCo samples it every 1 ms and its soft contact
     # (solref 0.5 ms) touches a little early; the reference locates it exactly. 2 ms covers
@@ -45,7 +46,7 @@ def test_paper_mode_follows_the_reference_through_the_stem_contact(runs) -> None
     # the impacts' losses: the reference's impacts are ideal (perfectly inelastic, instant),
     # MuJoCo's are its soft contact's; that difference is 0.8 % of n and 0.9 % of E at 3 s
     # (measured), and shrinks after (the friction on both points sets the decay): 2 %.
-    o_tab, m_tab = runs["ode"].table, runs["mujoco-paper"].table
+    o_tab, m_tab = runs["ode"].table, runs["mujoco"].table
     for t in (3.0, T_END):
         o, m = _at(o_tab, t), _at(m_tab, t)
         assert abs(m["theta"] - o["theta"]) < 2e-3

@@ -69,7 +69,7 @@ def test_fig9a_sweep_on_the_theory_curve() -> None:
     nutation left near pi at 70-85 rad/s; 7e-4 at the intermediate angles), as for Fig. 11."""
     top = load_scene("fig11_n060").top
     n1, n4 = theory.n1(top), theory.n4(top)
-    res = run_sweep("fig11_n060", parse_range("25:85:5"), ["ode"])
+    res = run_sweep("fig11_n060", parse_range("25:85:5"), [("ode", "paper", ())])
     checked = 0
     for row in res["table"].itertuples():
         if min(abs(row.n0 / n1 - 1), abs(row.n0 / n4 - 1)) < 0.10:
@@ -80,13 +80,13 @@ def test_fig9a_sweep_on_the_theory_curve() -> None:
 
 
 def test_second_identical_sweep_computes_nothing() -> None:
-    first = run_sweep("fig7b", [20.0, 30.0], ["ode"], ("run.t_end_s=1",))
-    second = run_sweep("fig7b", [20.0, 30.0], ["ode"], ("run.t_end_s=1",))
+    first = run_sweep("fig7b", [20.0, 30.0], [("ode", None, ())], ("run.t_end_s=1",))
+    second = run_sweep("fig7b", [20.0, 30.0], [("ode", None, ())], ("run.t_end_s=1",))
     assert first["computed"] == 2 and first["cached"] == 0
     assert second["computed"] == 0 and second["cached"] == 2
     assert second["table"]["theta_asymp"].tolist() == first["table"]["theta_asymp"].tolist()
     # a changed scene is computed again, the unchanged point is not
-    third = run_sweep("fig7b", [20.0, 31.0], ["ode"], ("run.t_end_s=1",))
+    third = run_sweep("fig7b", [20.0, 31.0], [("ode", None, ())], ("run.t_end_s=1",))
     assert third["computed"] == 1 and third["cached"] == 1
 
 

@@ -94,7 +94,7 @@ def test_fmt_value_says_what_none_means_and_reads_durations_and_phases() -> None
 
 
 def test_table_right_aligns_numbers_and_keeps_missing_cells() -> None:
-    text = table(("mode", "t_invert"), [("ode", "2.329 s"), ("mujoco-native", "12.5 s"),
+    text = table(("mode", "t_invert"), [("ode/paper", "2.329 s"), ("mujoco/native", "12.5 s"),
                                        ("x", MISSING)])
     lines = text.splitlines()
     assert lines[0].startswith("mode") and len({len(s) for s in lines}) == 1
@@ -117,12 +117,13 @@ def test_a_mujoco_run_weighs_far_more_than_an_ode_run_of_the_same_scene(
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
     scene = load_scene("fig3")
     ode = expected_cost_s(plan_for(scene, "ode"))
-    paper = expected_cost_s(plan_for(scene, "mujoco-paper"))
-    native = expected_cost_s(plan_for(scene, "mujoco-native"))
+    paper = expected_cost_s(plan_for(scene, "mujoco", "paper"))
+    native = expected_cost_s(plan_for(scene, "mujoco", "native"))
     assert paper > 20 * ode and native > 2 * ode
     # beyond the fixed cost of a run, ten times the steps, four times the simulated time
     assert (paper - TASK_OVERHEAD_S) / (native - TASK_OVERHEAD_S) == pytest.approx(10)
-    short = expected_cost_s(plan_for(load_scene("fig3", ["run.t_end_s=2"]), "mujoco-paper"))
+    short = expected_cost_s(plan_for(load_scene("fig3", ["run.t_end_s=2"]), "mujoco",
+                                                "paper"))
     assert (paper - TASK_OVERHEAD_S) / (short - TASK_OVERHEAD_S) == pytest.approx(4)
 
 
@@ -257,7 +258,7 @@ def test_a_mujoco_run_reports_how_far_it_got() -> None:
     seen: list[tuple[str, float]] = []
     before = tasks.set_reporter(lambda key, f: seen.append((key, f)))
     try:
-        out = tasks.execute(tasks.Task("fig3", ("run.t_end_s=0.1",), "mujoco-native"), "k")
+        out = tasks.execute(tasks.Task("fig3", ("run.t_end_s=0.1",), "mujoco", "native"), "k")
         assert "summary" in out
         tasks.execute(tasks.Task("fig3", ("run.t_end_s=0.05",), "ode"), "k2")
     finally:

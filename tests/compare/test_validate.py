@@ -23,7 +23,6 @@ import pytest
 from tippetop.compare.studies.validate import (
     EVENT_TOL_S,
     J_TOL,
-    MODES,
     findings,
     setting_changes,
     suggestion,
@@ -36,10 +35,13 @@ EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
 #: The default horizon: the reference turns this top over at 2.33 s and has settled (inverted,
 #: not still moving) only by ~7 s; a shorter run is rightly called inconclusive.
 T_END = 8.0
+#: The runs of a validation on the MuJoCo installed here, in report order.
+KEYS = ("mujoco/file", "ode/paper", "mujoco/paper", "mujoco/native")
 
 
 def _run(mode: str, **kw: Any) -> dict[str, Any]:
-    base = {"engine": "ode" if mode == "ode" else "mujoco", "status": "ok", "message": "",
+    base = {"engine": mode.split("/")[0], "mode": mode.split("/")[-1], "status": "ok",
+            "message": "",
             "theta_final": 3.0, "t_invert": 2.0, "t_stem": None, "J_rel_drift": 1e-9,
             "energy_monotone": True, "energy_rise_rel": 0.0, "contact_energy_bound_J": 0.0,
             "phases": [], "error": None, "outcome": "inverted", "end_state": "inverted",
@@ -51,40 +53,44 @@ def _run(mode: str, **kw: Any) -> dict[str, Any]:
 
 
 def _runs(**per_mode: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    return {m: _run(m, **per_mode.get(m.replace("-", "_"), {})) for m in MODES}
+    def arg(key: str) -> str:  # mujoco/file -> mujoco_file, ode/paper -> ode
+        return "ode" if key == "ode/paper" else key.replace("/", "_")
+
+    return {k: _run(k, **per_mode.get(arg(k), {})) for k in KEYS}
 
 
 def _check(checks: list[dict[str, Any]], name: str, mode: str) -> dict[str, Any]:
-    return next(c for c in checks if c["check"] == name and c["mode"] == mode)
+    return next(c for c in checks if c["check"] == name and c["run"] == mode)
 
 
 # ---------------------------------------------------------------- the checks
 def test_all_agree_when_every_run_matches_the_reference() -> None:
     checks = verdict(_runs(), "inverted")
     assert all(c["passed"] for c in checks)
-    assert {c["mode"] for c in checks} == set(MODES)
-    assert set(checks[0]) == {"check", "mode", "passed", "value", "tolerance", "note"}
+    assert {c["run"] for c in checks} == set(KEYS)
+    assert set(checks[0]) == {"check", "run", "engine", "mode", "passed", "value", "tolerance",
+                              "note"}
 
 
 def test_inversion_time_tolerance_is_the_larger_of_absolute_and_relative() -> None:
     # reference at 2.0 s: the tolerance is max(0.1 s, 10 % of 2.0 s) = 0.2 s
     late = verdict(_runs(mujoco_file={"t_invert": 2.19}, mujoco_native={"t_invert": 2.21}),
                    "inverted")
-    assert _check(late, "t_invert", "mujoco-file")["passed"]
-    failed = _check(late, "t_invert", "mujoco-native")
+    assert _check(late, "t_invert", "mujoco/file")["passed"]
+    failed = _check(late, "t_invert", "mujoco/native")
     assert not failed["passed"] and math.isclose(failed["value"], 0.21)
     # an early reference (0.5 s): the absolute floor (0.1 s) applies, not 0.05 s
     early = verdict(_runs(ode={"t_invert": 0.5}, mujoco_file={"t_invert": 0.5 + EVENT_TOL_S
                                                               - 0.01}), "inverted")
-    assert _check(early, "t_invert", "mujoco-file")["passed"]
+    assert _check(early, "t_invert", "mujoco/file")["passed"]
 
 
 def test_a_run_that_never_turns_over_departs_in_outcome_and_time() -> None:
     checks = verdict(_runs(mujoco_file={"t_invert": None, "outcome": "upright",
                                         "end_state": "upright", "theta_final": 0.05}),
                      "inverted")
-    assert not _check(checks, "outcome", "mujoco-file")["passed"]
-    assert not _check(checks, "t_invert", "mujoco-file")["passed"]
+    assert not _check(checks, "outcome", "mujoco/file")["passed"]
+    assert not _check(checks, "t_invert", "mujoco/file")["passed"]
 
 
 def test_reaching_the_stem_counts_as_turned_over() -> None:
@@ -92,14 +98,14 @@ def test_reaching_the_stem_counts_as_turned_over() -> None:
     # angle classifier, but the top did turn over onto its stem
     on_stem = {"t_stem": 1.4, "outcome": "inconclusive", "end_state": "on its stem"}
     checks = verdict(_runs(ode=on_stem, mujoco_paper=on_stem), "inverted")
-    assert _check(checks, "outcome", "mujoco-paper")["passed"]
-    assert _check(checks, "t_stem", "mujoco-paper")["passed"]
+    assert _check(checks, "outcome", "mujoco/paper")["passed"]
+    assert _check(checks, "t_stem", "mujoco/paper")["passed"]
 
 
 def test_a_failed_run_is_a_failed_check_not_numbers() -> None:
     checks = verdict(_runs(mujoco_native={"theta_final": None, "status": "diverged",
                                           "message": "diverged by t = 1 s"}), "inverted")
-    mine = [c for c in checks if c["mode"] == "mujoco-native"]
+    mine = [c for c in checks if c["run"] == "mujoco/native"]
     assert [c["check"] for c in mine] == ["completed"] and not mine[0]["passed"]
 
 
@@ -107,9 +113,9 @@ def test_jellett_tolerance_per_engine() -> None:
     checks = verdict(_runs(ode={"J_rel_drift": 10 * J_TOL["ode"]},
                            mujoco_paper={"J_rel_drift": 0.5 * J_TOL["mujoco"]},
                            mujoco_file={"J_rel_drift": 2 * J_TOL["mujoco"]}), "inverted")
-    assert not _check(checks, "jellett_before_stem", "ode")["passed"]
-    assert _check(checks, "jellett_before_stem", "mujoco-paper")["passed"]
-    assert not _check(checks, "jellett_before_stem", "mujoco-file")["passed"]
+    assert not _check(checks, "jellett_before_stem", "ode/paper")["passed"]
+    assert _check(checks, "jellett_before_stem", "mujoco/paper")["passed"]
+    assert not _check(checks, "jellett_before_stem", "mujoco/file")["passed"]
 
 
 def test_paper_mode_jellett_drift_under_a_first_order_integrator_is_the_integrators() -> None:
@@ -118,7 +124,7 @@ def test_paper_mode_jellett_drift_under_a_first_order_integrator_is_the_integrat
     # 1-2-5 step at which the drift scaled by dt is within the tolerance.
     paper = {"J_rel_drift": 3.2e-3, "integrator": "implicitfast", "timestep_s": 1e-4}
     checks = verdict(_runs(mujoco_paper=paper), "inverted", A_over_C=1.09)
-    check = _check(checks, "jellett_before_stem", "mujoco-paper")
+    check = _check(checks, "jellett_before_stem", "mujoco/paper")
     assert not check["passed"]
     assert "not the law's" in check["note"] and "implicitfast is first order" in check["note"]
     assert "dt <= 2e-05 s or RK4" in check["note"]
@@ -144,8 +150,8 @@ def test_energy_may_rise_by_what_the_soft_contact_held_and_no_more() -> None:
                                         "contact_energy_bound_J": 2e-3},
                            mujoco_native={"energy_rise_rel": 5e-3,
                                           "contact_energy_bound_J": 2e-3}), "inverted")
-    assert _check(checks, "energy_never_rises", "mujoco-file")["passed"]
-    assert not _check(checks, "energy_never_rises", "mujoco-native")["passed"]
+    assert _check(checks, "energy_never_rises", "mujoco/file")["passed"]
+    assert not _check(checks, "energy_never_rises", "mujoco/native")["passed"]
 
 
 # ---------------------------------------------------------------- findings and the fix
@@ -167,19 +173,19 @@ def test_an_energy_gain_under_euler_names_the_integrator() -> None:
 
 def test_the_suggestion_says_whether_the_calibration_fixes_it() -> None:
     good = _runs(mujoco_file={"t_invert": None, "outcome": "upright"})
-    sug = suggestion(good["mujoco-native"], verdict(good, "inverted"), good["mujoco-file"])
+    sug = suggestion(good["mujoco/native"], verdict(good, "inverted"), good["mujoco/file"])
     assert sug["agrees"] and sug["departs"] == [] and "paste" in sug["note"]
     assert sug["option"] == ('<option timestep="0.0002" integrator="RK4" cone="pyramidal" '
                              'impratio="1"/>')
     bad = _runs(mujoco_native={"t_invert": 1.0})
-    sug = suggestion(bad["mujoco-native"], verdict(bad, "inverted"), bad["mujoco-file"])
+    sug = suggestion(bad["mujoco/native"], verdict(bad, "inverted"), bad["mujoco/file"])
     assert not sug["agrees"] and sug["departs"] == ["t_invert"]
-    assert "do not fix it" in sug["note"] and "mujoco-paper" in sug["note"]
+    assert "do not fix it" in sug["note"] and "mujoco/paper" in sug["note"]
 
 
 def test_setting_changes_lists_only_what_differs() -> None:
-    f = _run("mujoco-file", cone="elliptic", solref=[0.02, 1.0])
-    n = _run("mujoco-native", cone="pyramidal", solref=[0.002, 1.0])
+    f = _run("mujoco/file", cone="elliptic", solref=[0.02, 1.0])
+    n = _run("mujoco/native", cone="pyramidal", solref=[0.002, 1.0])
     assert setting_changes(f, n) == [
         {"setting": "cone", "file": "elliptic", "calibrated": "pyramidal"},
         {"setting": "solref", "file": [0.02, 1.0], "calibrated": [0.002, 1.0]}]
@@ -210,21 +216,22 @@ def test_validate_json_contract(paper_example: tuple[Any, Path, int]) -> None:
     assert {"model", "runs", "verdict", "findings", "suggestion"} <= set(res)
     assert {"R_m", "a_m", "A", "C", "M_kg", "A_over_C", "a_over_R", "mu", "group", "n1", "n4",
             "nc", "theta_s"} <= set(res["model"])
-    assert list(res["runs"]) == ["mujoco-file", "ode", "mujoco-paper", "mujoco-native"]
+    assert list(res["runs"]) == list(KEYS)
     for run in res["runs"].values():
         assert {"t_invert", "t_stem", "status", "theta_final", "J_rel_drift",
                 "energy_monotone"} <= set(run)
     assert code == (0 if res["agrees"] else 1)
     # every MuJoCo run's realised law, with its refit (issue 22's contract keys)
-    for mode in ("mujoco-file", "mujoco-paper", "mujoco-native"):
+    for mode in ("mujoco/file", "mujoco/paper", "mujoco/native"):
         fr = res["runs"][mode]["friction_realised"]
         assert {"mu_fit", "Lambda_fit_mps", "residual", "half_mu_slip_mps", "angle_rms_rad",
                 "creep_fraction", "refit"} <= set(fr)
         assert {"t_invert", "t_stem", "theta_asymp", "explains"} <= set(fr["refit"])
     # paper mode realises the file's law, so its refit is the reference, which it follows
-    assert res["runs"]["mujoco-paper"]["friction_realised"]["refit"]["explains"] is True
+    assert res["runs"]["mujoco/paper"]["friction_realised"]["refit"]["explains"] is True
     assert json.loads((out / "results.json").read_text()) == res
-    assert {p.name for p in (out / "tables").iterdir()} == {f"{m}.csv" for m in MODES}
+    names = {f"{k.replace('/', '_')}.csv" for k in KEYS}
+    assert {p.name for p in (out / "tables").iterdir()} == names
 
 
 def test_validate_tunes_the_files_contact(paper_example: tuple[Any, Path, int]) -> None:
@@ -275,17 +282,18 @@ def test_validate_reads_the_top_from_the_file(paper_example: tuple[Any, Path, in
 
 def test_validate_verdict_on_the_paper_top(paper_example: tuple[Any, Path, int]) -> None:
     res = paper_example[0]
-    by = {(c["check"], c["mode"]): c for c in res["verdict"]}
+    by = {(c["check"], c["run"]): c for c in res["verdict"]}
     # the reference, the paper's law in MuJoCo and the calibrated native settings agree with
     # the theory and with each other within the stated tolerances
-    for mode in ("ode", "mujoco-paper", "mujoco-native"):
-        mine = [c for c in res["verdict"] if c["mode"] == mode]
+    for mode in ("ode/paper", "mujoco/paper", "mujoco/native"):
+        mine = [c for c in res["verdict"] if c["run"] == mode]
         assert mine and all(c["passed"] for c in mine), mine
-    assert abs(res["runs"]["mujoco-paper"]["t_invert"] - res["runs"]["ode"]["t_invert"]) < 0.05
+    runs = res["runs"]
+    assert abs(runs["mujoco/paper"]["t_invert"] - runs["ode/paper"]["t_invert"]) < 0.05
     # the file's own contact (MuJoCo's default solref 0.02 s, the file's elliptic cone) does not
     # turn the paper's top over within 8 s: the validator must say so, and suggest the
     # calibration
-    assert not by[("outcome", "mujoco-file")]["passed"]
+    assert not by[("outcome", "mujoco/file")]["passed"]
     assert res["agrees"] is False and paper_example[2] == 1
     assert any("only the reference turns the top over" in f for f in res["findings"])
     sug = res["suggestion"]
@@ -394,18 +402,17 @@ def test_validate_on_another_engine_adds_its_runs(tmp_path: Path) -> None:
     res = json.loads(proc.stdout)
     assert res["engines"] == ["mujoco", here]
     assert res["tuned"] == {"skipped": "--no-tune"}
-    assert list(res["runs"]) == ["mujoco-file", f"mujoco-file@{here}", "ode", "mujoco-paper",
-                                 f"mujoco-paper@{here}", "mujoco-native",
-                                 f"mujoco-native@{here}"]
-    for mode in ("mujoco-file", "mujoco-paper", "mujoco-native"):
-        a, b = res["runs"][mode], res["runs"][f"{mode}@{here}"]
+    assert list(res["runs"]) == ["mujoco/file", f"{here}/file", "ode/paper", "mujoco/paper",
+                                 f"{here}/paper", "mujoco/native", f"{here}/native"]
+    for mode in ("file", "paper", "native"):
+        a, b = res["runs"][f"mujoco/{mode}"], res["runs"][f"{here}/{mode}"]
         assert a["path"] != b["path"] and b["path"].startswith("worker")
         for key in ("t_invert", "t_stem", "theta_final", "J_rel_drift", "energy_rise_rel"):
             assert a[key] == b[key], (mode, key)
         mine = [(c["check"], c["passed"], c["value"]) for c in res["verdict"]
-                if c["mode"] == mode]
+                if c["run"] == f"mujoco/{mode}"]
         theirs = [(c["check"], c["passed"], c["value"]) for c in res["verdict"]
-                  if c["mode"] == f"{mode}@{here}"]
+                  if c["run"] == f"{here}/{mode}"]
         assert mine == theirs
     assert len(list((out / "tables").iterdir())) == 7
     assert f"[{here}]" in (out / "report.html").read_text()

@@ -44,9 +44,9 @@ def test_scene_keys_without_a_close_one(given: str) -> None:
     ("fig33", catalogue_names(), "fig3"),
     ("FIG3", catalogue_names(), "fig3"),
     ("fig7", catalogue_names(), "fig7a"),  # of two as close, the first
-    ("mujoco-nativ", MODES, "mujoco-native"),
-    ("mujoco_native", MODES, "mujoco-native"),
-    ("ode-coulomb-viscous", MODES, "ode-coulomb_viscous"),
+    ("nativ", MODES, "native"),
+    ("native_pyramidal", MODES, "native-pyramidal"),
+    ("coulomb-viscous", MODES, "coulomb_viscous"),
     ("mjxx", ("mujoco", "mjx", "mjx-f32", "warp"), "mjx"),
     ("warpp", ("mujoco", "mjx", "mjx-f32", "warp"), "warp"),
     ("MJX", ("mujoco", "mjx", "mjx-f32", "warp"), "mjx"),

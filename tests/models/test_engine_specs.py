@@ -19,15 +19,15 @@ from tippetop.models.errors import TippetopError
 ])
 def test_each_form(text: str, want: EngineSpec) -> None:
     assert parse_engine(text) == want
-    assert parse_engine(text).in_process == (want.spec == "mujoco")
+    assert parse_engine(text).in_process == (want.spec in ("ode", "mujoco"))
 
 
 @pytest.mark.parametrize(("text", "says"), [
     ("mujoco==3.3", "engine: expected mujoco==X.Y.Z with a release number such as 3.3.7, "
      "got 'mujoco==3.3'"),
     ("mujoco==latest", "got 'mujoco==latest'"),
-    ("mujoco@", "engine: expected mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp, "
-     "got 'mujoco@'"),
+    ("mujoco@", "engine: expected ode, mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or "
+     "warp, got 'mujoco@'"),
     ("bullet", "got 'bullet'"),
     ("MJX", "got 'MJX'"),
 ])

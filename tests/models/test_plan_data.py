@@ -20,7 +20,7 @@ import pytest
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.plan import PLAN_FORMAT, MujocoPlan, RunPlan
-from tippetop.models.resolve import mode_engine, resolve_plan
+from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import catalogue_names, load_scene
 from tippetop.mujoco_runner.settings import build_model
 from tippetop.mujoco_runner.state import file_top
@@ -35,23 +35,25 @@ FILES = [ROOT / "examples" / "paper_loaded_sphere.xml",
 pytestmark = pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
 
 
-def _plan(scene: str | None, mode: str, *overrides: str) -> RunPlan:
-    engine, extra = mode_engine(mode)
-    s = load_scene(scene, [*overrides, *extra])
+def _plan(scene: str | None, run: str, *overrides: str) -> RunPlan:
+    """The plan of ``run``: an engine (its scene's mode), or ``ENGINE/MODE``."""
+    engine, _, mode = run.partition("/")
+    s = load_scene(scene, list(overrides))
     loaded = file_top(s.top_mjcf) if s.top_mjcf is not None else None
-    return resolve_plan(s, engine, file_top=loaded)
+    return resolve_plan(s, engine, mode or None, file_top=loaded)
 
 
 def _catalogue() -> list[tuple[str, str]]:
-    return [(name, mode) for name in catalogue_names() for mode in MODES]
+    return [(name, f"{family}/{mode}") for name in catalogue_names()
+            for mode, m in MODES.items() for family in m.families]
 
 
 def _files() -> list[tuple[Path, str, tuple[str, ...]]]:
     out = []
     for f in FILES:
-        for mode in ("mujoco", "mujoco-native", "mujoco-file", "ode"):
+        for mode in ("mujoco", "mujoco/native", "mujoco/file", "ode"):
             out.append((f, mode, ()))
-        out.append((f, "mujoco-paper", ("mujoco.fit_paper_timestep=true",)))
+        out.append((f, "mujoco/paper", ("mujoco.fit_paper_timestep=true",)))
         out.append((f, "mujoco", ("init.n0=150", "init.theta0=0.2")))  # a state, no keyframe
     out.append((FILES[2], "mujoco", ("init.keyframe='slow'", "effects.stem=false")))
     return out
@@ -87,18 +89,18 @@ def _complete(p: MujocoPlan) -> None:
     assert p.sample_dt_s == p.steps_per_sample * p.timestep_s
     # the start is a keyframe of the text, or the free joint's state: exactly one of them
     assert (p.keyframe is None) == (len(p.start_qpos) == 7 and len(p.start_qvel) == 6)
-    assert (p.law is None) == (p.paper_max_timestep_s is None) or p.mode == "paper"
+    assert (p.law is None) == (p.paper_max_timestep_s is None) or p.friction == "paper"
     build_model(p)  # raises if the compiled model does not hold the plan's values
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
-@pytest.mark.parametrize("mode", ["mujoco", "mujoco-native", "mujoco-paper"])
+@pytest.mark.parametrize("mode", ["mujoco", "mujoco/native", "mujoco/paper"])
 def test_the_plan_states_the_ball_table_contact_as_mujoco_makes_it(path: Path,
                                                                     mode: str) -> None:
     # MuJoCo mixes the two geoms' values into the contact (mj_contactParam: priority, then the
     # larger condim and friction, solmix-weighted solref and solimp) or takes a pair's; the
     # plan's ball_contact must be the contact MuJoCo builds at t = 0, to the last bit
-    over = ("mujoco.fit_paper_timestep=true",) if mode == "mujoco-paper" else ()
+    over = ("mujoco.fit_paper_timestep=true",) if mode == "mujoco/paper" else ()
     p = _plan(None, mode, f"top.mjcf={str(path)!r}", "run.t_end_s=0.1", *over).mujoco
     top_model = build_model(p)
     model = top_model.model
@@ -124,7 +126,7 @@ def test_the_stranger_file_mixes_by_priority_and_keeps_its_pair() -> None:
     p = _plan(None, "mujoco", f"top.mjcf={str(FILES[4])!r}").mujoco
     assert p.ball_contact.friction == (0.3, 0.3, 0.005, 0.0001, 0.0001)
     assert p.ball_contact.source == "geoms floor and shell"
-    assert _plan(None, "mujoco-paper", f"top.mjcf={str(FILES[4])!r}",
+    assert _plan(None, "mujoco/paper", f"top.mjcf={str(FILES[4])!r}",
                  "mujoco.fit_paper_timestep=true").mujoco.law.mu == 0.3
     pair = next(c for c in p.contacts if c.element == "pair")
     assert pair.friction == (0.5, 0.5, 0.01, 0.001, 0.001) and pair.solref == (0.003, 1.0)
@@ -154,15 +156,16 @@ def test_the_plans_mjcf_compiles_anywhere(tmp_path: Path, monkeypatch: pytest.Mo
 def test_a_plan_whose_text_disagrees_with_its_values_is_refused() -> None:
     from dataclasses import replace
 
-    p = _plan("fig3", "mujoco-native").mujoco
+    p = _plan("fig3", "mujoco/native").mujoco
     with pytest.raises(TippetopError, match="^mjcf: expected the compiled model to hold the "
                        "plan's values, got timestep_s 0.0002, the plan's 0.0001"):
         build_model(replace(p, timestep_s=1e-4))
 
 
 @pytest.mark.parametrize(("text", "says"), [
-    ("[]", "plan format: expected 'tippetop-plan/1', got 'list'"),
-    ('{"format": "tippetop-plan/0"}', "plan format: expected 'tippetop-plan/1', got "
+    ("[]", "plan format: expected 'tippetop-plan/1' or 'tippetop-plan/2', got 'list'"),
+    ('{"format": "tippetop-plan/0"}', "plan format: expected 'tippetop-plan/1' or "
+     "'tippetop-plan/2', got "
      "'tippetop-plan/0'"),
     ("{not json", "plan: expected JSON"),
 ])
@@ -173,7 +176,7 @@ def test_json_that_is_not_a_plan_is_one_line(text: str, says: str) -> None:
 
 
 def test_a_plan_with_a_field_changed_or_added_is_refused() -> None:
-    data = json.loads(_plan("fig3", "mujoco-paper").to_json())
+    data = json.loads(_plan("fig3", "mujoco/paper").to_json())
     data["mujoco"]["timestep_s"] = "fast"
     with pytest.raises(TippetopError, match="^plan.mujoco.timestep_s: expected a number"):
         RunPlan.from_json(json.dumps(data))
@@ -189,15 +192,15 @@ def test_paper_modes_timestep_rule_is_the_plans() -> None:
     tut = f"top.mjcf={str(FILES[3])!r}"
     with pytest.raises(TippetopError, match=r"^mujoco\.timestep_s: expected at most 0\.000166 "
                        r"s .* or mujoco.fit_paper_timestep = true"):
-        _plan(None, "mujoco-paper", tut)
-    p = _plan(None, "mujoco-paper", tut, "mujoco.fit_paper_timestep=true").mujoco
+        _plan(None, "mujoco/paper", tut)
+    p = _plan(None, "mujoco/paper", tut, "mujoco.fit_paper_timestep=true").mujoco
     assert p.timestep_s == 1e-4 and p.paper_max_timestep_s == pytest.approx(1.66e-4, rel=0.01)
     assert p.notes == ("ran at dt = 0.0001 s, not the file's 0.002 s: the paper's law at mu = 1 "
                        "relaxes the slip in 0.166 ms on this top, which a longer step cannot "
                        "follow",)
     # a step the scene sets itself is never changed
     with pytest.raises(TippetopError, match=r"^mujoco\.timestep_s: expected at most"):
-        _plan(None, "mujoco-paper", tut, "mujoco.fit_paper_timestep=true",
+        _plan(None, "mujoco/paper", tut, "mujoco.fit_paper_timestep=true",
               "mujoco.timestep_s=0.001")
 
 

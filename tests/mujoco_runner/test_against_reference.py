@@ -120,7 +120,7 @@ def test_native_condim3_keeps_jellett() -> None:
     assert s["J_rel_drift"] < 1e-4
 
 
-@pytest.mark.parametrize("mode", ["mujoco-native-condim4", "mujoco-native-condim6"])
+@pytest.mark.parametrize("mode", ["native-condim4", "native-condim6"])
 def test_native_torsional_and_rolling_friction_stop_the_inversion(mode: str) -> None:
     """README: torsional or rolling friction (condim 4, 6) breaks Jellett's constant and stops
     the inversion. MuJoCo's torsional friction resists the spin with a torque up to
@@ -132,7 +132,8 @@ def test_native_torsional_and_rolling_friction_stop_the_inversion(mode: str) -> 
     the normal meanwhile, cos 0.22 = 0.98), the tilt at most 0.56 rad, no inversion in 4 s,
     and J all but gone (relative drift 1.0; bound 0.5: a torque off P, unlike condim 3)."""
     scene = load_scene("fig3", ["run.t_end_s=4"])
-    got = run("fig3", mode, "run.t_end_s=4")
+    got = run_engine(load_scene("fig3", ["run.t_end_s=4"]), "mujoco", mode,
+                     progress=False)
     top = scene.top
     n1 = theory.n1(top)
     assert got.summary["torsional"] == pytest.approx(0.005)

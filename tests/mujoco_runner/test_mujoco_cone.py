@@ -68,7 +68,7 @@ def test_the_harness_says_what_the_pyramidal_cone_does() -> None:
 
     decel, _ = _deceleration("pyramidal", 45.0)
     assert decel == pytest.approx(PYRAMIDAL_DIAGONAL, abs=0.03)
-    note = MODE_NOTES["mujoco-native-pyramidal"]
+    note = MODE_NOTES[("mujoco", "native-pyramidal")]
     assert f"{PYRAMIDAL_DIAGONAL:.2f} mu N" in note
     assert "sqrt(2) mu N" not in note.replace("mu N / sqrt(2)", "")
 
@@ -81,5 +81,5 @@ def test_the_calibrated_row_names_its_cone() -> None:
 
     cone = calibrated_native_settings()["cone"]
     other = {"pyramidal": "elliptic", "elliptic": "pyramidal"}[cone]
-    for text in (MODE_NOTES["mujoco-native"], FRICTION_MODES["mujoco-native"]):
+    for text in (MODE_NOTES[("mujoco", "native")], FRICTION_MODES["mujoco/native"]):
         assert f"{cone} cone" in text and other not in text
