@@ -17,6 +17,7 @@ from tippetop.compare.commands import (
     calibrate,
     compare,
     matrix,
+    metrics,
     mjcf,
     nightly,
     plan,
@@ -33,7 +34,7 @@ from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, ru
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
-            report, calibrate, render, validate, atlas, mjcf)
+            report, calibrate, render, validate, atlas, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
 ENGINES: dict[str, str] = {

@@ -61,9 +61,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-#: Unit of each metric ``compare`` checks against the reference.
-METRIC_UNITS = {"theta_asymp": "rad", "theta_rms": "rad", "t_invert": "s",
-                "J_rel_drift": "relative", "d_theta_asymp": "rad"}
+def _unit(metric: str) -> str:
+    """A metric's declared unit (:mod:`tippetop.compare.measures.metrics`)."""
+    from tippetop.compare.measures.metrics import METRICS
+
+    m = METRICS.get(metric)
+    return m.unit if m is not None and m.unit != "fraction" else ""
 
 
 def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
@@ -88,13 +91,17 @@ def difference_text(d: dict[str, Any]) -> str:
     t_invert tolerance of 0.1 s (1 ms sampling plus ...)``.
     """
     metric = str(d.get("metric", "?"))
-    unit = METRIC_UNITS.get(metric, "")
+    unit = _unit(metric)
     value, ref, tol = d.get("value"), d.get("reference"), d.get("tolerance")
     if metric == "status":
         note = d.get("note") or value
         return f"the run failed ({note}); the reference's status is {fmt(ref)}"
     if metric == "outcome":
         return f"ends {fmt(value)} where the reference ends {fmt(ref)} (a different outcome)"
+    if metric == "t_left_table":
+        if value is None:
+            return f"the ball stays on the table; the reference's leaves it at {fmt(ref, 's')}"
+        return f"the ball leaves the table at {fmt(value, 's')}; the reference's stays on"
     if metric == "t_invert" and (value is None) != (ref is None):
         if value is None:
             return f"never turns over; the reference does at {fmt(ref, 's')}"
@@ -132,15 +139,18 @@ def print_compare(res: dict[str, Any]) -> None:
     runs = {str(s.get("run")): s for s in res.get("runs") or []}
     rows = []
     for m, s in runs.items():
-        matches = s.get("matches_theory")
+        matches = s.get("agrees", s.get("matches_theory"))
         if s.get("outcome") == "failed":
             rows.append((m, "failed", "DIFFERS" if matches is False else MISSING,
                          *[MISSING] * 5))
             continue
+        word = {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches))
+        if s.get("against") == "reference" and matches is not None:
+            word += " (vs ref)"
         rows.append((
             m + (" (reference)" if s.get("reference") else ""),
             fmt(s.get("outcome")),
-            {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches)),
+            word,
             fmt_value("t_invert", s.get("t_invert")).split(" (")[0],
             fmt(s.get("theta_asymp"), "rad"),
             fmt(s.get("J_rel_drift"), "relative"),
@@ -149,16 +159,18 @@ def print_compare(res: dict[str, Any]) -> None:
         ))
     if rows:
         print()
-        print(table(("run", "outcome", "theory", "t_invert", "theta_asymp", "J drift",
+        print(table(("run", "outcome", "verdict", "t_invert", "theta_asymp", "J drift",
                      "energy lost", "theta RMS vs ref"), rows))
-    agree_rule = (f"agrees: the theory's outcome, and theta_asymp within "
-                  f"{fmt(tol_s, 'rad')} of theta_s" if tol_s is not None else
-                  "agrees: the theory's outcome")
-    print(f"  (run: engine/mode; {agree_rule}; J drift: Jellett's constant, relative)")
+    agree_rule = (f"agrees: every check passes: the theory's outcome, theta_asymp within "
+                  f"{fmt(tol_s, 'rad')} of theta_s (vs ref: a top that reaches its stem, "
+                  "judged against the reference), the reference's event times, the ball on "
+                  "the table, Jellett's constant kept, no energy gained")
+    print(f"  (run: engine/mode; {agree_rule}; J drift: Jellett's constant while the ball "
+          "alone touches, relative)")
     against = [(str(r.get("run")), r.get("reasons") or []) for r in res.get("crossval") or []
                if not r.get("agrees", True)]
     if against:
-        print("\nagainst the theory:")
+        print("\nwhy not:")
         width = max(len(m) for m, _ in against)
         for m, reasons in against:
             print(labelled(m, "; ".join(reasons) if reasons else "does not agree", width))

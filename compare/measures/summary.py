@@ -1,4 +1,9 @@
-"""What a run's summary says, for a person and for a program: pure functions of it.
+"""A run's summary, typed, and what it says for a person and for a program.
+
+:class:`RunSummary` is one run's summary: what it measured (each a metric of
+:mod:`.metrics`), how it ended and what ran, read back from the engine (:data:`RAN_FIELDS`).
+Frozen, as the plan is, with :meth:`~RunSummary.to_json` and :meth:`~RunSummary.from_json`;
+it reads as a mapping of its JSON keys too (``summary["t_invert"]``), as the JSON does.
 
 Whether a run finished (:func:`run_failed`), what ran in one line (:func:`describe_ran`), the
 contact settings it ran as MJCF to paste (:func:`mjcf_attributes`), and the steps it took for
@@ -7,9 +12,12 @@ the cost model (:func:`measured_steps`). Nothing here starts a run.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field, fields
 from typing import Any
 
+from tippetop.models.errors import TippetopError
+from tippetop.models.modes import LAW_MODES, run_label
 from tippetop.models.numbers import number_text, solver_text
 from tippetop.models.plan import NATIVE_LAW
 
@@ -23,6 +31,275 @@ RESULT_KEYS = ("theta_final", "theta_asymp", "t_invert", "J_rel_drift", "energy_
 #: end the model reports); any other status (MuJoCo's ``diverged``, the reference's
 #: ``max_steps``, ``step_too_small``, ``singular``, ``chatter``, ``flat_end``) is a failed run.
 FINISHED_STATUSES = ("ok", "contact_lost", "hop")
+
+
+# ---------------------------------------------------------------- the typed summary
+@dataclass(frozen=True)
+class Phase:
+    """A stretch of a run with the same contacts: ``ball``, ``stem``, ``both`` or ``none``."""
+
+    contact: str
+    t_start: float
+    t_end: float
+
+    def to_json(self) -> dict[str, Any]:
+        """``{contact, t_start, t_end}``."""
+        return {"contact": self.contact, "t_start": self.t_start, "t_end": self.t_end}
+
+
+@dataclass(frozen=True)
+class RanField:
+    """One setting a run reports it ran with, read back from the engine (``what ran``).
+
+    Attributes:
+        name: The key (``timestep_s``).
+        unit: Its unit (``s``, ``m``, ``relative`` ...) or ``""``.
+        meaning: One sentence.
+        engines: ``ode``, ``mujoco`` or both: whose runs report it.
+    """
+
+    name: str
+    unit: str
+    meaning: str
+    engines: tuple[str, ...] = ("mujoco",)
+
+
+_BOTH = ("ode", "mujoco")
+
+#: What a run reports it ran with, read back from the engine (the order ``what ran`` lists it).
+RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
+    RanField("friction_law", "", "the friction law applied: the reference's (modified_coulomb, "
+             "coulomb, viscous, coulomb_viscous, none), the law paper mode applies in MuJoCo, "
+             f"or {NATIVE_LAW} (MuJoCo's own contact makes the friction)", _BOTH),
+    RanField("formulation", "", "the reference's equations: vector (regular at theta = 0 and "
+             "pi) or paper (the paper's own variables)", ("ode",)),
+    RanField("rtol", "relative", "the reference integrator's relative tolerance", ("ode",)),
+    RanField("atol", "", "the reference integrator's absolute tolerance, in each state "
+             "variable's own unit", ("ode",)),
+    RanField("stiff", "", "what ran for stiff friction: rolling (rolling phases where the law "
+             "turns stiff), off, or none (why)", ("ode",)),
+    RanField("law_mu", "", "the friction coefficient of the law paper mode applies"),
+    RanField("timestep_s", "s", "MuJoCo's timestep"),
+    RanField("integrator", "", "MuJoCo's integrator: Euler, implicit, implicitfast or RK4"),
+    RanField("cone", "", "MuJoCo's friction cone: pyramidal or elliptic"),
+    RanField("impratio", "", "MuJoCo's ratio of frictional to normal constraint impedance"),
+    RanField("noslip_iterations", "", "MuJoCo's noslip solver iterations (0: off)"),
+    RanField("condim", "", "the ball's contact dimensionality: 1 frictionless, 3 sliding, 4 "
+             "with torsional, 6 with rolling friction"),
+    RanField("mu", "", "the ball's contact's sliding friction coefficient, as MuJoCo mixed it"),
+    RanField("torsional", "m", "the ball's contact's torsional friction coefficient"),
+    RanField("rolling", "m", "the ball's contact's rolling friction coefficient"),
+    RanField("solref", "", "the ball's contact's solref: time constant (s) and damping ratio, "
+             "or (negative) stiffness and damping"),
+    RanField("solimp", "", "the ball's contact's solimp: d0, dwidth, width (m), midpoint, "
+             "power"),
+    RanField("gravity_mps2", "m/s^2", "the magnitude of gravity"),
+    RanField("iterations", "", "MuJoCo's constraint solver's maximum iterations"),
+    RanField("tolerance", "relative", "MuJoCo's constraint solver tolerance"),
+    RanField("contacts", "", "whether contacts are on (off: the top falls freely)"),
+    RanField("sample_dt_s", "s", "the spacing of the observables table's rows", _BOTH),
+    RanField("keyframe", "", "the keyframe of the file the run starts from (none: a state)"),
+    RanField("implementation", "", "what stepped the run: mujoco (MuJoCo C), mjx or warp"),
+    RanField("version", "", "the version of what stepped it (MuJoCo C's, mujoco-mjx's, "
+             "mujoco-warp's)"),
+    RanField("precision", "", "float64 or float32: the dtype of the engine's state"),
+    RanField("device", "", "where it stepped (cpu)"),
+    RanField("path", "", "how the steps were taken (the compiled stepper, a batch, a worker's "
+             "loop, a captured graph ...)"),
+    RanField("mujoco_c_version", "", "MuJoCo C's version beside an accelerated engine"),
+    RanField("device_kind", "", "the accelerated engine's device kind"),
+    RanField("contacts_from", "", "where an accelerated engine's contacts at each sample come "
+             "from"),
+    RanField("warnings", "", "MuJoCo's warnings over the run"),
+    RanField("law_applied", "", "how an accelerated engine applies paper mode's law"),
+    RanField("note", "", "what an accelerated engine's run leaves out"),
+)}
+
+#: The keys of a run's summary in its JSON, in order, besides what ran (:data:`RAN_FIELDS`):
+#: the results (each a metric of :mod:`.metrics`), then where and how the run ended.
+SUMMARY_ORDER = ("engine", "mode", "theta_final", "theta_asymp", "t_invert", "J_rel_drift",
+                 "energy_monotone", "energy_rise_rel", "contact_lost", "wall_s", "n_rhs",
+                 "n_steps", "status", "message")
+_AFTER_RAN = ("t_stem", "t_left_table", "flights", "phases", "rolling_phases", "stem",
+              "max_penetration_m", "contact_energy_bound_J", "unused", "friction_realised")
+#: Keys written only when the run has them (the reference's counters and rolling phases, MuJoCo's
+#: counters and contact energy, a stem).
+_OPTIONAL = ("n_rhs", "n_steps", "rolling_phases", "stem", "max_penetration_m",
+             "contact_energy_bound_J", "flights")
+
+
+@dataclass(frozen=True, eq=False)
+class RunSummary(Mapping[str, Any]):
+    """One run's summary: what it measured, how it ended and what ran, read back.
+
+    Typed and frozen, as the plan is; :meth:`to_json` gives the JSON every command prints
+    (``simulate --json``; its keys are a contract), :meth:`from_json` reads it back (a cache
+    entry, a worker's reply) and says which key it does not know. It reads as the mapping of
+    its JSON too (``s["t_invert"]``, ``s.get("n_steps")``, ``dict(s)``), and equals a mapping
+    with the same keys and values.
+
+    Attributes:
+        engine: The engine the run ran on, as given (``mujoco==3.3.7``).
+        mode: How the contact force was made (``native``).
+        status: ``ok``, ``contact_lost`` or ``hop`` (the physics ended the run), else why it
+            failed (``diverged``, ``max_steps`` ...).
+        message: The same in words.
+        theta_final: The tilt at the last sample (rad); None for a failed run.
+        theta_asymp: The mean tilt over the run's last 10 % (rad).
+        t_invert: The first time theta crosses pi/2 (s); None if never.
+        J_rel_drift: Jellett's constant's largest relative change while the ball alone
+            touches the table.
+        energy_monotone: Whether E never rises beyond the integration's error.
+        energy_rise_rel: E's largest rise above its running minimum, of E0.
+        contact_lost: The reference stopped because the ball left the table.
+        t_stem: The stem's first contact (s); None if never.
+        t_left_table: The first time the ball leaves the table before the stem lands (s):
+            the start of its first flight of 10 ms or more (:data:`~.series.HOP_MIN_S`;
+            shorter ones are its soft contact chattering) after the first 0.05 s; None if
+            never (the reference: where it stopped because its ball left the table).
+        flights: A MuJoCo run's flights before the stem lands: ``{count, longest_s,
+            airborne_s, t_first, hops, t_first_hop}`` (:func:`~.series.flights`); None:
+            none (and for the reference, which stops at the first).
+        wall_s: Wall time (s).
+        n_rhs: The reference's right-hand-side evaluations.
+        n_steps: MuJoCo's steps.
+        max_penetration_m: MuJoCo's deepest penetration (m).
+        contact_energy_bound_J: The most elastic energy MuJoCo's contacts held (J).
+        ran: What ran, read back from the engine (keys of :data:`RAN_FIELDS`).
+        phases: The contact phases.
+        rolling_phases: The reference's rolling phases: ``{phases, t_s}``.
+        stem: The stem the reference modelled: ``{kind, offset_m, radius_m}``.
+        unused: ``--set`` keys the engine did not read.
+        friction_realised: The friction law the run realised
+            (:func:`~.friction_realised.friction_realised`), or None.
+    """
+
+    engine: str
+    mode: str
+    status: str = "ok"
+    message: str = ""
+    theta_final: float | None = None
+    theta_asymp: float | None = None
+    t_invert: float | None = None
+    J_rel_drift: float | None = None
+    energy_monotone: bool | None = None
+    energy_rise_rel: float | None = None
+    contact_lost: bool = False
+    t_stem: float | None = None
+    t_left_table: float | None = None
+    flights: dict[str, Any] | None = None
+    wall_s: float = 0.0
+    n_rhs: int | None = None
+    n_steps: int | None = None
+    max_penetration_m: float | None = None
+    contact_energy_bound_J: float | None = None
+    ran: dict[str, Any] = field(default_factory=dict)
+    phases: tuple[Phase, ...] = ()
+    rolling_phases: dict[str, Any] | None = None
+    stem: dict[str, Any] | None = None
+    unused: tuple[str, ...] = ()
+    friction_realised: dict[str, Any] | None = None
+    _json: dict[str, Any] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_json", self.to_json())
+
+    def __getitem__(self, key: str) -> Any:
+        return self._json[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._json)
+
+    def __len__(self) -> int:
+        return len(self._json)
+
+    def replace(self, **changes: Any) -> RunSummary:
+        """A copy with ``changes`` (attributes, or keys of what ran)."""
+        ran = {k: changes.pop(k) for k in list(changes) if k in RAN_FIELDS}
+        data = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        data.update(changes)
+        if ran:
+            data["ran"] = {**self.ran, **ran}
+        return RunSummary(**data)
+
+    @property
+    def failed(self) -> bool:
+        """Whether the run failed (diverged, stopped short): it carries no numbers then."""
+        return self.status not in FINISHED_STATUSES
+
+    @property
+    def is_reference(self) -> bool:
+        """The reference ODE's run."""
+        return self.engine == "ode"
+
+    @property
+    def label(self) -> str:
+        """``ENGINE/MODE``."""
+        return run_label(self.engine, self.mode)
+
+    def setting(self, key: str, default: Any = None) -> Any:
+        """What ran for ``key`` (:data:`RAN_FIELDS`), read back; ``default`` if not reported.
+
+        Raises:
+            KeyError: ``key`` is not a setting a run reports.
+        """
+        if key not in RAN_FIELDS:
+            raise KeyError(f"{key!r} is not a setting a run reports (RAN_FIELDS)")
+        return self.ran.get(key, default)
+
+    def to_json(self) -> dict[str, Any]:
+        """The summary as JSON-ready data, in :data:`SUMMARY_ORDER`, what ran, then the rest."""
+        out: dict[str, Any] = {}
+        for key in SUMMARY_ORDER:
+            value = getattr(self, key)
+            if key in _OPTIONAL and value is None:
+                continue
+            out[key] = value
+        out.update({k: self.ran[k] for k in RAN_FIELDS if k in self.ran})
+        for key in _AFTER_RAN:
+            value = getattr(self, key)
+            if key in _OPTIONAL and value is None:
+                continue
+            if key == "phases":
+                value = [p.to_json() for p in value]
+            elif key == "unused":
+                value = list(value)
+            out[key] = value
+        return out
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> RunSummary:
+        """The summary :meth:`to_json` wrote (or the release before wrote: read as today's).
+
+        The release before's summaries carried ``engine_spec`` beside an ``engine`` of
+        ``mujoco`` (now the engine as given), the reference's rolling phases as ``rolling``
+        (now ``rolling_phases``), and no mode for the reference (now its law's).
+
+        Raises:
+            TippetopError: Not a summary: a key it does not declare, or a missing engine.
+        """
+        d = dict(data)
+        spec = d.pop("engine_spec", None)
+        if spec not in (None, "mujoco", "ode") and d.get("engine") == "mujoco":
+            d["engine"] = spec
+        if isinstance(d.get("rolling"), dict):  # the reference's rolling phases, before
+            d["rolling_phases"] = d.pop("rolling")
+        if "mode" not in d:
+            d["mode"] = LAW_MODES.get(str(d.get("friction_law")), "paper") \
+                if d.get("engine") == "ode" else "paper"
+        if d.get("friction_law") == "mujoco-native":
+            d["friction_law"] = NATIVE_LAW
+        names = {f.name for f in fields(cls) if f.init} - {"ran"}
+        unknown = [k for k in d if k not in names and k not in RAN_FIELDS]
+        if unknown or "engine" not in d:
+            raise TippetopError(f"summary: expected the keys of a run's summary, got "
+                                f"{', '.join(unknown) or 'no engine'}")
+        kw = {k: d[k] for k in names if k in d}
+        kw["phases"] = tuple(Phase(p["contact"], float(p["t_start"]), float(p["t_end"]))
+                             for p in d.get("phases") or ())
+        kw["unused"] = tuple(d.get("unused") or ())
+        kw["ran"] = {k: d[k] for k in RAN_FIELDS if k in d}
+        return cls(**kw)
 
 
 def measured_steps(summaries: Iterable[dict[str, Any] | None],

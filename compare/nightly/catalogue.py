@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.measures.metrics import KINDS, TOLERANCES, kind_metrics
 from tippetop.compare.studies.sweep import parse_range
 from tippetop.compare.studies.threshold import METHODS, WHICH
 from tippetop.models.errors import TippetopError, did_you_mean
@@ -20,19 +21,14 @@ from tippetop.models.resources import data_path
 #: The catalogue shipped with the package.
 CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
 PROFILES = ("quick", "full", "stress")
-KINDS = ("run", "threshold", "sweep", "atlas")
 #: The engine families a catalogue names: ``ode`` (the reference) and ``mujoco`` (the MuJoCo
 #: engines ``--engines`` gives: the installed one by default).
 ENGINES = ("ode", "mujoco")
 
-#: Metrics each kind of case can check.
+#: Metrics each kind of case can check: every metric :mod:`.metrics` declares for the kind
+#: with a tolerance against a baseline.
 KIND_METRICS: dict[str, tuple[str, ...]] = {
-    "run": ("outcome", "matches_expect", "theta_asymp", "t_invert", "J_rel_drift",
-            "energy_monotone", "energy_lost", "contact_lost", "status"),
-    "threshold": ("measured", "converged"),
-    "sweep": ("theta_asymp_vs_n0", "outcomes_vs_n0"),
-    "atlas": ("groups_measured", "agreement", "n1_measured", "n4_measured"),
-}
+    kind: tuple(m for m in kind_metrics(kind) if m in TOLERANCES) for kind in KINDS}
 
 
 @dataclass(frozen=True)

@@ -64,10 +64,12 @@ def run_metrics(scene: Scene, summary: dict[str, Any], table: pd.DataFrame,
         "matches_expect": None if exp is None else outcome == exp,
         "theta_asymp": summary["theta_asymp"],
         "t_invert": summary["t_invert"],
+        "t_stem": summary.get("t_stem"),
         "J_rel_drift": summary["J_rel_drift"],
         "energy_monotone": summary["energy_monotone"],
         "energy_lost": float(E[0] - E[-1]),
         "contact_lost": summary["contact_lost"],
+        "t_left_table": summary.get("t_left_table"),
         "status": summary.get("status", "ok"),
     }
 

@@ -49,6 +49,9 @@ def unit_of(key: str) -> str:
     """
     if key in _KEY_UNITS:
         return _KEY_UNITS[key]
+    declared = _declared_unit(key)
+    if declared is not None:
+        return declared
     if key in _PERCENT:
         return "%"
     if key in _RELATIVE or key.endswith("_rel") or "_rel_" in key:
@@ -59,6 +62,19 @@ def unit_of(key: str) -> str:
         if key.endswith(suffix):
             return unit
     return ""
+
+
+def _declared_unit(key: str) -> str | None:
+    """The unit a metric or a setting of what ran is declared with (None: not declared)."""
+    from tippetop.compare.measures.metrics import METRICS
+    from tippetop.compare.measures.summary import RAN_FIELDS
+
+    if key in METRICS:
+        unit = METRICS[key].unit
+        return "" if unit == "fraction" else unit
+    if key in RAN_FIELDS:
+        return RAN_FIELDS[key].unit
+    return None
 
 
 def _exp(text: str) -> str:
@@ -146,16 +162,51 @@ def fmt(value: Any, unit: str = "", digits: int = 4) -> str:
     return str(value)
 
 
+#: The most contact phases a line lists; the rest are counted.
+MAX_PHASES_SHOWN = 8
+
+
 def _phases(value: Any) -> str | None:
-    """``[{contact, t_start, t_end}, ...]`` -> ``ball 0-2.5 s, stem 2.5-8 s``, else None."""
+    """``[{contact, t_start, t_end}, ...]`` -> ``ball 0-2.5 s, stem 2.5-8 s``, else None.
+
+    A flight shorter than :data:`~tippetop.compare.measures.series.HOP_MIN_S` (the soft
+    contact chattering) is folded into the phases around it and counted; past
+    :data:`MAX_PHASES_SHOWN` phases the middle ones are counted, not listed.
+    """
     if not (isinstance(value, list) and value and all(
             isinstance(p, dict) and {"contact", "t_start", "t_end"} <= set(p) for p in value)):
         return None
-    return ", ".join(f"{p['contact']} {fmt(p['t_start'])}-{fmt(p['t_end'])} s" for p in value)
+    from tippetop.compare.measures.series import HOP_MIN_S
+
+    # a phase runs from its first sample to its last: the next starts one sample later
+    gaps = [b["t_start"] - a["t_end"] for a, b in zip(value, value[1:], strict=False)]
+    dt = min((g for g in gaps if g > 0), default=0.0)
+    merged: list[dict[str, Any]] = []
+    folded = 0
+    for p in value:
+        short = p["t_end"] - p["t_start"] + dt < HOP_MIN_S * (1 - 1e-9)
+        if p["contact"] == "none" and merged and short:
+            folded += 1
+            merged[-1] = {**merged[-1], "t_end": p["t_end"]}
+        elif merged and merged[-1]["contact"] == p["contact"]:
+            merged[-1] = {**merged[-1], "t_end": p["t_end"]}
+        else:
+            merged.append(dict(p))
+    parts = [f"{p['contact']} {fmt(p['t_start'])}-{fmt(p['t_end'])} s" for p in merged]
+    if len(parts) > MAX_PHASES_SHOWN:
+        head, tail = MAX_PHASES_SHOWN // 2, MAX_PHASES_SHOWN // 4
+        parts = [*parts[:head], f"... {len(parts) - head - tail:,} more ...", *parts[-tail:]]
+    text = ", ".join(parts)
+    if folded:
+        text += (f" ({folded:,} flight{'s' if folded != 1 else ''} under "
+                 f"{fmt(1e3 * HOP_MIN_S, 'ms')} folded in: see flights)")
+    return text
 
 
 #: What None means for keys where "-" would hide it.
-_NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)"}
+_NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)",
+               "t_left_table": "never (the ball stays on the table)",
+               "flights": "none (the ball never leaves the table)"}
 #: What None means among the settings that ran (:func:`ran_lines`): a coefficient MuJoCo's
 #: contact has no row for, or a start that is not a keyframe.
 _RAN_NONE_MEANS = {
@@ -168,6 +219,26 @@ _RAN_NONE_MEANS = {
 #: ``stiff`` of a reference run (what ran for stiff friction) as a person reads it.
 _STIFF_MEANS = {"rolling": "rolling phases where the law turns stiff",
                 "off": "off (the law throughout, as asked)"}
+
+
+def fmt_flights(fl: dict[str, Any]) -> str:
+    """A MuJoCo run's flights (samples without contact) in words.
+
+    Example: ``269 from 1.397 s, up to 6 ms, 0.366 s in all; none of 10 ms or more (the
+    contact chattering, not the ball leaving the table)``.
+    """
+    from tippetop.compare.measures.series import HOP_MIN_S
+
+    n, hops = int(fl.get("count") or 0), int(fl.get("hops") or 0)
+    head = (f"{n:,} from {fmt(fl.get('t_first'), 's')}, up to "
+            f"{fmt(1e3 * float(fl.get('longest_s') or 0.0), 'ms')}, "
+            f"{fmt(fl.get('airborne_s'), 's')} in all")
+    limit = fmt(1e3 * HOP_MIN_S, "ms")
+    if hops:
+        return (f"{head}; {hops:,} of {limit} or more from {fmt(fl.get('t_first_hop'), 's')} "
+                "(the ball leaving the table)")
+    return f"{head}; none of {limit} or more (the contact chattering, not the ball leaving " \
+        "the table)"
 
 
 def fmt_rolling(rolling: Any) -> str:
@@ -197,7 +268,7 @@ def fmt_stiff(stiff: Any, rolling: Any = None) -> str:
 
 
 # ---------------------------------------------------------------- a verdict's checks
-#: The events of the event checks (:mod:`tippetop.compare.measures.checks`): what a run does,
+#: The events of the event checks (:mod:`tippetop.compare.measures.verdict`): what a run does,
 #: what it does not.
 _EVENTS = {"t_invert": ("turns over", "does not turn over"),
            "t_stem": ("touches its stem", "does not touch its stem")}
@@ -241,7 +312,7 @@ def check_text(check: dict[str, Any], t_end_s: float | None = None,
     a bare ``None``: the JSON keeps ``value`` as it is (null), this is the text beside it.
 
     Args:
-        check: One check of :func:`tippetop.compare.measures.checks.verdict`.
+        check: One check of :func:`tippetop.compare.measures.verdict.verdict`.
         t_end_s: The runs' simulated time (s), to say what "never" means.
         runs: The runs by name (``ode/paper`` the reference), for the event times.
     """
@@ -304,6 +375,8 @@ def fmt_value(key: str, value: Any) -> str:
         return realised_sentence("the run", value)
     if key == "stiff":
         return fmt_stiff(value)
+    if key == "flights" and isinstance(value, dict):
+        return fmt_flights(value)
     if key == "rolling_phases" and isinstance(value, dict):
         return fmt_rolling(value)
     if key in ("solref", "solimp") and isinstance(value, (list, tuple)):

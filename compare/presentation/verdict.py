@@ -9,8 +9,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
-from tippetop.models.modes import OLD_NAMES, REFERENCE_RUN, run_label, split_label
+from tippetop.compare.measures.verdict import crossval_row, predicted_outcome, run_facts
+from tippetop.models.modes import OLD_NAMES, REFERENCE_RUN, run_label
 from tippetop.models.params import TopParams
 
 #: The runs (``ENGINE/MODE``) the verdict table shows first, in this order; others follow as
@@ -53,48 +53,58 @@ def top_of(params: Mapping[str, Any]) -> TopParams:
                      g_mps2=params["g_mps2"])
 
 
+def record_facts(rec: Mapping[str, Any]) -> dict[str, Any]:
+    """A nightly run record as the verdict reads a run (:func:`run_facts`)."""
+    v = rec.get("values") or {}
+    error = rec.get("error")
+    summary = rec.get("summary")
+    if error is None and v.get("status") == "diverged":
+        error = (summary or {}).get("message") or "the run diverged"
+    if error is None and summary is None:  # a record of the release before: its values only
+        summary = {k: v.get(k) for k in ("theta_asymp", "t_invert", "J_rel_drift",
+                                          "energy_monotone", "contact_lost", "status")}
+        summary["theta_final"] = v.get("theta_asymp")
+    params = rec.get("params") or {}
+    return run_facts(summary, None, error=error, outcome=v.get("outcome"),
+                     theta_trend_rad_s=rec.get("theta_trend_rad_s"), E0_J=rec.get("E0"),
+                     t_span_s=(summary or {}).get("t_end_s") or params.get("t_end_s"))
+
+
 def crossval_rows(records: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The ``crossval`` list of results.json: a row per run case, in catalogue order.
 
-    Each row: ``scene, mode, outcome, theory_outcome, theta_asymp, theta_s, d_theta_asymp,
-    t_invert, d_t_invert, J_rel_drift, agrees`` plus ``engine``, ``run`` (``ENGINE/MODE``),
-    ``case`` (its id), ``category``,
-    ``paper_theta_asymp`` (the paper's printed value, when the scene has one), ``t_invert_ref``,
-    ``theta_trend_rad_s``, ``reasons``, ``notes`` and ``error``.
+    Each row is the verdict on the run (:func:`crossval_row`: the rule every command judges
+    a run by), with the reference's run of the same scene: ``scene, mode, outcome,
+    theory_outcome, theta_asymp, theta_s, d_theta_asymp, t_invert, d_t_invert, J_rel_drift,
+    agrees`` plus ``engine``, ``run`` (``ENGINE/MODE``), ``against``, ``case`` (its id),
+    ``category``, ``paper_theta_asymp`` (the paper's printed value, when the scene has one),
+    ``t_invert_ref``, ``theta_trend_rad_s``, ``reasons``, ``notes``, ``checks`` and
+    ``error``.
     """
     runs = [r for r in records if r["kind"] == "run"]
-    ref_t: dict[str, float | None] = {}
+    refs: dict[str, dict[str, Any]] = {}
     for r in runs:
         if run_of(r) == REFERENCE_RUN and r.get("error") is None:
-            ref_t.setdefault(scene_key(r), (r.get("values") or {}).get("t_invert"))
+            refs.setdefault(scene_key(r), record_facts(r))
     rows = []
     for r in runs:
         key = scene_key(r)
-        engine, mode = split_label(run_of(r))
-        v = r.get("values") or {}
+        label = run_of(r)
         th = r.get("theory") or {}
         theta_s, theory_out = th.get("theta_s"), th.get("outcome")
-        if r.get("J0") is not None:
+        A_over_C = None
+        if r.get("params"):
             try:
-                theta_s, theory_out = predicted_outcome(top_of(r["params"]), r["J0"])
-            except (ValueError, ArithmeticError):
+                top = top_of(r["params"])
+                A_over_C = top.A_over_C
+                if r.get("J0") is not None:
+                    theta_s, theory_out = predicted_outcome(top, r["J0"])
+            except (KeyError, ValueError, ArithmeticError):
                 pass
-        error = r.get("error")
-        if error is None and v.get("status") == "diverged":
-            error = (r.get("summary") or {}).get("message") or "the run diverged"
-        if error is not None:
-            row = crossval_row(key, mode, engine=engine, outcome="failed", theta_asymp=None,
-                               theta_s=theta_s, theory_outcome=theory_out, t_invert=None,
-                               error=error)
-        else:
-            row = crossval_row(key, mode, engine=engine, outcome=v.get("outcome"),
-                               theta_asymp=v.get("theta_asymp"), theta_s=theta_s,
-                               theory_outcome=theory_out, t_invert=v.get("t_invert"),
-                               t_invert_ref=ref_t.get(key), J_rel_drift=v.get("J_rel_drift"),
-                               trend=r.get("theta_trend_rad_s"),
-                               reference=run_of(r) == REFERENCE_RUN,
-                               t_span_s=(r.get("summary") or {}).get("t_end_s")
-                               or r["params"].get("t_end_s"))
+        is_ref = label == REFERENCE_RUN
+        row = crossval_row(key, label, record_facts(r), None if is_ref else refs.get(key),
+                           theta_s=theta_s, theory_outcome=theory_out, A_over_C=A_over_C,
+                           is_reference=is_ref)
         expect = r.get("expect") or {}
         row.update(case=r["id"], name=r["name"], category=r["category"],
                    paper_theta_asymp=expect.get("theta_asymp"),
@@ -132,5 +142,7 @@ def cell_class(row: Mapping[str, Any]) -> str:
         return "failed"
     if row["agrees"]:
         return "agree"
+    if row.get("against") == "reference":  # the stem's end, not the angle's class
+        return "depart"
     return "inconclusive" if row.get("still_moving") or row.get("outcome") == "inconclusive" \
         else "depart"

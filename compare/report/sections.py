@@ -78,8 +78,8 @@ def _cell(row: Mapping[str, Any]) -> Html:
         nums.append(f"&Delta;t{row['d_t_invert']:+.2f}")
     elif row.get("t_invert") is not None and row.get("run") == REFERENCE_RUN:
         nums.append(f"t {row['t_invert']:.2f}")
-    if row.get("notes"):
-        nums.append("*")
+    if row.get("against") == "reference":
+        nums.append("&#8224;")
     tip = "; ".join([*row.get("reasons", []), *row.get("notes", []), *_expected(row)]) \
         or "agrees"
     return Html(f"<td class='{cls}' title='{esc(tip)}'>{line1}<br>{' '.join(nums)}</td>")
@@ -92,7 +92,7 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     tolerance of theta_s; it shows the differences and the Jellett drift, and (as a tooltip and
     in the list below the table) why it departs.
     """
-    from tippetop.compare.measures.verdict import THETA_S_TOL, TOLERANCES
+    from tippetop.compare.measures.metrics import EVENT_RTOL, EVENT_TOL_S, J_TOL, THETA_S_TOL
     from tippetop.compare.presentation.verdict import agreement_counts, cell_class, run_order
 
     # a results.json of the release before named a row's run by its compound mode
@@ -103,17 +103,21 @@ def crossval_section(results: Mapping[str, Any]) -> str:
     modes = run_order(rows)
     counts = agreement_counts(rows)
     summary = "; ".join(f"{esc(m)} {counts[m]['agree']}/{counts[m]['runs']}" for m in modes)
-    legend = (f"<p class='legend'><span class='agree'>&nbsp;agrees&nbsp;</span>: the theory's "
-              f"outcome and |theta_asymp - theta_s| &le; {THETA_S_TOL[0]:g} rad; "
+    legend = (f"<p class='legend'><span class='agree'>&nbsp;agrees&nbsp;</span>: every check "
+              f"passes: the theory's outcome and |theta_asymp - theta_s| &le; "
+              f"{THETA_S_TOL:g} rad (&#8224;: a top that reaches its stem, judged against the "
+              f"reference instead), the reference's inversion and stem times within "
+              f"max({EVENT_TOL_S:g} s, {100 * EVENT_RTOL:g} %), the ball on the table where "
+              f"the reference's stays on, Jellett's drift while the ball alone touches &le; "
+              f"{J_TOL['mujoco']:g} (the reference: {J_TOL['ode']:g}), no energy gained; "
               f"<span class='depart'>&nbsp;&ne; departs&nbsp;</span> "
               f"<span class='expected'>&nbsp;&ne; departs, as the catalogue expects&nbsp;"
               f"</span> "
               f"<span class='inconclusive'>&nbsp;? still moving&nbsp;</span> "
               f"<span class='failed'>&nbsp;failed&nbsp;</span>. "
               f"&Delta;&theta; = theta_asymp - theta_s (rad); &Delta;t = t_invert - the reference "
-              f"ODE's (s); J: Jellett drift; *: &Delta;t beyond {TOLERANCES['t_invert'][0]:g} s "
-              f"or J beyond {TOLERANCES['J_rel_drift'][0]:g}. Hover a cell, or open the list "
-              f"below, for why. Agreeing: {summary}.</p>")
+              f"ODE's (s); J: Jellett drift. Hover a cell, or open the list below, for why. "
+              f"Agreeing: {summary}.</p>")
     by_scene: dict[str, dict[str, Mapping[str, Any]]] = {}
     first: dict[str, Mapping[str, Any]] = {}
     for r in rows:

@@ -18,9 +18,11 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.measures.summary import RunSummary
 from tippetop.compare.running.io import write_atomic
 from tippetop.compare.running.leftovers import clean_cache_leftovers
 from tippetop.compare.running.tasks import Task
+from tippetop.models.errors import TippetopError
 from tippetop.models.plan import RunPlan
 from tippetop.models.resources import data_path, user_cache_dir
 
@@ -100,8 +102,12 @@ class ResultCache:
         """sha256 of the summary as canonical JSON (sorted keys)."""
         return hashlib.sha256(json.dumps(summary, sort_keys=True).encode("utf-8")).hexdigest()
 
-    def get(self, key: str) -> tuple[dict[str, Any], pd.DataFrame] | None:
-        """The cached summary and table if the entry verifies, else None (recompute)."""
+    def get(self, key: str) -> tuple[RunSummary, pd.DataFrame] | None:
+        """The cached summary and table if the entry verifies, else None (recompute).
+
+        A summary of the release before is read as today's (:meth:`RunSummary.from_json`);
+        one that is not a summary at all is a miss.
+        """
         import io
 
         js, pq = self._paths(key)
@@ -118,14 +124,16 @@ class ResultCache:
                 or entry.get("table_sha256") != hashlib.sha256(data).hexdigest()):
             return None
         try:
-            return summary, pd.read_parquet(io.BytesIO(data))
-        except (ValueError, OSError):  # (cannot happen to bytes that verify, but never fail)
+            return RunSummary.from_json(summary), pd.read_parquet(io.BytesIO(data))
+        except (ValueError, OSError, TippetopError):  # (cannot happen to bytes that verify)
             return None
 
-    def put(self, key: str, summary: dict[str, Any], table: pd.DataFrame) -> None:
+    def put(self, key: str, summary: RunSummary | dict[str, Any], table: pd.DataFrame) -> None:
         """Store a task's results: the table, then the entry that vouches for it."""
         import io
 
+        if isinstance(summary, RunSummary):
+            summary = summary.to_json()
         js, pq = self._paths(key)
         js.parent.mkdir(parents=True, exist_ok=True)
         buf = io.BytesIO()

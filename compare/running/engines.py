@@ -17,12 +17,14 @@ import pandas as pd
 
 from tippetop.compare.measures.friction_realised import friction_realised, not_refit
 from tippetop.compare.measures.series import (
+    ball_alone_end,
     first_inversion_time,
+    flights,
     jellett_drift,
     jellett_scale,
     summary,
 )
-from tippetop.compare.measures.summary import FINISHED_STATUSES, RESULT_KEYS
+from tippetop.compare.measures.summary import FINISHED_STATUSES, RESULT_KEYS, RunSummary
 from tippetop.models.engines import MUJOCO_SPEC_FORMS, EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import new_spelling, note, old_spelling, run_label
@@ -42,10 +44,10 @@ __all__ = ["EngineRun", "engine_python", "mujoco_engine_run", "plan_for", "progr
 
 @dataclass
 class EngineRun:
-    """One engine's run of a plan: the observables table and the summary dictionary."""
+    """One engine's run of a plan: the observables table and its summary."""
 
     table: pd.DataFrame
-    summary: dict[str, Any]
+    summary: RunSummary
     status: str
     message: str
 
@@ -121,14 +123,18 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
                  phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
                          for ph in res.phases], rolling_phases=rolling,
                  unused=list(plan.unused))
-        return EngineRun(res.table, s, res.status, res.message)
+        return EngineRun(res.table, RunSummary.from_json(s), res.status, res.message)
     top = p.top
     s = summary(res.table, engine=plan.engine, mode=plan.mode, rtol=res.rtol,
                 t_invert=res.t_invert,
                 contact_lost=res.status in ("contact_lost", "hop"), wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_rhs=res.n_rhs)
+    # the reference stops where the ball leaves the table (the model does not follow a flight)
+    left = (float(res.table["t"].iloc[-1]) if res.status == "contact_lost"
+            and res.t_stem is None else None)
     s.update(status=res.status, message=res.message, **ran, t_stem=res.t_stem,
+             t_left_table=left,
              phases=[{k: ph[k] for k in ("contact", "t_start", "t_end")}
                      for ph in res.phases], rolling_phases=rolling,
              unused=list(plan.unused))
@@ -141,7 +147,7 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
         s["J_rel_drift"] = max(drifts) if drifts else None
         s["stem"] = {"kind": p.stem.kind, "offset_m": p.stem.offset_m,
                      "radius_m": p.stem.radius_m}
-    return EngineRun(res.table, s, res.status, res.message)
+    return EngineRun(res.table, RunSummary.from_json(s), res.status, res.message)
 
 
 def _run_mujoco(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineRun:
@@ -171,7 +177,7 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
         s.update(status=res.status, message=res.message, **ran,
                  t_stem=res.t_stem, phases=res.phases(), unused=list(plan.unused))
         # the table keeps the samples before the failure (the runner's cache needs a row)
-        return EngineRun(res.table, s, res.status, res.message)
+        return EngineRun(res.table, RunSummary.from_json(s), res.status, res.message)
     top = p.top
     s = summary(res.table, engine=plan.engine, mode=plan.mode, rtol=MUJOCO_ENERGY_RTOL,
                 t_invert=first_inversion_time(res.table), contact_lost=False,
@@ -179,13 +185,20 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_steps=res.n_steps)
     t_stem = res.t_stem
-    if t_stem is not None:
+    hops = flights(res.table["t"].to_numpy(), res.contacts > 0, t_stem)
+    # the ball leaves the table in its first flight of HOP_MIN_S or more (a shorter one is its
+    # soft contact chattering: in ``flights`` only)
+    t_left = None if hops is None else hops["t_first_hop"]
+    end = ball_alone_end(t_stem, t_left)
+    if end is not None:
         # the table's J is the ball's (R L_z - a C n): conserved while the ball alone touches
-        before = res.table[res.table["t"] < t_stem]
+        # (not in a flight, not on the stem)
+        before = res.table[res.table["t"] < end]
         s["J_rel_drift"] = (jellett_drift(before, jellett_scale(before, top.R_m, top.A_kgm2,
                                                                 top.C_kgm2))
                             if len(before) > 1 else None)
-    s.update(status=res.status, message=res.message, **ran, t_stem=t_stem,
+    s.update(status=res.status, message=res.message, **ran, t_stem=t_stem, t_left_table=t_left,
+             flights=hops,
              phases=res.phases(), max_penetration_m=res.max_penetration_m,
              contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
     law = p.law or p.reference_law
@@ -196,7 +209,7 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
         s["friction_realised"]["refit"] = not_refit(
             "one run alone: `tippetop compare` and `tippetop validate` rerun the reference "
             "with the law this run realised")
-    return EngineRun(res.table, s, res.status, res.message)
+    return EngineRun(res.table, RunSummary.from_json(s), res.status, res.message)
 
 
 def run_plan(plan: RunPlan, *, progress: bool | Callable[[float], None] = True,

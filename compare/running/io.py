@@ -22,7 +22,12 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 
 
 def json_ready(obj: Any) -> Any:
-    """JSON-ready: NaN/inf -> None, numpy scalars -> Python, tuples -> lists."""
+    """JSON-ready: NaN/inf -> None, numpy scalars -> Python, tuples -> lists.
+
+    A typed record (a run's summary, a plan) is its ``to_json()``.
+    """
+    if hasattr(obj, "to_json") and not isinstance(obj, type):
+        obj = obj.to_json()
     if isinstance(obj, dict):
         return {str(k): json_ready(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):

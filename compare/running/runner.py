@@ -17,7 +17,7 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
-from tippetop.compare.measures.summary import measured_steps
+from tippetop.compare.measures.summary import RunSummary, measured_steps
 from tippetop.compare.running.cache import (
     CacheWriter,
     ResultCache,
@@ -123,12 +123,12 @@ def run_tasks(
     pythons = _engine_pythons([p for p in plans if p is not None], scheduler)
     keys = [task_key(t, p) if p is not None else "" for t, p in zip(tasks, plans, strict=True)]
 
-    def own(i: int, res_summary: dict[str, Any] | None) -> dict[str, Any] | None:
+    def own(i: int, res_summary: RunSummary | None) -> RunSummary | None:
         """A task's own copy of a (shared or cached) summary, with its own unused keys."""
         plan = plans[i]
         if res_summary is None or plan is None:
             return None
-        return {**res_summary, "unused": list(plan.unused)}
+        return res_summary.replace(unused=tuple(plan.unused))
 
     todo: dict[str, list[int]] = {}
     for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):

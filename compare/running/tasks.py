@@ -14,6 +14,7 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.measures.summary import RunSummary
 from tippetop.compare.running.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import RunPlan
@@ -53,7 +54,7 @@ class TaskResult:
 
     task: Task
     key: str
-    summary: dict[str, Any] | None
+    summary: RunSummary | None
     table: pd.DataFrame | None
     error: str | None
     cached: bool

@@ -14,14 +14,16 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.measures import theory
-from tippetop.compare.measures.series import classify_outcome, theta_rms, theta_trend
+from tippetop.compare.measures.metrics import METRICS, THETA_S_TOL
+from tippetop.compare.measures.series import theta_rms
 from tippetop.compare.measures.summary import describe_ran, run_failed
 from tippetop.compare.measures.verdict import (
-    THETA_S_TOL,
     TOLERANCES,
     crossval_row,
     mode_note,
     predicted_outcome,
+    run_facts,
+    tolerance_of,
 )
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.compare.studies.sweep import Run
@@ -48,8 +50,9 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
     Returns:
         ``scene``, ``group``, ``theory`` (predicted theta_s and outcome), ``runs`` (one per
         run asked for, the reference first if asked: ``engine``, ``mode``, ``run``
-        (``ENGINE/MODE``), the simulate summary keys, ``outcome``, ``matches_theory``
-        (outcome class and theta_asymp within ``THETA_S_TOL`` of theta_s),
+        (``ENGINE/MODE``), the simulate summary keys, ``outcome``, ``agrees`` (the verdict,
+        :func:`~tippetop.compare.measures.verdict.judge`), ``against`` (``theory`` or
+        ``reference``), ``reasons``, ``matches_theory`` (``agrees``, its name before),
         ``d_theta_asymp``, ``theta_trend_rad_s``, ``theta_rms_vs_ref``, ``reference``),
         ``crossval`` (one :func:`crossval_row` per run), ``differences`` (engine, mode, run,
         metric, value, reference, tolerance, why), ``tolerances``.
@@ -76,33 +79,27 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
     per_run: dict[str, Any] = {}
     diffs: list[dict[str, Any]] = []
     rows: list[dict[str, Any]] = []
-    ref_t = None if ref_failed else ref.summary.get("t_invert")
+    ref_facts = run_facts(ref.summary, ref.table)
     for label, r in mine.items():
         s = dict(r.summary)
         is_ref = label == ref_label
         who = {"engine": s["engine"], "mode": s["mode"], "run": label}
-        s.update(run=label, reference=is_ref)
+        facts = ref_facts if is_ref else run_facts(r.summary, r.table)
+        row = crossval_row(sc.name, label, facts, None if is_ref else ref_facts,
+                           theta_s=th_pred, theory_outcome=out_pred, A_over_C=top.A_over_C,
+                           is_reference=is_ref)
+        rows.append(row)
+        s.update(run=label, reference=is_ref, outcome=facts["outcome"], agrees=row["agrees"],
+                 against=row["against"], matches_theory=row["agrees"],
+                 reasons=row["reasons"])
         if run_failed(s):
-            s.update(outcome="failed", matches_theory=False, theta_rms_vs_ref=None)
+            s.update(theta_rms_vs_ref=None)
             diffs.append({**who, "metric": "status", "value": s.get("status"),
                           "reference": ref.summary.get("status", "ok"), "tolerance": None,
                           "note": s.get("message", "")})
             per_run[label] = s
-            rows.append(crossval_row(sc.name, s["mode"], engine=s["engine"], outcome="failed",
-                                     theta_asymp=None, theta_s=th_pred,
-                                     theory_outcome=out_pred, t_invert=None,
-                                     error=s.get("message") or str(s.get("status"))))
             continue
-        s["outcome"] = classify_outcome(r.table)
-        s["theta_trend_rad_s"] = theta_trend(r.table)
-        row = crossval_row(sc.name, s["mode"], engine=s["engine"], outcome=s["outcome"],
-                           theta_asymp=s["theta_asymp"], theta_s=th_pred,
-                           theory_outcome=out_pred, t_invert=s["t_invert"],
-                           t_invert_ref=ref_t, J_rel_drift=s["J_rel_drift"],
-                           trend=s["theta_trend_rad_s"], reference=is_ref,
-                           t_span_s=float(r.table["t"].iloc[-1] - r.table["t"].iloc[0]))
-        rows.append(row)
-        s["matches_theory"] = row["agrees"]
+        s["theta_trend_rad_s"] = facts["theta_trend_rad_s"]
         s["d_theta_asymp"] = row["d_theta_asymp"]
         s["theta_rms_vs_ref"] = (0.0 if is_ref else None if ref_failed
                                  else theta_rms(r.table, ref.table))
@@ -112,10 +109,14 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
         if is_ref or ref_failed:  # nothing to compare with a failed reference
             continue
         ref_s = ref.summary
-        ref_out = classify_outcome(ref.table)
+        ref_out = ref_facts["outcome"]
         if s["outcome"] != ref_out:
             diffs.append({**who, "metric": "outcome", "value": s["outcome"],
                           "reference": ref_out, "tolerance": None})
+        if (s.get("t_left_table") is None) != (ref_s.get("t_left_table") is None):
+            diffs.append({**who, "metric": "t_left_table", "value": s.get("t_left_table"),
+                          "reference": ref_s.get("t_left_table"), "tolerance": None,
+                          "why": METRICS["t_left_table"].meaning})
         checks = {
             "theta_asymp": (s["theta_asymp"], ref_s["theta_asymp"]),
             "theta_rms": (s["theta_rms_vs_ref"], 0.0),
@@ -126,14 +127,16 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
         elif s["t_invert"] is not None:
             checks["t_invert"] = (s["t_invert"], ref_s["t_invert"])
         for metric, (v, rv) in checks.items():
-            tol, why = TOLERANCES[metric]
+            tol = tolerance_of(metric, s["engine"], rv)
+            why = TOLERANCES[metric][1]
             if not math.isfinite(v) or abs(v - rv) > tol:
                 diffs.append({**who, "metric": metric, "value": v, "reference": rv,
                               "tolerance": tol, "why": why})
-        tol, why = TOLERANCES["J_rel_drift"]
-        if s["J_rel_drift"] > tol:
+        tol = tolerance_of("J_rel_drift", s["engine"])
+        if s["J_rel_drift"] is not None and s["J_rel_drift"] > tol:
             diffs.append({**who, "metric": "J_rel_drift", "value": s["J_rel_drift"],
-                          "reference": ref_s["J_rel_drift"], "tolerance": tol, "why": why})
+                          "reference": ref_s["J_rel_drift"], "tolerance": tol,
+                          "why": TOLERANCES["J_rel_drift"][1]})
     # each MuJoCo run's realised law, rerun in the reference: does it explain the run?
     mj = {k: v for k, v in per_run.items() if v["engine"] != "ode"
           and (v.get("friction_realised") or {}).get("samples")}
@@ -148,13 +151,13 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
     return {
         "scene": sc.name,
         "group": theory.group(top),
-        "theory": {"theta_s": th_pred, "outcome": out_pred, "theta_s_tol": THETA_S_TOL[0],
-                   "theta_s_tol_why": THETA_S_TOL[1]},
+        "theory": {"theta_s": th_pred, "outcome": out_pred, "theta_s_tol": THETA_S_TOL,
+                   "theta_s_tol_why": METRICS["theta_asymp"].agreement.why},  # type: ignore[union-attr]
         "reference": ref_label,
         "runs": list(per_run.values()),
         "crossval": rows,
         "differences": diffs,
-        "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL[0]},
+        "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL},
     }
 
 

@@ -16,9 +16,9 @@ import os
 from collections.abc import Sequence
 from typing import Any
 
-from tippetop.compare.measures.series import classify_outcome, theta_trend
+from tippetop.compare.measures.metrics import TOLERANCES as METRIC_TOLERANCES
 from tippetop.compare.measures.summary import run_failed
-from tippetop.compare.measures.verdict import crossval_row, predicted_outcome
+from tippetop.compare.measures.verdict import crossval_row, predicted_outcome, run_facts
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError, did_you_mean
@@ -34,18 +34,12 @@ DEFAULT_MODES = ("native", "paper")
 DEFAULT_FILE_MODES = ("file", "paper")
 #: ``--profile``: the scenes run when none are named.
 PROFILES: dict[str, tuple[str, ...]] = {"quick": ("fig3", "fig6", "fig8a", "fig11_n060")}
-#: The metrics two engines are compared on, with the nightly's tolerance of each: ``exact``,
-#: ``abs`` (|a - b| <= value) or ``ratio`` (the larger at most ``value`` x the smaller, or under
-#: ``floor``: a drift that may grow 10x, below 1e-8 noise).
-METRICS: dict[str, tuple[str, float, float, str]] = {
-    "status": ("exact", 0.0, 0.0, "ok / diverged: a different regime, never a tolerance"),
-    "outcome": ("exact", 0.0, 0.0, "upright / intermediate / inverted: the paper's claim"),
-    "theta_asymp": ("abs", 0.02, 0.0, "rad; the nightly's: below the 0.05 rad agreement with "
-                    "theta_s, so real shifts show"),
-    "t_invert": ("abs", 0.1, 0.0, "s; the nightly's: ~3 % of the Fig. 3 inversion time"),
-    "t_stem": ("abs", 0.1, 0.0, "s; as t_invert"),
-    "J_rel_drift": ("ratio", 10.0, 1e-8, "relative; the nightly's: 10x, below 1e-8 noise"),
-}
+#: The metrics two engines are compared on, each within its declared tolerance
+#: (:mod:`tippetop.compare.measures.metrics`: the nightly's against its baseline). A growth
+#: tolerance (Jellett's drift) is symmetric here: neither engine is the baseline, so the larger
+#: value may be at most that factor times the smaller (or under the floor).
+COMPARED: tuple[str, ...] = ("status", "outcome", "theta_asymp", "t_invert", "t_stem",
+                             "t_left_table", "J_rel_drift")
 
 
 def table_key(scene: str, mode: str, engine: str) -> str:
@@ -73,18 +67,20 @@ def _scene_task_args(scene: str) -> tuple[str | None, tuple[str, ...], bool]:
 
 
 def _differ(metric: str, a: Any, b: Any) -> bool:
-    kind, value, floor, _why = METRICS[metric]
+    tol = METRIC_TOLERANCES[metric]
     if a is None or b is None:
         return (a is None) != (b is None)
-    if kind == "exact":
+    if tol.kind == "exact":
         return a != b
     a, b = float(a), float(b)
     if not (math.isfinite(a) and math.isfinite(b)):
         return math.isfinite(a) != math.isfinite(b)
-    if kind == "abs":
-        return abs(a - b) > value
+    if tol.kind == "abs":
+        return abs(a - b) > tol.value
+    if tol.kind == "rel":
+        return abs(a - b) > max(tol.value * max(abs(a), abs(b)), tol.floor)
     lo, hi = sorted((abs(a), abs(b)))
-    return hi > max(value * lo, floor)
+    return hi > max(tol.value * lo, tol.floor)
 
 
 def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
@@ -143,11 +139,17 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
         th_s, th_out = _prediction(mine[0][1], [r for _, _, r in mine])
         predictions[scene] = th_s, th_out
         ref_mode = (ref.summary or {}).get("mode") or "paper"
-        reference[scene] = _run_row(scene, "ode", ref_mode, ref, th_s, th_out)
+        try:
+            A_over_C: float | None = mine[0][1].plan().top.A_over_C
+        except TippetopError:
+            A_over_C = None
+        ref_facts = run_facts(ref.summary, ref.table, error=ref.error)
+        reference[scene] = _run_row(scene, "ode", ref_mode, ref, th_s, th_out, None, A_over_C)
         if tables is not None and ref.table is not None:
             tables[table_key(scene, "ode", "ode")] = ref.table
         for mode, task, res in mine[1:]:
-            runs.append(_run_row(scene, task.engine, str(mode), res, th_s, th_out))
+            runs.append(_run_row(scene, task.engine, str(mode), res, th_s, th_out, ref_facts,
+                                 A_over_C))
             done[scene, str(mode), task.engine] = task, res
             if tables is not None and res.table is not None and res.error is None:
                 tables[table_key(scene, str(mode), task.engine)] = res.table
@@ -163,8 +165,7 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
             "reference": reference,
             "modes": list(dict.fromkeys(m for ms in scene_modes.values() for m in ms)),
             "scenes": list(scenes),
-            "tolerances": {k: {"kind": v[0], "value": v[1], "floor": v[2], "why": v[3]}
-                           for k, v in METRICS.items()}}
+            "tolerances": {k: METRIC_TOLERANCES[k].to_json() for k in COMPARED}}
 
 
 def _attribute(differences: list[dict[str, Any]],
@@ -216,7 +217,8 @@ def _attribute(differences: list[dict[str, Any]],
     tables: dict[tuple[str, str, str, str], Any] = {}
     for (scene, mode, spec, ch, _t), res in zip(jobs, results, strict=True):
         th_s, th_out = predictions[scene]
-        rerun[scene, mode, spec, ch.name] = _run_row(scene, spec, mode, res, th_s, th_out)
+        rerun[scene, mode, spec, ch.name] = _run_row(scene, spec, mode, res, th_s, th_out,
+                                                     None, None)
         tables[scene, mode, spec, ch.name] = res.table if res.error is None else None
     for d in differences:
         scene, mode, metric = d["scene"], d["mode"], d["metric"]
@@ -264,25 +266,30 @@ def _prediction(task: Task, results: list[TaskResult]) -> tuple[float | None, st
 
 
 def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float | None,
-             theory_outcome: str | None) -> dict[str, Any]:
+             theory_outcome: str | None, ref: dict[str, Any] | None,
+             A_over_C: float | None) -> dict[str, Any]:
+    """One run's row: what it measured, and its verdict.
+
+    The verdict is :func:`crossval_row`'s, the rule every command judges a run by (against
+    the reference where the top reaches its stem).
+    """
     s = res.summary or {}
-    failed = res.error is not None or run_failed(s)
-    outcome = "failed" if failed else classify_outcome(res.table)
-    row = crossval_row(scene, mode, engine=engine, outcome=outcome,
-                       theta_asymp=None if failed else s.get("theta_asymp"), theta_s=theta_s,
-                       theory_outcome=theory_outcome, t_invert=s.get("t_invert"),
-                       J_rel_drift=s.get("J_rel_drift"),
-                       trend=None if failed else theta_trend(res.table),
-                       error=res.error or (s.get("message") if failed else None),
-                       reference=engine == "ode")
-    return {"scene": scene, "engine": engine, "mode": mode, "run": run_label(engine, mode),
+    facts = run_facts(res.summary, res.table, error=res.error)
+    failed = facts["outcome"] == "failed"
+    label = run_label(engine, mode)
+    row = crossval_row(scene, label, facts, ref, theta_s=theta_s,
+                       theory_outcome=theory_outcome, A_over_C=A_over_C,
+                       is_reference=ref is None)
+    return {"scene": scene, "engine": engine, "mode": mode, "run": label,
             "status": "failed" if res.error else s.get("status"),
             "message": res.error or s.get("message"), "t_invert": s.get("t_invert"),
-            "t_stem": s.get("t_stem"), "theta_final": s.get("theta_final"),
-            "theta_asymp": s.get("theta_asymp"), "J_rel_drift": s.get("J_rel_drift"),
-            "agrees": row["agrees"], "outcome": row["outcome"], "theta_s": theta_s,
-            "theory_outcome": theory_outcome, "reasons": row["reasons"],
-            "version": s.get("version"), "path": s.get("path"),
+            "t_stem": s.get("t_stem"), "t_left_table": s.get("t_left_table"),
+            "theta_final": s.get("theta_final"),
+            "theta_asymp": None if failed else s.get("theta_asymp"),
+            "J_rel_drift": s.get("J_rel_drift"),
+            "agrees": row["agrees"], "against": row["against"], "outcome": row["outcome"],
+            "theta_s": theta_s, "theory_outcome": theory_outcome, "reasons": row["reasons"],
+            "checks": row["checks"], "version": s.get("version"), "path": s.get("path"),
             "friction_realised": s.get("friction_realised")}
 
 
@@ -304,17 +311,16 @@ def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
     for scene, mode in ((sc, m) for sc in scenes for m in scene_modes[sc]):
         for a, b in itertools.combinations([e.spec for e in engines], 2):
             ra, rb = by[scene, mode, a], by[scene, mode, b]
-            metrics = ["status"]
-            if ra["status"] == rb["status"] == "ok":
-                metrics += ["outcome", "theta_asymp", "t_invert", "t_stem", "J_rel_drift"]
+            metrics = COMPARED if ra["status"] == rb["status"] == "ok" else ("status",)
             for metric in metrics:
-                if _differ(metric, ra[metric], rb[metric]):
-                    kind, value, floor, why = METRICS[metric]
+                if _differ(metric, ra.get(metric), rb.get(metric)):
+                    tol = METRIC_TOLERANCES[metric]
                     out.append({"scene": scene, "mode": mode, "engines": [a, b],
-                                "metric": metric, "values": [ra[metric], rb[metric]],
-                                "tolerance": None if kind == "exact" else value, "why": why})
+                                "metric": metric, "values": [ra.get(metric), rb.get(metric)],
+                                "tolerance": None if tol.kind == "exact" else tol.value,
+                                "why": tol.why})
     return out
 
 
-__all__ = ["DEFAULT_FILE_MODES", "DEFAULT_MODES", "FORMAT", "METRICS", "PROFILES",
+__all__ = ["DEFAULT_FILE_MODES", "DEFAULT_MODES", "COMPARED", "FORMAT", "PROFILES",
            "profile_scenes", "run_matrix", "table_key"]

@@ -18,8 +18,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from tippetop.compare.measures.checks import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
     MAX_ITERS,
@@ -313,26 +313,8 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
                          "theory_outcome": outcome, "checks": checks,
                          "passed": all(c["passed"] for c in checks),
                          "friction_realised": runs[tuned].get("friction_realised"),
-                         "left_table_s": _left_table(run)})
+                         "left_table_s": (run.summary or {}).get("t_left_table")})
     return verified, mj
-
-
-#: The first moments of a run, when a top dropped onto the table settles into its contact.
-SETTLING_S = 0.05
-
-
-def _left_table(run: Any) -> float | None:
-    """When the ball last left the table (N = 0) before the stem's first contact (s).
-
-    After :data:`SETTLING_S`; None if it never did. J is not kept in flight.
-    """
-    table, summary = run.table, run.summary or {}
-    if table is None or "N" not in table or not len(table):
-        return None
-    stem = summary.get("t_stem")
-    t, N = table["t"].to_numpy(), table["N"].to_numpy()
-    keep = (t > SETTLING_S) & (t < (stem if stem is not None else math.inf)) & (N <= 0.0)
-    return float(t[keep][-1]) if keep.any() else None
 
 
 def _departs(verified: list[dict[str, Any]]) -> list[str]:
@@ -394,11 +376,10 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
         fr = v.get("friction_realised") or {}
         failed = {c["check"] for c in v["checks"] if not c["passed"]}
         where = f"from {start_label(v['n0'], v['theta0'])}"
-        if "jellett_before_stem" in failed and v.get("left_table_s") is not None:
+        if "stays_on_table" in failed and v.get("left_table_s") is not None:
             why.append(f"{where} the ball leaves the table at "
                        f"{number_text(v['left_table_s'], 's')}, "
-                       f"before the stem lands: J is not kept in flight, and the reference's "
-                       f"ball never leaves it")
+                       f"before the stem lands, and the reference's never leaves it")
             break
         if v["passed"] is False and fr.get("half_mu_slip_mps") is not None:
             why.append(f"{where} the contact reaches half of mu N at "

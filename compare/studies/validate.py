@@ -13,21 +13,19 @@ from pathlib import Path
 from typing import Any
 
 from tippetop.compare.measures import theory
-from tippetop.compare.measures.checks import (
+from tippetop.compare.measures.metrics import EVENT_RTOL, EVENT_TOL_S, J_TOL
+from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.measures.verdict import (
     ENERGY_RISE_FLOOR,
-    EVENT_RTOL,
-    EVENT_TOL_S,
     FIRST_ORDER,
     ISOTROPIC_TOL,
-    J_TOL,
     engine_of,
     gyroscopic_drift,
     mode_of,
+    predicted_outcome,
     run_entry,
     verdict,
 )
-from tippetop.compare.measures.summary import mjcf_attributes
-from tippetop.compare.measures.verdict import predicted_outcome
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.models.calibrated import CALIBRATION_MU
@@ -321,7 +319,8 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         if res.table is not None and len(res.table):
             tables[mode] = res.table
     refit(runs, tables, over, config)
-    checks = verdict(runs, outcome_pred, top.A_over_C, reference=REFERENCE_RUN)
+    checks = verdict(runs, outcome_pred, top.A_over_C, reference=REFERENCE_RUN,
+                     theta_s=theta_pred)
     tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
              else {"skipped": "--no-tune"})
     return {
@@ -407,7 +406,7 @@ def _tune_cache_path(over: tuple[str, ...]) -> Path:
     """
     import hashlib
 
-    from tippetop.compare.measures import checks as verdict
+    from tippetop.compare.measures import verdict as verdict_rule
     from tippetop.compare.running.runner import code_fingerprint
     from tippetop.compare.studies import tune
     from tippetop.compare.studies.calibrate import identify, scoring
@@ -416,7 +415,7 @@ def _tune_cache_path(over: tuple[str, ...]) -> Path:
     plan = Task(None, over, "mujoco", "file").plan()
     # the runs' code, and the tuning's own (which the runs' fingerprint does not hold)
     own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
-                                  for m in (tune, verdict, identify, scoring))).hexdigest()
+                                  for m in (tune, verdict_rule, identify, scoring))).hexdigest()
     key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
                                      "tune": own, "what": "tune/1"}, sort_keys=True,
                                     default=str).encode()).hexdigest()[:32]

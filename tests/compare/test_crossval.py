@@ -8,8 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tippetop.compare.measures.metrics import THETA_S_TOL
 from tippetop.compare.measures.series import classify_outcome, theta_trend
-from tippetop.compare.measures.verdict import THETA_S_TOL, crossval_row
+from tippetop.compare.measures.verdict import crossval_row
 from tippetop.compare.studies.crossval import compare_scene, friction_law_table
 from tippetop.models.errors import TippetopError
 from tippetop.models.numbers import number_text
@@ -46,7 +47,7 @@ def test_fig3_modes_and_differences() -> None:
     assert (rows["mujoco/paper"]["engine"], rows["mujoco/paper"]["mode"]) == ("mujoco", "paper")
     # the theory says theta_s = pi; both inverting runs end within THETA_S_TOL of it
     assert rows["ode/paper"]["agrees"]
-    assert abs(rows["ode/paper"]["d_theta_asymp"]) <= THETA_S_TOL[0]
+    assert abs(rows["ode/paper"]["d_theta_asymp"]) <= THETA_S_TOL
     assert rows["mujoco/paper"]["agrees"] and rows["mujoco/paper"]["d_t_invert"] is not None
     assert not rows["ode/coulomb"]["agrees"] and rows["ode/coulomb"]["reasons"]
     table = friction_law_table(res)
@@ -62,17 +63,28 @@ def test_unknown_mode() -> None:
         compare_scene("fig3", [("ode", "native", ())])
 
 
+def _facts(**kw: object) -> dict:
+    """A finished run as the verdict reads it (:func:`run_facts`'s keys), inverted at 3 s."""
+    base = {"outcome": "inverted", "theta_final": 3.1, "theta_asymp": 3.1, "t_invert": 3.0,
+            "t_stem": None, "t_left_table": None, "J_rel_drift": 1e-9,
+            "energy_monotone": True, "energy_rise_rel": 0.0, "E0_J": 1.0,
+            "contact_energy_bound_J": 0.0, "error": None, "end_state": "inverted"}
+    return {**base, **kw}
+
+
 def test_matching_the_theory_needs_the_angle_too() -> None:
     # the issue's case: a native elliptic-cone run ending 'inverted' at 2.600 rad where the
     # theory's theta_s is 2.752 (also 'inverted' by class) does not match the theory
-    row = crossval_row("fig11_n070", "native-elliptic", engine="mujoco", outcome="inverted",
-                       theta_asymp=2.600, theta_s=2.752, theory_outcome="inverted",
-                       t_invert=3.0, t_invert_ref=2.9, J_rel_drift=1e-6)
-    assert not row["agrees"]
+    row = crossval_row("fig11_n070", "mujoco/native-elliptic",
+                       _facts(theta_asymp=2.600, J_rel_drift=1e-6),
+                       _facts(theta_asymp=2.75, t_invert=2.9), theta_s=2.752,
+                       theory_outcome="inverted")
+    assert not row["agrees"] and row["against"] == "theory"
     assert row["d_theta_asymp"] == pytest.approx(-0.152)
-    assert "beyond 0.05 rad" in row["reasons"][0]
-    near = crossval_row("x", "paper", outcome="inverted", theta_asymp=2.73, theta_s=2.752,
-                        theory_outcome="inverted", t_invert=3.0, reference=True)
+    assert row["d_t_invert"] == pytest.approx(0.1)
+    assert "beyond 0.05 rad" in row["reasons"][0] and len(row["reasons"]) == 1
+    near = crossval_row("x", "ode/paper", _facts(theta_asymp=2.73), None, theta_s=2.752,
+                        theory_outcome="inverted")
     assert near["agrees"] and near["d_t_invert"] is None
 
 
@@ -84,8 +96,10 @@ def test_a_run_still_moving_is_inconclusive_with_its_trend() -> None:
     table = pd.DataFrame({"t": t, "theta": 0.05 + 0.01 * t})
     assert classify_outcome(table) == "inconclusive"
     assert theta_trend(table) == pytest.approx(0.01, rel=0.01)  # windows of 100 samples: 1 %
-    row = crossval_row("x", "paper", engine="mujoco", outcome="inconclusive", theta_asymp=0.145,
-                       theta_s=0.0, theory_outcome="upright", t_invert=None,
-                       trend=theta_trend(table))
+    row = crossval_row("x", "mujoco/paper",
+                       _facts(outcome="inconclusive", theta_asymp=0.145, t_invert=None,
+                              theta_trend_rad_s=theta_trend(table)),
+                       _facts(outcome="upright", theta_asymp=0.02, t_invert=None),
+                       theta_s=0.0, theory_outcome="upright")
     trend = number_text(theta_trend(table), "rad/s")  # four digits: +0.01005 rad/s
     assert not row["agrees"] and f"at +{trend}: inconclusive" in row["reasons"][0]

@@ -22,11 +22,11 @@ PI = math.pi
 
 
 def _row(scene: str, run: str, theta: float, expected: str | None = None) -> dict:
-    engine, mode = run.split("/")
-    row = crossval_row(scene, mode, engine=engine,
-                       outcome="inverted" if theta > 1.6 else "upright",
-                       theta_asymp=theta, theta_s=PI, theory_outcome="inverted",
-                       t_invert=None, reference=run == "ode/paper")
+    facts = {"outcome": "inverted" if theta > 1.6 else "upright", "theta_asymp": theta,
+             "theta_final": theta, "t_invert": None, "J_rel_drift": 0.0,
+             "energy_monotone": True, "error": None}
+    row = crossval_row(scene, run, facts, None, theta_s=PI, theory_outcome="inverted",
+                       is_reference=run == "ode/paper")
     row.update(case=f"x/{scene}[{run}]", name=scene, category="x",
                expected_departure=expected)
     return row

@@ -17,8 +17,8 @@ from typing import Any
 
 import pytest
 
-from tippetop.compare.measures.checks import verdict
 from tippetop.compare.measures.friction_realised import realised_sentence
+from tippetop.compare.measures.verdict import verdict
 from tippetop.compare.presentation.terminal import (
     check_text,
     fmt_duration,

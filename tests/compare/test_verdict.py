@@ -1,0 +1,144 @@
+"""One verdict rule: a run judged the same by validate, matrix, compare and the nightly.
+
+The rule is :func:`tippetop.compare.measures.verdict.judge`; ``validate`` lists its checks
+(:func:`verdict`), the tables flatten it (:func:`crossval_row`). These tests build the runs'
+facts by hand (the keys :func:`run_facts` gives), so each case is the situation it names.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tippetop.compare.measures.metrics import EVENT_RTOL, EVENT_TOL_S, J_TOL, METRICS
+from tippetop.compare.measures.series import HOP_MIN_S, SETTLING_S, ball_alone_end, flights
+from tippetop.compare.measures.verdict import CHECKS, crossval_row, judge, verdict
+from tippetop.models.modes import REFERENCE_RUN
+
+
+def _facts(**kw: Any) -> dict[str, Any]:
+    """A finished run that turns over at 2 s and ends inverted, the ball on the table."""
+    base = {"outcome": "inverted", "theta_final": 3.1, "theta_asymp": 3.12, "t_invert": 2.0,
+            "t_stem": None, "t_left_table": None, "flights": None, "J_rel_drift": 1e-9,
+            "energy_monotone": True, "energy_rise_rel": 0.0, "E0_J": 1.0,
+            "contact_energy_bound_J": 0.0, "error": None, "end_state": "inverted",
+            "integrator": "RK4", "timestep_s": 2e-4}
+    return {**base, **kw}
+
+
+#: The capsule-stem top of the issue: both reach the stem (theta_asymp 1.736 rad, which the
+#: ball-only theory's classes call inconclusive: it predicts theta_s = pi); the paper's law in
+#: MuJoCo turns over at 0.327 s, the reference at 0.325 s.
+ON_STEM = {"outcome": "inconclusive", "theta_asymp": 1.736, "theta_final": 1.74,
+           "end_state": "on ball and stem"}
+
+
+def test_a_top_on_its_stem_is_judged_against_the_reference() -> None:
+    ref = _facts(**ON_STEM, t_invert=0.325, t_stem=0.41)
+    run = _facts(**ON_STEM, t_invert=0.327, t_stem=0.415)
+    row = crossval_row("capsule", "mujoco/paper", run, ref, theta_s=math.pi,
+                       theory_outcome="inverted")
+    assert row["agrees"] and row["against"] == "reference", row["reasons"]
+    checks = {c["check"]: c for c in row["checks"]}
+    assert checks["outcome"]["against"] == "reference" and checks["t_stem"]["passed"]
+    # the reference itself: against the theory, a top on its stem counting as turned over
+    mine = crossval_row("capsule", REFERENCE_RUN, ref, None, theta_s=math.pi,
+                        theory_outcome="inverted")
+    assert mine["agrees"] and mine["against"] == "theory"
+    # a run that never reaches the stem the reference lands on departs, and says so
+    upright = _facts(outcome="upright", theta_asymp=0.05, end_state="upright", t_invert=None)
+    bad = crossval_row("capsule", "mujoco/native", upright, ref, theta_s=math.pi,
+                       theory_outcome="inverted")
+    assert not bad["agrees"] and bad["against"] == "reference"
+    assert "never reaches its stem" in bad["reasons"][0] and "0.41 s" in bad["reasons"][0]
+
+
+def test_leaving_the_table_is_a_finding_of_its_own_not_jellett() -> None:
+    # a hop of 32 ms at 1.202 s; Jellett's constant, kept while the ball alone touches (up to
+    # the hop), drifted 1e-5: the run departs on the table, not on Jellett
+    hop = {"count": 3, "longest_s": 0.032, "airborne_s": 0.04, "t_first": 1.1, "hops": 1,
+           "t_first_hop": 1.202}
+    row = crossval_row("x", "mujoco/file", _facts(t_left_table=1.202, flights=hop,
+                                                  J_rel_drift=1e-5),
+                       _facts(), theta_s=math.pi, theory_outcome="inverted")
+    assert not row["agrees"]
+    assert row["reasons"] == ["the ball leaves the table at 1.202 s (1 flight of 10 ms or "
+                              "more, up to 32 ms); the reference's stays on"]
+    checks = {c["check"]: c for c in row["checks"]}
+    assert checks["jellett_before_stem"]["passed"] and not checks["stays_on_table"]["passed"]
+    # where the reference's ball leaves too, that is no departure
+    both = judge("mujoco/file", _facts(t_left_table=1.202, flights=hop),
+                 _facts(t_left_table=1.19), theory_outcome="inverted", theta_s=math.pi)
+    assert both["agrees"], both["reasons"]
+
+
+def test_a_chattering_contact_stays_on_the_table() -> None:
+    # the calibrated native contact on Fig. 3: 269 flights of at most 6 ms, none of 10 ms
+    chatter = {"count": 269, "longest_s": 0.006, "airborne_s": 0.366, "t_first": 1.397,
+               "hops": 0, "t_first_hop": None}
+    j = judge("mujoco/native", _facts(flights=chatter), _facts(), theory_outcome="inverted",
+              theta_s=math.pi)
+    table = next(c for c in j["checks"] if c["check"] == "stays_on_table")
+    assert j["agrees"] and table["passed"]
+    assert "chatters: 269 flights of at most 6 ms, none of 10 ms or more" in table["note"]
+
+
+@pytest.mark.parametrize("case", [
+    {},
+    {"t_invert": 2.0 + max(EVENT_TOL_S, EVENT_RTOL * 2.0) + 0.01},
+    {"J_rel_drift": 2 * J_TOL["mujoco"]},
+    {"theta_asymp": 2.9},
+    {"outcome": "upright", "theta_asymp": 0.05, "t_invert": None, "end_state": "upright"},
+    {"t_left_table": 1.5, "flights": {"count": 1, "hops": 1, "longest_s": 0.02,
+                                      "airborne_s": 0.02, "t_first": 1.5,
+                                      "t_first_hop": 1.5}},
+    {"energy_rise_rel": 1e-3},
+    {"error": "diverged by t = 1 s", "outcome": "failed", "theta_final": None},
+    {**ON_STEM, "t_stem": 1.4},
+])
+def test_validate_and_the_tables_judge_a_run_alike(case: dict[str, Any]) -> None:
+    # validate's list of checks and the row every table shows come from one rule: the same
+    # checks, and the row agrees exactly when no check departs
+    runs = {REFERENCE_RUN: _facts(), "mujoco/paper": _facts(**case)}
+    listed = [c for c in verdict(runs, "inverted", theta_s=math.pi)
+              if c["run"] == "mujoco/paper"]
+    row = crossval_row("x", "mujoco/paper", runs["mujoco/paper"], runs[REFERENCE_RUN],
+                       theta_s=math.pi, theory_outcome="inverted")
+    assert listed == row["checks"]
+    assert row["agrees"] == all(c["passed"] is not False for c in listed)
+    assert row["agrees"] == (case == {})
+    assert [c["check"] for c in listed] == [c for c in CHECKS if c in {x["check"]
+                                                                       for x in listed}]
+
+
+def test_the_tolerances_are_the_declared_ones() -> None:
+    # the verdict reads its tolerances from the metrics' declarations
+    assert METRICS["theta_asymp"].agreement.value == 0.05  # type: ignore[union-attr]
+    assert METRICS["t_invert"].agreement.floor == EVENT_TOL_S  # type: ignore[union-attr]
+    assert METRICS["t_invert"].agreement.value == EVENT_RTOL  # type: ignore[union-attr]
+    assert METRICS["J_rel_drift"].agreement.value == J_TOL["mujoco"]  # type: ignore[union-attr]
+
+
+def test_flights_tell_a_hop_from_chatter() -> None:
+    # 1-ms samples over 3 s; no contact at 0-0.02 s (the ball settling in: ignored), for
+    # 5 samples at 1.0 s (chatter), for 12 at 2.0 s (a hop of 12 ms) and after the stem lands
+    t = np.arange(3001) * 1e-3
+    touching = np.ones_like(t, dtype=bool)
+    touching[:20] = False
+    touching[1000:1005] = False
+    touching[2000:2012] = False
+    touching[2900:] = False
+    got = flights(t, touching, t_stem=2.8)
+    assert got is not None
+    assert (got["count"], got["hops"]) == (2, 1)
+    assert got["t_first"] == pytest.approx(1.0) and got["t_first_hop"] == pytest.approx(2.0)
+    assert got["longest_s"] == pytest.approx(0.012) and got["airborne_s"] == pytest.approx(0.017)
+    assert SETTLING_S > 0.02 and 0.005 < HOP_MIN_S <= 0.012
+    # chatter alone: flights but no hop; nothing at all after settling: None
+    assert flights(t[:1500], touching[:1500], None)["t_first_hop"] is None  # type: ignore[index]
+    assert flights(t[:900], touching[:900], None) is None
+    # Jellett's window ends at the stem or the first hop, whichever is first
+    assert ball_alone_end(2.8, 2.0) == 2.0 and ball_alone_end(None, None) is None
