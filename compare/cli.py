@@ -30,6 +30,7 @@ from tippetop.compare.commands import (
     validate,
 )
 from tippetop.compare.commands.options import EXIT_OK, EXIT_STATUSES, Parser, run_main
+from tippetop.models.engines import ENGINE_MEANINGS
 
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
@@ -37,15 +38,7 @@ COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, ni
             report, calibrate, render, validate, atlas, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
-ENGINES: dict[str, str] = {
-    "ode": "the reference: the paper's equations, compiled (the default)",
-    "mujoco": "the MuJoCo installed with tippetop, in this process",
-    "mujoco==X.Y.Z": "a MuJoCo release, in an environment made with uv on first use",
-    "mujoco@PYTHON": "the mujoco that interpreter imports (a build of your own): a path, or a "
-                     "command on PATH",
-    "mjx, mjx-f32": "MuJoCo MJX on JAX, float64 and float32, on the CPU here",
-    "warp": "MuJoCo Warp, float32, on the CPU here",
-}
+ENGINES = ENGINE_MEANINGS
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {

@@ -27,6 +27,16 @@ MUJOCO_SPEC_FORMS = "mujoco, mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32 or warp"
 #: Every engine that can be named without an argument, for suggestions.
 NAMED: tuple[str, ...] = ("ode", "mujoco", "mjx", "mjx-f32", "warp")
 _VERSION = re.compile(r"^\d+\.\d+\.\d+$")
+#: Each way of naming an engine, with what it is (``tippetop --help``, the glossary).
+ENGINE_MEANINGS: dict[str, str] = {
+    "ode": "the reference: the paper's equations, compiled (the default)",
+    "mujoco": "the MuJoCo installed with tippetop, in this process",
+    "mujoco==X.Y.Z": "a MuJoCo release, in an environment made with uv on first use",
+    "mujoco@PYTHON": "the mujoco that interpreter imports (a build of your own): a path, or a "
+                     "command on PATH",
+    "mjx, mjx-f32": "MuJoCo MJX on JAX, float64 and float32, on the CPU here",
+    "warp": "MuJoCo Warp, float32, on the CPU here",
+}
 
 
 @dataclass(frozen=True)
@@ -133,5 +143,5 @@ def parse_engines(text: str, *, mujoco_only: bool = False) -> list[EngineSpec]:
     return specs
 
 
-__all__ = ["FAMILIES", "IMPLEMENTATIONS", "MUJOCO_SPEC_FORMS", "NAMED", "SPEC_FORMS", "EngineSpec",
-           "parse_engine", "parse_engines"]
+__all__ = ["ENGINE_MEANINGS", "FAMILIES", "IMPLEMENTATIONS", "MUJOCO_SPEC_FORMS", "NAMED",
+           "SPEC_FORMS", "EngineSpec", "parse_engine", "parse_engines"]

@@ -29,10 +29,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "naming the tolerance it broke.")
     p.add_argument("scene", help="scene .toml file or catalogue name (required)")
     p.add_argument("--engines", metavar="ENGINE,...", help="comma-separated engines: "
-                   + ENGINE_HELP.removeprefix("what integrates the run: ")
+                   + ENGINE_HELP.removeprefix("the engine that integrates the run: ")
                    + " (default: ode,mujoco)")
     p.add_argument("--modes", metavar="MODE,...", help="comma-separated modes: "
-                   + MODE_HELP.removeprefix("how the contact force is made: ")
+                   + MODE_HELP.removeprefix("the mode, how the contact force is made: ")
                    + " (default: paper,native)")
     add_set_option(p)
     add_parallel_options(p)
@@ -196,6 +196,9 @@ def print_compare(res: dict[str, Any]) -> None:
             print(labelled(m, realised_sentence(m, fr).split(": ", 1)[1], width))
             if (fr.get("refit") or {}).get("sentence"):
                 print(labelled("", f"refit: {fr['refit']['sentence']}", width))
+                if fr["refit"].get("remains"):
+                    print(labelled("", "what else differs: " + ", ".join(fr["refit"]["remains"]),
+                                   width))
     ran = []
     for m, s in runs.items():
         if "engine" not in s:

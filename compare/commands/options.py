@@ -309,16 +309,16 @@ def mode_name(text: str) -> str:
 
 
 #: ``--engine``'s help: what each engine is.
-ENGINE_HELP = ("what integrates the run: ode (the reference), mujoco (the MuJoCo installed "
-               "with tippetop), mujoco==X.Y.Z (a release, in an environment made with uv on "
-               "first use), mujoco@PYTHON (the mujoco that interpreter imports: a path, or a "
-               "command on PATH), mjx, mjx-f32 (MuJoCo MJX, float64 and float32) or warp "
-               "(MuJoCo Warp)")
+ENGINE_HELP = ("the engine that integrates the run: ode (the reference), mujoco (the MuJoCo "
+               "installed with tippetop), mujoco==X.Y.Z (a release, in an environment made "
+               "with uv on first use), mujoco@PYTHON (the mujoco that interpreter imports: a "
+               "path, or a command on PATH), mjx, mjx-f32 (MuJoCo MJX, float64 and float32) or "
+               "warp (MuJoCo Warp)")
 #: ``--mode``'s help: what each mode is (``tippetop --help`` lists them).
-MODE_HELP = ("how the contact force is made: paper (the paper's law, every engine), native, "
-             "native-pyramidal, native-elliptic, native-condim4, native-condim6 (MuJoCo's own "
-             "contact, calibrated), file (MuJoCo's own contact as the model file sets it), "
-             "coulomb, viscous, coulomb_viscous (the reference's other laws)")
+MODE_HELP = ("the mode, how the contact force is made: paper (the paper's law, every engine), "
+             "native, native-pyramidal, native-elliptic, native-condim4, native-condim6 "
+             "(MuJoCo's own contact, calibrated), file (MuJoCo's own contact as the model file "
+             "sets it), coulomb, viscous, coulomb_viscous (the reference's other laws)")
 
 
 def add_engine_option(p: argparse.ArgumentParser, *, default: str = "ode",

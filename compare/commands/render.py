@@ -38,10 +38,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "(MUJOCO_GL=egl or osmesa; unset picks one).")
     p.add_argument("scene", nargs="?", help="scene .toml file or catalogue name (default: the "
                    "paper's top and Fig. 3 start)")
-    p.add_argument("--engine", metavar="ENGINE", help="mujoco (the MuJoCo installed with "
-                   "tippetop) or ode (the reference replayed in the same MJCF) (default mujoco)")
-    p.add_argument("--engines", metavar="ENGINE,...", help="mujoco,ode: both side by side, "
-                   "MuJoCo left, same time base and camera (default: --engine's one)")
+    p.add_argument("--engine", metavar="ENGINE", help="the engine whose run is drawn: mujoco "
+                   "(the MuJoCo installed with tippetop) or ode (the reference replayed in the "
+                   "same MJCF) (default mujoco)")
+    p.add_argument("--engines", metavar="ENGINE,...", help="the engines drawn side by side: "
+                   "mujoco,ode, MuJoCo left, same time base and camera (default: --engine's "
+                   "one)")
     add_mode_option(p, default="the scene's: paper for a generated top, file for an MJCF top",
                     help="MuJoCo's mode: " + MODE_HELP.removeprefix(
                         "how the contact force is made: ").split(", coulomb")[0])

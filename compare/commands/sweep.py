@@ -33,9 +33,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="initial spins, rad/s; STOP is included when it falls on the grid, "
                    "at most 2000 points (no default: required)")
     p.add_argument("--engines", metavar="ENGINE,...", help="comma-separated engines: "
-                   + ENGINE_HELP.removeprefix("what integrates the run: ") + " (default: ode)")
+                   + ENGINE_HELP.removeprefix("the engine that integrates the run: ")
+                   + " (default: ode)")
     p.add_argument("--modes", metavar="MODE,...", help="comma-separated modes: "
-                   + MODE_HELP.removeprefix("how the contact force is made: ")
+                   + MODE_HELP.removeprefix("the mode, how the contact force is made: ")
                    + " (default: paper)")
     add_set_option(p)
     p.add_argument("--out", metavar="DIR", help="folder for sweep.csv, theory.csv and "

@@ -109,9 +109,15 @@ def _print_friction(res: dict[str, Any]) -> None:
         refit = fr.get("refit")
         if refit:
             lines.append(f"      refit: {refit['sentence']}")
+            if refit.get("remains"):
+                lines.append("      what else differs: " + ", ".join(refit["remains"]))
     if lines:
+        from tippetop.compare.measures.friction_realised import SENTENCE_TERMS
+        from tippetop.compare.presentation.terminal import wrapped
+
         print("  the friction law as each run realises it (the ball's phase):")
         print("\n".join(lines))
+        print(wrapped(f"({SENTENCE_TERMS})", indent="    "))
 
 
 def model_line(m: dict[str, Any]) -> str:
@@ -133,17 +139,16 @@ def model_line(m: dict[str, Any]) -> str:
 
 def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     from tippetop.compare.presentation.terminal import check_note, check_text
-    from tippetop.compare.studies.validate import show_setting
 
     checks = res["verdict"]
-    n_pass = sum(c["passed"] for c in checks)
+    n_pass = sum(c["passed"] is not False for c in checks)
     print(model_line(res["model"]))
     print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
           f"checks pass, {res['t_end_s']:g} s simulated)")
     width = max(len(c["check"]) for c in checks)
     mwidth = max(len(c["run"]) for c in checks)
     for c in checks:
-        if not c["passed"]:
+        if c["passed"] is False:
             shown = check_text(c, res["t_end_s"], res["runs"])
             why = f"; {note}" if (note := check_note(c)) else ""
             print(f"  departs: {c['run']:<{mwidth}} {c['check']:<{width}}  {shown}  "
@@ -154,25 +159,29 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     for f in res["findings"]:
         print(f"  the file's own settings: {f}")
     _print_friction(res)
-    sug = res.get("suggestion") or {}
-    if sug and not res["agrees"]:
-        title = ("settings that follow the reference" if sug["agrees"]
-                 else "the calibrated settings (mujoco/native)")
-        print(f"  {title}: {sug['note']}")
-        if sug.get("changes"):
-            print("    changes from the file's: " + "; ".join(
-                f"{c['setting']} {show_setting(c['setting'], c['file'])} -> "
-                f"{show_setting(c['setting'], c['calibrated'])}"
-                for c in sug["changes"]))
-        print(f"    {sug['option']}")
-        print(f"    <geom ... {sug['geom']}/>")
-    print_tuned(res.get("tuned") or {})
+    print_tuned(res.get("tuned") or {}, show_mjcf=False)
+    ans = res.get("answer") or {}
+    tried = ans.get("candidates") or []
+    if tried:
+        print("  candidates tried:")
+        for c in tried:
+            state = "agrees" if c["agrees"] else "departs"
+            print(f"    {c['what']}: {state}, {c['passes']} of {c['checks']} checks pass")
     if out is not None:
         print(f"report: {out / 'report.html'}")
+    # the last lines: the file's verdict and what to paste
+    f = ans.get("file") or {}
+    if f:
+        print(f"the file: {'AGREES' if f['agrees'] else 'DEPARTS'} ({f['passes']} of "
+              f"{f['checks']} of its checks pass)")
+    if ans:
+        print(ans["label"] + (":" if ans.get("mjcf") else ""))
+        for line in (ans.get("mjcf") or "").splitlines():
+            print(f"    {line}")
 
 
-def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
-    """The tuned settings: the fit, the MJCF to paste, each start's verification."""
+def print_tuned(tuned: dict[str, Any], indent: str = "  ", *, show_mjcf: bool = True) -> None:
+    """The tuned settings: the fit, the MJCF (``show_mjcf``), each start's verification."""
     if not tuned:
         return
     if tuned.get("skipped"):
@@ -190,8 +199,9 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
           f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs, "
           f"{fmt_duration(fit['wall_s'])} (mujoco.sysid"
           f"{'; from the cache' if tuned.get('cached') else ''})")
-    for line in tuned["mjcf"].splitlines():
-        print(f"{indent}  {line}")
+    if show_mjcf:
+        for line in tuned["mjcf"].splitlines():
+            print(f"{indent}  {line}")
     for v in tuned["verified"]:
         where = f"{start_label(v['n0'], v['theta0'])} ({v['role']})"
         if v["passed"] is None:
@@ -200,5 +210,5 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ") -> None:
             state = f"passes all {len(v['checks'])} checks"
         else:
             state = "departs in " + ", ".join(c["check"] for c in v["checks"]
-                                              if not c["passed"])
+                                              if c["passed"] is False)
         print(f"{indent}  from {where}: {state}")

@@ -176,5 +176,14 @@ def realised_sentence(name: str, fr: dict[str, Any]) -> str:
             f"{number_text(100 * float(creep or 0.0))} % of the time)")
 
 
-__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "fit_law", "friction_realised",
-           "law_mu", "not_refit", "realised_sentence", "samples"]
+#: The realised-law sentence's terms, for a person reading it on a terminal.
+SENTENCE_TERMS = (
+    "half of mu N at a slip of: how fast the contact must slip before friction reaches half "
+    "its full mu N (the paper's law: Lambda / sqrt(3)); fit: the paper's law fitted to the "
+    "forces; residual: what the fit leaves, as a fraction of |F_t|/N; F_t ... rad from -v_P: "
+    "how far the friction force turns away from straight against the slip (0 for the paper's "
+    "law, and for Coulomb's); creeping: the share of samples whose force is more than 1 % "
+    "below the paper's law at the same slip")
+
+__all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "SENTENCE_TERMS", "fit_law",
+           "friction_realised", "law_mu", "not_refit", "realised_sentence", "samples"]

@@ -323,6 +323,9 @@ def check_text(check: dict[str, Any], t_end_s: float | None = None,
             times = ((runs.get(check["run"]) or {}).get(name),
                      (runs.get(REFERENCE_RUN) or {}).get(name))
         return _event_text(check, t_end_s, times)
+    if name == "stays_on_table":
+        return ("stays on the table" if v is None else
+                f"leaves the table at {fmt(float(v), 's')}")
     if isinstance(v, bool):
         return "yes" if v else "no"
     if isinstance(v, (int, float)):
@@ -423,6 +426,15 @@ def key_values(items: Iterable[tuple[str, Any]] | dict[str, Any], indent: str = 
 def text_width() -> int:
     """Columns to wrap prose at: the terminal's (at most 120), or 100 off a terminal."""
     return max(40, min(120, shutil.get_terminal_size((101, 24)).columns) - 1)
+
+
+def wrapped(text: str, indent: str = "", width: int | None = None) -> str:
+    """``text`` wrapped to the terminal's width (at most 100 columns), each line indented."""
+    import shutil
+    import textwrap
+
+    width = width or max(60, min(100, shutil.get_terminal_size((100, 24)).columns))
+    return textwrap.fill(text, width, initial_indent=indent, subsequent_indent=indent)
 
 
 def labelled(label: str, text: str, label_width: int, indent: str = "  ") -> str:

@@ -80,7 +80,9 @@ def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
         cls = next(cls_iter, "") if cls_iter is not None else ""
         out.append(f'<tr class="{esc(cls)}">' if cls else "<tr>")
         for cell in row:
-            if isinstance(cell, Html):
+            if isinstance(cell, Cell) and cell.cls:
+                out.append(f'<td class="{esc(cell.cls)}">{cell}</td>')
+            elif isinstance(cell, Html):
                 out.append(f"<td>{cell}</td>")
             elif isinstance(cell, (int, float)) and not isinstance(cell, bool):
                 out.append(f'<td class="num">{fmt_num(cell)}</td>')
@@ -93,6 +95,18 @@ def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
 
 class Html(str):
     """A table cell that is already HTML."""
+
+
+class Cell(Html):
+    """A table cell that is already HTML, shaded by a class of its own (``pass``, ``fail``)."""
+
+    cls: str
+
+    def __new__(cls, html: str, shade: str = "") -> Cell:
+        """``html`` in a cell of class ``shade`` (none: unshaded)."""
+        obj = super().__new__(cls, html)
+        obj.cls = shade
+        return obj
 
 
 #: Marks a page as tippetop's own, so that rebuilding it may replace it (report/__main__.py).

@@ -20,13 +20,12 @@ from tippetop.compare.presentation.terminal import (
 )
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
-from tippetop.compare.report.markup import Html, esc, fmt_num, html_table, page, png
+from tippetop.compare.report.markup import Cell, Html, esc, fmt_num, html_table, page, png
 from tippetop.compare.studies.validate import (
     REFERENCE_RUN,
     RUNS,
     engine_of,
     mode_of,
-    show_setting,
 )
 
 _COLOURS = {"mujoco/file": "#d62728", "ode/paper": "#111111", "mujoco/paper": "#1f77b4",
@@ -34,10 +33,12 @@ _COLOURS = {"mujoco/file": "#d62728", "ode/paper": "#111111", "mujoco/paper": "#
 #: What each mode of a validation's runs is, in words.
 _LABELS = {"file": "MuJoCo, the file's own settings", "paper": "MuJoCo, the paper's law",
            "native": "MuJoCo, calibrated"}
-_CHECKS = {"completed": "the run completed", "outcome": "outcome against the theory",
+_CHECKS = {"completed": "the run completed",
+           "outcome": "outcome against the theory (the reference's, for a top on its stem)",
+           "stays_on_table": "the ball stays on the table (as the reference's)",
            "t_invert": "inversion time against the reference's",
            "t_stem": "first stem contact against the reference's",
-           "jellett_before_stem": "Jellett's drift before the stem (relative)",
+           "jellett_before_stem": "Jellett's drift while the ball alone touches (relative)",
            "energy_never_rises": "energy never rises (its largest rise, of E0)"}
 
 
@@ -69,10 +70,10 @@ def _cell(check: Mapping[str, Any], t_end_s: float | None = None,
           runs: Mapping[str, Any] | None = None) -> Html:
     """A check's cell: its value with its unit, or why there is none (never ``-`` alone)."""
     shown = esc(check_text(dict(check), t_end_s, dict(runs) if runs is not None else None))
-    cls = "pass" if check["passed"] else "fail"
-    mark = "agrees" if check["passed"] else "departs"
+    cls, mark = {True: ("pass", "agrees"), False: ("fail", "departs")}.get(
+        check["passed"], ("", "not judged"))
     note = f"<br><small>{esc(why)}</small>" if (why := check_note(dict(check))) else ""
-    return Html(f"<span class='{cls}'>{shown} ({mark})</span>{note}")
+    return Cell(f"{shown} ({mark}){note}", cls)
 
 
 def verdict_section(res: Mapping[str, Any]) -> str:
@@ -80,7 +81,7 @@ def verdict_section(res: Mapping[str, Any]) -> str:
     checks = res["verdict"]
     modes = _keys(res)
     names = list(dict.fromkeys(c["check"] for c in checks))
-    rows, classes = [], []
+    rows = []
     for name in names:
         row: list[Any] = [_CHECKS.get(name, name)]
         tol = next(c["tolerance"] for c in checks if c["check"] == name)
@@ -90,34 +91,46 @@ def verdict_section(res: Mapping[str, Any]) -> str:
                        "the reference itself" if m == REFERENCE_RUN else "not checked")
         row.append(tol)
         rows.append(row)
-        bad = any(not c["passed"] for c in checks if c["check"] == name)
-        classes.append("fail" if bad else "pass")
-    n_pass = sum(c["passed"] for c in checks)
+    n_pass = sum(c["passed"] is not False for c in checks)
     ok = res["agrees"]
     head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
             f"{'AGREES' if ok else 'DEPARTS'}</span> {n_pass} of {len(checks)} checks pass "
             f"against the paper's theory and the reference ODE "
             f"({res['t_end_s']:g} s simulated).</p>")
     parts = ["<section id='verdict'><h2>Verdict</h2>", head,
-             html_table(["check", *(_label(m) for m in modes), "tolerance"], rows, classes)]
+             html_table(["check", *(_label(m) for m in modes), "tolerance"], rows)]
     if res["findings"]:
         parts.append("<h3>What the file's own settings get wrong</h3><ul>"
                      + "".join(f"<li>{esc(f)}</li>" for f in res["findings"]) + "</ul>")
-    sug = res.get("suggestion") or {}
-    if sug:
-        title = ("Settings that follow the reference" if sug["agrees"]
-                 else "The calibrated settings do not fix it")
-        parts.append(f"<h3>{title}</h3><p class='note'>MuJoCo's own friction with the "
-                     "calibrated settings (the <code>mujoco/native</code> column): "
-                     f"{esc(sug['note'])}. As MJCF; the contact attributes go "
-                     f"{esc(sug['where'])}:</p><pre>{esc(sug['option'])}\n"
-                     f"&lt;geom ... {esc(sug['geom'])}/&gt;</pre>")
-        if sug.get("changes"):
-            parts.append(html_table(["setting", "the file's", "calibrated"],
-                                    [(c["setting"], show_setting(c["setting"], c["file"]),
-                                      show_setting(c["setting"], c["calibrated"]))
-                                     for c in sug["changes"]]))
+    parts.append(answer_html(res))
     parts.append("</section>")
+    return "".join(parts)
+
+
+#: Where the contact attributes of a pasted block go.
+_WHERE = ("the contact attributes go on the ball's, the stem's and the table's geoms (MuJoCo "
+          "mixes the two geoms' values of a contact), or on the file's contact pairs if it has "
+          "any (they override the geoms')")
+
+
+def answer_html(res: Mapping[str, Any]) -> str:
+    """What to paste: one MJCF block (or none, and why), and every candidate tried."""
+    ans = res.get("answer") or {}
+    if not ans:
+        return ""
+    cls = "ok" if ans["agrees"] else "bad"
+    parts = [f"<h3 id='paste'>What to paste</h3><p><span class='verdict {cls}'>"
+             f"{'AGREES' if ans['agrees'] else 'NONE AGREES'}</span> {esc(ans['label'])}.</p>"]
+    if ans.get("mjcf"):
+        parts.append(f"<p class='note'>As MJCF; {esc(_WHERE)}:</p><pre>{esc(ans['mjcf'])}</pre>")
+    tried = ans.get("candidates") or []
+    if tried:
+        rows = [(Cell(esc(c["what"]), "pass" if c["agrees"] else "fail"),
+                 "agrees" if c["agrees"] else "departs", f"{c['passes']} of {c['checks']}",
+                 ", ".join(dict.fromkeys(c["departs"])) or "none") for c in tried]
+        parts.append("<p class='note'>The settings tried:</p>"
+                     + html_table(["candidate", "verdict", "checks passed", "departs in"],
+                                  rows))
     return "".join(parts)
 
 
@@ -142,11 +155,10 @@ def tuned_section(res: Mapping[str, Any]) -> str:
            f"residual {fmt(fit['residual'], 'rad')} ({esc(fit['residual_definition'])}), "
            f"{fit['runs']} MuJoCo runs, {fmt_duration(fit['wall_s'])}; then run by the "
            f"harness from every start "
-           f"below over {res['t_end_s']:g} s and checked as the verdict checks. As MJCF (the "
-           f"contact attributes go on the ball's, the stem's and the table's geoms, or on the "
-           f"file's contact pairs):</p><pre>{esc(t['mjcf'])}</pre>")
+           f"below over {res['t_end_s']:g} s and checked as the verdict checks (what to paste: "
+           f"<a href='#paste'>above</a>).</p>")
     names = list(dict.fromkeys(c["check"] for v in t["verified"] for c in v["checks"]))
-    rows, classes = [], []
+    rows = []
     for v in t["verified"]:
         row: list[Any] = [start_label(v["n0"], v["theta0"]), v["role"]]
         by = {c["check"]: c for c in v["checks"]}
@@ -154,7 +166,6 @@ def tuned_section(res: Mapping[str, Any]) -> str:
         if v["passed"] is None:
             row[-1] = v.get("note", "not verified")
         rows.append(row)
-        classes.append("" if v["passed"] is None else "pass" if v["passed"] else "fail")
     needs = "".join(
         f"<li>{esc(n['integrator'])} at dt = {n['timestep_s']:g} s: "
         f"{'kept' if n['kept'] else 'not kept: ' + esc(n.get('why', ''))}</li>"
@@ -163,8 +174,7 @@ def tuned_section(res: Mapping[str, Any]) -> str:
                   f"contact (the fit ran {esc(fit['integrator'])} at dt = "
                   f"{fit['timestep_s']:g} s):</p><ul>{needs}</ul>" if needs else "")
     return ("<section id='tuned'><h2>Tuned settings for this top</h2>" + head + how
-            + html_table(["start", "role", *(_CHECKS.get(n, n) for n in names)], rows,
-                         classes)
+            + html_table(["start", "role", *(_CHECKS.get(n, n) for n in names)], rows)
             + needs_html + "</section>")
 
 
@@ -267,7 +277,12 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
     def sentence(k: str) -> str:
         fr = res["runs"][k]["friction_realised"]
         refit = (fr.get("refit") or {}).get("sentence")
+        remains = (fr.get("refit") or {}).get("remains") or []
         more = f"<br><span class='note'>Refit: {esc(refit)}.</span>" if refit else ""
+        if remains:
+            more += (f"<br><span class='note'>What else differs: {esc(', '.join(remains))} "
+                     "(Jellett's drift: a torque off the contact point, or a first-order "
+                     "integrator on a top with A != C).</span>")
         return f"<li>{esc(realised_sentence(_label(k), fr))}{more}</li>"
 
     lines = "".join(sentence(k) for k in keys)

@@ -75,9 +75,11 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
         engine, per event), ``held`` (the events ``explains`` holds: theta_asymp only when
         no stem touches, since the law is fitted on the ball's phase),
         ``explained_fraction`` (of the engine's t_invert difference from the reference, the
-        share the fitted law reproduces; None without one), ``tolerances``
-        and ``sentence`` (what it means, with numbers; when it does not explain, what
-        remains).
+        share the fitted law reproduces; None without one), ``tolerances``, ``sentence``
+        (what it means, with numbers, under 300 characters) and ``remains`` (when it does
+        not explain: what else differs between the engine and the reference, each with its
+        number: the contact's sink, Jellett's drift, which a torque off the contact point
+        or a first-order integrator on a top with A != C makes, the integration).
     """
     tols = {"t_invert": T_TOL_S, "t_stem": T_TOL_S, "theta_asymp": THETA_TOL_RAD}
     diffs, ok = {}, {}
@@ -112,23 +114,21 @@ def refit_result(fr: dict[str, Any], engine: dict[str, float | None],
             remains.append(f"the contact's sink (up to {number_text(1e3 * sink, 'mm')})")
         j = ran.get("J_rel_drift")
         if j is not None:
-            remains.append(f"Jellett's drift ({number_text(j, 'relative')} relative: a torque "
-                           "off the contact point, or a first-order integrator on a top with "
-                           "A != C)")
+            remains.append(f"Jellett's drift ({number_text(j, 'relative')} relative)")
         if ran.get("integrator") and ran.get("timestep_s"):
             remains.append(f"the integration ({ran['integrator']} at dt = "
                            f"{number_text(ran['timestep_s'], 's')})")
         share = ("" if frac is None else
-                 f"; the law accounts for {number_text(100 * max(frac, 0.0))} % of the "
+                 f"; it accounts for {number_text(100 * max(frac, 0.0))} % of the "
                  f"engine's {number_text(abs(e - r), 's')} from the reference's inversion")
         sentence = (f"{law} {when(refit)}, the engine {when(engine)}: the law does not "
-                    f"explain it ({', '.join(misses)} outside the nightly's tolerances{share}); "
-                    f"what remains: {', '.join(remains) or 'not measured'}")
+                    f"explain it ({', '.join(misses)} beyond tolerance{share})")
     return {"t_invert": refit.get("t_invert"), "t_stem": refit.get("t_stem"),
             "theta_asymp": refit.get("theta_asymp"), "explains": explains,
             "mu": fr.get("mu_fit"), "Lambda_mps": fr.get("Lambda_fit_mps"),
             "engine": dict(engine), "reference": dict(reference), "differences": diffs,
             "explained_fraction": frac, "held": held,
+            "remains": [] if explains else (remains or ["not measured"]),
             "tolerances": {"t_invert_s": T_TOL_S, "t_stem_s": T_TOL_S,
                            "theta_asymp_rad": THETA_TOL_RAD},
             "sentence": sentence}

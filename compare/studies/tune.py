@@ -30,6 +30,7 @@ from tippetop.compare.studies.calibrate.identify import (
     reference_theta,
 )
 from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
+from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text
@@ -133,7 +134,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
          file_run: dict[str, Any] | None = None, file_timestep_s: float | None = None,
          file_integrator: str | None = None, run_options: dict[str, Any] | None = None,
          max_iters: int = MAX_ITERS, progress: bool = True,
-         theory: Callable[[float, float, str], str] | None = None,
+         theory: Callable[[float, float, str], tuple[float | None, str]] | None = None,
          A_over_C: float | None = None) -> dict[str, Any]:
     """Fit the file's contact settings to the reference and verify them.
 
@@ -150,8 +151,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         run_options: Keyword arguments of :func:`run_tasks`.
         max_iters: Levenberg-Marquardt iterations per fit.
         progress: Progress lines on a terminal.
-        theory: (n0, theta0, role) -> the theory's outcome at that start (``fit``: the
-            file's own start, with its precession).
+        theory: (n0, theta0, role) -> the theory's theta_s and outcome at that start
+            (``fit``: the file's own start, with its precession).
         A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
 
     Returns:
@@ -241,7 +242,10 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
             v2, mj2 = _verify(base, starts, refs, seed, dt, FIT_INTEGRATOR, t_end_s, opts,
                               theory, A_over_C)
             alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
-                                 "departs": _departs(v2)})
+                                 "departs": _departs(v2), **_passes(v2),
+                                 "mjcf": _mjcf(run_entry(mj2[0])),
+                                 "calibrated": seed == bounds.clip(starting[0]).rounded()
+                                 and bool(calibrated_native_settings())})
             if _agrees(v2):
                 verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
                 chosen = f"seed: {seed.label()}"
@@ -267,11 +271,18 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         "verified": verified,
         "agrees": agrees,
         "departs": departs,
+        **_passes(verified),
         "note": _note(agrees, departs, verified) + (
             f" (the fit's own optimum departs from a held-out start; these are its {chosen})"
             if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
             f"depart too" if alternatives and not agrees else ""),
     }
+
+
+def _passes(verified: list[dict[str, Any]]) -> dict[str, int]:
+    """``{passes, checks}``: the checks that pass over every start verified, and all of them."""
+    checks = [c for v in verified for c in v["checks"]]
+    return {"passes": sum(c["passed"] is not False for c in checks), "checks": len(checks)}
 
 
 def _agrees(verified: list[dict[str, Any]]) -> bool:
@@ -289,7 +300,7 @@ def _seed_candidates(found: Any) -> list[Candidate]:
 
 def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], best: Candidate,
             timestep: float, integrator: str, t_end_s: float, opts: dict[str, Any],
-            theory: Callable[[float, float, str], str] | None,
+            theory: Callable[[float, float, str], tuple[float | None, str]] | None,
             A_over_C: float | None) -> tuple[list[dict[str, Any]], list[Any]]:
     """Every start run by the harness with ``best``, checked with validate's verdict."""
     tasks = [Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}",
@@ -306,12 +317,13 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
                              "note": f"not verifiable: the reference stops "
                                      f"({runs[REFERENCE_RUN].get('message')})"})
             continue
-        outcome = theory(s.n0, s.theta0, s.role) if theory else \
-            runs[REFERENCE_RUN]["outcome"]
-        checks = [c for c in verdict(runs, outcome, A_over_C) if c["run"] == tuned]
+        theta_s, outcome = (theory(s.n0, s.theta0, s.role) if theory
+                            else (None, runs[REFERENCE_RUN]["outcome"]))
+        checks = [c for c in verdict(runs, outcome, A_over_C, theta_s=theta_s)
+                  if c["run"] == tuned]
         verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
                          "theory_outcome": outcome, "checks": checks,
-                         "passed": all(c["passed"] for c in checks),
+                         "passed": all(c["passed"] is not False for c in checks),
                          "friction_realised": runs[tuned].get("friction_realised"),
                          "left_table_s": (run.summary or {}).get("t_left_table")})
     return verified, mj
@@ -320,7 +332,7 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
 def _departs(verified: list[dict[str, Any]]) -> list[str]:
     return [f"{c['check']} from {TuneStart(v['n0'], v['theta0'], v['role']).label()} "
             f"({v['role']}): {c['note']}"
-            for v in verified for c in v["checks"] if not c["passed"]]
+            for v in verified for c in v["checks"] if c["passed"] is False]
 
 
 def _cheaper(integ: str | None, step: float | None,
@@ -374,7 +386,7 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
     why = []
     for v in verified:
         fr = v.get("friction_realised") or {}
-        failed = {c["check"] for c in v["checks"] if not c["passed"]}
+        failed = {c["check"] for c in v["checks"] if c["passed"] is False}
         where = f"from {start_label(v['n0'], v['theta0'])}"
         if "stays_on_table" in failed and v.get("left_table_s") is not None:
             why.append(f"{where} the ball leaves the table at "

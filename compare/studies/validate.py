@@ -232,10 +232,10 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
 
     option, geom = mjcf_attributes(s)
     mine = [c for c in checks if c["run"] == CALIBRATED_RUN]
-    departs = [c["check"] for c in mine if not c["passed"]]
+    departs = [c["check"] for c in mine if c["passed"] is False]
     agrees = bool(mine) and not departs
     paper = [c for c in checks if c["run"] == PAPER_RUN]
-    paper_agrees = bool(paper) and all(c["passed"] for c in paper)
+    paper_agrees = bool(paper) and all(c["passed"] is not False for c in paper)
     if agrees:
         note = ("with these settings MuJoCo's own friction passes every check against the "
                 "theory and the reference: paste them into the file")
@@ -261,6 +261,109 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
     }
 
 
+def _candidate(name: str, what: str, agrees: bool, passes: int, checks: int, mjcf: str,
+               departs: list[str]) -> dict[str, Any]:
+    return {"name": name, "what": what, "agrees": agrees, "passes": passes, "checks": checks,
+            "mjcf": mjcf, "departs": departs}
+
+
+def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
+               tuned: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every set of contact settings validate tried for the file, best evidence first.
+
+    The tuned settings (fitted, verified from every start), the seeds the tuning verified
+    when its fit departed (the calibrated settings among them), and the calibrated settings
+    as validate ran them from the file's start (``mujoco/native``). Each: ``name``, ``what``,
+    ``agrees``, ``passes`` and ``checks`` (the checks that pass, of all run), ``mjcf`` (to
+    paste) and ``departs`` (the checks that do not).
+    """
+    out = []
+    if tuned and not tuned.get("skipped") and tuned.get("mjcf"):
+        n = sum(v["passed"] is not None for v in tuned["verified"])
+        chosen = tuned["fit"].get("chosen", "fit")
+        what = (f"the tuned settings (fitted with mujoco.sysid, verified from {n} starts)"
+                if chosen == "fit" else f"the tuning's {chosen} (verified from {n} starts; "
+                "the fit's own optimum departs)")
+        checked = [c for v in tuned["verified"] for c in v["checks"]]
+        out.append(_candidate("tuned", what, bool(tuned["agrees"]),
+                              sum(c["passed"] is not False for c in checked), len(checked),
+                              tuned["mjcf"], list(tuned.get("departs") or [])))
+        for alt in tuned["fit"].get("alternatives") or []:
+            if not alt.get("mjcf") or alt["settings"] == chosen.removeprefix("seed: "):
+                continue
+            label = ("the calibrated settings" if alt.get("calibrated") else
+                     "a seed of the tuning")
+            out.append(_candidate("seed", f"{label}: {alt['settings']} (verified from {n} "
+                                  "starts)", bool(alt["agrees"]), int(alt.get("passes", 0)),
+                                  int(alt.get("checks", 0)), alt["mjcf"],
+                                  list(alt.get("departs") or [])))
+    if sug:
+        mine = [c for c in checks if c["run"] == CALIBRATED_RUN]
+        out.append(_candidate("calibrated", "the calibrated settings "
+                              "(models/calibrated_native.toml, the tuning's first seed), run "
+                              "from the file's start only", bool(sug["agrees"]),
+                              sum(c["passed"] is not False for c in mine), len(mine),
+                              f"{sug['option']}\n<geom ... {sug['geom']}/>",
+                              list(sug.get("departs") or [])))
+    return out
+
+
+def answer(checks: list[dict[str, Any]], sug: dict[str, Any],
+           tuned: dict[str, Any]) -> dict[str, Any]:
+    """The one answer to paste: the file's own settings, the best candidate, or none and why.
+
+    Returns:
+        ``agrees`` (what to paste follows the reference; also when nothing needs pasting),
+        ``source`` (``file``: the file as it is; else the chosen candidate's ``name``, or
+        None), ``label`` (one line: what it is and whether it agrees), ``mjcf`` (to paste;
+        None when nothing is), ``why`` (None, or why nothing is pasted), ``candidates``
+        (:func:`candidates`) and ``file`` ({agrees, passes, checks}: the file's own runs'
+        checks).
+    """
+    mine = [c for c in checks if mode_of(c["run"]) == "file"]
+    file_ok = bool(mine) and all(c["passed"] is not False for c in mine)
+    file_pass = sum(c["passed"] is not False for c in mine)
+    found = candidates(checks, sug, tuned)
+    # the tuning verifies from every start, the calibrated settings among its seeds: where it
+    # ran, its candidates are the answers; the calibrated run from the file's start alone is
+    # evidence, listed, not an answer (its settings may depart from another start)
+    tuned_ran = bool(tuned) and not tuned.get("skipped")
+    eligible = [c for c in found if c["name"] != "calibrated"] if tuned_ran else found
+    base = {"candidates": found,
+            "file": {"agrees": file_ok, "passes": file_pass, "checks": len(mine)}}
+    if file_ok:
+        return {**base, "agrees": True, "source": "file", "mjcf": None, "why": None,
+                "label": "nothing to paste: the file's own settings follow the reference"}
+    agreeing = [c for c in eligible if c["agrees"]]
+    if agreeing:
+        c = agreeing[0]
+        where = ("from every start checked" if c["name"] != "calibrated" else
+                 "from the file's start (tuning skipped: held-out starts not checked)"
+                 if tuned.get("skipped") else "from the file's start")
+        return {**base, "agrees": True, "source": c["name"], "mjcf": c["mjcf"], "why": None,
+                "label": f"paste {c['what']}: they follow the reference {where}"}
+    if not eligible:
+        why = ("no candidate: the tuning did not run (" + str(tuned.get("skipped"))
+               + ") and the calibrated settings did not run" if tuned.get("skipped")
+               else "no candidate settings ran")
+        return {**base, "agrees": False, "source": None, "mjcf": None, "why": why,
+                "label": f"nothing to paste: {why}"}
+    best = max(eligible, key=lambda c: c["passes"] / max(c["checks"], 1))
+    share = best["passes"] / max(best["checks"], 1)
+    if share <= file_pass / max(len(mine), 1):
+        why = (f"no candidate passes a larger share of its checks than the file's own "
+               f"settings ({file_pass} of {len(mine)}); the closest, {best['what']}, passes "
+               f"{best['passes']} of {best['checks']}")
+        return {**base, "agrees": False, "source": None, "mjcf": None, "why": why,
+                "label": f"nothing to paste: {why}"}
+    return {**base, "agrees": False, "source": best["name"], "mjcf": best["mjcf"],
+            "why": f"no setting tried follows the reference: {len(eligible)} candidate(s) "
+                   "depart",
+            "label": f"the closest, NOT agreeing: {best['what']}, passing {best['passes']} "
+                     f"of {best['checks']} checks (departs in "
+                     f"{', '.join(dict.fromkeys(best['departs'])) or '-'})"}
+
+
 def validate(config: ValidateConfig) -> dict[str, Any]:
     """Validate one MJCF top (see the module docstring).
 
@@ -270,8 +373,10 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         ``end_state``, ``ran`` (one line),
         ``E0_J``, ``error`` (None, or why the run could not start), ``note`` (where the run
         differs from the file's settings)),
-        ``verdict``, ``agrees`` (every check passed), ``findings``, ``suggestion``,
-        ``t_end_s`` and ``tables`` (run -> observables, not JSON: the caller writes them).
+        ``verdict``, ``agrees`` (no check departs), ``findings``, ``suggestion`` (the
+        calibrated settings as they ran), ``tuned``, ``answer`` (the one MJCF block to paste,
+        or none and why: :func:`answer`), ``t_end_s`` and ``tables`` (run -> observables,
+        not JSON: the caller writes them).
 
     Raises:
         TippetopError: A missing or invalid file, or a bad ``t_end_s`` (before any run).
@@ -323,6 +428,8 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
                      theta_s=theta_pred)
     tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
              else {"skipped": "--no-tune"})
+    sug = (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN), file_mu=loaded["mu"])
+           if CALIBRATED_RUN in runs else {})
     return {
         "format": "tippetop-validate/1",
         "model": model,
@@ -330,12 +437,11 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "engines": list(config.engines),
         "runs": runs,
         "verdict": checks,
-        "agrees": all(c["passed"] for c in checks),
+        "agrees": all(c["passed"] is not False for c in checks),
         "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
-        "suggestion": (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN),
-                                  file_mu=loaded["mu"])
-                       if CALIBRATED_RUN in runs else {}),
+        "suggestion": sug,
         "tuned": tuned,
+        "answer": answer(checks, sug, tuned),
         "tables": tables,
     }
 
@@ -366,10 +472,10 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
     top, init = plan.top, plan.init
     file_run = runs.get(FILE_RUN) or {}
 
-    def outcome_at(n0: float, theta0: float, role: str) -> str:
+    def outcome_at(n0: float, theta0: float, role: str) -> tuple[float | None, str]:
         Omega0 = init.Omega0 if role == "fit" else 0.0
         return predicted_outcome(top, float(theory.jellett_from_spin(top, n0, theta0,
-                                                                     Omega0)))[1]
+                                                                     Omega0)))
 
     base = tuple(o for o in over if not o.startswith("run.t_end_s="))
     path = _tune_cache_path(over) if config.use_cache else None

@@ -142,3 +142,20 @@ def test_flights_tell_a_hop_from_chatter() -> None:
     assert flights(t[:900], touching[:900], None) is None
     # Jellett's window ends at the stem or the first hop, whichever is first
     assert ball_alone_end(2.8, 2.0) == 2.0 and ball_alone_end(None, None) is None
+
+
+def test_where_the_reference_does_not_reach_theta_s_the_run_follows_the_reference() -> None:
+    # a start at theta0 = 0.2 leaves a nutation that keeps the reference's theta_asymp 0.072
+    # rad from theta_s = pi within 8 s: a run is held to the reference's end there, not to
+    # the asymptote the reference does not reach either
+    ref = _facts(theta_asymp=3.07)
+    near = judge("mujoco/file", _facts(theta_asymp=3.09), ref, theory_outcome="inverted",
+                 theta_s=math.pi)
+    assert near["agrees"] and near["against"] == "reference"
+    far = judge("mujoco/file", _facts(theta_asymp=2.95), ref, theory_outcome="inverted",
+                theta_s=math.pi)
+    assert not far["agrees"] and "against the reference's 3.07 rad" in far["reasons"][0]
+    assert "the reference itself ends 0.07159 rad from theta_s" in far["reasons"][0]
+    # the reference's own row is still held to the theory, and departs
+    mine = judge(REFERENCE_RUN, ref, None, theory_outcome="inverted", theta_s=math.pi)
+    assert not mine["agrees"] and mine["against"] == "theory"
