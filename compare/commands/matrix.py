@@ -142,7 +142,10 @@ def print_matrix(res: dict[str, Any]) -> None:
     engines = res["engines"]
     print(f"matrix: {len(res['scenes'])} scenes x {len(engines)} engines x "
           f"{len(res['modes'])} modes, against the theory and each other")
-    print("\nagainst the theory (its outcome, and theta_asymp within 0.05 rad of theta_s):")
+    stem = sum(r.get("against") == "reference" for r in res["runs"])
+    print("\nagainst the theory and the reference (the verdict's checks, 'tippetop metrics'"
+          + (f"; {stem} run(s) on a stem judged against the reference" if stem else "")
+          + "):")
     rows = []
     for e in engines:
         for mode in res["modes"]:

@@ -23,7 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("names", nargs="*", metavar="NAME", help="only these metrics (default: "
                    "all)")
     p.add_argument("--kind", choices=("run", "threshold", "sweep", "atlas"),
-                   help="only the metrics of this kind of case")
+                   help="only the metrics of this kind of case (default: every kind)")
     add_json_option(p, help="print a JSON list of {name, unit, meaning, kinds, tolerance, "
                     "agreement, against, style, label} instead")
     p.set_defaults(func=run)

@@ -163,10 +163,19 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
     ans = res.get("answer") or {}
     tried = ans.get("candidates") or []
     if tried:
+        from tippetop.compare.studies.validate import show_setting
+
         print("  candidates tried:")
         for c in tried:
             state = "agrees" if c["agrees"] else "departs"
             print(f"    {c['what']}: {state}, {c['passes']} of {c['checks']} checks pass")
+            if c.get("note"):
+                print(f"      {c['note']}")
+            if c.get("changes"):
+                print("      changes from the file's: " + "; ".join(
+                    f"{ch['setting']} {show_setting(ch['setting'], ch['file'])} -> "
+                    f"{show_setting(ch['setting'], ch['calibrated'])}"
+                    for ch in c["changes"]))
     if out is not None:
         print(f"report: {out / 'report.html'}")
     # the last lines: the file's verdict and what to paste

@@ -269,7 +269,8 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
     Metric("wall_s", "s", "the wall time the run took"),
     Metric("n_rhs", "", "right-hand-side evaluations of the reference's integrator",
            style="count"),
-    Metric("n_steps", "", "MuJoCo steps", style="count"),
+    Metric("n_steps", "", "how many steps MuJoCo took over the run (mj_step calls)",
+           style="count"),
     Metric("max_penetration_m", "m", "MuJoCo's deepest contact penetration over the run"),
     Metric("contact_energy_bound_J", "J", "the most elastic energy MuJoCo's soft contacts held "
            "over the run (normal force x depth)"),

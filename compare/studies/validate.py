@@ -275,7 +275,9 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
     when its fit departed (the calibrated settings among them), and the calibrated settings
     as validate ran them from the file's start (``mujoco/native``). Each: ``name``, ``what``,
     ``agrees``, ``passes`` and ``checks`` (the checks that pass, of all run), ``mjcf`` (to
-    paste) and ``departs`` (the checks that do not).
+    paste) and ``departs`` (the checks that do not); the calibrated settings, where they
+    depart, also ``note`` (why the calibration does not carry over, with its mu and the file's),
+    and ``changes`` (each setting they change from the file's: {setting, file, calibrated}).
     """
     out = []
     if tuned and not tuned.get("skipped") and tuned.get("mjcf"):
@@ -305,6 +307,9 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
                               sum(c["passed"] is not False for c in mine), len(mine),
                               f"{sug['option']}\n<geom ... {sug['geom']}/>",
                               list(sug.get("departs") or [])))
+        out[-1]["changes"] = list(sug.get("changes") or [])
+        if not sug["agrees"]:  # why the calibration does not carry over, its mu said
+            out[-1]["note"] = sug.get("note", "")
     return out
 
 

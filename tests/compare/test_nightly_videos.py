@@ -72,12 +72,12 @@ def test_speed_to_fit_refuses_one_frame() -> None:
 
 # ---------------------------------------------------------------- failures
 def _cases(*scenes: str) -> list[Case]:
-    base = Case(id="", name="", category="paper", kind="run", scene="", mode="ode",
+    base = Case(id="", name="", category="paper", kind="run", scene="", engine="ode", mode="paper",
                 metrics=(), profiles=("quick",))
-    cases = [replace(base, id=f"paper/{s}[ode]", name=s, scene=s) for s in scenes]
+    cases = [replace(base, id=f"paper/{s}[ode/paper]", name=s, scene=s) for s in scenes]
     # neither a threshold case nor another category gets a video
-    cases.append(replace(base, id="thresholds/x[ode]", kind="threshold", scene="fig6"))
-    cases.append(replace(base, id="groups/x[ode]", category="groups", scene="fig7a"))
+    cases.append(replace(base, id="thresholds/x[ode/paper]", kind="threshold", scene="fig6"))
+    cases.append(replace(base, id="groups/x[ode/paper]", category="groups", scene="fig7a"))
     return cases
 
 

@@ -307,7 +307,7 @@ def test_compare_says_the_realised_law_and_its_refit_in_four_digits_and_units(
                             "Lambda 10.16 mm/s, residual 0.0053 of |F_t|/N, RMS;"), block
     assert "refit: the reference with the realised law (mu 0.09446, Lambda 10.16 mm/s) turns " \
            "over at 2.712 s, the engine turns over at 2.396 s" in block, block
-    assert "Jellett's drift (1.4e-6 relative:" in block and "dt = 2e-4 s" in block, block
+    assert "Jellett's drift (1.4e-6 relative)" in block and "dt = 2e-4 s" in block, block
     assert _bare_numbers(block) == [] and _four_digits(block) == [], block
 
 
