@@ -142,5 +142,8 @@ def test_native_torsional_and_rolling_friction_stop_the_inversion(mode: str) -> 
     t, n = got.table["t"].to_numpy(), got.table["n"].to_numpy()
     assert t[np.argmax(n < n1)] == pytest.approx(estimate, rel=0.1)
     assert got.summary["t_invert"] is None and got.table["theta"].max() < math.pi / 2
-    assert got.summary["J_rel_drift"] > 0.5
+    # over the whole run, flights included (the summary's J_rel_drift holds the time the ball
+    # alone touches, which a torque this large cuts short: the ball chatters off the table)
+    J = got.table["J"].to_numpy()
+    assert np.max(np.abs(J - J[0])) / abs(J[0]) > 0.5
     assert run("fig3", "mujoco", *NATIVE).summary["t_invert"] < 4.0
