@@ -176,6 +176,13 @@ def _print_summary(res: dict[str, Any], out: Path | None) -> None:
                     f"{ch['setting']} {show_setting(ch['setting'], ch['file'])} -> "
                     f"{show_setting(ch['setting'], ch['calibrated'])}"
                     for ch in c["changes"]))
+    lifted = res.get("lift") or {}
+    if lifted.get("sentences") or lifted.get("scan"):
+        print("  the contact's lift (MuJoCo's soft contact turns friction into normal force):")
+        for line in lifted.get("sentences", []):
+            print(f"    {line}")
+        if lifted.get("scan"):
+            print(f"    {lifted['scan']['sentence']}")
     if out is not None:
         print(f"report: {out / 'report.html'}")
     # the last lines: the file's verdict and what to paste

@@ -28,6 +28,7 @@ from tippetop.compare.measures.verdict import (
 )
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.studies.lift import lift as lift_study
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import run_label
@@ -435,6 +436,14 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
              else {"skipped": "--no-tune"})
     sug = (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN), file_mu=loaded["mu"])
            if CALIBRATED_RUN in runs else {})
+    ans = answer(checks, sug, tuned)
+    lifted = lift_study(runs, tables, top, REFERENCE_RUN, tuned,
+                        Lambda_mps=plan.ode.friction.Lambda_mps, scan=False)
+    if not ans["agrees"] and any(r["lifts"] for r in lifted["runs"].values()):
+        # a contact that lifts the ball is why: can any geom setting both follow and stay on?
+        lifted = lift_study(runs, tables, top, REFERENCE_RUN, tuned,
+                            mu=plan.ode.friction.mu, Lambda_mps=plan.ode.friction.Lambda_mps,
+                            scan=True)
     return {
         "format": "tippetop-validate/1",
         "model": model,
@@ -446,7 +455,8 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
         "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
         "suggestion": sug,
         "tuned": tuned,
-        "answer": answer(checks, sug, tuned),
+        "answer": ans,
+        "lift": lifted,
         "tables": tables,
     }
 
