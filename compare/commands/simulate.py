@@ -19,7 +19,13 @@ from tippetop.compare.commands.options import (
     load_scene,
     print_json,
 )
-from tippetop.compare.presentation.terminal import RAN_KEYS, fmt_stiff, fmt_value, ran_lines
+from tippetop.compare.presentation.terminal import (
+    NONE_MEANS,
+    RAN_KEYS,
+    fmt_stiff,
+    fmt_value,
+    ran_lines,
+)
 from tippetop.models.errors import TippetopError
 
 if TYPE_CHECKING:
@@ -142,9 +148,16 @@ def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) 
     pairs = [("scene", scene), *rest]
     width = max(len(k) for k in [*(k for k, _ in pairs), *ran, "unused"])
 
+    finished = summary.get("status") in (None, "ok")
+
     def said(k: str, v: Any) -> str:
         # what ran for stiff friction, beside the rolling phases the run did (or did not) enter
-        return fmt_stiff(v, summary.get("rolling_phases")) if k == "stiff" else fmt_value(k, v)
+        if k == "stiff":
+            return fmt_stiff(v, summary.get("rolling_phases"))
+        if v is None and not finished and k in NONE_MEANS:
+            # "never" only of a run that finished: this one stopped before it could tell
+            return f"- (the run stopped: {summary.get('status')}, see its message)"
+        return fmt_value(k, v)
 
     print("\n".join(f"{k:<{width}}  {said(k, v)}" for k, v in pairs))
     if ran:

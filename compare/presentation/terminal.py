@@ -203,8 +203,8 @@ def _phases(value: Any) -> str | None:
     return text
 
 
-#: What None means for keys where "-" would hide it.
-_NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)",
+#: What None means for keys where "-" would hide it (of a run that finished).
+NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)",
                "t_left_table": "never (the ball stays on the table)",
                "flights": "none (the ball never leaves the table)"}
 #: What None means among the settings that ran (:func:`ran_lines`): a coefficient MuJoCo's
@@ -363,8 +363,8 @@ def fmt_value(key: str, value: Any) -> str:
     ``phases`` list reads ``ball 0-2.5 s, stem 2.5-8 s``; an empty ``unused`` list ``none``;
     a relative quantity says so (``1.3e-9 (relative)``, an energy's ``0 of E0``).
     """
-    if value is None and key in _NONE_MEANS:
-        return _NONE_MEANS[key]
+    if value is None and key in NONE_MEANS:
+        return NONE_MEANS[key]
     if key == "wall_s" and isinstance(value, (int, float)) and not isinstance(value, bool):
         return fmt_duration(float(value))
     if key == "phases":
