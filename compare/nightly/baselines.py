@@ -90,6 +90,30 @@ def _check_entry(path: Path, case_id: str, entry: Any) -> None:
                                 f"{shown}")
 
 
+#: A native case's baseline entry says which calibration its values ran with under this key
+#: (:func:`tippetop.models.calibrated.calibration_label`); it is not a metric.
+CALIBRATION_KEY = "calibration"
+
+
+def uses_calibration(case_id: str) -> bool:
+    """Whether a case runs MuJoCo's native contact with the calibrated settings.
+
+    Its id ends ``[ENGINE/MODE]`` with a MuJoCo engine and a ``native`` mode.
+    """
+    inside = case_id.rpartition("[")[2].rstrip("]")
+    engine, _, mode = inside.partition("/")
+    return engine != "ode" and mode.startswith("native")
+
+
+def baseline_calibrations(baseline: dict[str, dict[str, Any]]) -> dict[str, str]:
+    """Case id -> the calibration its stored values ran with, for every native case.
+
+    A native case stored before baselines said it reads ``unrecorded``.
+    """
+    return {k: str(v.get(CALIBRATION_KEY) or "unrecorded") for k, v in baseline.items()
+            if uses_calibration(k)}
+
+
 def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
                     profile_ids: set[str], environment: dict[str, Any]) -> dict[str, int]:
     """Write the baselines of the cases that ran, atomically.
@@ -109,6 +133,9 @@ def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
             continue
         added += rec["id"] not in cases
         cases[rec["id"]] = {m: rec["values"].get(m) for m in rec["metrics"]}
+        if uses_calibration(rec["id"]) and environment.get("calibration"):
+            # which calibrated settings the native case's values were made with
+            cases[rec["id"]][CALIBRATION_KEY] = environment["calibration"]
         written += 1
     doc = {
         "format": BASELINE_FORMAT,

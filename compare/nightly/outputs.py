@@ -48,6 +48,7 @@ def environment() -> dict[str, Any]:
     from importlib import metadata
 
     from tippetop.compare.running.runner import code_fingerprint
+    from tippetop.models.calibrated import calibration_label
 
     versions = {}
     for pkg in ("tippetop", "numpy", "scipy", "numba", "pandas", "pyarrow", "matplotlib",
@@ -68,6 +69,8 @@ def environment() -> dict[str, Any]:
         "git_commit": commit or None,
         "git_dirty": None if dirty is None or not commit else bool(dirty),
         "code_fingerprint": code_fingerprint(),
+        # what the native mode's cases run with (models/calibrated_native.toml)
+        "calibration": calibration_label(),
     }
 
 

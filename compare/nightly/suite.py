@@ -21,6 +21,7 @@ import pandas as pd
 from tippetop.compare.measures.tolerances import TOLERANCES
 from tippetop.compare.nightly.baselines import (
     BASELINE_DIR,
+    baseline_calibrations,
     baseline_file,
     load_baseline,
     update_baseline,
@@ -284,6 +285,11 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
             "videos": (render_videos(cases, stage, log) if opts.videos
                        else {"requested": False, "status": "not requested", "files": {}}),
             "environment": env,
+            # the native cases: the calibration this run used, and each baseline's
+            "calibration": {"this_run": env.get("calibration"),
+                            "baselines": baseline_calibrations(
+                                {k: v for k, v in baseline.items()
+                                 if k in {cr.case.id for cr in runs}})},
             "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
                                "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
             "cases": records,

@@ -39,7 +39,33 @@ def run_facts(results: Mapping[str, Any]) -> str:
             f"{results.get('wall_s', 0):.0f} s. Started {esc(results.get('started'))}; git "
             f"{esc(commit)}; MuJoCo {esc(pk.get('mujoco'))}; Python {esc(env.get('python'))} on "
             f"{esc(env.get('platform'))}; baseline <code>{esc(results.get('baseline_file'))}"
-            f"</code>.</p>")
+            f"</code>.</p>" + calibration_facts(results))
+
+
+def calibration_facts(results: Mapping[str, Any]) -> str:
+    """Which calibration the native cases ran with, and which their baselines were made with.
+
+    Empty when no native case ran. A baseline made with another calibration is said: its
+    native cases' differences may be the calibration's, not the code's.
+    """
+    cal = results.get("calibration") or {}
+    bases = cal.get("baselines") or {}
+    if not bases:
+        return ""
+    now = cal.get("this_run") or "unknown"
+    groups: dict[str, list[str]] = {}
+    for case_id, label in sorted(bases.items()):
+        groups.setdefault(label, []).append(case_id)
+    parts = []
+    for label, ids in groups.items():
+        same = label == now
+        parts.append(f"<li>{'' if same else '<b>another calibration</b>: '}"
+                     f"<code>{esc(label)}</code>: {len(ids)} case{'s' if len(ids) != 1 else ''}"
+                     + ("" if same else f" ({esc(', '.join(ids[:6]))}"
+                        f"{', ...' if len(ids) > 6 else ''})") + "</li>")
+    return (f"<p class='note'>The native mode's cases ran with the calibrated settings "
+            f"<code>{esc(now)}</code> (models/calibrated_native.toml). Their baselines were "
+            f"made with:</p><ul class='note'>{''.join(parts)}</ul>")
 
 
 def _exp(x: float) -> str:
