@@ -55,7 +55,9 @@ IMAGES = {
     "images/validate-report.png": f"tippetop validate {VALIDATE_MODEL} --no-tune: report.html",
     "images/nightly-report.png": (f"tippetop nightly --profile quick --cases '{NIGHTLY_CASES}':"
                                   " report.html"),
-    "images/render-strip.png": "tippetop render fig3 --engine both: frames of the MP4",
+    "images/render-strip.png": "tippetop render fig3 --engines mujoco,ode: frames of the MP4",
+    "images/contact-lift.png": ("python -m tippetop.compare.report.lift: the slip above "
+                                "which MuJoCo's contact lifts the ball"),
 }
 
 
@@ -82,6 +84,7 @@ def _images(config: MkDocsConfig) -> dict[str, bytes]:
         "images/validate-report.png": _validate_report,
         "images/nightly-report.png": _nightly_report,
         "images/render-strip.png": _render_strip,
+        "images/contact-lift.png": _contact_lift,
     }
     if _chromium() is None:  # said once, before any command runs for a screenshot
         log.warning("docs images: chromium not found: it screenshots the reports (Debian: bash "
@@ -174,8 +177,8 @@ def _render_strip(root: Path, tmp: Path) -> bytes:
     from PIL import Image
 
     mp4 = tmp / "fig3.mp4"
-    _run([_tippetop(), "render", "fig3", "--engine", "both", "--speed", "1", "--fps", "10",
-          "--set", "run.t_end_s=4", "--size", "320x240", "--max-frames", "90", "--out",
+    _run([_tippetop(), "render", "fig3", "--engines", "mujoco,ode", "--speed", "1", "--fps",
+          "10", "--set", "run.t_end_s=4", "--size", "320x240", "--max-frames", "90", "--out",
           str(mp4)], tmp)
     frames = iio.imread(mp4)
     if len(frames) < STRIP_FRAMES:
@@ -188,6 +191,14 @@ def _render_strip(root: Path, tmp: Path) -> bytes:
     for k, i in enumerate(picks):
         strip.paste(Image.fromarray(frames[i]), ((k % cols) * w, (k // cols) * h))
     return _png(strip)
+
+
+def _contact_lift(root: Path, tmp: Path) -> bytes:
+    png = tmp / "contact-lift.png"
+    _run([sys.executable, "-m", "tippetop.compare.report.lift", str(png), str(root)], root)
+    if not png.is_file():
+        raise ImageError("the lift figure was not written")
+    return png.read_bytes()
 
 
 def _placeholder(text: str) -> bytes:
