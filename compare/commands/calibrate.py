@@ -22,7 +22,7 @@ from tippetop.compare.studies.calibrate.config import (
     DEFAULT_TIMESTEP_S,
     CalibrateConfig,
 )
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
 from tippetop.models.numbers import number_text
 
 
@@ -41,11 +41,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default=str(DEFAULT_OUT), metavar="FILE",
                    help="the calibration file (.toml; default models/calibrated_native.toml)")
     add_force_option(p)
-    p.add_argument("--budget-runs", dest="budget_runs", type=int, default=DEFAULT_BUDGET_RUNS,
+    p.add_argument("--budget-runs", dest="budget_runs", type=int, default=None,
                    metavar="N", help=f"runs the search may use, candidates times scenes; "
                    f"with --search sysid it sets the fits' iterations (runs / (12 x scenes)), "
                    f"and the "
-                   f"rollouts used are reported, not capped (default {DEFAULT_BUDGET_RUNS})")
+                   f"rollouts used are reported, not capped (default {DEFAULT_BUDGET_RUNS}); "
+                   f"with --mjcf the MuJoCo runs the tuning may use, seeds, fits and "
+                   f"verification, after which it ends with its best so far, verified and "
+                   f"labelled budget-limited (at least 5; default {TUNE_BUDGET_RUNS})")
     p.add_argument("--timestep-s", dest="timestep_s", type=number, default=DEFAULT_TIMESTEP_S,
                    metavar="S", help=f"MuJoCo timestep of the fit (s; default "
                    f"{DEFAULT_TIMESTEP_S:g})")
@@ -77,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
         return run_mjcf(args)
     config = CalibrateConfig(
         calibration=args.calibration, holdout=args.holdout, out=args.out, force=args.force,
-        budget_runs=args.budget_runs, timestep_s=args.timestep_s, integrator=args.integrator,
+        budget_runs=DEFAULT_BUDGET_RUNS if args.budget_runs is None else args.budget_runs,
+        timestep_s=args.timestep_s, integrator=args.integrator,
         scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
         progress=not args.json, search=args.search)
     from tippetop.compare.studies.calibrate.run import calibrate
@@ -96,7 +100,7 @@ def run_mjcf(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
-    from tippetop.compare.commands.validate import print_tuned
+    from tippetop.compare.commands.validate import check_budget_runs, print_tuned
     from tippetop.compare.studies.tune import start_label
     from tippetop.compare.studies.validate import tune_only
     from tippetop.models.errors import expect
@@ -104,8 +108,11 @@ def run_mjcf(args: argparse.Namespace) -> int:
     t_end = DEFAULT_T_END_S if args.t_end_s is None else args.t_end_s
     expect(math.isfinite(t_end) and 0 < t_end <= 600, "--t-end-s",
            "a number of seconds in (0, 600]", t_end)
+    budget = TUNE_BUDGET_RUNS if args.budget_runs is None else args.budget_runs
+    check_budget_runs(budget)
     res = tune_only(Path(os.path.abspath(args.mjcf)), t_end, scheduler=args.scheduler,
-                    workers=args.workers, use_cache=not args.no_cache, progress=not args.json)
+                    workers=args.workers, use_cache=not args.no_cache, progress=not args.json,
+                    budget_runs=budget)
     if args.json:
         print_json(res)
     else:

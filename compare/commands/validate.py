@@ -17,7 +17,7 @@ from tippetop.compare.commands.options import (
     finite_float,
     print_json,
 )
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
 
 EXIT_AGREES, EXIT_DEPARTS = 0, 1
 
@@ -45,11 +45,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "always runs (default: mujoco)")
     p.add_argument("--no-tune", dest="tune", action="store_false", help="skip the tuning: "
                    "the file's contact settings fitted to the reference at its start and "
-                   "verified from held-out starts (the results' 'tuned'; about 1-3 min)")
+                   "verified from held-out starts (the results' 'tuned')")
+    p.add_argument("--budget-runs", dest="budget_runs", type=int, default=TUNE_BUDGET_RUNS,
+                   metavar="N", help="MuJoCo runs the tuning may use (its seeds, its fits' "
+                   "rollouts, its verification runs); where they run out it ends with its best "
+                   "so far, verified and labelled budget-limited (at least 5; default "
+                   f"{TUNE_BUDGET_RUNS}: the paper's top takes about 60)")
     add_force_option(p, help="write into a non-empty --out")
     add_parallel_options(p)
     add_json_option(p)
     p.set_defaults(func=run)
+
+
+def check_budget_runs(n: int) -> None:
+    """``--budget-runs`` of the tuning: at least one seed scored and every start verified."""
+    from tippetop.compare.studies.tune import min_budget_runs
+    from tippetop.models.errors import expect
+
+    expect(n >= min_budget_runs(), "--budget-runs", f"at least {min_budget_runs()} MuJoCo "
+           "runs (one seed scored, then every start verified)", n)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.models.engines import parse_engines
 
     engines = tuple(e.spec for e in parse_engines(args.engines, mujoco_only=True))
+    check_budget_runs(args.budget_runs)
 
     out = check_output_dir(args.out, force=args.force) if args.out else None
     if out is not None:
@@ -71,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
     config = ValidateConfig(model=Path(os.path.abspath(args.model)), t_end_s=args.t_end_s,
                             keyframe=args.keyframe, scheduler=args.scheduler,
                             workers=args.workers, use_cache=not args.no_cache,
-                            engines=engines, tune=args.tune, progress=not args.json)
+                            engines=engines, tune=args.tune, progress=not args.json,
+                            budget_runs=args.budget_runs)
     res = validate(config)
     tables = res.pop("tables")
     if out is not None:
@@ -208,11 +224,13 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ", *, show_mjcf: bool = 
 
     fit = tuned["fit"]
     start = fit["starts"][0]
-    print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}: "
+    limited = " (budget-limited)" if tuned.get("budget_limited") else ""
+    print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}{limited}: "
           f"{tuned['note']}")
     print(f"{indent}  fitted at {start_label(start['n0'], start['theta0'])} over "
           f"{fmt(start['t_end_s'], 's')}: residual "
-          f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs, "
+          f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs"
+          f"{' of --budget-runs ' + str(fit['budget_runs']) if fit.get('budget_runs') else ''}, "
           f"{fmt_duration(fit['wall_s'])} (mujoco.sysid"
           f"{'; from the cache' if tuned.get('cached') else ''})")
     if show_mjcf:

@@ -11,3 +11,7 @@ DEFAULT_MODES_TEXT = "paper,native"
 
 #: ``tippetop validate``: simulated seconds of every run unless --t-end-s says otherwise.
 DEFAULT_T_END_S = 8.0
+#: ``tippetop validate`` and ``calibrate --mjcf``: MuJoCo runs the tuning may use
+#: (``--budget-runs``): its seeds, its fits' rollouts and its verification runs. The paper's
+#: top takes about 60; at this many the tuning ends with its best so far, verified.
+TUNE_BUDGET_RUNS = 200

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -23,13 +24,16 @@ from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_en
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
     MAX_ITERS,
+    STALL_FRACTION,
     Bounds,
     FitStart,
+    Identified,
     Problem,
     identify,
     reference_theta,
 )
 from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
+from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
 from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
@@ -57,6 +61,14 @@ MIN_FIT_S = 1.0
 #: constants (s) and solimp d0 at impratio 1, in both cones.
 SEED_TIMECONSTS_S = (0.002, 0.01)
 SEED_D0 = (0.1, 0.9)
+#: ... and a low impratio (friction softer than the normal contact: a creep like the paper's
+#: Lambda) at d0 0.3 in each cone: the elliptic cone's best seed on the paper's top (RMS 0.22
+#: rad, where impratio 1 gave 1.4), from which its fit takes 3 iterations, not 14.
+SEED_LOW_IMPRATIO = 0.1
+SEED_LOW_D0 = 0.3
+#: MuJoCo runs the tuning may use by default (``--budget-runs``): the seeds, the fits'
+#: rollouts, the file's own step tried, every start verified.
+DEFAULT_BUDGET_RUNS = TUNE_BUDGET_RUNS
 
 
 @dataclass(frozen=True)
@@ -117,11 +129,27 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
     out += [Candidate(cone, 1.0, max(tc, 2.0 * timestep_s), d0, mu)
             for cone in ("pyramidal", "elliptic") for tc in SEED_TIMECONSTS_S
             for d0 in SEED_D0]
+    out += [Candidate(cone, SEED_LOW_IMPRATIO, max(SEED_TIMECONSTS_S[0], 2.0 * timestep_s),
+                      SEED_LOW_D0, mu) for cone in ("pyramidal", "elliptic")]
     if file_run and file_run.get("solref") and file_run.get("solimp") and file_run.get("cone"):
         out.append(Candidate(file_run["cone"], float(file_run.get("impratio") or 1.0),
                              max(float(file_run["solref"][0]), 2.0 * timestep_s),
                              float(file_run["solimp"][0]), mu))
     return out
+
+
+def min_budget_runs() -> int:
+    """The smallest ``--budget-runs``: one seed scored, then every start verified with it."""
+    return 1 + 1 + len(HELD_OUT)
+
+
+def cone_order(file_run: dict[str, Any] | None) -> list[str]:
+    """The cones fitted, in order: the file's own first (the answer changes least).
+
+    The other is fitted only if the first one's settings do not agree from every start.
+    """
+    first = (file_run or {}).get("cone") or "pyramidal"  # MuJoCo's default cone
+    return [first, "elliptic" if first == "pyramidal" else "pyramidal"]
 
 
 def _say(progress: bool) -> Callable[[str], None] | None:
@@ -135,8 +163,15 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
          file_integrator: str | None = None, run_options: dict[str, Any] | None = None,
          max_iters: int = MAX_ITERS, progress: bool = True,
          theory: Callable[[float, float, str], tuple[float | None, str]] | None = None,
-         A_over_C: float | None = None) -> dict[str, Any]:
+         A_over_C: float | None = None,
+         budget_runs: int = DEFAULT_BUDGET_RUNS) -> dict[str, Any]:
     """Fit the file's contact settings to the reference and verify them.
+
+    The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
+    batched rollout, a fit from the best, and its result verified from every start; the
+    second cone only if the first one's settings do not agree. The whole tuning stays within
+    ``budget_runs`` MuJoCo runs: where they run out, it verifies its best so far and says so
+    (``budget_limited``).
 
     Args:
         base: ``--set`` strings of the top (``top.mjcf=...``, a keyframe); the starts add
@@ -149,23 +184,32 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         file_timestep_s: The file's timestep (s).
         file_integrator: The file's integrator.
         run_options: Keyword arguments of :func:`run_tasks`.
-        max_iters: Levenberg-Marquardt iterations per fit.
+        max_iters: Levenberg-Marquardt iterations per fit at most.
         progress: Progress lines on a terminal.
         theory: (n0, theta0, role) -> the theory's theta_s and outcome at that start
             (``fit``: the file's own start, with its precession).
         A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
+        budget_runs: MuJoCo runs (rollouts and verification runs) the tuning may use, at
+            least :func:`min_budget_runs`.
 
     Returns:
-        ``settings``, ``mjcf``, ``fit`` ({starts, residual, ...}), ``verified``
-        ([{n0, theta0, role, checks, passed}]), ``agrees``, ``departs`` and ``note``.
+        ``settings``, ``mjcf``, ``fit`` ({starts, residual, runs, budget_runs, ...}),
+        ``verified`` ([{n0, theta0, role, checks, passed}]), ``agrees``, ``departs``,
+        ``budget_limited`` and ``note``.
 
     Raises:
-        TippetopError: No spin to fit (n0 = 0), or a reference run that failed.
+        TippetopError: No spin to fit (n0 = 0), a budget below :func:`min_budget_runs`, or a
+            reference run that failed.
     """
     if not (math.isfinite(n0) and abs(n0) > 0):
         raise TippetopError(f"tune: expected a spinning start (n0 != 0), got n0 = {n0!r}")
+    if budget_runs < min_budget_runs():
+        raise TippetopError(f"--budget-runs: expected at least {min_budget_runs()} (one seed "
+                            f"scored and its {min_budget_runs() - 1} starts verified), got "
+                            f"{budget_runs}")
     opts = dict(run_options or {})
     say = _say(progress)
+    t0 = time.perf_counter()
     starts = starts_for(n0, theta0)
     refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode",
                            "paper") for s in starts], label="tune reference", **opts)
@@ -186,10 +230,125 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,
                       bounds, threads, ball_until)
     starting = seeds(mu, file_run, dt)
-    found = identify(problem, starting, max_iters=max_iters, say=say)
-    best, timestep, integrator = found.best, dt, FIT_INTEGRATOR
+    verify_runs = [0]
+    n_starts = len(starts)
+
+    def spent() -> int:
+        return problem.rollouts + verify_runs[0]
+
+    def check(cand: Candidate, step: float, integ: str) -> tuple[list[dict[str, Any]], list[Any]]:
+        verify_runs[0] += n_starts
+        return _verify(base, starts, refs, cand, step, integ, t_end_s, opts, theory, A_over_C)
+
+    # each cone: its seeds, one fit, its verification (the second cone only if needed)
+    tried: list[dict[str, Any]] = []
+    budget_limited = False
+    for cone in cone_order(file_run):
+        room = budget_runs - spent() - n_starts  # a verification kept back
+        if room < 1:
+            budget_limited = True
+            break
+        problem.budget = problem.rollouts + room
+        found = identify(problem, [c for c in starting if c.cone == cone], max_iters=max_iters,
+                         say=say)
+        budget_limited = budget_limited or found.budget_spent
+        settled = _settle(found, problem, fit_start, bounds, threads, ball_until, dt,
+                          file_integrator, file_timestep_s, A_over_C, check,
+                          lambda: budget_runs - spent())
+        tried.append(settled)
+        if say:
+            say(f"{cone}: {'agrees' if _agrees(settled['verified']) else 'departs'} from "
+                f"{n_starts} starts ({spent()} MuJoCo runs so far)")
+        if _agrees(settled["verified"]) or budget_limited:
+            break
+    # the answer: the cone whose settings agree, else the fit with the smallest residual
+    pick = next((t for t in tried if _agrees(t["verified"])),
+                min(tried, key=lambda t: t["found"].rms_rad))
+    found, verified, mj = pick["found"], pick["verified"], pick["mj"]
+    best, timestep, integrator, needs = (pick["best"], pick["timestep"], pick["integrator"],
+                                         pick["needs"])
+    chosen = "fit"
+    alternatives: list[dict[str, Any]] = [
+        {"settings": t["best"].label(), "what": f"the fit in the {t['found'].best.cone} cone",
+         "agrees": _agrees(t["verified"]), "departs": _departs(t["verified"]),
+         **_passes(t["verified"]), "mjcf": _mjcf(run_entry(t["mj"][0])), "calibrated": False}
+        for t in tried if t is not pick]
+    if not _agrees(verified):
+        # the fit is local and holds at the file's start: where it departs elsewhere, the
+        # seeds it started from are verified too (the best of each cone, as scored, and the
+        # calibrated settings), and one that passes from every start is the answer, said so
+        done = {t["best"] for t in tried}
+        fit_seeds = [s for t in tried for s in _seed_candidates(t["found"])]
+        for seed in [*fit_seeds, bounds.clip(starting[0]).rounded()]:
+            if seed in done:
+                continue
+            if budget_runs - spent() < n_starts:
+                budget_limited = True
+                break
+            done.add(seed)
+            v2, mj2 = check(seed, dt, FIT_INTEGRATOR)
+            alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
+                                 "departs": _departs(v2), **_passes(v2),
+                                 "mjcf": _mjcf(run_entry(mj2[0])),
+                                 "calibrated": seed == bounds.clip(starting[0]).rounded()
+                                 and bool(calibrated_native_settings())})
+            if _agrees(v2):
+                verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
+                chosen = f"seed: {seed.label()}"
+                break
+    agrees = _agrees(verified)
+    departs = _departs(verified)
+    ran = run_entry(mj[0])
+    seeds_scored = [s for t in tried for s in t["found"].seeds]
+    fits = [f for t in tried for f in t["found"].fits]
+    budget_note = (f"; budget-limited: the tuning stopped at {spent()} of --budget-runs "
+                   f"{budget_runs} MuJoCo runs with its best so far" if budget_limited else "")
+    return {
+        "settings": _settings(ran, best, timestep, integrator),
+        "mjcf": _mjcf(ran),
+        "fit": {"starts": [{"n0": starts[0].n0, "theta0": starts[0].theta0,
+                            "t_end_s": t_fit}],
+                "residual": found.rms_rad, "residual_definition": (
+                    "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
+                    "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
+                "runs": spent(), "rollouts": problem.rollouts, "verify_runs": verify_runs[0],
+                "budget_runs": budget_runs, "seeds": seeds_scored, "fits": fits,
+                "cones": [t["found"].best.cone for t in tried],
+                "timestep_s": dt, "integrator": FIT_INTEGRATOR, "needs": needs,
+                "chosen": chosen, "alternatives": alternatives,
+                "bounds": {k: list(v) for k, v in bounds.values.items()},
+                "method": "mujoco.sysid's residual and MuJoCo's bounded Levenberg-Marquardt "
+                          "(mujoco.minimize.least_squares, log10 settings, finite-difference "
+                          "step 0.01 decade, stopped when two iterations lower the residual "
+                          f"by less than {STALL_FRACTION:.0%}) from the best seed of the "
+                          "file's cone, then of the other cone if the first departs",
+                "wall_s": time.perf_counter() - t0},
+        "verified": verified,
+        "agrees": agrees,
+        "departs": departs,
+        **_passes(verified),
+        "budget_limited": budget_limited,
+        "note": _note(agrees, departs, verified) + (
+            f" (the fit's own optimum departs from a held-out start; these are its {chosen})"
+            if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
+            f"depart too" if alternatives and not agrees else "") + budget_note,
+    }
+
+
+def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bounds,
+            threads: int, ball_until: list[float], dt: float, file_integrator: str | None,
+            file_timestep_s: float | None, A_over_C: float | None,
+            check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
+            left: Callable[[], int]) -> dict[str, Any]:
+    """A fit's settings verified: at the file's own step and integrator where they follow.
+
+    The cheapest step and integrator whose runs all pass is kept (what the file *needs*);
+    the file's own are tried only while the budget (``left()``) keeps a verification back.
+    """
+    best = found.best
+    n_starts = len(problem.starts) + len(HELD_OUT)
     options: list[tuple[str, float]] = []
-    needs = []
+    needs: list[dict[str, Any]] = []
     for integ, step in _cheaper(file_integrator, file_timestep_s, dt):
         if integ in FIRST_ORDER and A_over_C is not None and abs(A_over_C - 1.0) > 1e-9:
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
@@ -201,6 +360,11 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
                           "kept": False, "why": f"the fitted solref time constant "
                           f"{best.timeconst_s:g} s is below two of its steps"})
+            continue
+        if left() < 1 + 2 * n_starts:  # its rollout and verification, and the fit's own
+            needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
+                          "kept": False, "why": "not tried: the run budget (--budget-runs) "
+                          "was spent"})
             continue
         other = Problem([fit_start], problem.references, step, integ, bounds, threads,
                         ball_until)
@@ -214,10 +378,11 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
             options.append((integ, step))
     options.append((FIT_INTEGRATOR, dt))
     # verification: the harness runs the tuned settings as every run, over the whole horizon,
-    # from every start; the cheapest step and integrator whose runs all pass is kept
-    for integrator, timestep in options:
-        verified, mj = _verify(base, starts, refs, best, timestep, integrator, t_end_s, opts,
-                               theory, A_over_C)
+    # from every start
+    for k, (integrator, timestep) in enumerate(options):
+        if k < len(options) - 1 and left() < 2 * n_starts:
+            continue  # only the fit's own step is verified: the budget keeps it back
+        verified, mj = check(best, timestep, integrator)
         entry = next((n for n in needs if (n["integrator"], n["timestep_s"]) ==
                       (integrator, timestep)), None)
         ok = all(v["passed"] is not False for v in verified)
@@ -228,55 +393,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                     _departs(verified)[:2]) + ")"
         if ok:
             break
-    chosen = "fit"
-    alternatives: list[dict[str, Any]] = []
-    if not _agrees(verified):
-        # the fit is local and holds at the file's start: where it departs elsewhere, the
-        # seeds it started from are verified too (the best of each cone, as scored, and the
-        # calibrated settings), and one that passes from every start is the answer, said so
-        tried = {best}
-        for seed in [*_seed_candidates(found), bounds.clip(starting[0]).rounded()]:
-            if seed in tried:
-                continue
-            tried.add(seed)
-            v2, mj2 = _verify(base, starts, refs, seed, dt, FIT_INTEGRATOR, t_end_s, opts,
-                              theory, A_over_C)
-            alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
-                                 "departs": _departs(v2), **_passes(v2),
-                                 "mjcf": _mjcf(run_entry(mj2[0])),
-                                 "calibrated": seed == bounds.clip(starting[0]).rounded()
-                                 and bool(calibrated_native_settings())})
-            if _agrees(v2):
-                verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
-                chosen = f"seed: {seed.label()}"
-                break
-    agrees = _agrees(verified)
-    departs = _departs(verified)
-    ran = run_entry(mj[0])
-    return {
-        "settings": _settings(ran, best, timestep, integrator),
-        "mjcf": _mjcf(ran),
-        "fit": {"starts": [{"n0": starts[0].n0, "theta0": starts[0].theta0,
-                            "t_end_s": t_fit}],
-                "residual": found.rms_rad, "residual_definition": (
-                    "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
-                    "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
-                "runs": problem.rollouts, "seeds": found.seeds, "fits": found.fits,
-                "timestep_s": dt, "integrator": FIT_INTEGRATOR, "needs": needs,
-                "chosen": chosen, "alternatives": alternatives,
-                "bounds": {k: list(v) for k, v in bounds.values.items()},
-                "method": "mujoco.sysid.optimize (MuJoCo's bounded Levenberg-Marquardt, "
-                          "log10 settings, finite-difference step 0.01 decade) from the best "
-                          "seed per cone", "wall_s": found.wall_s},
-        "verified": verified,
-        "agrees": agrees,
-        "departs": departs,
-        **_passes(verified),
-        "note": _note(agrees, departs, verified) + (
-            f" (the fit's own optimum departs from a held-out start; these are its {chosen})"
-            if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
-            f"depart too" if alternatives and not agrees else ""),
-    }
+    return {"found": found, "best": best, "verified": verified, "mj": mj,
+            "timestep": timestep, "integrator": integrator, "needs": needs}
 
 
 def _passes(verified: list[dict[str, Any]]) -> dict[str, int]:
@@ -403,4 +521,5 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
             f"{'; ...' if len(departs) > 3 else ''})" + (f"; why: {why[0]}" if why else ""))
 
 
-__all__ = ["HELD_OUT", "TuneStart", "fit_horizon", "seeds", "starts_for", "tune"]
+__all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "TuneStart", "cone_order", "fit_horizon",
+           "min_budget_runs", "seeds", "starts_for", "tune"]

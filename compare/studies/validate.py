@@ -27,7 +27,7 @@ from tippetop.compare.measures.verdict import (
     verdict,
 )
 from tippetop.compare.running.runner import Task, run_tasks
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
 from tippetop.compare.studies.lift import lift as lift_study
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
@@ -60,6 +60,7 @@ class ValidateConfig:
         tune: Fit the file's contact settings to the reference and verify them
             (:mod:`tippetop.compare.studies.tune`; ``--no-tune`` skips it).
         progress: Progress lines of the tuning on a terminal.
+        budget_runs: MuJoCo runs the tuning may use (``--budget-runs``).
     """
 
     model: Path
@@ -71,6 +72,7 @@ class ValidateConfig:
     engines: tuple[str, ...] = ("mujoco",)
     tune: bool = True
     progress: bool = True
+    budget_runs: int = TUNE_BUDGET_RUNS
 
 
 def run_key(engine: str, mode: str) -> str:
@@ -295,7 +297,7 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
             if not alt.get("mjcf") or alt["settings"] == chosen.removeprefix("seed: "):
                 continue
             label = ("the calibrated settings" if alt.get("calibrated") else
-                     "a seed of the tuning")
+                     alt.get("what") or "a seed of the tuning")
             out.append(_candidate("seed", f"{label}: {alt['settings']} (verified from {n} "
                                   "starts)", bool(alt["agrees"]), int(alt.get("passes", 0)),
                                   int(alt.get("checks", 0)), alt["mjcf"],
@@ -493,7 +495,7 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
                                                                      Omega0)))
 
     base = tuple(o for o in over if not o.startswith("run.t_end_s="))
-    path = _tune_cache_path(over) if config.use_cache else None
+    path = _tune_cache_path(over, config.budget_runs) if config.use_cache else None
     if path is not None and path.is_file():
         try:
             cached = json.loads(path.read_text("utf-8"))
@@ -507,7 +509,8 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
                     file_integrator=file_run.get("integrator"),
                     run_options={"scheduler": config.scheduler, "workers": config.workers,
                                  "use_cache": config.use_cache},
-                    progress=config.progress, theory=outcome_at, A_over_C=top.A_over_C)
+                    progress=config.progress, theory=outcome_at, A_over_C=top.A_over_C,
+                    budget_runs=config.budget_runs)
     except TippetopError as exc:
         return {"skipped": str(exc), "agrees": False}
     if path is not None:
@@ -519,11 +522,11 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
     return {**out, "cached": False}
 
 
-def _tune_cache_path(over: tuple[str, ...]) -> Path:
+def _tune_cache_path(over: tuple[str, ...], budget_runs: int = TUNE_BUDGET_RUNS) -> Path:
     """Where a tuning is kept in the cache.
 
-    Keyed by the file's run plan (its MJCF text, start and horizon) and the code, as every
-    cached run.
+    Keyed by the file's run plan (its MJCF text, start and horizon), the run budget and the
+    code, as every cached run.
     """
     import hashlib
 
@@ -538,14 +541,15 @@ def _tune_cache_path(over: tuple[str, ...]) -> Path:
     own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
                                   for m in (tune, verdict_rule, identify, scoring))).hexdigest()
     key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
-                                     "tune": own, "what": "tune/1"}, sort_keys=True,
+                                     "tune": own, "what": "tune/1",
+                                     "budget_runs": budget_runs}, sort_keys=True,
                                     default=str).encode()).hexdigest()[:32]
     return user_cache_dir() / "tune" / f"{key}.json"
 
 
 def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True,
-              progress: bool = True) -> dict[str, Any]:
+              progress: bool = True, budget_runs: int = TUNE_BUDGET_RUNS) -> dict[str, Any]:
     """``tippetop calibrate --mjcf FILE``: the file's contact settings tuned, no report.
 
     The reference and the file's own run at its start, then :func:`tune_file` (no paper or
@@ -556,7 +560,8 @@ def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
     """
     expect(model.is_file(), "--mjcf", "an existing MJCF file", str(model))
     config = ValidateConfig(model=model, t_end_s=t_end_s, scheduler=scheduler,
-                            workers=workers, use_cache=use_cache, progress=progress)
+                            workers=workers, use_cache=use_cache, progress=progress,
+                            budget_runs=budget_runs)
     over = _overrides(config)
     plan = Task(None, over, "ode", "paper").plan()
     loaded = plan_file_info(over)

@@ -8,8 +8,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -20,12 +23,15 @@ from tippetop.compare.studies.tune import (
     HELD_OUT,
     MIN_FIT_S,
     _cheaper,
+    cone_order,
     fit_horizon,
+    min_budget_runs,
     seeds,
     starts_for,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
 
 
 def test_held_out_starts_differ_from_the_fit() -> None:
@@ -57,6 +63,8 @@ def test_seeds_are_at_the_files_mu_in_both_cones() -> None:
     s = seeds(0.3, {"cone": "elliptic", "impratio": 1.0, "solref": [1e-4, 1.0],
                     "solimp": [0.9, 0.95, 0.001, 0.5, 2.0]}, 2e-4)
     assert {c.cone for c in s} == {"pyramidal", "elliptic"}
+    # a low impratio in each cone (a creep like the paper's Lambda)
+    assert {c.cone for c in s if c.impratio < 1} >= {"pyramidal", "elliptic"}
     # the calibrated mu (0.104 at the paper's 0.1) scaled to 0.3; the others at 0.3
     assert s[0].mu == pytest.approx(0.312) and all(c.mu == 0.3 for c in s[1:])
     # a file's time constant below two steps is raised to it (MuJoCo's own floor)
@@ -89,3 +97,77 @@ def test_a_strangers_file_is_tuned_or_told_why(tmp_path: Path) -> None:
         assert t["departs"] and "depart" in t["note"]
     else:
         assert all(v["passed"] is not False for v in t["verified"])
+
+
+def test_the_files_cone_is_fitted_first() -> None:
+    assert cone_order({"cone": "elliptic"}) == ["elliptic", "pyramidal"]
+    assert cone_order({"cone": "pyramidal"}) == ["pyramidal", "elliptic"]
+    assert cone_order(None) == ["pyramidal", "elliptic"]  # MuJoCo's default cone
+
+
+def _cli(*args: str, env: dict[str, str] | None = None,
+         timeout: float = 600) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "tippetop.compare.cli", *args],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT, env=env)
+
+
+def test_a_budget_below_one_verification_is_one_line() -> None:
+    for cmd in (["validate", str(EXAMPLE)], ["calibrate", "--mjcf", str(EXAMPLE)]):
+        proc = _cli(*cmd, "--budget-runs", str(min_budget_runs() - 1))
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+        assert proc.stderr.strip().splitlines()[-1].endswith(
+            f"--budget-runs: expected at least {min_budget_runs()} MuJoCo runs (one seed "
+            f"scored, then every start verified), got {min_budget_runs() - 1}")
+
+
+def _own_cache(tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """An empty run cache whose compiled code is the session's (nothing to compile)."""
+    from tippetop.models.resources import user_cache_dir
+
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    (user_cache_dir() / "numba").mkdir(parents=True, exist_ok=True)
+    (cache / "numba").symlink_to(user_cache_dir() / "numba", target_is_directory=True)
+    return cache, {**os.environ, "TIPPETOP_CACHE": str(cache)}
+
+
+def test_a_tiny_budget_ends_with_an_answer() -> None:
+    # 6 runs: two seeds scored, no fit, the best of them verified from every start: the
+    # tuning ends (no hang), with settings to paste and every start checked, labelled
+    proc = _cli("calibrate", "--mjcf", str(EXAMPLE), "--budget-runs", "6", "--json",
+                "--no-cache")
+    assert proc.returncode in (0, 1), proc.stderr
+    t = json.loads(proc.stdout)["tuned"]
+    assert t["budget_limited"] is True and "budget-limited" in t["note"]
+    assert t["fit"]["runs"] <= 6 and t["fit"]["budget_runs"] == 6
+    assert len(t["verified"]) == 1 + len(HELD_OUT) and t["mjcf"]
+    assert 1 <= len(t["fit"]["seeds"]) and not t["fit"]["fits"]
+
+
+def test_ctrl_c_while_tuning_leaves_nothing(tmp_path: Path) -> None:
+    """SIGINT during the fit: exit 130, no --out folder, no tuning entry in the cache."""
+    cache, env = _own_cache(tmp_path)
+    # validate's own runs into the cache first, so that the second run reaches the tuning
+    # at once; its reference runs of the held-out starts are the sign that it has
+    first = _cli("validate", str(EXAMPLE), "--no-tune", "--json", env=env)
+    assert first.returncode in (0, 1), first.stderr
+    before = set(cache.glob("[0-9a-f][0-9a-f]/*"))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "tippetop.compare.cli", "validate",
+                             str(EXAMPLE), "--out", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not set(cache.glob("[0-9a-f][0-9a-f]/*")) - before:
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.2)
+    time.sleep(2.0)  # the held-out references written: the seeds and the fit are running
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1] == "tippetop: interrupted"
+    assert "Traceback" not in stderr and stdout == ""
+    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["cache"]
+    assert not (cache / "tune").exists() or not list((cache / "tune").iterdir())
+    assert not list(cache.rglob("*.tmp"))
