@@ -23,8 +23,11 @@ from tippetop.compare.measures.summary import mjcf_attributes
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
+    FITTED,
+    FITTED_WIDE,
     MAX_ITERS,
     STALL_FRACTION,
+    WIDE_MU,
     Bounds,
     FitStart,
     Identified,
@@ -135,6 +138,12 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
         out.append(Candidate(file_run["cone"], float(file_run.get("impratio") or 1.0),
                              max(float(file_run["solref"][0]), 2.0 * timestep_s),
                              float(file_run["solimp"][0]), mu))
+    if mu >= WIDE_MU:
+        # the wide fit's: an overdamped contact (damping ratio 4), in both cones, from the
+        # calibrated stiffness and from MuJoCo's default one
+        out += [Candidate(cone, imp, max(tc, 2.0 * timestep_s), d0, mu, dampratio=4.0)
+                for cone in ("pyramidal", "elliptic")
+                for imp, tc, d0 in ((1.41, 0.002, 0.05), (1.0, 0.02, 0.9))]
     return out
 
 
@@ -143,12 +152,17 @@ def min_budget_runs() -> int:
     return 1 + 1 + len(HELD_OUT)
 
 
-def cone_order(file_run: dict[str, Any] | None) -> list[str]:
+def cone_order(file_run: dict[str, Any] | None, wide: bool = False) -> list[str]:
     """The cones fitted, in order: the file's own first (the answer changes least).
 
-    The other is fitted only if the first one's settings do not agree from every start.
+    The other is fitted only if the first one's settings do not agree from every start. In
+    the wide fit (mu >= :data:`WIDE_MU`) the elliptic cone comes first: each row of a
+    pyramidal cone is normal force and friction at once, and it lifts a sliding ball at the
+    lowest slip.
     """
     first = (file_run or {}).get("cone") or "pyramidal"  # MuJoCo's default cone
+    if wide:
+        first = "elliptic"  # a pyramidal cone lifts the ball soonest (contact_lift)
     return [first, "elliptic" if first == "pyramidal" else "pyramidal"]
 
 
@@ -221,14 +235,15 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     fit_start = FitStart(starts[0].label(), None,
                          (*base, *starts[0].overrides(), f"run.t_end_s={t_fit!r}"), t_fit)
     dt = min(file_timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
-    bounds = Bounds.around(mu, dt)
+    wide = mu >= WIDE_MU
+    bounds = Bounds.wide(mu, dt) if wide else Bounds.around(mu, dt)
     from tippetop.mujoco_runner.batch import default_threads
 
     threads = max(1, default_threads())
     stem = (fit_ref.summary or {}).get("t_stem")
     ball_until = [math.inf if stem is None else float(stem)]
     problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,
-                      bounds, threads, ball_until)
+                      bounds, threads, ball_until, fitted=FITTED_WIDE if wide else FITTED)
     starting = seeds(mu, file_run, dt)
     verify_runs = [0]
     n_starts = len(starts)
@@ -243,7 +258,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     # each cone: its seeds, one fit, its verification (the second cone only if needed)
     tried: list[dict[str, Any]] = []
     budget_limited = False
-    for cone in cone_order(file_run):
+    for cone in cone_order(file_run, wide):
         room = budget_runs - spent() - n_starts  # a verification kept back
         if room < 1:
             budget_limited = True
@@ -367,7 +382,7 @@ def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bo
                           "was spent"})
             continue
         other = Problem([fit_start], problem.references, step, integ, bounds, threads,
-                        ball_until)
+                        ball_until, fitted=problem.fitted)
         rms = other.rms(best)[0]
         problem.rollouts += other.rollouts
         near = rms <= KEEP_FACTOR * found.rms_rad + KEEP_FLOOR_RAD
