@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop fidelity`` and its options."""
     from tippetop.compare.studies.fidelity import DEFAULT_GRID, DEFAULT_T_END_S, GRIDS
 
-    grids = "; ".join(f"{n}: A/C {','.join(f'{v:g}' for v in g.A_over_C)} x a/R "
+    grids = ", ".join(f"{n}: A/C {','.join(f'{v:g}' for v in g.A_over_C)} x a/R "
                       f"{','.join(f'{v:g}' for v in g.a_over_R)} x mu "
                       f"{','.join(f'{v:g}' for v in g.mu)}" for n, g in GRIDS.items())
     p = sub.add_parser(
@@ -39,7 +39,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "per point (agrees, the fit's residual, and the cause where it does not). Each point "
         "takes 1-3 minutes on 2 cores (docs/guide/fidelity.md).")
     p.add_argument("--grid", default=DEFAULT_GRID, metavar="NAME",
-                   help=f"a named grid ({grids}) (default {DEFAULT_GRID})")
+                   help=f"a named grid of A/C x a/R x mu ({grids}) (default: the one named "
+                   f"{DEFAULT_GRID})")
     p.add_argument("--a-over-c", "--A-over-C", dest="A_over_C", metavar="LIST",
                    help="A/C values, comma-separated or LO:HI:N, replacing the grid's "
                    "(default: the grid's)")

@@ -34,7 +34,7 @@ def fidelity_figure(result: Mapping[str, Any]) -> Any:
                              sharey=True)
     xs = [p["a_over_R"] for p in pts]
     ys = [p["A_over_C"] for p in pts]
-    xlim = (0.0, max(0.35, 1.2 * max(xs)))
+    xlim = (0.0, max(0.3, 1.2 * max(xs)))
     ylim = (min(0.6, 0.9 * min(ys)), max(1.5, 1.1 * max(ys)))
     for ax, mu in zip(axes[0], mus, strict=True):
         draw_groups(ax, xlim, ylim)
