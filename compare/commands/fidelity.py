@@ -125,8 +125,9 @@ def table_lines(res: dict[str, Any]) -> list[str]:
     for p in res["points"]:
         agrees = "yes" if p["agrees"] else "no"
         resid = "-" if p["residual"] is None else f"{p['residual']:.2g} rad"
+        group = p["group"] or "-"
         lines.append(f"{_cell(p['A_over_C'], '5.3g')} {_cell(p['a_over_R'], '5.3g')} "
-                     f"{_cell(p['mu'], '4.3g')} {p['group']:>5} {agrees:>6} {resid:>9}  "
+                     f"{_cell(p['mu'], '4.3g')} {group:>5} {agrees:>6} {resid:>9}  "
                      f"{p['cause'] or '-'}")
     return lines
 

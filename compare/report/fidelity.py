@@ -71,7 +71,7 @@ def _num(v: Any, fmt: str = ".3g") -> str:
 
 def point_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     """The table's rows: #, A/C, a/R, mu, group, agrees, residual (rad), cause."""
-    return [(i, _num(p["A_over_C"]), _num(p["a_over_R"]), _num(p["mu"]), p["group"],
+    return [(i, _num(p["A_over_C"]), _num(p["a_over_R"]), _num(p["mu"]), p["group"] or "-",
              point_state(p) if not p.get("agrees") else "yes",
              _num(p.get("residual"), ".2g"), p.get("cause") or "-")
             for i, p in enumerate(result["points"], start=1)]

@@ -241,8 +241,18 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
     if tune_fn is None:
         from tippetop.compare.studies.tune import tune as tune_fn
     t0 = time.perf_counter()
-    top = Task(None, point_overrides(A_over_C, a_over_R, mu, START_N0, START_THETA0),
-               "ode").load().top
+    try:
+        top = Task(None, point_overrides(A_over_C, a_over_R, mu, START_N0, START_THETA0),
+                   "ode").load().top
+    except TippetopError as exc:  # a top the scene does not admit: a row, not a crash
+        point = {"A_over_C": A_over_C, "a_over_R": a_over_R, "mu": mu, "group": None,
+                 "n0": None, "theta0": None, "agrees": False, "settings": None,
+                 "residual": None, "passes": None, "checks": None, "departs": [],
+                 "runs": None, "chosen": None, "error": " ".join(str(exc).split()),
+                 "cached": False, "tuned": None}
+        point["cause"] = explain(point) or None
+        point["wall_s"] = time.perf_counter() - t0
+        return point
     n0, theta0 = start_spin(top), START_THETA0
     base = point_overrides(A_over_C, a_over_R, mu, n0, theta0)
 
@@ -391,9 +401,8 @@ def summary_lines(result: dict[str, Any]) -> list[str]:
         parts = []
         for v in dict.fromkeys(p[key] for p in pts):
             mine = [p for p in pts if p[key] == v]
-            parts.append(f"{label} {v:g}: {sum(p['agrees'] for p in mine)}/{len(mine)}"
-                         if isinstance(v, float) else
-                         f"{label} {v}: {sum(p['agrees'] for p in mine)}/{len(mine)}")
+            name = f"{v:g}" if isinstance(v, float) else v or "-"
+            parts.append(f"{label} {name}: {sum(p['agrees'] for p in mine)}/{len(mine)}")
         lines.append("; ".join(parts))
     return lines
 

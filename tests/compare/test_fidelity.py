@@ -126,6 +126,12 @@ def test_the_cause_is_the_first_failed_check_with_its_number() -> None:
     assert cause_of({"agrees": True}) == ""
 
 
+def test_a_top_the_scene_refuses_is_a_row_not_a_crash(fake: None) -> None:
+    p = fidelity.run_point(1.0, 1.5, 0.1, t_end_s=8.0, run_options={}, progress=False)
+    assert not p["agrees"] and p["group"] is None and p["settings"] is None
+    assert p["cause"].startswith("not tuned: ") and "a_over_R" in p["cause"]
+
+
 def test_a_better_explanation_plugs_in(fake: None) -> None:
     res = fidelity.run_fidelity(make_grid("small", "1.0", "0.1", "1"), progress=False,
                                 explain=lambda p: "the contact's own mechanism at mu = 1")
