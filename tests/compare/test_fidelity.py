@@ -214,7 +214,7 @@ def test_help_names_the_command_and_its_defaults() -> None:
     proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity", "--help"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0
-    assert "--grid" in proc.stdout and "small: A/C 0.8,1.3 x a/R 0.1,0.25 x mu 0.1,1" in \
+    assert "--grid" in proc.stdout and "'small' is A/C 0.8,1.3 x a/R 0.1,0.25 x mu 0.1,1" in \
         " ".join(proc.stdout.split())
     assert "default 240" in proc.stdout and "default 8" in proc.stdout
 
