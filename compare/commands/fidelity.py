@@ -120,14 +120,14 @@ def _cell(v: Any, fmt: str) -> str:
 
 def table_lines(res: dict[str, Any]) -> list[str]:
     """The terminal table: one row per point (A/C, a/R, mu, group, agrees, residual, cause)."""
-    head = f"{'A/C':>5} {'a/R':>5} {'mu':>4} {'group':>5} {'agrees':>6} {'residual':>9}  cause"
+    head = f"{'A/C':>5} {'a/R':>5} {'mu':>4} {'group':>5} {'agrees':>6} {'residual':>11}  cause"
     lines = [head]
     for p in res["points"]:
         agrees = "yes" if p["agrees"] else "no"
         resid = "-" if p["residual"] is None else f"{p['residual']:.2g} rad"
         group = p["group"] or "-"
         lines.append(f"{_cell(p['A_over_C'], '5.3g')} {_cell(p['a_over_R'], '5.3g')} "
-                     f"{_cell(p['mu'], '4.3g')} {group:>5} {agrees:>6} {resid:>9}  "
+                     f"{_cell(p['mu'], '4.3g')} {group:>5} {agrees:>6} {resid:>11}  "
                      f"{p['cause'] or '-'}")
     return lines
 
