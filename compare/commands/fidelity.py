@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "III) and friction coefficients mu, fit MuJoCo's native contact to the reference and "
         "verify it from held-out starts, as 'tippetop validate' tunes a file; print one row "
         "per point (agrees, the fit's residual, and the cause where it does not). Each point "
-        "takes 1-3 minutes on 2 cores (docs/guide/fidelity.md).")
+        "takes 3-12 minutes on 2 cores (docs/guide/fidelity.md).")
     p.add_argument("--grid", default=DEFAULT_GRID, metavar="NAME",
                    help=f"a named grid of A/C x a/R x mu ({grids}) (default: the one named "
                    f"{DEFAULT_GRID})")
