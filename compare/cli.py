@@ -16,6 +16,7 @@ from tippetop.compare.commands import (
     bench,
     calibrate,
     compare,
+    fidelity,
     matrix,
     metrics,
     mjcf,
@@ -35,7 +36,7 @@ from tippetop.models.engines import ENGINE_MEANINGS
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
-            report, calibrate, render, validate, atlas, mjcf, metrics)
+            report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
 ENGINES = ENGINE_MEANINGS

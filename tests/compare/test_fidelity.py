@@ -1,0 +1,251 @@
+"""``tippetop fidelity`` (issue 30, item 2): the fidelity map of MuJoCo's tuned native contact.
+
+The fast tests replace the tuning by a stand-in that answers from the point's overrides (one
+point agrees, one departs as the ball leaves the table, one inverts late, one stops with a
+TippetopError), and check the table, the JSON's keys, the written files, the causes and the
+bad input lines. The slow one runs the small grid (2 x 2 x 2) for real.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tippetop.compare import cli
+from tippetop.compare.studies import fidelity, tune
+from tippetop.compare.studies.fidelity import GRIDS, cause_of, make_grid
+from tippetop.models.errors import TippetopError
+
+POINT_KEYS = {"A_over_C", "a_over_R", "mu", "group", "agrees", "settings", "residual",
+              "cause"}
+
+
+def _check(name: str, passed: bool, value: Any, note: str = "") -> dict[str, Any]:
+    return {"check": name, "run": "mujoco/native", "passed": passed, "value": value,
+            "note": note}
+
+
+def _start(role: str, checks: list[dict[str, Any]], n0: float = 100.0) -> dict[str, Any]:
+    return {"n0": n0, "theta0": 0.1, "role": role, "checks": checks,
+            "passed": all(c["passed"] is not False for c in checks)}
+
+
+def fake_tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: float,
+              **kwargs: Any) -> dict[str, Any]:
+    """A tuning's answer made up from the point: its shape is the real one's."""
+    over = dict(s.split("=", 1) for s in base)
+    r, e = float(over["top.A_over_C"]), float(over["top.a_over_R"])
+    assert float(over["friction.mu"]) == mu and float(over["init.n0"]) == n0
+    assert kwargs["theory"] is not None and kwargs["A_over_C"] == r
+    if r > 1.2 and e > 0.2:
+        raise TippetopError("tune: the reference run from n0 = 100 rad/s failed: boom")
+    ok = [_check("outcome", True, "upright"), _check("jellett_before_stem", True, 1e-5)]
+    verified = [_start("fit", ok), _start("held-out", ok, 115.0)]
+    if mu > 0.5:
+        verified[1] = _start("held-out", [_check("stays_on_table", False, 1.18),
+                                          _check("jellett_before_stem", False, 4e-3)], 115.0)
+    elif r > 1.2:
+        verified[0] = _start("fit", [_check("t_invert", False, 0.1)])
+    agrees = all(v["passed"] for v in verified)
+    return {"settings": {"mu": mu, "cone": "pyramidal", "solref": [0.002, 1.0]},
+            "fit": {"residual": 0.02 * mu, "runs": 100, "chosen": "fit"},
+            "verified": verified, "agrees": agrees, "departs": [], "passes": 3, "checks": 4}
+
+
+@pytest.fixture
+def fake(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(tune, "tune", fake_tune)
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = cli.main(["fidelity", *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_small_grid_is_2x2x2_and_covers_every_group() -> None:
+    g = GRIDS["small"]
+    assert len(g.points()) == 8
+    from tippetop.compare.measures import theory
+    from tippetop.compare.running.runner import Task
+
+    groups = {theory.group(Task(None, fidelity.point_overrides(r, e, m, 100.0, 0.1),
+                                "ode").load().top) for r, e, m in g.points()}
+    assert groups == {"I", "II", "III"}
+    d = GRIDS["default"]
+    assert {0.1, 0.3, 1.0} <= set(d.mu)
+    assert {theory.group(Task(None, fidelity.point_overrides(r, e, m, 100.0, 0.1),
+                              "ode").load().top) for r, e, m in d.points()} == {"I", "II", "III"}
+
+
+def test_a_grid_given_by_lists_replaces_the_named_ones() -> None:
+    g = make_grid("small", "0.8,1.3", None, "0.3")
+    assert g.name == "custom" and g.A_over_C == (0.8, 1.3) and g.mu == (0.3,)
+    assert g.a_over_R == GRIDS["small"].a_over_R
+    assert make_grid(None, "0.8:1.2:3").A_over_C == pytest.approx((0.8, 1.0, 1.2))
+
+
+def test_a_point_starts_above_its_thresholds() -> None:
+    from tippetop.compare.measures import theory
+    from tippetop.compare.running.runner import Task
+
+    for r, e in ((0.8, 0.25), (1.0, 0.25), (1.3, 0.1)):
+        top = Task(None, fidelity.point_overrides(r, e, 0.1, 100.0, 0.1), "ode").load().top
+        n0 = fidelity.start_spin(top)
+        # the slowest held-out start (0.9 n0) is still above n1 and n_c
+        for th in (theory.n1(top), theory.n_c(top)):
+            assert th is None or 0.9 * n0 > th
+
+
+def test_the_cause_is_the_first_failed_check_with_its_number() -> None:
+    p = {"agrees": False, "error": None, "tuned": fake_tune(
+        fidelity.point_overrides(1.0, 0.1, 1.0, 100.0, 0.1), 1.0, 100.0, 0.1, 8.0,
+        theory=lambda *a: (None, "upright"), A_over_C=1.0)}
+    c = cause_of(p)
+    assert c.startswith("the ball leaves the table at 1.18 s (stays_on_table) from n0 = "
+                        "115 rad/s"), c
+    assert "held-out" in c and "1 more check(s) depart" in c
+    late = {"agrees": False, "error": None,
+            "tuned": {"verified": [_start("fit", [_check("t_invert", False, 0.1)])]}}
+    assert cause_of(late).startswith("inverts 0.1 s late (t_invert)")
+    drift = {"agrees": False, "error": None,
+             "tuned": {"verified": [_start("fit", [_check("jellett_before_stem", False,
+                                                          4e-3)])]}}
+    assert cause_of(drift).startswith("Jellett drifts 0.004 (jellett_before_stem)")
+    ref = {"agrees": False, "error": None, "tuned": {"verified": [
+        {"n0": 100.0, "theta0": 0.1, "role": "fit", "checks": [], "passed": None,
+         "note": "not verifiable: the reference stops (contact lost)"}]}}
+    assert cause_of(ref).startswith("reference not verifiable")
+    assert cause_of({"agrees": False, "error": "tune: boom"}) == "not tuned: tune: boom"
+    assert cause_of({"agrees": True}) == ""
+
+
+def test_a_top_the_scene_refuses_is_a_row_not_a_crash(fake: None) -> None:
+    p = fidelity.run_point(1.0, 1.5, 0.1, t_end_s=8.0, run_options={}, progress=False)
+    assert not p["agrees"] and p["group"] is None and p["settings"] is None
+    assert p["cause"].startswith("not tuned: ") and "a_over_R" in p["cause"]
+
+
+def test_a_better_explanation_plugs_in(fake: None) -> None:
+    res = fidelity.run_fidelity(make_grid("small", "1.0", "0.1", "1"), progress=False,
+                                explain=lambda p: "the contact's own mechanism at mu = 1")
+    assert res["points"][0]["cause"] == "the contact's own mechanism at mu = 1"
+
+
+def test_the_table_json_and_files(fake: None, capsys: pytest.CaptureFixture[str],
+                                  tmp_path: Path) -> None:
+    code, out, err = _run(capsys, "--grid", "small", "--json")
+    assert code == 0, err
+    res = json.loads(out)
+    assert len(res["points"]) == 8
+    for p in res["points"]:
+        assert POINT_KEYS <= set(p), p.keys()
+        assert p["group"] in ("I", "II", "III")
+        assert p["agrees"] == (p["cause"] is None)
+    assert {"grid", "engine", "wall_s", "agreement", "t_end_s", "budget_runs"} <= set(res)
+    assert res["engine"] == "mujoco" and res["grid"]["name"] == "small"
+    by = {(p["A_over_C"], p["a_over_R"], p["mu"]): p for p in res["points"]}
+    assert by[(0.8, 0.1, 0.1)]["agrees"] and by[(0.8, 0.1, 0.1)]["group"] == "I"
+    assert "(stays_on_table)" in by[(0.8, 0.1, 1.0)]["cause"]
+    assert by[(1.3, 0.1, 0.1)]["cause"].startswith("inverts 0.1 s late (t_invert)")
+    broken = by[(1.3, 0.25, 0.1)]  # its tuning raised: a row, not a crash
+    assert not broken["agrees"] and broken["settings"] is None
+    assert broken["cause"].startswith("not tuned: tune: the reference run")
+    # the table: a header and one row per point, with the cause
+    code, out, err = _run(capsys, "--grid", "small")
+    assert code == 0, err
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.lstrip().startswith("A/C"))
+    assert all(w in lines[head] for w in ("a/R", "mu", "group", "agrees", "residual", "cause"))
+    rows = lines[head + 1: head + 9]
+    assert len(rows) == 8 and sum(" yes " in r for r in rows) == 2
+    assert any("the ball leaves the table at 1.18 s (stays_on_table)" in r for r in rows)
+    assert "None" not in out and "nan" not in out
+    # --out: the three files, and no overwrite without --force
+    out_dir = tmp_path / "map"
+    code, out, err = _run(capsys, "--grid", "small", "--out", str(out_dir))
+    assert code == 0, err
+    assert sorted(p.name for p in out_dir.iterdir()) == ["fidelity.png", "report.html",
+                                                        "results.json"]
+    assert (out_dir / "fidelity.png").read_bytes()[:4] == b"\x89PNG"
+    html = (out_dir / "report.html").read_text()
+    assert "stays_on_table" in html and "<img" in html
+    assert len(json.loads((out_dir / "results.json").read_text())["points"]) == 8
+    before = (out_dir / "results.json").read_bytes()
+    code, out, err = _run(capsys, "--grid", "small", "--out", str(out_dir))
+    assert code == 2 and "--force" in err and err.count("\n") == 1
+    assert (out_dir / "results.json").read_bytes() == before
+    code, out, err = _run(capsys, "--grid", "small", "--out", str(out_dir), "--force",
+                          "--mu", "0.3")
+    assert code == 0, err
+    assert json.loads((out_dir / "results.json").read_text())["grid"]["mu"] == [0.3]
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (("--grid", "huge"), ("--grid: expected one of default, small", "'huge'")),
+    (("--a-over-r", "0.1,1.5"), ("--a-over-r: expected values in (0, 1)", "1.5")),
+    (("--mu", "0.1,abc"), ("--mu: expected comma-separated numbers", "abc")),
+    (("--a-over-c", "-1"), ("--a-over-c: expected", "-1")),
+    (("--t-end-s", "0"), ("--t-end-s: expected a number of seconds in (0, 600]", "0")),
+    (("--budget-runs", "3"), ("--budget-runs: expected at least 5 MuJoCo runs", "3")),
+    (("--engine", "ode"), ("--engine: expected mujoco", "'ode'")),
+    (("--engine", "nonsense"), ("--engine", "nonsense")),
+])
+def test_bad_input_is_one_line_and_exit_2(fake: None, capsys: pytest.CaptureFixture[str],
+                                          tmp_path: Path, argv: tuple[str, ...],
+                                          words: tuple[str, ...]) -> None:
+    out_dir = tmp_path / "never"
+    with pytest.raises(SystemExit) as exc_info:  # argparse's own errors exit from the parser
+        raise SystemExit(cli.main(["fidelity", *argv, "--out", str(out_dir)]))
+    assert exc_info.value.code == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "Traceback" not in err, err
+    assert all(w in err for w in words), err
+    assert not out_dir.exists()
+
+
+def test_help_names_the_command_and_its_defaults() -> None:
+    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity", "--help"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0
+    assert "--grid" in proc.stdout and "'small' is A/C 0.8,1.3 x a/R 0.1,0.25 x mu 0.1,1" in \
+        " ".join(proc.stdout.split())
+    assert "default 200" in proc.stdout and "default 8" in proc.stdout
+
+
+@pytest.mark.slow
+def test_the_small_grid_runs_for_real(tmp_path: Path) -> None:
+    """8 points tuned and verified, 3 s each and at most 60 MuJoCo runs a point (the tunings
+    are cached; the default grid's 8 s and 200 runs took 40-60 min on 2 cores before the
+    tuning cost less).
+
+    Every point is a row with the contract's keys; a point that agrees has settings read back
+    from its verification run and a fit residual within 0.1 rad; one that does not has a
+    cause naming a check or why it could not be verified.
+    """
+    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity",
+                           "--grid", "small", "--t-end-s", "3", "--budget-runs", "60", "--json",
+                           "--out", str(tmp_path / "m")],
+                          capture_output=True, text=True, timeout=3600)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(proc.stdout)
+    assert len(res["points"]) == 8
+    checks = ("completed", "stays_on_table", "outcome", "t_invert", "t_stem",
+              "jellett_before_stem", "energy_never_rises")
+    for p in res["points"]:
+        assert POINT_KEYS <= set(p)
+        if p["agrees"]:
+            assert p["settings"]["cone"] in ("pyramidal", "elliptic")
+            assert p["residual"] is not None and math.isfinite(p["residual"])
+            assert p["residual"] < 0.1  # rad: the fit follows the reference at its start
+        else:
+            assert p["cause"] and (any(f"({c})" in p["cause"] for c in checks)
+                                   or p["cause"].startswith(("not tuned", "reference not",
+                                                             "no held-out")))
+    assert (tmp_path / "m" / "fidelity.png").is_file()
