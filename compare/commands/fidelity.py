@@ -25,7 +25,7 @@ OUT_FILES = ("results.json", "fidelity.png", "report.html")
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop fidelity`` and its options."""
-    from tippetop.compare.studies.fidelity import DEFAULT_GRID, DEFAULT_T_END_S, GRIDS
+    from tippetop.compare.studies.defaults import DEFAULT_GRID, DEFAULT_T_END_S, GRIDS
 
     grids = ", ".join(f"'{n}' is A/C {','.join(f'{v:g}' for v in g.A_over_C)} x a/R "
                       f"{','.join(f'{v:g}' for v in g.a_over_R)} x mu "

@@ -17,7 +17,6 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -39,41 +38,8 @@ DEFAULT_T_END_S = 8.0
 FORMAT = "tippetop-fidelity/1"
 
 
-@dataclass(frozen=True)
-class Grid:
-    """The points of a fidelity map: every A/C x a/R x mu.
-
-    Attributes:
-        name: The grid's name (``default``, ``small``, or ``custom`` for a given one).
-        A_over_C: The tops' A/C values.
-        a_over_R: The tops' a/R values, each in (0, 1).
-        mu: The friction coefficients.
-    """
-
-    name: str
-    A_over_C: tuple[float, ...]
-    a_over_R: tuple[float, ...]
-    mu: tuple[float, ...]
-
-    def points(self) -> list[tuple[float, float, float]]:
-        """(A/C, a/R, mu) of every point, mu slowest (one figure panel per mu)."""
-        return [(r, e, m) for m in self.mu for e in self.a_over_R for r in self.A_over_C]
-
-    def to_json(self) -> dict[str, Any]:
-        """``{name, A_over_C, a_over_R, mu, points}``."""
-        return {"name": self.name, "A_over_C": list(self.A_over_C),
-                "a_over_R": list(self.a_over_R), "mu": list(self.mu),
-                "points": len(self.points())}
-
-
-#: The named grids. ``default``: A/C 0.8, 1, 1.3 at a/R 0.1 (Groups I, II, III) and 0.25 (II,
-#: II, III), at mu 0.1 (the paper's), 0.3 and 1; ``small``: 2 x 2 x 2, every group at mu 0.1
-#: and 1.
-GRIDS: dict[str, Grid] = {
-    "default": Grid("default", (0.8, 1.0, 1.3), (0.1, 0.25), (0.1, 0.3, 1.0)),
-    "small": Grid("small", (0.8, 1.3), (0.1, 0.25), (0.1, 1.0)),
-}
-DEFAULT_GRID = "default"
+# the grids live with the parsers' defaults (importing them costs nothing): re-exported here
+from tippetop.compare.studies.defaults import DEFAULT_GRID, GRIDS, Grid  # noqa: E402
 
 
 def parse_values(text: str, option: str) -> tuple[float, ...]:
