@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -195,37 +195,13 @@ class Probe:
         None if it does not within :data:`MAX_SLIP_MPS`. Found on :data:`SLIPS_MPS` and
         refined by bisection to 1 %.
         """
-        below = 0.0
-        for v in SLIPS_MPS[::2]:
-            if self.leaves_table(float(v)):
-                lo, hi = below, float(v)
-                while hi - lo > 1e-2 * hi:
-                    mid = 0.5 * (lo + hi)
-                    if self.leaves_table(mid):
-                        hi = mid
-                    else:
-                        lo = mid
-                return hi
-            below = float(v)
-        return None
+        return _least_slip(self.leaves_table, SLIPS_MPS[::2], 1e-2)
 
     def half_mu_slip(self) -> float | None:
         """The slip at which |F_t| reaches mu M g / 2 at the resting penetration (m/s)."""
         pen = self.rest_penetration()
         target = 0.5 * self.contact.mu * self.weight_N
-        below = 0.0
-        for v in SLIPS_MPS:
-            if self.forces(pen, float(v))[1] >= target:
-                lo, hi = below, float(v)
-                while hi - lo > 1e-3 * hi:
-                    mid = 0.5 * (lo + hi)
-                    if self.forces(pen, mid)[1] >= target:
-                        hi = mid
-                    else:
-                        lo = mid
-                return hi
-            below = float(v)
-        return None
+        return _least_slip(lambda v: self.forces(pen, v)[1] >= target, SLIPS_MPS, 1e-3)
 
     def curve(self, slips: Iterable[float] = SLIPS_MPS) -> np.ndarray:
         """Rows of (slip m/s, N/Mg at rest penetration, |F_t|/(mu Mg) there, N/Mg touching)."""
@@ -237,6 +213,28 @@ class Probe:
             rows.append((float(v), N / self.weight_N, F / (self.contact.mu * self.weight_N),
                          N0 / self.weight_N))
         return np.array(rows)
+
+
+def _least_slip(holds: Callable[[float], bool], slips: Iterable[float],
+                rel: float) -> float | None:
+    """The least slip at which ``holds`` turns true (m/s), or None if it never does.
+
+    The first of ``slips`` (ascending) where it does, refined by bisection against the one
+    before it to ``rel`` of its value.
+    """
+    below = 0.0
+    for v in slips:
+        if holds(float(v)):
+            lo, hi = below, float(v)
+            while hi - lo > rel * hi:
+                mid = 0.5 * (lo + hi)
+                if holds(mid):
+                    hi = mid
+                else:
+                    lo = mid
+            return hi
+        below = float(v)
+    return None
 
 
 def lift_off_slip(contact: Contact, radius_m: float, mass_kg: float,

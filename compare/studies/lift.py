@@ -71,7 +71,8 @@ def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
         tuned: validate's ``tuned`` (its ``settings`` are probed as ``tuned``).
         mu: The paper's law's mu (for the scan; None: no scan).
         Lambda_mps: The paper's law's Lambda (for the scan's stiffness).
-        scan: Also scan MuJoCo's ranges of geom settings at the reference's slip.
+        scan: Where a probed run's contact lifts the ball below the reference's slip, also
+            scan MuJoCo's ranges of geom settings at that slip.
         agrees: The runs that agree with the reference (no sentence for them: held at a
             slip above its lift-off one the ball would leave, but their top passes through
             such slips without leaving).
@@ -79,8 +80,8 @@ def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
     Returns:
         ``reference`` ({slip_mps, t_s}, or None), ``runs`` (name -> {lift_off_slip_mps,
         lifts (below the reference's slip), contact}), ``sentences`` (one per run that
-        lifts) and, with ``scan``, ``scan`` ({settings, stiff, stay, limit, closest,
-        closest_lift_mps, sentence}).
+        lifts) and, with ``scan`` and a run that lifts, ``scan`` ({settings, stiff, stay,
+        limit, closest, closest_lift_mps, sentence}).
     """
     from tippetop.mujoco_runner.contact_lift import Probe, limit_scan
 
@@ -111,7 +112,8 @@ def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
                 f"force); the "
                 f"reference slips at up to {number_text(slip[0], 'm/s')} (at "
                 f"{number_text(slip[1], 's')}) before its stem lands")
-    if scan and slip is not None and mu is not None:
+    if scan and slip is not None and mu is not None and any(
+            r["lifts"] for r in out["runs"].values()):
         dt = min([float(r.get("timestep_s") or 2e-4) for _, r in probed] or [2e-4])
         res = limit_scan(float(mu), top.R_m, top.M_kg, Lambda_mps, slip[0], timestep_s=dt,
                          g_mps2=top.g_mps2)
