@@ -139,8 +139,9 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
                              max(float(file_run["solref"][0]), 2.0 * timestep_s),
                              float(file_run["solimp"][0]), mu))
     if mu >= WIDE_MU:
-        # the wide fit's: an overdamped contact (damping ratio 4), in both cones, from the
-        # calibrated stiffness and from MuJoCo's default one
+        # the wide fit's: an overdamped contact (damping ratio 4), in both cones, from a stiff
+        # contact (the compass calibration's of 2026-11-22, from which the tutorial top's fit
+        # was measured to agree) and from MuJoCo's default one
         out += [Candidate(cone, imp, max(tc, 2.0 * timestep_s), d0, mu, dampratio=4.0)
                 for cone in ("pyramidal", "elliptic")
                 for imp, tc, d0 in ((1.41, 0.002, 0.05), (1.0, 0.02, 0.9))]
