@@ -23,7 +23,14 @@ import time
 
 def main() -> int:
     """Run the grid and print the per-point cost."""
-    from tippetop.compare.commands.fidelity import DEFAULT_BUDGET_RUNS, table_lines
+    from pathlib import Path
+
+    from tippetop.compare.commands.fidelity import (
+        DEFAULT_BUDGET_RUNS,
+        table_lines,
+        write_fidelity,
+    )
+    from tippetop.compare.running.io import check_output_dir
     from tippetop.compare.studies.fidelity import (
         DEFAULT_GRID,
         DEFAULT_T_END_S,
@@ -38,14 +45,21 @@ def main() -> int:
     ap.add_argument("--budget-runs", dest="budget_runs", type=int, default=DEFAULT_BUDGET_RUNS)
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--out", metavar="DIR", default=None,
+                    help="also write the map (results.json, fidelity.png, report.html) here, "
+                         "as `tippetop fidelity --out DIR` does (new or empty folder)")
     args = ap.parse_args()
     grid = make_grid(args.grid)
+    out_dir = check_output_dir(args.out, force=False) if args.out else None
     t0 = time.perf_counter()
     cpu0 = time.process_time()
     res = run_fidelity(grid, t_end_s=args.t_end_s, workers=args.workers, use_cache=False,
                        budget_runs=args.budget_runs, progress=True)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - cpu0
+    res["budget_runs"] = args.budget_runs
+    if out_dir is not None:
+        write_fidelity(res, Path(out_dir))
     pts = res["points"]
     mean = sum(p["wall_s"] for p in pts) / len(pts)
     default_n = len(GRIDS[DEFAULT_GRID].points())

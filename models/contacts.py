@@ -39,6 +39,8 @@ class ContactSetting:
         priority: A geom's contact priority (a pair: 0).
         solmix: A geom's solver mixing weight (a pair: 1).
         geoms: A pair's two geom ids; () for a geom.
+        solreffriction: A pair's own solref of its friction rows; () where it has none (a
+            geom, or a pair's [0, 0]: its friction rows use solref).
     """
 
     element: str
@@ -54,6 +56,7 @@ class ContactSetting:
     priority: int = 0
     solmix: float = 1.0
     geoms: tuple[int, ...] = ()
+    solreffriction: tuple[float, ...] = ()
 
     @property
     def collides(self) -> bool:
@@ -92,6 +95,8 @@ class ContactSetting:
                "solref": fmt(self.solref), "solimp": fmt(self.solimp)}
         if self.element == "geom":
             out.update(contype=str(self.contype), conaffinity=str(self.conaffinity))
+        elif self.solreffriction:
+            out["solreffriction"] = fmt(self.solreffriction)
         return out
 
 
@@ -106,6 +111,7 @@ class MixedContact:
         solref: (time constant s, damping ratio), or (-stiffness, -damping).
         solimp: (d0, dwidth, width m, midpoint, power).
         source: Which elements gave them (``geoms ball and table``, ``pair ball table``).
+        solreffriction: The friction rows' own solref (a pair's); () where they use solref.
     """
 
     condim: int
@@ -113,6 +119,7 @@ class MixedContact:
     solref: tuple[float, ...]
     solimp: tuple[float, ...]
     source: str
+    solreffriction: tuple[float, ...] = ()
 
     @property
     def contact_friction(self) -> tuple[float, ...]:
@@ -123,12 +130,15 @@ class MixedContact:
         """condim, and the coefficients it uses (None where it has no friction row).
 
         The keys and values of a summary's ``what ran`` (read from MuJoCo's contact):
-        ``condim``, ``mu``, ``torsional``, ``rolling``, ``solref``, ``solimp``.
+        ``condim``, ``mu``, ``torsional``, ``rolling``, ``solref``, ``solreffriction`` (None
+        where the friction rows use solref), ``solimp``.
         """
         c, f = self.condim, self.contact_friction
         return {"condim": c, "mu": f[0] if c >= 3 else None,
                 "torsional": f[2] if c >= 4 else None, "rolling": f[3] if c >= 6 else None,
-                "solref": list(self.solref), "solimp": list(self.solimp)}
+                "solref": list(self.solref),
+                "solreffriction": list(self.solreffriction) if self.solreffriction else None,
+                "solimp": list(self.solimp)}
 
 
 def mix(a: ContactSetting, b: ContactSetting) -> MixedContact:
@@ -177,7 +187,8 @@ def ball_table_contact(contacts: Sequence[ContactSetting]) -> MixedContact | Non
     tables = {c.index: c for c in contacts if c.role == "table"}
     for c in contacts:
         if c.element == "pair" and ball.index in c.geoms and any(g in tables for g in c.geoms):
-            return MixedContact(c.condim, c.friction, c.solref, c.solimp, f"pair {c.name}")
+            return MixedContact(c.condim, c.friction, c.solref, c.solimp, f"pair {c.name}",
+                                c.solreffriction)
     for table in tables.values():
         if _can_collide(ball, table):
             return mix(table, ball)

@@ -71,8 +71,9 @@ def plan_differences(plan: MujocoPlan, model: mujoco.MjModel) -> list[str]:
             want = (c.condim, c.friction, c.solref, c.solimp, c.contype, c.conaffinity)
         else:
             got = (int(model.pair_dim[c.index]), model.pair_friction[c.index],
-                   model.pair_solref[c.index], model.pair_solimp[c.index])
-            want = (c.condim, c.friction, c.solref, c.solimp)
+                   model.pair_solref[c.index], model.pair_solimp[c.index],
+                   model.pair_solreffriction[c.index])
+            want = (c.condim, c.friction, c.solref, c.solimp, c.solreffriction or (0.0, 0.0))
         if not all(np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
                    for a, b in zip(got, want, strict=True)):
             out.append(f"{c.element} {c.name}'s contact settings")
@@ -86,7 +87,7 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
     pass: MuJoCo has mixed the two geoms' values into it); with no contact, those of the
     ball geom. Keys: ``timestep_s``, ``integrator``, ``cone``, ``impratio``,
     ``noslip_iterations``, ``condim``, ``mu``, ``torsional``, ``rolling``, ``solref``,
-    ``solimp``, ``contact_source``.
+    ``solreffriction`` (None unless a contact pair sets it), ``solimp``, ``contact_source``.
     """
     model = top_model.model
     opt = model.opt
@@ -108,15 +109,27 @@ def settings_that_ran(top_model: TopModel, data: mujoco.MjData) -> dict[str, Any
             fr = [float(v) for v in c.friction]
             out.update(friction_that_acts(int(c.dim), fr[0], fr[2], fr[3]),
                        solref=[float(v) for v in c.solref],
+                       solreffriction=_solreffriction(c.solreffriction),
                        solimp=[float(v) for v in c.solimp], contact_source="contact at t = 0")
             return out
     g = top_model.ball_geom_id
     fr = [float(v) for v in model.geom_friction[g]]
     out.update(friction_that_acts(int(model.geom_condim[g]), *fr),
                solref=[float(v) for v in model.geom_solref[g]],
+               solreffriction=None,  # a geom has none: only a <pair> sets it
                solimp=[float(v) for v in model.geom_solimp[g]],
                contact_source="ball geom (no contact at t = 0)")
     return out
+
+
+def _solreffriction(values: Any) -> list[float] | None:
+    """A contact's own solref of its friction rows, or None where it has none.
+
+    [0, 0], MuJoCo's default, means the friction rows use solref; only an explicit ``<pair>``
+    sets it.
+    """
+    out = [float(v) for v in values]
+    return None if not any(out) else out
 
 
 def contacts_enabled(model: mujoco.MjModel) -> bool:

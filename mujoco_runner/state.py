@@ -268,7 +268,9 @@ def contact_settings(top_model: TopModel) -> tuple[ContactSetting, ...]:
             "pair", p, f"{name(g1)} {name(g2)}", "pair", int(model.pair_dim[p]),
             tuple(float(v) for v in model.pair_friction[p]),
             tuple(float(v) for v in model.pair_solref[p]),
-            tuple(float(v) for v in model.pair_solimp[p]), geoms=(g1, g2)))
+            tuple(float(v) for v in model.pair_solimp[p]), geoms=(g1, g2),
+            solreffriction=tuple(float(v) for v in model.pair_solreffriction[p])
+            if any(model.pair_solreffriction[p]) else ()))
     return tuple(out)
 
 

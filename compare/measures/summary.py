@@ -91,6 +91,8 @@ RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
     RanField("rolling", "m", "the ball's contact's rolling friction coefficient"),
     RanField("solref", "", "the ball's contact's solref: time constant (s) and damping ratio, "
              "or (negative) stiffness and damping"),
+    RanField("solreffriction", "", "the ball's contact's own solref of its friction rows, set "
+             "only on an explicit contact pair (none: they use solref)"),
     RanField("solimp", "", "the ball's contact's solimp: d0, dwidth, width (m), midpoint, "
              "power"),
     RanField("gravity_mps2", "m/s^2", "the magnitude of gravity"),
@@ -323,7 +325,7 @@ def describe_ran(summary: dict[str, Any]) -> str:
     """One line on what a run's summary says ran (the settings read back, not those asked for).
 
     Example: ``MuJoCo RK4 at dt = 2e-4 s, native friction: pyramidal cone, condim 3,
-    mu 0.104, impratio 1.41, solref [0.002 s, 1], solimp [0.05, 0.95, 0.001 m, 0.5, 2]``
+    mu 0.106, impratio 1.03, solref [0.00144 s, 1], solimp [0.054, 0.95, 0.001 m, 0.5, 2]``
     (solref's time constant and solimp's width carry their units; with a negative solref,
     MuJoCo's stiffness and damping, none).
     """
@@ -348,7 +350,11 @@ def describe_ran(summary: dict[str, Any]) -> str:
         if summary.get(key) is not None:
             friction.append(f"{key} {number_text(summary[key], unit if summary[key] else '')}")
     friction.append(f"impratio {number_text(summary.get('impratio'))}")
-    friction += [solref, solimp]
+    friction.append(solref)
+    if summary.get("solreffriction") is not None:
+        srf = solver_text("solreffriction", summary["solreffriction"])
+        friction.append(f"solreffriction [{srf}]")
+    friction.append(solimp)
     return f"{head}native friction: " + ", ".join(friction)
 
 

@@ -215,6 +215,7 @@ _RAN_NONE_MEANS = {
     "rolling": "none (condim below 6: no rolling friction)",
     "law_mu": "none (no friction law of the harness's)",
     "keyframe": "none (the scene's own start, not a keyframe)",
+    "solreffriction": "none (the friction rows use solref; only a contact pair sets it)",
 }
 #: ``stiff`` of a reference run (what ran for stiff friction) as a person reads it.
 _STIFF_MEANS = {"rolling": "rolling phases where the law turns stiff",
@@ -382,7 +383,7 @@ def fmt_value(key: str, value: Any) -> str:
         return fmt_flights(value)
     if key == "rolling_phases" and isinstance(value, dict):
         return fmt_rolling(value)
-    if key in ("solref", "solimp") and isinstance(value, (list, tuple)):
+    if key in ("solref", "solimp", "solreffriction") and isinstance(value, (list, tuple)):
         return solver_text(key, value)
     if key == "atol" and isinstance(value, float):
         return f"{fmt(value)} (absolute, in each state variable's own unit)"
@@ -398,7 +399,8 @@ def fmt_value(key: str, value: Any) -> str:
 #: order they are listed.
 RAN_KEYS = ("friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
             "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
-            "rolling", "solref", "solimp", "gravity_mps2", "sample_dt_s", "keyframe")
+            "rolling", "solref", "solreffriction", "solimp", "gravity_mps2", "sample_dt_s",
+            "keyframe")
 
 
 def ran_lines(values: dict[str, Any], width: int) -> list[str]:

@@ -22,7 +22,9 @@ ROOT = Path(__file__).resolve().parents[2]
 FILES = [ROOT / "examples" / "capsule_stem_top.xml",
          ROOT / "examples" / "cylinder_stem_ballast.xml",
          ROOT / "tests" / "data" / "tutorial_tippe_top.xml",
-         ROOT / "tests" / "data" / "stranger" / "top.xml"]
+         ROOT / "tests" / "data" / "stranger" / "top.xml",
+         # contact pairs with the friction rows' own solref (solreffriction)
+         ROOT / "tests" / "data" / "group2_mu1_lift_free.xml"]
 MUJOCO_MODES = [m for m, mode in MODES.items() if "mujoco" in mode.families]
 pytestmark = pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
 
