@@ -175,6 +175,35 @@ def _can_collide(a: ContactSetting, b: ContactSetting) -> bool:
     return bool(a.contype & b.conaffinity or b.contype & a.conaffinity)
 
 
+def with_friction_pairs(contacts: Sequence[ContactSetting], solreffriction: Sequence[float],
+                        first_index: int) -> tuple[ContactSetting, ...]:
+    """``contacts`` with the friction rows' own solref on a pair for every top-table contact.
+
+    MuJoCo takes ``solreffriction`` only on an explicit ``<pair>`` (and only in an elliptic
+    cone). The top's pairs get it; every colliding geom of the top (ball, stem) and table geom
+    it can collide with that no pair covers gets a new pair (ids from ``first_index``, the
+    model's pair count), with the values MuJoCo would mix for the two geoms: the contact is
+    the same but for its friction rows' solref.
+    """
+    srf = tuple(float(v) for v in solreffriction)
+    out = [replace(c, solreffriction=srf) if c.element == "pair" else c for c in contacts]
+    covered = {frozenset(c.geoms) for c in contacts if c.element == "pair"}
+    tables = [c for c in contacts if c.role == "table"]
+    index = first_index
+    for g in contacts:
+        if g.element != "geom" or g.role not in ("ball", "stem") or not g.collides:
+            continue
+        for t in tables:
+            if not _can_collide(g, t) or frozenset((g.index, t.index)) in covered:
+                continue
+            m = mix(t, g)
+            out.append(ContactSetting("pair", index, f"{g.name} {t.name}", "pair", m.condim,
+                                      m.friction, m.solref, m.solimp, geoms=(g.index, t.index),
+                                      solreffriction=srf))
+            index += 1
+    return tuple(out)
+
+
 def ball_table_contact(contacts: Sequence[ContactSetting]) -> MixedContact | None:
     """The ball's contact with the table: an explicit pair's, else the two geoms' mixed.
 
@@ -195,4 +224,5 @@ def ball_table_contact(contacts: Sequence[ContactSetting]) -> MixedContact | Non
     return None
 
 
-__all__ = ["ROLES", "ContactSetting", "MixedContact", "ball_table_contact", "mix"]
+__all__ = ["ROLES", "ContactSetting", "MixedContact", "ball_table_contact", "mix",
+           "with_friction_pairs"]

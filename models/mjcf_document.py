@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -176,6 +176,28 @@ def geom_elements(root: ET.Element) -> list[ET.Element]:
 def pair_elements(root: ET.Element) -> list[ET.Element]:
     """Every ``<contact><pair>`` element, in MuJoCo's pair order."""
     return [p for c in root.findall("contact") for p in c.findall("pair")]
+
+
+def add_pairs(root: ET.Element, pairs: Sequence[tuple[int, int, Mapping[str, str]]]) -> None:
+    """Append contact pairs after the document's own: (geom id, geom id, attributes) each.
+
+    A geom a pair names gets a name (``tippetop_geom_ID``) where the document gives it none:
+    a ``<pair>`` refers to its geoms by name.
+    """
+    if not pairs:
+        return
+    geoms = geom_elements(root)
+
+    def named(i: int) -> str:
+        el = geoms[i]
+        if not el.get("name"):
+            el.set("name", f"tippetop_geom_{i}")
+        return str(el.get("name"))
+
+    contacts = root.findall("contact")
+    contact = contacts[-1] if contacts else ET.SubElement(root, "contact")
+    for g1, g2, attrs in pairs:
+        ET.SubElement(contact, "pair", {"geom1": named(g1), "geom2": named(g2), **attrs})
 
 
 def inline_includes(root: ET.Element, folder: Path) -> None:

@@ -82,6 +82,10 @@ class MujocoOptions:
         iterations: The constraint solver's maximum iterations (None: the model's: a loaded
             file's own, MuJoCo's default 100 for a generated top).
         tolerance: The constraint solver's tolerance (None: the model's; MuJoCo's 1e-8).
+        solreffriction: Native mode, elliptic cone: the friction rows' own solref (time
+            constant s, damping ratio, or -stiffness, -damping), which MuJoCo takes only on
+            an explicit contact pair: the plan writes a pair for every geom of the top that
+            touches the table (None: none; the friction rows use solref).
         contacts: False disables contacts altogether (MuJoCo's ``<flag contact="disable">``):
             the top falls freely. For attribution (``tippetop matrix``): does a difference
             between engines follow the contact, or the free body's integration?
@@ -102,6 +106,7 @@ class MujocoOptions:
     iterations: int | None = None
     tolerance: float | None = None
     contacts: bool = True
+    solreffriction: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         expect(self.friction in MUJOCO_FRICTION_MODES, "mujoco.friction",
@@ -131,6 +136,12 @@ class MujocoOptions:
                self.contacts)
         expect(len(self.solref) == 2 and all(_finite(v) for v in self.solref),
                "mujoco.solref", "two finite numbers [timeconst, dampratio]", self.solref)
+        expect(self.solreffriction is None or (
+            len(self.solreffriction) == 2 and all(_finite(v) for v in self.solreffriction)
+            and (all(v > 0 for v in self.solreffriction)
+                 or all(v < 0 for v in self.solreffriction))),
+            "mujoco.solreffriction", "two finite numbers, both > 0 [timeconst, dampratio] or "
+            "both < 0 [-stiffness, -damping]", self.solreffriction)
         expect(len(self.solimp) in (3, 5) and all(_finite(v) for v in self.solimp),
                "mujoco.solimp", "3 or 5 finite numbers [d0, dwidth, width, midpoint, power]",
                self.solimp)

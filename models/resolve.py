@@ -16,7 +16,7 @@ import numpy as np
 
 from tippetop.models import mjcf_document
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
-from tippetop.models.contacts import ContactSetting
+from tippetop.models.contacts import ContactSetting, with_friction_pairs
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import free_joint_start
@@ -349,6 +349,14 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                        else {}))
             for c in file_top.contacts)
         reach = top.R_m + top.a_m if stem_off else file_top.contact_reach_m
+    srf = mj.solreffriction if friction_by == "native" else None
+    if srf is not None:
+        want.used.add("mujoco.solreffriction")
+        expect(options["cone"] == "elliptic", "mujoco.solreffriction",
+               "an elliptic cone (mujoco.cone=elliptic): MuJoCo uses a pair's solreffriction "
+               "only there", f"{list(srf)} in a {options['cone']} cone")
+        contacts = with_friction_pairs(contacts, srf,
+                                       0 if file_top is None else file_top.npair)
     # the timestep was checked where it came from: the scene, or the file
     limit = paper_max_timestep(law, top, reach) if law is not None else None
     dt, note = _fitted_timestep(law, limit, float(options["timestep_s"]), scene, loaded) \
@@ -371,6 +379,10 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
                          iterations=int(options["iterations"]),
                          tolerance=float(options["tolerance"]),
                          contacts_on=bool(options["contacts_on"]))
+        if srf is not None:
+            root = mjcf_document.parse(mjcf)
+            _add_new_pairs(root, contacts, 0)
+            mjcf = mjcf_document.to_text(root)
         source, centre, quat = None, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)
     else:
         mjcf = _file_document(file_top, options, contacts)
@@ -417,9 +429,17 @@ def _file_document(file_top: FileTop, options: dict[str, Any],
     mjcf_document.write_values(
         root, option=option,
         geoms={c.index: c.to_attributes() for c in contacts if c.element == "geom"},
-        pairs={c.index: c.to_attributes() for c in contacts if c.element == "pair"},
+        pairs={c.index: c.to_attributes() for c in contacts
+               if c.element == "pair" and c.index < file_top.npair},
         ngeom=file_top.ngeom, npair=file_top.npair)
+    _add_new_pairs(root, contacts, file_top.npair)
     return mjcf_document.to_text(root)
+
+
+def _add_new_pairs(root: Any, contacts: tuple[ContactSetting, ...], npair: int) -> None:
+    """Write the plan's pairs from id ``npair`` on (the model's own come first) into ``root``."""
+    mjcf_document.add_pairs(root, [(c.geoms[0], c.geoms[1], c.to_attributes())
+                                   for c in contacts if c.element == "pair" and c.index >= npair])
 
 
 # ---------------------------------------------------------------- the start

@@ -49,7 +49,7 @@ SCHEMA: dict[str, dict[str, str]] = {
     "mujoco": {"friction": _S, "timestep_s": _F, "integrator": _S, "cone": _S, "condim": _I,
                "mu": _F, "solref": _L, "solimp": _L, "impratio": _F, "noslip_iterations": _I,
                "calibrated": _B, "fit_paper_timestep": _B, "iterations": _I, "tolerance": _F,
-               "contacts": _B},
+               "contacts": _B, "solreffriction": _L},
     "outputs": {"table": _S, "summary": _B},
     "expect": {"outcome": _S, "theta_asymp": _F, "theta_asymp_tol": _F, "t_invert_max_s": _F,
                "note": _S},
@@ -348,8 +348,8 @@ def scene_from_dict(data: dict[str, dict[str, Any]], path: Path | None = None,
     run = RunSpec(**sec["run"])
     ode = OdeOptions(**sec["ode"])
     mj = sec["mujoco"]
-    for k in ("solref", "solimp"):
-        if k in mj:
+    for k in ("solref", "solimp", "solreffriction"):
+        if mj.get(k) is not None:
             mj[k] = tuple(mj[k])
     mujoco = MujocoOptions(**mj)
     st = sec["stem"]

@@ -86,6 +86,9 @@ def print_plan(plan: Any) -> None:
                          f"friction {fmt_value('', list(c.friction))}, solref "
                          f"{fmt_value('solref', list(c.solref))}, solimp "
                          f"{fmt_value('solimp', list(c.solimp))}"
+                         + (", solreffriction "
+                            + fmt_value("solreffriction", list(c.solreffriction))
+                            if c.solreffriction else "")
                          + ("" if c.collides else ", collides with nothing")))
         if mj.paper_max_timestep_s is not None:
             rows.append(("law's step", f"at most {fmt(mj.paper_max_timestep_s, 's')} (the "
