@@ -377,5 +377,26 @@ def mjcf_attributes(summary: dict[str, Any]) -> tuple[str, str]:
              f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'))
 
 
+def mjcf_pair(summary: dict[str, Any]) -> str | None:
+    """The contact pair to paste where the run's contact had its own solreffriction, else None.
+
+    MuJoCo takes ``solreffriction`` only on an explicit ``<pair>``: one for each geom of the
+    top that touches the table (the ball, the stem), with the contact's own values.
+    """
+    s = summary
+    if s.get("solreffriction") is None:
+        return None
+
+    def nums(v: Any) -> str:
+        return " ".join(f"{x:g}" for x in v)
+
+    mu, tor, rol = s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001
+    return ('<contact><pair geom1="BALL" geom2="TABLE" '
+            f'condim="{s.get("condim", 3)}" friction="{nums([mu, mu, tor, rol, rol])}" '
+            f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}" '
+            f'solreffriction="{nums(s["solreffriction"])}"/></contact> '
+            "(and one such pair for the stem, if it touches the table)")
+
+
 __all__ = ["FINISHED_STATUSES", "NATIVE_LAWS", "RESULT_KEYS", "describe_ran", "measured_steps",
-           "mjcf_attributes", "run_failed"]
+           "mjcf_attributes", "mjcf_pair", "run_failed"]

@@ -19,12 +19,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
     FITTED,
     FITTED_WIDE,
+    LIFT_FREE_FITTED,
     MAX_ITERS,
     STALL_FRACTION,
     WIDE_MU,
@@ -33,6 +34,7 @@ from tippetop.compare.studies.calibrate.identify import (
     Identified,
     Problem,
     identify,
+    lift_free_seeds,
     reference_theta,
 )
 from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
@@ -153,6 +155,20 @@ def min_budget_runs() -> int:
     return 1 + 1 + len(HELD_OUT)
 
 
+#: The lift-free family's name among the fit's cones (:func:`fit_order`).
+LIFT_FREE = "lift-free"
+
+
+def fit_order(file_run: dict[str, Any] | None, wide: bool = False) -> list[str]:
+    """What is fitted, in order (each next one only if the ones before depart).
+
+    :func:`cone_order`'s cones, and in the wide fit the lift-free family (:data:`LIFT_FREE`)
+    before the pyramidal cone, which lifts a sliding ball soonest.
+    """
+    cones = cone_order(file_run, wide)
+    return [cones[0], LIFT_FREE, *cones[1:]] if wide else cones
+
+
 def cone_order(file_run: dict[str, Any] | None, wide: bool = False) -> list[str]:
     """The cones fitted, in order: the file's own first (the answer changes least).
 
@@ -248,9 +264,10 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     starting = seeds(mu, file_run, dt)
     verify_runs = [0]
     n_starts = len(starts)
+    problems = [problem]  # every fit's rollouts count
 
     def spent() -> int:
-        return problem.rollouts + verify_runs[0]
+        return sum(p.rollouts for p in problems) + verify_runs[0]
 
     def check(cand: Candidate, step: float, integ: str) -> tuple[list[dict[str, Any]], list[Any]]:
         verify_runs[0] += n_starts
@@ -259,21 +276,33 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     # each cone: its seeds, one fit, its verification (the second cone only if needed)
     tried: list[dict[str, Any]] = []
     budget_limited = False
-    for cone in cone_order(file_run, wide):
+    lift_free = Problem([fit_start], problem.references, dt, FIT_INTEGRATOR,
+                        Bounds.lift_free(), threads, ball_until, fitted=LIFT_FREE_FITTED)
+    problems.append(lift_free)
+    for family in fit_order(file_run, wide):
         room = budget_runs - spent() - n_starts  # a verification kept back
         if room < 1:
             budget_limited = True
             break
-        problem.budget = problem.rollouts + room
-        found = identify(problem, [c for c in starting if c.cone == cone], max_iters=max_iters,
-                         say=say)
+        if family == LIFT_FREE:
+            # MuJoCo's contact lifts a fast-sliding ball unless its normal row is far softer
+            # than its friction rows: the family that separates them (identify.py)
+            fam, fam_bounds, fam_seeds = lift_free, lift_free.bounds, lift_free_seeds(mu)
+            what = ("the lift-free fit (elliptic cone, constant minimal impedance, "
+                    "solreffriction on contact pairs)")
+        else:
+            fam, fam_bounds = problem, bounds
+            fam_seeds = [c for c in starting if c.cone == family]
+            what = f"the fit in the {family} cone"
+        fam.budget = fam.rollouts + room
+        found = identify(fam, fam_seeds, max_iters=max_iters, say=say)
         budget_limited = budget_limited or found.budget_spent
-        settled = _settle(found, problem, fit_start, bounds, threads, ball_until, dt,
+        settled = _settle(found, fam, fit_start, fam_bounds, threads, ball_until, dt,
                           file_integrator, file_timestep_s, A_over_C, check,
                           lambda: budget_runs - spent())
-        tried.append(settled)
+        tried.append({**settled, "what": what})
         if say:
-            say(f"{cone}: {'agrees' if _agrees(settled['verified']) else 'departs'} from "
+            say(f"{family}: {'agrees' if _agrees(settled['verified']) else 'departs'} from "
                 f"{n_starts} starts ({spent()} MuJoCo runs so far)")
         if _agrees(settled["verified"]) or budget_limited:
             break
@@ -285,7 +314,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                                          pick["needs"])
     chosen = "fit"
     alternatives: list[dict[str, Any]] = [
-        {"settings": t["best"].label(), "what": f"the fit in the {t['found'].best.cone} cone",
+        {"settings": t["best"].label(), "what": t["what"],
          "agrees": _agrees(t["verified"]), "departs": _departs(t["verified"]),
          **_passes(t["verified"]), "mjcf": _mjcf(run_entry(t["mj"][0])), "calibrated": False}
         for t in tried if t is not pick]
@@ -327,9 +356,11 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                 "residual": found.rms_rad, "residual_definition": (
                     "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
                     "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
-                "runs": spent(), "rollouts": problem.rollouts, "verify_runs": verify_runs[0],
+                "runs": spent(), "rollouts": sum(p.rollouts for p in problems),
+                "verify_runs": verify_runs[0],
                 "budget_runs": budget_runs, "seeds": seeds_scored, "fits": fits,
                 "cones": [t["found"].best.cone for t in tried],
+                "tried": [t["what"] for t in tried],
                 "timestep_s": dt, "integrator": FIT_INTEGRATOR, "needs": needs,
                 "chosen": chosen, "alternatives": alternatives,
                 "bounds": {k: list(v) for k, v in bounds.values.items()},
@@ -337,7 +368,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                           "(mujoco.minimize.least_squares, log10 settings, finite-difference "
                           "step 0.01 decade, stopped when two iterations lower the residual "
                           f"by less than {STALL_FRACTION:.0%}) from the best seed of the "
-                          "file's cone, then of the other cone if the first departs",
+                          "file's cone (elliptic first at mu >= 0.5), then of the other cone "
+                          "if the first departs, then (mu >= 0.5) of the lift-free family",
                 "wall_s": time.perf_counter() - t0},
         "verified": verified,
         "agrees": agrees,
@@ -372,7 +404,7 @@ def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bo
                           "constant in proportion to dt on a top with A/C = "
                           f"{number_text(A_over_C)} (docs/design.md)"})
             continue
-        if best.timeconst_s < 2.0 * step:
+        if best.solref_direct is None and best.timeconst_s < 2.0 * step:
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
                           "kept": False, "why": f"the fitted solref time constant "
                           f"{best.timeconst_s:g} s is below two of its steps"})
@@ -503,7 +535,9 @@ def _mjcf(ran: dict[str, Any]) -> str:
     if ran.get("timestep_s") is None:
         return ""
     option, geom = mjcf_attributes(ran)
-    return f"{option}\n<geom ... {geom}/>"
+    out = f"{option}\n<geom ... {geom}/>"
+    pair = mjcf_pair(ran)
+    return out if pair is None else f"{out}\n{pair}"
 
 
 def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> str:
@@ -537,5 +571,6 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
             f"{'; ...' if len(departs) > 3 else ''})" + (f"; why: {why[0]}" if why else ""))
 
 
-__all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "TuneStart", "cone_order", "fit_horizon",
+__all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "LIFT_FREE", "TuneStart", "cone_order",
+           "fit_horizon", "fit_order",
            "min_budget_runs", "seeds", "starts_for", "tune"]

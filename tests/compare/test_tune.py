@@ -21,10 +21,12 @@ from tippetop.compare.studies.calibrate.identify import Bounds
 from tippetop.compare.studies.tune import (
     FIT_INTEGRATOR,
     HELD_OUT,
+    LIFT_FREE,
     MIN_FIT_S,
     _cheaper,
     cone_order,
     fit_horizon,
+    fit_order,
     min_budget_runs,
     seeds,
     starts_for,
@@ -65,8 +67,11 @@ def test_seeds_are_at_the_files_mu_in_both_cones() -> None:
     assert {c.cone for c in s} == {"pyramidal", "elliptic"}
     # a low impratio in each cone (a creep like the paper's Lambda)
     assert {c.cone for c in s if c.impratio < 1} >= {"pyramidal", "elliptic"}
-    # the calibrated mu (0.104 at the paper's 0.1) scaled to 0.3; the others at 0.3
-    assert s[0].mu == pytest.approx(0.312) and all(c.mu == 0.3 for c in s[1:])
+    # the calibrated mu (0.106 at the paper's 0.1) scaled to 0.3; the others at 0.3
+    from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
+
+    scaled = 0.3 * float(calibrated_native_settings()["mu"]) / CALIBRATION_MU
+    assert s[0].mu == pytest.approx(scaled) and all(c.mu == 0.3 for c in s[1:])
     # a file's time constant below two steps is raised to it (MuJoCo's own floor)
     assert s[-1].timeconst_s == pytest.approx(4e-4)
 
@@ -105,6 +110,34 @@ def test_the_files_cone_is_fitted_first() -> None:
     assert cone_order(None) == ["pyramidal", "elliptic"]  # MuJoCo's default cone
     # at mu >= 0.5 the elliptic cone first: a pyramidal one lifts a sliding ball soonest
     assert cone_order({"cone": "pyramidal"}, wide=True) == ["elliptic", "pyramidal"]
+
+
+def test_the_wide_fit_tries_the_lift_free_family_before_the_pyramid() -> None:
+    assert fit_order({"cone": "pyramidal"}) == ["pyramidal", "elliptic"]  # mu < 0.5: cones
+    assert fit_order({"cone": "pyramidal"}, wide=True) == ["elliptic", LIFT_FREE, "pyramidal"]
+
+
+def test_a_lift_free_seed_is_a_plan_with_pairs() -> None:
+    """The family's candidates reach the model through the harness's plan: an elliptic cone,
+    the constant minimal impedance, the direct solref, and solreffriction on a pair for the
+    ball and one for the stem (the Group II file's two geoms that touch the table)."""
+    from tests.conftest import mujoco_plan
+    from tippetop.compare.studies.calibrate.identify import (
+        LIFT_FREE_SOLREF,
+        Bounds,
+        lift_free_seeds,
+    )
+
+    g2 = ROOT / "tests" / "data" / "stranger" / "group2_mu1_implicitfast.xml"
+    seed = lift_free_seeds(1.0)[0]
+    assert Bounds.lift_free().clip(seed) == seed
+    assert "solreffriction=[-1, -2.6] (pairs)" in seed.label()
+    plan = mujoco_plan(f"top.mjcf={str(g2)!r}", *seed.overrides(2e-4, "RK4"))
+    ran = plan.what_runs()
+    assert ran["cone"] == "elliptic" and ran["impratio"] == 300
+    assert ran["solref"] == list(LIFT_FREE_SOLREF) and ran["solimp"][:2] == [1e-4, 1e-4]
+    pairs = [c for c in plan.contacts if c.element == "pair"]
+    assert len(pairs) == 2 and all(p.solreffriction == (-1.0, -2.6) for p in pairs)
 
 
 @pytest.mark.slow

@@ -42,6 +42,23 @@ FITTED_WIDE = (*FITTED, "dampratio")
 WIDE_MU = 0.5
 DAMPRATIO_BOUNDS = (0.5, 4.0)
 WIDE_IMPRATIO_MAX = 1000.0
+#: The lift-free family (issue 30), tried in the wide fit when neither cone agrees: MuJoCo's
+#: contact turns excess friction demand into normal force (mujoco_runner/contact_lift.py),
+#: unless the normal row is far softer than the friction rows. That takes a constant minimal
+#: impedance (solimp d0 = dmax = mjMINIMP, 1e-4), a direct normal solref, a large impratio,
+#: and the friction rows' own damping (solreffriction on contact pairs, elliptic cone). Set
+#: by hand (impratio 300, damping 2.6) it follows the reference on the Group II mu = 1 top
+#: from its start and three held-out ones (tests/compare/test_lift_free_contact.py); the fit
+#: varies impratio and the friction damping, the rest fixed at those values.
+LIFT_FREE_FITTED = ("impratio", "frictiondamping")
+LIFT_FREE_IMPEDANCE = 1e-4
+LIFT_FREE_SOLREF = (-1e5, -632.0)
+LIFT_FREE_SOLIMP_TAIL = (LIFT_FREE_IMPEDANCE, 0.1, 0.5, 2.0)
+LIFT_FREE_IMPRATIO_BOUNDS = (10.0, WIDE_IMPRATIO_MAX)
+FRICTIONDAMPING_BOUNDS = (0.3, 30.0)
+#: (impratio, friction damping) seeds: on the Group II top 300 and 2.6 follow, and impratio
+#: and the damping trade against each other (100 and 6 invert as 300 and 2.2 do)
+LIFT_FREE_SEEDS = ((300.0, 2.6), (100.0, 8.0), (1000.0, 1.0))
 #: Finite-difference step of the Jacobian (decades): the objective is rough below ~1e-3
 #: decade (a 1-D scan around the optimum is V-shaped and irregular there), so a step of
 #: 1e-2 decade sees its slope; the default 1.5e-8 does not.
@@ -140,10 +157,23 @@ class Bounds:
         out["impratio"] = (out["impratio"][0], WIDE_IMPRATIO_MAX)
         return cls(out)
 
+    @classmethod
+    def lift_free(cls) -> Bounds:
+        """The lift-free family's: impratio and the friction rows' damping."""
+        return cls({"impratio": LIFT_FREE_IMPRATIO_BOUNDS,
+                    "frictiondamping": FRICTIONDAMPING_BOUNDS})
+
     def clip(self, c: Candidate) -> Candidate:
         """``c`` with every fitted setting inside its bounds."""
         return replace(c, **{k: min(max(getattr(c, k), lo), hi)
                              for k, (lo, hi) in self.values.items()})
+
+
+def lift_free_seeds(mu: float) -> list[Candidate]:
+    """The lift-free family's seeds at friction ``mu`` (:data:`LIFT_FREE_SEEDS`)."""
+    return [Candidate("elliptic", imp, 0.02, LIFT_FREE_IMPEDANCE, mu,
+                      solimp_tail=LIFT_FREE_SOLIMP_TAIL, solref_direct=LIFT_FREE_SOLREF,
+                      frictiondamping=b) for imp, b in LIFT_FREE_SEEDS]
 
 
 class BudgetSpent(Exception):
@@ -513,7 +543,9 @@ def identify(problem: Problem, seeds: Sequence[Candidate], *, fits_per_cone: int
                       budget_spent=spent)
 
 
-__all__ = ["DAMPRATIO_BOUNDS", "FD_STEP_DECADES", "FITTED", "FITTED_WIDE", "WIDE_IMPRATIO_MAX",
+__all__ = ["DAMPRATIO_BOUNDS", "FD_STEP_DECADES", "FITTED", "FITTED_WIDE", "FRICTIONDAMPING_BOUNDS",
+           "LIFT_FREE_FITTED", "LIFT_FREE_SEEDS", "LIFT_FREE_SOLREF", "WIDE_IMPRATIO_MAX",
+           "lift_free_seeds",
            "WIDE_MU", "MAX_ITERS", "STALL_FRACTION", "Bounds", "BudgetSpent",
            "FitStart", "Identified", "Problem", "identify", "reference_theta",
            "require_sysid"]

@@ -50,6 +50,10 @@ class Candidate:
         mu: Sliding friction coefficient.
         dampratio: solref damping ratio.
         solimp_tail: solimp (dmax, width m, midpoint, power).
+        solref_direct: A direct (negative) solref, (-stiffness, -damping), in place of the
+            time constant and damping ratio; None: those.
+        frictiondamping: The friction rows' own damping b: solreffriction (-1, -b) on contact
+            pairs (an elliptic cone only); None: the friction rows use solref.
     """
 
     cone: str
@@ -59,17 +63,28 @@ class Candidate:
     mu: float
     dampratio: float = DAMPRATIO
     solimp_tail: tuple[float, float, float, float] = SOLIMP_TAIL
+    solref_direct: tuple[float, float] | None = None
+    frictiondamping: float | None = None
 
     def rounded(self) -> Candidate:
         """The same candidate with its continuous settings at 3 significant digits."""
         return replace(self, impratio=_round_sig(self.impratio),
                        timeconst_s=_round_sig(self.timeconst_s), d0=_round_sig(self.d0),
-                       mu=_round_sig(self.mu))
+                       mu=_round_sig(self.mu),
+                       frictiondamping=None if self.frictiondamping is None
+                       else _round_sig(self.frictiondamping))
 
     @property
     def solref(self) -> list[float]:
-        """MuJoCo solref (time constant s, damping ratio)."""
+        """MuJoCo solref (time constant s, damping ratio), or the direct one."""
+        if self.solref_direct is not None:
+            return [float(v) for v in self.solref_direct]
         return [self.timeconst_s, self.dampratio]
+
+    @property
+    def solreffriction(self) -> list[float] | None:
+        """MuJoCo solreffriction (-1, -damping) of the contact pairs, or None."""
+        return None if self.frictiondamping is None else [-1.0, -self.frictiondamping]
 
     @property
     def solimp(self) -> list[float]:
@@ -78,16 +93,27 @@ class Candidate:
 
     def overrides(self, timestep_s: float, integrator: str) -> tuple[str, ...]:
         """``--set`` strings that select exactly these settings (nothing left to defaults)."""
-        return ("mujoco.friction=native", f"mujoco.cone={self.cone}",
-                f"mujoco.impratio={self.impratio!r}", f"mujoco.mu={self.mu!r}",
-                f"mujoco.solref={json.dumps(self.solref)}",
-                f"mujoco.solimp={json.dumps(self.solimp)}",
-                f"mujoco.timestep_s={timestep_s!r}", f"mujoco.integrator={integrator}")
+        out = ("mujoco.friction=native", f"mujoco.cone={self.cone}",
+               f"mujoco.impratio={self.impratio!r}", f"mujoco.mu={self.mu!r}",
+               f"mujoco.solref={json.dumps(self.solref)}",
+               f"mujoco.solimp={json.dumps(self.solimp)}",
+               f"mujoco.timestep_s={timestep_s!r}", f"mujoco.integrator={integrator}")
+        if self.solreffriction is not None:
+            out += (f"mujoco.solreffriction={json.dumps(self.solreffriction)}",)
+        return out
 
     def label(self) -> str:
         """A short human-readable form."""
-        return (f"{self.cone} impratio={self.impratio:g} solref=[{self.timeconst_s:g}, "
-                f"{self.dampratio:g}] d0={self.d0:g} mu={self.mu:g}")
+        ref = ", ".join(f"{v:g}" for v in self.solref)
+        text = f"{self.cone} impratio={self.impratio:g} solref=[{ref}]"
+        if self.solimp_tail[0] == self.d0:
+            text += f" solimp d0=dmax={self.d0:g}"
+        else:
+            text += f" d0={self.d0:g}"
+        text += f" mu={self.mu:g}"
+        if self.solreffriction is not None:
+            text += f" solreffriction=[-1, {-self.frictiondamping:g}] (pairs)"
+        return text
 
 
 #: A model with one geom and nothing set: everything in it is MuJoCo's default.
