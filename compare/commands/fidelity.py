@@ -140,10 +140,13 @@ def print_fidelity(res: dict[str, Any]) -> None:
     from tippetop.compare.studies.fidelity import summary_lines
 
     g = res["grid"]
+    cached = sum(bool(p.get("cached")) for p in res["points"])
+    whence = ("" if not cached else " (every point's tuning from the cache)"
+              if cached == len(res["points"]) else f" ({cached} points' tuning from the cache)")
     print(f"tippetop fidelity: grid {g['name']}, {g['points']} points; engine "
           f"{res['engine']} (MuJoCo {res['mujoco_version']}), mode {res['mode']}, tuned and "
           f"verified from 4 starts of {res['t_end_s']:g} s; {res['runs']} fit rollouts, "
-          f"{fmt_duration(res['wall_s'])}")
+          f"{fmt_duration(res['wall_s'])}{whence}")
     for line in table_lines(res):
         print(line)
     for line in summary_lines(res):

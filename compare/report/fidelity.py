@@ -27,6 +27,7 @@ def fidelity_figure(result: Mapping[str, Any]) -> Any:
     """
     plt = pyplot()
     from matplotlib.lines import Line2D
+    from matplotlib.ticker import MaxNLocator
 
     pts = list(result["points"])
     mus = list(dict.fromkeys(p["mu"] for p in pts))
@@ -46,6 +47,8 @@ def fidelity_figure(result: Mapping[str, Any]) -> Any:
             ax.annotate(str(num), (p["a_over_R"], p["A_over_C"]), xytext=(7, 5),
                         textcoords="offset points", fontsize=8, color="0.15")
         ax.set_title(f"mu = {mu:g}", fontsize=10)
+        # panels side by side: round ticks, no clashing labels at the junction
+        ax.xaxis.set_major_locator(MaxNLocator(4, steps=[1, 2, 5, 10]))
         ax.text(0.97 * xlim[1], ylim[0] + 0.03 * (ylim[1] - ylim[0]), "I", ha="right",
                 fontsize=12, weight="bold", color="0.4")
         ax.text(0.97 * xlim[1], 1.0, "II", ha="right", va="center", fontsize=12,
@@ -61,7 +64,7 @@ def fidelity_figure(result: Mapping[str, Any]) -> Any:
     fig.suptitle("MuJoCo's native contact, tuned to the reference: does it follow the "
                  "paper's law?", fontsize=10)
     fig.subplots_adjust(left=0.08, right=0.84 if len(mus) > 1 else 0.7, bottom=0.13,
-                        top=0.84, wspace=0.08)
+                        top=0.84, wspace=0.14)
     return fig
 
 

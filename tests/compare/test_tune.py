@@ -84,24 +84,29 @@ def test_bounds_keep_mu_the_materials() -> None:
 
 
 @pytest.mark.slow
-def test_a_strangers_file_is_tuned_or_told_why(tmp_path: Path) -> None:
-    # a Group II top written as a stranger would (mu = 1, implicitfast at MuJoCo's 2 ms)
+def test_a_strangers_mu_1_top_is_tuned_to_follow_the_reference(tmp_path: Path) -> None:
+    """Issue 30: a Group II top written as a stranger would (mu = 1, a capsule stem,
+    implicitfast at MuJoCo's 2 ms). Neither cone's fit keeps its ball on the table (the
+    elliptic one passed 14 of 24 checks); the lift-free family does, from the file's start
+    and the three held-out ones, over validate's 8 s (measured: 24 of 24 checks, impratio
+    301, solreffriction [-1, -2.61] on pairs, 84 MuJoCo runs, 139 s on 2 cores). The answer
+    to paste carries the contact pair; RK4 is kept (implicitfast is first order and this
+    top's A != C)."""
     xml = ROOT / "tests" / "data" / "stranger" / "group2_mu1_implicitfast.xml"
     proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "validate", str(xml),
-                           "--json", "--t-end-s", "4"], capture_output=True, text=True,
-                          timeout=1200, cwd=ROOT)
+                           "--json"], capture_output=True, text=True, timeout=1800, cwd=ROOT)
     assert proc.returncode in (0, 1), proc.stderr
-    t = json.loads(proc.stdout)["tuned"]
+    res = json.loads(proc.stdout)
+    t = res["tuned"]
     assert "skipped" not in t, t
-    # the file's own step and integrator are not kept: implicitfast is first order and this
-    # top's A != C (its Jellett drift), so the fit's RK4 is what it needs
     assert t["settings"]["integrator"] == "RK4"
     assert any("first order" in n.get("why", "") for n in t["fit"]["needs"])
-    # either every start passes, or the note names what departs
-    if not t["agrees"]:
-        assert t["departs"] and "depart" in t["note"]
-    else:
-        assert all(v["passed"] is not False for v in t["verified"])
+    assert t["agrees"], t["note"]
+    assert len([v for v in t["verified"] if v["passed"]]) == 4
+    assert "lift-free" in t["fit"]["tried"][-1]
+    answer = res["answer"]
+    assert answer["agrees"] and answer["source"] == "tuned"
+    assert 'solreffriction="-1 -' in answer["mjcf"] and "<pair" in answer["mjcf"]
 
 
 def test_the_files_cone_is_fitted_first() -> None:
