@@ -394,8 +394,9 @@ def mjcf_pair(summary: dict[str, Any]) -> str | None:
     return ('<contact><pair geom1="BALL" geom2="TABLE" '
             f'condim="{s.get("condim", 3)}" friction="{nums([mu, mu, tor, rol, rol])}" '
             f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}" '
-            f'solreffriction="{nums(s["solreffriction"])}"/></contact> '
-            "(and one such pair for the stem, if it touches the table)")
+            f'solreffriction="{nums(s["solreffriction"])}"/></contact>\n'
+            "<!-- BALL, TABLE: your ball's and table's geom names; the same pair for every "
+            "other geom of the top that touches the table (a stem) -->")
 
 
 __all__ = ["FINISHED_STATUSES", "NATIVE_LAWS", "RESULT_KEYS", "describe_ran", "measured_steps",

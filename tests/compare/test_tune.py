@@ -233,3 +233,20 @@ def test_ctrl_c_while_tuning_leaves_nothing(tmp_path: Path) -> None:
     assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["cache"]
     assert not (cache / "tune").exists() or not list((cache / "tune").iterdir())
     assert not list(cache.rglob("*.tmp"))
+
+
+def test_the_pair_to_paste_is_mjcf() -> None:
+    """The lift-free answer's contact pair (solreffriction has no geom attribute) parses as
+    XML with its note, and carries the run's values; a run without one has none."""
+    import xml.etree.ElementTree as ET
+
+    from tippetop.compare.measures.summary import mjcf_pair
+
+    ran = {"condim": 3, "mu": 1.0, "torsional": None, "rolling": None,
+           "solref": [-1e5, -632.0], "solimp": [1e-4, 1e-4, 0.1, 0.5, 2.0],
+           "solreffriction": [-1.0, -2.61]}
+    root = ET.fromstring(f"<mujoco>{mjcf_pair(ran)}</mujoco>")
+    pair = root.find("contact/pair")
+    assert pair is not None and pair.get("solreffriction") == "-1 -2.61"
+    assert pair.get("solref") == "-100000 -632" and pair.get("friction").split()[:2] == ["1", "1"]
+    assert mjcf_pair({**ran, "solreffriction": None}) is None
