@@ -63,7 +63,7 @@ _XML = """<mujoco><option timestep="{dt}" cone="{cone}" impratio="{impratio}"
 <worldbody><geom name="floor" type="plane" size="1 1 .01" {contact}/>
 <body pos="0 0 {R}"><freejoint/><geom name="ball" type="sphere" size="{R}" mass="{M}"
  {contact}/></body>
-</worldbody></mujoco>"""
+</worldbody>{pairs}</mujoco>"""
 #: How long the probe slides at one slip (s), and the flight that counts as leaving the table
 #: (s): the harness's own (:data:`tippetop.compare.measures.series.HOP_MIN_S`, 10 ms).
 SLIDE_S = 0.1
@@ -81,6 +81,8 @@ class Contact:
         solref: (time constant s, damping ratio), or negative (-stiffness, -damping).
         solimp: (d0, dmax, width m, midpoint, power).
         timestep_s: The model's step (MuJoCo clamps a time constant below 2 dt).
+        solreffriction: The friction rows' own solref, on a contact pair (elliptic cone);
+            None: they use solref.
     """
 
     mu: float
@@ -89,13 +91,17 @@ class Contact:
     solref: tuple[float, float] = (0.02, 1.0)
     solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
     timestep_s: float = 0.002
+    solreffriction: tuple[float, float] | None = None
 
     def label(self) -> str:
         """One line: the settings as MJCF attributes say them."""
         sr = " ".join(f"{v:.4g}" for v in self.solref)
         si = " ".join(f"{v:.4g}" for v in self.solimp)
-        return (f"{self.cone} impratio={self.impratio:.4g} solref=\"{sr}\" solimp=\"{si}\" "
-                f"mu={self.mu:.4g}")
+        out = (f"{self.cone} impratio={self.impratio:.4g} solref=\"{sr}\" solimp=\"{si}\" "
+               f"mu={self.mu:.4g}")
+        if self.solreffriction is not None:
+            out += " solreffriction=\"" + " ".join(f"{v:.4g}" for v in self.solreffriction) + "\""
+        return out
 
 
 class Probe:
@@ -110,9 +116,18 @@ class Probe:
         attrs = (f'friction="{c.mu!r} 0.005 0.0001" condim="3" '
                  f'solref="{c.solref[0]!r} {c.solref[1]!r}" '
                  f'solimp="{" ".join(repr(float(v)) for v in c.solimp)}"')
+        pairs = ""
+        if c.solreffriction is not None:
+            # MuJoCo takes solreffriction only on a pair (five friction coefficients there)
+            srf = " ".join(repr(float(v)) for v in c.solreffriction)
+            pairs = (f'<contact><pair geom1="ball" geom2="floor" condim="3" '
+                     f'friction="{c.mu!r} {c.mu!r} 0.005 0.0001 0.0001" '
+                     f'solref="{c.solref[0]!r} {c.solref[1]!r}" '
+                     f'solimp="{" ".join(repr(float(v)) for v in c.solimp)}" '
+                     f'solreffriction="{srf}"/></contact>')
         xml = _XML.format(dt=repr(c.timestep_s), cone=c.cone, impratio=repr(c.impratio),
                           integrator=integrator, contact=attrs, R=repr(radius_m),
-                          M=repr(mass_kg))
+                          M=repr(mass_kg), pairs=pairs)
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.model.opt.gravity[:] = (0.0, 0.0, -g_mps2)
         self.data = mujoco.MjData(self.model)

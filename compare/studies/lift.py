@@ -53,8 +53,10 @@ def contact_of(run: dict[str, Any]) -> Any:
     solimp = tuple(float(x) for x in run["solimp"])
     if len(solref) != 2 or len(solimp) != 5:
         return None
+    srf = run.get("solreffriction")
     return Contact(float(run["mu"]), str(run["cone"]), float(run["impratio"]),
-                   solref, solimp, float(run["timestep_s"]))  # type: ignore[arg-type]
+                   solref, solimp, float(run["timestep_s"]),  # type: ignore[arg-type]
+                   None if srf is None else (float(srf[0]), float(srf[1])))
 
 
 def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,

@@ -527,7 +527,9 @@ def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
             "solimp": list(get("solimp", best.solimp)),
             "timestep_s": get("timestep_s", timestep), "integrator": get("integrator",
                                                                          integrator),
-            "condim": get("condim", 3)}
+            "condim": get("condim", 3),
+            # the contact pairs' friction rows' own solref (the lift-free family), else None
+            "solreffriction": ran.get("solreffriction", best.solreffriction)}
 
 
 def _mjcf(ran: dict[str, Any]) -> str:
