@@ -148,8 +148,15 @@ def test_plan_says_each_contacts_solimp_width_in_metres(capsys) -> None:
     assert "40,000 steps of 2e-4 s, a sample every 5 steps (8,001 rows)" in out.splitlines()[0]
     contacts = [line for line in out.splitlines() if line.startswith("contact ")]
     assert len(contacts) == 2, out
+    # the calibrated settings' (models/calibrated_native.toml), their width in metres
+    from tippetop.models.calibrated import calibrated_native_settings
+    from tippetop.models.numbers import number_text
+
+    cal = calibrated_native_settings()
+    d0 = number_text(cal["solimp"][0])
+    solref = f"{number_text(cal['solref'][0], 's')}, {number_text(cal['solref'][1])}"
     for line in contacts:
-        assert line.endswith("solref 0.002 s, 1, solimp 0.05, 0.95, 0.001 m, 0.5, 2"), line
+        assert line.endswith(f"solref {solref}, solimp {d0}, 0.95, 0.001 m, 0.5, 2"), line
     # the same words as the what-will-run line above them
     (said,) = [line for line in out.splitlines() if line.strip().startswith("solimp ")]
-    assert said.split(None, 1)[1] == "0.05, 0.95, 0.001 m, 0.5, 2"
+    assert said.split(None, 1)[1] == f"{d0}, 0.95, 0.001 m, 0.5, 2"
