@@ -139,6 +139,7 @@ def _ran(reply: dict[str, Any], plan: MujocoPlan) -> dict[str, Any]:
         "gravity_mps2": r["gravity_mps2"], "iterations": r["iterations"],
         "tolerance": r["tolerance"], "contacts": r["contacts"]}
     out.update(friction_that_acts(r["condim"], *r["coefficients"]), solref=r["solref"],
+               solreffriction=r.get("solreffriction"),  # a worker of an older tippetop: none
                solimp=r["solimp"], contact_source=r["contact_source"])
     law = plan.law
     out["friction_law"] = (NATIVE_LAW if plan.friction == "native"

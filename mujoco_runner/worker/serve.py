@@ -69,13 +69,15 @@ def _ran(mujoco, model, data, body: int, ball: int) -> dict:
         c = data.contact[i]
         if body in (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]):
             fr = [float(v) for v in c.friction]
+            srf = [float(v) for v in getattr(c, "solreffriction", ())]  # a pair's, if any
             out.update(condim=int(c.dim), coefficients=[fr[0], fr[2], fr[3]],
                        solref=[float(v) for v in c.solref],
+                       solreffriction=srf if any(srf) else None,
                        solimp=[float(v) for v in c.solimp], contact_source="contact at t = 0")
             return out
     out.update(condim=int(model.geom_condim[ball]),
                coefficients=[float(v) for v in model.geom_friction[ball]],
-               solref=[float(v) for v in model.geom_solref[ball]],
+               solref=[float(v) for v in model.geom_solref[ball]], solreffriction=None,
                solimp=[float(v) for v in model.geom_solimp[ball]],
                contact_source="ball geom (no contact at t = 0)")
     return out

@@ -103,7 +103,8 @@ def test_a_loaded_top_keeps_its_file_settings_unless_the_scene_sets_them(loaded)
             p.gravity_mps2) == (2e-4, "RK4", "elliptic", 1.0, 0, (0.0, 0.0, -9.81))
     assert p.contacts == loaded.contacts
     assert ball(p) == {"condim": 3, "mu": 0.1, "torsional": None, "rolling": None,
-                       "solref": [0.02, 1.0], "solimp": [0.9, 0.95, 0.001, 0.5, 2.0]}
+                       "solref": [0.02, 1.0], "solreffriction": None,
+                       "solimp": [0.9, 0.95, 0.001, 0.5, 2.0]}
     assert p.sample_dt_s == pytest.approx(1e-3, rel=1e-12) and p.steps_per_sample == 5
     p = plan("mujoco", MJCF, "mujoco.friction=native", "mujoco.timestep_s=1e-4",
              "mujoco.integrator=Euler", "effects.torsional=true", file_top=loaded).mujoco
