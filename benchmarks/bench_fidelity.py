@@ -8,8 +8,10 @@ rollouts and answer, their mean and total, and the default grid's cost estimated
 the fit's horizon following each top's first event).
 
 Run: ``python benchmarks/bench_fidelity.py [--grid small] [--t-end-s 8] [--budget-runs 200]
-[--workers N] [--json]``. About 60 min on a busy 2-core machine with the tuning before it cost
-less (issue 30's measurement); measure it again with the tuning of today.
+[--workers N] [--json] [--out DIR]``. Measured 2026-11-27 (docs/guide/fidelity.md): the default
+grid in 1821 s (30.3 min, 101 s a point) on 2 cores also running the test suite; ``--out DIR``
+writes the map as ``tippetop fidelity --out`` does (docs/data/fidelity-default.json is that
+run's results.json).
 """
 
 from __future__ import annotations

@@ -116,4 +116,39 @@ def report_page(result: Mapping[str, Any]) -> str:
     return page("tippetop fidelity", body)
 
 
-__all__ = ["AGREE_COLOURS", "fidelity_figure", "point_rows", "point_state", "report_page"]
+def main(argv: list[str] | None = None) -> int:
+    """``python -m tippetop.compare.report.fidelity RESULTS.json OUT.png``: the figure again.
+
+    Drawn from a map's results.json (``tippetop fidelity --out DIR`` writes one).
+    """
+    import json
+    import sys
+    from pathlib import Path
+
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2 or not args[1].endswith(".png"):
+        print("fidelity figure: expected RESULTS.json OUT.png, got " + (" ".join(args)
+              or "nothing"), file=sys.stderr)
+        return 2
+    try:
+        result = json.loads(Path(args[0]).read_text(encoding="utf-8"))
+        points = result["points"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        print(f"fidelity figure: expected a fidelity map's results.json, got {args[0]} "
+              f"({exc.__class__.__name__}: {exc})", file=sys.stderr)
+        return 2
+    if not points:
+        print(f"fidelity figure: expected points in {args[0]}, got none", file=sys.stderr)
+        return 2
+    fig = fidelity_figure(result)
+    fig.savefig(args[1], dpi=100)
+    print(args[1])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
+
+
+__all__ = ["AGREE_COLOURS", "fidelity_figure", "main", "point_rows", "point_state",
+           "report_page"]
