@@ -391,12 +391,14 @@ def mjcf_pair(summary: dict[str, Any]) -> str | None:
         return " ".join(f"{x:g}" for x in v)
 
     mu, tor, rol = s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001
-    return ('<contact><pair geom1="BALL" geom2="TABLE" '
-            f'condim="{s.get("condim", 3)}" friction="{nums([mu, mu, tor, rol, rol])}" '
-            f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}" '
-            f'solreffriction="{nums(s["solreffriction"])}"/></contact>\n'
-            "<!-- BALL, TABLE: your ball's and table's geom names; the same pair for every "
-            "other geom of the top that touches the table (a stem) -->")
+    return ("<contact>\n"
+            f'  <pair geom1="BALL" geom2="TABLE" condim="{s.get("condim", 3)}" '
+            f'friction="{nums([mu, mu, tor, rol, rol])}"\n'
+            f'        solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}" '
+            f'solreffriction="{nums(s["solreffriction"])}"/>\n'
+            "</contact>\n"
+            "<!-- BALL, TABLE: your ball's and table's geom names; the same pair for\n"
+            "     every other geom of the top that touches the table (a stem) -->")
 
 
 __all__ = ["FINISHED_STATUSES", "NATIVE_LAWS", "RESULT_KEYS", "describe_ran", "measured_steps",
