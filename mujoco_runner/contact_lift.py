@@ -113,17 +113,15 @@ class Probe:
 
         self._mj = mujoco
         c = contact
-        attrs = (f'friction="{c.mu!r} 0.005 0.0001" condim="3" '
-                 f'solref="{c.solref[0]!r} {c.solref[1]!r}" '
-                 f'solimp="{" ".join(repr(float(v)) for v in c.solimp)}"')
+        solver = (f'solref="{c.solref[0]!r} {c.solref[1]!r}" '
+                  f'solimp="{" ".join(repr(float(v)) for v in c.solimp)}"')
+        attrs = f'friction="{c.mu!r} 0.005 0.0001" condim="3" {solver}'
         pairs = ""
         if c.solreffriction is not None:
             # MuJoCo takes solreffriction only on a pair (five friction coefficients there)
             srf = " ".join(repr(float(v)) for v in c.solreffriction)
             pairs = (f'<contact><pair geom1="ball" geom2="floor" condim="3" '
-                     f'friction="{c.mu!r} {c.mu!r} 0.005 0.0001 0.0001" '
-                     f'solref="{c.solref[0]!r} {c.solref[1]!r}" '
-                     f'solimp="{" ".join(repr(float(v)) for v in c.solimp)}" '
+                     f'friction="{c.mu!r} {c.mu!r} 0.005 0.0001 0.0001" {solver} '
                      f'solreffriction="{srf}"/></contact>')
         xml = _XML.format(dt=repr(c.timestep_s), cone=c.cone, impratio=repr(c.impratio),
                           integrator=integrator, contact=attrs, R=repr(radius_m),

@@ -366,15 +366,21 @@ def mjcf_attributes(summary: dict[str, Any]) -> tuple[str, str]:
         attributes (condim, friction with its torsional and rolling parts, solref, solimp),
         read from the run's summary.
     """
-    def nums(v: Any) -> str:
-        return " ".join(f"{x:g}" for x in v)
-
     s = summary
-    friction = [s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001]
     return ((f'<option timestep="{s["timestep_s"]:g}" integrator="{s["integrator"]}" '
              f'cone="{s["cone"]}" impratio="{s["impratio"]:g}"/>'),
-            (f'condim="{s.get("condim", 3)}" friction="{nums(friction)}" '
-             f'solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}"'))
+            (f'condim="{s.get("condim", 3)}" friction="{_nums(_coefficients(s))}" '
+             f'solref="{_nums(s["solref"])}" solimp="{_nums(s["solimp"])}"'))
+
+
+def _nums(v: Any) -> str:
+    """Numbers as an MJCF attribute's value."""
+    return " ".join(f"{x:g}" for x in v)
+
+
+def _coefficients(s: dict[str, Any]) -> list[float]:
+    """A run's (sliding, torsional, rolling) friction, MuJoCo's defaults where none acted."""
+    return [s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001]
 
 
 def mjcf_pair(summary: dict[str, Any]) -> str | None:
@@ -386,16 +392,12 @@ def mjcf_pair(summary: dict[str, Any]) -> str | None:
     s = summary
     if s.get("solreffriction") is None:
         return None
-
-    def nums(v: Any) -> str:
-        return " ".join(f"{x:g}" for x in v)
-
-    mu, tor, rol = s.get("mu") or 0.0, s.get("torsional") or 0.005, s.get("rolling") or 0.0001
+    mu, tor, rol = _coefficients(s)
     return ("<contact>\n"
             f'  <pair geom1="BALL" geom2="TABLE" condim="{s.get("condim", 3)}" '
-            f'friction="{nums([mu, mu, tor, rol, rol])}"\n'
-            f'        solref="{nums(s["solref"])}" solimp="{nums(s["solimp"])}" '
-            f'solreffriction="{nums(s["solreffriction"])}"/>\n'
+            f'friction="{_nums([mu, mu, tor, rol, rol])}"\n'
+            f'        solref="{_nums(s["solref"])}" solimp="{_nums(s["solimp"])}" '
+            f'solreffriction="{_nums(s["solreffriction"])}"/>\n'
             "</contact>\n"
             "<!-- BALL, TABLE: your ball's and table's geom names; the same pair for\n"
             "     every other geom of the top that touches the table (a stem) -->")
