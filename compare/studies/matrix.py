@@ -83,6 +83,15 @@ def _differ(metric: str, a: Any, b: Any) -> bool:
     return hi > max(tol.value * lo, tol.floor)
 
 
+def differs(metric: str, a: Any, b: Any) -> bool:
+    """Whether two values of a metric differ beyond the nightly's tolerance for it.
+
+    The matrix's rule (:data:`COMPARED` metrics; a growth tolerance is symmetric here), shared
+    with ``tippetop bisect``. A missing value differs from a present one.
+    """
+    return _differ(metric, a, b)
+
+
 def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
                modes: Sequence[str] | None = None, overrides: tuple[str, ...] = (), *,
                workers: int | None = None, use_cache: bool = True, attribution: bool = True,
@@ -323,4 +332,4 @@ def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
 
 
 __all__ = ["DEFAULT_FILE_MODES", "DEFAULT_MODES", "COMPARED", "FORMAT", "PROFILES",
-           "profile_scenes", "run_matrix", "table_key"]
+           "differs", "profile_scenes", "run_matrix", "table_key"]
