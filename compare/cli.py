@@ -14,9 +14,11 @@ from typing import Any
 from tippetop.compare.commands import (
     atlas,
     bench,
+    bisect,
     calibrate,
     compare,
     fidelity,
+    history,
     matrix,
     metrics,
     mjcf,
@@ -35,8 +37,8 @@ from tippetop.models.engines import ENGINE_MEANINGS
 
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
-COMMANDS = (theory, simulate, plan, compare, matrix, threshold, sweep, bench, nightly,
-            report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
+COMMANDS = (theory, simulate, plan, compare, matrix, bisect, threshold, sweep, bench, nightly,
+            history, report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
 ENGINES = ENGINE_MEANINGS

@@ -1,0 +1,214 @@
+"""``tippetop bisect``: which release moved a metric.
+
+A binary search over the package registry's MuJoCo releases (or an ordered list of
+interpreters): :mod:`tippetop.compare.studies.bisect` does the work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import os
+import sys
+from typing import Any
+
+from tippetop.compare.commands.options import (
+    add_force_option,
+    add_json_option,
+    add_scheduler_option,
+    add_set_option,
+    add_workers_option,
+    json_text,
+    print_json,
+)
+
+DESCRIPTION = (
+    "Find the first release between A and B (both included), in release order over those the "
+    "package registry has for this platform and Python (no pre-releases, nothing yanked), at "
+    "which a metric of the scene's run moves beyond the nightly's tolerance from A's value "
+    "(the matrix's rule): a binary search, about log2(n) releases run in environments made "
+    "with uv, not n. It names the pair (the last release like A, the first like B), the "
+    "metric's values there and what the move follows (the matrix's attribution at that "
+    "pair); it says when the metric moves more than once in the range, and names the other "
+    "moves. A release that cannot be installed is skipped and named. --pythons FILE bisects "
+    "an ordered list of interpreters instead (own builds in commit order), each run as "
+    "mujoco@PYTHON. Exit 0 when the search ends, whatever it found.")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Declare ``tippetop bisect`` and its options."""
+    p = sub.add_parser("bisect", help="which MuJoCo release moved a metric",
+                       description=DESCRIPTION)
+    p.add_argument("scene", metavar="SCENE|MODEL.xml", help="a catalogue name, a scene .toml "
+                   "file or an MJCF top (required)")
+    p.add_argument("--between", nargs=2, metavar=("A", "B"), help="the range's first and last "
+                   "releases (3.3.7 3.17.0), A before B; with --pythons, two of its lines "
+                   "(default with --pythons: its first and last; required otherwise)")
+    p.add_argument("--metric", metavar="METRIC,...", help="comma-separated metrics the matrix "
+                   "compares: status, outcome, theta_asymp, t_invert, t_stem, t_left_table, "
+                   "J_rel_drift (default: all of them)")
+    p.add_argument("--mode", metavar="MODE", help="the mode, how the contact force is made: "
+                   "paper, native, file, native-pyramidal ... (default: the scene's own, "
+                   "native for a catalogue scene, file for an MJCF top)")
+    p.add_argument("--pythons", metavar="FILE", help="bisect the interpreters of FILE, one a "
+                   "line in order (# comments; a relative path from the file's folder), "
+                   "each running the mujoco it imports, instead of releases (default: none, "
+                   "the registry's releases)")
+    add_set_option(p)
+    p.add_argument("--budget", type=int, metavar="N", help="the most runs in all (one per "
+                   "release) when looking for further moves; the first move of every metric "
+                   "is found whatever it says (default: twice a binary search's runs, "
+                   "2 x (2 + log2 of the range))")
+    p.add_argument("--no-attribution", action="store_true", help="skip the matrix's reruns "
+                   "that say what each move follows at its pair")
+    p.add_argument("--out", metavar="DIR", help="folder for results.json (the --json result) "
+                   "and report.html, new or empty, or --force (default: none, printed only)")
+    add_force_option(p, help="write into a non-empty --out")
+    add_scheduler_option(p)
+    add_workers_option(p)
+    p.add_argument("--no-cache", action="store_true", help="compute every run again and "
+                   "write nothing to the cache; the release list is still kept an hour")
+    add_json_option(p)
+    p.set_defaults(func=run)
+
+
+def _check_scene(scene: str, mode: str | None, overrides: tuple[str, ...]) -> str:
+    """The mode to run (the scene's own by default), the scene checked to load and plan."""
+    from tippetop.compare.running.tasks import Task
+    from tippetop.compare.studies.matrix import DEFAULT_FILE_MODES, DEFAULT_MODES
+    from tippetop.models.errors import TippetopError
+    from tippetop.models.modes import check_pair, parse_mode
+
+    is_file = scene.lower().endswith(".xml")
+    if is_file and not os.path.isfile(scene):
+        raise TippetopError(f"SCENE: expected a scene or an MJCF file, got {scene!r}")
+    chosen = parse_mode(mode) if mode else (DEFAULT_FILE_MODES if is_file else DEFAULT_MODES)[0]
+    check_pair("mujoco", chosen)
+    over = ((f"top.mjcf={os.path.abspath(scene)!r}",) if is_file else ()) + overrides
+    task = Task(None if is_file else scene, over, "mujoco", chosen)
+    task.plan()  # a scene that does not load, a bad --set, a mode it cannot run: one line
+    return chosen
+
+
+def run(args: argparse.Namespace) -> int:
+    """``tippetop bisect``."""
+    from tippetop.compare.running.io import check_output_dir, hold_output_lock
+    from tippetop.compare.studies import bisect as bs
+    from tippetop.models.errors import TippetopError
+
+    overrides = tuple(args.set or [])
+    metrics = bs.check_metrics(args.metric)
+    if args.budget is not None and args.budget < 2:
+        raise TippetopError(f"--budget: expected an integer >= 2 (runs), got {args.budget}")
+    mode = _check_scene(args.scene, args.mode, overrides)
+    out_dir = None
+    if args.out:
+        out_dir = check_output_dir(args.out, force=args.force)
+    if args.pythons:
+        cands = bs.python_range(bs.read_pythons(args.pythons), args.between)
+        source = f"--pythons {args.pythons}"
+    else:
+        if not args.between:
+            raise TippetopError("--between: expected two releases A B (such as 3.3.7 3.17.0), "
+                                "got none")
+        releases = bs.registry_releases("mujoco")
+        cands = bs.release_range(releases, *args.between, installed=bs._installed_mujoco())
+        source = releases.source
+    if out_dir is not None:
+        hold_output_lock(out_dir)
+
+    def say(line: str) -> None:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+    runner = bs.MatrixRunner(args.scene, mode, overrides, workers=args.workers,
+                             use_cache=not args.no_cache, scheduler=args.scheduler, say=say)
+    found = bs.bisect(cands, metrics, runner, budget=args.budget,
+                      attribution=not args.no_attribution, say=say, tty=sys.stderr.isatty())
+    res = {"format": bs.FORMAT, "scene": args.scene, "mode": mode, "overrides": list(overrides),
+           "source": source, **found}
+    if out_dir is not None:
+        from tippetop.compare.running.io import staged_output_dir
+
+        with staged_output_dir(out_dir) as stage:  # all files or none, even on Ctrl-C
+            (stage / "results.json").write_text(json_text(res, indent=1) + "\n", "utf-8")
+            (stage / "report.html").write_text(render_html(res), "utf-8")
+    if args.json:
+        print_json(res)
+    else:
+        print_bisect(res)
+        if out_dir is not None:
+            print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
+    return 0
+
+
+def _unit(metric: str) -> str:
+    return "rad" if metric == "theta_asymp" else "s" if metric in (
+        "t_invert", "t_stem", "t_left_table") else ""
+
+
+def print_bisect(res: dict[str, Any]) -> None:
+    """The search for a person: what ran, then each metric's move."""
+    from tippetop.compare.presentation.terminal import fmt, labelled, table
+
+    n = len(res["releases"])
+    print(f"bisect: {res['scene']} in mode {res['mode']}, {n} releases from "
+          f"{res['between'][0]} to {res['between'][1]} ({res['source']})")
+    print(f"\nran {res['runs']} of {n} ({res['environments_made']} managed environments, "
+          f"{res['environments_new']} made now; read back from the runs):")
+    ms = res["metrics"]
+    rows = [(t["release"], t["engine"], fmt(t["version"]), str(t["status"]),
+             *(fmt(t["values"].get(m), _unit(m)) for m in ms)) for t in res["tested"]]
+    print(table(("release", "engine", "version", "status", *ms), rows, indent="  "))
+    for sk in res["skipped"]:
+        print(f"  skipped {sk['release']}: {sk['reason']}")
+    width = max(len(m) for m in ms)
+    print("\nwhat moved (beyond the nightly's tolerances):")
+    for m in ms:
+        e = res["by_metric"][m]
+        u = _unit(m)
+        if not e["moved"]:
+            print(labelled(m, f"{e['summary']}", width))
+            continue
+        (va, vb), pair = e["values"], e["pair"]
+        print(labelled(m, f"{fmt(va, u)} ({pair['last_like_a']}, like "
+                       f"{res['searched'][0]}) -> {fmt(vb, u)} ({pair['first_like_b']}), "
+                       f"over {e['tolerance']['text']}", width))
+        print(labelled("", e["summary"], width))
+        att = e.get("attribution")
+        if att:
+            print(labelled("", f"follows: {att.get('follows')}", width))
+        elif e.get("attribution_note"):
+            print(labelled("", e["attribution_note"], width))
+    for note in res["notes"]:
+        print(f"note: {note}")
+
+
+def render_html(res: dict[str, Any]) -> str:
+    """A small page: the runs and each metric's move."""
+    from tippetop.compare.presentation.terminal import fmt
+
+    esc = html.escape
+    ms = res["metrics"]
+    head = "".join(f"<th>{esc(h)}</th>" for h in ("release", "engine", "version", "status",
+                                                  *ms))
+    body = "".join(
+        "<tr>" + "".join(f"<td>{esc(str(x))}</td>" for x in (
+            t["release"], t["engine"], fmt(t["version"]), t["status"],
+            *(fmt(t["values"].get(m), _unit(m)) for m in ms))) + "</tr>"
+        for t in res["tested"])
+    moves = "".join(
+        f"<li><b>{esc(m)}</b>: {esc(e['summary'])}"
+        + (f"; follows: {esc(str(e['attribution'].get('follows')))}"
+           if e.get("attribution") else "") + "</li>"
+        for m, e in res["by_metric"].items())
+    skipped = "".join(f"<li>{esc(s['release'])}: {esc(s['reason'])}</li>"
+                      for s in res["skipped"]) or "<li>none</li>"
+    return (f"<!doctype html><meta charset='utf-8'><title>tippetop bisect</title>"
+            f"<style>body{{font-family:sans-serif}}td,th{{padding:2px 8px;text-align:right}}"
+            f"</style><h1>bisect: {esc(res['scene'])} ({esc(res['mode'])})</h1>"
+            f"<p>{len(res['releases'])} releases from {esc(res['between'][0])} to "
+            f"{esc(res['between'][1])}; {res['runs']} run, {res['environments_made']} "
+            f"managed environments.</p><h2>What moved</h2><ul>{moves}</ul>"
+            f"<h2>Runs</h2><table><tr>{head}</tr>{body}</table>"
+            f"<h2>Skipped</h2><ul>{skipped}</ul>\n")
