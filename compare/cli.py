@@ -18,7 +18,6 @@ from tippetop.compare.commands import (
     calibrate,
     compare,
     fidelity,
-    history,
     matrix,
     metrics,
     mjcf,
@@ -38,7 +37,7 @@ from tippetop.models.engines import ENGINE_MEANINGS
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, bisect, threshold, sweep, bench, nightly,
-            history, report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
+            report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
 ENGINES = ENGINE_MEANINGS
