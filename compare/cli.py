@@ -18,6 +18,7 @@ from tippetop.compare.commands import (
     calibrate,
     compare,
     fidelity,
+    history,
     matrix,
     metrics,
     mjcf,
@@ -37,7 +38,7 @@ from tippetop.models.engines import ENGINE_MEANINGS
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, bisect, threshold, sweep, bench, nightly,
-            report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
+            history, report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
 
 #: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
 ENGINES = ENGINE_MEANINGS

@@ -9,6 +9,7 @@ import argparse
 import sys
 from typing import Any
 
+from tippetop.compare.commands.history import add_history_options
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
     add_force_option,
@@ -62,6 +63,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "own converged answer")
     p.add_argument("--no-cache", action="store_true", help="compute every run again and "
                    "write nothing to the cache")
+    add_history_options(p, "this matrix's values, engine versions, commit and machine")
     add_json_option(p)
     p.set_defaults(func=run)
 
@@ -76,6 +78,11 @@ def run(args: argparse.Namespace) -> int:
     engines = parse_engines(args.engines)
     modes = parse_modes(args.modes) if args.modes else None
     scenes = list(args.scenes) or list(profile_scenes(args.profile))
+    from tippetop.compare.nightly.history import check_history, timestamp_now
+
+    if not args.no_history:  # before the runs: a file that is not a history is bad input
+        check_history(args.history)
+    started = timestamp_now()
     out_dir = None
     if args.out:
         out_dir = check_output_dir(args.out, force=args.force)
@@ -84,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
     res = run_matrix(scenes, engines, modes, tuple(args.set or []), workers=args.workers,
                      use_cache=not args.no_cache, attribution=not args.no_attribution,
                      tables=tables)
+    res.setdefault("started", started)
+    if not args.no_history:  # a failed append is said in one line; the results are kept
+        res["history"] = record_matrix(res, args)
     if out_dir is not None:
         from tippetop.compare.report.matrix import render
         from tippetop.compare.running.io import staged_output_dir
@@ -99,12 +109,34 @@ def run(args: argparse.Namespace) -> int:
         print_matrix(res)
         if out_dir is not None:
             print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
+        if res.get("history") and res["history"]["run"] is not None:
+            print(f"history: appended to {res['history']['file']} (run "
+                  f"{res['history']['run']}; 'tippetop history' shows what moved)")
     failed = [r for r in res["runs"] if r["status"] not in ("ok", "contact_lost", "hop")]
     if failed:
         sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['runs'])} runs "
                          "failed; the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0
+
+
+def record_matrix(res: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:
+    """Append the matrix to the history: ``{file, run, error}`` (never raises)."""
+    from tippetop.compare.nightly.history import history_path, record_results
+    from tippetop.compare.running.io import json_ready
+
+    path = history_path(args.history)
+    try:
+        run_id = record_results("matrix", json_ready(res), path=path, profile=(
+            None if args.scenes else args.profile), argv=["tippetop", "matrix", *(
+                getattr(args, "_argv", None) or sys.argv[2:])],
+            settings=tuple(args.set or ()))
+    except Exception as exc:  # noqa: BLE001 - the matrix's results are kept whatever happens
+        error = " ".join(f"{type(exc).__name__}: {exc}".split())
+        sys.stderr.write(f"tippetop: history not appended to {path}: {error} (the results "
+                         "are kept)\n")
+        return {"file": str(path), "run": None, "error": error}
+    return {"file": str(path), "run": run_id, "error": None}
 
 
 def closer_text(d: dict[str, Any], near: dict[str, Any]) -> str:

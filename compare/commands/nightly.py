@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.commands.history import add_history_options
 from tippetop.compare.commands.options import (
     Parser,
     add_force_option,
@@ -60,6 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "models/nightly.toml)")
     add_scheduler_option(p)
     add_workers_option(p)
+    add_history_options(p, "this run's values, engine versions, commit and machine")
     p.add_argument("--cache", action="store_true", help="reuse the shared run cache (default: "
                    "recompute every run)")
     p.add_argument("--videos", action="store_true", help="also render a short side-by-side "
@@ -85,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         modes=tuple(parse_modes(args.modes)) if args.modes else (),
         scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
         accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
+        history=Path(args.history) if args.history else None, no_history=args.no_history,
         argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
     return run_nightly(opts, write_report=write_report)
 

@@ -198,6 +198,17 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
                                  sorted((results["videos"].get("failed") or {}).items())])
     if results.get("report_error"):
         lines.append(f"REPORT FAILED: {results['report_error']}")
+    hist = results.get("history")
+    if hist and hist.get("error"):
+        lines.append(f"history: NOT appended to {hist['file']}: {hist['error']}")
+    elif hist:
+        moved = hist.get("trends") or []
+        lines.append(f"history: appended to {hist['file']} (run {hist['run']}); "
+                     + (f"{len(moved)} series moved or regressed (the report's trends):"
+                        if moved else "nothing moved over its last runs"))
+        lines.extend(f"  {t['case']}: " + (t["changes"][-1]["text"] if t["changes"] else
+                                          f"{t['metric']} regressed tonight")
+                     for t in moved[:SUMMARY_LINES])
     lines.append(f"output: {out_dir}")
     n_fail, n_checks = c["checks_fail"], c["checks"]
     if update:

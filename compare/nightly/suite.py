@@ -35,6 +35,7 @@ from tippetop.compare.nightly.catalogue import (
     select_cases,
 )
 from tippetop.compare.nightly.checks import case_record, check_case
+from tippetop.compare.nightly.history import check_history, record_nightly
 from tippetop.compare.nightly.outputs import (
     RESULTS_FORMAT,
     count,
@@ -88,6 +89,9 @@ class NightlyOptions:
     cache: bool = False
     videos: bool = False
     accuracy_dir: Path | None = None
+    #: The history file appended to (``--history``; None: the cache's), or none at all.
+    history: Path | None = None
+    no_history: bool = False
     argv: tuple[str, ...] = ()
 
 
@@ -137,6 +141,8 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
     if opts.accuracy_dir is not None and not Path(opts.accuracy_dir).is_dir():
         raise TippetopError(f"--accuracy-dir: expected an existing folder, got "
                             f"{str(opts.accuracy_dir)!r}")
+    if not opts.no_history:  # before the runs: a file that is not a history is bad input
+        check_history(opts.history)
     with locked_output_dir(out_dir):
         check_output_dir(out_dir, force=opts.force)  # again, now that no other run writes
         return _run_locked(opts, write_report, log, echo, started, t0, catalogue, cases, files,
@@ -308,6 +314,8 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
                               "ERROR (videos failed)" if videos_failed else "OK")
         results["finished"] = timestamp()
         results["wall_s"] = time.perf_counter() - t0
+        if not opts.no_history:  # a failed append is said, and the results are kept
+            results["history"] = record_nightly(results, opts.history, log)
 
         def write_results() -> None:
             text = json.dumps(json_ready(results), indent=1) + "\n"

@@ -25,11 +25,13 @@ from tippetop.compare.report.sections import (
     threshold_section,
     verdict_section,
 )
+from tippetop.compare.report.trends import trends_section
 from tippetop.compare.running.io import write_atomic
 from tippetop.models.errors import TippetopError
 
 _NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"
         "<li><a href='#checks'>Regression checks</a></li>"
+        "<li><a href='#trends'>Trends from the history</a></li>"
         "<li><a href='#scenes'>Scenes and groups</a></li>"
         "<li><a href='#timeseries'>theta(t), xi(t), slip (Figs. 3-8)</a></li>"
         "<li><a href='#sweeps'>theta_asymp against n0 (Figs. 9, 10)</a></li>"
@@ -59,7 +61,7 @@ def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]
                   accuracy_dir: Path | None = None) -> str:
     """The report's HTML text."""
     body = [header(results), crossval_section(results), _NAV, run_facts(results),
-            verdict_section(results), scenes_section(results),
+            verdict_section(results), trends_section(results), scenes_section(results),
             timeseries_section(results, tables), sweeps_section(results),
             group_map_section(results), atlas_section(results), friction_section(results),
             threshold_section(results), accuracy_section(accuracy_dir),
