@@ -114,19 +114,72 @@ def baseline_calibrations(baseline: dict[str, dict[str, Any]]) -> dict[str, str]
             if uses_calibration(k)}
 
 
+#: A model case's baseline entry records the content hash of the model file its values ran
+#: with (:func:`tippetop.compare.nightly.catalogue.model_hash`), the file as given, and where
+#: the case came from (``catalogue`` or ``--models``) under these keys; they are not metrics.
+MODEL_HASH_KEY = "model_sha256"
+MODEL_FILE_KEY = "model_file"
+MODEL_ORIGIN_KEY = "model_origin"
+
+
+def model_file_changes(records: Sequence[dict[str, Any]],
+                       baseline: dict[str, dict[str, Any]]) -> dict[str, str]:
+    """Said, not compared: the model cases whose file changed since their baseline.
+
+    A model case's record (``model`` from :func:`tippetop.compare.nightly.running.run_cases`)
+    gains ``baseline_sha256`` and ``changed``. When its file's hash differs from the one its
+    baseline entry records, each compared check becomes ``new`` (its value and the stored
+    one both kept) with a message that says so, and the case's status follows: the values of
+    another file are neither a regression nor a pass. An entry that records no hash (written
+    by hand) is compared as it is.
+
+    Returns:
+        Case id -> one line saying what changed, for each such case.
+    """
+    from tippetop.compare.measures.tolerances import format_value
+    from tippetop.compare.nightly.checks import case_status
+
+    out: dict[str, str] = {}
+    for rec in records:
+        model = rec.get("model")
+        if not model:
+            continue
+        entry = baseline.get(rec["id"]) or {}
+        stored = entry.get(MODEL_HASH_KEY)
+        model["baseline_sha256"] = stored
+        model["changed"] = bool(stored) and stored != model["sha256"]
+        if not model["changed"]:
+            continue
+        why = (f"the model file changed since its baseline ({model['given']}: sha256 "
+               f"{str(stored)[:12]} in the baseline, {model['sha256'][:12]} now)")
+        out[rec["id"]] = why
+        for ch in rec["checks"]:
+            if ch["status"] in ("pass", "fail"):
+                unit = ch["tolerance"].get("unit", "")
+                ch.update(status="new", message=(
+                    f"{ch['metric']}: {format_value(ch['value'], unit)}, baseline "
+                    f"{format_value(ch['baseline'], unit)}, not compared: {why}; "
+                    f"--update-baseline stores this run's"))
+        rec["status"] = case_status(rec["checks"])
+    return out
+
+
 def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
                     profile_ids: set[str], environment: dict[str, Any]) -> dict[str, int]:
     """Write the baselines of the cases that ran, atomically.
 
     Cases that did not run this time (filtered out by ``--engines``/``--cases``, or failed)
-    keep their stored values; ids no longer in the profile are dropped.
+    keep their stored values; ids no longer in the profile are dropped, except those
+    ``nightly --models`` added (kept until a run of that file writes them again). A model
+    case's entry also records its file's hash (:data:`MODEL_HASH_KEY`).
 
     Returns:
         Counts: ``written`` (cases whose values were stored), ``added`` (new ids), ``dropped``
         and ``kept``.
     """
     old = load_baseline(path, missing_ok=True)
-    cases = {k: v for k, v in old.items() if k in profile_ids}
+    cases = {k: v for k, v in old.items()
+             if k in profile_ids or v.get(MODEL_ORIGIN_KEY) == "--models"}
     written = added = 0
     for rec in records:
         if rec["error"] is not None:
@@ -136,6 +189,10 @@ def update_baseline(path: Path, profile: str, records: Sequence[dict[str, Any]],
         if uses_calibration(rec["id"]) and environment.get("calibration"):
             # which calibrated settings the native case's values were made with
             cases[rec["id"]][CALIBRATION_KEY] = environment["calibration"]
+        if rec.get("model"):  # which file, with which content, the values ran with
+            cases[rec["id"]].update({MODEL_HASH_KEY: rec["model"]["sha256"],
+                                     MODEL_FILE_KEY: rec["model"]["given"],
+                                     MODEL_ORIGIN_KEY: rec["model"]["origin"]})
         written += 1
     doc = {
         "format": BASELINE_FORMAT,

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import fnmatch
+import hashlib
+import json
+import os
 import re
 import sys
 import tomllib
@@ -29,6 +32,18 @@ ENGINES = ("ode", "mujoco")
 #: with a tolerance against a baseline.
 KIND_METRICS: dict[str, tuple[str, ...]] = {
     kind: tuple(m for m in kind_metrics(kind) if m in TOLERANCES) for kind in KINDS}
+
+#: A model case (``model = "top.xml"`` or ``nightly --models``): the modes it runs in when it
+#: names none, as ``tippetop matrix`` runs an MJCF top (the file's own contact, then the
+#: paper's law, at the largest timestep it fits).
+MODEL_MODES = ("file", "paper")
+#: A model case's metrics when it names none: the run metrics the catalogue's scenes check,
+#: but ``matches_expect`` (a model file has no ``[expect]`` to match). A catalogue case may
+#: name others of :data:`KIND_METRICS` (``t_stem``, ``t_left_table``).
+MODEL_METRICS = ("outcome", "theta_asymp", "t_invert", "J_rel_drift", "energy_monotone",
+                 "energy_lost", "contact_lost", "status")
+#: The report's section of the cases ``nightly --models`` adds.
+MODELS_CATEGORY = "models"
 
 
 @dataclass(frozen=True)
@@ -63,6 +78,20 @@ class Case:
     a_over_R: str = ""
     departs: str = ""
     extra: tuple[str, ...] = ()
+    #: A model case: the MJCF top's absolute path (``scene`` is then the path as given), its
+    #: content hash (:func:`model_hash`) and where it came from (``catalogue`` or
+    #: ``--models``); empty for a scene.
+    model: str = ""
+    model_sha256: str = ""
+    model_origin: str = ""
+
+    @property
+    def scene_arg(self) -> str | None:
+        """What :func:`~tippetop.models.scene.load_scene` reads: the scene, or None.
+
+        None for a model case, whose top is ``top.mjcf`` in :attr:`overrides`.
+        """
+        return None if self.model else self.scene
 
     @property
     def family(self) -> str:
@@ -79,8 +108,15 @@ class Case:
         """The case's ``set`` (and the scene keys an old compound mode name also set).
 
         The mode's own keys are set by the plan (:func:`tippetop.models.resolve.resolve_plan`).
+        A model case's top is its file (``top.mjcf``), and in paper mode MuJoCo runs at the
+        largest timestep the paper's law fits (``mujoco.fit_paper_timestep``), as ``tippetop
+        matrix`` runs an MJCF top.
         """
-        return (*self.set, *self.extra)
+        if not self.model:
+            return (*self.set, *self.extra)
+        fit = (("mujoco.fit_paper_timestep=true",)
+               if self.family == "mujoco" and self.mode == "paper" else ())
+        return (f"top.mjcf={json.dumps(self.model)}", *self.set, *self.extra, *fit)
 
 
 @dataclass(frozen=True)
@@ -92,8 +128,8 @@ class Catalogue:
     cases: tuple[Case, ...]
 
 
-_COMMON_KEYS = {"name", "category", "kind", "scene", "set", "engines", "modes", "profiles",
-                "metrics", "description"}
+_COMMON_KEYS = {"name", "category", "kind", "scene", "model", "set", "engines", "modes",
+                "profiles", "metrics", "description"}
 _KIND_KEYS = {"run": {"departs"}, "atlas": {"A_over_C", "a_over_R"},
               "threshold": {"which", "method", "rel_tol", "max_rounds", "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
@@ -120,7 +156,102 @@ def _req(entry: dict[str, Any], key: str, kind: type, where: str) -> Any:
     return v
 
 
-def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) -> list[Case]:
+def model_files(path: Path) -> list[Path]:
+    """The files an MJCF top is made of: itself, its ``<include>`` files and its asset files.
+
+    Includes are relative to the including file's folder; mesh, skin and height-field files
+    to ``meshdir`` (else ``assetdir``), textures to ``texturedir`` (else ``assetdir``), both
+    relative to the top's folder, as MuJoCo reads them. A file that cannot be read is left out
+    (the top's parse says what is wrong with it).
+    """
+    import xml.etree.ElementTree as ET
+
+    from tippetop.models.mjcf_document import parse, read_text
+
+    folder = path.parent
+    files: list[Path] = [path]
+    roots: list[ET.Element] = []
+
+    def walk(p: Path) -> None:
+        try:
+            root = parse(read_text(p), str(p))
+        except (OSError, TippetopError, ET.ParseError):
+            return
+        roots.append(root)
+        for inc in root.iter("include"):
+            name = inc.get("file", "")
+            sub = Path(name) if os.path.isabs(name) else p.parent / name
+            if name and sub not in files and sub.is_file():
+                files.append(sub)
+                walk(sub)
+
+    walk(path)
+    dirs: dict[str, str] = {}
+    for root in roots:
+        for comp in root.iter("compiler"):
+            for key in ("meshdir", "texturedir", "assetdir"):
+                if comp.get(key) is not None:
+                    dirs.setdefault(key, comp.get(key, ""))
+    for root in roots:
+        for tag in ("mesh", "skin", "hfield", "texture"):
+            key = "texturedir" if tag == "texture" else "meshdir"
+            for el in root.iter(tag):
+                name = el.get("file")
+                if not name:
+                    continue
+                asset = Path(name) if os.path.isabs(name) else \
+                    folder / dirs.get(key, dirs.get("assetdir", "")) / name
+                if asset not in files and asset.is_file():
+                    files.append(asset)
+    return files
+
+
+def model_hash(path: Path) -> tuple[str, list[str]]:
+    """The SHA-256 of an MJCF top's content (:func:`model_files`), and the files it covers.
+
+    Each file's name relative to the top's folder and its bytes go into the hash, so a moved
+    folder keeps its hash and an edit to any of its files changes it.
+    """
+    h = hashlib.sha256()
+    names = []
+    for f in model_files(path):
+        name = os.path.relpath(f, path.parent)
+        names.append(name)
+        h.update(name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest(), names
+
+
+def check_model(given: str, base: Path, where: str) -> tuple[str, str]:
+    """A model file checked: it exists and parses as a top. (absolute path, content hash).
+
+    Args:
+        given: The path as written (relative to ``base`` unless absolute).
+        base: The folder a relative path is relative to (the catalogue's; ``--models``: the
+            current folder).
+        where: What the error names (``catalogue nightly.toml: case 'x'.model``).
+
+    Raises:
+        TippetopError: The file is missing or is not an MJCF top (one line).
+    """
+    from tippetop.mujoco_runner.state import file_top
+
+    path = Path(given) if os.path.isabs(given) else base / given
+    path = Path(os.path.abspath(path))
+    if not path.is_file():
+        rel = "" if os.path.isabs(given) else f" (relative to {str(base)!r})"
+        raise TippetopError(f"{where}: expected an MJCF top file{rel}, got {given!r} (no such "
+                            f"file)")
+    try:
+        file_top(path)
+    except TippetopError as exc:
+        raise TippetopError(f"{where}: expected an MJCF top file, got {given!r}: {exc}") \
+            from None
+    return str(path), model_hash(path)[0]
+
+
+def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
+                 base: Path | None = None, origin: str = "catalogue") -> list[Case]:
+    """The cases of one ``[[case]]`` entry (a model case's file relative to ``base``)."""
     if not isinstance(entry, dict):
         raise TippetopError(f"{where}: expected a table, got {entry!r}")
     kind = _req(entry, "kind", str, where)
@@ -135,10 +266,27 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
                                 f"{', '.join(sorted(allowed))})")
     name = _req(entry, "name", str, where)
     category = _req(entry, "category", str, where)
-    scene = _req(entry, "scene", str, where)
-    modes = _req(entry, "modes", list, where)
+    model = model_sha256 = ""
+    if "model" in entry:
+        if "scene" in entry:
+            raise TippetopError(f"{where}: expected a 'scene' or a 'model' key, got both")
+        if kind != "run":
+            raise TippetopError(f"{where}.model: expected kind = 'run' (a model file runs as "
+                                f"one top), got kind = {kind!r}")
+        scene = _req(entry, "model", str, where)
+        model, model_sha256 = check_model(scene, base or Path.cwd(),
+                                          f"{where}.model" if origin == "catalogue" else where)
+    else:
+        scene = _req(entry, "scene", str, where)
+    modes = (_req(entry, "modes", list, where) if "modes" in entry or not model
+             else list(MODEL_MODES))
     profs = _req(entry, "profiles", list, where)
-    metrics = _req(entry, "metrics", list, where)
+    metrics = (_req(entry, "metrics", list, where) if "metrics" in entry or not model
+               else list(MODEL_METRICS))
+    if model and "matches_expect" in metrics:
+        raise TippetopError(f"{where}.metrics: expected names from {', '.join(MODEL_METRICS)} "
+                            f"for a model case (a model file has no [expect] to match), got "
+                            f"'matches_expect'")
     over = entry.get("set", [])
     if not (isinstance(over, list) and all(isinstance(x, str) for x in over)):
         raise TippetopError(f"{where}.set: expected a list of 'section.key=value' strings, "
@@ -206,7 +354,8 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) ->
                  metrics=tuple(metrics), profiles=tuple(profs), set=tuple(over),
                  description=entry.get("description", ""),
                  departs=departs_by_mode.get(mode, ""), extra=more,  # run cases only
-                 **extra)
+                 model=model, model_sha256=model_sha256,
+                 model_origin=origin if model else "", **extra)
             for engine, mode, more in runs]
 
 
@@ -286,7 +435,8 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
     cases: list[Case] = []
     for i, entry in enumerate(case_raw):
         label = entry.get("name", i) if isinstance(entry, dict) else i
-        cases.extend(_entry_cases(entry, f"catalogue {p.name}: case {label!r}", profiles))
+        cases.extend(_entry_cases(entry, f"catalogue {p.name}: case {label!r}", profiles,
+                                  base=p.resolve().parent))
     for prof in profiles:
         seen: set[str] = set()
         for c in cases:
@@ -316,26 +466,85 @@ def migrate_case_id(case_id: str) -> str:
     return f"{m['head']}[{run_label(m['engine'] or family, mode or 'paper')}]"
 
 
+def model_cases(models: Sequence[str | Path], profile: str, catalogue: Catalogue,
+                modes: Sequence[str] = ()) -> list[Case]:
+    """The cases ``nightly --models FILE...`` adds to ``profile``: one run case per file.
+
+    Each is in category ``models``, named by its file's stem (made unique against the
+    catalogue's names in that category and the other files: the folder's name first, then a
+    number), in ``modes`` (default :data:`MODEL_MODES`) on every engine family that can run
+    each, with the run metrics of :data:`MODEL_METRICS`. A file given twice runs once.
+
+    Raises:
+        TippetopError: A file is missing or is not an MJCF top (one line), before any run.
+    """
+    taken = {c.name for c in catalogue.cases if c.category == MODELS_CATEGORY}
+    out: list[Case] = []
+    seen: set[str] = set()
+    for given in models:
+        given = str(given)
+        path = os.path.abspath(given)
+        if path in seen:
+            continue
+        seen.add(path)
+        p = Path(path)
+        stem = _safe_name(p.stem)
+        name = stem
+        if name in taken:
+            name = f"{_safe_name(p.parent.name)}-{stem}"
+        k = 2
+        while name in taken:
+            name, k = f"{stem}-{k}", k + 1
+        taken.add(name)
+        entry = {"name": name, "category": MODELS_CATEGORY, "kind": "run", "model": given,
+                 "modes": list(modes or MODEL_MODES), "profiles": [profile],
+                 "metrics": list(MODEL_METRICS),
+                 "description": f"{given} (nightly --models)"}
+        out += _entry_cases(entry, "--models", {profile: ""}, base=Path.cwd(),
+                            origin="--models")
+    return out
+
+
+def _safe_name(text: str) -> str:
+    """``text`` as a case name: letters, digits, ``.``, ``_`` and ``-`` (others ``_``)."""
+    return re.sub(r"[^A-Za-z0-9._-]", "_", text) or "model"
+
+
 def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = ENGINES,
-                 patterns: Sequence[str] = (), modes: Sequence[str] = ()) -> list[Case]:
+                 patterns: Sequence[str] = (), modes: Sequence[str] = (),
+                 models: Sequence[str | Path] = ()) -> list[Case]:
     """The cases of ``profile`` on ``engines`` (families) whose id matches one of ``patterns``.
 
     Patterns are globs with ``*`` and ``?``; brackets are literal, so ``paper/fig3[*`` selects
     every run of ``paper/fig3``. ``modes``: only the cases in these modes (default: all).
+
+    ``models``: MJCF tops added to the profile (:func:`model_cases`), in ``modes`` when given
+    (else :data:`MODEL_MODES`). The patterns select among the catalogue's cases; they narrow
+    the files' cases too only when one of them matches one of those (``models/*`` runs the
+    files alone; ``paper/*`` runs the paper's cases and the files).
+
+    Raises:
+        TippetopError: An unknown profile, or a model file that is missing or not a top.
     """
     if profile not in catalogue.profiles:
         raise TippetopError(f"--profile: expected one of {'|'.join(catalogue.profiles)}, got "
                             f"{profile!r}{did_you_mean(profile, catalogue.profiles)}")
     out = [c for c in catalogue.cases if profile in c.profiles and c.family in engines
            and (not modes or c.mode in modes)]
+    added = [c for c in model_cases(models, profile, catalogue, modes) if c.family in engines]
     if patterns:
         new = [migrate_case_id(p) for p in patterns]
         for old, now in zip(patterns, new, strict=True):
             if old != now:
                 note(f"--cases {old} is now {now} (the old spelling goes in the next release)")
         globs = [_literal_brackets(p) for p in new]
-        out = [c for c in out if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
-    return out
+
+        def chosen(cs: list[Case]) -> list[Case]:
+            return [c for c in cs if any(fnmatch.fnmatchcase(c.id, g) for g in globs)]
+
+        out = chosen(out)
+        added = chosen(added) or added
+    return out + added
 
 
 def on_engine(case: Case, engine: str) -> Case:

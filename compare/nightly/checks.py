@@ -105,7 +105,7 @@ def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, 
 def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
     """The results.json entry of a case."""
     c = cr.case
-    scene = load_scene(c.scene, list(c.overrides))
+    scene = load_scene(c.scene_arg, list(c.overrides))
     params, th = _top_record(scene, plan_for(scene, c.engine, c.mode))
     rec: dict[str, Any] = {
         "id": c.id, "name": c.name, "category": c.category, "kind": c.kind,

@@ -126,7 +126,7 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
     scenes: dict[str, Scene] = {}
     for c in cases:  # validate every scene before any work
         try:
-            scenes[c.id] = load_scene(c.scene, list(c.overrides))
+            scenes[c.id] = load_scene(c.scene_arg, list(c.overrides))
         except TippetopError as exc:
             raise TippetopError(f"case {c.id}: {exc}") from None
     with tempfile.TemporaryDirectory(prefix="tippetop-nightly-") as tmp:
@@ -137,10 +137,10 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 if c.family != engine:
                     continue
                 if c.kind == "run":
-                    jobs.append((c, None, Task(c.scene, c.overrides, c.engine, c.mode)))
+                    jobs.append((c, None, Task(c.scene_arg, c.overrides, c.engine, c.mode)))
                 elif c.kind == "sweep":
-                    jobs += [(c, n0, Task(c.scene, (*c.overrides, f"init.n0={n0!r}"), c.engine,
-                                          c.mode)) for n0 in c.n0]
+                    jobs += [(c, n0, Task(c.scene_arg, (*c.overrides, f"init.n0={n0!r}"),
+                                          c.engine, c.mode)) for n0 in c.n0]
             if not jobs:
                 continue
             log(f"nightly: {len(jobs)} {engine} runs")
@@ -159,6 +159,8 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 _run_atlas(out[c.id], scheduler=scheduler, workers=workers,
                            use_cache=shared_cache, log=log)
     for c in cases:
+        if c.model:  # results.json says which file, and which content, ran
+            out[c.id].detail["model"] = model_detail(c)
         if c.kind == "sweep" and out[c.id].error is None:
             pts = sorted(out[c.id].detail.get("points", []), key=lambda p: p["n0"])
             out[c.id].detail["points"] = pts
@@ -167,6 +169,21 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 "outcomes_vs_n0": {f"{p['n0']:g}": p["outcome"] for p in pts},
             }
     return [out[c.id] for c in cases]
+
+
+def model_detail(case: Case) -> dict[str, Any]:
+    """A model case's ``model`` entry in results.json.
+
+    Its file (absolute and as given), the content hash it ran with, the files the hash covers,
+    and where it came from (``catalogue`` or ``--models``).
+    """
+    from tippetop.compare.nightly.catalogue import model_files
+
+    folder = Path(case.model).parent
+    return {"file": case.model, "given": case.scene, "sha256": case.model_sha256,
+            "files": [str(f.relative_to(folder)) if f.is_relative_to(folder) else str(f)
+                      for f in model_files(Path(case.model))],
+            "origin": case.model_origin}
 
 
 def _collect(cr: CaseRun, scene: Scene, n0: float | None, res: TaskResult | str) -> None:

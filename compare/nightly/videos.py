@@ -36,7 +36,8 @@ def video_speed(t_end_s: float) -> float:
 
 def video_scenes(cases: Sequence[Case]) -> list[str]:
     """The scenes that get a video: those of the ``paper`` run cases, sorted."""
-    return sorted({c.scene for c in cases if c.kind == "run" and c.category == "paper"})
+    return sorted({c.scene for c in cases
+                   if c.kind == "run" and c.category == "paper" and not c.model})
 
 
 def _one_line(exc: BaseException) -> str:
