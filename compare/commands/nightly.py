@@ -59,6 +59,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "profile)")
     p.add_argument("--catalogue", metavar="FILE", help="catalogue file (default: "
                    "models/nightly.toml)")
+    p.add_argument("--models", nargs="+", metavar="FILE", help="MJCF tops to run with the "
+                   "profile's cases, each as case models/<file's stem>, in the modes file and "
+                   "paper (or --modes) on every engine that can run them, compared with its "
+                   "baseline like the catalogue's cases; --cases 'models/*' runs them alone "
+                   "(default: none)")
     add_scheduler_option(p)
     add_workers_option(p)
     add_history_options(p, "this run's values, engine versions, commit and machine")
@@ -88,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler, workers=args.workers, cache=args.cache, videos=args.videos,
         accuracy_dir=Path(args.accuracy_dir) if args.accuracy_dir else None,
         history=Path(args.history) if args.history else None, no_history=args.no_history,
+        models=tuple(args.models or ()),
         argv=tuple(getattr(args, "_argv", ()) or sys.argv[2:]))
     return run_nightly(opts, write_report=write_report)
 

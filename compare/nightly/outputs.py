@@ -166,12 +166,15 @@ def summary_text(results: Mapping[str, Any], out_dir: Path) -> str:
     block(title, regressions, "results.json (cases, checks with status 'fail')")
     errors = [f"{r['id']}: {r['error']}" for r in recs if r["status"] == "error"]
     block("ERRORS (case did not run):", errors)
+    changed = results.get("model_changed") or {}
     new = {r["id"]: [ch["metric"] for ch in r["checks"] if ch["status"] == "new"]
-           for r in recs}
+           for r in recs if r["id"] not in changed}
     block("NEW (no baseline yet; --update-baseline adds them):",
           [f"{r['id']}: " + (f"all {len(new[r['id']])} metrics"
                              if len(new[r["id"]]) == len(r["checks"])
-                             else ", ".join(new[r["id"]])) for r in recs if new[r["id"]]])
+                             else ", ".join(new[r["id"]])) for r in recs if new.get(r["id"])])
+    block("MODEL FILE CHANGED (not compared; --update-baseline stores this run's values):",
+          [f"{k}: {why}" for k, why in changed.items()])
     if update:
         lines.append(f"baseline updated: {results['baseline_file']} ({update['written']} cases "
                      f"written, {update['added']} added, {update['kept']} kept, "

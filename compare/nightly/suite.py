@@ -24,6 +24,7 @@ from tippetop.compare.nightly.baselines import (
     baseline_calibrations,
     baseline_file,
     load_baseline,
+    model_file_changes,
     update_baseline,
 )
 from tippetop.compare.nightly.catalogue import (
@@ -92,6 +93,8 @@ class NightlyOptions:
     #: The history file appended to (``--history``; None: the cache's), or none at all.
     history: Path | None = None
     no_history: bool = False
+    #: MJCF tops added to the profile's cases (``--models``; catalogue.model_cases).
+    models: tuple[str, ...] = ()
     argv: tuple[str, ...] = ()
 
 
@@ -115,7 +118,7 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
     kinds, specs = engine_specs(opts.engines)
     catalogue = load_catalogue(opts.catalogue)
     cases, skipped = cases_on_specs(select_cases(catalogue, opts.profile, kinds, opts.cases,
-                                                 opts.modes), specs)
+                                                 opts.modes, opts.models), specs)
     if not cases:
         modes = f", modes {','.join(opts.modes)}" if opts.modes else ""
         ids = [c.id for c in catalogue.cases if opts.profile in c.profiles]
@@ -260,6 +263,7 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
                      cache_dir=default_cache_dir() if opts.cache else None,
                      shared_cache=opts.cache, log=log)
     records = [case_record(cr, check_case(cr, baseline)) for cr in runs]
+    model_changed = model_file_changes(records, baseline)  # said, not compared
     env = environment()
     # everything goes into a hidden staging folder that becomes --out at the end: a run
     # stopped on the way (Ctrl-C during the videos, say) leaves no half-written folder
@@ -280,6 +284,8 @@ def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[
             "catalogue": str(catalogue.path),
             "engines": list(opts.engines),
             "case_patterns": list(opts.cases),
+            "models": [str(Path(m).absolute()) for m in opts.models],
+            "model_changed": model_changed,
             "command": ["tippetop", "nightly", *opts.argv],
             "started": started,
             "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
