@@ -14,6 +14,7 @@ from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
     add_force_option,
     add_json_option,
+    add_scheduler_option,
     add_set_option,
     add_workers_option,
     json_text,
@@ -57,6 +58,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "and report.html, new or empty, or --force (default: none, printed only)")
     add_force_option(p, help="write into a non-empty --out")
     add_workers_option(p)
+    add_scheduler_option(p)
     p.add_argument("--no-attribution", action="store_true", help="skip the reruns that say "
                    "what each difference follows (the integrator, contacts, friction, the cone, "
                    "the solver, the timestep) and which engine is nearer the reference and its "
@@ -90,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     tables: dict[str, Any] = {}
     res = run_matrix(scenes, engines, modes, tuple(args.set or []), workers=args.workers,
                      use_cache=not args.no_cache, attribution=not args.no_attribution,
-                     tables=tables)
+                     tables=tables, scheduler=args.scheduler)
     res.setdefault("started", started)
     if not args.no_history:  # a failed append is said in one line; the results are kept
         res["history"] = record_matrix(res, args)

@@ -27,7 +27,6 @@ from tippetop.compare.running.cache import (
     default_cache_dir,
     task_key,
 )
-from tippetop.compare.running.cluster import dispatch_dask
 from tippetop.compare.running.compiling import compile_s, say_compile
 from tippetop.compare.running.cost import expected_cost_s, record_mujoco_runs, say_long_run
 from tippetop.compare.running.pool import (
@@ -119,7 +118,7 @@ def run_tasks(
         except TippetopError as exc:
             plans.append(None)
             results[i] = TaskResult(task, "", None, None, str(exc), False)
-    # managed environments made now, before any run, not midway
+    # managed environments made now, before any run, not midway (on Dask: by each worker)
     pythons = _engine_pythons([p for p in plans if p is not None], scheduler)
     keys = [task_key(t, p) if p is not None else "" for t, p in zip(tasks, plans, strict=True)]
 
@@ -144,8 +143,14 @@ def run_tasks(
                     key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
     unique_plans: dict[str, RunPlan] = {key: plans[todo[key][0]] for key, _ in unique}
     engines = [p.engine for p in unique_plans.values()]
-    slots = _slots(scheduler, workers, len(unique))
-    here = [p for p in unique_plans.values() if p.engine not in pythons]
+    # on Dask: connected, and each worker has found or made its environments, before the bar
+    cluster = _connect_cluster(scheduler, unique_plans) if scheduler and unique else None
+    lost: Any = ()  # what a lost scheduler raises (nothing to catch locally)
+    if cluster is not None:
+        from tippetop.compare.running.cluster import SchedulerLost as lost
+    slots = cluster.slots() if cluster is not None else _slots(scheduler, workers, len(unique))
+    here = [p for p in unique_plans.values() if p.engine not in pythons] if not scheduler \
+        else []  # nothing runs (nor compiles) in this process on Dask
     say_compile(here)
     say_long_run(list(unique_plans.values()), slots)  # stderr, above a minute
     hits = sum(r is not None and r.cached for r in results)
@@ -153,14 +158,18 @@ def run_tasks(
     bar = _progress(list(unique_plans.values()), label, slots, hits, shared, here)
     writer = CacheWriter(cache) if cache else None
     finished = False
+    kept = 0
     try:
-        for key, out in _dispatch(unique, scheduler, workers, bar, unique_plans, pythons):
+        runs = (_dispatch_cluster(cluster, unique, unique_plans, bar) if cluster is not None
+                else _dispatch(unique, scheduler, workers, bar, unique_plans, pythons))
+        for key, out in runs:
             if "error" in out:
                 res_summary, table, err = None, None, out["error"]
             else:
                 res_summary, table, err = out["summary"], out["table"], None
                 if writer is not None and cacheable(tasks[todo[key][0]]):
                     writer.put(key, res_summary, table)
+                    kept += 1
             for i in todo[key]:
                 results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
         finished = True
@@ -168,12 +177,54 @@ def run_tasks(
             computed = {r.key: r.summary for r in results if r is not None and not r.cached}
             for engine in dict.fromkeys(engines):
                 record_mujoco_runs(measured_steps(computed.values(), engine), engine)
+    except lost as exc:  # the scheduler went: every run finished before it is kept
+        if bar is not None:
+            bar.close()
+        if writer is not None:
+            writer.close(raise_error=True)  # all written (a full disk says so instead)
+        where = (f"; {kept} finished run{'s' if kept != 1 else ''} kept in the cache "
+                 f"({cache.root})" if cache is not None and kept else "")
+        raise type(exc)(f"{exc}{where}") from None
     finally:  # erased on Ctrl-C too, so that 'tippetop: interrupted' starts its own line
         if bar is not None:
             bar.close()
         if writer is not None:  # every entry written before returning (or raising)
             writer.close(raise_error=finished)
+        if cluster is not None:
+            cluster.close()
     return [r for r in results if r is not None]
+
+
+def _connect_cluster(scheduler: str, plans: dict[str, RunPlan]) -> Any:
+    """The Dask cluster at ``scheduler``, its workers ready for the plans' engines.
+
+    Each worker finds or makes the managed environments itself (its own uv and
+    ``$TIPPETOP_CACHE``); this process makes none. Returns a
+    :class:`~.cluster.DaskCluster` (closed by the caller).
+    """
+    from tippetop.compare.running.cluster import DaskCluster
+
+    cluster = DaskCluster.connect(scheduler)
+    try:
+        cluster.prepare(p.engine for p in plans.values())
+    except BaseException:
+        cluster.close()
+        raise
+    return cluster
+
+
+def _dispatch_cluster(cluster: Any, unique: list[tuple[str, Task]], plans: dict[str, RunPlan],
+                      bar: WorkProgress | None) -> Iterable[tuple[str, dict[str, Any]]]:
+    """Run the unique tasks on the Dask cluster; yield ``(key, out)`` as each ends.
+
+    The bar ticks while none ends and moves as each does (a run on Dask does not report how
+    far it got).
+    """
+    index = {key: i for i, (key, _) in enumerate(unique)}
+    for key, out in cluster.run(unique, plans, bar.tick if bar is not None else None):
+        if bar is not None:
+            bar.finished(index[key])
+        yield key, out
 
 
 def _check_task(task: Task) -> None:
@@ -188,15 +239,15 @@ def _engine_pythons(plans: Sequence[RunPlan], scheduler: str | None) -> dict[str
     """The interpreter of each engine the plans run on other than this process's own.
 
     Managed environments are made here, before any run (each says so on stderr); an engine
-    that cannot run is refused in one line. Dask runs this process's MuJoCo only.
+    that cannot run is refused in one line. On Dask (``scheduler``) none is made here: each
+    Dask worker finds or makes its own (:meth:`.cluster.DaskCluster.prepare`); empty.
     """
     from tippetop.compare.running.engines import engine_python
 
     specs = {p.engine: parse_engine(p.engine) for p in plans}
     others = {k: spec for k, spec in specs.items() if not spec.in_process}
-    if others and scheduler:
-        raise TippetopError(f"--scheduler: expected the MuJoCo installed with tippetop on a "
-                            f"Dask cluster, got engines {', '.join(others)}")
+    if scheduler:
+        return {}
 
     def say(line: str) -> None:
         sys.stderr.write(line + "\n")
@@ -241,7 +292,10 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
 
     plans = plans or {key: task.plan() for key, task in unique}
     if scheduler:
-        for key, out in dispatch_dask(unique, plans, scheduler):
+        from tippetop.compare.running.cluster import dispatch_dask
+
+        for key, out in dispatch_dask(unique, plans, scheduler,
+                                      bar.tick if bar is not None else None):
             yield key, out
             done(key)
         return

@@ -95,7 +95,8 @@ def differs(metric: str, a: Any, b: Any) -> bool:
 def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
                modes: Sequence[str] | None = None, overrides: tuple[str, ...] = (), *,
                workers: int | None = None, use_cache: bool = True, attribution: bool = True,
-               tables: dict[str, Any] | None = None) -> dict[str, Any]:
+               tables: dict[str, Any] | None = None,
+               scheduler: str | None = None) -> dict[str, Any]:
     """Every scene on every MuJoCo engine in every mode, the reference once per scene.
 
     Args:
@@ -108,6 +109,8 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
         use_cache: Read and write the run cache.
         attribution: Rerun each difference with one subsystem changed at a time.
         tables: Receives each run's table under :func:`table_key`.
+        scheduler: ``tcp://HOST:PORT`` of a Dask scheduler to run on (the attribution's
+            reruns too), or None for local processes.
 
     Returns:
         ``format``, ``engines`` ({engine, implementation, version, precision, device}, the
@@ -138,7 +141,7 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
             jobs.append((scene, mode, Task(name, (*over, *fit), spec.spec, mode,
                                            label=f"{scene} [{run_label(spec.spec, mode)}]")))
     results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,
-                        label="matrix")
+                        label="matrix", scheduler=scheduler)
     runs, reference = [], {}
     done: dict[tuple[str, str, str], tuple[Task, TaskResult]] = {}
     predictions: dict[str, tuple[float | None, str | None]] = {}
@@ -165,7 +168,7 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
     differences = _differences(runs, engines, scene_modes, scenes)
     if attribution:
         _attribute(differences, done, reference, predictions, workers=workers,
-                   use_cache=use_cache)
+                   use_cache=use_cache, scheduler=scheduler)
     else:
         for d in differences:
             d["attribution"] = d["closer"] = None
@@ -181,7 +184,7 @@ def _attribute(differences: list[dict[str, Any]],
                done: dict[tuple[str, str, str], tuple[Task, TaskResult]],
                reference: dict[str, dict[str, Any]],
                predictions: dict[str, tuple[float | None, str | None]], *,
-               workers: int | None, use_cache: bool) -> None:
+               workers: int | None, use_cache: bool, scheduler: str | None = None) -> None:
     """Fill each difference's ``attribution`` and ``closer`` (one batch of reruns)."""
     from tippetop.compare.studies import attribution as attr
 
@@ -221,7 +224,7 @@ def _attribute(differences: list[dict[str, Any]],
                          "--no-attribution skips them)\n")
         sys.stderr.flush()
     results = run_tasks([j[4] for j in jobs], workers=workers, use_cache=use_cache,
-                        label="attribution") if jobs else []
+                        label="attribution", scheduler=scheduler) if jobs else []
     rerun: dict[tuple[str, str, str, str], dict[str, Any]] = {}
     tables: dict[tuple[str, str, str, str], Any] = {}
     for (scene, mode, spec, ch, _t), res in zip(jobs, results, strict=True):
