@@ -180,8 +180,10 @@ def verdict_section(results: Mapping[str, Any]) -> str:
     parts = ["<h2 id='checks'>Regression checks</h2>"]
     fails = [(r, ch) for r in recs for ch in r["checks"] if ch["status"] == "fail"]
     errors = [r for r in recs if r["status"] == "error"]
-    new = [(r, ch) for r in recs for ch in r["checks"] if ch["status"] == "new"]
-    if not (fails or errors or new):
+    changed = results.get("model_changed") or {}
+    new = [(r, ch) for r in recs for ch in r["checks"]
+           if ch["status"] == "new" and r["id"] not in changed]
+    if not (fails or errors or new or changed):
         parts.append("<p>Every metric is within its tolerance of the stored baseline.</p>")
     if fails:
         parts.append("<h3>Regressions</h3>" + html_table(
@@ -191,6 +193,11 @@ def verdict_section(results: Mapping[str, Any]) -> str:
     if errors:
         parts.append("<h3>Cases that did not run</h3>" + html_table(
             ["case", "error"], [(r["id"], r["error"]) for r in errors], ["error"] * len(errors)))
+    if changed:
+        parts.append("<h3>Model files changed since their baselines (not compared; "
+                     "<code>--update-baseline</code> stores this run's values)</h3>"
+                     + html_table(["case", "what changed"], list(changed.items()),
+                                  ["new"] * len(changed)))
     if new:
         by_case: dict[str, list[str]] = {}
         for r, ch in new:
@@ -239,6 +246,7 @@ def scenes_section(results: Mapping[str, Any]) -> str:
             "is the theory's (F(x) = kappa) for a start near theta = 0.</p>"
             + html_table(["scene", "group", "A/C", "a/R", "theta0", "n0", "t_end", "theta_s(n0)",
                           "theory", "expected", "simulated"], key_rows)
+            + model_files_table(runs)
             + "<details><summary>Every parameter of every scene (R, a, M, law, mu, Lambda, "
               "n1, n4, n_c, description)</summary>"
             + html_table(["scene", "description", "group", "A/C", "a/R", "C factor", "R (m)",
@@ -321,6 +329,37 @@ def accuracy_section(accuracy_dir: Path | None) -> str:
         parts.append(f"<details><summary>{esc(md.name)}</summary><pre>"
                      f"{esc(md.read_text(encoding='utf-8'))}</pre></details>")
     return "".join(parts)
+
+
+def model_files_table(runs: list[Mapping[str, Any]]) -> str:
+    """The model files that ran, each one's content hash against its baseline's.
+
+    A catalogue case's ``model`` or a file of ``nightly --models``; empty when none ran.
+    """
+    files: dict[tuple[str, str, str], list[Mapping[str, Any]]] = {}
+    for r in runs:
+        if r.get("model"):
+            files.setdefault((r["model"]["file"], r["model"]["origin"], r["name"]),
+                             []).append(r)
+    if not files:
+        return ""
+    rows, classes = [], []
+    for recs in files.values():
+        m = recs[0]["model"]
+        stored = {str(r["model"].get("baseline_sha256") or "")[:12] for r in recs} - {""}
+        changed = any(r["model"].get("changed") for r in recs)
+        state = ("changed since its baseline: not compared" if changed else
+                 "as in its baseline" if stored else "no baseline yet")
+        rows.append((m["given"], m["origin"], ", ".join(run_of(r) for r in recs),
+                     Html(f"<code>{esc(m['sha256'][:12])}</code>"),
+                     ", ".join(sorted(stored)) or "-", state, ", ".join(m.get("files", []))))
+        classes.append("new" if changed or not stored else "pass")
+    return ("<h3 id='models'>Model files</h3><p class='note'>MJCF tops run as cases of their "
+            "own (a catalogue case's <code>model</code>, or <code>nightly --models</code>), "
+            "each baseline entry with the hash (SHA-256, first 12 digits) of the file it ran: "
+            "a changed file is said, not compared.</p>"
+            + html_table(["model file", "from", "runs", "sha256", "baseline's", "state",
+                          "files hashed"], rows, classes))
 
 
 def checks_section(results: Mapping[str, Any]) -> str:
