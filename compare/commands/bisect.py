@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             raise TippetopError("--between: expected two releases A B (such as 3.3.7 3.17.0), "
                                 "got none")
         releases = bs.registry_releases("mujoco")
-        cands = bs.release_range(releases, *args.between, installed=bs._installed_mujoco())
+        cands = bs.release_range(releases, *args.between, installed=bs.installed_mujoco())
         source = releases.source
     if out_dir is not None:
         hold_output_lock(out_dir)
@@ -149,24 +149,35 @@ def _unit(metric: str) -> str:
 
 def print_bisect(res: dict[str, Any]) -> None:
     """The search for a person: what ran, then each metric's move."""
-    from tippetop.compare.presentation.terminal import fmt, labelled, table
+    from tippetop.compare.presentation.terminal import fmt, labelled, table, wrapped
 
     n = len(res["releases"])
     print(f"bisect: {res['scene']} in mode {res['mode']}, {n} releases from "
           f"{res['between'][0]} to {res['between'][1]} ({res['source']})")
-    print(f"\nran {res['runs']} of {n} ({res['environments_made']} managed environments, "
-          f"{res['environments_new']} made now; read back from the runs):")
+    envs = res["environments_made"]
+    print(f"\nran {res['runs']} of {n} ({envs} managed environment{'s' if envs != 1 else ''}, "
+          f"{res['environments_new']} made now; the versions read back from the runs):")
     ms = res["metrics"]
-    rows = [(t["release"], t["engine"], fmt(t["version"]), str(t["status"]),
+    cols = ["release", "engine", "version", *(() if "status" in ms else ("status",)), *ms]
+    rows = [(t["release"], t["engine"], fmt(t["version"]),
+             *(() if "status" in ms else (str(t["status"]),)),
              *(fmt(t["values"].get(m), _unit(m)) for m in ms)) for t in res["tested"]]
-    print(table(("release", "engine", "version", "status", *ms), rows, indent="  "))
+    print(table(cols, rows, indent="  "))
     for sk in res["skipped"]:
         print(f"  skipped {sk['release']}: {sk['reason']}")
     width = max(len(m) for m in ms)
     print("\nwhat moved (beyond the nightly's tolerances):")
+    still = [m for m in ms if not res["by_metric"][m]["moved"]
+             and not res["by_metric"][m]["moves"]]
+    if still:
+        a, b = res["searched"]
+        print(wrapped(f"no move of {', '.join(still)}: {b} is like {a} (a move and a move "
+                      "back between two runs would not be seen)", indent="  "))
     for m in ms:
         e = res["by_metric"][m]
         u = _unit(m)
+        if m in still:
+            continue
         if not e["moved"]:
             print(labelled(m, f"{e['summary']}", width))
             continue
@@ -178,7 +189,11 @@ def print_bisect(res: dict[str, Any]) -> None:
         att = e.get("attribution")
         if att:
             print(labelled("", f"follows: {att.get('follows')}", width))
-        elif e.get("attribution_note"):
+        if e.get("closer"):
+            from tippetop.compare.commands.matrix import closer_text
+
+            print(labelled("", f"closer: {closer_text({'metric': m}, e['closer'])}", width))
+        if not att and e.get("attribution_note"):
             print(labelled("", e["attribution_note"], width))
     for note in res["notes"]:
         print(f"note: {note}")

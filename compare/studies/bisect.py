@@ -179,7 +179,8 @@ class Candidate:
     engine: str
 
 
-def _installed_mujoco() -> str | None:
+def installed_mujoco() -> str | None:
+    """The release of the MuJoCo installed with tippetop, or None."""
     from importlib import metadata
 
     try:
@@ -463,9 +464,6 @@ class _Search:
         self.skipped[i] = reason
         self.say(f"bisect: skipped {self.cands[i].name}: {reason}")
 
-    def open_between(self, lo: int, hi: int) -> list[int]:
-        return [k for k in range(lo + 1, hi) if k not in self.rows and k not in self.skipped]
-
     def middle(self, lo: int, hi: int) -> int | None:
         inner = [k for k in range(lo + 1, hi) if k not in self.skipped]
         if not inner:
@@ -480,22 +478,23 @@ class _Search:
         return not differs(metric, self.value(i, metric), self.value(j, metric))
 
     def first_move(self, metric: str, a: int, b: int) -> tuple[int, int] | None:
-        """The last release like ``a`` and the first unlike it (binary search), or None."""
-        if self.like(metric, a, b):
-            return None
-        lo, hi = a, b
+        """The last release like ``a`` and the first unlike it, or None if every run is like it.
+
+        A binary search between the first run unlike ``a`` and the run before it (every run
+        before it is like ``a``): with the ends only, the plain bisection; after a search for
+        further moves, the first departure those runs saw.
+        """
         while True:
-            mid = self.middle(lo, hi)
+            done = sorted(i for i in self.rows if a <= i <= b)
+            q = next((i for i in done if not self.like(metric, a, i)), None)
+            if q is None:
+                return None
+            p = max(i for i in done if i < q)
+            mid = self.middle(p, q)
             if mid is None:
-                return lo, hi
-            self.run([mid], f"{metric}: between {self.cands[lo].name} and "
-                     f"{self.cands[hi].name}")
-            if mid in self.skipped:
-                continue
-            if self.like(metric, a, mid):
-                lo = mid
-            else:
-                hi = mid
+                return p, q
+            self.run([mid], f"{metric}: between {self.cands[p].name} and "
+                     f"{self.cands[q].name}")
 
     def segments(self, metric: str) -> list[tuple[int, int]]:
         """Consecutive runs (in range order) whose values of the metric differ."""
@@ -567,6 +566,8 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
             p, q = open_seg[0]
             s.run([s.middle(p, q)], f"{m}: a further move, between {c[p].name} and "
                   f"{c[q].name}")
+    # the first departure from A's value the further runs saw (a move there and back)
+    firsts = {m: s.first_move(m, a, b) for m in metrics}
     by_metric = {}
     for m in metrics:
         segs = s.segments(m)
@@ -647,5 +648,5 @@ def _summary(s: _Search, m: str, first: tuple[int, int] | None,
 
 
 __all__ = ["FORMAT", "REGISTRY_URL", "Candidate", "MatrixRunner", "ReleaseList", "Runner",
-           "bisect", "check_metrics", "default_budget", "parse_registry", "python_range",
-           "read_pythons", "registry_releases", "release_range"]
+           "bisect", "check_metrics", "default_budget", "installed_mujoco", "parse_registry",
+           "python_range", "read_pythons", "registry_releases", "release_range"]

@@ -198,7 +198,8 @@ def test_a_range_that_moves_twice_says_so_and_names_both_moves() -> None:
 
 
 def test_a_move_away_and_back_seen_by_another_metric_is_said() -> None:
-    """theta_asymp's ends agree, but a release run for t_invert departs from both."""
+    """theta_asymp's ends agree, but a release run for t_invert departs from both: its first
+    move is bisected (3.5.0 -> 3.6.0), and its move back (3.9.0 -> 3.10.0) named."""
     n = 16
 
     def value(i: int) -> dict[str, Any]:
@@ -207,7 +208,8 @@ def test_a_move_away_and_back_seen_by_another_metric_is_said() -> None:
 
     res = bisect(_cands(n), ["t_invert", "theta_asymp"], FakeRunner(_names(n), value))
     e = res["by_metric"]["theta_asymp"]
-    assert not e["moved"] and len(e["moves"]) == 2 and e["moves_more_than_once"]
+    assert e["moved"] and len(e["moves"]) == 2 and e["moves_more_than_once"]
+    assert e["pair"] == {"last_like_a": "3.5.0", "first_like_b": "3.6.0"}
     assert [(m["last_like_before"], m["first_like_after"]) for m in e["moves"]] == [
         ("3.5.0", "3.6.0"), ("3.9.0", "3.10.0")]
 
@@ -223,6 +225,13 @@ def test_the_budget_bounds_the_search_for_further_moves() -> None:
     assert res["runs"] <= 10 and e["moves_more_than_once"]
     assert e["pair"] == {"last_like_a": "3.4.0", "first_like_b": "3.5.0"}
     assert any(not m["resolved"] for m in e["moves"])  # a further move narrowed, not named
+
+
+def test_the_first_move_is_found_whatever_the_budget() -> None:
+    n = 16
+    res = bisect(_cands(n), ["t_invert"], FakeRunner(_names(n), _step(11)), budget=2)
+    assert res["by_metric"]["t_invert"]["pair"] == {"last_like_a": "3.10.0",
+                                                    "first_like_b": "3.11.0"}
 
 
 def test_a_release_that_fails_to_install_is_skipped_and_named() -> None:
