@@ -117,9 +117,11 @@ def print_history(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]
     kinds: dict[str, int] = {}
     for r in runs:
         kinds[r["kind"]] = kinds.get(r["kind"], 0) + 1
-    span = (f", {runs[0]['started'][:10]} to {runs[-1]['started'][:10]}" if runs else "")
+    days = [runs[0]["started"][:10], runs[-1]["started"][:10]] if runs else []
+    span = "" if not days else f", {days[0]}" if days[0] == days[1] else \
+        f", {days[0]} to {days[1]}"
     changed = sum(bool(c) for _, c in found)
-    print(f"history: {path}: {len(runs)} runs ("
+    print(f"history: {path}: {len(runs)} run{'' if len(runs) == 1 else 's'} ("
           + ", ".join(f"{n} {k}" for k, n in kinds.items()) + f"){span}; {len(found)} series, "
           f"{changed} changed")
     if not found:

@@ -445,7 +445,12 @@ def record_results(kind: str, results: Mapping[str, Any], *, path: str | Path | 
     if not env and source is None:
         env = _here()
     env = env or {}
-    version = (env.get("packages") or {}).get("tippetop")
+    packages = env.get("packages") or {}
+    version = packages.get("tippetop")
+    for k, v in versions.items():  # what the runs did not say: the package's, or the spec's
+        versions[k] = v or _spec_version(k, packages)
+    for m in measures:
+        m.engine_version = m.engine_version or versions.get(m.engine)
     command = results.get("command")
     run = RunInfo(kind=kind, started=started or str(results.get("started") or _now()),
                   argv=list(argv) or [str(a) for a in (command or [])],
