@@ -319,9 +319,10 @@ class Runner(Protocol):
     """What runs the releases (:class:`MatrixRunner`; tests inject a fake one)."""
 
     def prepare(self, engine: str) -> str:
-        """Make the engine ready: ``made`` (an environment made now), ``found`` or ``none``.
+        """Make the engine ready; say how: ``made``, ``found``, ``workers`` or ``none``.
 
-        Raises TippetopError when it cannot be installed.
+        ``made``: an environment made now; ``workers``: made or found by the Dask workers;
+        ``none``: no managed environment. Raises TippetopError when it cannot be installed.
         """
 
     def measure(self, engines: Sequence[str]) -> dict[str, dict[str, Any]]:
@@ -366,8 +367,10 @@ class MatrixRunner:
         from tippetop.mujoco_runner.envs import ready_python
 
         spec = parse_engine(engine)
-        if spec.in_process or self.scheduler:
+        if spec.in_process:
             return "none"
+        if self.scheduler:
+            return "workers" if spec.version is not None else "none"
         if spec.version is None:
             engine_python(spec)  # an interpreter of the user's: there, or one line
             return "none"
@@ -397,6 +400,11 @@ class MatrixRunner:
 def default_budget(n: int) -> int:
     """The most runs by default: twice a binary search's (its ends and log2 of the range)."""
     return 2 * (2 + math.ceil(math.log2(max(2, n - 1))))
+
+
+def _not_the_release(exc: TippetopError) -> bool:
+    """An option's complaint (``--scheduler: ...``), not a release's: it stops the search."""
+    return str(exc).startswith("--")
 
 
 @dataclass
@@ -435,6 +443,8 @@ class _Search:
         try:
             got = self.runner.measure([self.cands[i].engine for i in ready])
         except TippetopError as exc:
+            if _not_the_release(exc):
+                raise
             if len(ready) == 1:
                 self.skip(next(iter(ready)), str(exc))
                 return
@@ -450,6 +460,8 @@ class _Search:
         try:
             got = self.runner.measure([self.cands[i].engine])
         except TippetopError as exc:
+            if _not_the_release(exc):
+                raise
             self.skip(i, str(exc))
             return
         self.record(i, got.get(self.cands[i].engine), env)
@@ -617,8 +629,8 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
             "searched": [c[a].name, c[b].name],
             "tested": tested,
             "runs": len(s.rows),
-            "environments_made": sum(1 for i in s.rows
-                                     if s.rows[i]["environment"] in ("made", "found")),
+            "environments_made": sum(1 for i in s.rows if s.rows[i]["environment"]
+                                     in ("made", "found", "workers")),
             "environments_new": sum(1 for i in s.rows if s.rows[i]["environment"] == "made"),
             "steps": s.steps, "budget": limit,
             "skipped": [{"release": c[k].name, "engine": c[k].engine, "reason": r}

@@ -252,6 +252,17 @@ def test_a_release_that_fails_to_install_is_skipped_and_named() -> None:
                for line in lines)
 
 
+def test_a_scheduler_that_cannot_be_reached_stops_the_search_not_skips_releases() -> None:
+    class Unreachable(FakeRunner):
+        def measure(self, engines: Sequence[str]) -> dict[str, dict[str, Any]]:
+            raise TippetopError("--scheduler: expected a reachable Dask scheduler, got 'x'")
+
+    runner = Unreachable(_names(8), _step(3))
+    with pytest.raises(TippetopError, match="--scheduler"):
+        bisect(_cands(8), ["t_invert"], runner)
+    assert len(runner.prepared) == 2  # the ends, then it stopped
+
+
 def runner_reason(engine: str) -> str:
     return f"engine {engine}: expected a release uv can install, got: no wheel"
 
