@@ -152,14 +152,16 @@ def print_bisect(res: dict[str, Any]) -> None:
     from tippetop.compare.presentation.terminal import fmt, labelled, table, wrapped
 
     n = len(res["releases"])
-    print(f"bisect: {res['scene']} in mode {res['mode']}, {n} releases from "
+    print(f"bisect: {res['scene']} in mode {res['mode']}, {n} {res['kind']} from "
           f"{res['between'][0]} to {res['between'][1]} ({res['source']})")
     envs = res["environments_made"]
     print(f"\nran {res['runs']} of {n} ({envs} managed environment{'s' if envs != 1 else ''}, "
           f"{res['environments_new']} made now; the versions read back from the runs):")
     ms = res["metrics"]
-    cols = ["release", "engine", "version", *(() if "status" in ms else ("status",)), *ms]
-    rows = [(t["release"], t["engine"], fmt(t["version"]),
+    own = all(t["engine"] == f"mujoco@{t['release']}" for t in res["tested"])
+    cols = ["interpreter" if own else "release", *(() if own else ("engine",)), "version",
+            *(() if "status" in ms else ("status",)), *ms]
+    rows = [(t["release"], *(() if own else (t["engine"],)), fmt(t["version"]),
              *(() if "status" in ms else (str(t["status"]),)),
              *(fmt(t["values"].get(m), _unit(m)) for m in ms)) for t in res["tested"]]
     print(table(cols, rows, indent="  "))
@@ -222,7 +224,7 @@ def render_html(res: dict[str, Any]) -> str:
     return (f"<!doctype html><meta charset='utf-8'><title>tippetop bisect</title>"
             f"<style>body{{font-family:sans-serif}}td,th{{padding:2px 8px;text-align:right}}"
             f"</style><h1>bisect: {esc(res['scene'])} ({esc(res['mode'])})</h1>"
-            f"<p>{len(res['releases'])} releases from {esc(res['between'][0])} to "
+            f"<p>{len(res['releases'])} {res['kind']} from {esc(res['between'][0])} to "
             f"{esc(res['between'][1])}; {res['runs']} run, {res['environments_made']} "
             f"managed environments.</p><h2>What moved</h2><ul>{moves}</ul>"
             f"<h2>Runs</h2><table><tr>{head}</tr>{body}</table>"

@@ -550,8 +550,9 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
     s = _Search(c, runner, tell, tty)
     n = len(c)
     limit = budget or default_budget(n)
-    tell(f"bisect: {n} releases from {c[0].name} to {c[-1].name}: about {s.estimate + 1} to "
-         f"run, at most {limit} for a second move")
+    noun = "interpreters" if c[0].engine.startswith("mujoco@") else "releases"
+    tell(f"bisect: {n} {noun} from {c[0].name} to {c[-1].name}: about "
+         f"{min(n, s.estimate + 1)} to run, at most {min(n, limit)} for a second move")
     a, b = 0, n - 1
     s.run([a, b], "the ends")
     while a not in s.rows and a < b:  # an end that cannot run: its neighbour stands in
@@ -626,6 +627,7 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
                 r["version"] != c[i].name:
             notes.append(f"{c[i].engine} read back version {r['version']}, not {c[i].name}")
     return {"releases": [x.name for x in c], "between": [c[0].name, c[-1].name],
+            "kind": noun,
             "searched": [c[a].name, c[b].name],
             "tested": tested,
             "runs": len(s.rows),
