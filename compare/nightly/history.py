@@ -577,7 +577,16 @@ def load_series(path: str | Path | None = None, *, kinds: Sequence[str] = (),
                 keep += [r for r in runs if r["kind"] == k][-last:]
             runs = sorted(keep, key=lambda r: (r["started"], r["id"]))
         by_id = {r["id"]: r for r in runs}
-        rows = con.execute("SELECT * FROM measures ORDER BY run_id").fetchall()
+        where, params = [], []
+        if (kinds or last) and len(by_id) < 30000:  # only the runs kept (SQLite's 32766 ?s)
+            where.append(f"run_id IN ({','.join('?' * len(by_id)) or 'NULL'})")
+            params += list(by_id)
+        if metrics:
+            where.append(f"metric IN ({','.join('?' * len(metrics))})")
+            params += list(metrics)
+        rows = con.execute("SELECT * FROM measures" + (" WHERE " + " AND ".join(where)
+                                                       if where else "") + " ORDER BY run_id",
+                           params).fetchall()
     for r in runs:
         r["engines"] = eng.get(r["id"], {})
         r["argv"] = json.loads(r["argv"] or "[]")

@@ -35,6 +35,7 @@ def trend_figure(metric: str, series: Sequence[Mapping[str, Any]]) -> Any:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 2.8))
     words: list[Any] = []
+    said: set[tuple[Any, str]] = set()
     for s in series:
         vals = [v["value"] for v in s["values"]]
         if not _numeric(vals):  # words and flags: one level per distinct value
@@ -57,6 +58,12 @@ def trend_figure(metric: str, series: Sequence[Mapping[str, Any]]) -> Any:
             if x is not None:
                 ax.axvline(x, color=line.get_color(), ls=":" if c["type"] == "blip" else "--",
                            lw=0.9)
+                what = " -> ".join(str(v) for v in c.get("engine_version") or ())
+                if c["type"] != "blip" and what and (x, what) not in said:
+                    said.add((x, what))  # the engine version that changed, at its step
+                    ax.annotate(what, (x, 0.98), xycoords=("data", "axes fraction"),
+                                fontsize=6, rotation=90, va="top", ha="right",
+                                color=line.get_color())
     if words:
         ax.set_yticks(range(len(words)), [str(w) for w in words])
     ax.set_ylabel(f"{metric}" + (f" ({unit})" if unit and unit != "relative" else ""))
