@@ -32,8 +32,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "growth rate crosses zero) and n4 (the inverted state's, carried to theta = 0 by "
         "Jellett's constant) in each engine's own dynamics, in every mode of --modes it can "
         "run, the group they imply (I: no n1; II: n1 and n4; III: n1, no n4), against the "
-        "theory's group and thresholds. It runs on the reference and the MuJoCo installed "
-        "here.")
+        "theory's group and thresholds. It runs on any engine: the reference, the MuJoCo "
+        "installed here, a release (mujoco==X.Y.Z), a build (mujoco@PYTHON), MJX or Warp.")
     p.add_argument("--A-over-C", dest="A_over_C", default=DEFAULT_A_OVER_C, metavar="LO:HI:N",
                    help=f"A/C values: N evenly spaced from LO to HI (default "
                    f"{DEFAULT_A_OVER_C})")
@@ -41,7 +41,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"a/R values, in (0, 1): N evenly spaced from LO to HI (default "
                    f"{DEFAULT_A_OVER_R})")
     p.add_argument("--engines", metavar="ENGINE,...", help=f"comma-separated engines: ode "
-                   f"(the reference) and/or mujoco (the MuJoCo installed with tippetop) "
+                   f"(the reference), mujoco (the MuJoCo installed with tippetop), "
+                   f"mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32, warp "
                    f"(default {DEFAULT_ENGINES_TEXT})")
     p.add_argument("--modes", metavar="MODE,...", help=f"comma-separated modes: paper, "
                    f"native, native-pyramidal, native-elliptic, native-condim4, "

@@ -190,8 +190,8 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
 def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], list[str]]:
     """Each MuJoCo case on each MuJoCo engine; the cases that cannot run on one, said.
 
-    Runs, sweeps and thresholds run on any engine; the atlas (modes over a grid of tops) on
-    ``mujoco`` only.
+    Runs, sweeps, thresholds and the atlas run on any engine (a release, a build, MJX, Warp:
+    locally or on a Dask cluster).
     """
     out, skipped = [], []
     for c in cases:
@@ -199,7 +199,7 @@ def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], lis
             out.append(c)
             continue
         for spec in specs:
-            if spec != "mujoco" and c.kind not in ("run", "sweep", "threshold"):
+            if spec != "mujoco" and c.kind not in ("run", "sweep", "threshold", "atlas"):
                 skipped.append(f"{c.id} on {spec} (a {c.kind} runs on the installed MuJoCo "
                                "only)")
                 continue

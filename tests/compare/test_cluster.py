@@ -186,6 +186,30 @@ def test_the_cluster_commands_of_the_docs_are_there() -> None:
         assert "--scheduler" in subs[command].format_help(), command
 
 
+class _Stop(Exception):
+    pass
+
+
+def test_the_atlas_runs_on_a_managed_engine_and_on_dask(monkeypatch) -> None:
+    """The atlas no longer refuses an engine other than the installed MuJoCo: its runs go to
+    the runner on that engine (and to the cluster given); the runner does the rest."""
+    from tippetop.compare.studies import atlas
+
+    seen: dict[str, Any] = {}
+
+    def fake_run_tasks(tasks: list[Task], **kw: Any) -> list[Any]:
+        seen.update(engines={t.engine for t in tasks}, modes={t.mode for t in tasks}, **kw)
+        raise _Stop
+
+    monkeypatch.setattr(atlas, "run_tasks", fake_run_tasks)
+    for engine in (RELEASE, "mjx", f"mujoco@{sys.executable}"):
+        with pytest.raises(_Stop):
+            atlas.run_atlas([1.1], [0.1], [(engine, "paper", ())],
+                            scheduler="tcp://127.0.0.1:8786")
+        assert seen["engines"] == {engine} and seen["modes"] == {"paper"}
+        assert seen["scheduler"] == "tcp://127.0.0.1:8786"
+
+
 # ---------------------------------------------------------------- loopback clusters (slow)
 def _free_port() -> int:
     with socket.socket() as s:
