@@ -13,7 +13,7 @@ import pandas as pd
 
 from tippetop.compare.measures.series import classify_outcome, theta_trend
 from tippetop.compare.nightly.catalogue import ENGINES, Case
-from tippetop.compare.running.runner import Task, TaskResult, run_tasks
+from tippetop.compare.running.runner import SchedulerLost, Task, TaskResult, run_tasks
 from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, load_scene
@@ -225,6 +225,8 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
         res = measure_threshold(c.scene, c.engine, c.which or "n1", c.overrides,
                                 method=c.method, rel_tol=c.rel_tol, scheduler=scheduler,
                                 workers=workers, use_cache=use_cache, mode=c.mode, **options)
+    except SchedulerLost:  # the cluster went: the whole nightly stops (one line)
+        raise
     except Exception as exc:  # noqa: BLE001 - a failed bisection is that case's error
         cr.error = error_text(exc)
         cr.wall_s = time.perf_counter() - t0
@@ -259,6 +261,8 @@ def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
                         [(c.engine, c.mode, c.extra)], tuple(c.set), scheduler=scheduler,
                         workers=workers,
                         use_cache=use_cache)
+    except SchedulerLost:
+        raise
     except Exception as exc:  # noqa: BLE001 - a failed atlas is that case's error
         cr.error = error_text(exc)
         cr.wall_s = time.perf_counter() - t0

@@ -30,6 +30,7 @@ from typing import Any
 from distributed import Client, WorkerPlugin, as_completed
 from distributed.core import Status
 
+from tippetop.compare.running.runner import SchedulerLost
 from tippetop.compare.running.tasks import Task, execute_plan
 from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
@@ -50,10 +51,6 @@ PLUGIN_NAME = "tippetop-engine-workers"
 #: (reconnecting, closing) on stderr: the command says it in one line instead.
 QUIET_LOGGERS = ("distributed.client", "distributed.comm", "distributed.core",
                  "distributed.batched", "distributed.utils")
-
-
-class SchedulerLost(TippetopError):
-    """The Dask scheduler went away (or the connection to it) while runs were going."""
 
 
 class EngineWorkers(WorkerPlugin):

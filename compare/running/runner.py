@@ -53,6 +53,14 @@ from tippetop.models.modes import old_spelling, parse_mode
 from tippetop.models.plan import RunPlan
 
 
+class SchedulerLost(TippetopError):
+    """The Dask scheduler (or the connection to it) went away while runs were going.
+
+    Raised by a ``--scheduler`` batch (:mod:`.cluster`); the runs finished before it are in the
+    cache. Studies that keep a failed piece of work as their own row let this one through.
+    """
+
+
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
               shared: int = 0, here: list[RunPlan] | None = None) -> WorkProgress | None:
     """The batch's bar on stderr, each run weighted by its expected cost; None off a terminal.
@@ -145,9 +153,7 @@ def run_tasks(
     engines = [p.engine for p in unique_plans.values()]
     # on Dask: connected, and each worker has found or made its environments, before the bar
     cluster = _connect_cluster(scheduler, unique_plans) if scheduler and unique else None
-    lost: Any = ()  # what a lost scheduler raises (nothing to catch locally)
-    if cluster is not None:
-        from tippetop.compare.running.cluster import SchedulerLost as lost
+    lost: Any = SchedulerLost if cluster is not None else ()  # nothing to catch locally
     slots = cluster.slots() if cluster is not None else _slots(scheduler, workers, len(unique))
     here = [p for p in unique_plans.values() if p.engine not in pythons] if not scheduler \
         else []  # nothing runs (nor compiles) in this process on Dask
@@ -424,5 +430,6 @@ def _run_mujoco_batched(tasks: list[tuple[str, Task]], plans: dict[str, RunPlan]
 
 
 #: Re-exported for the callers that import them from here (the runner's public names).
-__all__ = ["ResultCache", "Task", "TaskResult", "code_fingerprint", "default_cache_dir",
-           "execute", "execute_plan", "local_pool", "run_tasks", "strip_timing", "task_key"]
+__all__ = ["ResultCache", "SchedulerLost", "Task", "TaskResult", "code_fingerprint",
+           "default_cache_dir", "execute", "execute_plan", "local_pool", "run_tasks",
+           "strip_timing", "task_key"]
