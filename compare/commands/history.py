@@ -39,9 +39,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "that run, else the commit. --import adds old results.json files.")
     p.add_argument("--history", metavar="FILE", help=HISTORY_HELP)
     p.add_argument("--import", dest="import_files", nargs="+", metavar="RESULTS.json",
-                   help="append these nightly or matrix results.json files (dated by their "
-                   "'started' field, else the file's time) and print what was added (default: "
-                   "none)")
+                   help="append these nightly, matrix or bisect results.json files (dated by "
+                   "their 'started' field, else the file's time) and print what was added "
+                   "(default: none)")
     p.add_argument("--case", metavar="GLOBS", help="only case ids matching these comma-"
                    "separated globs, e.g. 'paper/fig3*' (default: every case)")
     p.add_argument("--metric", metavar="NAME,...", help="only these comma-separated metrics, "

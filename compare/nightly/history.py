@@ -371,6 +371,30 @@ def _matrix_measures(results: Mapping[str, Any],
     return out, versions
 
 
+def _bisect_measures(results: Mapping[str, Any]) -> tuple[list[Measure], dict[str, Any]]:
+    """A bisect's (``tippetop-bisect/1``): each release it ran, its values read back."""
+    from tippetop.compare.measures.tolerances import TOLERANCES
+
+    over = results.get("overrides") or []
+    suffix = f" set {','.join(over)}" if over else ""
+    out, versions = [], {}
+    for t in results.get("tested", []):
+        engine = str(t["engine"])
+        versions.setdefault(engine, t.get("version"))
+        case = f"{results.get('scene')}[{engine}/{results.get('mode')}]{suffix}"
+        for metric, v in (t.get("values") or {}).items():
+            tol = TOLERANCES[metric].to_json() if metric in TOLERANCES else None
+            base = dict(case=case, engine=engine, metric=metric,
+                        engine_version=t.get("version"), mode=results.get("mode"),
+                        tolerance=tol, unit=(tol or {}).get("unit") or "",
+                        status=t.get("status"))
+            if isinstance(v, dict):
+                out += [Measure(value=pv, point=str(k), **base) for k, pv in v.items()]
+            else:
+                out.append(Measure(value=v, **base))
+    return out, versions
+
+
 def _generic_measures(results: Mapping[str, Any]) -> tuple[list[Measure], dict[str, Any]]:
     from tippetop.compare.measures.tolerances import TOLERANCES
 
@@ -395,6 +419,8 @@ def results_kind(results: Mapping[str, Any]) -> str | None:
         return "nightly"
     if fmt.startswith("tippetop-matrix/"):
         return "matrix"
+    if fmt.startswith("tippetop-bisect/") and isinstance(results.get("tested"), list):
+        return "bisect"
     if "rows" in results and isinstance(results["rows"], list):
         return "bisect" if "bisect" in fmt else str(results.get("kind") or "bisect")
     return None
@@ -409,11 +435,12 @@ def record_results(kind: str, results: Mapping[str, Any], *, path: str | Path | 
     Args:
         kind: ``nightly``, ``matrix`` or ``bisect`` (what the history calls the run).
         results: The nightly's ``results.json`` dictionary (``format``
-            ``tippetop-nightly-results/1``), the matrix's (``tippetop-matrix/2``), or any
-            other with ``rows``: ``[{case, engine, engine_version, metric, value}]`` and,
+            ``tippetop-nightly-results/1``), the matrix's (``tippetop-matrix/2``), the
+            bisect's (``tippetop-bisect/1``: each release in ``tested`` with the version read
+            back and its ``values``, the case ``SCENE[ENGINE/MODE]``), or any other with
+            ``rows``: ``[{case, engine, engine_version, metric, value}]`` and,
             optionally, ``mode``, ``point``, ``status`` and ``tolerance`` ({kind, value,
-            floor, unit}; default: the nightly's for that metric). A bisect appends the values
-            it measured at each release this way.
+            floor, unit}; default: the nightly's for that metric).
         path: The history file (default: the cache's).
         profile: The profile (default: ``results["profile"]``).
         argv: The command's arguments (default: ``results["command"]``).
@@ -435,6 +462,8 @@ def record_results(kind: str, results: Mapping[str, Any], *, path: str | Path | 
         measures, versions = _nightly_measures(results)
     elif fmt == "matrix":
         measures, versions = _matrix_measures(results, settings)
+    elif fmt == "bisect" and "tested" in results:
+        measures, versions = _bisect_measures(results)
     elif fmt is not None:
         measures, versions = _generic_measures(results)
     else:
@@ -466,7 +495,7 @@ def record_results(kind: str, results: Mapping[str, Any], *, path: str | Path | 
 
 def import_results(files: Sequence[str | Path], path: str | Path | None = None
                    ) -> list[tuple[Path, str, int | None]]:
-    """Append old ``results.json`` files (nightly or matrix); (file, kind, run id or None).
+    """Append old ``results.json`` files (nightly, matrix, bisect); (file, kind, run id or None).
 
     Each file's date is its ``started`` (or ``timestamp``) field, else the file's mtime. Every
     file is read and checked before the first is appended.
@@ -489,9 +518,10 @@ def import_results(files: Sequence[str | Path], path: str | Path | None = None
         kind = results_kind(data) if isinstance(data, dict) else None
         if kind is None:
             got = data.get("format") if isinstance(data, dict) else type(data).__name__
-            raise TippetopError(f"--import: expected a nightly's or a matrix's results.json "
-                                f"(format tippetop-nightly-results/1 or tippetop-matrix/2), "
-                                f"got {str(p)!r} (format {got!r})")
+            raise TippetopError(f"--import: expected a nightly's, a matrix's or a bisect's "
+                                f"results.json (format tippetop-nightly-results/1, "
+                                f"tippetop-matrix/2 or tippetop-bisect/1), got {str(p)!r} "
+                                f"(format {got!r})")
         when = data.get("started") or data.get("timestamp")
         if not when:
             when = datetime.fromtimestamp(p.stat().st_mtime).astimezone().isoformat(

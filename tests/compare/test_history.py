@@ -213,6 +213,23 @@ def test_import_reads_nightly_and_matrix_results_with_their_dates(tmp_path: Path
     assert len(h.load_series(path)[1]) == 2
 
 
+def test_a_bisects_results_append_each_release_it_ran(tmp_path: Path) -> None:
+    res = {"format": "tippetop-bisect/1", "scene": "top.xml", "mode": "file", "overrides": [],
+           "started": "2026-11-27T10:00:00+00:00",
+           "tested": [{"release": "3.10.0", "engine": "mujoco==3.10.0", "version": "3.10.0",
+                       "status": "ok", "values": {"t_invert": 3.654, "outcome": "inverted"}},
+                      {"release": "3.11.0", "engine": "mujoco==3.11.0", "version": "3.11.0",
+                       "status": "ok", "values": {"t_invert": 3.356, "outcome": "inverted"}}]}
+    path = tmp_path / "h.sqlite"
+    assert h.record_results("bisect", res, path=path) == 1
+    series, runs = h.load_series(path, metrics=["t_invert"])
+    assert runs[0]["kind"] == "bisect"
+    assert runs[0]["engines"] == {"mujoco==3.10.0": "3.10.0", "mujoco==3.11.0": "3.11.0"}
+    assert [(s.case, s.values[0].engine_version, s.tolerance["kind"]) for s in series] == [
+        ("top.xml[mujoco==3.10.0/file]", "3.10.0", "abs"),
+        ("top.xml[mujoco==3.11.0/file]", "3.11.0", "abs")]
+
+
 # --------------------------------------------------------------------------- bad files
 def _newer(path: Path) -> None:
     con = sqlite3.connect(path)
