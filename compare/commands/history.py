@@ -114,6 +114,10 @@ def _json(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]]) -> di
 
 def print_history(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]]) -> None:
     """The history for a person: the runs in a line, then each case and engine's series."""
+    if not runs:
+        print(f"history: {path}: no runs yet (each nightly and matrix appends to it; --import "
+              "adds old results.json files)")
+        return
     kinds: dict[str, int] = {}
     for r in runs:
         kinds[r["kind"]] = kinds.get(r["kind"], 0) + 1
@@ -125,7 +129,7 @@ def print_history(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]
           + ", ".join(f"{n} {k}" for k, n in kinds.items()) + f"){span}; {len(found)} series, "
           f"{changed} changed")
     if not found:
-        print("  nothing matches" if runs else "  no runs yet")
+        print("  nothing matches")
         return
     head = None
     from tippetop.compare.nightly import history as h
