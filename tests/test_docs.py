@@ -17,8 +17,8 @@ The convention (docs/development/docs.md says it for writers):
 - Blocks of other languages (toml, xml, json, text, ...) are data, not commands; ``bash``,
   ``sh`` and ``shell`` blocks are refused, so that no command escapes the test.
 
-Each block runs in a fresh working folder (links to the repository's ``examples/`` and
-``models/``) with a private ``TIPPETOP_CACHE`` shared by the session (the first command pays
+Each block runs in a fresh working folder (links to the repository's ``examples/``,
+``models/`` and ``tests/``) with a private ``TIPPETOP_CACHE`` shared by the session (the first command pays
 the compilation). A block whose commands another block already ran is checked against that
 run's output. What the commands write into the working folder must be ignored by git
 (``.gitignore``), since a reader runs them in the repository. A failure names the doc file and
@@ -43,7 +43,7 @@ DOC_FILES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 CI_RUN = ROOT / ".ci" / "run"
 
 #: Repository folders linked into each block's working folder (the docs' inputs).
-INPUTS = ("examples", "models")
+INPUTS = ("examples", "models", "tests")
 
 #: Commands that install, or that CI runs itself: checked against .ci/run, never run here.
 CI_PROGRAMS = {"pip", "pip3", "apt-get", "apt", "uv", "pytest", "ruff", "properdocs", "mkdocs",

@@ -12,6 +12,7 @@ import os
 import sys
 from typing import Any
 
+from tippetop.compare.commands.history import add_history_options
 from tippetop.compare.commands.options import (
     add_force_option,
     add_json_option,
@@ -68,6 +69,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_workers_option(p)
     p.add_argument("--no-cache", action="store_true", help="compute every run again and "
                    "write nothing to the cache; the release list is still kept an hour")
+    add_history_options(p, "every release's values, engine versions, commit and machine")
     add_json_option(p)
     p.set_defaults(func=run)
 
@@ -101,6 +103,11 @@ def run(args: argparse.Namespace) -> int:
     if args.budget is not None and args.budget < 2:
         raise TippetopError(f"--budget: expected an integer >= 2 (runs), got {args.budget}")
     mode = _check_scene(args.scene, args.mode, overrides)
+    from tippetop.compare.nightly.history import check_history, timestamp_now
+
+    if not args.no_history:  # before the runs: a file that is not a history is bad input
+        check_history(args.history)
+    started = timestamp_now()
     out_dir = None
     if args.out:
         out_dir = check_output_dir(args.out, force=args.force)
@@ -126,7 +133,11 @@ def run(args: argparse.Namespace) -> int:
     found = bs.bisect(cands, metrics, runner, budget=args.budget,
                       attribution=not args.no_attribution, say=say, tty=sys.stderr.isatty())
     res = {"format": bs.FORMAT, "scene": args.scene, "mode": mode, "overrides": list(overrides),
-           "source": source, **found}
+           "source": source, "started": started, **found}
+    if not args.no_history:  # a failed append is said in one line; the results are kept
+        from tippetop.compare.commands.history import record_command
+
+        res["history"] = record_command("bisect", res, args)
     if out_dir is not None:
         from tippetop.compare.running.io import staged_output_dir
 
@@ -139,6 +150,9 @@ def run(args: argparse.Namespace) -> int:
         print_bisect(res)
         if out_dir is not None:
             print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
+        if res.get("history") and res["history"]["run"] is not None:
+            print(f"history: appended to {res['history']['file']} (run "
+                  f"{res['history']['run']}; 'tippetop history' shows what moved)")
     return 0
 
 

@@ -6,6 +6,7 @@ The store is :mod:`tippetop.compare.nightly.history`; the nightly and the matrix
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from tippetop.compare.commands.options import (
@@ -26,6 +27,29 @@ def add_history_options(p: argparse.ArgumentParser, what: str) -> None:
                    "(default: $TIPPETOP_CACHE/history.sqlite)")
     p.add_argument("--no-history", dest="no_history", action="store_true",
                    help="append nothing to the history (default: append)")
+
+
+def record_command(kind: str, res: dict[str, Any], args: argparse.Namespace, *,
+                   profile: str | None = None) -> dict[str, Any]:
+    """Append a command's results to the history: ``{file, run, error}`` (never raises).
+
+    A failed append is said in one line on stderr; the command's results are kept whatever
+    happens (``kind``: matrix or bisect, the command's name).
+    """
+    from tippetop.compare.nightly.history import history_path, record_results
+    from tippetop.compare.running.io import json_ready
+
+    path = history_path(args.history)
+    try:
+        run_id = record_results(kind, json_ready(res), path=path, profile=profile, argv=[
+            "tippetop", kind, *(getattr(args, "_argv", None) or sys.argv[2:])],
+            settings=tuple(getattr(args, "set", None) or ()))
+    except Exception as exc:  # noqa: BLE001 - the command's results are kept whatever happens
+        error = " ".join(f"{type(exc).__name__}: {exc}".split())
+        sys.stderr.write(f"tippetop: history not appended to {path}: {error} (the results "
+                         "are kept)\n")
+        return {"file": str(path), "run": None, "error": error}
+    return {"file": str(path), "run": run_id, "error": None}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -124,21 +124,9 @@ def run(args: argparse.Namespace) -> int:
 
 def record_matrix(res: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:
     """Append the matrix to the history: ``{file, run, error}`` (never raises)."""
-    from tippetop.compare.nightly.history import history_path, record_results
-    from tippetop.compare.running.io import json_ready
+    from tippetop.compare.commands.history import record_command
 
-    path = history_path(args.history)
-    try:
-        run_id = record_results("matrix", json_ready(res), path=path, profile=(
-            None if args.scenes else args.profile), argv=["tippetop", "matrix", *(
-                getattr(args, "_argv", None) or sys.argv[2:])],
-            settings=tuple(args.set or ()))
-    except Exception as exc:  # noqa: BLE001 - the matrix's results are kept whatever happens
-        error = " ".join(f"{type(exc).__name__}: {exc}".split())
-        sys.stderr.write(f"tippetop: history not appended to {path}: {error} (the results "
-                         "are kept)\n")
-        return {"file": str(path), "run": None, "error": error}
-    return {"file": str(path), "run": run_id, "error": None}
+    return record_command("matrix", res, args, profile=None if args.scenes else args.profile)
 
 
 def closer_text(d: dict[str, Any], near: dict[str, Any]) -> str:

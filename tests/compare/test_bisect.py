@@ -408,3 +408,39 @@ def test_a_real_bisect_over_three_releases(tmp_path: Path) -> None:
             assert not differs(m, a["values"][m], ran["3.16.0"]["values"][m])
     assert json.loads((out / "results.json").read_text()) == res
     assert (out / "report.html").read_text().startswith("<!doctype html>")
+
+
+@pytest.mark.slow
+def test_a_real_move_over_three_releases_is_found_attributed_and_kept(tmp_path: Path) -> None:
+    """The stranger's Group II top at 1 ms: t_invert moves between MuJoCo 3.10.0 and 3.11.0.
+
+    Measured while writing the guide (docs/guide/catching-a-change.md): 3.654 s on 3.10.0,
+    3.356 s on 3.11.0 and after, a 0.30-s move against the nightly's 0.1-s tolerance, and
+    under Euler or RK4 the two releases agree. Over 3.10.0, 3.11.0, 3.12.0 the search must run
+    all three, name the pair (3.10.0, 3.11.0), attribute the move to implicitfast, and append
+    every run to the history, where ``tippetop history`` finds them.
+    """
+    model = Path(__file__).resolve().parents[1] / "data" / "stranger" / \
+        "group2_mu1_implicitfast.xml"
+    hist = tmp_path / "h.sqlite"
+    done = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "bisect", str(model),
+                           "--between", "3.10.0", "3.12.0", "--metric", "t_invert",
+                           "--set", "mujoco.timestep_s=0.001", "--history", str(hist),
+                           "--json"], capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stderr
+    res = json.loads(done.stdout)
+    assert res["releases"] == ["3.10.0", "3.11.0", "3.12.0"] and res["runs"] == 3
+    e = res["by_metric"]["t_invert"]
+    assert e["moved"] and e["pair"] == {"last_like_a": "3.10.0", "first_like_b": "3.11.0"}
+    a, b = e["values"]
+    assert differs("t_invert", a, b) and a > b  # turns over later on 3.10.0
+    assert "implicitfast" in e["attribution"]["follows"]
+    assert not e["moves_more_than_once"]
+    assert res["history"]["run"] is not None and res["history"]["error"] is None
+    shown = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "history",
+                            "--history", str(hist), "--metric", "t_invert", "--json"],
+                           capture_output=True, text=True, timeout=300)
+    assert shown.returncode == 0, shown.stderr
+    series = json.loads(shown.stdout)["series"]
+    engines = {s["engine"] for s in series}
+    assert {"mujoco==3.10.0", "mujoco==3.11.0", "mujoco==3.12.0"} <= engines, engines
