@@ -41,7 +41,7 @@ GPU = "GPU"
 #: The implementations whose runs ask for :data:`GPU`.
 GPU_IMPLEMENTATIONS = ("mjx", "warp")
 #: Wall time to connect to the scheduler, and to wait for a first worker (s).
-CONNECT_S = 10.0
+CONNECT_S = 20.0
 WAIT_WORKERS_S = 60.0
 #: How often the progress bar is redrawn while no run ends (s).
 TICK_S = 0.25
