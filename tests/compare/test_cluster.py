@@ -210,6 +210,26 @@ def test_the_atlas_runs_on_a_managed_engine_and_on_dask(monkeypatch) -> None:
         assert seen["scheduler"] == "tcp://127.0.0.1:8786"
 
 
+def test_the_thresholds_run_on_a_managed_engine_and_on_dask(monkeypatch) -> None:
+    """Both methods of ``threshold`` send their runs, on the engine asked, to the cluster."""
+    from tippetop.compare.studies import growth, threshold
+
+    seen: dict[str, Any] = {}
+
+    def fake_run_tasks(tasks: list[Task], **kw: Any) -> list[Any]:
+        seen.update(engines={t.engine for t in tasks}, **kw)
+        raise _Stop
+
+    monkeypatch.setattr(growth, "run_tasks", fake_run_tasks)
+    monkeypatch.setattr(threshold, "run_tasks", fake_run_tasks)
+    for method, which in (("growth", "n1"), ("growth", "n4"), ("bisect", "n1")):
+        seen.clear()
+        with pytest.raises(_Stop):
+            threshold.measure_threshold(None, RELEASE, which, method=method, mode="paper",
+                                        scheduler="tcp://127.0.0.1:8786")
+        assert seen["engines"] == {RELEASE} and seen["scheduler"] == "tcp://127.0.0.1:8786"
+
+
 # ---------------------------------------------------------------- loopback clusters (slow)
 def _free_port() -> int:
     with socket.socket() as s:
