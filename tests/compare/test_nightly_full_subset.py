@@ -6,7 +6,7 @@ slow tests, the cases of the full profile that the quick profile does not hold a
 time: the bisection of n_c against the theory (the case whose stale baseline once made the full
 profile red), the Fig. 9 (b) sweep, n4 from growth rates and the Fig. 4 scene in MuJoCo's
 calibrated native contact, against the stored full baseline. Measured: 218 s on 2 cores that a
-full nightly and other jobs shared (load 4-9); the n4 growth threshold is most of it.
+full nightly and other jobs shared (load 4-9).
 """
 
 from __future__ import annotations
