@@ -17,11 +17,11 @@ The convention (docs/development/docs.md says it for writers):
 - Blocks of other languages (toml, xml, json, text, ...) are data, not commands; ``bash``,
   ``sh`` and ``shell`` blocks are refused, so that no command escapes the test.
 
-Each block runs in a fresh working folder (links to the repository's ``examples/``,
-``models/`` and ``tests/``) with a private ``TIPPETOP_CACHE`` shared by the session (the first command pays
-the compilation). A block whose commands another block already ran is checked against that
-run's output. What the commands write into the working folder must be ignored by git
-(``.gitignore``), since a reader runs them in the repository. A failure names the doc file and
+Each block runs in a fresh working folder (links to the repository's ``examples/``, ``models/``
+and ``tests/``) with a private ``TIPPETOP_CACHE`` shared by the session (the first command pays
+the compilation). A block whose commands another block already ran is checked against that run's
+output. What the commands write into the working folder must be ignored by git (``.gitignore``),
+since a reader runs them in the repository. A failure names the doc file and
 the line.
 """
 
