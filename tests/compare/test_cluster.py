@@ -392,7 +392,14 @@ def test_a_run_whose_workers_all_die_is_its_failed_row(loopback: Any, tmp_path: 
     assert killed.summary is None and killed.error is not None
     assert "\n" not in killed.error and "KilledWorker" in killed.error
     assert "died, 2 times on 2 workers" in killed.error
-    assert fine.error is None and fine.summary["status"] in ("ok", "contact_lost")
+    # The reference's run is a row of its own either way: it ran, or (queued on a worker as it
+    # died: Dask counts a death against every task in processing there, and this test lowers
+    # the allowance to 1) it is a failed row with the same one-line reason, never an exception
+    # that loses the batch (seen in CI on a fresh machine, where the two landed together).
+    if fine.error is None:
+        assert fine.summary["status"] in ("ok", "contact_lost")
+    else:
+        assert "\n" not in fine.error and "KilledWorker" in fine.error
 
 
 @pytest.fixture()
