@@ -30,8 +30,7 @@ from typing import Any
 from distributed import Client, WorkerPlugin, as_completed
 from distributed.core import Status
 
-from tippetop.compare.running.runner import SchedulerLost
-from tippetop.compare.running.tasks import Task, execute_plan
+from tippetop.compare.running.tasks import SchedulerLost, Task, execute_plan
 from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import RunPlan

@@ -39,6 +39,7 @@ from tippetop.compare.running.pool import (
 )
 from tippetop.compare.running.progress import WorkProgress
 from tippetop.compare.running.tasks import (
+    SchedulerLost,
     Task,
     TaskResult,
     downsample,
@@ -51,14 +52,6 @@ from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import old_spelling, parse_mode
 from tippetop.models.plan import RunPlan
-
-
-class SchedulerLost(TippetopError):
-    """The Dask scheduler (or the connection to it) went away while runs were going.
-
-    Raised by a ``--scheduler`` batch (:mod:`.cluster`); the runs finished before it are in the
-    cache. Studies that keep a failed piece of work as their own row let this one through.
-    """
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,

@@ -24,6 +24,14 @@ from tippetop.models.scene import Scene, load_scene
 CACHED_TABLE_ROWS = 4000
 
 
+class SchedulerLost(TippetopError):
+    """The Dask scheduler (or the connection to it) went away while runs were going.
+
+    Raised by a ``--scheduler`` batch (:mod:`.cluster`); the runs finished before it are in the
+    cache. Studies that keep a failed piece of work as their own row let this one through.
+    """
+
+
 @dataclass(frozen=True)
 class Task:
     """One run: a scene, its overrides, the engine it runs on and the mode it runs in.
@@ -141,5 +149,5 @@ def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
-__all__ = ["CACHED_TABLE_ROWS", "Task", "TaskResult", "downsample", "execute", "execute_plan",
-           "set_reporter", "strip_timing"]
+__all__ = ["CACHED_TABLE_ROWS", "SchedulerLost", "Task", "TaskResult", "downsample", "execute",
+           "execute_plan", "set_reporter", "strip_timing"]

@@ -86,9 +86,17 @@ def test_the_shipped_catalogue_marks_its_deliberate_departures() -> None:
     for run in ("ode/coulomb", "ode/coulomb_viscous", "mujoco/native-condim4",
                 "mujoco/native-condim6"):
         assert cases[f"friction/fig3[{run}]"].departs, run
-    # the paper's law and the calibrated friction are expected to agree: no excuse for them
-    assert not any(c.departs for c in cases.values()
-                   if c.run in ("ode/paper", "mujoco/paper", "mujoco/native"))
+    # the paper's law is expected to agree on the paper's own cases: no excuse for it (the
+    # stress cases leave the theory's hypotheses on purpose: tiny Lambda, theta0 = 0, flight)
+    paper_law = [c.id for c in cases.values() if c.departs and c.category != "stress"
+                 and c.run in ("ode/paper", "mujoco/paper")]
+    assert paper_law == []
+    # the calibrated friction may be excused only for what it is known to do and the paper's
+    # model has no word for: the ball chattering off the table (measured in the fidelity map
+    # and the full profile); any other departure of it is a regression to fix, not to excuse
+    native = {c.id: str(c.departs) for c in cases.values() if c.departs
+              and c.run == "mujoco/native"}
+    assert all("off the table" in why and "flight" in why for why in native.values()), native
 
 
 @pytest.mark.parametrize("departs", ['{magic = "x"}', '{paper = ""}', '"not a table"'])
