@@ -30,7 +30,7 @@ from typing import Any
 from distributed import Client, WorkerPlugin, as_completed
 from distributed.core import Status
 
-from tippetop.compare.running.tasks import SchedulerLost, Task, execute_plan
+from tippetop.compare.running.tasks import SchedulerError, SchedulerLost, Task, execute_plan
 from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import RunPlan
@@ -161,23 +161,23 @@ class DaskCluster:
         """Connect to the scheduler at ``address`` and wait for a first worker.
 
         Raises:
-            TippetopError: No scheduler there, or no worker joins it in ``wait_workers_s``
+            SchedulerError: No scheduler there, or no worker joins it in ``wait_workers_s``
                 (one line).
         """
         if not address.startswith(("tcp://", "tls://")):
-            raise TippetopError(f"--scheduler: expected tcp://HOST:PORT, got {address!r}")
+            raise SchedulerError(f"--scheduler: expected tcp://HOST:PORT, got {address!r}")
         try:
             client = Client(address, timeout=f"{timeout_s}s", set_as_default=False)
         except (OSError, TimeoutError) as exc:
             reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-            raise TippetopError(f"--scheduler: expected a reachable Dask scheduler, got "
+            raise SchedulerError(f"--scheduler: expected a reachable Dask scheduler, got "
                                 f"{address!r} ({reason})") from None
         self = cls(client, address)
         try:
             try:
                 client.wait_for_workers(1, timeout=wait_workers_s)
             except (TimeoutError, OSError):
-                raise TippetopError(f"--scheduler: expected a Dask worker on the scheduler at "
+                raise SchedulerError(f"--scheduler: expected a Dask worker on the scheduler at "
                                     f"{address}, got none within {wait_workers_s:.0f} s "
                                     "(start one: dask worker " + address + ")") from None
             client.register_plugin(EngineWorkers(), name=PLUGIN_NAME)

@@ -24,7 +24,15 @@ from tippetop.models.scene import Scene, load_scene
 CACHED_TABLE_ROWS = 4000
 
 
-class SchedulerLost(TippetopError):
+class SchedulerError(TippetopError):
+    """The Dask cluster itself, not a run: no scheduler there, no worker, or it went away.
+
+    Raised by a ``--scheduler`` batch (:mod:`.cluster`) in one line; a study that keeps a
+    failed run as its own row (or skips a release that cannot run) lets this one through.
+    """
+
+
+class SchedulerLost(SchedulerError):
     """The Dask scheduler (or the connection to it) went away while runs were going.
 
     Raised by a ``--scheduler`` batch (:mod:`.cluster`); the runs finished before it are in the
@@ -149,5 +157,5 @@ def strip_timing(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
-__all__ = ["CACHED_TABLE_ROWS", "SchedulerLost", "Task", "TaskResult", "downsample", "execute",
-           "execute_plan", "set_reporter", "strip_timing"]
+__all__ = ["CACHED_TABLE_ROWS", "SchedulerError", "SchedulerLost", "Task", "TaskResult",
+           "downsample", "execute", "execute_plan", "set_reporter", "strip_timing"]

@@ -345,20 +345,12 @@ class MatrixRunner:
     say: Callable[[str], None] | None = None
 
     def _matrix(self, engines: Sequence[str], attribution: bool) -> dict[str, Any]:
-        import inspect
-
         from tippetop.compare.studies.matrix import run_matrix
         from tippetop.models.engines import parse_engine
 
-        extra: dict[str, Any] = {}
-        if self.scheduler:
-            if "scheduler" not in inspect.signature(run_matrix).parameters:
-                raise TippetopError("--scheduler: expected a matrix that runs on Dask, got "
-                                    "this installation's, which runs locally only")
-            extra["scheduler"] = self.scheduler
         return run_matrix([self.scene], [parse_engine(e) for e in engines], [self.mode],
                           self.overrides, workers=self.workers, use_cache=self.use_cache,
-                          attribution=attribution, **extra)
+                          attribution=attribution, scheduler=self.scheduler)
 
     def prepare(self, engine: str) -> str:
         """Make or find the engine's managed environment (locally; on Dask, its workers do)."""
@@ -403,8 +395,10 @@ def default_budget(n: int) -> int:
 
 
 def _not_the_release(exc: TippetopError) -> bool:
-    """An option's complaint (``--scheduler: ...``), not a release's: it stops the search."""
-    return str(exc).startswith("--")
+    """The cluster's complaint (no scheduler, no worker, gone), not a release's: it stops."""
+    from tippetop.compare.running.tasks import SchedulerError
+
+    return isinstance(exc, SchedulerError)
 
 
 @dataclass

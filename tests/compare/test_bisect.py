@@ -255,7 +255,9 @@ def test_a_release_that_fails_to_install_is_skipped_and_named() -> None:
 def test_a_scheduler_that_cannot_be_reached_stops_the_search_not_skips_releases() -> None:
     class Unreachable(FakeRunner):
         def measure(self, engines: Sequence[str]) -> dict[str, dict[str, Any]]:
-            raise TippetopError("--scheduler: expected a reachable Dask scheduler, got 'x'")
+            from tippetop.compare.running.tasks import SchedulerError
+
+            raise SchedulerError("--scheduler: expected a reachable Dask scheduler, got 'x'")
 
     runner = Unreachable(_names(8), _step(3))
     with pytest.raises(TippetopError, match="--scheduler"):
