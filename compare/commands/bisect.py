@@ -157,8 +157,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _unit(metric: str) -> str:
-    return "rad" if metric == "theta_asymp" else "s" if metric in (
-        "t_invert", "t_stem", "t_left_table") else ""
+    """The unit printed after a metric's value (:attr:`Metric.table_unit`, declared once)."""
+    from tippetop.compare.measures.metrics import metric as declared
+
+    return declared(metric).table_unit
 
 
 def print_bisect(res: dict[str, Any]) -> None:

@@ -131,10 +131,10 @@ def record_matrix(res: dict[str, Any], args: argparse.Namespace) -> dict[str, An
 
 def closer_text(d: dict[str, Any], near: dict[str, Any]) -> str:
     """Which engine is nearer the reference, and its own converged answer, in words."""
+    from tippetop.compare.measures.metrics import metric
     from tippetop.compare.presentation.terminal import fmt
 
-    unit = "rad" if d["metric"] == "theta_asymp" else "s" if d["metric"] in (
-        "t_invert", "t_stem") else ""
+    unit = metric(d["metric"]).table_unit
     ref, conv = near.get("reference"), near.get("converged_nearer")
     parts = []
     if ref is None:
@@ -159,6 +159,7 @@ def print_matrix(res: dict[str, Any]) -> None:
 
     Then what changes between engines, then which engines ran.
     """
+    from tippetop.compare.measures.metrics import metric
     from tippetop.compare.presentation.terminal import fmt, labelled, table
 
     engines = res["engines"]
@@ -188,8 +189,7 @@ def print_matrix(res: dict[str, Any]) -> None:
     width = max([len(f"{d['scene']} {d['mode']}") for d in diffs] or [0])
     for d in diffs:
         (a, b), (va, vb) = d["engines"], d["values"]
-        unit = "rad" if d["metric"] == "theta_asymp" else "s" if d["metric"] in (
-            "t_invert", "t_stem") else ""
+        unit = metric(d["metric"]).table_unit
         text = (f"{d['metric']} {fmt(va, unit)} ({a}) against {fmt(vb, unit)} ({b})"
                 + (f", over {fmt(d['tolerance'], unit)}" if d["tolerance"] is not None
                    else ""))

@@ -100,6 +100,14 @@ class Metric:
     style: str = "number"
     label: str = ""
 
+    @property
+    def table_unit(self) -> str:
+        """The unit a compact table prints after the number (the matrix's, bisect's columns).
+
+        The metric's own, or none for a ratio (``relative``, ``fraction``) or a text.
+        """
+        return "" if self.unit in ("relative", "fraction") else self.unit
+
     def text(self, value: Any) -> str:
         """The value as a person reads it, with its unit (``2.329 s``, ``1.3e-9 (relative)``)."""
         if value is None:
