@@ -8,6 +8,9 @@ from dataclasses import dataclass
 from tippetop.models.errors import expect
 
 FORMULATIONS = ("vector", "paper")
+#: The reference's integration methods (``ode.method``; reference_ode/methods.py): ``auto``
+#: picks one from the tolerance.
+ODE_METHODS = ("auto", "dop853", "vern9", "adams")
 
 #: The largest ode.max_steps: the compiled integrator counts steps in a signed 64-bit integer.
 MAX_STEPS_LIMIT = 2**63 - 1
@@ -26,6 +29,7 @@ class OdeOptions:
         atol: Absolute tolerance (same units as each state component).
         max_steps: The run stops with status ``max_steps`` after this many accepted steps.
         singular_sin: Paper formulation: stop with status ``singular`` below this |sin theta|.
+        method: The integration method (:data:`ODE_METHODS`); ``auto`` chooses from ``rtol``.
     """
 
     formulation: str = "vector"
@@ -33,10 +37,13 @@ class OdeOptions:
     atol: float = 1e-12
     max_steps: int = 20_000_000
     singular_sin: float = DEFAULT_SINGULAR_SIN
+    method: str = "auto"
 
     def __post_init__(self) -> None:
         expect(self.formulation in FORMULATIONS, "ode.formulation", "|".join(FORMULATIONS),
                self.formulation, FORMULATIONS)
+        expect(self.method in ODE_METHODS, "ode.method", "|".join(ODE_METHODS), self.method,
+               ODE_METHODS)
         for name in ("rtol", "atol", "singular_sin"):
             v = getattr(self, name)
             expect(_positive(v), f"ode.{name}", "a finite number > 0", v)

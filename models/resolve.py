@@ -138,7 +138,7 @@ def _unused(set_keys: tuple[str, ...], used: set[str]) -> tuple[str, ...]:
 def _ode_plan(scene: Scene, top: TopParams, init: InitialState, friction: FrictionParams,
               stem: StemParams | None) -> tuple[OdePlan, set[str]]:
     _refuse_torsion(scene, "the reference ODE", "")
-    used = {"ode.formulation", "ode.rtol", "ode.atol", "ode.max_steps"}
+    used = {"ode.formulation", "ode.rtol", "ode.atol", "ode.max_steps", "ode.method"}
     if scene.ode.formulation == "paper":
         used.add("ode.singular_sin")
     if scene.effects.sliding:

@@ -73,8 +73,11 @@ S_STIFF_STOP = 8  # return STATUS_STIFF once S_NSTIFF reaches this (+inf: never)
 N_STATS = 9
 
 
-def new_stats() -> np.ndarray:
-    """A fresh ``stats`` vector for :func:`dop853_run`: counters 0, no mark, no monitor."""
+def new_stats(n: int = 0) -> np.ndarray:
+    """A fresh ``stats`` vector for :func:`dop853_run`: counters 0, no mark, no monitor.
+
+    (``n``, the state's size, is the methods' common signature, :mod:`.methods`; unused.)
+    """
     stats = np.zeros(N_STATS)
     stats[S_T_MARK] = np.nan
     stats[S_MONITOR_MIN] = np.inf
@@ -507,3 +510,7 @@ def fixed_steps(rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int
     _kernel(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float), 1.0, 1.0,
             n_steps, -np.inf, t_out, Y, 0, new_stats(), float(h), K)
     return y, Y, K
+
+
+#: The method contract's name for the kernel (:mod:`reference_ode.methods`).
+run = dop853_run

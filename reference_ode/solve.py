@@ -32,6 +32,7 @@ from tippetop.reference_ode.contacts import (
     stem_contact,
 )
 from tippetop.reference_ode.friction import COULOMB_EXACT
+from tippetop.reference_ode.methods import get_method
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
     P_GAP_TOL,
@@ -121,6 +122,8 @@ class OdeResult:
             than ``modified_coulomb`` or ``coulomb``, the paper formulation, a stem).
         rolling: The rolling phases, each ``{"t_start", "t_end"}`` (:mod:`reference_ode.rolling`).
         t_rolling_s: Simulated time spent in rolling phases (s).
+        method: The integration method that ran (``ode.method``, ``auto`` resolved:
+            :mod:`reference_ode.methods`).
     """
 
     table: pd.DataFrame
@@ -144,6 +147,7 @@ class OdeResult:
     stiff: str = "off"
     rolling: list[dict] = field(default_factory=list)
     t_rolling_s: float = 0.0
+    method: str = "dop853"
 
 
 def initial_state_vector(top: TopParams, init: InitialState) -> np.ndarray:
@@ -267,15 +271,16 @@ def simulate_ode(
             f"g = {top.g_mps2!r}): the values are too large for double precision")
     t_out = sample_times(t_end_s, sample_dt_s)
     Y = np.full((t_out.size, y.size), np.nan)
-    stats = _d.new_stats()
     t = 0.0
     i_out = 0
     rtol = float(options.rtol)
     atol = float(options.atol)
     max_steps = int(options.max_steps)
+    method = get_method(options.method, rtol)
+    stats = method.new_stats(y.size)
     # load (or compile) the integrator before the clock starts: a call that takes no step
-    _d.dop853_run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
-                  monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
+    method.run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
+               monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
     wall0 = time.perf_counter()
     phases = _Phases(top, p, stem, form, y)
     stiff_ran = _stiff_mode(stiff, form, friction, stem)
@@ -287,10 +292,10 @@ def simulate_ode(
     for k in range(1, n_chunks + 1):
         t_stop = t_end_s if k == n_chunks else t_end_s * k / n_chunks
         while t < t_stop:
-            status, t, i_out = _d.dop853_run(phases.form.rhs, phases.form.watch, y, t,
-                                             float(t_stop), t_end_s, phases.p, rtol, atol,
-                                             max_steps, phases.monitor_floor(monitor_floor),
-                                             t_out, Y, i_out, stats)
+            status, t, i_out = method.run(phases.form.rhs, phases.form.watch, y, t,
+                                          float(t_stop), t_end_s, phases.p, rtol, atol,
+                                          max_steps, phases.monitor_floor(monitor_floor),
+                                          t_out, Y, i_out, stats)
             if status == _d.STATUS_STIFF:
                 phases.on_stiff(y, t, i_out, stats)
                 status = _d.STATUS_OK if t >= t_end_s else _d.STATUS_RUNNING
@@ -344,6 +349,7 @@ def simulate_ode(
         stiff=stiff_ran,
         rolling=phases.rolling,
         t_rolling_s=sum(r["t_end"] - r["t_start"] for r in phases.rolling),
+        method=method.name,
     )
 
 

@@ -73,6 +73,9 @@ RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
              f"or {NATIVE_LAW} (MuJoCo's own contact makes the friction)", _BOTH),
     RanField("formulation", "", "the reference's equations: vector (regular at theta = 0 and "
              "pi) or paper (the paper's own variables)", ("ode",)),
+    RanField("method", "", "the reference's integration method: dop853 (Dormand-Prince "
+             "8(5,3)), vern9 (Verner 9(8)) or adams (variable-order Adams), auto resolved from "
+             "the tolerance", ("ode",)),
     RanField("rtol", "relative", "the reference integrator's relative tolerance", ("ode",)),
     RanField("atol", "", "the reference integrator's absolute tolerance, in each state "
              "variable's own unit", ("ode",)),

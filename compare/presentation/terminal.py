@@ -397,7 +397,7 @@ def fmt_value(key: str, value: Any) -> str:
 
 #: The keys of what ran (a summary's settings read back from the engine, or a plan's), in the
 #: order they are listed.
-RAN_KEYS = ("friction_law", "formulation", "rtol", "atol", "law_mu", "timestep_s",
+RAN_KEYS = ("friction_law", "formulation", "method", "rtol", "atol", "law_mu", "timestep_s",
             "integrator", "cone", "impratio", "noslip_iterations", "condim", "mu", "torsional",
             "rolling", "solref", "solreffriction", "solimp", "gravity_mps2", "sample_dt_s",
             "keyframe")

@@ -1,0 +1,87 @@
+"""The reference's integration methods, behind one contract, and the default's choice.
+
+Every method is a compiled kernel in its own module that exposes ``run`` and ``new_stats``:
+
+* ``run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out,
+  i_out, stats) -> (status, t, i_out)``, called as :func:`reference_ode.dop853.dop853_run` is,
+  with its statuses and its ``stats`` slots (``dop853.S_*``);
+* ``new_stats(n)``: a fresh ``stats`` vector for a state of size n. A method may keep more after
+  the shared slots (a multistep method's history). ``stats[S_H] = 0`` asks every method to start
+  afresh (a new first step, no history): :mod:`reference_ode.solve` does so where the motion
+  changes abruptly (an impact, a rolling phase's start or end).
+
+A method's module is imported (its kernel loaded or compiled) only when a run asks for it, so
+that a run compiles only what it runs (tests/reference_ode/test_compile_scope.py). The names are
+:data:`models.options.ODE_METHODS`; ``auto`` picks one from the tolerance (:func:`choose_method`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from tippetop.models.errors import TippetopError
+from tippetop.models.options import ODE_METHODS
+
+
+@dataclass(frozen=True)
+class Method:
+    """One integration method of the reference.
+
+    Attributes:
+        name: Its name in ``ode.method`` (:data:`models.options.ODE_METHODS`).
+        module: Its module under ``tippetop.reference_ode``.
+        order: The order of the solution it carries (the highest, for a variable order).
+        title: What it is, in a few words, for tables and run summaries.
+    """
+
+    name: str
+    module: str
+    order: int
+    title: str
+
+    def _kernel(self):
+        return importlib.import_module(f"tippetop.reference_ode.{self.module}")
+
+    @property
+    def run(self) -> Callable:
+        """The kernel, called as :func:`dop853.dop853_run` (imports the method's module)."""
+        return self._kernel().run
+
+    def new_stats(self, n: int) -> np.ndarray:
+        """A fresh ``stats`` vector for a state of size n."""
+        return self._kernel().new_stats(n)
+
+
+#: The methods there are, by name.
+METHODS: dict[str, Method] = {m.name: m for m in (
+    Method("dop853", "dop853", 8, "Dormand-Prince 8(5,3) (Hairer's DOP853)"),
+    Method("vern9", "verner", 9, "Verner 9(8) (the most efficient pair, IIIXb)"),
+    Method("adams", "adams", 12, "variable-order Adams PECE, orders 1-12"),
+)}
+assert tuple(METHODS) == ODE_METHODS[1:]
+
+#: ``auto``: the first (rtol at least, method) whose rtol the tolerance reaches. Measured on the
+#: work-precision benchmark (``tippetop bench ode --sweep``; docs/guide/accuracy.md).
+AUTO_RULE: tuple[tuple[float, str], ...] = ((0.0, "dop853"),)
+
+
+def choose_method(rtol: float) -> str:
+    """The method ``auto`` runs at relative tolerance ``rtol``: see :data:`AUTO_RULE`."""
+    for limit, name in AUTO_RULE:
+        if rtol >= limit:
+            return name
+    return "dop853"
+
+
+def get_method(name: str, rtol: float) -> Method:
+    """The method ``ode.method = name`` runs at ``rtol`` (``auto`` resolved)."""
+    if name == "auto":
+        name = choose_method(rtol)
+    if name not in METHODS:
+        raise TippetopError(f"ode.method: expected one of {', '.join(ODE_METHODS)}, got "
+                            f"{name!r}")
+    return METHODS[name]
