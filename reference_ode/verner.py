@@ -18,7 +18,6 @@ import numpy as np
 
 from tippetop.reference_ode import verner_tableau as _coef
 from tippetop.reference_ode.dop853 import (
-    _OPTS,
     BISECTION_ITERS,
     GUARD_SCAN,
     MAX_FACTOR,
@@ -70,6 +69,7 @@ ERROR_EXPONENT = -1.0 / 9.0  # -1 / (embedded order + 1)
 #: 1e-6, rtol 1e-9), 4.26-4.87 on y' = -1000 y (atol-dominated). Hairer's 6.1 for DOP853 is
 #: 0.955 of its boundary, 6.394; the same share of 3.879 is 3.70.
 STIFF_HLAMBDA = 3.7
+_OPTS = {"cache": True, "error_model": "numpy"}  # as dop853: x / 0 gives inf or NaN
 _V = nb.types.float64[::1]
 _M = nb.types.float64[:, ::1]
 _F8 = nb.types.float64
