@@ -340,15 +340,14 @@ def _kernel(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_f
             sk = 0.0
             skm1 = 0.0
             skm2 = 0.0
+            # (rows k and k-1 exist for every k >= 1: row 0 is zeros; unused sums are dropped)
             for i in range(m):
                 d = (fp[i] - phi[1, i]) * wt[i]
+                e1 = phi[k, i] * wt[i] + d
+                e2 = phi[km1, i] * wt[i] + d
                 sk += d * d
-                if km2 >= 0:
-                    e1 = (phi[k, i] * wt[i] + d)
-                    skm1 += e1 * e1
-                if km2 > 0:
-                    e2 = (phi[km1, i] * wt[i] + d)
-                    skm2 += e2 * e2
+                skm1 += e1 * e1
+                skm2 += e2 * e2
             absh = abs(h)
             erkm2 = 0.0
             if km2 > 0:
