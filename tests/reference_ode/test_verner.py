@@ -179,15 +179,15 @@ def _stability_boundary(b: np.ndarray) -> float:
     return float(-z[np.argmax(unstable)])
 
 
-def test_stiffness_threshold_sits_at_the_real_stability_boundary() -> None:
+def test_stiffness_threshold_sits_inside_the_real_stability_interval() -> None:
     """The real stability intervals are [-4.476, 0] for the 9th-order solution and
-    [-3.879, 0] for the embedded one, which bounds the step on a stiff problem (the error
-    estimate grows past it); STIFF_HLAMBDA is at the share of the latter that Hairer's 6.1 is
-    of DOP853's boundary, 6.394 (0.955)."""
+    [-3.879, 0] for the embedded one, whose amplified error estimate caps a stiff step.
+    STIFF_HLAMBDA is inside, at 0.645 of the latter: between the tippe top's stiff steps
+    (h lambda >= 2.69 measured) and its non-stiff ones (<= 2.14), see verner.py."""
     assert 4.47 < _stability_boundary(B) < 4.48
     embedded = _stability_boundary(B_HAT)
     assert 3.87 < embedded < 3.89
-    assert 0.95 * embedded < v.STIFF_HLAMBDA < 0.96 * embedded
+    assert 0.6 * embedded < v.STIFF_HLAMBDA < 0.7 * embedded
 
 
 # ---------------------------------------------------------------- order and dense output
@@ -369,24 +369,38 @@ def test_fig11_top_agrees_with_dop853() -> None:
     assert ver.n_rhs < dop.n_rhs  # the point of the method (measured 1.11M against 1.99M)
 
 
-def test_fig3_lambda_1e6_rolls_with_vern9() -> None:
-    """The stiff scenario of test_stiff.py with ode.method = vern9: Fig. 3 at Lambda = 1e-6
-    m/s for 0.5 s; the detector (h lambda > 3.7) starts one rolling phase, theta(t) stays
-    within test_stiff.THETA_TOL (1e-7 rad) of the law integrated throughout at rtol 1e-11
-    (DOP853), for under 1 % of the law's evaluations."""
+@pytest.mark.parametrize("law", ["friction.Lambda_mps=1e-6", "friction.law=coulomb"])
+def test_stiff_fig3_rolls_with_vern9(law: str) -> None:
+    """test_stiff.py's stiff scenarios with ode.method = vern9: Fig. 3 for 0.5 s at Lambda =
+    1e-6 m/s, and with the exact Coulomb law's ramp (v_eps = 1e-5 m/s). The detector (h lambda
+    > 2.5) starts one rolling phase early (the slip relaxes by ~0.05 s), theta(t) stays within
+    test_stiff.THETA_TOL (1e-7 rad) of the law integrated throughout at rtol 1e-11 (DOP853;
+    measured 1e-9 and 6e-9 rad, as DOP853's rolling runs), for under 2 % of the law's
+    evaluations (measured 2 % and 0.4 %)."""
     from .test_stiff import THETA_TOL, _plan
     from .test_stiff import _run as run_plan
 
-    fast = run_plan(_plan("fig3", "friction.Lambda_mps=1e-6", "run.t_end_s=0.5",
-                          "ode.method=vern9"))
-    tight = run_plan(_plan("fig3", "friction.Lambda_mps=1e-6", "run.t_end_s=0.5"),
-                     stiff="off", rtol=1e-11)
+    fast = run_plan(_plan("fig3", law, "run.t_end_s=0.5", "ode.method=vern9"))
+    tight = run_plan(_plan("fig3", law, "run.t_end_s=0.5"), stiff="off", rtol=1e-11)
     assert fast.method == "vern9" and fast.status == tight.status == "ok"
     assert fast.stiff == "rolling" and len(fast.rolling) == 1
     assert 0.0 < fast.rolling[0]["t_start"] < 0.1
     d_theta = np.abs(fast.table["theta"].to_numpy() - tight.table["theta"].to_numpy())
     assert d_theta.max() < THETA_TOL
-    assert fast.n_rhs < 0.01 * tight.n_rhs
+    assert fast.n_rhs < 0.025 * tight.n_rhs
+
+
+@pytest.mark.parametrize(("scene", "overrides"), [
+    ("fig3", ("friction.Lambda_mps=1e-4",)), ("fig7b", ("run.t_end_s=10",))])
+def test_detector_leaves_non_stiff_runs_alone(scene: str, overrides: tuple[str, ...]) -> None:
+    """The runs with the largest h lambda that are not stiff (measured 2.14 on Fig. 3 at
+    Lambda = 1e-4 m/s over 8 s, 1.83 on the catalogue's Fig. 7 (b) at the paper's 1e-2):
+    no step flagged, no rolling phase."""
+    from .test_stiff import _plan
+    from .test_stiff import _run as run_plan
+
+    res = run_plan(_plan(scene, *overrides, "ode.method=vern9"))
+    assert res.status == "ok" and res.stiff_steps == 0 and res.rolling == []
 
 
 def test_stem_run_with_vern9() -> None:
