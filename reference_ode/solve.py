@@ -32,7 +32,7 @@ from tippetop.reference_ode.contacts import (
     stem_contact,
 )
 from tippetop.reference_ode.friction import COULOMB_EXACT
-from tippetop.reference_ode.methods import get_method
+from tippetop.reference_ode.methods import METHODS, get_method
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
     P_GAP_TOL,
@@ -126,7 +126,8 @@ class OdeResult:
             compile excluded; what the work-precision benchmark compares with its peers'
             solver calls.
         method: The integration method that ran (``ode.method``, ``auto`` resolved:
-            :mod:`reference_ode.methods`).
+            :mod:`reference_ode.methods`), and where a method that hands stiff stretches over
+            did so, ``"adams, then dop853 from t = ... s (...)"``.
     """
 
     table: pd.DataFrame
@@ -281,6 +282,8 @@ def simulate_ode(
     atol = float(options.atol)
     max_steps = int(options.max_steps)
     method = get_method(options.method, rtol)
+    ran_method = method.name
+    handed_over: float | None = None
     stats = method.new_stats(y.size)
     # load (or compile) the integrator before the clock starts: a call that takes no step
     method.run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
@@ -301,6 +304,13 @@ def simulate_ode(
                                           float(t_stop), t_end_s, phases.p, rtol, atol,
                                           max_steps, phases.monitor_floor(monitor_floor),
                                           t_out, Y, i_out, stats)
+            if status == _d.STATUS_STIFF and method.hands_over_stiff:
+                stats = _hand_over(stats)  # DOP853 from here on, its detector armed afresh
+                method = METHODS["dop853"]
+                handed_over = t
+                phases.arm(stats)
+                status = _d.STATUS_OK if t >= t_end_s else _d.STATUS_RUNNING
+                continue
             if status == _d.STATUS_STIFF:
                 phases.on_stiff(y, t, i_out, stats)
                 status = _d.STATUS_OK if t >= t_end_s else _d.STATUS_RUNNING
@@ -356,8 +366,18 @@ def simulate_ode(
         stiff=stiff_ran,
         rolling=phases.rolling,
         t_rolling_s=sum(r["t_end"] - r["t_start"] for r in phases.rolling),
-        method=method.name,
+        method=(ran_method if handed_over is None else
+                f"{ran_method}, then dop853 from t = {handed_over:.6g} s (stiff for "
+                f"{ran_method}: rolling phases are DOP853's)"),
     )
+
+
+def _hand_over(stats: np.ndarray) -> np.ndarray:
+    """DOP853's ``stats`` from another method's: the shared counters kept, a fresh first step."""
+    new = _d.new_stats()
+    new[:] = stats[:_d.N_STATS]
+    new[_d.S_H] = 0.0
+    return new
 
 
 def _stiff_mode(stiff: str, form: Formulation, friction: FrictionParams,
