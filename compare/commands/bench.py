@@ -31,7 +31,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "numbalsoda and scipy solve_ivp(DOP853); accuracy: work-precision data and "
                    "plots")
     p.add_argument("scene", nargs="?", help="accuracy: scene (default: fig3 and fig11_n060)")
-    p.add_argument("--out", metavar="DIR", help="accuracy: output folder (default ./accuracy)")
+    p.add_argument("--out", metavar="DIR", help="accuracy: output folder (default ./accuracy); "
+                   "ode --sweep: (default ./work-precision)")
+    p.add_argument("--sweep", action="store_true", help="ode: the work-precision benchmark: "
+                   "every solver's error against a converged truth over a sweep of "
+                   "tolerances, compared at equal achieved error (tables, a figure per top, "
+                   "--json)")
+    p.add_argument("--tops", default="fig3,fig11,stiff", metavar="TOP,...",
+                   help="ode --sweep: comma-separated tops, of fig3, fig11, stiff (default: all)")
     p.add_argument("--budget-s", dest="budget_s", type=finite_float, default=None,
                    metavar="S", help="accuracy: wall-time budget per point (s; default 20 for "
                    "the ODE, 30 for MuJoCo)")
@@ -43,13 +50,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_force_option(p, help="accuracy: overwrite results in --out")
     p.add_argument("--n0", type=finite_float, default=60.0, metavar="RAD_S",
                    help="ode: initial spin of the Fig. 11 top (rad/s; default 60)")
-    p.add_argument("--t-end-s", dest="t_end_s", type=finite_float, default=60.0, metavar="S",
+    p.add_argument("--t-end-s", dest="t_end_s", type=finite_float, default=None, metavar="S",
                    help="ode: simulated time (s; default 60)")
     p.add_argument("--rtol", type=finite_float, default=1e-9, metavar="REL",
                    help="ode: relative tolerance of both integrators (default 1e-9)")
-    p.add_argument("--rounds", "--repeats", dest="rounds", type=worker_count, default=5,
+    p.add_argument("--rounds", "--repeats", dest="rounds", type=worker_count, default=None,
                    metavar="N", help="ode: rounds in which the solvers take turns (runs of "
-                   "each), each keeping its best time (default 5)")
+                   "each), each keeping its best time (default 5; --sweep: 3)")
     p.add_argument("--scipy-rounds", dest="scipy_rounds", type=worker_count, default=1,
                    metavar="N", help="ode: of those, the rounds scipy runs in (~6 s each at the "
                    "defaults; default 1)")
@@ -59,6 +66,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop bench ode`` or ``tippetop bench accuracy``."""
+    if args.what == "accuracy" and args.sweep:
+        raise TippetopError("--sweep: expected with 'bench ode', got 'bench accuracy'")
     if args.what == "accuracy":
         from tippetop.compare.studies.accuracy import (
             DEFAULT_BUDGET_S,
@@ -80,14 +89,40 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(res["report"])
         return 0
-    from tippetop.compare.studies.bench import bench_ode
-
     if args.what != "ode":
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")
-    res = bench_ode(n0=args.n0, t_end_s=args.t_end_s, rtol=args.rtol, rounds=args.rounds,
-                    scipy_rounds=args.scipy_rounds)
+    if args.sweep:
+        return _sweep(args)
+    from tippetop.compare.studies.bench import bench_ode
+
+    res = bench_ode(n0=args.n0, t_end_s=60.0 if args.t_end_s is None else args.t_end_s,
+                    rtol=args.rtol, rounds=args.rounds or 5, scipy_rounds=args.scipy_rounds)
     if args.json:
         print_json(res)
     else:
         print(res.pop("report"))
+    return 0
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    """``tippetop bench ode --sweep``."""
+    from tippetop.compare.studies.work_precision_report import (
+        DEFAULT_OUT,
+        parse_tops,
+        run_work_precision,
+    )
+
+    if args.scene:
+        raise TippetopError(f"bench ode --sweep: expected no scene (use --tops), got "
+                            f"{args.scene!r}")
+    tops = parse_tops(args.tops)
+    t_end = args.t_end_s
+    if t_end is not None and not t_end > 0:
+        raise TippetopError(f"--t-end-s: expected a number > 0, got {args.t_end_s}")
+    res = run_work_precision(tops, args.out or DEFAULT_OUT, rounds=args.rounds or 3,
+                             force=args.force, t_end_s=t_end)
+    if args.json:
+        print_json({k: v for k, v in res.items() if k != "report"})
+    else:
+        print(res["report"])
     return 0

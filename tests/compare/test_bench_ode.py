@@ -13,6 +13,7 @@ import pytest
 
 from tippetop.compare.cli import main
 from tippetop.compare.studies.bench import EQUAL_ACCURACY_RAD, bench_ode
+from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.reference_ode.peers import NUMBALSODA_METHODS, NUMBALSODA_MISSING
 
 SMALL = ["--t-end-s", "0.3", "--rounds", "1"]
@@ -62,14 +63,27 @@ def test_bench_ode_json_has_the_peers_and_their_answers_agree(
     # the kernel call and simulate_ode are the same integration
     assert out["ours_kernel_n_rhs"] == out["ours_n_rhs"]
     assert out["theta_final_kernel"] == pytest.approx(out["theta_final_ours"], abs=1e-15)
-    # the verdict is the fastest peer of equal accuracy, its time over ours
+    # the verdict is at equal achieved error: each peer's time at our error against the
+    # truth, read on its own frontier (a sweep of rtol), over ours
+    assert out["theta_final_kernel"] == pytest.approx(peers["theta_truth"],
+                                                      abs=DOP853_THETA_TOL)
+    assert peers["ours_theta_err"] == pytest.approx(
+        max(abs(out["theta_final_kernel"] - peers["theta_truth"]), ERROR_FLOOR), rel=1e-12)
+    for name, sv in peers["solvers"].items():
+        assert len(sv["sweep"]) >= 2, name
+        t_eq = time_at_error([(q["theta_err"], q["s"]) for q in sv["sweep"]],
+                             peers["ours_theta_err"])
+        assert sv["equal_accuracy"] is (t_eq is not None), name
+        assert sv["s_at_equal_error"] == t_eq, name
     equal = [n for n, sv in peers["solvers"].items() if sv["equal_accuracy"]]
     assert set(peers["not_equal_accuracy"]) == set(NUMBALSODA_METHODS) - set(equal)
-    assert "numbalsoda DOP853" in equal
-    best = min(equal, key=lambda n: peers["solvers"][n]["s"])
+    best = min(equal, key=lambda n: peers["solvers"][n]["s_at_equal_error"]) if equal else None
     assert out["best_peer"] == peers["best_equal_accuracy"] == best
-    assert out["speedup_vs_best_peer"] == pytest.approx(
-        peers["solvers"][best]["s"] / out["ours_kernel_s"], rel=1e-12)
+    if best is None:
+        assert out["speedup_vs_best_peer"] is None
+    else:
+        assert out["speedup_vs_best_peer"] == pytest.approx(
+            peers["solvers"][best]["s_at_equal_error"] / out["ours_kernel_s"], rel=1e-12)
 
 
 def test_bench_ode_without_numbalsoda_says_so(monkeypatch: pytest.MonkeyPatch,

@@ -1,0 +1,229 @@
+"""``tippetop bench ode --sweep``: run the sweep on the tops, print the tables, write the figures.
+
+Output folder (default ``./work-precision``; an existing one is replaced only with ``force``,
+and nothing is written unless every top completed): ``<top>.png`` per top (error against CPU
+time, log-log, one line per solver, a panel per metric), ``work-precision.json`` (what
+``--json`` prints) and ``report.txt`` (the printed report).
+
+JSON (``"format": "tippetop-work-precision/1"``): ``tops``, per top ``title``, ``t_end_s``,
+``truth`` (the two truths' methods, rtol, values and differences ``theta_diff`` (rad) and
+``t_invert_diff`` (s), and ``t_invert_locate_err``, the second truth's estimated error of
+locating the inversion from samples), ``solvers`` (per solver its ``kind`` and ``points``: rtol,
+atol, s (best CPU time), n_rhs, status, theta_err, t_invert_err, J_drift), ``skipped`` (solver:
+why) and ``levels`` (per metric its unit, levels and ``rows``: ``times`` per solver (s or null:
+not reached), ``smallest`` (the smallest error of those that do not reach it), ``best_reference``,
+``best_peer``, ``ratio`` (the fastest peer's time over the fastest reference method's; "inf":
+no peer reaches it) and ``ratio_auto`` (over ``auto``'s), ``met`` and ``met_auto`` (>= 1.2)).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from contextlib import nullcontext
+from pathlib import Path
+
+from tippetop.compare.running.io import json_ready
+from tippetop.compare.studies.frontier import ERROR_FLOOR, TARGET_RATIO, level_table
+from tippetop.compare.studies.peer_runs import PEERS
+from tippetop.compare.studies.work_precision import (
+    FORMAT,
+    TOLERANCES,
+    TOPS,
+    make_top,
+    reference_methods,
+    sweep_top,
+)
+from tippetop.models.errors import TippetopError
+
+DEFAULT_OUT = "work-precision"
+METRIC_TITLES = {"theta": "theta(t_end) error (rad)", "t_invert": "t_invert error (s)",
+                 "J_drift": "Jellett's drift |J/J0 - 1|"}
+
+
+def parse_tops(text: str) -> list[str]:
+    """``--tops``: comma-separated names from :data:`TOPS` (TippetopError otherwise)."""
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    bad = [n for n in names if n not in TOPS]
+    if not names or bad:
+        raise TippetopError(f"--tops: expected comma-separated names from {', '.join(TOPS)}, "
+                            f"got {text!r}")
+    return list(dict.fromkeys(names))
+
+
+def check_out(out: str | Path, force: bool) -> Path:
+    """The output folder, refused (before any work) if it exists and ``force`` is not set."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise TippetopError(f"--out: expected a folder, got the file {str(path)!r}")
+    if path.exists() and not force:
+        raise TippetopError(f"--out: expected a folder that does not exist yet (or --force to "
+                            f"replace it), got {str(path)!r}")
+    return path
+
+
+def plot_top(res: dict, path: Path) -> None:
+    """The top's figure: error against CPU time per metric, one line per solver."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    metrics = list(res["levels"])
+    fig, axes = plt.subplots(1, len(metrics), figsize=(5.2 * len(metrics), 4.4), squeeze=False)
+    keys = {"theta": "theta_err", "t_invert": "t_invert_err", "J_drift": "J_drift"}
+    for ax, metric in zip(axes[0], metrics, strict=True):
+        for name, sv in res["solvers"].items():
+            pts = sorted((p["rtol"], p["s"], p[keys[metric]]) for p in sv["points"]
+                         if p["status"] == "ok" and math.isfinite(p[keys[metric]]))
+            if not pts:
+                continue
+            ref = sv["kind"] == "reference"
+            ax.loglog([p[1] for p in pts], [max(p[2], ERROR_FLOOR) for p in pts],
+                      "-o" if ref else "--s", lw=2.0 if ref else 1.2, ms=3.5, label=name)
+        for level in res["levels"][metric]["levels"]:
+            ax.axhline(level, color="0.8", lw=0.6, ls=":")
+        ax.set_xlabel("CPU time (s), best of the rounds")
+        ax.set_ylabel(METRIC_TITLES[metric])
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle(f"work-precision: {res['title']}, {res['t_end_s']:g} s", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def top_report(res: dict) -> str:
+    """The printed tables of one top."""
+    tr = res["truth"]
+    lines = [f"== {res['name']}: {res['title']}, {res['t_end_s']:g} s simulated",
+             f"  truth: {tr['methods'][0]} vs {tr['methods'][1]} at rtol {tr['rtol']:g} "
+             f"(law throughout): theta(t_end) = {tr['theta']:.15f} rad, |diff| = "
+             f"{tr['theta_diff']:.1e} rad"]
+    if tr["t_invert"] is None:
+        lines.append("  the top does not invert within t_end: no t_invert table")
+    else:
+        lines.append(f"  t_invert = {tr['t_invert']:.12f} s, |diff| = {tr['t_invert_diff']:.1e}"
+                     f" s; the peers' inversion located from samples to about "
+                     f"{tr['t_invert_locate_err']:.0e} s (spline on {tr['methods'][1]}'s dense "
+                     "output, 201 vs 101 samples)")
+    for n, why in res["skipped"].items():
+        lines.append(f"  skipped {n}: {why}")
+    solvers = list(res["solvers"])
+    for n, sv in res["solvers"].items():
+        stopped = [p for p in sv["points"] if p["status"] != "ok"]
+        if stopped:
+            p = stopped[0]
+            lines.append(f"  {n}: stopped at rtol {p['rtol']:g} ({p['status']})")
+        elif n in PEERS and PEERS[n].slow and sv["points"] and \
+                len(sv["points"]) < len(PEERS[n].tolerances(TOLERANCES)):
+            lines.append(f"  {n}: stopped after rtol {sv['points'][-1]['rtol']:g} (over its "
+                         f"{PEERS[n].budget_s:g} s budget)")
+    if res["stiff"]:
+        lines.append("  (the reference runs its rolling phases where the law is stiff; the "
+                     "truth and the peers integrate the law: the reference's error includes "
+                     "the rolling phases' modelling error)")
+    for metric, lv in res["levels"].items():
+        lines.append(level_table(f"  {METRIC_TITLES[metric]}", lv["unit"], lv["rows"],
+                                 solvers))
+    return "\n".join(lines)
+
+
+def run_work_precision(tops: Sequence[str], out: str | Path = DEFAULT_OUT, *,
+                       rounds: int = 3, force: bool = False, t_end_s: float | None = None,
+                       tolerances: Sequence[float] = TOLERANCES,
+                       peers: Sequence[str] | None = None, write: bool = True) -> dict:
+    """The benchmark on ``tops``: their sweeps, report and figures (all-or-nothing).
+
+    Args:
+        tops: Names from :data:`TOPS`.
+        out: Output folder (refused if it exists, unless ``force``).
+        rounds: Rounds of the compiled solvers (the Python-driven peers run one).
+        force: Replace an existing ``out``.
+        t_end_s: Cut every top to this time (s; tests); None: each top's own.
+        tolerances: The sweep's rtol values.
+        peers: Peer names; None: every available one.
+        write: Write the folder (False: compute only).
+
+    Returns:
+        The JSON object (:data:`FORMAT`), with ``report`` the printed text.
+    """
+    names = [n for n in tops]
+    for n in names:
+        if n not in TOPS:
+            raise TippetopError(f"--tops: expected names from {', '.join(TOPS)}, got {n!r}")
+    if rounds < 1:
+        raise TippetopError(f"--rounds: expected an integer >= 1, got {rounds}")
+    path = check_out(out, force) if write else None
+    t_start = time.perf_counter()
+    results = {}
+    _, skipped = reference_methods()
+    top_objs = [make_top(n, t_end_s) for n in names]
+    total = sum(len(tolerances) * (rounds * 6) for _ in top_objs)
+    bar = _bar(total)
+    with bar as b:
+        for top in top_objs:
+            results[top.name] = sweep_top(top, rounds=rounds, tolerances=tolerances, peers=peers,
+                                          tick=(lambda: b.update(1)) if b is not None else None)
+    elapsed = time.perf_counter() - t_start
+    head = (f"work-precision benchmark: every solver's error against a converged truth, "
+            f"rtol {max(tolerances):g}..{min(tolerances):g}, atol = 1e-3 rtol; CPU time, best "
+            f"of {rounds} round(s) (the Python-driven peers: 1 round, every other rtol; the "
+            f"reference: the integration's CPU time inside simulate_ode, OdeResult.cpu_s, "
+            f"without its fixed ~3 ms of table building); "
+            f"the reference = its fastest method at each level (target: the fastest peer >= "
+            f"{TARGET_RATIO:g}x the reference's time)")
+    report = "\n\n".join([head, *(top_report(r) for r in results.values()),
+                          f"({elapsed:.0f} s wall for the whole benchmark)"])
+    doc = {"format": FORMAT, "rounds": rounds, "timing": "CPU time (time.process_time), best "
+           "of the rounds", "tolerances": list(tolerances), "atol_per_rtol": 1e-3,
+           "target_ratio": TARGET_RATIO, "skipped_methods": skipped, "tops": results,
+           "elapsed_s": elapsed}
+    _inf_as_text(results)
+    if path is not None:
+        _write(path, doc, report, results, force)
+        doc["out"] = str(path)
+    doc["report"] = report
+    return doc
+
+
+def _bar(total: int):
+    if not sys.stderr.isatty():
+        return nullcontext(None)
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="work-precision runs", unit="run", leave=False)
+
+
+def _write(path: Path, doc: dict, report: str, results: dict, force: bool) -> None:
+    """Write everything to a temporary folder beside ``path``, then move it into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        for name, res in results.items():
+            plot_top(res, tmp / f"{name}.png")
+        (tmp / "work-precision.json").write_text(json.dumps(json_ready(doc), indent=1))
+        (tmp / "report.txt").write_text(report + "\n")
+        if path.exists():
+            if not force:  # pragma: no cover - checked before the work
+                raise TippetopError(f"--out: {str(path)!r} appeared during the run")
+            shutil.rmtree(path)
+        tmp.rename(path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _inf_as_text(results: dict) -> None:
+    """A ratio of inf (no peer reaches the level) as the string ``"inf"`` in the JSON."""
+    for res in results.values():
+        for lv in res["levels"].values():
+            for row in lv["rows"]:
+                for k in ("ratio", "ratio_auto"):
+                    if row[k] is not None and math.isinf(row[k]):
+                        row[k] = "inf"

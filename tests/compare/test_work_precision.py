@@ -1,0 +1,191 @@
+"""``tippetop bench ode --sweep``: the frontier logic, the truth check, the output (not timed).
+
+The speed figures are the benchmark's to print; these tests check how it reads them (on
+synthetic points with known answers), that the two truths are checked, and that a tiny real
+sweep runs end to end and writes what it says.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from tippetop.compare.cli import main
+from tippetop.compare.studies.frontier import (
+    compare_at_levels,
+    frontier,
+    smallest_error,
+    time_at_error,
+)
+from tippetop.compare.studies.peer_runs import PeerPoint
+from tippetop.compare.studies.work_precision import (
+    FORMAT,
+    TRUTH_THETA_AGREEMENT,
+    check_truths,
+    make_top,
+    reference_methods,
+)
+from tippetop.compare.studies.work_precision_report import run_work_precision
+from tippetop.models.errors import TippetopError
+
+#: (error, time) points: (2e-5 at 3.5 s) is dominated (the 2-s point reaches less error, for
+#: less) and must leave the frontier; (5e-6 at 3 s) is not (nothing cheaper reaches it).
+POINTS = [(1e-3, 1.0), (1e-5, 2.0), (5e-6, 3.0), (2e-5, 3.5), (1e-7, 4.0)]
+
+
+def test_frontier_is_the_monotone_hull() -> None:
+    assert frontier(POINTS) == [(1e-3, 1.0), (1e-5, 2.0), (5e-6, 3.0), (1e-7, 4.0)]
+    assert frontier([(math.nan, 1.0), (1e-4, math.inf)]) == []
+
+
+def test_time_at_error_interpolates_log_log_and_says_not_reached() -> None:
+    # between (1e-3, 1 s) and (1e-5, 2 s): log t linear in log e, 1e-4 halfway -> sqrt(2) s
+    assert time_at_error(POINTS, 1e-4) == pytest.approx(math.sqrt(2.0), rel=1e-12)
+    # between (5e-6, 3 s) and (1e-7, 4 s): w = log(1e-6/5e-6) / log(1e-7/5e-6)
+    w = math.log(0.2) / math.log(0.02)
+    assert time_at_error(POINTS, 1e-6) == pytest.approx(3.0 * (4.0 / 3.0) ** w, rel=1e-12)
+    assert time_at_error(POINTS, 1e-7) == pytest.approx(4.0, rel=1e-12)  # a point itself
+    assert time_at_error(POINTS, 1e-2) == 1.0  # above the cheapest point: its time
+    assert time_at_error(POINTS, 1e-8) is None  # not reached
+    assert smallest_error(POINTS) == 1e-7
+    assert time_at_error([], 1e-4) is None
+
+
+def test_compare_at_levels_ratios() -> None:
+    pts = {"ours": [(1e-4, 1.0), (1e-8, 2.0)], "auto": [(1e-4, 1.5), (1e-6, 3.0)],
+           "peer": [(1e-4, 2.0), (1e-6, 4.0)]}
+    rows = compare_at_levels(pts, ["ours"], "auto", ["peer"], [1e-4, 1e-6, 1e-8, 1e-10])
+    assert rows[0]["ratio"] == pytest.approx(2.0) and rows[0]["met"]
+    assert rows[0]["ratio_auto"] == pytest.approx(2.0 / 1.5) and rows[0]["met_auto"]
+    # at 1e-6, halfway (in log) from 1e-4 to 1e-8, ours interpolates to sqrt(1 * 2) s
+    assert rows[1]["ratio"] == pytest.approx(4.0 / math.sqrt(2.0))
+    # at 1e-8 only ours reaches it: inf, met; auto does not: None, not met
+    assert rows[2]["ratio"] == math.inf and rows[2]["met"]
+    assert rows[2]["ratio_auto"] is None and not rows[2]["met_auto"]
+    assert rows[2]["smallest"]["peer"] == 1e-6
+    # at 1e-10 no one: None, NOT met
+    assert rows[3]["ratio"] is None and not rows[3]["met"]
+
+
+def _point(theta: float, t_inv: float | None = 2.0) -> PeerPoint:
+    return PeerPoint(s=1.0, n_rhs=1, theta=theta, t_invert=t_inv, J_drift=0.0, status="ok")
+
+
+def test_truths_that_disagree_fail_loudly() -> None:
+    ok = check_truths("x", {"a": _point(1.0), "b": _point(1.0 + 0.5 * TRUTH_THETA_AGREEMENT)},
+                      1e-14)
+    assert ok["theta_diff"] == pytest.approx(0.5 * TRUTH_THETA_AGREEMENT, rel=1e-3)
+    with pytest.raises(TippetopError, match="disagree"):
+        check_truths("x", {"a": _point(1.0), "b": _point(1.0 + 1e-9)}, 1e-14)
+    with pytest.raises(TippetopError, match="t_invert"):
+        check_truths("x", {"a": _point(1.0, 2.0), "b": _point(1.0, 2.0 + 1e-8)}, 1e-14)
+    with pytest.raises(TippetopError, match="inverts"):
+        check_truths("x", {"a": _point(1.0, 2.0), "b": _point(1.0, None)}, 1e-14)
+
+
+def test_a_method_that_does_not_import_is_skipped(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "tippetop.reference_ode.verner", None)
+    ok, skipped = reference_methods()
+    assert "vern9" not in ok and "dop853" in ok
+    assert "does not import" in skipped["tippetop vern9"]
+
+
+@pytest.mark.parametrize("args", [
+    ["bench", "ode", "--sweep", "--tops", "fig3,nope"],
+    ["bench", "ode", "--sweep", "--tops", ","],
+    ["bench", "accuracy", "--sweep"],
+    ["bench", "ode", "--sweep", "--rounds", "0"],
+    ["bench", "ode", "--sweep", "--t-end-s", "-1"],
+    ["bench", "ode", "--sweep", "fig3"],
+])
+def test_bad_input_is_one_line_exit_2_nothing_written(
+        args: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "wp"
+    with pytest.raises(SystemExit) as exc:
+        sys.exit(main([*args, "--out", str(out)]))
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_an_existing_folder_is_kept_without_force(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "wp"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    assert main(["bench", "ode", "--sweep", "--tops", "fig11", "--out", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert (out / "mine.txt").read_text() == "keep"
+
+
+@pytest.mark.slow
+def test_a_tiny_sweep_runs_end_to_end(tmp_path: Path) -> None:
+    """fig3 cut to 2.6 s (it inverts at ~2.33 s), three tolerances, the compiled peers."""
+    pytest.importorskip("numbalsoda")
+    out = tmp_path / "wp"
+    doc = run_work_precision(["fig3"], out, rounds=1, t_end_s=2.6,
+                             tolerances=(1e-5, 1e-8, 1e-11),
+                             peers=["numbalsoda DOP853", "numbalsoda LSODA"])
+    assert doc["format"] == FORMAT
+    assert (out / "fig3.png").stat().st_size > 1000
+    assert json.loads((out / "work-precision.json").read_text())["format"] == FORMAT
+    res = doc["tops"]["fig3"]
+    tr = res["truth"]
+    assert tr["theta_diff"] <= TRUTH_THETA_AGREEMENT
+    assert tr["t_invert"] == pytest.approx(2.33, abs=0.05)
+    # the peers' inversion time is located from samples far below the smallest level (1e-10 s)
+    assert tr["t_invert_locate_err"] < 1e-12
+    assert set(res["levels"]) == {"theta", "t_invert", "J_drift"}
+    for sv in res["solvers"].values():
+        assert [p["rtol"] for p in sv["points"]] == [1e-5, 1e-8, 1e-11]
+        assert all(p["status"] == "ok" for p in sv["points"])
+    # every method's error falls as its tolerance tightens (a smooth problem: by >= 10x
+    # over the 6 decades from 1e-5 to 1e-11, a loose bound for any convergent method)
+    for name, sv in res["solvers"].items():
+        e = [p["theta_err"] for p in sv["points"]]
+        assert e[-1] < 0.1 * e[0], name
+    for name in ("tippetop dop853", "numbalsoda DOP853"):  # an event; a located crossing
+        assert all(p["t_invert_err"] < 1e-3 for p in res["solvers"][name]["points"]), name
+    rows = res["levels"]["theta"]["rows"]
+    assert [r["level"] for r in rows] == [1e-4, 1e-6, 1e-8, 1e-10]
+    assert "theta(t_end) error" in doc["report"] and "peer/ref" in doc["report"]
+    with pytest.raises(TippetopError, match="--force"):
+        run_work_precision(["fig3"], out, rounds=1, t_end_s=2.6, tolerances=(1e-5,))
+
+
+@pytest.mark.slow  # compiles every reference method in a fresh process (~30-90 s here)
+def test_the_json_keys(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """The CLI's --json on a very short run of one top with the compiled solvers only."""
+    pytest.importorskip("numbalsoda")
+    doc = run_work_precision(["fig11"], tmp_path / "wp", rounds=1, t_end_s=0.05,
+                             tolerances=(1e-4, 1e-8), peers=["numbalsoda DOP853"])
+    assert {"format", "rounds", "timing", "tolerances", "atol_per_rtol", "target_ratio",
+            "skipped_methods", "tops", "elapsed_s", "report", "out"} <= set(doc)
+    res = doc["tops"]["fig11"]
+    assert {"title", "t_end_s", "truth", "solvers", "skipped", "levels", "references",
+            "auto", "peers"} <= set(res)
+    assert {"methods", "rtol", "theta", "theta_other", "theta_diff", "t_invert",
+            "t_invert_diff"} <= set(res["truth"])
+    assert set(res["levels"]) == {"theta", "J_drift"}  # it does not invert in 0.05 s
+    for row in res["levels"]["theta"]["rows"]:
+        assert {"level", "times", "smallest", "best_reference", "best_peer", "ratio",
+                "ratio_auto", "met", "met_auto"} <= set(row)
+        assert row["ratio"] is None or row["ratio"] == "inf" or row["ratio"] > 0
+    for sv in res["solvers"].values():
+        for p in sv["points"]:
+            assert {"rtol", "atol", "s", "n_rhs", "status", "theta_err", "t_invert_err",
+                    "J_drift"} <= set(p)
+    saved = json.loads((tmp_path / "wp" / "work-precision.json").read_text())
+    assert saved["format"] == FORMAT and set(saved["tops"]) == {"fig11"}
+
+
+def test_tops() -> None:
+    assert make_top("fig11").t_end_s == 60.0
+    assert make_top("stiff").stiff and make_top("stiff").friction.Lambda_mps == 1e-6
+    with pytest.raises(TippetopError):
+        make_top("nope")
