@@ -21,6 +21,7 @@ estimate bounds the finer one's by far).
 
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import sys
@@ -172,6 +173,7 @@ def _stdout_to_stderr() -> Iterator[None]:
         os.dup2(2, 1)
         yield
     finally:
+        ctypes.CDLL(None).fflush(None)  # C's buffered stdout, while it still goes to 2
         os.dup2(saved, 1)
         os.close(saved)
 
