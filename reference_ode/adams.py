@@ -31,9 +31,10 @@ boundaries: the oscillator of the tests is never flagged, y' = -1000 y has a thi
 steps flagged (all its order <= 4 steps), the stiff Fig. 3 top (Lambda = 1e-6 m/s) enters its
 rolling phase at the same time as under DOP853. Adams' stability regions are smaller than
 DOP853's (2.4 at most against ~6): the law at Lambda = 1e-4 m/s, which DOP853 never flags, is
-stiff for Adams (a third of its steps flagged at rtol 1e-9), so that solve.py's
-``stiff='auto'`` rolls there under Adams (Fig. 3, 8 s: theta 1.3e-5 rad off the law, the
-rolling reduction's O(Lambda^2) error, measured) where DOP853 integrates the law.
+stiff for Adams (a third of its steps flagged at rtol 1e-9). Had this flag decided on rolling
+phases, ``stiff='auto'`` would roll there (Fig. 3, 8 s: theta 1.3e-5 rad off the law, the
+rolling reduction's error, measured) where DOP853 integrates the law; so solve.py hands a stretch
+this flag calls stiff over to DOP853, whose detector decides (``Method.hands_over_stiff``).
 """
 
 from __future__ import annotations
