@@ -77,15 +77,18 @@ def plot_top(res: dict, path: Path) -> None:
     metrics = list(res["levels"])
     fig, axes = plt.subplots(1, len(metrics), figsize=(5.2 * len(metrics), 4.4), squeeze=False)
     keys = {"theta": "theta_err", "t_invert": "t_invert_err", "J_drift": "J_drift"}
+    colors = plt.get_cmap("tab20").colors  # one colour per solver, the same in every panel
     for ax, metric in zip(axes[0], metrics, strict=True):
-        for name, sv in res["solvers"].items():
+        for i, (name, sv) in enumerate(res["solvers"].items()):
             pts = sorted((p["rtol"], p["s"], p[keys[metric]]) for p in sv["points"]
-                         if p["status"] == "ok" and math.isfinite(p[keys[metric]]))
+                         if p["status"] == "ok" and p[keys[metric]] is not None
+                         and math.isfinite(p[keys[metric]]))
             if not pts:
                 continue
             ref = sv["kind"] == "reference"
             ax.loglog([p[1] for p in pts], [max(p[2], ERROR_FLOOR) for p in pts],
-                      "-o" if ref else "--s", lw=2.0 if ref else 1.2, ms=3.5, label=name)
+                      "-o" if ref else "--s", lw=2.0 if ref else 1.2, ms=3.5, label=name,
+                      color=colors[(2 * i) % 20 if i < 10 else (2 * i + 1) % 20])
         for level in res["levels"][metric]["levels"]:
             ax.axhline(level, color="0.8", lw=0.6, ls=":")
         ax.set_xlabel("CPU time (s), best of the rounds")
