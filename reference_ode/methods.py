@@ -71,28 +71,41 @@ METHODS: dict[str, Method] = {m.name: m for m in (
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]
 
-#: ``auto``: the first (rtol at least, method) whose rtol the tolerance reaches. Measured on the
-#: work-precision benchmark (``tippetop bench ode --sweep``; docs/guide/accuracy.md).
-#: On the Fig. 11 and Fig. 3 tops the Adams method reaches every theta error from 1e-5 to 1e-12
-#: rad in 1.2-3.5x less CPU time than DOP853 (1.9-4.6x less than LSODA); at rtol 1e-4 and
-#: looser, where an error near 1e-4 rad is asked for, DOP853 is as fast or faster (0.8-1.0x).
-#: Vern9 is never the fastest there (it passes DOP853 only below ~1e-11 rad).
-AUTO_RULE: tuple[tuple[float, str], ...] = ((1e-4, "dop853"), (0.0, "adams"))
+#: ``auto``: (rtol at least, method, the rtol it runs at per rtol asked for), the first whose rtol
+#: the tolerance asked for reaches. ``auto`` keeps what a tolerance has meant for this reference
+#: (the theta error DOP853 reaches at it) and runs the method that reaches that error soonest, at
+#: the tolerance that reaches it: the Adams method's error per rtol is 100-400x DOP853's on the
+#: Fig. 3 and Fig. 11 tops (at rtol 1e-9 DOP853 reaches 1.5e-11 rad on Fig. 11, Adams 3e-9;
+#: Adams at 1e-12 reaches 4e-12, in a third of DOP853's time), so it runs at 1e-3 of the rtol
+#: asked. Measured with ``tippetop bench ode --sweep`` (docs/guide/accuracy.md):
+#:
+#: * rtol >= 1e-4: DOP853 (an error near 1e-5 rad; Adams is no faster there);
+#: * 1e-4 > rtol >= 1e-10: Adams at rtol x 1e-3 (1.2-3.5x less CPU time than DOP853 at equal
+#:   error, 1.9-4.6x less than LSODA);
+#: * rtol < 1e-10: Verner 9(8) (DOP853's errors below ~1e-11 rad; Adams would need an rtol below
+#:   1e-13, where its history's rounding leads).
+AUTO_RULE: tuple[tuple[float, str, float], ...] = (
+    (1e-4, "dop853", 1.0), (1e-10, "adams", 1e-3), (0.0, "vern9", 1.0))
 
 
-def choose_method(rtol: float) -> str:
-    """The method ``auto`` runs at relative tolerance ``rtol``: see :data:`AUTO_RULE`."""
-    for limit, name in AUTO_RULE:
+def choose_method(rtol: float) -> tuple[str, float]:
+    """What ``auto`` runs at relative tolerance ``rtol``: (method, its rtol per rtol asked)."""
+    for limit, name, factor in AUTO_RULE:
         if rtol >= limit:
-            return name
-    return "dop853"
+            return name, factor
+    return "dop853", 1.0
 
 
-def get_method(name: str, rtol: float) -> Method:
-    """The method ``ode.method = name`` runs at ``rtol`` (``auto`` resolved)."""
+def get_method(name: str, rtol: float) -> tuple[Method, float]:
+    """What ``ode.method = name`` runs at ``rtol``: the method and the factor on the tolerances.
+
+    ``auto`` resolved by :func:`choose_method`; a named method runs at the tolerances asked
+    (factor 1).
+    """
+    factor = 1.0
     if name == "auto":
-        name = choose_method(rtol)
+        name, factor = choose_method(rtol)
     if name not in METHODS:
         raise TippetopError(f"ode.method: expected one of {', '.join(ODE_METHODS)}, got "
                             f"{name!r}")
-    return METHODS[name]
+    return METHODS[name], factor

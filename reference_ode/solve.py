@@ -102,6 +102,8 @@ class OdeResult:
         n_steps: Accepted steps.
         n_rejected: Rejected steps.
         wall_s: Wall time of the integration (s), compile time excluded.
+        rtol: The relative tolerance the method ran at (``auto`` may run a method at tighter
+            tolerances than asked: :data:`methods.AUTO_RULE`).
         min_sin_theta: Smallest |sin theta| seen at a step end (0 when a paper-formulation
             step ended with theta outside (0, pi): it passed through the singularity).
         states: The sampled raw states, shape (samples, state size).
@@ -122,12 +124,14 @@ class OdeResult:
             than ``modified_coulomb`` or ``coulomb``, the paper formulation, a stem).
         rolling: The rolling phases, each ``{"t_start", "t_end"}`` (:mod:`reference_ode.rolling`).
         t_rolling_s: Simulated time spent in rolling phases (s).
+        atol: The absolute tolerance the method ran at (``rtol``'s: ``auto`` may run a method
+            at tighter tolerances than asked, :data:`methods.AUTO_RULE`).
         cpu_s: CPU time of the integration (s): as ``wall_s``, the observables table and the
             compile excluded; what the work-precision benchmark compares with its peers'
             solver calls.
         method: The integration method that ran (``ode.method``, ``auto`` resolved:
             :mod:`reference_ode.methods`), and where a method that hands stiff stretches over
-            did so, ``"adams, then dop853 from t = ... s (...)"``.
+            did so, ``"adams at rtol ..., then dop853 at rtol ... from t = ... s (...)"``.
     """
 
     table: pd.DataFrame
@@ -153,6 +157,7 @@ class OdeResult:
     t_rolling_s: float = 0.0
     method: str = "dop853"
     cpu_s: float = 0.0
+    atol: float = 0.0
 
 
 def initial_state_vector(top: TopParams, init: InitialState) -> np.ndarray:
@@ -278,11 +283,11 @@ def simulate_ode(
     Y = np.full((t_out.size, y.size), np.nan)
     t = 0.0
     i_out = 0
-    rtol = float(options.rtol)
-    atol = float(options.atol)
+    method, factor = get_method(options.method, float(options.rtol))
+    rtol = float(options.rtol) * factor  # auto: the tolerances the chosen method runs at
+    atol = float(options.atol) * factor
     max_steps = int(options.max_steps)
-    method = get_method(options.method, rtol)
-    ran_method = method.name
+    ran_method, ran_rtol = method.name, rtol
     handed_over: float | None = None
     stats = method.new_stats(y.size)
     # load (or compile) the integrator before the clock starts: a call that takes no step
@@ -308,6 +313,7 @@ def simulate_ode(
                 stats = _hand_over(stats)  # DOP853 from here on, its detector armed afresh
                 method = METHODS["dop853"]
                 handed_over = t
+                rtol, atol = float(options.rtol), float(options.atol)  # DOP853's meaning
                 phases.arm(stats)
                 status = _d.STATUS_OK if t >= t_end_s else _d.STATUS_RUNNING
                 continue
@@ -356,7 +362,8 @@ def simulate_ode(
         wall_s=wall,
         cpu_s=cpu,
         min_sin_theta=min_sin,
-        rtol=options.rtol,
+        rtol=rtol,
+        atol=atol,
         states=Y,
         stiff_steps=int(stats[_d.S_NSTIFF]),
         h_lambda_max=float(stats[_d.S_HLAMBDA_MAX]),
@@ -367,8 +374,8 @@ def simulate_ode(
         rolling=phases.rolling,
         t_rolling_s=sum(r["t_end"] - r["t_start"] for r in phases.rolling),
         method=(ran_method if handed_over is None else
-                f"{ran_method}, then dop853 from t = {handed_over:.6g} s (stiff for "
-                f"{ran_method}: rolling phases are DOP853's)"),
+                f"{ran_method} at rtol {ran_rtol:g}, then dop853 at rtol {rtol:g} from t = "
+                f"{handed_over:.6g} s (stiff for {ran_method}: rolling phases are DOP853's)"),
     )
 
 

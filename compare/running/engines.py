@@ -109,7 +109,7 @@ def _run_ode(plan: RunPlan, progress: Callable[[float], None] | None) -> EngineR
                        options=p.options, progress=progress, stem=p.stem)
     ran = {"friction_law": p.friction.law, "formulation": p.options.formulation,
            "method": res.method,
-           "rtol": p.options.rtol, "atol": p.options.atol, "sample_dt_s": p.sample_dt_s,
+           "rtol": res.rtol, "atol": res.atol, "sample_dt_s": p.sample_dt_s,
            # what ran for stiff friction: "rolling" (rolling phases where the law is stiff),
            # "off", or "none (why)"; the phases themselves under "rolling_phases"
            "stiff": res.stiff}

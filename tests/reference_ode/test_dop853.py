@@ -357,7 +357,7 @@ from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.reference_ode.solve import simulate_ode
 for form in ("vector", "paper"):
     simulate_ode(TopParams.from_ratios(1.0, 0.1), FrictionParams(), InitialState(theta0=0.1),
-                 t_end_s=0.01, options=OdeOptions(formulation=form))
+                 t_end_s=0.01, options=OdeOptions(formulation=form, method="dop853"))
 """
 _CACHE_PROBE = _CACHE_WARM + """
 import json
