@@ -137,23 +137,27 @@ def run_numbalsoda(name: str, y0: np.ndarray, p: np.ndarray, t_end_s: float, rto
 
 
 def run_reference_kernel(y0: np.ndarray, p: np.ndarray, t_end_s: float, rtol: float,
-                         atol: float, max_steps: int = 10**8) -> PeerRun:
-    """The reference's own DOP853 kernel called as the peers are: one call, t = 0 to t_end.
+                         atol: float, max_steps: int = 10**8, method: str = "dop853") -> PeerRun:
+    """One of the reference's kernels called as the peers are: one call, t = 0 to t_end.
 
-    :func:`dop853.dop853_run` with the vector formulation's compiled right-hand side and watch
-    (as :func:`solve.simulate_ode` calls it, without building the observables table), the
-    state sampled at t_end only. The first call in a process loads (or compiles) the kernel:
-    call once to warm up before timing.
+    The ``method``'s kernel (:mod:`reference_ode.methods`; :func:`dop853.dop853_run` by
+    default) with the vector formulation's compiled right-hand side and watch (as
+    :func:`solve.simulate_ode` calls it, without building the observables table), at the
+    tolerances given, the state sampled at t_end only. The first call in a process loads (or
+    compiles) the kernel: call once to warm up before timing.
     """
+    from tippetop.reference_ode.methods import METHODS
+
+    kernel = METHODS[method]
     form = FORMULATIONS["vector"]
     y = np.ascontiguousarray(y0, dtype=np.float64).copy()
     t_out = np.array([float(t_end_s)])
     Y = np.full((1, y.size), np.nan)
-    stats = _d.new_stats()
+    stats = kernel.new_stats(y.size)
+    run = kernel.run
     t0 = time.process_time()
-    status, _, _ = _d.dop853_run(form.rhs, form.watch, y, 0.0, float(t_end_s), float(t_end_s),
-                                 p, float(rtol), float(atol), int(max_steps), -np.inf, t_out, Y,
-                                 0, stats)
+    status, _, _ = run(form.rhs, form.watch, y, 0.0, float(t_end_s), float(t_end_s), p,
+                       float(rtol), float(atol), int(max_steps), -np.inf, t_out, Y, 0, stats)
     s = time.process_time() - t0
     return PeerRun(y_final=Y[-1].copy(), n_rhs=int(stats[_d.S_NRHS]), s=s,
                    success=status == _d.STATUS_OK)

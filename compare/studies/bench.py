@@ -12,6 +12,7 @@ from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.compare.studies.peer_runs import theta_of_states
 from tippetop.models.options import OdeOptions
 from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.reference_ode.methods import get_method
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.peers import (
     NUMBALSODA_METHODS,
@@ -20,6 +21,7 @@ from tippetop.reference_ode.peers import (
     run_reference_kernel,
 )
 from tippetop.reference_ode.solve import initial_state_vector, scipy_rhs, simulate_ode
+from tippetop.reference_ode.taylor_peer import HEYOKA, TaylorPeer, heyoka_missing, unsupported
 
 #: The issue's target: the compiled integrator at least this many times faster than scipy.
 TARGET_SPEEDUP = 60.0
@@ -35,8 +37,6 @@ MOONSHOT_VS_PEER = 1.2
 TRUTH_RTOL = REFERENCE_RTOL
 #: The peers' small tolerance sweep (atol = ATOL_PER_RTOL rtol) for their frontier.
 PEER_SWEEP_RTOLS: tuple[float, ...] = tuple(10.0**-k for k in range(5, 14))
-#: The name of tippetop's own integrator in the table.
-OURS = "tippetop DOP853"
 SCIPY = "scipy solve_ivp(DOP853)"
 
 
@@ -52,13 +52,48 @@ def _scipy_run(fun, y0: np.ndarray, t_end_s: float, rtol: float, atol: float):
     return time.process_time() - t0, sol
 
 
+def _heyoka_solver(p: np.ndarray, y0: np.ndarray, t_end_s: float, rtol: float, rounds: int,
+                   theta_kernel: float, theta_truth: float, our_err: float,
+                   t_kernel: float) -> dict:
+    """The row of heyoka's Taylor method: its run at tol = rtol, its frontier over the sweep.
+
+    The sweep is :data:`PEER_SWEEP_RTOLS`, as the numbalsoda peers'.
+
+    Each tolerance is compiled (LLVM) before it is timed; its ``n_rhs`` is its steps (one
+    Taylor jet each).
+    """
+    pts = []
+    at_rtol = None
+    for tol in sorted({rtol, *PEER_SWEEP_RTOLS}, reverse=True):
+        peer = TaylorPeer(p, tol)
+        peer.run(y0, min(t_end_s, 0.01))
+        runs_ = [peer.run(y0, t_end_s) for _ in range(rounds)]
+        run = min(runs_, key=lambda x: x.s)
+        err = abs(_theta_of_vector_state(run.y_final) - theta_truth)
+        if tol == rtol:
+            at_rtol = run
+        if tol in PEER_SWEEP_RTOLS and run.success:
+            pts.append({"rtol": tol, "s": run.s, "theta_err": err})
+    assert at_rtol is not None
+    theta = _theta_of_vector_state(at_rtol.y_final)
+    diff = abs(theta - theta_kernel)
+    t_eq = time_at_error([(q["theta_err"], q["s"]) for q in pts], our_err)
+    return {"s": at_rtol.s, "n_rhs": at_rtol.n_rhs, "theta_final": theta,
+            "theta_abs_diff": diff, "success": at_rtol.success,
+            "ratio": at_rtol.s / t_kernel, "sweep": pts, "s_at_equal_error": t_eq,
+            "equal_accuracy": t_eq is not None,
+            "ratio_at_equal_error": None if t_eq is None else t_eq / t_kernel}
+
+
 def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
               atol: float = 1e-12, rounds: int = 5, scipy_rounds: int = 1) -> dict:
-    """Fig. 11 top: tippetop's compiled DOP853 against its peers and scipy, one right-hand side.
+    """Fig. 11 top: the reference's default method against its peers and scipy, at equal error.
 
     Every solver integrates the same compiled right-hand side (vector formulation, the paper's
-    friction) at the same tolerances from the same state to ``t_end_s``: tippetop's kernel
-    (one call, as :func:`simulate_ode` makes it), numbalsoda's DOP853 and LSODA through a
+    friction) from the same state to ``t_end_s``: the kernel of the reference's default method
+    (``ode.method = auto`` resolved at ``rtol``: the method and the tolerances it runs at, one
+    call, as :func:`simulate_ode` makes it; ``method``, ``method_rtol`` in the result),
+    numbalsoda's DOP853 and LSODA through a
     cfunc (if numbalsoda is installed: ``pip install -e '.[peers]'``), and
     ``scipy.integrate.solve_ivp(method="DOP853")`` calling it from its Python step loop. The
     solvers take turns over ``rounds`` rounds (scipy in the first ``scipy_rounds`` only: it
@@ -81,7 +116,11 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     top = TopParams.from_ratios(1.0, 0.15)
     fr = FrictionParams()
     init = InitialState(theta0=0.01, n0=n0)
-    opts = OdeOptions(rtol=rtol, atol=atol, method="dop853")  # the kernel the table times
+    # the default (auto) at this rtol: the method it runs and the tolerances it runs it at
+    method, factor = get_method("auto", rtol)
+    k_rtol, k_atol = rtol * factor, atol * factor
+    ours = f"tippetop {method.name}"
+    opts = OdeOptions(rtol=rtol, atol=atol)
     y0 = initial_state_vector(top, init)
     p = pack_params(top, fr)
     missing = numbalsoda_missing()
@@ -89,7 +128,7 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     # compile / load everything first (scipy_rhs compiles its rhs before returning)
     warm = min(t_end_s, 0.01)
     simulate_ode(top, fr, init, t_end_s=warm, options=opts)
-    run_reference_kernel(y0, p, warm, rtol, atol)
+    run_reference_kernel(y0, p, warm, k_rtol, k_atol, method=method.name)
     for name in peer_names:
         run_numbalsoda(name, y0, p, warm, rtol, atol)
     fun = scipy_rhs(top, fr, "vector")
@@ -103,11 +142,11 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
             runs[name] = run
 
     for r in range(rounds):
-        order = [OURS, "simulate", *peer_names]
+        order = [ours, "simulate", *peer_names]
         shift = r % len(order)  # alternate who goes first
         for name in order[shift:] + order[:shift]:
-            if name == OURS:
-                run = run_reference_kernel(y0, p, t_end_s, rtol, atol)
+            if name == ours:
+                run = run_reference_kernel(y0, p, t_end_s, k_rtol, k_atol, method=method.name)
                 keep(name, run.s, run)
             elif name == "simulate":
                 t0 = time.process_time()
@@ -121,10 +160,10 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
             s, sol = _scipy_run(fun, y0, t_end_s, rtol, atol)
             keep(SCIPY, s, sol)
 
-    kernel = runs[OURS]
+    kernel = runs[ours]
     res = runs["simulate"]
     sol = runs[SCIPY]
-    t_kernel = best[OURS]
+    t_kernel = best[ours]
     t_ours = best["simulate"]
     t_scipy = best[SCIPY]
     theta_kernel = _theta_of_vector_state(kernel.y_final)
@@ -165,6 +204,11 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
             solvers[name].update({
                 "sweep": pts, "s_at_equal_error": t_eq, "equal_accuracy": t_eq is not None,
                 "ratio_at_equal_error": None if t_eq is None else t_eq / t_kernel})
+        if heyoka_missing() is None and unsupported(p) is None:
+            # heyoka's Taylor method: the same equations in its own expressions (taylor_peer)
+            solvers[HEYOKA] = _heyoka_solver(p, y0, t_end_s, rtol, rounds, theta_kernel,
+                                             theta_truth, our_err, t_kernel)
+            peer_names.append(HEYOKA)
         equal = [n for n in peer_names if solvers[n]["equal_accuracy"]]
         best_peer = min(equal, key=lambda n: solvers[n]["s_at_equal_error"]) if equal else None
         peers.update({
@@ -188,9 +232,10 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
         f"reference ODE benchmark: Fig. 11 top (A/C = 1, a/R = 0.15), n0 = {n0:g} rad/s, "
         f"{t_end_s:g} s simulated, rtol = {rtol:g}, atol = {atol:g}; one compiled right-hand "
         f"side; CPU time, best of {rounds} round(s) (solvers alternated; scipy: "
-        f"{scipy_rounds})",
+        f"{scipy_rounds}); the reference's default (ode.method = auto) at this rtol runs "
+        f"{method.name} at rtol {k_rtol:g}, atol {k_atol:g}",
         f"  {'solver':<24s} {'s':>9s} {'n_rhs':>9s} {'ratio':>8s}  {'|dtheta|':>9s}",
-        row(OURS, t_kernel, kernel.n_rhs, None, "(baseline: one kernel call)"),
+        row(ours, t_kernel, kernel.n_rhs, None, "(baseline: one kernel call)"),
     ]
     if missing is not None:
         lines.append(f"  numbalsoda peers: not run ({missing})")
@@ -226,6 +271,7 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     ]
     return {
         "n0": n0, "t_end_s": t_end_s, "rtol": rtol, "atol": atol,
+        "method": method.name, "method_rtol": k_rtol, "method_atol": k_atol,
         "timing": "CPU time (time.process_time), best of the rounds",
         "rounds": rounds, "scipy_rounds": scipy_rounds,
         "ours_s": t_ours, "ours_n_rhs": res.n_rhs,
