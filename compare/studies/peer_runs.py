@@ -4,7 +4,7 @@ Compiled drivers (:mod:`reference_ode.peers`): numbalsoda's DOP853 (Hairer's cod
 (ODEPACK). Python drivers calling the compiled right-hand side through a Python wrapper
 (:func:`reference_ode.solve.scipy_rhs`): scipy's ``solve_ivp`` DOP853, Radau and LSODA, and
 SUNDIALS' CVODE (Adams and BDF) through scikit-sundae when it is installed
-(``pip install scikit-sundae``). heyoka's Taylor method (:class:`HeyokaPeer`; its own
+(the ``peers`` extra). heyoka's Taylor method (:class:`HeyokaPeer`; its own
 right-hand side in heyoka's expressions, :mod:`reference_ode.taylor_peer`). The Python
 drivers are ``slow``: fewer tolerances, fewer rounds, a CPU budget per point and a hard
 wall-time limit.
