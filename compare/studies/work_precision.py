@@ -150,8 +150,8 @@ def compute_truth(top: Top, second: Peer | None = None) -> dict:
     """The truth, twice: the reference's DOP853 and a second method, both at their tightest.
 
     The stiff top's truth is the law throughout (``stiff="off"``; the peers integrate the law
-    too). The second is ``second`` (default: numbalsoda's DOP853, another code with another
-    step-size sequence; scipy's Radau without numbalsoda).
+    too). The second is ``second`` (default: the reference's Verner 9(8), another method, of
+    another order, with its own error estimate and step sequence).
 
     Raises:
         TippetopError: if a truth run fails, or the two disagree by more than
@@ -161,14 +161,14 @@ def compute_truth(top: Top, second: Peer | None = None) -> dict:
     rtol = STIFF_TRUTH_RTOL if top.stiff else TRUTH_RTOL
     a = run_reference(top, "dop853", rtol, stiff="off")
     if second is None:
-        names = available_peers()
-        second = PEERS["numbalsoda DOP853" if "numbalsoda DOP853" in names else "scipy Radau"]
-    b = second.run(top, rtol, locate_invert=True)
-    for name, run in (("tippetop dop853", a), (second.name, b)):
+        b, second_name = run_reference(top, "vern9", rtol, stiff="off"), "tippetop vern9"
+    else:
+        b, second_name = second.run(top, rtol, locate_invert=True), second.name
+    for name, run in (("tippetop dop853", a), (second_name, b)):
         if run.status != "ok":
             raise TippetopError(f"work-precision: expected the truth run of {top.name} "
                                 f"({name}, rtol {rtol:g}) to complete, got {run.status}")
-    return check_truths(top.name, {"tippetop dop853": a, second.name: b}, rtol)
+    return check_truths(top.name, {"tippetop dop853": a, second_name: b}, rtol)
 
 
 def check_truths(top_name: str, runs: dict[str, PeerPoint], rtol: float) -> dict:

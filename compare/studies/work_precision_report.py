@@ -230,3 +230,33 @@ def _inf_as_text(results: dict) -> None:
                 for k in ("ratio", "ratio_auto"):
                     if row[k] is not None and math.isinf(row[k]):
                         row[k] = "inf"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m tippetop.compare.studies.work_precision_report RESULTS.json TOP OUT.png``.
+
+    One top's figure again, drawn from a sweep's work-precision.json (``tippetop bench ode
+    --sweep --out DIR`` writes one; the docs draw today's from docs/data/work-precision.json).
+    """
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 3 or not args[2].endswith(".png"):
+        print("work-precision figure: expected RESULTS.json TOP OUT.png, got "
+              + (" ".join(args) or "nothing"), file=sys.stderr)
+        return 2
+    try:
+        doc = json.loads(Path(args[0]).read_text(encoding="utf-8"))
+        tops = doc["tops"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        print(f"work-precision figure: expected a sweep's work-precision.json, got {args[0]} "
+              f"({exc.__class__.__name__}: {exc})", file=sys.stderr)
+        return 2
+    if args[1] not in tops:
+        print(f"work-precision figure: expected a top of {args[0]} ({', '.join(tops)}), got "
+              f"{args[1]!r}", file=sys.stderr)
+        return 2
+    plot_top(tops[args[1]], Path(args[2]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

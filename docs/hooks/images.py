@@ -50,6 +50,9 @@ STRIP_FRAMES = 6
 #: The fidelity map's measured results (the default grid takes about 30 min on 2 cores, too
 #: long for a build): the figure is drawn from them by today's code.
 FIDELITY_RESULTS = "docs/data/fidelity-default.json"
+#: Today's work-precision sweep (``tippetop bench ode --sweep``, about 5 min on 2 cores):
+#: its figures are drawn from the results at build time.
+WORK_PRECISION_RESULTS = "docs/data/work-precision.json"
 
 #: Each command's time limit (s): a hung command is a failed image, not a hung build.
 TIMEOUT_S = 600
@@ -64,6 +67,9 @@ IMAGES = {
                                 "which MuJoCo's contact lifts the ball"),
     "images/fidelity-map.png": ("python -m tippetop.compare.report.fidelity "
                                 f"{FIDELITY_RESULTS}: the default grid's map"),
+    **{f"images/work-precision-{top}.png": (
+        "python -m tippetop.compare.studies.work_precision_report "
+        f"{WORK_PRECISION_RESULTS} {top}: today's frontier") for top in ("fig3", "fig11", "stiff")},
 }
 
 
@@ -92,6 +98,8 @@ def _images(config: MkDocsConfig) -> dict[str, bytes]:
         "images/render-strip.png": _render_strip,
         "images/contact-lift.png": _contact_lift,
         "images/fidelity-map.png": _fidelity_map,
+        **{f"images/work-precision-{top}.png": _work_precision(top)
+           for top in ("fig3", "fig11", "stiff")},
     }
     if _chromium() is None:  # said once, before any command runs for a screenshot
         log.warning("docs images: chromium not found: it screenshots the reports (Debian: bash "
@@ -215,6 +223,18 @@ def _fidelity_map(root: Path, tmp: Path) -> bytes:
     if not png.is_file():
         raise ImageError("the fidelity figure was not written")
     return png.read_bytes()
+
+
+def _work_precision(top: str) -> Callable[[Path, Path], bytes]:
+    def make(root: Path, tmp: Path) -> bytes:
+        png = tmp / f"work-precision-{top}.png"
+        _run([sys.executable, "-m", "tippetop.compare.studies.work_precision_report",
+              str(root / WORK_PRECISION_RESULTS), top, str(png)], root)
+        if not png.is_file():
+            raise ImageError(f"the work-precision figure of {top} was not written")
+        return png.read_bytes()
+
+    return make
 
 
 def _placeholder(text: str) -> bytes:
