@@ -11,6 +11,30 @@ FORMULATIONS = ("vector", "paper")
 #: The reference's integration methods (``ode.method``; reference_ode/methods.py): ``auto``
 #: picks one from the tolerance.
 ODE_METHODS = ("auto", "dop853", "vern9", "adams")
+#: ``auto``: (rtol at least, method, the rtol it runs at per rtol asked for), the first whose rtol
+#: the tolerance asked for reaches. ``auto`` keeps what a tolerance has meant for this reference
+#: (the theta error DOP853 reaches at it) and runs the method that reaches that error soonest, at
+#: the tolerance that reaches it: the Adams method's error per rtol is 100-400x DOP853's on the
+#: Fig. 3 and Fig. 11 tops (at rtol 1e-9 DOP853 reaches 1.5e-11 rad on Fig. 11, Adams 3e-9;
+#: Adams at 1e-12 reaches 4e-12, in a third of DOP853's time), so it runs at 1e-3 of the rtol
+#: asked. Measured with ``tippetop bench ode --sweep`` (docs/guide/accuracy.md):
+#:
+#: * rtol >= 1e-4: DOP853 (an error near 1e-5 rad; Adams is no faster there);
+#: * 1e-4 > rtol >= 1e-10: Adams at rtol x 1e-3 (1.2-3.5x less CPU time than DOP853 at equal
+#:   error, 1.9-4.6x less than LSODA);
+#: * rtol < 1e-10: Verner 9(8) (DOP853's errors below ~1e-11 rad; Adams would need an rtol below
+#:   1e-13, where its history's rounding leads).
+AUTO_RULE: tuple[tuple[float, str, float], ...] = (
+    (1e-4, "dop853", 1.0), (1e-10, "adams", 1e-3), (0.0, "vern9", 1.0))
+
+
+def auto_method(rtol: float) -> tuple[str, float]:
+    """What ``ode.method = auto`` runs at ``rtol``: (method, its tolerances per those asked)."""
+    for limit, name, factor in AUTO_RULE:
+        if rtol >= limit:
+            return name, factor
+    return "dop853", 1.0
+
 
 #: The largest ode.max_steps: the compiled integrator counts steps in a signed 64-bit integer.
 MAX_STEPS_LIMIT = 2**63 - 1

@@ -24,7 +24,7 @@ from typing import Any
 from tippetop.models.contacts import ContactSetting, MixedContact, ball_table_contact
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import LAW_MODES
-from tippetop.models.options import OdeOptions
+from tippetop.models.options import OdeOptions, auto_method
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 
 #: The engine families a plan can be made for: the reference's plan, or MuJoCo's (which every
@@ -230,9 +230,12 @@ class OdePlan:
 
     def what_runs(self) -> dict[str, Any]:
         """What will run, under the keys a run's summary reports what ran with."""
+        method, factor = self.options.method, 1.0
+        if method == "auto":
+            method, factor = auto_method(self.options.rtol)
         return {"friction_law": self.friction.law, "formulation": self.options.formulation,
-                "rtol": self.options.rtol, "atol": self.options.atol,
-                "sample_dt_s": self.sample_dt_s}
+                "method": method, "rtol": self.options.rtol * factor,
+                "atol": self.options.atol * factor, "sample_dt_s": self.sample_dt_s}
 
 
 @dataclass(frozen=True)

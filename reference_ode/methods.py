@@ -24,7 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import ODE_METHODS
+from tippetop.models.options import AUTO_RULE, ODE_METHODS, auto_method
+
+__all__ = ["AUTO_RULE", "METHODS", "Method", "choose_method", "get_method"]
 
 
 @dataclass(frozen=True)
@@ -71,29 +73,12 @@ METHODS: dict[str, Method] = {m.name: m for m in (
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]
 
-#: ``auto``: (rtol at least, method, the rtol it runs at per rtol asked for), the first whose rtol
-#: the tolerance asked for reaches. ``auto`` keeps what a tolerance has meant for this reference
-#: (the theta error DOP853 reaches at it) and runs the method that reaches that error soonest, at
-#: the tolerance that reaches it: the Adams method's error per rtol is 100-400x DOP853's on the
-#: Fig. 3 and Fig. 11 tops (at rtol 1e-9 DOP853 reaches 1.5e-11 rad on Fig. 11, Adams 3e-9;
-#: Adams at 1e-12 reaches 4e-12, in a third of DOP853's time), so it runs at 1e-3 of the rtol
-#: asked. Measured with ``tippetop bench ode --sweep`` (docs/guide/accuracy.md):
-#:
-#: * rtol >= 1e-4: DOP853 (an error near 1e-5 rad; Adams is no faster there);
-#: * 1e-4 > rtol >= 1e-10: Adams at rtol x 1e-3 (1.2-3.5x less CPU time than DOP853 at equal
-#:   error, 1.9-4.6x less than LSODA);
-#: * rtol < 1e-10: Verner 9(8) (DOP853's errors below ~1e-11 rad; Adams would need an rtol below
-#:   1e-13, where its history's rounding leads).
-AUTO_RULE: tuple[tuple[float, str, float], ...] = (
-    (1e-4, "dop853", 1.0), (1e-10, "adams", 1e-3), (0.0, "vern9", 1.0))
-
-
 def choose_method(rtol: float) -> tuple[str, float]:
-    """What ``auto`` runs at relative tolerance ``rtol``: (method, its rtol per rtol asked)."""
-    for limit, name, factor in AUTO_RULE:
-        if rtol >= limit:
-            return name, factor
-    return "dop853", 1.0
+    """What ``auto`` runs at relative tolerance ``rtol``: (method, its rtol per rtol asked).
+
+    The rule is :data:`models.options.AUTO_RULE` (a plan says what will run from it too).
+    """
+    return auto_method(rtol)
 
 
 def get_method(name: str, rtol: float) -> tuple[Method, float]:

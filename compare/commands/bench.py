@@ -38,7 +38,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "tolerances, compared at equal achieved error (tables, a figure per top, "
                    "--json)")
     p.add_argument("--tops", default="fig3,fig11,stiff", metavar="TOP,...",
-                   help="ode --sweep: comma-separated tops, of fig3, fig11, stiff (default: all)")
+                   help="ode --sweep: comma-separated tops, of fig3, fig11, stiff (default: "
+                   "fig3,fig11,stiff)")
     p.add_argument("--budget-s", dest="budget_s", type=finite_float, default=None,
                    metavar="S", help="accuracy: wall-time budget per point (s; default 20 for "
                    "the ODE, 30 for MuJoCo)")

@@ -130,10 +130,14 @@ def _check_against_readme(r) -> None:
 
 
 def _check_reproduces(r, entry: dict) -> None:
-    # deterministic runs: the stored residual to rounding (measured <= 2e-14 rad), 1e-9
-    assert r.rms_rad == pytest.approx(entry["rms_rad"], rel=1e-9), r.scene
-    assert r.theta_asymp_err == pytest.approx(entry["theta_asymp_err"], rel=1e-9,
-                                              abs=1e-12), r.scene
+    # deterministic runs: the stored residual to the reference's own error. MuJoCo's side is
+    # bit-for-bit; the reference's theta(t) moves with its method: the residuals were stored
+    # with DOP853 at rtol 1e-9 (error ~1e-11 rad), the default now runs Adams at rtol 1e-12
+    # (error up to ~3e-9 rad on these tops, bench ode --sweep), which moves a residual of
+    # ~0.08 rad by at most ~3e-9 rad: rel 1e-7 (measured 4e-8 on fig4), abs 1e-8
+    assert r.rms_rad == pytest.approx(entry["rms_rad"], rel=1e-7), r.scene
+    assert r.theta_asymp_err == pytest.approx(entry["theta_asymp_err"], rel=1e-7,
+                                              abs=1e-8), r.scene
     assert r.t_invert_mujoco == entry.get("t_invert_mujoco"), r.scene  # a sample time
     assert r.J_rel_drift == pytest.approx(entry["J_rel_drift"], rel=1e-9), r.scene
     assert r.outcome_mujoco == entry["outcome_mujoco"], r.scene

@@ -102,7 +102,7 @@ def test_compiled_integrator_matches_scipy_dop853() -> None:
     fr = FrictionParams()
     init = InitialState(theta0=0.01, n0=60.0)
     res = simulate_ode(top, fr, init, t_end_s=1.0, sample_dt_s=1.0,
-                       options=OdeOptions(rtol=1e-10, atol=1e-12))
+                       options=OdeOptions(rtol=1e-10, atol=1e-12, method="dop853"))
     sol = solve_ivp(scipy_rhs(top, fr), (0.0, 1.0), initial_state_vector(top, init),
                     method="DOP853", rtol=1e-10, atol=1e-12)
     ours = res.states[-1]

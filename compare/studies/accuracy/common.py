@@ -124,7 +124,7 @@ def reference_run(scene: Scene | str, *, t_end_s: float | None = None,
     T = s.run.t_end_s
     runs = []
     for r in (rtol, REFERENCE_CHECK_FACTOR * rtol):
-        p = ode_plan(s, formulation="vector", rtol=r, atol=ATOL_PER_RTOL * r)
+        p = ode_plan(s, formulation="vector", rtol=r, atol=ATOL_PER_RTOL * r, method="dop853")
         res = simulate_ode(p.top, p.friction, p.init, t_end_s=T, sample_dt_s=p.sample_dt_s,
                            options=p.options, stiff=stiff)
         if res.status != "ok":

@@ -90,7 +90,7 @@ STIFF_REFERENCE_RTOL = 1e-11
 def _run_compiled(scene: Scene, formulation: str, rtol: float, atol: float,
                   ref: Reference, stiff: str = "auto") -> dict[str, Any]:
     try:
-        p = ode_plan(scene, formulation=formulation, rtol=rtol, atol=atol)
+        p = ode_plan(scene, formulation=formulation, rtol=rtol, atol=atol, method="dop853")
         res = simulate_ode(p.top, p.friction, p.init, t_end_s=p.t_end_s,
                            sample_dt_s=p.sample_dt_s, options=p.options, stiff=stiff)
     except TippetopError as exc:  # e.g. the paper form refusing theta0 = 0
