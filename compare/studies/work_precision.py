@@ -168,7 +168,16 @@ def compute_truth(top: Top, second: Peer | None = None) -> dict:
         if run.status != "ok":
             raise TippetopError(f"work-precision: expected the truth run of {top.name} "
                                 f"({name}, rtol {rtol:g}) to complete, got {run.status}")
-    return check_truths(top.name, {"tippetop dop853": a, second_name: b}, rtol)
+    truth = check_truths(top.name, {"tippetop dop853": a, second_name: b}, rtol)
+    if truth["t_invert"] is not None and truth["t_invert_locate_err"] is None:
+        # how well a peer without events locates the inversion (from its samples): measured on
+        # the first peer there is, at the truth's tolerance
+        names = available_peers()
+        locator = next((n for n in ("numbalsoda DOP853", "scipy DOP853") if n in names), None)
+        if locator is not None:
+            run = PEERS[locator].run(top, rtol, locate_invert=True)
+            truth.update(t_invert_locate_err=run.locate_err, locator=locator)
+    return truth
 
 
 def check_truths(top_name: str, runs: dict[str, PeerPoint], rtol: float) -> dict:
@@ -194,7 +203,7 @@ def check_truths(top_name: str, runs: dict[str, PeerPoint], rtol: float) -> dict
     return {"methods": [na, nb], "rtol": rtol, "atol": ATOL_PER_RTOL * rtol,
             "theta": a.theta, "theta_other": b.theta, "theta_diff": d_theta,
             "t_invert": a.t_invert, "t_invert_other": b.t_invert, "t_invert_diff": d_inv,
-            "t_invert_locate_err": b.locate_err, "J_drift": a.J_drift}
+            "t_invert_locate_err": b.locate_err, "locator": nb, "J_drift": a.J_drift}
 
 
 def _errors(run: PeerPoint, truth: dict) -> dict:

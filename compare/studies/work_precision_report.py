@@ -111,10 +111,13 @@ def top_report(res: dict) -> str:
     if tr["t_invert"] is None:
         lines.append("  the top does not invert within t_end: no t_invert table")
     else:
+        loc = tr.get("t_invert_locate_err")
         lines.append(f"  t_invert = {tr['t_invert']:.12f} s, |diff| = {tr['t_invert_diff']:.1e}"
-                     f" s; the peers' inversion located from samples to about "
-                     f"{tr['t_invert_locate_err']:.0e} s (spline on {tr['methods'][1]}'s dense "
-                     "output, 201 vs 101 samples)")
+                     " s; " + ("the peers' inversion located from samples: not measured (no "
+                               "peer)" if loc is None else
+                               f"the peers' inversion located from samples to about {loc:.0e} "
+                               f"s (spline on {tr['locator']}'s dense output, 201 vs 101 "
+                               "samples)"))
     for n, why in res["skipped"].items():
         lines.append(f"  skipped {n}: {why}")
     solvers = list(res["solvers"])
