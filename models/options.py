@@ -10,14 +10,20 @@ from tippetop.models.errors import expect
 FORMULATIONS = ("vector", "paper")
 #: The reference's integration methods (``ode.method``; reference_ode/methods.py): ``auto``
 #: picks one from the tolerance.
-ODE_METHODS = ("auto", "dop853", "vern9", "adams")
-#: ``auto``: (rtol at least, method, the rtol it runs at per rtol asked for), the first whose rtol
-#: the tolerance asked for reaches. ``auto`` keeps what a tolerance has meant for this reference
-#: (the theta error DOP853 reaches at it) and runs the method that reaches that error soonest, at
-#: the tolerance that reaches it: the Adams method's error per rtol is 100-400x DOP853's on the
-#: Fig. 3 and Fig. 11 tops (at rtol 1e-9 DOP853 reaches 1.5e-11 rad on Fig. 11, Adams 3e-9;
-#: Adams at 1e-12 reaches 4e-12, in a third of DOP853's time), so it runs at 1e-3 of the rtol
-#: asked. Measured with ``tippetop bench ode --sweep`` (docs/guide/accuracy.md):
+ODE_METHODS = ("auto", "dop853", "vern9", "adams", "taylor")
+#: ``auto`` where the Taylor method runs (:func:`taylor_runs`): (method, the rtol it runs at per
+#: rtol asked for). ``auto`` keeps what a tolerance has meant for this reference (the theta error
+#: DOP853 reaches at it) and runs the method that reaches that error soonest. The Taylor method's
+#: error per rtol is up to ~10x DOP853's on the Fig. 11 top (rtol 1e-8: 1.5e-9 rad against
+#: 1.6e-10) and below it on Fig. 3, so it runs at a tenth of the rtol asked. Measured with
+#: ``tippetop bench ode --sweep`` (docs/guide/accuracy.md): at equal error it takes 2-7x less CPU
+#: time than DOP853 and 1.2-2.4x less than the Adams method on those tops.
+AUTO_TAYLOR: tuple[str, float] = ("taylor", 0.1)
+#: ``auto`` elsewhere (a stem, another law, the paper's formulation): (rtol at least, method,
+#: the rtol it runs at per rtol asked for), the first whose rtol the tolerance asked for
+#: reaches. The Adams method's error per rtol is 100-400x DOP853's on the Fig. 3 and Fig. 11
+#: tops (at rtol 1e-9 DOP853 reaches 1.5e-11 rad on Fig. 11, Adams 3e-9; Adams at 1e-12 reaches
+#: 4e-12, in a third of DOP853's time), so it runs at 1e-3 of the rtol asked:
 #:
 #: * rtol >= 1e-4: DOP853 (an error near 1e-5 rad; Adams is no faster there);
 #: * 1e-4 > rtol >= 1e-10: Adams at rtol x 1e-3 (1.2-3.5x less CPU time than DOP853 at equal
@@ -28,8 +34,23 @@ AUTO_RULE: tuple[tuple[float, str, float], ...] = (
     (1e-4, "dop853", 1.0), (1e-10, "adams", 1e-3), (0.0, "vern9", 1.0))
 
 
-def auto_method(rtol: float) -> tuple[str, float]:
-    """What ``ode.method = auto`` runs at ``rtol``: (method, its tolerances per those asked)."""
+def taylor_runs(formulation: str, law: str, stem: bool) -> bool:
+    """Whether the Taylor method runs a problem (reference_ode/taylor.py).
+
+    It runs the vector formulation's ball on the table (no stem) with the modified Coulomb law.
+    """
+    return formulation == "vector" and law == "modified_coulomb" and not stem
+
+
+def auto_method(rtol: float, taylor: bool = False) -> tuple[str, float]:
+    """What ``ode.method = auto`` runs at ``rtol``: (method, its tolerances per those asked).
+
+    Args:
+        rtol: The relative tolerance asked for.
+        taylor: Whether the Taylor method runs the problem (:func:`taylor_runs`).
+    """
+    if taylor:
+        return AUTO_TAYLOR
     for limit, name, factor in AUTO_RULE:
         if rtol >= limit:
             return name, factor

@@ -24,7 +24,7 @@ from typing import Any
 from tippetop.models.contacts import ContactSetting, MixedContact, ball_table_contact
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import LAW_MODES
-from tippetop.models.options import OdeOptions, auto_method
+from tippetop.models.options import OdeOptions, auto_method, taylor_runs
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 
 #: The engine families a plan can be made for: the reference's plan, or MuJoCo's (which every
@@ -232,7 +232,9 @@ class OdePlan:
         """What will run, under the keys a run's summary reports what ran with."""
         method, factor = self.options.method, 1.0
         if method == "auto":
-            method, factor = auto_method(self.options.rtol)
+            method, factor = auto_method(
+                self.options.rtol, taylor_runs(self.options.formulation, self.friction.law,
+                                               self.stem is not None))
         return {"friction_law": self.friction.law, "formulation": self.options.formulation,
                 "method": method, "rtol": self.options.rtol * factor,
                 "atol": self.options.atol * factor, "sample_dt_s": self.sample_dt_s}

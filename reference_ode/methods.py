@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import AUTO_RULE, ODE_METHODS, auto_method
+from tippetop.models.options import AUTO_RULE, AUTO_TAYLOR, ODE_METHODS, auto_method
 
-__all__ = ["AUTO_RULE", "METHODS", "Method", "choose_method", "get_method"]
+__all__ = ["AUTO_RULE", "AUTO_TAYLOR", "METHODS", "Method", "choose_method", "get_method"]
 
 
 @dataclass(frozen=True)
@@ -70,26 +70,29 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("vern9", "verner", 9, "Verner 9(8) (the most efficient pair, IIIXb)"),
     Method("adams", "adams", 12, "variable-order Adams PECE, orders 1-12",
            hands_over_stiff=True),
+    Method("taylor", "taylor", 12, "adaptive Taylor series, orders 8 and 12 (the ball on the "
+           "table, the modified Coulomb law)", hands_over_stiff=True),
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]
 
-def choose_method(rtol: float) -> tuple[str, float]:
+def choose_method(rtol: float, taylor: bool = False) -> tuple[str, float]:
     """What ``auto`` runs at relative tolerance ``rtol``: (method, its rtol per rtol asked).
 
-    The rule is :data:`models.options.AUTO_RULE` (a plan says what will run from it too).
+    The rule is :data:`models.options.AUTO_TAYLOR` where the Taylor method runs the problem
+    (``taylor``), else :data:`models.options.AUTO_RULE` (a plan says what will run from them too).
     """
-    return auto_method(rtol)
+    return auto_method(rtol, taylor)
 
 
-def get_method(name: str, rtol: float) -> tuple[Method, float]:
+def get_method(name: str, rtol: float, taylor: bool = False) -> tuple[Method, float]:
     """What ``ode.method = name`` runs at ``rtol``: the method and the factor on the tolerances.
 
-    ``auto`` resolved by :func:`choose_method`; a named method runs at the tolerances asked
-    (factor 1).
+    ``auto`` resolved by :func:`choose_method` (``taylor``: whether the Taylor method runs the
+    problem); a named method runs at the tolerances asked (factor 1).
     """
     factor = 1.0
     if name == "auto":
-        name, factor = choose_method(rtol)
+        name, factor = choose_method(rtol, taylor)
     if name not in METHODS:
         raise TippetopError(f"ode.method: expected one of {', '.join(ODE_METHODS)}, got "
                             f"{name!r}")

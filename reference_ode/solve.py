@@ -51,6 +51,7 @@ from tippetop.reference_ode.rolling import (
     rolling_params,
     rolling_state,
 )
+from tippetop.reference_ode.taylor import unsupported as taylor_unsupported
 from tippetop.reference_ode.top import FORMULATIONS, TWO_CONTACT, Formulation, two_contact_forces
 
 assert tuple(FORMULATIONS) == _FORMULATION_NAMES
@@ -283,7 +284,12 @@ def simulate_ode(
     Y = np.full((t_out.size, y.size), np.nan)
     t = 0.0
     i_out = 0
-    method, factor = get_method(options.method, float(options.rtol))
+    taylor_reason = taylor_unsupported(form.rhs, p) if stem is None else \
+        "the Taylor method runs the ball on the table only (no stem)"
+    if options.method == "taylor" and taylor_reason is not None:
+        raise TippetopError(f"ode.method: expected auto or one of dop853, vern9, adams for this "
+                            f"scene ({taylor_reason}), got 'taylor'")
+    method, factor = get_method(options.method, float(options.rtol), taylor_reason is None)
     rtol = float(options.rtol) * factor  # auto: the tolerances the chosen method runs at
     atol = float(options.atol) * factor
     max_steps = int(options.max_steps)

@@ -1,10 +1,11 @@
 """Every integration method of the reference on the paper's cases, and ``auto``'s choice.
 
-Each method (``ode.method``: dop853, vern9, adams) must reproduce the paper's digits and agree
-with the other formulation as the default does; ``auto`` must run the method and tolerances
+Each method (``ode.method``: dop853, vern9, adams, taylor) must reproduce the paper's digits and
+agree with the other formulation as the default does; ``auto`` must run the method and tolerances
 its rule names (reference_ode/methods.py, measured with ``tippetop bench ode --sweep``), and
 say what ran. The methods' own kernels are tested in test_dop853.py, test_verner.py and
-test_adams.py; the stiff and stem cases under each in test_verner.py and test_adams.py.
+test_adams.py and test_taylor.py; the stiff and stem cases under each in test_verner.py,
+test_adams.py and test_taylor.py.
 """
 
 from __future__ import annotations
@@ -16,7 +17,13 @@ import pytest
 from tests.conftest import run_scene_ode
 from tippetop.models.errors import TippetopError
 from tippetop.models.options import ODE_METHODS, OdeOptions
-from tippetop.reference_ode.methods import AUTO_RULE, METHODS, choose_method, get_method
+from tippetop.reference_ode.methods import (
+    AUTO_RULE,
+    AUTO_TAYLOR,
+    METHODS,
+    choose_method,
+    get_method,
+)
 
 NAMED = tuple(m for m in ODE_METHODS if m != "auto")
 #: Sec. 4.4 prints theta_asymp = 2.49 for n0 = 60 (two decimals); test_paper_cases.FIG11_TOL.
@@ -40,6 +47,10 @@ def test_auto_follows_its_rule(rtol: float, method: str, factor: float) -> None:
     assert choose_method(rtol) == (method, factor)
     m, f = get_method("auto", rtol)
     assert (m.name, f) == (method, factor)
+    # where the Taylor method runs the problem, auto runs it at a tenth of every rtol
+    assert choose_method(rtol, taylor=True) == AUTO_TAYLOR == ("taylor", 0.1)
+    m, f = get_method("auto", rtol, taylor=True)
+    assert (m.name, f) == AUTO_TAYLOR
     assert [lim for lim, _, _ in AUTO_RULE] == sorted((lim for lim, _, _ in AUTO_RULE),
                                                       reverse=True)
     for name in NAMED:  # a named method runs at the tolerances asked
@@ -47,7 +58,10 @@ def test_auto_follows_its_rule(rtol: float, method: str, factor: float) -> None:
 
 
 def test_a_run_says_the_method_and_the_tolerances_that_ran() -> None:
-    res = run_scene_ode("fig3", "run.t_end_s=0.5")  # the scene's rtol 1e-9: auto runs Adams
+    res = run_scene_ode("fig3", "run.t_end_s=0.5")  # the scene's rtol 1e-9: auto runs Taylor
+    assert res.method == "taylor"
+    assert res.rtol == pytest.approx(1e-10) and res.atol == pytest.approx(1e-13)
+    res = run_scene_ode("fig3", "run.t_end_s=0.5", "ode.formulation=paper")  # not Taylor's
     assert res.method == "adams"
     assert res.rtol == pytest.approx(1e-12) and res.atol == pytest.approx(1e-15)
     res = run_scene_ode("fig3", "run.t_end_s=0.5", "ode.method=dop853")
@@ -70,8 +84,8 @@ def test_each_method_agrees_with_the_paper_formulation_on_fig3(method: str) -> N
     under DOP853 (the paper's own equations, another state and right-hand side), both at the
     scene's rtol 1e-9: t_invert and the final theta within 1e-8 (test_paper_cases' bound for
     the default; measured 1e-9 s and 7e-10 rad for DOP853, and each method's own error at
-    rtol 1e-9 on this top is below 1e-8: 7.7e-10 DOP853, ~1e-9 vern9, ~2e-9 adams, from the
-    work-precision sweep)."""
+    rtol 1e-9 on this top is below 1e-8: 7.7e-10 DOP853, ~1e-9 vern9, ~2e-9 adams, 2.3e-11
+    taylor, from the work-precision sweep)."""
     res = run_scene_ode("fig3", f"ode.method={method}")
     paper = run_scene_ode("fig3", "ode.formulation=paper", "ode.method=dop853")
     assert res.status == paper.status == "ok"

@@ -1,0 +1,348 @@
+"""A compiled adaptive Taylor method for the ball on the table (the reference's ``taylor``).
+
+Each step computes the solution's Taylor series to order P at the step's start (the jet,
+:mod:`reference_ode.taylor_jet`: the vector formulation's right-hand side differentiated in
+Taylor mode, compiled as straight-line code for one order) and sums it at the step's end by
+Horner's rule. The series is also the step's dense output: samples, the mark (the inversion)
+and the guard are found on it.
+
+The step size follows the tolerances a priori (no rejected steps): the last two coefficients
+stand for the local error, h = SAFETY min((max_i |y_i,P| / sc_i)^(-1/P),
+(max_i |y_i,P-1| / sc_i)^(-1/(P-1))) with sc_i = atol + rtol |y_i| (Jorba and Zou's rule, with
+the other methods' component scales in place of one tolerance). The order follows the
+tolerance asked (:func:`order_for`). Where stability limits the step (the friction law relaxes
+the slip at up to ~mu g / Lambda, and an excited fast mode's coefficients grow until they
+bound h), the same rule holds the step near the series' stability boundary.
+
+Stiffness: a step is flagged (``S_NSTIFF``) when the law relaxes the slip over
+:data:`STIFF_SEPARATION` times faster than the top turns, mu g / sqrt(|v_P|^2 + Lambda^2) >
+STIFF_SEPARATION |w| at the step's start: there every explicit method runs at its stability
+limit, DOP853's at 12 evaluations a step far more cheaply than a jet. The method hands such
+stretches over to DOP853 (``Method.hands_over_stiff``), whose detector decides on rolling
+phases. (A Lipschitz estimate from two evaluations an error apart, DOP853's, does not tell the
+two regimes apart for this method: on the Fig. 11 top, not stiff for DOP853, the Taylor steps
+already run at h lambda ~ 10-16, near their own boundary, as on the stiff top; the ratio of the
+law's rate to the rotation's is 15 there, ~10^5 on the stiff top.) ``S_HLAMBDA_MAX`` stays 0.
+
+What it runs: the vector formulation's ball on the table (no rim, no other contact surface) with
+the modified Coulomb law and no viscous part (:func:`unsupported` says why not otherwise);
+:mod:`reference_ode.solve` runs anything else with the method ``auto`` would pick without it.
+The kernel of each order is written to a module in the compiled-code cache and compiled there
+once (``cache=True``): :func:`kernel`.
+
+The contract is :func:`reference_ode.dop853.dop853_run`'s (statuses, ``stats`` slots, events,
+samples, chunks); a jet counts as one evaluation in ``S_NRHS`` (as the heyoka peer's steps),
+the events' evaluations of the right-hand side as one each.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from tippetop.reference_ode.friction import COULOMB_MODIFIED
+from tippetop.reference_ode.params_array import (
+    P_COULOMB_KIND,
+    P_OTHER,
+    P_RIM,
+    P_VISCOUS,
+)
+from tippetop.reference_ode.taylor_jet import N_ROWS, ROW_N, ROW_U, jet_source
+
+#: Step-size safety factor on the a-priori step.
+SAFETY = 1.0
+#: A step is flagged stiff when the law relaxes the slip this many times faster than the top
+#: turns: mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|.
+STIFF_SEPARATION = 1000.0
+#: The orders there are, and the tolerance from which down each is used (:func:`order_for`).
+ORDERS: tuple[tuple[float, int], ...] = ((1e-6, 8), (0.0, 12))
+
+
+def order_for(rtol: float) -> int:
+    """The order a run at relative tolerance ``rtol`` uses (:data:`ORDERS`).
+
+    Measured (``tippetop bench ode --sweep``; docs/guide/accuracy.md): on the Fig. 3 and Fig. 11
+    tops the steps down to rtol ~1e-8 are set by stability (the friction law's slip relaxation,
+    ~mu g / Lambda), not by the tolerance, so the cheapest jet wins there: order 8 (0.6 us a
+    jet) to rtol 1e-6, order 12 (1.3 us) below it, where order 8's steps become the tolerance's.
+    Order 16 was slower than 12 at every tolerance down to 1e-12.
+    """
+    for limit, order in ORDERS:
+        if rtol >= limit:
+            return order
+    return ORDERS[-1][1]
+
+
+def unsupported(rhs, p: np.ndarray) -> str | None:
+    """None if the Taylor method runs this problem, else why not (one line)."""
+    from tippetop.reference_ode.top import vector_rhs
+
+    if rhs is not vector_rhs:
+        return "the Taylor method runs the vector formulation's ball on the table only"
+    if p[P_RIM] != 0.0 or p[P_OTHER] >= 0.0:
+        return "the Taylor method runs the ball on the table only (no stem, no rim)"
+    if int(p[P_COULOMB_KIND]) != COULOMB_MODIFIED or p[P_VISCOUS] != 0.0:
+        return "the Taylor method runs the modified Coulomb law only (no viscous part)"
+    return None
+
+
+_KERNEL = '''
+import math
+
+import numba as nb
+import numpy as np
+
+from tippetop.reference_ode.dop853 import (
+    RHS_TYPE, WATCH_TYPE, S_H, S_MONITOR_MIN, S_NRHS, S_NSTEPS, S_NSTIFF,
+    S_STIFF_STOP, S_T_MARK, STATUS_GUARD, STATUS_MAX_STEPS, STATUS_MONITOR, STATUS_OK,
+    STATUS_RUNNING, STATUS_STEP_TOO_SMALL, STATUS_STIFF)
+from tippetop.reference_ode.params_array import (
+    P_A_OFF, P_G, P_IA, P_IC, P_LAM, P_M, P_MU, P_R)
+
+ORDER = {order}
+N_ROWS = {n_rows}
+ROW_N = {row_n}
+ROW_U = {row_u}
+SAFETY = {safety!r}
+STIFF_SEPARATION = {stiff!r}
+BISECTION_ITERS = 60
+GUARD_SCAN = 32
+MIN_STEP_ULPS = 10.0
+_V = nb.types.float64[::1]
+_M = nb.types.float64[:, ::1]
+_F8 = nb.types.float64
+_I8 = nb.types.int64
+
+
+@nb.njit(nb.types.none(_V, _V, _M), cache=True, error_model="numpy",
+         fastmath={{"contract", "reassoc"}})
+{jet}
+
+@nb.njit(nb.types.none(_M, _F8, _V), cache=True, error_model="numpy")
+def dense_eval(T, h, out):
+    """The series of the state summed at h (Horner)."""
+    for i in range(out.size):
+        s = T[i, ORDER]
+        for k in range(ORDER - 1, -1, -1):
+            s = s * h + T[i, k]
+        out[i] = s
+
+
+@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _F8, _F8, _F8),
+         cache=True, error_model="numpy")
+def locate(rhs, watch, use_guard, T, p, ytmp, dy, h, lo, hi):
+    """Where in the step (a fraction in (lo, hi]) the guard or the mark falls to <= 0."""
+    for _ in range(BISECTION_ITERS):
+        mid = 0.5 * (lo + hi)
+        dense_eval(T, mid * h, ytmp)
+        if use_guard:
+            v = rhs(ytmp, p, dy)
+        else:
+            v = watch(ytmp, p)[0]
+        if v > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, _F8,
+                                          _I8, _F8, _V, _M, _I8, _V),
+         cache=True, error_model="numpy")
+def run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out,
+        i_out, stats):
+    n = y.size
+    T = np.zeros((N_ROWS, ORDER + 1))
+    yc = np.empty(n)
+    y_new = np.empty(n)
+    f1 = np.empty(n)
+    ytmp = np.empty(n)
+    dy = np.empty(n)
+    for i in range(n):
+        yc[i] = y[i]
+    g0 = rhs(yc, p, f1)
+    stats[S_NRHS] += 1
+    if not g0 > 0.0:
+        return STATUS_GUARD, t, i_out
+    mark_old = watch(yc, p)[0]
+    n_out = t_out.size
+    while i_out < n_out and t_out[i_out] <= t:
+        Y_out[i_out, :] = yc
+        i_out += 1
+    mu_g2 = (p[P_MU] * p[P_G]) ** 2
+    sep2 = STIFF_SEPARATION * STIFF_SEPARATION
+    inv_p = 1.0 / ORDER
+    inv_pm1 = 1.0 / (ORDER - 1)
+    status = STATUS_RUNNING
+    h = 0.0
+    while t < t_stop:
+        if stats[S_NSTEPS] >= max_steps:
+            status = STATUS_MAX_STEPS
+            break
+        jet(yc, p, T)
+        stats[S_NRHS] += 1
+        r1 = 0.0
+        r2 = 0.0
+        for i in range(n):
+            sc = atol + rtol * abs(yc[i])
+            a1 = abs(T[i, ORDER]) / sc
+            a2 = abs(T[i, ORDER - 1]) / sc
+            if a1 > r1:
+                r1 = a1
+            if a2 > r2:
+                r2 = a2
+        h_abs = math.inf
+        if r1 > 0.0:
+            h_abs = r1 ** -inv_p
+        if r2 > 0.0:
+            h_abs = min(h_abs, r2 ** -inv_pm1)
+        h_abs *= SAFETY
+        min_step = MIN_STEP_ULPS * abs(np.nextafter(t, np.inf) - t)
+        t_new = t + h_abs if h_abs < t_end - t else t_end
+        h = t_new - t
+        if not h >= min_step:  # also a NaN jet
+            status = STATUS_STEP_TOO_SMALL
+            break
+        for i in range(n):
+            s = T[i, ORDER]
+            for k in range(ORDER - 1, -1, -1):
+                s = s * h + T[i, k]
+            y_new[i] = s
+        stats[S_NSTEPS] += 1
+        # stiff: the law relaxes the slip STIFF_SEPARATION times faster than the top turns,
+        # mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|
+        w2 = yc[8] * yc[8] + yc[9] * yc[9] + yc[10] * yc[10]
+        if mu_g2 > sep2 * w2 * T[ROW_U, 0]:
+            stats[S_NSTIFF] += 1
+        mark_new, monitor = watch(y_new, p)
+        if monitor < stats[S_MONITOR_MIN]:
+            stats[S_MONITOR_MIN] = monitor
+        # the guard N on its series: at the step's end and middle
+        g_end = T[ROW_N, ORDER]
+        g_mid = T[ROW_N, ORDER]
+        for k in range(ORDER - 1, -1, -1):
+            g_end = g_end * h + T[ROW_N, k]
+            g_mid = g_mid * (0.5 * h) + T[ROW_N, k]
+        guard_dip = not (g_end > 0.0) or not (g_mid > 0.0)
+        mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
+        t_final = t_new
+        guard_hit = False
+        if guard_dip:
+            lo = 0.0
+            for k in range(1, GUARD_SCAN + 1):
+                x = k / GUARD_SCAN
+                dense_eval(T, x * h, ytmp)
+                stats[S_NRHS] += 1
+                if not (rhs(ytmp, p, dy) > 0.0):
+                    guard_hit = True
+                    t_final = t + h * locate(rhs, watch, True, T, p, ytmp, dy, h, lo, x)
+                    stats[S_NRHS] += BISECTION_ITERS
+                    break
+                lo = x
+        if mark_hit:
+            t_mark = t + h * locate(rhs, watch, False, T, p, ytmp, dy, h, 0.0, 1.0)
+            if t_mark <= t_final:
+                stats[S_T_MARK] = t_mark
+        while i_out < n_out and t_out[i_out] <= t_final:
+            if t_out[i_out] == t_new:
+                Y_out[i_out, :] = y_new
+            else:
+                dense_eval(T, t_out[i_out] - t, ytmp)
+                Y_out[i_out, :] = ytmp
+            i_out += 1
+        if guard_hit:
+            dense_eval(T, t_final - t, y)
+            stats[S_H] = h
+            return STATUS_GUARD, t_final, i_out
+        t = t_new
+        for i in range(n):
+            yc[i] = y_new[i]
+        mark_old = mark_new
+        if monitor < monitor_floor:
+            status = STATUS_MONITOR
+            break
+        if stats[S_NSTIFF] >= stats[S_STIFF_STOP]:
+            status = STATUS_STIFF
+            break
+    stats[S_H] = h
+    for i in range(n):
+        y[i] = yc[i]
+    if status == STATUS_RUNNING and t >= t_end:
+        status = STATUS_OK
+    return status, t, i_out
+'''
+
+
+def kernel_source(order: int, symmetric: bool) -> str:
+    """The source of the compiled module of one order (jet, dense output, events, driver)."""
+    jet = jet_source(order, symmetric)
+    head = (f'"""The Taylor method of order {order} ({"A = C" if symmetric else "A != C"}), '
+            'written by tippetop.reference_ode.taylor (do not edit)."""\n')
+    return head + _KERNEL.format(order=order, n_rows=N_ROWS, row_n=ROW_N, row_u=ROW_U,
+                                 safety=SAFETY, stiff=STIFF_SEPARATION, jet=jet)
+
+
+def _source_dir() -> Path:
+    from tippetop.models.resources import user_cache_dir
+    from tippetop.reference_ode import NUMBA_CACHE_DIR
+
+    env = os.environ.get("NUMBA_CACHE_DIR")
+    base = Path(env) if env and NUMBA_CACHE_DIR is None else (
+        NUMBA_CACHE_DIR or user_cache_dir() / "numba")
+    return Path(base) / "taylor_src"
+
+
+@cache
+def kernel(order: int, symmetric: bool):
+    """The compiled module of one order: written to the cache and imported (compiled once)."""
+    src = kernel_source(order, symmetric)
+    key = hashlib.sha256(src.encode()).hexdigest()[:12]
+    name = f"taylor_p{order}_{'sym' if symmetric else 'gen'}_{key}"
+    folder = _source_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.py"
+    if not path.exists() or path.read_text() != src:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(src)
+        tmp.replace(path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def is_symmetric(p: np.ndarray) -> bool:
+    """Whether the top's inertia is a sphere's (A = C): the jet without the 1/C - 1/A terms."""
+    from tippetop.reference_ode.params_array import P_IA, P_IC
+
+    return bool(p[P_IA] == p[P_IC])
+
+
+def new_stats(n: int) -> np.ndarray:
+    """A fresh ``stats`` vector (DOP853's slots: the method keeps no history)."""
+    from tippetop.reference_ode.dop853 import new_stats as _new
+
+    return _new(n)
+
+
+def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.ndarray,
+        rtol: float, atol: float, max_steps: int, monitor_floor: float, t_out: np.ndarray,
+        Y_out: np.ndarray, i_out: int, stats: np.ndarray) -> tuple[int, float, int]:
+    """The method contract's ``run`` (:func:`reference_ode.dop853.dop853_run`'s arguments).
+
+    Raises:
+        ValueError: The problem is not one the method runs (:func:`unsupported`).
+    """
+    reason = unsupported(rhs, p)
+    if reason is not None:
+        raise ValueError(reason)
+    mod = kernel(order_for(rtol), is_symmetric(p))
+    return mod.run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
+                   t_out, Y_out, i_out, stats)

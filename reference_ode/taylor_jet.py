@@ -1,0 +1,228 @@
+"""The Taylor method's jet: the vector formulation's Taylor coefficients, as compiled source.
+
+A Taylor step of order P needs the coefficients y_0..y_P of the solution's series at the step's
+start. They follow from the right-hand side written as a sequence of elementary operations
+(products, squares, a power, a quotient, linear combinations), each with its own recurrence on
+coefficients (automatic differentiation in Taylor mode; Hairer-Norsett-Wanner I, II.13; Jorba
+and Zou 2005): the k-th coefficient of a product u v is sum_{j<=k} u_j v_{k-j}; of a quotient
+c = u / v, (u_k - sum_{j=1..k} v_j c_{k-j}) / v_0; of c = u^alpha,
+sum_{j<k} (alpha (k - j) - j) u_{k-j} c_j / (k u_0); of a state variable, y_{k+1} = f_k / (k+1).
+
+:func:`jet_source` writes a function ``jet(y, p, T)`` that fills ``T`` (``N_ROWS``, P + 1) with
+the coefficients of the state (rows 0-10, the vector formulation's order) and of the normal force
+N (row 11, coefficients 0..P-1) and |v_P|^2 + Lambda^2 at the start (row 12, column 0), for
+the ball on the table with the modified Coulomb law and no
+viscous part, fully unrolled for one order (every coefficient a local of its own: the compiled
+jet is straight-line code, about twice as fast as loops over the orders measured on this
+machine, at the price of a compile of ~20 s per order).
+
+The operations are those of :func:`reference_ode.vector.vector_core` for this contact, with
+three identities of the exact solution used to drop work (each holds term by term in the
+series, since the series is the exact solution's):
+
+* |q|^2 is constant along the flow (q' = q w / 2 with w pure), so 1/|q|^2 is a number per step;
+* the axis k is carried as a jet variable of its own, k' = w x k (the vector kd the rates need
+  anyway), instead of being recomputed from q's series (four products and four squares);
+* k . (w x k) = 0 and |k| = 1, so the spin-torque part of the rates has no k component
+  (``k0 = 0``) and (b x k)_z and (w x kd)_z reduce to n (n k_z - w_z) and n w_z - k_z |w|^2.
+
+With A = C (a sphere's inertia, the Fig. 11 top) the terms in 1/C - 1/A and C - A vanish and are
+not written (``symmetric``). tests/reference_ode/test_taylor.py checks the jet against the
+compiled right-hand side's repeated derivatives and against heyoka's jet.
+"""
+
+from __future__ import annotations
+
+#: Rows of the jet's output: the state (11), then N, then |v_P|^2 + Lambda^2 (its 0th only).
+N_ROWS = 13
+ROW_N = 11
+ROW_U = 12
+STATE = ("x", "y", "vx", "vy", "qw", "qx", "qy", "qz", "wx", "wy", "wz")
+
+
+def _system(symmetric: bool) -> tuple[list, dict]:
+    """The operations, in order, and each state variable's rate as a linear combination.
+
+    An operation is (name, kind, args): ``mul`` (u, v), ``sq`` (u,), ``lin`` ([(coef, u)],
+    constant added to the 0th coefficient or None), ``powm`` (u, alpha, factor): factor u^alpha,
+    ``div`` (u, v). Coefficients are source text in the parameters' names (see :func:`jet_source`).
+    """
+    ops: list = []
+
+    def mul(n: str, a: str, b: str) -> None:
+        ops.append((n, "mul", (a, b)))
+
+    def sq(n: str, a: str) -> None:
+        ops.append((n, "sq", (a,)))
+
+    def lin(n: str, terms: list, c0: str | None = None) -> None:
+        ops.append((n, "lin", (terms, c0)))
+
+    # the spin about the axis and kd = w x k (the axis' rate)
+    mul("a1", "wx", "kx")
+    mul("a2", "wy", "ky")
+    mul("a3", "wz", "kz")
+    lin("n", [("1.0", "a1"), ("1.0", "a2"), ("1.0", "a3")])
+    mul("b1", "wy", "kz")
+    mul("b2", "wz", "ky")
+    lin("kdx", [("1.0", "b1"), ("-1.0", "b2")])
+    mul("b3", "wz", "kx")
+    mul("b4", "wx", "kz")
+    lin("kdy", [("1.0", "b3"), ("-1.0", "b4")])
+    mul("b5", "wx", "ky")
+    mul("b6", "wy", "kx")
+    lin("kdz", [("1.0", "b5"), ("-1.0", "b6")])
+    # the slip v_P = v + w x (a k - R e_z) = v + a kd - R (w_y, -w_x)
+    lin("vpx", [("1.0", "vx"), ("a", "kdx"), ("-R", "wy")])
+    lin("vpy", [("1.0", "vy"), ("a", "kdy"), ("R", "wx")])
+    sq("vpx2", "vpx")
+    sq("vpy2", "vpy")
+    lin("u", [("1.0", "vpx2"), ("1.0", "vpy2")], "lam2")
+    ops.append(("s", "powm", ("u", -0.5, "mu")))  # mu / sqrt(|v_P|^2 + Lambda^2)
+    mul("c1", "s", "vpx")
+    mul("c2", "s", "vpy")
+    lin("phx", [("-1.0", "c1")])
+    lin("phy", [("-1.0", "c2")])
+    # t1 = X_P x (phi_x, phi_y, 1), X_P = (a kx, a ky, a kz - R)
+    mul("d1", "kz", "phy")
+    lin("t1x", [("a", "ky"), ("-a", "d1"), ("R", "phy")])
+    mul("d2", "kz", "phx")
+    lin("t1y", [("a", "d2"), ("-R", "phx"), ("-a", "kx")])
+    mul("d3", "kx", "phy")
+    mul("d4", "ky", "phx")
+    lin("t1z", [("a", "d3"), ("-a", "d4")])
+    if symmetric:
+        ax, ay, az = "t1x", "t1y", "t1z"
+        a_coef = "iA"
+    else:
+        # k . t1 = R (kx phy - ky phx); alpha = t1 / A + (1/C - 1/A) (k . t1) k
+        lin("k1", [("dC*R", "d3"), ("-dC*R", "d4")])
+        mul("e1", "k1", "kx")
+        lin("ax", [("iA", "t1x"), ("1.0", "e1")])
+        mul("e2", "k1", "ky")
+        lin("ay", [("iA", "t1y"), ("1.0", "e2")])
+        mul("e3", "k1", "kz")
+        lin("az", [("iA", "t1z"), ("1.0", "e3")])
+        ax, ay, az = "ax", "ay", "az"
+        a_coef = "1.0"
+    # denominator 1 + M a (alpha x k)_z = 1 + M a (t1x ky - t1y kx) / A
+    mul("f1", "t1x", "ky")
+    mul("f2", "t1y", "kx")
+    lin("den", [("M*a*iA", "f1"), ("-M*a*iA", "f2")], "1.0")
+    # N = M (g - a ((b x k)_z + (w x kd)_z)) / den, b = -(C - A) n kd / A
+    sq("w1", "wx")
+    sq("w2", "wy")
+    sq("w3", "wz")
+    lin("ww", [("1.0", "w1"), ("1.0", "w2"), ("1.0", "w3")])
+    mul("g3", "n", "wz")
+    mul("g4", "kz", "ww")
+    num = [("-M*a", "g3"), ("M*a", "g4")]
+    if not symmetric:
+        mul("g1", "n", "kz")
+        lin("t0", [("1.0", "g1"), ("-1.0", "wz")])
+        mul("g2", "n", "t0")
+        num.append(("M*a*iA*(C-A)", "g2"))
+    lin("num", num, "M*g")
+    ops.append(("N", "div", ("num", "den")))
+    mul("F1", "N", "phx")
+    mul("F2", "N", "phy")
+    pairs = [("wx", "qx"), ("wy", "qy"), ("wz", "qz"), ("qw", "wx"), ("wy", "qz"), ("wz", "qy"),
+             ("qw", "wy"), ("wz", "qx"), ("wx", "qz"), ("qw", "wz"), ("wx", "qy"), ("wy", "qx")]
+    for i, (u, v) in enumerate(pairs):
+        mul(f"h{i}", u, v)
+    mul("j1", "N", ax)
+    mul("j2", "N", ay)
+    mul("j3", "N", az)
+    rate = {
+        "x": [("1.0", "vx")], "y": [("1.0", "vy")],
+        "vx": [("1.0/M", "F1")], "vy": [("1.0/M", "F2")],
+        "qw": [("-0.5", "h0"), ("-0.5", "h1"), ("-0.5", "h2")],
+        "qx": [("0.5", "h3"), ("0.5", "h4"), ("-0.5", "h5")],
+        "qy": [("0.5", "h6"), ("0.5", "h7"), ("-0.5", "h8")],
+        "qz": [("0.5", "h9"), ("0.5", "h10"), ("-0.5", "h11")],
+        "wx": [(a_coef, "j1")], "wy": [(a_coef, "j2")], "wz": [(a_coef, "j3")],
+        "kx": [("1.0", "kdx")], "ky": [("1.0", "kdy")], "kz": [("1.0", "kdz")],
+    }
+    if not symmetric:
+        g0 = "(-iA*(C-A))"
+        mul("l1", "n", "kdx")
+        mul("l2", "n", "kdy")
+        mul("l3", "n", "kdz")
+        rate["wx"].append((g0, "l1"))
+        rate["wy"].append((g0, "l2"))
+        rate["wz"].append((g0, "l3"))
+    return ops, rate
+
+
+def jet_source(order: int, symmetric: bool, name: str = "jet") -> str:
+    """Python source of ``name(y, p, T)``: the jet of order ``order``, fully unrolled.
+
+    ``y`` is a vector state (11), ``p`` the packed parameters (:mod:`.params_array`), ``T`` an
+    (``N_ROWS``, order + 1) array receiving the coefficients.
+    """
+    ops, rate = _system(symmetric)
+    consts: dict[str, str] = {}
+
+    def scaled(coef: str, var: str) -> str:
+        if coef == "1.0":
+            return var
+        if coef not in consts:
+            consts[coef] = f"K{len(consts)}"
+        return f"{consts[coef]}*{var}"
+
+    jet_vars = (*STATE, "kx", "ky", "kz")
+    body: list[str] = []
+    for k in range(order):
+        for nm, kind, args in ops:
+            t = f"{nm}_{k}"
+            if kind == "mul":
+                a, b = args
+                body.append(f"{t} = " + " + ".join(f"{a}_{j}*{b}_{k - j}" for j in range(k + 1)))
+            elif kind == "sq":
+                (a,) = args
+                parts = [f"{a}_{j}*{a}_{k - j}" for j in range((k + 1) // 2)]
+                e = f"2.0*({' + '.join(parts)})" if parts else ""
+                if k % 2 == 0:
+                    e = (f"{e} + " if e else "") + f"{a}_{k // 2}*{a}_{k // 2}"
+                body.append(f"{t} = {e}")
+            elif kind == "lin":
+                terms, c0 = args
+                e = " + ".join(scaled(c, f"{v}_{k}") for c, v in terms)
+                if c0 is not None and k == 0:
+                    e += f" + {c0}"
+                body.append(f"{t} = {e}")
+            elif kind == "powm":
+                u, alpha, factor = args
+                if k == 0:
+                    body.append(f"{nm}_inv_u0 = 1.0 / {u}_0")
+                    body.append(f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
+                                else f"{t} = {factor} * {u}_0 ** {alpha!r}")
+                else:
+                    parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}"
+                             for j in range(k)]
+                    body.append(f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0")
+            elif kind == "div":
+                u, v = args
+                if k == 0:
+                    body.append(f"{nm}_inv_v0 = 1.0 / {v}_0")
+                    body.append(f"{t} = {u}_0 * {nm}_inv_v0")
+                else:
+                    parts = [f"{v}_{j}*{nm}_{k - j}" for j in range(1, k + 1)]
+                    body.append(f"{t} = ({u}_{k} - ({' + '.join(parts)})) * {nm}_inv_v0")
+        for v in jet_vars:
+            e = " + ".join(scaled(c, f"{w}_{k}") for c, w in rate[v])
+            body.append(f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}")
+    head = [f"def {name}(y, p, T):",
+            "    R = p[P_R]; a = p[P_A_OFF]; M = p[P_M]; A = p[P_IA]; C = p[P_IC]; g = p[P_G]",
+            "    mu = p[P_MU]; lam = p[P_LAM]",
+            "    iA = 1.0 / A; dC = 1.0 / C - iA; lam2 = lam * lam",
+            "    inv = 1.0 / (y[4] * y[4] + y[5] * y[5] + y[6] * y[6] + y[7] * y[7])"]
+    head += [f"    {kn} = {c}" for c, kn in consts.items()]
+    head += [f"    {v}_0 = y[{i}]" for i, v in enumerate(STATE)]
+    head += ["    kx_0 = 2.0 * (qx_0 * qz_0 + qw_0 * qy_0) * inv",
+             "    ky_0 = 2.0 * (qy_0 * qz_0 - qw_0 * qx_0) * inv",
+             "    kz_0 = (qw_0 * qw_0 - qx_0 * qx_0 - qy_0 * qy_0 + qz_0 * qz_0) * inv"]
+    tail = [f"    T[{i}, {k}] = {v}_{k}" for k in range(order + 1) for i, v in enumerate(STATE)]
+    tail += [f"    T[{ROW_N}, {k}] = N_{k}" for k in range(order)]
+    tail += [f"    T[{ROW_N}, {order}] = 0.0", f"    T[{ROW_U}, 0] = u_0"]
+    return "\n".join(head + ["    " + b for b in body] + tail) + "\n"

@@ -1,0 +1,246 @@
+"""The Taylor method (reference_ode/taylor.py, taylor_jet.py): its jet, its order, the top.
+
+The jet is checked three ways: its first coefficients are the compiled right-hand side (the
+same equations, written with three identities of the exact solution: |q| constant, k' = w x k,
+k . kd = 0); every coefficient to the order is checked by the series' error, which must shrink
+as h^(P+1) against a tight DOP853 solution (a wrong k-th coefficient leaves an error of order
+h^k); and, where heyoka is installed, coefficient by coefficient against heyoka's jet of the
+same system (reference_ode/taylor_peer.py). Then the method on the tops: the paper's digits
+and the other formulation are test_methods.py's, the inversion and the samples against DOP853
+here, the stiff top's hand-over, chunks, and what it does not run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tippetop.models.errors import TippetopError
+from tippetop.models.options import OdeOptions
+from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.resolve import resolve_plan
+from tippetop.models.scene import load_scene
+from tippetop.reference_ode import dop853 as d
+from tippetop.reference_ode import taylor
+from tippetop.reference_ode.params_array import pack_params
+from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
+from tippetop.reference_ode.taylor_jet import N_ROWS, ROW_N
+from tippetop.reference_ode.top import FORMULATIONS
+
+#: Two tops: a sphere's inertia (A = C, the symmetric jet) and A/C = 0.8 (the general one).
+TOPS = {"sym": TopParams.from_ratios(1.0, 0.15), "gen": TopParams.from_ratios(0.8, 0.3)}
+
+
+def _states(top: TopParams, n: int = 10) -> list[np.ndarray]:
+    rng = np.random.default_rng(11)
+    out = []
+    for _ in range(n):
+        y = initial_state_vector(top, InitialState(theta0=rng.uniform(0.1, 3.0), n0=60.0))
+        y[2:4] = rng.normal(0.0, 0.05, 2)  # a slip of a few cm/s
+        y[8:11] += rng.normal(0.0, 5.0, 3)
+        out.append(y)
+    return out
+
+
+def _jet(order: int, p: np.ndarray, y: np.ndarray) -> np.ndarray:
+    T = np.zeros((N_ROWS, order + 1))
+    taylor.kernel(order, taylor.is_symmetric(p)).jet(y, p, T)
+    return T
+
+
+@pytest.mark.parametrize("kind", ["sym", "gen"])
+def test_the_jet_starts_with_the_rhs(kind: str) -> None:
+    """Coefficient 1 is f(y), coefficient 0 of N the rhs's guard: 1e-12 of the largest rate
+    (the same terms, some reassociated and the identities used: a few ulp, ~1e-15; a wrong
+    term is at least ~1e-6 of |f| at these states)."""
+    top = TOPS[kind]
+    p = pack_params(top, FrictionParams())
+    assert taylor.is_symmetric(p) == (kind == "sym")
+    for y in _states(top):
+        dy = np.empty(11)
+        N = FORMULATIONS["vector"].rhs(y.copy(), p, dy)
+        T = _jet(8, p, y)
+        np.testing.assert_array_equal(T[:11, 0], y)
+        assert np.max(np.abs(T[:11, 1] - dy)) <= 1e-12 * np.max(np.abs(dy))
+        assert abs(T[ROW_N, 0] - N) <= 1e-12 * abs(N)
+
+
+@pytest.mark.parametrize(("kind", "order"), [("sym", 8), ("gen", 8), ("sym", 12)])
+def test_the_series_has_its_order(kind: str, order: int) -> None:
+    """The series summed at h and at h/2 against DOP853 at rtol 1e-14 from the same state: the
+    error ratio is 2^(P+1) for a jet right to order P (P = 8: 512). Measured 463 (sym, 8), 500
+    (gen, 8) and 8406 (sym, 12; 2^13 = 8192) at these steps, whose errors (5e-5..5e-9) stand far
+    above the truth's (~1e-14); a wrong coefficient k <= P gives 2^k at most (half the ratio).
+    Bounds: 0.6 and 1.6 of 2^(P+1)."""
+    top = TOPS[kind]
+    p = pack_params(top, FrictionParams())
+    form = FORMULATIONS["vector"]
+    y0 = _states(top, 1)[0]
+    T = _jet(order, p, y0)
+    h = {("sym", 8): 0.02, ("gen", 8): 0.01, ("sym", 12): 0.04}[(kind, order)]
+    errs = []
+    for hh in (h, h / 2):
+        series = np.array([np.polyval(T[i, ::-1], hh) for i in range(11)])
+        y = y0.copy()
+        status, t, _ = d.dop853_run(form.rhs, form.watch, y, 0.0, hh, hh, p, 1e-14, 1e-17,
+                                    10**6, -math.inf, np.empty(0), np.empty((0, 11)), 0,
+                                    d.new_stats())
+        assert status == d.STATUS_OK
+        errs.append(np.max(np.abs(series - y)[8:11]))
+    ratio = errs[0] / errs[1]
+    assert 0.6 * 2 ** (order + 1) < ratio < 1.6 * 2 ** (order + 1), (errs, ratio)
+
+
+@pytest.mark.parametrize("kind", ["sym", "gen"])
+def test_the_jet_is_heyokas(kind: str) -> None:
+    """Coefficient by coefficient against heyoka's jet of the same system at order 12: 1e-10
+    of each order's largest coefficient (measured <= 5e-14: the recurrences differ in
+    association and in the identities; a wrong term moves a coefficient by far more)."""
+    pytest.importorskip("heyoka")
+    import heyoka as hy
+
+    from tippetop.reference_ode.taylor_peer import vector_system
+
+    top = TOPS[kind]
+    p = pack_params(top, FrictionParams())
+    for y in _states(top, 3):
+        ta = hy.taylor_adaptive(vector_system(p), y.copy(), tol=1e-10, compact_mode=True)
+        order = int(ta.order)
+        ta.step(write_tc=True)
+        T = _jet(12, p, y)
+        for k in range(min(order, 12) + 1):
+            ref = ta.tc[:, k]
+            assert np.max(np.abs(T[:11, k] - ref)) <= 1e-10 * max(np.max(np.abs(ref)), 1e-300)
+
+
+def test_the_order_follows_the_tolerance() -> None:
+    assert taylor.order_for(1e-4) == 8 and taylor.order_for(1e-6) == 8
+    assert taylor.order_for(1e-7) == 12 and taylor.order_for(1e-13) == 12
+
+
+# ---------------------------------------------------------------- the tippe top
+#: theta agreement with DOP853 at rtol 1e-12 (rad), and of t_invert (s): the Taylor method at
+#: rtol 1e-12 is within 1e-13 rad (Fig. 11) and 1e-14 (Fig. 3) of the converged answer, DOP853
+#: at 1e-12 within ~1e-14 and its t_invert within 1.4e-11 s (bench ode --sweep): 1e-10 leaves
+#: ~10x.
+TOP_TOL = 1e-10
+
+
+def _top(top, fr, init, t_end, method, rtol=1e-12, **kw):
+    return simulate_ode(top, fr, init, t_end_s=t_end, sample_dt_s=0.01,
+                        options=OdeOptions(method=method, rtol=rtol, atol=rtol * 1e-3), **kw)
+
+
+@pytest.mark.parametrize("case", ["fig11", "fig3"])
+def test_tippe_top_agrees_with_dop853(case: str) -> None:
+    """Every sample (on the series: dense output) and the inversion (located on it)."""
+    if case == "fig11":
+        top, fr, init, t_end = (TopParams.from_ratios(1.0, 0.15), FrictionParams(),
+                                InitialState(theta0=0.01, n0=60.0), 20.0)
+    else:
+        pl = resolve_plan(load_scene("fig3", []), "ode").ode
+        top, fr, init, t_end = pl.top, pl.friction, pl.init, pl.t_end_s
+    ref = _top(top, fr, init, t_end, "dop853")
+    res = _top(top, fr, init, t_end, "taylor")
+    assert res.method == "taylor" and res.status == ref.status == "ok"
+    assert np.abs(res.table["theta"].to_numpy() - ref.table["theta"].to_numpy()).max() < TOP_TOL
+    assert res.t_invert is not None and abs(res.t_invert - ref.t_invert) < TOP_TOL
+    assert res.n_steps < 0.3 * ref.n_steps  # measured 19 % (Fig. 3), 6 % (Fig. 11)
+
+
+def test_a_run_in_chunks_is_one_run() -> None:
+    """The method keeps no history and its steps end at t_end only: the chunks a progress
+    display asks for (solve.N_CHUNKS) change no step, so the tables are equal bit for bit."""
+    pl = resolve_plan(load_scene("fig3", ["run.t_end_s=2.0", "ode.method=taylor"]), "ode").ode
+
+    def go(progress=None):
+        return simulate_ode(pl.top, pl.friction, pl.init, t_end_s=pl.t_end_s,
+                            sample_dt_s=pl.sample_dt_s, options=pl.options, progress=progress)
+
+    one, chunked = go(), go(lambda t: None)
+    assert one.method == chunked.method == "taylor"
+    np.testing.assert_array_equal(one.states, chunked.states)
+    assert one.n_steps == chunked.n_steps
+
+
+def test_stiff_fig3_hands_over_and_rolls() -> None:
+    """Fig. 3 at Lambda = 1e-6 m/s for 0.5 s (test_stiff's short scenario): the Taylor method
+    flags the steps where the law relaxes the slip 1000x faster than the top turns, hands the
+    run to DOP853 (at 0.047 s, measured), whose detector starts the one rolling phase DOP853's
+    own run does (within 0.01 s; measured the same time), and theta agrees with the law at
+    rtol 1e-11 within test_stiff's THETA_TOL (1e-7)."""
+    pl = resolve_plan(load_scene("fig3", ["friction.Lambda_mps=1e-6", "run.t_end_s=0.5"]),
+                      "ode").ode
+
+    def go(method, stiff="auto", rtol=1e-9):
+        opts = replace(pl.options, method=method, rtol=rtol, atol=rtol * 1e-3)
+        return simulate_ode(pl.top, pl.friction, pl.init, t_end_s=pl.t_end_s,
+                            sample_dt_s=pl.sample_dt_s, options=opts, stiff=stiff)
+
+    fast = go("taylor")
+    dop = go("dop853")
+    tight = go("dop853", stiff="off", rtol=1e-11)
+    assert fast.status == "ok" and fast.stiff == "rolling" and len(fast.rolling) == 1
+    assert fast.method.startswith("taylor at rtol 1e-09, then dop853")
+    assert abs(fast.rolling[0]["t_start"] - dop.rolling[0]["t_start"]) < 0.01
+    d_theta = np.abs(fast.table["theta"].to_numpy() - tight.table["theta"].to_numpy())
+    assert d_theta.max() < 1e-7
+
+
+def test_the_kernel_stops_on_stiff_steps_when_asked() -> None:
+    """Lambda = 1e-6 m/s: the slip's relaxation outruns the turning by far more than 1000x once
+    the slip is small; S_STIFF_STOP = 5 stops there. The paper's Lambda (1 cm/s) flags none."""
+    top = TopParams.from_ratios(1.0, 0.1)
+    form = FORMULATIONS["vector"]
+    for lam, stop, expect_status in ((1e-6, 5.0, d.STATUS_STIFF), (1e-6, math.inf, d.STATUS_OK),
+                                     (1e-2, 5.0, d.STATUS_OK)):
+        p = pack_params(top, FrictionParams(Lambda_mps=lam))
+        y = initial_state_vector(top, InitialState(theta0=0.1, n0=100.0))
+        stats = taylor.new_stats(y.size)
+        stats[d.S_STIFF_STOP] = stop
+        status, t, _ = taylor.run(form.rhs, form.watch, y, 0.0, 0.05, 0.05, p, 1e-9, 1e-12,
+                                  10**7, -math.inf, np.array([0.0]), np.empty((1, y.size)), 0,
+                                  stats)
+        assert status == expect_status
+        if expect_status == d.STATUS_STIFF:
+            assert stats[d.S_NSTIFF] == stop and t < 0.05
+        elif lam == 1e-2:
+            assert stats[d.S_NSTIFF] == 0
+
+
+def test_a_lost_contact_stops_where_n_falls_to_zero() -> None:
+    """The guard N found on its series: a top tilted fast (theta_dot0 = 80 rad/s) leaves the
+    table (at 0.0124 s, measured under DOP853); the stop agrees with DOP853's within 1e-9 s
+    (both locate on their dense outputs to 2^-60 of a step; their states differ by ~1e-12 at
+    rtol 1e-12 over so short a run)."""
+    top = TopParams.from_ratios(1.0, 0.3)
+    init = InitialState(theta0=1.0, n0=20.0, thetadot0=80.0)
+    runs = [simulate_ode(top, FrictionParams(), init, t_end_s=1.0,
+                         options=OdeOptions(method=m, rtol=1e-12, atol=1e-15))
+            for m in ("dop853", "taylor")]
+    ref, res = runs
+    assert ref.status == res.status == "contact_lost"
+    assert abs(ref.t_final - res.t_final) < 1e-9
+
+
+def test_what_it_does_not_run() -> None:
+    """A stem, another law or the paper's formulation: asked for by name, one line saying why;
+    under auto, the rule for the other methods runs (and is said)."""
+    for overrides in (["friction.law=coulomb"], ["ode.formulation=paper"]):
+        with pytest.raises(TippetopError, match="got 'taylor'"):
+            pl = resolve_plan(load_scene("fig3", [*overrides, "ode.method=taylor",
+                                                  "run.t_end_s=0.1"]), "ode").ode
+            simulate_ode(pl.top, pl.friction, pl.init, t_end_s=pl.t_end_s,
+                         options=pl.options)
+        pl = resolve_plan(load_scene("fig3", [*overrides, "run.t_end_s=0.1"]), "ode").ode
+        res = simulate_ode(pl.top, pl.friction, pl.init, t_end_s=pl.t_end_s, options=pl.options)
+        assert res.method.startswith("adams")  # AUTO_RULE at the scene's rtol 1e-9
+    s = load_scene("fig3", ["run.t_end_s=0.1"])
+    with pytest.raises(TippetopError, match="no stem"):
+        simulate_ode(s.top, s.friction, s.init, t_end_s=0.1,
+                     options=replace(s.ode, method="taylor"), stem=s.stem)
+    assert taylor.unsupported(FORMULATIONS["vector"].rhs,
+                              pack_params(TOPS["sym"], FrictionParams(law="viscous"))) is not None
