@@ -70,7 +70,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("vern9", "verner", 9, "Verner 9(8) (the most efficient pair, IIIXb)"),
     Method("adams", "adams", 12, "variable-order Adams PECE, orders 1-12",
            hands_over_stiff=True),
-    Method("taylor", "taylor", 12, "adaptive Taylor series, orders 8 and 12 (the ball on the "
+    Method("taylor", "taylor", 12, "adaptive Taylor series, orders 7, 9 and 12 (the ball on the "
            "table, the modified Coulomb law)", hands_over_stiff=True),
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]

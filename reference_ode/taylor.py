@@ -61,17 +61,18 @@ SAFETY = 1.0
 #: turns: mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|.
 STIFF_SEPARATION = 1000.0
 #: The orders there are, and the tolerance from which down each is used (:func:`order_for`).
-ORDERS: tuple[tuple[float, int], ...] = ((1e-6, 8), (0.0, 12))
+ORDERS: tuple[tuple[float, int], ...] = ((1e-5, 7), (1e-6, 9), (0.0, 12))
 
 
 def order_for(rtol: float) -> int:
     """The order a run at relative tolerance ``rtol`` uses (:data:`ORDERS`).
 
-    Measured (``tippetop bench ode --sweep``; docs/guide/accuracy.md): on the Fig. 3 and Fig. 11
-    tops the steps down to rtol ~1e-8 are set by stability (the friction law's slip relaxation,
-    ~mu g / Lambda), not by the tolerance, so the cheapest jet wins there: order 8 (0.6 us a
-    jet) to rtol 1e-6, order 12 (1.3 us) below it, where order 8's steps become the tolerance's.
-    Order 16 was slower than 12 at every tolerance down to 1e-12.
+    On the Fig. 3 and Fig. 11 tops the steps at loose tolerances are set by stability (the
+    friction law's slip relaxation, eigenvalues near -400/s; docs/design.md), not by the
+    tolerance, so the cheapest jet whose steps stay stable wins: order 7 (0.4 us a jet) to rtol
+    1e-5, order 9 to 1e-6, order 12 (1.3 us) below, where the lower orders' steps become the
+    tolerance's. Measured over orders 6-12 and rtol 1e-3..1e-11 on both tops (the fastest to
+    each error level); order 16 was slower than 12 at every rtol down to 1e-12.
     """
     for limit, order in ORDERS:
         if rtol >= limit:
@@ -99,11 +100,13 @@ import numba as nb
 import numpy as np
 
 from tippetop.reference_ode.dop853 import (
-    RHS_TYPE, WATCH_TYPE, S_H, S_MONITOR_MIN, S_NRHS, S_NSTEPS, S_NSTIFF,
+    S_H, S_MONITOR_MIN, S_NRHS, S_NSTEPS, S_NSTIFF,
     S_STIFF_STOP, S_T_MARK, STATUS_GUARD, STATUS_MAX_STEPS, STATUS_MONITOR, STATUS_OK,
     STATUS_RUNNING, STATUS_STEP_TOO_SMALL, STATUS_STIFF)
 from tippetop.reference_ode.params_array import (
     P_A_OFF, P_G, P_IA, P_IC, P_LAM, P_M, P_MU, P_R)
+from tippetop.reference_ode.top import vector_rhs as rhs
+from tippetop.reference_ode.top import vector_watch as watch
 
 ORDER = {order}
 N_ROWS = {n_rows}
@@ -134,9 +137,8 @@ def dense_eval(T, h, out):
         out[i] = s
 
 
-@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _F8, _F8, _F8),
-         cache=True, error_model="numpy")
-def locate(rhs, watch, use_guard, T, p, ytmp, dy, h, lo, hi):
+@nb.njit(_F8(nb.types.boolean, _M, _V, _V, _V, _F8, _F8, _F8), cache=True, error_model="numpy")
+def locate(use_guard, T, p, ytmp, dy, h, lo, hi):
     """Where in the step (a fraction in (lo, hi]) the guard or the mark falls to <= 0."""
     for _ in range(BISECTION_ITERS):
         mid = 0.5 * (lo + hi)
@@ -152,11 +154,13 @@ def locate(rhs, watch, use_guard, T, p, ytmp, dy, h, lo, hi):
     return hi
 
 
-@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, _F8,
-                                          _I8, _F8, _V, _M, _I8, _V),
+@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(_V, _F8, _F8, _F8, _V, _F8, _F8, _I8, _F8, _V, _M, _I8,
+                                          _V),
          cache=True, error_model="numpy")
-def run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out,
-        i_out, stats):
+def run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out, i_out,
+        stats):
+    """The kernel: vector_rhs and vector_watch called directly (no function arguments, whose
+    dispatch cost ~0.1 ms a call)."""
     n = y.size
     T = np.zeros((N_ROWS, ORDER + 1))
     yc = np.empty(n)
@@ -241,12 +245,12 @@ def run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor
                 stats[S_NRHS] += 1
                 if not (rhs(ytmp, p, dy) > 0.0):
                     guard_hit = True
-                    t_final = t + h * locate(rhs, watch, True, T, p, ytmp, dy, h, lo, x)
+                    t_final = t + h * locate(True, T, p, ytmp, dy, h, lo, x)
                     stats[S_NRHS] += BISECTION_ITERS
                     break
                 lo = x
         if mark_hit:
-            t_mark = t + h * locate(rhs, watch, False, T, p, ytmp, dy, h, 0.0, 1.0)
+            t_mark = t + h * locate(False, T, p, ytmp, dy, h, 0.0, 1.0)
             if t_mark <= t_final:
                 stats[S_T_MARK] = t_mark
         while i_out < n_out and t_out[i_out] <= t_final:
@@ -344,5 +348,5 @@ def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.
     if reason is not None:
         raise ValueError(reason)
     mod = kernel(order_for(rtol), is_symmetric(p))
-    return mod.run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
-                   t_out, Y_out, i_out, stats)
+    return mod.run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out,
+                   i_out, stats)

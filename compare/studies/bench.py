@@ -10,7 +10,7 @@ import numpy as np
 from tippetop.compare.studies.accuracy.common import ATOL_PER_RTOL, REFERENCE_RTOL
 from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.compare.studies.peer_runs import theta_of_states
-from tippetop.models.options import OdeOptions
+from tippetop.models.options import OdeOptions, taylor_runs
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.reference_ode.methods import get_method
 from tippetop.reference_ode.params_array import pack_params
@@ -117,7 +117,7 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     fr = FrictionParams()
     init = InitialState(theta0=0.01, n0=n0)
     # the default (auto) at this rtol: the method it runs and the tolerances it runs it at
-    method, factor = get_method("auto", rtol)
+    method, factor = get_method("auto", rtol, taylor_runs("vector", fr.law, stem=False))
     k_rtol, k_atol = rtol * factor, atol * factor
     ours = f"tippetop {method.name}"
     opts = OdeOptions(rtol=rtol, atol=atol)

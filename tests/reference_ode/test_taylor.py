@@ -117,8 +117,9 @@ def test_the_jet_is_heyokas(kind: str) -> None:
 
 
 def test_the_order_follows_the_tolerance() -> None:
-    assert taylor.order_for(1e-4) == 8 and taylor.order_for(1e-6) == 8
-    assert taylor.order_for(1e-7) == 12 and taylor.order_for(1e-13) == 12
+    assert taylor.order_for(1e-3) == 7 and taylor.order_for(1e-5) == 7
+    assert taylor.order_for(9e-6) == 9 and taylor.order_for(1e-6) == 9
+    assert taylor.order_for(9e-7) == 12 and taylor.order_for(1e-13) == 12
 
 
 # ---------------------------------------------------------------- the tippe top
