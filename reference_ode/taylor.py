@@ -21,12 +21,14 @@ limit, DOP853's at 12 evaluations a step far more cheaply than a jet. The method
 stretches over to DOP853 (``Method.hands_over_stiff``), whose detector decides on rolling
 phases. (A Lipschitz estimate from two evaluations an error apart, DOP853's, does not tell the
 two regimes apart for this method: on the Fig. 11 top, not stiff for DOP853, the Taylor steps
-already run at h lambda ~ 10-16, near their own boundary, as on the stiff top; the ratio of the
-law's rate to the rotation's is 15 there, ~10^5 on the stiff top.) ``S_HLAMBDA_MAX`` stays 0.
+already run at h lambda ~10-16 by that estimate, held by the series' stability as a stiff
+stretch's would be; the ratio of the law's rate to the rotation's is ~15 there, ~10^5 on the
+stiff top once its slip is small.) ``S_HLAMBDA_MAX`` stays 0.
 
 What it runs: the vector formulation's ball on the table (no rim, no other contact surface) with
-the modified Coulomb law and no viscous part (:func:`unsupported` says why not otherwise);
-:mod:`reference_ode.solve` runs anything else with the method ``auto`` would pick without it.
+the modified Coulomb law and no viscous part (:func:`unsupported` says why not otherwise):
+asked for by name elsewhere, :mod:`reference_ode.solve` ends the run in one line saying why,
+and ``auto`` runs its other rule there (:data:`models.options.AUTO_RULE`).
 The kernel of each order is written to a module in the compiled-code cache and compiled there
 once (``cache=True``): :func:`kernel`.
 
@@ -194,9 +196,9 @@ def run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_o
         r1 = 0.0
         r2 = 0.0
         for i in range(n):
-            sc = atol + rtol * abs(yc[i])
-            a1 = abs(T[i, ORDER]) / sc
-            a2 = abs(T[i, ORDER - 1]) / sc
+            inv_sc = 1.0 / (atol + rtol * abs(yc[i]))
+            a1 = abs(T[i, ORDER]) * inv_sc
+            a2 = abs(T[i, ORDER - 1]) * inv_sc
             if a1 > r1:
                 r1 = a1
             if a2 > r2:

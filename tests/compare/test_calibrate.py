@@ -115,10 +115,11 @@ def _same_mujoco(shipped: dict) -> bool:
 #: A stored residual or objective (MuJoCo against the reference) is reproduced to the
 #: reference's own error, not to rounding: MuJoCo's side is bit-for-bit, but the reference's
 #: theta(t) moves with its method. They were stored with DOP853 at rtol 1e-9; the default now
-#: runs Adams at rtol 1e-12 (both within ~1e-11..3e-9 rad of the converged answer on the
-#: paper's tops, tippetop bench ode --sweep), which moved fig4's residual by 3.3e-9 rad
-#: (measured). A residual (RMS, rad), a theta_asymp difference and an objective (a mean of
-#: residuals, in rad) are held to 1e-9 relative or 3e-8 absolute, 10x that.
+#: runs the Taylor method at rtol 1e-10 (before it, Adams at 1e-12; all within ~1e-12..3e-9
+#: rad of the converged answer on the paper's tops, tippetop bench ode --sweep), which moved
+#: fig4's residual by 3.3e-9 rad under Adams (measured). A residual (RMS, rad), a theta_asymp
+#: difference and an objective (a mean of residuals, in rad) are held to 1e-9 relative or 3e-8
+#: absolute, 10x that.
 REFERENCE_ABS = 3e-8
 README_THETA_ASYMP_RAD = 0.02
 README_T_INVERT_REL = 0.09
