@@ -34,6 +34,26 @@ AUTO_RULE: tuple[tuple[float, str, float], ...] = (
     (1e-4, "dop853", 1.0), (1e-10, "adams", 1e-3), (0.0, "vern9", 1.0))
 
 
+#: The Taylor method's orders, and the rtol (the one it runs at) from which down each is used
+#: (reference_ode/taylor.py, ``order_for``): on the Fig. 3 and Fig. 11 tops stability (the
+#: slip's relaxation, eigenvalues near -400/s) sets the steps at loose tolerances, so the
+#: cheapest stable jet wins; measured over orders 6-12 and rtol 1e-3..1e-11 (docs/design.md).
+TAYLOR_ORDERS: tuple[tuple[float, int], ...] = ((1e-5, 7), (1e-6, 9), (0.0, 12))
+
+
+def taylor_order(rtol: float) -> int:
+    """The Taylor method's order at the relative tolerance it runs at (:data:`TAYLOR_ORDERS`)."""
+    for limit, order in TAYLOR_ORDERS:
+        if rtol >= limit:
+            return order
+    return TAYLOR_ORDERS[-1][1]
+
+
+def method_title(method: str, rtol: float) -> str:
+    """The method as a run reports it: its name, with its order for the Taylor method."""
+    return f"taylor (order {taylor_order(rtol)})" if method == "taylor" else method
+
+
 def taylor_runs(formulation: str, law: str, stem: bool) -> bool:
     """Whether the Taylor method runs a problem (reference_ode/taylor.py).
 

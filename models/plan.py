@@ -24,7 +24,7 @@ from typing import Any
 from tippetop.models.contacts import ContactSetting, MixedContact, ball_table_contact
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import LAW_MODES
-from tippetop.models.options import OdeOptions, auto_method, taylor_runs
+from tippetop.models.options import OdeOptions, auto_method, method_title, taylor_runs
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 
 #: The engine families a plan can be made for: the reference's plan, or MuJoCo's (which every
@@ -236,7 +236,8 @@ class OdePlan:
                 self.options.rtol, taylor_runs(self.options.formulation, self.friction.law,
                                                self.stem is not None))
         return {"friction_law": self.friction.law, "formulation": self.options.formulation,
-                "method": method, "rtol": self.options.rtol * factor,
+                "method": method_title(method, self.options.rtol * factor),
+                "rtol": self.options.rtol * factor,
                 "atol": self.options.atol * factor, "sample_dt_s": self.sample_dt_s}
 
 

@@ -14,7 +14,7 @@ from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import initial_rigid_state
 from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
 from tippetop.models.options import FORMULATIONS as _FORMULATION_NAMES
-from tippetop.models.options import OdeOptions
+from tippetop.models.options import OdeOptions, method_title
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.reference_ode import dop853 as _d
 from tippetop.reference_ode.contacts import (
@@ -285,7 +285,7 @@ def simulate_ode(
     t = 0.0
     i_out = 0
     taylor_reason = taylor_unsupported(form.rhs, p) if stem is None else \
-        "the Taylor method runs the ball on the table only (no stem)"
+        "the Taylor method runs the ball on the table only, with no stem"
     if options.method == "taylor" and taylor_reason is not None:
         raise TippetopError(f"ode.method: expected auto or one of dop853, vern9, adams for this "
                             f"scene ({taylor_reason}), got 'taylor'")
@@ -293,7 +293,7 @@ def simulate_ode(
     rtol = float(options.rtol) * factor  # auto: the tolerances the chosen method runs at
     atol = float(options.atol) * factor
     max_steps = int(options.max_steps)
-    ran_method, ran_rtol = method.name, rtol
+    ran_method, ran_rtol = method_title(method.name, rtol), rtol
     handed_over: float | None = None
     stats = method.new_stats(y.size)
     # load (or compile) the integrator before the clock starts: a call that takes no step

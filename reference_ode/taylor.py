@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tippetop.models.options import TAYLOR_ORDERS, taylor_order
 from tippetop.reference_ode.friction import COULOMB_MODIFIED
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
@@ -63,7 +64,7 @@ SAFETY = 1.0
 #: turns: mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|.
 STIFF_SEPARATION = 1000.0
 #: The orders there are, and the tolerance from which down each is used (:func:`order_for`).
-ORDERS: tuple[tuple[float, int], ...] = ((1e-5, 7), (1e-6, 9), (0.0, 12))
+ORDERS = TAYLOR_ORDERS
 
 
 def order_for(rtol: float) -> int:
@@ -71,15 +72,12 @@ def order_for(rtol: float) -> int:
 
     On the Fig. 3 and Fig. 11 tops the steps at loose tolerances are set by stability (the
     friction law's slip relaxation, eigenvalues near -400/s; docs/design.md), not by the
-    tolerance, so the cheapest jet whose steps stay stable wins: order 7 (0.4 us a jet) to rtol
+    tolerance, so the cheapest jet whose steps stay stable wins: order 7 (0.5 us a jet) to rtol
     1e-5, order 9 to 1e-6, order 12 (1.3 us) below, where the lower orders' steps become the
     tolerance's. Measured over orders 6-12 and rtol 1e-3..1e-11 on both tops (the fastest to
     each error level); order 16 was slower than 12 at every rtol down to 1e-12.
     """
-    for limit, order in ORDERS:
-        if rtol >= limit:
-            return order
-    return ORDERS[-1][1]
+    return taylor_order(rtol)
 
 
 def unsupported(rhs, p: np.ndarray) -> str | None:
@@ -89,9 +87,9 @@ def unsupported(rhs, p: np.ndarray) -> str | None:
     if rhs is not vector_rhs:
         return "the Taylor method runs the vector formulation's ball on the table only"
     if p[P_RIM] != 0.0 or p[P_OTHER] >= 0.0:
-        return "the Taylor method runs the ball on the table only (no stem, no rim)"
+        return "the Taylor method runs the ball on the table only, with no stem or rim"
     if int(p[P_COULOMB_KIND]) != COULOMB_MODIFIED or p[P_VISCOUS] != 0.0:
-        return "the Taylor method runs the modified Coulomb law only (no viscous part)"
+        return "the Taylor method runs the modified Coulomb law only, with no viscous part"
     return None
 
 

@@ -16,7 +16,7 @@ import pytest
 
 from tests.conftest import run_scene_ode
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import ODE_METHODS, OdeOptions
+from tippetop.models.options import ODE_METHODS, OdeOptions, method_title
 from tippetop.reference_ode.methods import (
     AUTO_RULE,
     AUTO_TAYLOR,
@@ -59,7 +59,7 @@ def test_auto_follows_its_rule(rtol: float, method: str, factor: float) -> None:
 
 def test_a_run_says_the_method_and_the_tolerances_that_ran() -> None:
     res = run_scene_ode("fig3", "run.t_end_s=0.5")  # the scene's rtol 1e-9: auto runs Taylor
-    assert res.method == "taylor"
+    assert res.method == "taylor (order 12)"  # the order it ran at rtol 1e-10
     assert res.rtol == pytest.approx(1e-10) and res.atol == pytest.approx(1e-13)
     res = run_scene_ode("fig3", "run.t_end_s=0.5", "ode.formulation=paper")  # not Taylor's
     assert res.method == "adams"
@@ -74,7 +74,7 @@ def test_each_method_reproduces_fig11_n060(method: str) -> None:
     from tippetop.compare.measures.series import theta_asymp
 
     res = run_scene_ode("fig11_n060", f"ode.method={method}")
-    assert res.status == "ok" and res.method == method
+    assert res.status == "ok" and res.method == method_title(method, res.rtol)
     assert theta_asymp(res.table) == pytest.approx(FIG11_N060_THETA, abs=FIG11_TOL)
 
 

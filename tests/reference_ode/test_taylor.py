@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import OdeOptions
+from tippetop.models.options import OdeOptions, method_title
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
@@ -117,9 +117,16 @@ def test_the_jet_is_heyokas(kind: str) -> None:
 
 
 def test_the_order_follows_the_tolerance() -> None:
+    """The rule (models.options.TAYLOR_ORDERS) and what a run and a plan say of it."""
     assert taylor.order_for(1e-3) == 7 and taylor.order_for(1e-5) == 7
     assert taylor.order_for(9e-6) == 9 and taylor.order_for(1e-6) == 9
     assert taylor.order_for(9e-7) == 12 and taylor.order_for(1e-13) == 12
+    assert method_title("taylor", 1e-4) == "taylor (order 7)"
+    assert method_title("adams", 1e-4) == "adams"
+    pl = resolve_plan(load_scene("fig3", ["ode.method=taylor", "ode.rtol=1e-6"]), "ode").ode
+    assert pl.what_runs()["method"] == "taylor (order 9)"
+    res = simulate_ode(pl.top, pl.friction, pl.init, t_end_s=0.2, options=pl.options)
+    assert res.method == "taylor (order 9)"
 
 
 # ---------------------------------------------------------------- the tippe top
@@ -146,7 +153,7 @@ def test_tippe_top_agrees_with_dop853(case: str) -> None:
         top, fr, init, t_end = pl.top, pl.friction, pl.init, pl.t_end_s
     ref = _top(top, fr, init, t_end, "dop853")
     res = _top(top, fr, init, t_end, "taylor")
-    assert res.method == "taylor" and res.status == ref.status == "ok"
+    assert res.method == "taylor (order 12)" and res.status == ref.status == "ok"
     assert np.abs(res.table["theta"].to_numpy() - ref.table["theta"].to_numpy()).max() < TOP_TOL
     assert res.t_invert is not None and abs(res.t_invert - ref.t_invert) < TOP_TOL
     assert res.n_steps < 0.3 * ref.n_steps  # measured 19 % (Fig. 3), 6 % (Fig. 11)
@@ -162,7 +169,7 @@ def test_a_run_in_chunks_is_one_run() -> None:
                             sample_dt_s=pl.sample_dt_s, options=pl.options, progress=progress)
 
     one, chunked = go(), go(lambda t: None)
-    assert one.method == chunked.method == "taylor"
+    assert one.method == chunked.method == "taylor (order 12)"
     np.testing.assert_array_equal(one.states, chunked.states)
     assert one.n_steps == chunked.n_steps
 
@@ -185,7 +192,7 @@ def test_stiff_fig3_hands_over_and_rolls() -> None:
     dop = go("dop853")
     tight = go("dop853", stiff="off", rtol=1e-11)
     assert fast.status == "ok" and fast.stiff == "rolling" and len(fast.rolling) == 1
-    assert fast.method.startswith("taylor at rtol 1e-09, then dop853")
+    assert fast.method.startswith("taylor (order 12) at rtol 1e-09, then dop853")
     assert abs(fast.rolling[0]["t_start"] - dop.rolling[0]["t_start"]) < 0.01
     d_theta = np.abs(fast.table["theta"].to_numpy() - tight.table["theta"].to_numpy())
     assert d_theta.max() < 1e-7
@@ -240,7 +247,7 @@ def test_what_it_does_not_run() -> None:
         res = simulate_ode(pl.top, pl.friction, pl.init, t_end_s=pl.t_end_s, options=pl.options)
         assert res.method.startswith("adams")  # AUTO_RULE at the scene's rtol 1e-9
     s = load_scene("fig3", ["run.t_end_s=0.1"])
-    with pytest.raises(TippetopError, match="no stem"):
+    with pytest.raises(TippetopError, match="with no stem"):
         simulate_ode(s.top, s.friction, s.init, t_end_s=0.1,
                      options=replace(s.ode, method="taylor"), stem=s.stem)
     assert taylor.unsupported(FORMULATIONS["vector"].rhs,
