@@ -12,9 +12,9 @@ sum_{j<k} (alpha (k - j) - j) u_{k-j} c_j / (k u_0); of a state variable, y_{k+1
 the coefficients of the state (rows 0-10, the vector formulation's order), of the normal force
 N (row 11, coefficients 0..P-1) and |v_P|^2 + Lambda^2 at the start (row 12, column 0), for the
 ball on the table with the modified Coulomb law and no viscous part, fully unrolled for one
-order (every coefficient a local of its own: the compiled jet is straight-line code, 1.33 us at
-order 12 against ~4.6 us for loops over the orders, measured on this machine, at the price of
-a compile of ~20 s per order).
+order (every coefficient a local of its own: the compiled jet is straight-line code, half the
+time of loops over the orders in a prototype measured on this machine, 2.3 against 4.6 us at
+order 13, at the price of a compile of ~20 s per order).
 
 The operations are those of :func:`reference_ode.vector.vector_core` for this contact, with
 three identities of the exact solution used to drop work (each holds term by term in the
