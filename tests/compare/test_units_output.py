@@ -113,9 +113,11 @@ def test_the_realised_law_has_four_digits_and_units() -> None:
 
 
 _NUMBER = re.compile(r"(?<![\w.^])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.])")
-#: Keys of simulate whose numbers are counts, coefficients or ratios (no unit to give).
+#: Keys of simulate whose numbers are counts, coefficients or ratios (no unit to give); a
+#: method's name carries its order (``taylor (order 12)``) and, after a hand-over, the
+#: tolerances it ran at.
 _UNITLESS = {"n_rhs", "n_steps", "iterations", "condim", "noslip_iterations", "impratio",
-             "law_mu", "mu", "version", "message", "friction_law", "formulation"}
+             "law_mu", "mu", "version", "message", "friction_law", "formulation", "method"}
 _UNIT = re.compile(r"^(?:s|rad|rad/s|m|m/s|m/s\^2|J|kg|mm/s|ms)(?![\w/^])|^%|^\(relative\)"
                    r"|^of (?:E0|\|F_t\|/N)|^\(absolute")
 
