@@ -213,11 +213,16 @@ def run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_o
         if not h >= min_step:  # also a NaN jet
             status = STATUS_STEP_TOO_SMALL
             break
+        finite = True
         for i in range(n):
             s = T[i, ORDER]
             for k in range(ORDER - 1, -1, -1):
                 s = s * h + T[i, k]
             y_new[i] = s
+            finite = finite and math.isfinite(s)
+        if not finite:  # an overflowing series: as DOP853's steps shrinking to nothing
+            status = STATUS_STEP_TOO_SMALL
+            break
         stats[S_NSTEPS] += 1
         # stiff: the law relaxes the slip STIFF_SEPARATION times faster than the top turns,
         # mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|
