@@ -35,7 +35,7 @@ AUTO_RULE: tuple[tuple[float, str, float], ...] = (
 
 
 #: The Taylor method's orders, and the rtol (the one it runs at) from which down each is used
-#: (reference_ode/taylor.py, ``order_for``): on the Fig. 3 and Fig. 11 tops stability (the
+#: (reference_ode/taylor.py, :func:`taylor_order`): on the Fig. 3 and Fig. 11 tops stability (the
 #: slip's relaxation, eigenvalues near -400/s) sets the steps at loose tolerances, so the
 #: cheapest stable jet wins; measured over orders 6-12 and rtol 1e-3..1e-11 (docs/design.md).
 TAYLOR_ORDERS: tuple[tuple[float, int], ...] = ((1e-5, 7), (1e-6, 9), (0.0, 12))
@@ -54,12 +54,24 @@ def method_title(method: str, rtol: float) -> str:
     return f"taylor (order {taylor_order(rtol)})" if method == "taylor" else method
 
 
-def taylor_runs(formulation: str, law: str, stem: bool) -> bool:
-    """Whether the Taylor method runs a problem (reference_ode/taylor.py).
+def taylor_unsupported(formulation: str, law: str, stem: bool) -> str | None:
+    """None if the Taylor method runs a problem, else why not (one line).
 
-    It runs the vector formulation's ball on the table (no stem) with the modified Coulomb law.
+    It runs the vector formulation's ball on the table (no stem) with the modified Coulomb law
+    (reference_ode/taylor.py; its kernel checks the same on the packed parameters).
     """
-    return formulation == "vector" and law == "modified_coulomb" and not stem
+    if formulation != "vector":
+        return "the Taylor method runs the vector formulation's ball on the table only"
+    if stem:
+        return "the Taylor method runs the ball on the table only, with no stem"
+    if law != "modified_coulomb":
+        return "the Taylor method runs the modified Coulomb law only"
+    return None
+
+
+def taylor_runs(formulation: str, law: str, stem: bool) -> bool:
+    """Whether the Taylor method runs a problem (:func:`taylor_unsupported` is None)."""
+    return taylor_unsupported(formulation, law, stem) is None
 
 
 def auto_method(rtol: float, taylor: bool = False) -> tuple[str, float]:

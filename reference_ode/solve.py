@@ -14,7 +14,7 @@ from tippetop.models.errors import TippetopError, expect
 from tippetop.models.frames import initial_rigid_state
 from tippetop.models.observables import COLUMNS, EXTRA_COLUMNS, SIN_THETA_UNDEFINED
 from tippetop.models.options import FORMULATIONS as _FORMULATION_NAMES
-from tippetop.models.options import OdeOptions, method_title
+from tippetop.models.options import OdeOptions, method_title, taylor_unsupported
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 from tippetop.reference_ode import dop853 as _d
 from tippetop.reference_ode.contacts import (
@@ -51,7 +51,6 @@ from tippetop.reference_ode.rolling import (
     rolling_params,
     rolling_state,
 )
-from tippetop.reference_ode.taylor import unsupported as taylor_unsupported
 from tippetop.reference_ode.top import FORMULATIONS, TWO_CONTACT, Formulation, two_contact_forces
 
 assert tuple(FORMULATIONS) == _FORMULATION_NAMES
@@ -284,8 +283,7 @@ def simulate_ode(
     Y = np.full((t_out.size, y.size), np.nan)
     t = 0.0
     i_out = 0
-    taylor_reason = taylor_unsupported(form.rhs, p) if stem is None else \
-        "the Taylor method runs the ball on the table only, with no stem"
+    taylor_reason = taylor_unsupported(form_name, friction.law, stem is not None)
     if options.method == "taylor" and taylor_reason is not None:
         raise TippetopError(f"ode.method: expected auto or one of dop853, vern9, adams for this "
                             f"scene ({taylor_reason}), got 'taylor'")

@@ -10,9 +10,13 @@ The step size follows the tolerances a priori (no rejected steps): the last two 
 stand for the local error, h = SAFETY min((max_i |y_i,P| / sc_i)^(-1/P),
 (max_i |y_i,P-1| / sc_i)^(-1/(P-1))) with sc_i = atol + rtol |y_i| (Jorba and Zou's rule, with
 the other methods' component scales in place of one tolerance). The order follows the
-tolerance asked (:func:`order_for`). Where stability limits the step (the friction law relaxes
-the slip at up to ~mu g / Lambda, and an excited fast mode's coefficients grow until they
-bound h), the same rule holds the step near the series' stability boundary.
+tolerance asked (``models.options.taylor_order``: on the Fig. 3 and Fig. 11 tops the steps at
+loose tolerances are set by stability, the friction law's slip relaxation near -400/s, so the
+cheapest jet whose steps stay stable wins: order 7, 0.5 us a jet, to rtol 1e-5, order 9 to
+1e-6, order 12, 1.3 us, below; measured over orders 6-12 and rtol 1e-3..1e-11 on both tops,
+order 16 slower than 12 at every rtol down to 1e-12). Where stability limits the step (the
+friction law relaxes the slip at up to ~mu g / Lambda, and an excited fast mode's coefficients
+grow until they bound h), the same rule holds the step near the series' stability boundary.
 
 Stiffness: a step is flagged (``S_NSTIFF``) when the law relaxes the slip over
 :data:`STIFF_SEPARATION` times faster than the top turns, mu g / sqrt(|v_P|^2 + Lambda^2) >
@@ -48,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tippetop.models.options import TAYLOR_ORDERS, taylor_order
+from tippetop.models.options import taylor_order
 from tippetop.reference_ode.friction import COULOMB_MODIFIED
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
@@ -63,25 +67,14 @@ SAFETY = 1.0
 #: A step is flagged stiff when the law relaxes the slip this many times faster than the top
 #: turns: mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|.
 STIFF_SEPARATION = 1000.0
-#: The orders there are, and the tolerance from which down each is used (:func:`order_for`).
-ORDERS = TAYLOR_ORDERS
-
-
-def order_for(rtol: float) -> int:
-    """The order a run at relative tolerance ``rtol`` uses (:data:`ORDERS`).
-
-    On the Fig. 3 and Fig. 11 tops the steps at loose tolerances are set by stability (the
-    friction law's slip relaxation, eigenvalues near -400/s; docs/design.md), not by the
-    tolerance, so the cheapest jet whose steps stay stable wins: order 7 (0.5 us a jet) to rtol
-    1e-5, order 9 to 1e-6, order 12 (1.3 us) below, where the lower orders' steps become the
-    tolerance's. Measured over orders 6-12 and rtol 1e-3..1e-11 on both tops (the fastest to
-    each error level); order 16 was slower than 12 at every rtol down to 1e-12.
-    """
-    return taylor_order(rtol)
-
-
 def unsupported(rhs, p: np.ndarray) -> str | None:
-    """None if the Taylor method runs this problem, else why not (one line)."""
+    """None if the kernel runs this problem, else why not (one line).
+
+    The kernel's own guard, on the compiled right-hand side and the packed parameters. Which
+    scenes run the method is decided from the plan's inputs
+    (``models.options.taylor_unsupported``), which says the same for every problem a scene
+    makes.
+    """
     from tippetop.reference_ode.top import vector_rhs
 
     if rhs is not vector_rhs:
@@ -352,6 +345,6 @@ def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.
     reason = unsupported(rhs, p)
     if reason is not None:
         raise ValueError(reason)
-    mod = kernel(order_for(rtol), is_symmetric(p))
+    mod = kernel(taylor_order(rtol), is_symmetric(p))
     return mod.run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out,
                    i_out, stats)

@@ -19,8 +19,9 @@ import numpy as np
 import pytest
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import OdeOptions, method_title
-from tippetop.models.params import FrictionParams, InitialState, TopParams
+from tippetop.models.options import FORMULATIONS as FORMULATION_NAMES
+from tippetop.models.options import OdeOptions, method_title, taylor_order, taylor_runs
+from tippetop.models.params import FRICTION_LAWS, FrictionParams, InitialState, TopParams
 from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
 from tippetop.reference_ode import dop853 as d
@@ -118,9 +119,9 @@ def test_the_jet_is_heyokas(kind: str) -> None:
 
 def test_the_order_follows_the_tolerance() -> None:
     """The rule (models.options.TAYLOR_ORDERS) and what a run and a plan say of it."""
-    assert taylor.order_for(1e-3) == 7 and taylor.order_for(1e-5) == 7
-    assert taylor.order_for(9e-6) == 9 and taylor.order_for(1e-6) == 9
-    assert taylor.order_for(9e-7) == 12 and taylor.order_for(1e-13) == 12
+    assert taylor_order(1e-3) == 7 and taylor_order(1e-5) == 7
+    assert taylor_order(9e-6) == 9 and taylor_order(1e-6) == 9
+    assert taylor_order(9e-7) == 12 and taylor_order(1e-13) == 12
     assert method_title("taylor", 1e-4) == "taylor (order 7)"
     assert method_title("adams", 1e-4) == "adams"
     pl = resolve_plan(load_scene("fig3", ["ode.method=taylor", "ode.rtol=1e-6"]), "ode").ode
@@ -130,35 +131,6 @@ def test_the_order_follows_the_tolerance() -> None:
 
 
 # ---------------------------------------------------------------- the tippe top
-#: theta agreement with DOP853 at rtol 1e-12 (rad), and of t_invert (s): the Taylor method at
-#: rtol 1e-12 is within 1e-13 rad (Fig. 11) and 1e-14 (Fig. 3) of the converged answer, DOP853
-#: at 1e-12 within ~1e-14 and its t_invert within 1.4e-11 s (bench ode --sweep): 1e-10 leaves
-#: ~10x.
-TOP_TOL = 1e-10
-
-
-def _top(top, fr, init, t_end, method, rtol=1e-12, **kw):
-    return simulate_ode(top, fr, init, t_end_s=t_end, sample_dt_s=0.01,
-                        options=OdeOptions(method=method, rtol=rtol, atol=rtol * 1e-3), **kw)
-
-
-@pytest.mark.parametrize("case", ["fig11", "fig3"])
-def test_tippe_top_agrees_with_dop853(case: str) -> None:
-    """Every sample (on the series: dense output) and the inversion (located on it)."""
-    if case == "fig11":
-        top, fr, init, t_end = (TopParams.from_ratios(1.0, 0.15), FrictionParams(),
-                                InitialState(theta0=0.01, n0=60.0), 20.0)
-    else:
-        pl = resolve_plan(load_scene("fig3", []), "ode").ode
-        top, fr, init, t_end = pl.top, pl.friction, pl.init, pl.t_end_s
-    ref = _top(top, fr, init, t_end, "dop853")
-    res = _top(top, fr, init, t_end, "taylor")
-    assert res.method == "taylor (order 12)" and res.status == ref.status == "ok"
-    assert np.abs(res.table["theta"].to_numpy() - ref.table["theta"].to_numpy()).max() < TOP_TOL
-    assert res.t_invert is not None and abs(res.t_invert - ref.t_invert) < TOP_TOL
-    assert res.n_steps < 0.3 * ref.n_steps  # measured 19 % (Fig. 3), 6 % (Fig. 11)
-
-
 def test_a_run_in_chunks_is_one_run() -> None:
     """The method keeps no history and its steps end at t_end only: the chunks a progress
     display asks for (solve.N_CHUNKS) change no step, so the tables are equal bit for bit."""
@@ -252,3 +224,16 @@ def test_what_it_does_not_run() -> None:
                      options=replace(s.ode, method="taylor"), stem=s.stem)
     assert taylor.unsupported(FORMULATIONS["vector"].rhs,
                               pack_params(TOPS["sym"], FrictionParams(law="viscous"))) is not None
+
+
+@pytest.mark.parametrize("law", FRICTION_LAWS)
+@pytest.mark.parametrize("formulation", FORMULATION_NAMES)
+def test_the_plan_and_the_kernel_agree_on_what_it_runs(formulation: str, law: str) -> None:
+    """Which scenes run the method is decided from the plan's inputs (models.options); the
+    kernel checks the compiled rhs and the packed parameters. The two must say the same for
+    every formulation and law (a plan saying taylor for a run that falls back would report
+    what did not run)."""
+    p = pack_params(TOPS["gen"], FrictionParams(law=law))
+    kernel_runs = taylor.unsupported(FORMULATIONS[formulation].rhs, p) is None
+    assert taylor_runs(formulation, law, stem=False) == kernel_runs
+    assert not taylor_runs(formulation, law, stem=True)
