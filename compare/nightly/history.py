@@ -30,6 +30,7 @@ import hashlib
 import json
 import math
 import os
+import random
 import sqlite3
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -114,9 +115,12 @@ def _refuse(path: Path, what: str) -> TippetopError:
 def _inspect(con: sqlite3.Connection, path: Path) -> int:
     """The file's format version (0: an empty database); refuses a file that is not one."""
     try:
-        app = con.execute("PRAGMA application_id").fetchone()[0]
-        version = con.execute("PRAGMA user_version").fetchone()[0]
-        tables = con.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]
+        # one statement, one snapshot: three statements in autocommit are three reads, and a
+        # writer creating the history between them showed its tables under no application id
+        app, version, tables = con.execute(
+            "SELECT (SELECT application_id FROM pragma_application_id),"
+            " (SELECT user_version FROM pragma_user_version),"
+            " (SELECT count(*) FROM sqlite_master)").fetchone()
     except sqlite3.DatabaseError as exc:
         raise _refuse(path, f"not a SQLite database: {exc}") from None
     if app != APPLICATION_ID:
@@ -192,11 +196,30 @@ def open_history(path: str | Path | None = None, *,
         con.close()
 
 
+def _switch_to_wal(con: sqlite3.Connection) -> None:
+    """``PRAGMA journal_mode = WAL``, retried while another process holds the file.
+
+    The switch needs the file to itself, and SQLite answers "database is locked" at once,
+    without its busy handler, where two connections that read it would otherwise wait on each
+    other (two writers opening a new history at the same moment); so it is retried here, for
+    up to :data:`BUSY_TIMEOUT_S`.
+    """
+    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    while True:
+        try:
+            con.execute("PRAGMA journal_mode = WAL")
+            return
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.005 + 0.02 * random.random())  # apart from the other writer's retry
+
+
 def _initialise(con: sqlite3.Connection, path: Path) -> None:
     """WAL mode, and the tables in one transaction if the file has none yet."""
     _inspect(con, path)
     if con.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
-        con.execute("PRAGMA journal_mode = WAL")  # waits for the other writer (busy timeout)
+        _switch_to_wal(con)
     con.execute("BEGIN IMMEDIATE")
     try:
         if _inspect(con, path) == 0:  # again, now that no other writer can start it

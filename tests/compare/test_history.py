@@ -83,6 +83,66 @@ def test_two_processes_appending_at_once_keep_every_row(tmp_path: Path) -> None:
     assert [len(s.values) for s in series] == [25, 25]
 
 
+def test_the_switch_to_wal_is_retried_while_another_process_holds_the_file() -> None:
+    """SQLite answers "database is locked" at once, not after its busy timeout, when two
+    connections opening a new history would wait on each other for the switch to WAL (seen as
+    one of two nightlies failing; 4 of 80 trials of four processes opening one new file before
+    the retry, 0 of 80 after). The switch is retried; another error is not."""
+
+    class Con:
+        def __init__(self, fails: int, message: str) -> None:
+            self.fails, self.message, self.calls = fails, message, 0
+
+        def execute(self, sql: str) -> None:
+            assert sql == "PRAGMA journal_mode = WAL"
+            self.calls += 1
+            if self.calls <= self.fails:
+                raise sqlite3.OperationalError(self.message)
+
+    con = Con(3, "database is locked")
+    h._switch_to_wal(con)
+    assert con.calls == 4
+    with pytest.raises(sqlite3.OperationalError, match="disk I/O"):
+        h._switch_to_wal(Con(1, "disk I/O error"))
+
+
+def test_a_new_history_read_while_it_is_created_is_one_snapshot(tmp_path: Path) -> None:
+    """What the file is (its id, its format, its tables) is read as one snapshot. Here the
+    creator commits right after the reader's first statement: reads in separate statements
+    (autocommit) would see no id, then the tables ("not a tippetop history"); one snapshot sees
+    the empty file (a new history), and the next read the finished one."""
+    path = tmp_path / "history.sqlite"
+    maker = sqlite3.connect(path, isolation_level=None)
+    reader = sqlite3.connect(path, isolation_level=None)
+
+    class CommitsAfterFirstRead:
+        calls = 0
+
+        def execute(self, sql: str):
+            cursor = reader.execute(sql)
+            row = cursor.fetchone()
+            self.calls += 1
+            if self.calls == 1:
+                maker.execute("COMMIT")
+
+            class Done:
+                def fetchone(self):
+                    return row
+            return Done()
+
+    try:
+        maker.execute("BEGIN IMMEDIATE")
+        for stmt in h._SCHEMA:
+            maker.execute(stmt)
+        maker.execute(f"PRAGMA application_id = {h.APPLICATION_ID}")
+        maker.execute(f"PRAGMA user_version = {h.FORMAT_VERSION}")
+        assert h._inspect(CommitsAfterFirstRead(), path) == 0  # the snapshot before the commit
+        assert h._inspect(reader, path) == h.FORMAT_VERSION
+    finally:
+        maker.close()
+        reader.close()
+
+
 # --------------------------------------------------------------------------- change-points
 def _step_history(path: Path) -> None:
     """Eight nights: t_invert 1.206 s, a one-night blip to 1.5 s on night 3, then a step to
