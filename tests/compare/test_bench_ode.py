@@ -114,3 +114,5 @@ def test_bench_ode_table_has_a_row_per_solver() -> None:
     if heyoka_missing() is None:
         want.add(HEYOKA)
     assert want <= rows
+    # the default runs the Taylor method: its cost is said per jet, not per rhs evaluation
+    assert "per jet (a Taylor step)" in report and "counts its jets" in report
