@@ -27,9 +27,11 @@ stabilized variant, and prints the ratio best plain / best stabilized (> 1: stab
 
 Measured (2026-11-28, 2 shared cores, best of 7/15): the stabilized steps are 1.3-2x fewer, but
 the time is not: 1.18x, 1.17x, 0.99x, 1.00x (Fig. 11) and 0.88x, 1.04x, 1.07x, 1.03x (Fig. 3)
-at 1e-4, 1e-6, 1e-8, 1e-10 rad. Stabilizing buys beta 1.4-3x by giving up 1-4 orders, and the
-lower-order steps are then held by the rotation's accuracy (omega ~16-58/s: h omega ~1 at
-twice the step), or need a larger jet (cost ~P^2, beta of plain Taylor only +0.37 a degree).
+at 1e-4, 1e-6, 1e-8, 1e-10 rad; a second run, sharing the machine with a CI run: 1.07x,
+0.93x, 1.01x, 1.10x and 0.85x, 0.95x, 1.06x, 1.00x. Stabilizing buys beta 1.4-3x by giving
+up 1-4 orders, and the lower-order steps are then held by the rotation's accuracy (omega
+~16-58/s: h omega ~1 at twice the step), or need a larger jet (cost ~P^2, beta of plain Taylor
+only +0.37 a degree).
 
 Run: ``python benchmarks/bench_stabilized_taylor.py [--tops fig11,fig3] [--rounds 7]
 [--quick] [--json FILE]`` (a few minutes; the jets of orders 7-14 compile once, ~20-70 s each,
