@@ -436,4 +436,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    try:
+        raise SystemExit(main())
+    except KeyboardInterrupt:
+        print("bench_stabilized_taylor: interrupted (nothing written)", file=sys.stderr)
+        raise SystemExit(130) from None
