@@ -319,7 +319,8 @@ def measure_top(name: str, plain, hybrid, pairs, rounds: int, progress) -> list[
     tp = make_top(name)
     p, y0 = tp.p.copy(), tp.y0.copy()
     ts, th_true, agree = truth(name)
-    progress(f"{name}: truth (DOP853 and Verner 9(8) at rtol 1e-14 agree to {agree:.1e} rad)")
+    print(f"{name}: truth (DOP853 and Verner 9(8) at rtol 1e-14 agree to {agree:.1e} rad)")
+    progress(f"{name}: compiling the jets and the drivers")
     methods = [(0, f"taylor{P}", P, np.ones(P + 1), np.ones(P + 1), float(P), 1.0)
                for P in plain]
     for P, q, kappa in hybrid:
@@ -341,7 +342,12 @@ def measure_top(name: str, plain, hybrid, pairs, rounds: int, progress) -> list[
                           "err_samples": float(np.nanmax(np.abs(th - th_true))) if ok
                           else math.inf, "ms": math.inf, "_f": f, "_args": args})
     rng = random.Random(1)
-    for r in range(rounds):
+    bar = None
+    if sys.stderr.isatty():  # a bar on a terminal, nothing otherwise
+        from tqdm import tqdm
+
+        bar = tqdm(total=rounds * len(calls), desc=f"{name}: timed runs", leave=False)
+    for _ in range(rounds):
         order = list(range(len(calls)))
         rng.shuffle(order)
         for i in order:
@@ -349,7 +355,10 @@ def measure_top(name: str, plain, hybrid, pairs, rounds: int, progress) -> list[
             t0 = time.process_time()
             c["_f"](*c["_args"])
             c["ms"] = min(c["ms"], 1e3 * (time.process_time() - t0))
-        progress(f"{name}: round {r + 1} of {rounds}")
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
     return [{k: v for k, v in c.items() if not k.startswith("_")} for c in calls]
 
 
@@ -409,7 +418,8 @@ def main(argv: list[str] | None = None) -> int:
     plain, hybrid = (QUICK_PLAIN, QUICK_HYBRID) if a.quick else (PLAIN, HYBRID)
 
     def progress(msg: str) -> None:
-        print(msg, file=sys.stderr, flush=True)
+        if sys.stderr.isatty():
+            print(f"bench_stabilized_taylor: {msg}", file=sys.stderr, flush=True)
 
     pairs = {}
     print("the polynomials (degree P, order p): real stability boundary beta against plain "
