@@ -9,10 +9,17 @@ next coefficient from the products: a_j,k+1 = c_j,k / (k + 1), b_j,k+1 = c_j+1,k
 * ``flat``: the products of one order side by side in one flat work buffer at constant offsets,
   with constant trip counts, so that LLVM's SLP vectorizer, when on, packs them.
 
-Each runs in a fresh process with ``NUMBA_SLP_VECTORIZE`` 0 and 1 (numba reads it at import),
-best CPU time of ``--rounds`` rounds of 20,000 calls, the two forms alternated; both give the
-same coefficients (to ~1e-16). Measured 2026-11-28 (2 shared cores, two runs): with SLP on,
-flat 2.1-2.6x the scalar form (0.54-0.71 against 1.1-1.8 us); with it off, flat 0.5-0.6x.
+Then the reference's own order-12 jet (A = C) against the same jet written that way: each
+order's product histories (the terms that use only lower orders) side by side, the terms that
+need the current order finished one by one (:func:`packed_jet_source`).
+
+Each setting runs in a fresh process with ``NUMBA_SLP_VECTORIZE`` 0 and 1 (numba reads it at
+import), best CPU time of ``--rounds`` rounds of 20,000 calls, the forms alternated; both
+forms give the same coefficients (to ~1e-16 and ~2e-14). Measured 2026-11-28 (2 shared cores,
+three runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
+reference's packed jet 1.05-1.09x today's, its arithmetic mostly packed (605 packed FMAs in
+place of most of 2,415 scalar ones): the real jet is bound by the chain of dependent
+operations inside each order, not by its arithmetic (docs/design.md).
 
 Run: ``python benchmarks/bench_jet_packing.py [--rounds 5]`` (about a minute: each process
 compiles the unrolled form, ~15 s).
@@ -25,6 +32,8 @@ import os
 import subprocess
 import sys
 import time
+
+from tippetop.reference_ode.taylor_jet import ROW_N, ROW_U, STATE, _system
 
 P, N = 12, 36
 OA, OB, OS = 0, (P + 1) * N, 2 * (P + 1) * N
@@ -44,6 +53,115 @@ def scalar_source() -> str:
             lines.append(f"    b{j}_{k + 1} = c{(j + 1) % N}_{k} * {1.0 / (k + 1)!r}")
     lines += [f"    out[{j}] = a{j}_{P}" for j in range(N)]
     return "\n".join(lines)
+
+
+def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[str, int]:
+    """The reference's jet (taylor_jet.jet_source) with each order's product histories (the terms
+    that use only lower orders) side by side in one flat buffer ``W``, the edge terms (which
+    need the current order) finished one by one; and ``W``'s size."""
+    ops, rate = _system(symmetric)
+    consts: dict[str, str] = {}
+
+    def scaled(coef: str, var: str) -> str:
+        if coef == "1.0":
+            return var
+        if coef not in consts:
+            consts[coef] = f"K{len(consts)}"
+        return f"{consts[coef]}*{var}"
+
+    # the batched ops: mul (a, b), sq (a, a), div's history (den v, N)
+    batch: list[tuple[str, str, str]] = []
+    for nm, kind, args in ops:
+        if kind == "mul":
+            batch.append((nm, args[0], args[1]))
+        elif kind == "sq":
+            batch.append((nm, args[0], args[0]))
+        elif kind == "div":
+            batch.append((nm, args[1], nm))  # sum_j v_j N_{k-j}
+    nbp = (len(batch) + 3) // 4 * 4
+    idx = {nm: i for i, (nm, _, _) in enumerate(batch)}
+    oa, ob, oh = 0, (order + 1) * nbp, 2 * (order + 1) * nbp
+    size = oh + nbp
+    # where a variable's coefficients go: (offset base, slot)
+    slots: dict[str, list[str]] = {}
+    for i, (_, a, b) in enumerate(batch):
+        slots.setdefault(a, []).append(f"{oa}+{{k}}*{nbp}+{i}")
+        slots.setdefault(b, []).append(f"{ob}+{{k}}*{nbp}+{i}")
+
+    def store(var: str, k: int) -> list[str]:
+        return [f"W[{s.format(k=k)}] = {var}_{k}" for s in slots.get(var, [])]
+
+    jet_vars = (*STATE, "kx", "ky", "kz")
+    body: list[str] = []
+    # order 0's stores of the state and k
+    for v in jet_vars:
+        body += store(v, 0)
+    for k in range(order):
+        if k >= 2:  # the histories, side by side
+            body.append(f"for i in range({nbp}):")
+            body.append(f"    W[{oh} + i] = 0.0")
+            body.append(f"for j in range(1, {k}):")
+            body.append(f"    for i in range({nbp}):")
+            body.append(f"        W[{oh} + i] += W[{oa} + j*{nbp} + i] * "
+                        f"W[{ob} + ({k} - j)*{nbp} + i]")
+        for nm, kind, args in ops:
+            t = f"{nm}_{k}"
+            h = f"W[{oh}+{idx[nm]}] + " if (k >= 2 and nm in idx) else ""
+            if kind == "mul":
+                a, b = args
+                if k == 0:
+                    body.append(f"{t} = {a}_0*{b}_0")
+                else:
+                    body.append(f"{t} = {h}{a}_0*{b}_{k} + {a}_{k}*{b}_0")
+            elif kind == "sq":
+                (a,) = args
+                if k == 0:
+                    body.append(f"{t} = {a}_0*{a}_0")
+                else:
+                    body.append(f"{t} = {h}2.0*{a}_0*{a}_{k}")
+            elif kind == "lin":
+                terms, c0 = args
+                e = " + ".join(scaled(c, f"{v}_{k}") for c, v in terms)
+                if c0 is not None and k == 0:
+                    e += f" + {c0}"
+                body.append(f"{t} = {e}")
+            elif kind == "powm":
+                u, alpha, factor = args
+                if k == 0:
+                    body.append(f"{nm}_inv_u0 = 1.0 / {u}_0")
+                    body.append(f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
+                                else f"{t} = {factor} * {u}_0 ** {alpha!r}")
+                else:
+                    parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}"
+                             for j in range(k)]
+                    body.append(f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0")
+            elif kind == "div":
+                u, v = args
+                if k == 0:
+                    body.append(f"{nm}_inv_v0 = 1.0 / {v}_0")
+                    body.append(f"{t} = {u}_0 * {nm}_inv_v0")
+                else:
+                    hist = f"W[{oh}+{idx[nm]}] + " if k >= 2 else ""
+                    body.append(f"{t} = ({u}_{k} - ({hist}{v}_{k}*{nm}_0)) * {nm}_inv_v0")
+            body += store(nm, k)
+        for v in jet_vars:
+            e = " + ".join(scaled(c, f"{w}_{k}") for c, w in rate[v])
+            body.append(f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}")
+            body += store(v, k + 1)
+    head = [f"def {name}(y, p, T, W):",
+            "    R = p[P_R]; a = p[P_A_OFF]; M = p[P_M]; A = p[P_IA]; C = p[P_IC]; g = p[P_G]",
+            "    mu = p[P_MU]; lam = p[P_LAM]",
+            "    iA = 1.0 / A; dC = 1.0 / C - iA; lam2 = lam * lam",
+            "    inv = 1.0 / (y[4] * y[4] + y[5] * y[5] + y[6] * y[6] + y[7] * y[7])"]
+    head += [f"    {kn} = {c}" for c, kn in consts.items()]
+    head += [f"    {v}_0 = y[{i}]" for i, v in enumerate(STATE)]
+    head += ["    kx_0 = 2.0 * (qx_0 * qz_0 + qw_0 * qy_0) * inv",
+             "    ky_0 = 2.0 * (qy_0 * qz_0 - qw_0 * qx_0) * inv",
+             "    kz_0 = (qw_0 * qw_0 - qx_0 * qx_0 - qy_0 * qy_0 + qz_0 * qz_0) * inv"]
+    tail = [f"    T[{i}, {k}] = {v}_{k}" for k in range(order + 1) for i, v in enumerate(STATE)]
+    tail += [f"    T[{ROW_N}, {k}] = N_{k}" for k in range(order)]
+    tail += [f"    T[{ROW_N}, {order}] = 0.0", f"    T[{ROW_U}, 0] = u_0"]
+    return "\n".join(head + ["    " + b for b in body] + tail) + "\n", size
 
 
 def measure(rounds: int) -> None:
@@ -102,9 +220,69 @@ def measure(rounds: int) -> None:
         t0 = time.process_time()
         loop_w(a0, b0, o2, W, n)
         tw = min(tw, (time.process_time() - t0) / n)
-    print(f"  SLP {nb.core.config.SLP_VECTORIZE}: scalar {ts * 1e6:6.3f} us, flat "
-          f"{tw * 1e6:6.3f} us, flat / scalar speed {ts / tw:4.2f}x (coefficients agree to "
-          f"{diff:.0e})", flush=True)
+    print(f"  SLP {nb.core.config.SLP_VECTORIZE}: synthetic jet: scalar {ts * 1e6:6.3f} us, "
+          f"flat {tw * 1e6:6.3f} us, flat / scalar speed {ts / tw:4.2f}x (coefficients agree "
+          f"to {diff:.0e})", flush=True)
+    real_jet(rounds)
+
+
+def real_jet(rounds: int, order: int = 12) -> None:
+    """The reference's jet (A = C, the Fig. 11 top) against its packed variant."""
+    import numba as nb
+    import numpy as np
+
+    from tippetop.compare.studies.work_precision import make_top
+    from tippetop.reference_ode.taylor_jet import N_ROWS, jet_source
+
+    fm = {"contract", "reassoc"}
+    pre = ("import math\nimport numba as nb\nimport numpy as np\n"
+           "from tippetop.reference_ode.params_array import *\n")
+    v1, m2 = nb.types.float64[::1], nb.types.float64[:, ::1]
+    ns: dict = {}
+    exec(pre + jet_source(order, True), ns)  # noqa: S102 - the reference's own jet source
+    jet_old = nb.njit(nb.types.none(v1, v1, m2), error_model="numpy", fastmath=fm)(ns["jet"])
+    src, size = packed_jet_source(order, True)
+    ns = {}
+    exec(pre + src, ns)  # noqa: S102 - the packed variant, written above
+    jet_new = nb.njit(nb.types.none(v1, v1, m2, v1), error_model="numpy", fastmath=fm,
+                      boundscheck=False)(ns["jet"])
+
+    @nb.njit
+    def loop_old(y, p, T, n):
+        for _ in range(n):
+            jet_old(y, p, T)
+            y[0] += T[0, 3] * 1e-300
+
+    @nb.njit
+    def loop_new(y, p, T, W, n):
+        for _ in range(n):
+            jet_new(y, p, T, W)
+            y[0] += T[0, 3] * 1e-300
+
+    top = make_top("fig11")
+    p, y = top.p.copy(), top.y0.copy()
+    y[2:4] = [0.03, -0.02]  # a slip and a turned top: every term of the jet at work
+    y[8:11] += [1.0, -2.0, 0.5]
+    T1, T2, W = np.zeros((N_ROWS, order + 1)), np.zeros((N_ROWS, order + 1)), np.zeros(size)
+    jet_old(y, p, T1)
+    jet_new(y, p, T2, W)
+    rows = T1[:12]
+    diff = float(np.max(np.abs(rows - T2[:12]) / np.abs(rows).max(axis=1, keepdims=True)))
+    n, to, tn = 20000, float("inf"), float("inf")
+    loop_old(y.copy(), p, T1, 10)
+    loop_new(y.copy(), p, T2, W, 10)
+    for _ in range(rounds):
+        yy = y.copy()
+        t0 = time.process_time()
+        loop_old(yy, p, T1, n)
+        to = min(to, (time.process_time() - t0) / n)
+        yy = y.copy()
+        t0 = time.process_time()
+        loop_new(yy, p, T2, W, n)
+        tn = min(tn, (time.process_time() - t0) / n)
+    print(f"  SLP {nb.core.config.SLP_VECTORIZE}: the reference's jet (order {order}): today "
+          f"{to * 1e6:6.3f} us, packed {tn * 1e6:6.3f} us, packed / today speed {to / tn:4.2f}x "
+          f"(coefficients agree to {diff:.0e} of each row's largest)", flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,7 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.child:
         measure(a.rounds)
         return 0
-    print(f"a synthetic jet of {N} products to order {P}, best of {a.rounds} rounds:")
+    print(f"a synthetic jet of {N} independent products to order {P}, and the reference's jet "
+          f"of order 12 (A = C), best of {a.rounds} rounds:")
     for slp in ("0", "1"):
         env = {**os.environ, "NUMBA_SLP_VECTORIZE": slp}
         code = subprocess.call([sys.executable, __file__, "--child", "--rounds", str(a.rounds)],
