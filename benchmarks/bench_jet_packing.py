@@ -11,15 +11,18 @@ next coefficient from the products: a_j,k+1 = c_j,k / (k + 1), b_j,k+1 = c_j+1,k
 
 Then the reference's own order-12 jet (A = C) against the same jet written that way: each
 order's product histories (the terms that use only lower orders) side by side, the terms that
-need the current order finished one by one (:func:`packed_jet_source`).
+need the current order finished one by one (:func:`packed_jet_source`); and, with SLP off, two
+of the reference's jets with their statements interleaved in one function against one (about
+1x: bound by chains of dependent operations; about 2x: by throughput).
 
 Each setting runs in a fresh process with ``NUMBA_SLP_VECTORIZE`` 0 and 1 (numba reads it at
 import), best CPU time of ``--rounds`` rounds of 20,000 calls, the forms alternated; both
 forms give the same coefficients (to ~1e-16 and ~2e-14). Measured 2026-11-28 (2 shared cores,
-three runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
-reference's packed jet 1.05-1.09x today's, its arithmetic mostly packed (605 packed FMAs in
-place of most of 2,415 scalar ones): the real jet is bound by the chain of dependent
-operations inside each order, not by its arithmetic (docs/design.md).
+four runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
+reference's packed jet 1.05-1.28x today's, its arithmetic mostly packed (605 packed FMAs in
+place of most of 2,415 scalar ones) but its instruction count about the same; two jets
+interleaved 2.31-2.34x one: the real jet is bound by its instructions' throughput, much of it
+memory moves, not by its chains of dependent operations (docs/design.md).
 
 Run: ``python benchmarks/bench_jet_packing.py [--rounds 5]`` (about a minute: each process
 compiles the unrolled form, ~15 s).
@@ -29,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import time
@@ -283,6 +287,50 @@ def real_jet(rounds: int, order: int = 12) -> None:
     print(f"  SLP {nb.core.config.SLP_VECTORIZE}: the reference's jet (order {order}): today "
           f"{to * 1e6:6.3f} us, packed {tn * 1e6:6.3f} us, packed / today speed {to / tn:4.2f}x "
           f"(coefficients agree to {diff:.0e} of each row's largest)", flush=True)
+    if nb.core.config.SLP_VECTORIZE:
+        return
+    # two independent jets, their statements interleaved in one function: a jet bound by its
+    # chains of dependent operations runs the pair in about one jet's time (the two chains
+    # overlap), a jet bound by its instructions' throughput in two
+    lines = jet_source(order, True).splitlines()[1:]
+
+    def rename(line: str, suf: str) -> str:
+        line = re.sub(r"\b([A-Za-z]\w*?_\d+|K\d+|R|a|M|A|C|g|mu|lam|iA|dC|lam2|inv|"
+                      r"s_inv_u0|N_inv_v0)\b", lambda m: m.group(1) + suf, line)
+        return line.replace("y[", f"y{suf}[").replace("T[", f"T{suf}[")
+
+    pair = ["def jet2(y_A, y_B, p, T_A, T_B):"]
+    for la, lb in zip(lines, lines, strict=True):
+        pair += [rename(la, "_A"), rename(lb, "_B")]
+    ns = {}
+    exec(pre + "\n".join(pair), ns)  # noqa: S102 - two copies of the reference's jet
+    jet2 = nb.njit(nb.types.none(v1, v1, v1, m2, m2), error_model="numpy",
+                   fastmath=fm)(ns["jet2"])
+
+    @nb.njit
+    def loop_pair(ya, yb, p, Ta, Tb, n):
+        for _ in range(n):
+            jet2(ya, yb, p, Ta, Tb)
+            ya[0] += Ta[0, 3] * 1e-300
+            yb[0] += Tb[0, 3] * 1e-300
+
+    yb = y.copy()
+    yb[8] += 0.1
+    Tb = np.zeros_like(T2)
+    loop_pair(y.copy(), yb.copy(), p, T2, Tb, 10)
+    tp = float("inf")
+    for _ in range(rounds):
+        yy = y.copy()
+        t0 = time.process_time()
+        loop_old(yy, p, T1, n)
+        to = min(to, (time.process_time() - t0) / n)
+        ya, yy = y.copy(), yb.copy()
+        t0 = time.process_time()
+        loop_pair(ya, yy, p, T2, Tb, n)
+        tp = min(tp, (time.process_time() - t0) / n)
+    print(f"  SLP 0: two of the reference's jets interleaved: {tp * 1e6:6.3f} us against one "
+          f"{to * 1e6:6.3f} us, {tp / to:4.2f}x (1x: bound by its chains; 2x: by throughput)",
+          flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
