@@ -37,7 +37,7 @@ import subprocess
 import sys
 import time
 
-from tippetop.reference_ode.taylor_jet import ROW_N, ROW_U, STATE, _system
+from tippetop.reference_ode.taylor_jet import ROW_N, ROW_U, STATE, jet_system
 
 P, N = 12, 36
 OA, OB, OS = 0, (P + 1) * N, 2 * (P + 1) * N
@@ -63,7 +63,7 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
     """The reference's jet (taylor_jet.jet_source) with each order's product histories (the terms
     that use only lower orders) side by side in one flat buffer ``W``, the edge terms (which
     need the current order) finished one by one; and ``W``'s size."""
-    ops, rate = _system(symmetric)
+    ops, rate = jet_system(symmetric)
     consts: dict[str, str] = {}
 
     def scaled(coef: str, var: str) -> str:

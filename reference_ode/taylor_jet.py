@@ -40,7 +40,7 @@ ROW_U = 12
 STATE = ("x", "y", "vx", "vy", "qw", "qx", "qy", "qz", "wx", "wy", "wz")
 
 
-def _system(symmetric: bool) -> tuple[list, dict]:
+def jet_system(symmetric: bool) -> tuple[list, dict]:
     """The operations, in order, and each state variable's rate as a linear combination.
 
     An operation is (name, kind, args): ``mul`` (u, v), ``sq`` (u,), ``lin`` ([(coef, u)],
@@ -160,7 +160,7 @@ def jet_source(order: int, symmetric: bool, name: str = "jet") -> str:
     ``y`` is a vector state (11), ``p`` the packed parameters (:mod:`.params_array`), ``T`` an
     (``N_ROWS``, order + 1) array receiving the coefficients.
     """
-    ops, rate = _system(symmetric)
+    ops, rate = jet_system(symmetric)
     consts: dict[str, str] = {}
 
     def scaled(coef: str, var: str) -> str:
