@@ -36,8 +36,17 @@ import re
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
-from tippetop.reference_ode.taylor_jet import ROW_N, ROW_U, STATE, jet_system
+from tippetop.reference_ode.taylor_jet import (
+    JET_VARS,
+    Constants,
+    jet_head,
+    jet_system,
+    jet_tail,
+    op_lines,
+    rate_line,
+)
 
 P, N = 12, 36
 OA, OB, OS = 0, (P + 1) * N, 2 * (P + 1) * N
@@ -62,17 +71,14 @@ def scalar_source() -> str:
 def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[str, int]:
     """The reference's jet (taylor_jet.jet_source) with each order's product histories (the terms
     that use only lower orders) side by side in one flat buffer ``W``, the edge terms (which
-    need the current order) finished one by one; and ``W``'s size."""
+    need the current order) finished one by one; and ``W``'s size.
+
+    Only the products, squares and the quotient's sum are written here; every other statement
+    is taylor_jet's own (:func:`op_lines`, :func:`rate_line`, :func:`jet_head`,
+    :func:`jet_tail`).
+    """
     ops, rate = jet_system(symmetric)
-    consts: dict[str, str] = {}
-
-    def scaled(coef: str, var: str) -> str:
-        if coef == "1.0":
-            return var
-        if coef not in consts:
-            consts[coef] = f"K{len(consts)}"
-        return f"{consts[coef]}*{var}"
-
+    consts = Constants()
     # the batched ops: mul (a, b), sq (a, a), div's history (den v, N)
     batch: list[tuple[str, str, str]] = []
     for nm, kind, args in ops:
@@ -95,10 +101,8 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
     def store(var: str, k: int) -> list[str]:
         return [f"W[{s.format(k=k)}] = {var}_{k}" for s in slots.get(var, [])]
 
-    jet_vars = (*STATE, "kx", "ky", "kz")
     body: list[str] = []
-    # order 0's stores of the state and k
-    for v in jet_vars:
+    for v in JET_VARS:  # order 0's stores of the state and k
         body += store(v, 0)
     for k in range(order):
         if k >= 2:  # the histories, side by side
@@ -109,63 +113,39 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
             body.append(f"        W[{oh} + i] += W[{oa} + j*{nbp} + i] * "
                         f"W[{ob} + ({k} - j)*{nbp} + i]")
         for nm, kind, args in ops:
-            t = f"{nm}_{k}"
-            h = f"W[{oh}+{idx[nm]}] + " if (k >= 2 and nm in idx) else ""
+            if k == 0 or kind not in ("mul", "sq", "div"):
+                body += op_lines(nm, kind, args, k, consts)
+                body += store(nm, k)
+                continue
+            t, h = f"{nm}_{k}", (f"W[{oh}+{idx[nm]}] + " if k >= 2 else "")
             if kind == "mul":
                 a, b = args
-                if k == 0:
-                    body.append(f"{t} = {a}_0*{b}_0")
-                else:
-                    body.append(f"{t} = {h}{a}_0*{b}_{k} + {a}_{k}*{b}_0")
+                body.append(f"{t} = {h}{a}_0*{b}_{k} + {a}_{k}*{b}_0")
             elif kind == "sq":
                 (a,) = args
-                if k == 0:
-                    body.append(f"{t} = {a}_0*{a}_0")
-                else:
-                    body.append(f"{t} = {h}2.0*{a}_0*{a}_{k}")
-            elif kind == "lin":
-                terms, c0 = args
-                e = " + ".join(scaled(c, f"{v}_{k}") for c, v in terms)
-                if c0 is not None and k == 0:
-                    e += f" + {c0}"
-                body.append(f"{t} = {e}")
-            elif kind == "powm":
-                u, alpha, factor = args
-                if k == 0:
-                    body.append(f"{nm}_inv_u0 = 1.0 / {u}_0")
-                    body.append(f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
-                                else f"{t} = {factor} * {u}_0 ** {alpha!r}")
-                else:
-                    parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}"
-                             for j in range(k)]
-                    body.append(f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0")
-            elif kind == "div":
+                body.append(f"{t} = {h}2.0*{a}_0*{a}_{k}")
+            else:  # div
                 u, v = args
-                if k == 0:
-                    body.append(f"{nm}_inv_v0 = 1.0 / {v}_0")
-                    body.append(f"{t} = {u}_0 * {nm}_inv_v0")
-                else:
-                    hist = f"W[{oh}+{idx[nm]}] + " if k >= 2 else ""
-                    body.append(f"{t} = ({u}_{k} - ({hist}{v}_{k}*{nm}_0)) * {nm}_inv_v0")
+                body.append(f"{t} = ({u}_{k} - ({h}{v}_{k}*{nm}_0)) * {nm}_inv_v0")
             body += store(nm, k)
-        for v in jet_vars:
-            e = " + ".join(scaled(c, f"{w}_{k}") for c, w in rate[v])
-            body.append(f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}")
+        for v in JET_VARS:
+            body.append(rate_line(v, k, rate, consts))
             body += store(v, k + 1)
-    head = [f"def {name}(y, p, T, W):",
-            "    R = p[P_R]; a = p[P_A_OFF]; M = p[P_M]; A = p[P_IA]; C = p[P_IC]; g = p[P_G]",
-            "    mu = p[P_MU]; lam = p[P_LAM]",
-            "    iA = 1.0 / A; dC = 1.0 / C - iA; lam2 = lam * lam",
-            "    inv = 1.0 / (y[4] * y[4] + y[5] * y[5] + y[6] * y[6] + y[7] * y[7])"]
-    head += [f"    {kn} = {c}" for c, kn in consts.items()]
-    head += [f"    {v}_0 = y[{i}]" for i, v in enumerate(STATE)]
-    head += ["    kx_0 = 2.0 * (qx_0 * qz_0 + qw_0 * qy_0) * inv",
-             "    ky_0 = 2.0 * (qy_0 * qz_0 - qw_0 * qx_0) * inv",
-             "    kz_0 = (qw_0 * qw_0 - qx_0 * qx_0 - qy_0 * qy_0 + qz_0 * qz_0) * inv"]
-    tail = [f"    T[{i}, {k}] = {v}_{k}" for k in range(order + 1) for i, v in enumerate(STATE)]
-    tail += [f"    T[{ROW_N}, {k}] = N_{k}" for k in range(order)]
-    tail += [f"    T[{ROW_N}, {order}] = 0.0", f"    T[{ROW_U}, 0] = u_0"]
-    return "\n".join(head + ["    " + b for b in body] + tail) + "\n", size
+    src = "\n".join(jet_head(f"{name}(y, p, T, W)", consts) + ["    " + s for s in body]
+                    + jet_tail(order)) + "\n"
+    return src, size
+
+
+def best_per_call(rounds: int, n: int, *runs: Callable[[], None]) -> list[float]:
+    """Each run's best CPU time per jet (s) over ``rounds``, the runs alternated (each makes
+    ``n`` jets)."""
+    best = [float("inf")] * len(runs)
+    for _ in range(rounds):
+        for i, run in enumerate(runs):
+            t0 = time.process_time()
+            run()
+            best[i] = min(best[i], (time.process_time() - t0) / n)
+    return best
 
 
 def measure(rounds: int) -> None:
@@ -216,14 +196,9 @@ def measure(rounds: int) -> None:
     loop_s(a0.copy(), b0, o1, 1)
     loop_w(a0.copy(), b0, o2, W, 1)
     diff = float(np.max(np.abs(o1 - o2) / np.abs(o1)))
-    n, ts, tw = 20000, float("inf"), float("inf")
-    for _ in range(rounds):
-        t0 = time.process_time()
-        loop_s(a0, b0, o1, n)
-        ts = min(ts, (time.process_time() - t0) / n)
-        t0 = time.process_time()
-        loop_w(a0, b0, o2, W, n)
-        tw = min(tw, (time.process_time() - t0) / n)
+    n = 20000
+    ts, tw = best_per_call(rounds, n, lambda: loop_s(a0, b0, o1, n),
+                           lambda: loop_w(a0, b0, o2, W, n))
     print(f"  SLP {nb.core.config.SLP_VECTORIZE}: synthetic jet: scalar {ts * 1e6:6.3f} us, "
           f"flat {tw * 1e6:6.3f} us, flat / scalar speed {ts / tw:4.2f}x (coefficients agree "
           f"to {diff:.0e})", flush=True)
@@ -272,18 +247,11 @@ def real_jet(rounds: int, order: int = 12) -> None:
     jet_new(y, p, T2, W)
     rows = T1[:12]
     diff = float(np.max(np.abs(rows - T2[:12]) / np.abs(rows).max(axis=1, keepdims=True)))
-    n, to, tn = 20000, float("inf"), float("inf")
+    n = 20000
     loop_old(y.copy(), p, T1, 10)
     loop_new(y.copy(), p, T2, W, 10)
-    for _ in range(rounds):
-        yy = y.copy()
-        t0 = time.process_time()
-        loop_old(yy, p, T1, n)
-        to = min(to, (time.process_time() - t0) / n)
-        yy = y.copy()
-        t0 = time.process_time()
-        loop_new(yy, p, T2, W, n)
-        tn = min(tn, (time.process_time() - t0) / n)
+    to, tn = best_per_call(rounds, n, lambda: loop_old(y.copy(), p, T1, n),
+                           lambda: loop_new(y.copy(), p, T2, W, n))
     print(f"  SLP {nb.core.config.SLP_VECTORIZE}: the reference's jet (order {order}): today "
           f"{to * 1e6:6.3f} us, packed {tn * 1e6:6.3f} us, packed / today speed {to / tn:4.2f}x "
           f"(coefficients agree to {diff:.0e} of each row's largest)", flush=True)
@@ -318,16 +286,9 @@ def real_jet(rounds: int, order: int = 12) -> None:
     yb[8] += 0.1
     Tb = np.zeros_like(T2)
     loop_pair(y.copy(), yb.copy(), p, T2, Tb, 10)
-    tp = float("inf")
-    for _ in range(rounds):
-        yy = y.copy()
-        t0 = time.process_time()
-        loop_old(yy, p, T1, n)
-        to = min(to, (time.process_time() - t0) / n)
-        ya, yy = y.copy(), yb.copy()
-        t0 = time.process_time()
-        loop_pair(ya, yy, p, T2, Tb, n)
-        tp = min(tp, (time.process_time() - t0) / n)
+    to_again, tp = best_per_call(rounds, n, lambda: loop_old(y.copy(), p, T1, n),
+                                 lambda: loop_pair(y.copy(), yb.copy(), p, T2, Tb, n))
+    to = min(to, to_again)
     print(f"  SLP 0: two of the reference's jets interleaved: {tp * 1e6:6.3f} us against one "
           f"{to * 1e6:6.3f} us, {tp / to:4.2f}x (1x: bound by its chains; 2x: by throughput)",
           flush=True)

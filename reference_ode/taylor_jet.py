@@ -154,6 +154,94 @@ def jet_system(symmetric: bool) -> tuple[list, dict]:
     return ops, rate
 
 
+class Constants:
+    """The parameter expressions a jet names once (``K0``, ``K1``, ...), as they are met."""
+
+    def __init__(self) -> None:
+        self.names: dict[str, str] = {}
+
+    def scaled(self, coef: str, var: str) -> str:
+        """``coef * var`` as source, ``coef`` named by its constant (none for 1.0)."""
+        if coef == "1.0":
+            return var
+        if coef not in self.names:
+            self.names[coef] = f"K{len(self.names)}"
+        return f"{self.names[coef]}*{var}"
+
+
+def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants) -> list[str]:
+    """The statements giving operation ``nm``'s k-th coefficient (:func:`jet_system`)."""
+    t = f"{nm}_{k}"
+    if kind == "mul":
+        a, b = args
+        return [f"{t} = " + " + ".join(f"{a}_{j}*{b}_{k - j}" for j in range(k + 1))]
+    if kind == "sq":
+        (a,) = args
+        parts = [f"{a}_{j}*{a}_{k - j}" for j in range((k + 1) // 2)]
+        e = f"2.0*({' + '.join(parts)})" if parts else ""
+        if k % 2 == 0:
+            e = (f"{e} + " if e else "") + f"{a}_{k // 2}*{a}_{k // 2}"
+        return [f"{t} = {e}"]
+    if kind == "lin":
+        terms, c0 = args
+        e = " + ".join(consts.scaled(c, f"{v}_{k}") for c, v in terms)
+        if c0 is not None and k == 0:
+            e += f" + {c0}"
+        return [f"{t} = {e}"]
+    if kind == "powm":
+        u, alpha, factor = args
+        if k == 0:
+            return [f"{nm}_inv_u0 = 1.0 / {u}_0",
+                    f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
+                    else f"{t} = {factor} * {u}_0 ** {alpha!r}"]
+        parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}" for j in range(k)]
+        return [f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0"]
+    if kind == "div":
+        u, v = args
+        if k == 0:
+            return [f"{nm}_inv_v0 = 1.0 / {v}_0", f"{t} = {u}_0 * {nm}_inv_v0"]
+        parts = [f"{v}_{j}*{nm}_{k - j}" for j in range(1, k + 1)]
+        return [f"{t} = ({u}_{k} - ({' + '.join(parts)})) * {nm}_inv_v0"]
+    raise ValueError(f"unknown operation kind {kind!r}")
+
+
+def rate_line(v: str, k: int, rate: dict, consts: Constants) -> str:
+    """The statement giving jet variable ``v``'s (k+1)-th coefficient from the k-th rates."""
+    e = " + ".join(consts.scaled(c, f"{w}_{k}") for c, w in rate[v])
+    return f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}"
+
+
+#: The jet variables: the state and the axis k (carried as its own, k' = w x k).
+JET_VARS = (*STATE, "kx", "ky", "kz")
+
+
+def jet_head(signature: str, consts: Constants) -> list[str]:
+    """The function's first lines.
+
+    ``def signature:``, the parameters, the named constants and the 0th coefficients of the jet
+    variables.
+    """
+    head = [f"def {signature}:",
+            "    R = p[P_R]; a = p[P_A_OFF]; M = p[P_M]; A = p[P_IA]; C = p[P_IC]; g = p[P_G]",
+            "    mu = p[P_MU]; lam = p[P_LAM]",
+            "    iA = 1.0 / A; dC = 1.0 / C - iA; lam2 = lam * lam",
+            "    inv = 1.0 / (y[4] * y[4] + y[5] * y[5] + y[6] * y[6] + y[7] * y[7])"]
+    head += [f"    {kn} = {c}" for c, kn in consts.names.items()]
+    head += [f"    {v}_0 = y[{i}]" for i, v in enumerate(STATE)]
+    head += ["    kx_0 = 2.0 * (qx_0 * qz_0 + qw_0 * qy_0) * inv",
+             "    ky_0 = 2.0 * (qy_0 * qz_0 - qw_0 * qx_0) * inv",
+             "    kz_0 = (qw_0 * qw_0 - qx_0 * qx_0 - qy_0 * qy_0 + qz_0 * qz_0) * inv"]
+    return head
+
+
+def jet_tail(order: int) -> list[str]:
+    """The function's last lines: the coefficients into ``T``."""
+    tail = [f"    T[{i}, {k}] = {v}_{k}" for k in range(order + 1) for i, v in enumerate(STATE)]
+    tail += [f"    T[{ROW_N}, {k}] = N_{k}" for k in range(order)]
+    tail += [f"    T[{ROW_N}, {order}] = 0.0", f"    T[{ROW_U}, 0] = u_0"]
+    return tail
+
+
 def jet_source(order: int, symmetric: bool, name: str = "jet") -> str:
     """Python source of ``name(y, p, T)``: the jet of order ``order``, fully unrolled.
 
@@ -161,68 +249,11 @@ def jet_source(order: int, symmetric: bool, name: str = "jet") -> str:
     (``N_ROWS``, order + 1) array receiving the coefficients.
     """
     ops, rate = jet_system(symmetric)
-    consts: dict[str, str] = {}
-
-    def scaled(coef: str, var: str) -> str:
-        if coef == "1.0":
-            return var
-        if coef not in consts:
-            consts[coef] = f"K{len(consts)}"
-        return f"{consts[coef]}*{var}"
-
-    jet_vars = (*STATE, "kx", "ky", "kz")
+    consts = Constants()
     body: list[str] = []
     for k in range(order):
         for nm, kind, args in ops:
-            t = f"{nm}_{k}"
-            if kind == "mul":
-                a, b = args
-                body.append(f"{t} = " + " + ".join(f"{a}_{j}*{b}_{k - j}" for j in range(k + 1)))
-            elif kind == "sq":
-                (a,) = args
-                parts = [f"{a}_{j}*{a}_{k - j}" for j in range((k + 1) // 2)]
-                e = f"2.0*({' + '.join(parts)})" if parts else ""
-                if k % 2 == 0:
-                    e = (f"{e} + " if e else "") + f"{a}_{k // 2}*{a}_{k // 2}"
-                body.append(f"{t} = {e}")
-            elif kind == "lin":
-                terms, c0 = args
-                e = " + ".join(scaled(c, f"{v}_{k}") for c, v in terms)
-                if c0 is not None and k == 0:
-                    e += f" + {c0}"
-                body.append(f"{t} = {e}")
-            elif kind == "powm":
-                u, alpha, factor = args
-                if k == 0:
-                    body.append(f"{nm}_inv_u0 = 1.0 / {u}_0")
-                    body.append(f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
-                                else f"{t} = {factor} * {u}_0 ** {alpha!r}")
-                else:
-                    parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}"
-                             for j in range(k)]
-                    body.append(f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0")
-            elif kind == "div":
-                u, v = args
-                if k == 0:
-                    body.append(f"{nm}_inv_v0 = 1.0 / {v}_0")
-                    body.append(f"{t} = {u}_0 * {nm}_inv_v0")
-                else:
-                    parts = [f"{v}_{j}*{nm}_{k - j}" for j in range(1, k + 1)]
-                    body.append(f"{t} = ({u}_{k} - ({' + '.join(parts)})) * {nm}_inv_v0")
-        for v in jet_vars:
-            e = " + ".join(scaled(c, f"{w}_{k}") for c, w in rate[v])
-            body.append(f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}")
-    head = [f"def {name}(y, p, T):",
-            "    R = p[P_R]; a = p[P_A_OFF]; M = p[P_M]; A = p[P_IA]; C = p[P_IC]; g = p[P_G]",
-            "    mu = p[P_MU]; lam = p[P_LAM]",
-            "    iA = 1.0 / A; dC = 1.0 / C - iA; lam2 = lam * lam",
-            "    inv = 1.0 / (y[4] * y[4] + y[5] * y[5] + y[6] * y[6] + y[7] * y[7])"]
-    head += [f"    {kn} = {c}" for c, kn in consts.items()]
-    head += [f"    {v}_0 = y[{i}]" for i, v in enumerate(STATE)]
-    head += ["    kx_0 = 2.0 * (qx_0 * qz_0 + qw_0 * qy_0) * inv",
-             "    ky_0 = 2.0 * (qy_0 * qz_0 - qw_0 * qx_0) * inv",
-             "    kz_0 = (qw_0 * qw_0 - qx_0 * qx_0 - qy_0 * qy_0 + qz_0 * qz_0) * inv"]
-    tail = [f"    T[{i}, {k}] = {v}_{k}" for k in range(order + 1) for i, v in enumerate(STATE)]
-    tail += [f"    T[{ROW_N}, {k}] = N_{k}" for k in range(order)]
-    tail += [f"    T[{ROW_N}, {order}] = 0.0", f"    T[{ROW_U}, 0] = u_0"]
-    return "\n".join(head + ["    " + b for b in body] + tail) + "\n"
+            body += op_lines(nm, kind, args, k, consts)
+        body += [rate_line(v, k, rate, consts) for v in JET_VARS]
+    return "\n".join(jet_head(f"{name}(y, p, T)", consts) + ["    " + b for b in body]
+                     + jet_tail(order)) + "\n"
