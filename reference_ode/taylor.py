@@ -67,6 +67,8 @@ SAFETY = 1.0
 #: A step is flagged stiff when the law relaxes the slip this many times faster than the top
 #: turns: mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|.
 STIFF_SEPARATION = 1000.0
+
+
 def unsupported(rhs, p: np.ndarray) -> str | None:
     """None if the kernel runs this problem, else why not (one line).
 
