@@ -18,10 +18,10 @@ of the reference's jets with their statements interleaved in one function agains
 Each setting runs in a fresh process with ``NUMBA_SLP_VECTORIZE`` 0 and 1 (numba reads it at
 import), best CPU time of ``--rounds`` rounds of 20,000 calls, the forms alternated; both
 forms give the same coefficients (to ~1e-16 and ~2e-14). Measured 2026-11-28 (2 shared cores,
-four runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
+five runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
 reference's packed jet 1.05-1.28x today's, its arithmetic mostly packed (605 packed FMAs in
 place of most of 2,415 scalar ones) but its instruction count about the same; two jets
-interleaved 2.31-2.34x one: the real jet is bound by its instructions' throughput, much of it
+interleaved 2.31-2.53x one: the real jet is bound by its instructions' throughput, much of it
 memory moves, not by its chains of dependent operations (docs/design.md).
 
 Run: ``python benchmarks/bench_jet_packing.py [--rounds 5]`` (about a minute: each process
