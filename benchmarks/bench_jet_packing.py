@@ -19,10 +19,14 @@ Each setting runs in a fresh process with ``NUMBA_SLP_VECTORIZE`` 0 and 1 (numba
 import), best CPU time of ``--rounds`` rounds of 20,000 calls, the forms alternated; both
 forms give the same coefficients (to ~1e-16 and ~2e-14). Measured 2026-11-28 (2 shared cores,
 five runs): with SLP on, the synthetic flat form 1.9-2.6x its scalar form (off: 0.5x); the
-reference's packed jet 1.05-1.28x today's, its arithmetic mostly packed (605 packed FMAs in
-place of most of 2,415 scalar ones) but its instruction count about the same; two jets
-interleaved 2.31-2.53x one: the real jet is bound by its instructions' throughput, much of it
-memory moves, not by its chains of dependent operations (docs/design.md).
+reference's packed jet 1.05-1.28x the index-order jet's, its arithmetic mostly packed (605
+packed FMAs in place of most of 2,415 scalar ones) but its instruction count about the same;
+two jets interleaved 2.31-2.53x one. That pair doubles the live values (more of them spilled to
+memory), so it did not isolate the chains as meant: the packed variant also writes each
+product's newest terms last, and that order alone, with no packing, is 1.26-1.33x at order 12
+(benchmarks/bench_jet_sums.py), since each order waits on the last through every operation.
+So the jet measured here is the one in index order (``sums="plain"``, as until 2026-11-28),
+compiled as it was (docs/design.md).
 
 Run: ``python benchmarks/bench_jet_packing.py [--rounds 5]`` (about a minute: each process
 compiles the unrolled form, ~15 s).
@@ -114,7 +118,7 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
                         f"W[{ob} + ({k} - j)*{nbp} + i]")
         for nm, kind, args in ops:
             if k == 0 or kind not in ("mul", "sq", "div"):
-                body += op_lines(nm, kind, args, k, consts)
+                body += op_lines(nm, kind, args, k, consts, "plain")
                 body += store(nm, k)
                 continue
             t, h = f"{nm}_{k}", (f"W[{oh}+{idx[nm]}] + " if k >= 2 else "")
@@ -218,7 +222,7 @@ def real_jet(rounds: int, order: int = 12) -> None:
            "from tippetop.reference_ode.params_array import *\n")
     v1, m2 = nb.types.float64[::1], nb.types.float64[:, ::1]
     ns: dict = {}
-    exec(pre + jet_source(order, True), ns)  # noqa: S102 - the reference's own jet source
+    exec(pre + jet_source(order, True, sums="plain"), ns)  # noqa: S102 - its own source
     jet_old = nb.njit(nb.types.none(v1, v1, m2), error_model="numpy", fastmath=fm)(ns["jet"])
     src, size = packed_jet_source(order, True)
     ns = {}
@@ -252,15 +256,16 @@ def real_jet(rounds: int, order: int = 12) -> None:
     loop_new(y.copy(), p, T2, W, 10)
     to, tn = best_per_call(rounds, n, lambda: loop_old(y.copy(), p, T1, n),
                            lambda: loop_new(y.copy(), p, T2, W, n))
-    print(f"  SLP {nb.core.config.SLP_VECTORIZE}: the reference's jet (order {order}): today "
-          f"{to * 1e6:6.3f} us, packed {tn * 1e6:6.3f} us, packed / today speed {to / tn:4.2f}x "
+    print(f"  SLP {nb.core.config.SLP_VECTORIZE}: the reference's jet (order {order}): index "
+          f"order {to * 1e6:6.3f} us, packed {tn * 1e6:6.3f} us, packed / index order speed "
+          f"{to / tn:4.2f}x "
           f"(coefficients agree to {diff:.0e} of each row's largest)", flush=True)
     if nb.core.config.SLP_VECTORIZE:
         return
     # two independent jets, their statements interleaved in one function: a jet bound by its
     # chains of dependent operations runs the pair in about one jet's time (the two chains
     # overlap), a jet bound by its instructions' throughput in two
-    lines = jet_source(order, True).splitlines()[1:]
+    lines = jet_source(order, True, sums="plain").splitlines()[1:]
 
     def rename(line: str, suf: str) -> str:
         line = re.sub(r"\b([A-Za-z]\w*?_\d+|K\d+|R|a|M|A|C|g|mu|lam|iA|dC|lam2|inv|"

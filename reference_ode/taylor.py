@@ -118,8 +118,7 @@ _F8 = nb.types.float64
 _I8 = nb.types.int64
 
 
-@nb.njit(nb.types.none(_V, _V, _M), cache=True, error_model="numpy",
-         fastmath={{"contract", "reassoc"}})
+@nb.njit(nb.types.none(_V, _V, _M), cache=True, error_model="numpy", fastmath={{"contract"}})
 {jet}
 
 @nb.njit(nb.types.none(_M, _F8, _V), cache=True, error_model="numpy")

@@ -14,7 +14,9 @@ N (row 11, coefficients 0..P-1) and |v_P|^2 + Lambda^2 at the start (row 12, col
 ball on the table with the modified Coulomb law and no viscous part, fully unrolled for one
 order (every coefficient a local of its own: the compiled jet is straight-line code, half the
 time of loops over the orders in a prototype measured on this machine, 2.3 against 4.6 us at
-order 13, at the price of a compile of ~20 s per order).
+order 13, at the price of a compile of ~20 s per order). Its sums of products are written for
+the path each order waits on (:func:`op_lines`): the terms of the newest coefficient last, the
+rest in two chains, 1.1-1.3x the jet's speed in index order (``sums="plain"``).
 
 The operations are those of :func:`reference_ode.vector.vector_core` for this contact, with
 three identities of the exact solution used to drop work (each holds term by term in the
@@ -169,15 +171,57 @@ class Constants:
         return f"{self.names[coef]}*{var}"
 
 
-def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants) -> list[str]:
-    """The statements giving operation ``nm``'s k-th coefficient (:func:`jet_system`)."""
+#: How a jet sums its series products (:func:`op_lines`): ``"latency"``, the terms that need the
+#: newest coefficient last and the rest in two chains; ``"plain"``, one chain in index order.
+SUM_ORDERS = ("latency", "plain")
+
+
+def _sum(hist: list[str], edge: list[str]) -> str:
+    """``hist`` (terms of coefficients already known) then ``edge`` (of the newest), as source.
+
+    The history, when long enough to matter (4 terms or more), is summed in two chains of
+    alternate terms, added at the end. Each order's coefficients wait on the last order's
+    through every operation in turn, so what a product adds to that path is what follows its
+    newest coefficient in its sum: here one or two fused multiply-adds, where one chain in
+    index order puts the newest coefficient first and the whole chain after it. The jet is
+    compiled with contraction but without reassociation, which would fold the chains back into
+    one.
+    """
+    if len(hist) >= 4:
+        h = f"({' + '.join(hist[0::2])}) + ({' + '.join(hist[1::2])})"
+    else:
+        h = " + ".join(hist)
+    if not hist:
+        return " + ".join(edge)
+    return f"({h}) + {' + '.join(edge)}" if edge else h
+
+
+def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants,
+             order: str = "latency") -> list[str]:
+    """The statements giving operation ``nm``'s k-th coefficient (:func:`jet_system`).
+
+    ``order`` is how the sums of products are written (:data:`SUM_ORDERS`): the same terms,
+    ``"latency"`` with the newest coefficients' terms last (:func:`_sum`), ``"plain"`` in index
+    order (the jet until 2026-11-28, kept as the benchmark's baseline:
+    benchmarks/bench_jet_packing.py).
+    """
+    if order not in SUM_ORDERS:
+        raise ValueError(f"expected a sum order of {', '.join(SUM_ORDERS)}, got {order!r}")
+    plain = order == "plain"
     t = f"{nm}_{k}"
     if kind == "mul":
         a, b = args
-        return [f"{t} = " + " + ".join(f"{a}_{j}*{b}_{k - j}" for j in range(k + 1))]
+        if plain or k == 0:
+            return [f"{t} = " + " + ".join(f"{a}_{j}*{b}_{k - j}" for j in range(k + 1))]
+        hist = [f"{a}_{j}*{b}_{k - j}" for j in range(1, k)]
+        return [f"{t} = " + _sum(hist, [f"{a}_0*{b}_{k}", f"{a}_{k}*{b}_0"])]
     if kind == "sq":
         (a,) = args
-        parts = [f"{a}_{j}*{a}_{k - j}" for j in range((k + 1) // 2)]
+        if plain or k == 0:
+            parts = [f"{a}_{j}*{a}_{k - j}" for j in range((k + 1) // 2)]
+        else:
+            parts = [_sum([f"{a}_{j}*{a}_{k - j}" for j in range(1, (k + 1) // 2)],
+                          [f"{a}_0*{a}_{k}"])]
         e = f"2.0*({' + '.join(parts)})" if parts else ""
         if k % 2 == 0:
             e = (f"{e} + " if e else "") + f"{a}_{k // 2}*{a}_{k // 2}"
@@ -195,13 +239,15 @@ def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants) -> list
                     f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
                     else f"{t} = {factor} * {u}_0 ** {alpha!r}"]
         parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}" for j in range(k)]
-        return [f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0"]
+        e = " + ".join(parts) if plain else _sum(parts[1:], parts[:1])
+        return [f"{t} = ({e}) * {nm}_inv_u0"]
     if kind == "div":
         u, v = args
         if k == 0:
             return [f"{nm}_inv_v0 = 1.0 / {v}_0", f"{t} = {u}_0 * {nm}_inv_v0"]
         parts = [f"{v}_{j}*{nm}_{k - j}" for j in range(1, k + 1)]
-        return [f"{t} = ({u}_{k} - ({' + '.join(parts)})) * {nm}_inv_v0"]
+        e = " + ".join(parts) if plain else _sum(parts[:-1], parts[-1:])
+        return [f"{t} = ({u}_{k} - ({e})) * {nm}_inv_v0"]
     raise ValueError(f"unknown operation kind {kind!r}")
 
 
@@ -242,18 +288,19 @@ def jet_tail(order: int) -> list[str]:
     return tail
 
 
-def jet_source(order: int, symmetric: bool, name: str = "jet") -> str:
+def jet_source(order: int, symmetric: bool, name: str = "jet", sums: str = "latency") -> str:
     """Python source of ``name(y, p, T)``: the jet of order ``order``, fully unrolled.
 
     ``y`` is a vector state (11), ``p`` the packed parameters (:mod:`.params_array`), ``T`` an
-    (``N_ROWS``, order + 1) array receiving the coefficients.
+    (``N_ROWS``, order + 1) array receiving the coefficients; ``sums`` how the sums of products
+    are written (:func:`op_lines`).
     """
     ops, rate = jet_system(symmetric)
     consts = Constants()
     body: list[str] = []
     for k in range(order):
         for nm, kind, args in ops:
-            body += op_lines(nm, kind, args, k, consts)
+            body += op_lines(nm, kind, args, k, consts, sums)
         body += [rate_line(v, k, rate, consts) for v in JET_VARS]
     return "\n".join(jet_head(f"{name}(y, p, T)", consts) + ["    " + b for b in body]
                      + jet_tail(order)) + "\n"

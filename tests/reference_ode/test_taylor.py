@@ -28,7 +28,14 @@ from tippetop.reference_ode import dop853 as d
 from tippetop.reference_ode import taylor
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
-from tippetop.reference_ode.taylor_jet import N_ROWS, ROW_N
+from tippetop.reference_ode.taylor_jet import (
+    N_ROWS,
+    ROW_N,
+    SUM_ORDERS,
+    Constants,
+    jet_system,
+    op_lines,
+)
 from tippetop.reference_ode.top import FORMULATIONS
 
 #: Two tops: a sphere's inertia (A = C, the symmetric jet) and A/C = 0.8 (the general one).
@@ -115,6 +122,48 @@ def test_the_jet_is_heyokas(kind: str) -> None:
         for k in range(min(order, 12) + 1):
             ref = ta.tc[:, k]
             assert np.max(np.abs(T[:11, k] - ref)) <= 1e-10 * max(np.max(np.abs(ref)), 1e-300)
+
+
+class _Values(dict):
+    """Every name a statement reads, a random number in [0.5, 1.5] (the same for both forms)."""
+
+    def __init__(self) -> None:
+        super().__init__(math=math)
+        self.rng = np.random.default_rng(5)
+
+    def __missing__(self, name: str) -> float:
+        self[name] = float(self.rng.uniform(0.5, 1.5))
+        return self[name]
+
+
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_the_sums_in_either_order_are_the_same_sums(symmetric: bool) -> None:
+    """The latency order (the kernel's) gives every product, square, power and quotient the
+    value the index order gives, at random inputs in [0.5, 1.5]: 1e-12 (rounding of up to 13
+    terms near 1: ~1e-15; a term lost or doubled in the regrouping moves it by >= 0.25), and
+    puts the terms of the newest coefficient (index k) last, which is its point
+    (benchmarks/bench_jet_sums.py)."""
+    ops, _ = jet_system(symmetric)
+    values = _Values()
+    for k in range(13):
+        for nm, kind, args in ops:
+            got = []
+            for sums in ("plain", "latency"):
+                env = _Values()
+                env.update(values)
+                for line in op_lines(nm, kind, args, k, Constants(), sums):
+                    exec(line, {}, env)  # noqa: S102 - the generator's own statements
+                values.update({n: v for n, v in env.items() if n not in values})
+                got.append(env[f"{nm}_{k}"])
+            assert abs(got[0] - got[1]) <= 1e-12 * max(1.0, abs(got[0])), (nm, k, got)
+            if kind in ("mul", "powm", "div") and k >= 2:
+                rhs = op_lines(nm, kind, args, k, Constants(), "latency")[-1]
+                newest = f"{args[1 if kind == 'div' else 0]}_{k}"
+                tail = rhs.rsplit(")", 1)[-1] if kind == "mul" else rhs.rsplit(") + ", 1)[-1]
+                assert newest in tail, (nm, k, rhs)
+    with pytest.raises(ValueError, match="expected a sum order of latency, plain"):
+        op_lines("a1", "mul", ("wx", "kx"), 3, Constants(), "fast")
+    assert SUM_ORDERS == ("latency", "plain")
 
 
 def test_the_order_follows_the_tolerance() -> None:
