@@ -133,7 +133,7 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
                 body.append(f"{t} = ({u}_{k} - ({h}{v}_{k}*{nm}_0)) * {nm}_inv_v0")
             body += store(nm, k)
         for v in JET_VARS:
-            body.append(rate_line(v, k, rate, consts))
+            body.append(rate_line(v, k, rate, consts, "plain"))
             body += store(v, k + 1)
     src = "\n".join(jet_head(f"{name}(y, p, T, W)", consts) + ["    " + s for s in body]
                     + jet_tail(order)) + "\n"

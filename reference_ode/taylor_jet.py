@@ -170,6 +170,12 @@ class Constants:
             self.names[coef] = f"K{len(self.names)}"
         return f"{self.names[coef]}*{var}"
 
+    def times(self, coef: str, factor: float, var: str) -> str:
+        """``(coef factor) * var`` as source: the constant's product first, off the path."""
+        if coef == "1.0":
+            return f"{factor!r}*{var}"
+        return f"({self.scaled(coef, repr(factor))})*{var}"
+
 
 #: How a jet sums its series products (:func:`op_lines`): ``"latency"``, the terms that need the
 #: newest coefficient last and the rest in two chains; ``"plain"``, one chain in index order.
@@ -235,26 +241,42 @@ def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants,
     if kind == "powm":
         u, alpha, factor = args
         if k == 0:
-            return [f"{nm}_inv_u0 = 1.0 / {u}_0",
-                    f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
-                    else f"{t} = {factor} * {u}_0 ** {alpha!r}"]
+            lines = [f"{nm}_inv_u0 = 1.0 / {u}_0",
+                     f"{t} = {factor} * math.sqrt({nm}_inv_u0)" if alpha == -0.5
+                     else f"{t} = {factor} * {u}_0 ** {alpha!r}"]
+            return lines if plain else [*lines, f"{nm}_edge = {alpha!r} * {t} * {nm}_inv_u0"]
         parts = [f"{(alpha * (k - j) - j) / k!r}*{u}_{k - j}*{nm}_{j}" for j in range(k)]
-        e = " + ".join(parts) if plain else _sum(parts[1:], parts[:1])
-        return [f"{t} = ({e}) * {nm}_inv_u0"]
+        if plain:
+            return [f"{t} = ({' + '.join(parts)}) * {nm}_inv_u0"]
+        # the newest term's factor alpha c_0 / u_0 is a number per step (``_edge``)
+        edge = f"{u}_{k}*{nm}_edge"
+        return [f"{t} = ({_sum(parts[1:], [])}) * {nm}_inv_u0 + {edge}" if k > 1
+                else f"{t} = {edge}"]
     if kind == "div":
         u, v = args
         if k == 0:
-            return [f"{nm}_inv_v0 = 1.0 / {v}_0", f"{t} = {u}_0 * {nm}_inv_v0"]
+            lines = [f"{nm}_inv_v0 = 1.0 / {v}_0", f"{t} = {u}_0 * {nm}_inv_v0"]
+            return lines if plain else [*lines, f"{nm}_edge = {t} * {nm}_inv_v0"]
         parts = [f"{v}_{j}*{nm}_{k - j}" for j in range(1, k + 1)]
-        e = " + ".join(parts) if plain else _sum(parts[:-1], parts[-1:])
-        return [f"{t} = ({u}_{k} - ({e})) * {nm}_inv_v0"]
+        if plain:
+            return [f"{t} = ({u}_{k} - ({' + '.join(parts)})) * {nm}_inv_v0"]
+        # c_k = u_k / v_0 - (history) / v_0 - v_k (c_0 / v_0): one operation after v_k
+        hist = f" - ({_sum(parts[:-1], [])}) * {nm}_inv_v0" if k > 1 else ""
+        return [f"{t} = {u}_{k} * {nm}_inv_v0{hist} - {v}_{k}*{nm}_edge"]
     raise ValueError(f"unknown operation kind {kind!r}")
 
 
-def rate_line(v: str, k: int, rate: dict, consts: Constants) -> str:
-    """The statement giving jet variable ``v``'s (k+1)-th coefficient from the k-th rates."""
-    e = " + ".join(consts.scaled(c, f"{w}_{k}") for c, w in rate[v])
-    return f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}"
+def rate_line(v: str, k: int, rate: dict, consts: Constants, sums: str = "latency") -> str:
+    """The statement giving jet variable ``v``'s (k+1)-th coefficient from the k-th rates.
+
+    ``sums`` as :func:`op_lines`': ``"latency"`` scales each term by its constant over k + 1
+    (a number per order, off the path), ``"plain"`` scales the sum.
+    """
+    if sums == "plain":
+        e = " + ".join(consts.scaled(c, f"{w}_{k}") for c, w in rate[v])
+        return f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}"
+    return f"{v}_{k + 1} = " + " + ".join(consts.times(c, 1.0 / (k + 1), f"{w}_{k}")
+                                          for c, w in rate[v])
 
 
 #: The jet variables: the state and the axis k (carried as its own, k' = w x k).
@@ -301,6 +323,6 @@ def jet_source(order: int, symmetric: bool, name: str = "jet", sums: str = "late
     for k in range(order):
         for nm, kind, args in ops:
             body += op_lines(nm, kind, args, k, consts, sums)
-        body += [rate_line(v, k, rate, consts) for v in JET_VARS]
+        body += [rate_line(v, k, rate, consts, sums) for v in JET_VARS]
     return "\n".join(jet_head(f"{name}(y, p, T)", consts) + ["    " + b for b in body]
                      + jet_tail(order)) + "\n"

@@ -29,12 +29,14 @@ from tippetop.reference_ode import taylor
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
 from tippetop.reference_ode.taylor_jet import (
+    JET_VARS,
     N_ROWS,
     ROW_N,
     SUM_ORDERS,
     Constants,
     jet_system,
     op_lines,
+    rate_line,
 )
 from tippetop.reference_ode.top import FORMULATIONS
 
@@ -138,12 +140,12 @@ class _Values(dict):
 
 @pytest.mark.parametrize("symmetric", [True, False])
 def test_the_sums_in_either_order_are_the_same_sums(symmetric: bool) -> None:
-    """The latency order (the kernel's) gives every product, square, power and quotient the
-    value the index order gives, at random inputs in [0.5, 1.5]: 1e-12 (rounding of up to 13
+    """The latency order (the kernel's) gives every product, square, power, quotient and rate
+    the value the index order gives, at random inputs in [0.5, 1.5]: 1e-12 (rounding of up to 13
     terms near 1: ~1e-15; a term lost or doubled in the regrouping moves it by >= 0.25), and
     puts the terms of the newest coefficient (index k) last, which is its point
     (benchmarks/bench_jet_sums.py)."""
-    ops, _ = jet_system(symmetric)
+    ops, rate = jet_system(symmetric)
     values = _Values()
     for k in range(13):
         for nm, kind, args in ops:
@@ -161,6 +163,14 @@ def test_the_sums_in_either_order_are_the_same_sums(symmetric: bool) -> None:
                 newest = f"{args[1 if kind == 'div' else 0]}_{k}"
                 tail = rhs.rsplit(")", 1)[-1] if kind == "mul" else rhs.rsplit(") + ", 1)[-1]
                 assert newest in tail, (nm, k, rhs)
+        for v in JET_VARS:
+            got = []
+            for sums in ("plain", "latency"):
+                env = _Values()
+                env.update(values)
+                exec(rate_line(v, k, rate, Constants(), sums), {}, env)  # noqa: S102
+                got.append(env[f"{v}_{k + 1}"])
+            assert abs(got[0] - got[1]) <= 1e-12 * max(1.0, abs(got[0])), (v, k, got)
     with pytest.raises(ValueError, match="expected a sum order of latency, plain"):
         op_lines("a1", "mul", ("wx", "kx"), 3, Constants(), "fast")
     assert SUM_ORDERS == ("latency", "plain")
