@@ -12,11 +12,12 @@ stand for the local error, h = SAFETY min((max_i |y_i,P| / sc_i)^(-1/P),
 the other methods' component scales in place of one tolerance). The order follows the
 tolerance asked (``models.options.taylor_order``: on the Fig. 3 and Fig. 11 tops the steps at
 loose tolerances are set by stability, the friction law's slip relaxation near -400/s, so the
-cheapest jet whose steps stay stable wins: order 7, 0.5 us a jet, to rtol 1e-5, order 9 to
-1e-6, order 12, 1.3 us, below; measured over orders 6-12 and rtol 1e-3..1e-11 on both tops,
-order 16 slower than 12 at every rtol down to 1e-12). Where stability limits the step (the
-friction law relaxes the slip at up to ~mu g / Lambda, and an excited fast mode's coefficients
-grow until they bound h), the same rule holds the step near the series' stability boundary.
+cheapest jet whose steps stay stable wins: order 7, 0.23 us a jet, to rtol 1e-4, order 9 at
+1e-5, 10 at 1e-6, order 12, 0.55 us, below (2026-11-28's machine); measured over orders 6-12
+and rtol 1e-3..1e-11 on both tops, order 16 slower than 12 at every rtol down to 1e-12).
+Where stability limits the step (the friction law relaxes the slip at up to ~mu g / Lambda,
+and an excited fast mode's coefficients grow until they bound h), the same rule holds the step
+near the series' stability boundary.
 
 Stiffness: a step is flagged (``S_NSTIFF``) when the law relaxes the slip over
 :data:`STIFF_SEPARATION` times faster than the top turns, mu g / sqrt(|v_P|^2 + Lambda^2) >
