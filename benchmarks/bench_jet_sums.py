@@ -6,7 +6,10 @@ operation of the right-hand side in turn (w, k -> the spin -> the slip -> the la
 the torque -> N -> the rates -> the next order). Written in index order, one chain of fused
 multiply-adds, the newest coefficient enters first (u_0 v_k) and the whole chain follows it on
 that path; written with the terms of the newest coefficients last and the rest (the history) in
-two chains, a product adds one or two operations to it (``taylor_jet.op_lines``).
+two chains, a product adds one or two operations to it (``taylor_jet.op_lines``); the power's
+and the quotient's newest terms are one operation after their input, each rate term is scaled
+by a number per order, and each sum adds its terms in the order their inputs are ready
+(``taylor_jet.by_depth``).
 
 This times the reference's jet both ways, in one process, at the orders the method runs (7, 9,
 12), for a sphere's inertia (A = C, the catalogue's tops) and for A != C (its other jet): best
@@ -16,8 +19,9 @@ back into one chain), today's with contraction only. Both give the same coeffici
 of each row's largest. It also counts each compiled jet's instructions: the latency form has
 more (it adds the chains' partial sums), so what it gains is time on the path, not work.
 
-Measured 2026-11-28 (2 cores, while another job ran): 1.28-1.33x at order 12, 1.17-1.20x at 9,
-1.12-1.13x at 7 (by hand, /tmp prototypes, before this benchmark; see its own output for a run).
+Measured 2026-11-28 (2 cores, best of 5): 1.37x, 1.37x and 1.39x at orders 7, 9 and 12 for
+A = C, 1.24x, 1.30x and 1.36x for A/C = 0.9; with the products' order alone (newest terms last,
+two chains), 1.14-1.27x.
 
 Run: ``python benchmarks/bench_jet_sums.py [--rounds 7] [--orders 7,9,12]`` (each jet compiles
 in ~5-15 s).
@@ -128,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"the reference's jet, best CPU time per jet of {a.rounds} rounds; index order "
           "(reassociation allowed, as until 2026-11-28) against today's (newest terms last, "
-          "two chains):")
+          "two chains, each sum in the order its inputs are ready):")
     print(f"{'jet':10s} {'order':>5s} {'index us':>10s} {'today us':>10s} {'speed':>8s} "
           f"{'instr':>8s} {'instr':>8s} {'agree':>9s}")
     for label, ratio in JETS.items():

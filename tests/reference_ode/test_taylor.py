@@ -34,6 +34,7 @@ from tippetop.reference_ode.taylor_jet import (
     ROW_N,
     SUM_ORDERS,
     Constants,
+    by_depth,
     jet_system,
     op_lines,
     rate_line,
@@ -171,6 +172,18 @@ def test_the_sums_in_either_order_are_the_same_sums(symmetric: bool) -> None:
                 exec(rate_line(v, k, rate, Constants(), sums), {}, env)  # noqa: S102
                 got.append(env[f"{v}_{k + 1}"])
             assert abs(got[0] - got[1]) <= 1e-12 * max(1.0, abs(got[0])), (v, k, got)
+    # the latency jet's operations in depth order (by_depth): the same terms, the latest last
+    ordered, ordered_rate = by_depth(ops, rate)
+    for (nm, kind, args), (nm2, kind2, args2) in zip(ops, ordered, strict=True):
+        assert (nm, kind) == (nm2, kind2)
+        if kind == "lin":
+            assert sorted(args[0]) == sorted(args2[0]) and args[1] == args2[1]
+        else:
+            assert sorted(map(str, args)) == sorted(map(str, args2))
+    assert {v: sorted(t) for v, t in rate.items()} == {v: sorted(t) for v, t in
+                                                       ordered_rate.items()}
+    vpx = next(args for nm, kind, args in ordered if nm == "vpx")
+    assert vpx[0][-1][1] == "kdx"  # the term of this order's product last, the state's first
     with pytest.raises(ValueError, match="expected a sum order of latency, plain"):
         op_lines("a1", "mul", ("wx", "kx"), 3, Constants(), "fast")
     assert SUM_ORDERS == ("latency", "plain")
