@@ -34,7 +34,8 @@ from tippetop.reference_ode.top import FORMULATIONS
 
 #: theta agreement with the tight solution of the law (rad). The rolling phase is the law's
 #: slow manifold to first order in Lambda, with the slip held at the law's quasi-steady
-#: value and its rate fed forward; measured 1e-9 to 2e-9 rad on the runs below. Dropping the
+#: value and its rate fed forward; measured 1e-9 to 2e-9 rad on the runs below (1.4e-9 on the
+#: 8-s run since v_qs is the force applied's, 2026-11-28). Dropping the
 #: slip's rate (a lagging Baumgarte term alone, tau = 1 ms) already costs 3e-6 rad on the 8-s
 #: Fig. 3 run, and rolling without the quasi-steady slip 3e-5 rad: the bound, 50x the
 #: measured error, fails for either simplification.
