@@ -39,8 +39,8 @@ import os
 import re
 import subprocess
 import sys
-import time
-from collections.abc import Callable
+
+from bench_jet_sums import best_per_call, compile_jet, loop_of  # beside this script
 
 from tippetop.reference_ode.taylor_jet import (
     JET_VARS,
@@ -140,18 +140,6 @@ def packed_jet_source(order: int, symmetric: bool, name: str = "jet") -> tuple[s
     return src, size
 
 
-def best_per_call(rounds: int, n: int, *runs: Callable[[], None]) -> list[float]:
-    """Each run's best CPU time per jet (s) over ``rounds``, the runs alternated (each makes
-    ``n`` jets)."""
-    best = [float("inf")] * len(runs)
-    for _ in range(rounds):
-        for i, run in enumerate(runs):
-            t0 = time.process_time()
-            run()
-            best[i] = min(best[i], (time.process_time() - t0) / n)
-    return best
-
-
 def measure(rounds: int) -> None:
     """In this process (its NUMBA_SLP_VECTORIZE as set): both forms, one line."""
     import numba as nb
@@ -221,20 +209,14 @@ def real_jet(rounds: int, order: int = 12) -> None:
     pre = ("import math\nimport numba as nb\nimport numpy as np\n"
            "from tippetop.reference_ode.params_array import *\n")
     v1, m2 = nb.types.float64[::1], nb.types.float64[:, ::1]
-    ns: dict = {}
-    exec(pre + jet_source(order, True, sums="plain"), ns)  # noqa: S102 - its own source
-    jet_old = nb.njit(nb.types.none(v1, v1, m2), error_model="numpy", fastmath=fm)(ns["jet"])
+    jet_old = compile_jet(order, True, "plain", fm)
     src, size = packed_jet_source(order, True)
-    ns = {}
+    ns: dict = {}
     exec(pre + src, ns)  # noqa: S102 - the packed variant, written above
     jet_new = nb.njit(nb.types.none(v1, v1, m2, v1), error_model="numpy", fastmath=fm,
                       boundscheck=False)(ns["jet"])
 
-    @nb.njit
-    def loop_old(y, p, T, n):
-        for _ in range(n):
-            jet_old(y, p, T)
-            y[0] += T[0, 3] * 1e-300
+    loop_old = loop_of(jet_old)
 
     @nb.njit
     def loop_new(y, p, T, W, n):

@@ -16,7 +16,8 @@ order (every coefficient a local of its own: the compiled jet is straight-line c
 time of loops over the orders in a prototype measured on this machine, 2.3 against 4.6 us at
 order 13, at the price of a compile of ~20 s per order). Its sums of products are written for
 the path each order waits on (:func:`op_lines`): the terms of the newest coefficient last, the
-rest in two chains, 1.1-1.3x the jet's speed in index order (``sums="plain"``).
+rest in two chains, each sum's terms in the order their inputs are ready (:func:`by_depth`):
+1.2-1.4x the jet's speed in index order (``sums="plain"``; benchmarks/bench_jet_sums.py).
 
 The operations are those of :func:`reference_ode.vector.vector_core` for this contact, with
 three identities of the exact solution used to drop work (each holds term by term in the
@@ -202,18 +203,23 @@ def _sum(hist: list[str], edge: list[str]) -> str:
     return f"({h}) + {' + '.join(edge)}" if edge else h
 
 
+def _is_plain(sums: str) -> bool:
+    """Whether ``sums`` (:data:`SUM_ORDERS`) is the index order; ValueError if neither."""
+    if sums not in SUM_ORDERS:
+        raise ValueError(f"expected a sum order of {', '.join(SUM_ORDERS)}, got {sums!r}")
+    return sums == "plain"
+
+
 def op_lines(nm: str, kind: str, args: tuple, k: int, consts: Constants,
-             order: str = "latency") -> list[str]:
+             sums: str = "latency") -> list[str]:
     """The statements giving operation ``nm``'s k-th coefficient (:func:`jet_system`).
 
-    ``order`` is how the sums of products are written (:data:`SUM_ORDERS`): the same terms,
+    ``sums`` is how the sums of products are written (:data:`SUM_ORDERS`): the same terms,
     ``"latency"`` with the newest coefficients' terms last (:func:`_sum`), ``"plain"`` in index
-    order (the jet until 2026-11-28, kept as the benchmark's baseline:
-    benchmarks/bench_jet_packing.py).
+    order (the jet until 2026-11-28, kept as the benchmarks' baseline:
+    benchmarks/bench_jet_sums.py, bench_jet_packing.py).
     """
-    if order not in SUM_ORDERS:
-        raise ValueError(f"expected a sum order of {', '.join(SUM_ORDERS)}, got {order!r}")
-    plain = order == "plain"
+    plain = _is_plain(sums)
     t = f"{nm}_{k}"
     if kind == "mul":
         a, b = args
@@ -272,7 +278,7 @@ def rate_line(v: str, k: int, rate: dict, consts: Constants, sums: str = "latenc
     ``sums`` as :func:`op_lines`': ``"latency"`` scales each term by its constant over k + 1
     (a number per order, off the path), ``"plain"`` scales the sum.
     """
-    if sums == "plain":
+    if _is_plain(sums):
         e = " + ".join(consts.scaled(c, f"{w}_{k}") for c, w in rate[v])
         return f"{v}_{k + 1} = ({e}) * {1.0 / (k + 1)!r}"
     return f"{v}_{k + 1} = " + " + ".join(consts.times(c, 1.0 / (k + 1), f"{w}_{k}")
