@@ -309,22 +309,37 @@ class DaskCluster:
                     time.sleep(TICK_S if tick is not None else 0.05)
                     continue
                 for fut in batch:
-                    yield futures[fut], self._outcome(fut)
+                    out = self._outcome(fut)
+                    if out is None:  # not done after all: wait for it again
+                        pending.add(fut)
+                        continue
+                    yield futures[fut], out
         finally:
             with contextlib.suppress(Exception):
                 self.client.cancel(list(futures))
 
-    def _outcome(self, fut: Any) -> dict[str, Any]:
+    def _outcome(self, fut: Any) -> dict[str, Any] | None:
+        """The run's ``out``, or None when its future is not done after all.
+
+        A future that ended can be pending again by the time it is read: its run finished,
+        then the worker holding its result died (status ``lost``; Dask runs it again), seen
+        in CI when a killed worker held the reference's finished run.
+        """
         self._check(fut)
-        if fut.status == "finished":
+        status = fut.status
+        if status == "finished":
             try:
                 return fut.result()
             except (OSError, TimeoutError) as exc:  # the scheduler went while fetching
                 raise self._lost() from exc
-        if fut.status == "cancelled":
+        if status == "cancelled":
             return {"error": "the run was cancelled on the Dask cluster"}
+        if status != "error":  # lost or pending: not done
+            return None
         exc = fut.exception()
-        if exc is None:  # pragma: no cover - an error future always has its exception
+        if exc is None:
+            if fut.status != "error":  # it was rerun meanwhile (retried): read it again
+                return None
             return {"error": "the run failed on the Dask cluster with no reason given"}
         return {"error": failed_run_reason(exc)}
 

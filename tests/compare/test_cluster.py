@@ -159,6 +159,63 @@ def test_a_killed_worker_is_one_line_in_the_run_s_row() -> None:
     assert other == "the run failed on the Dask worker: RuntimeError: boom at line 3"
 
 
+class _Ended:
+    """A future as Dask's: ``statuses`` are what it reads each time (the last one stays)."""
+
+    def __init__(self, *statuses: str, value: Any = None, error: Any = None) -> None:
+        self.statuses, self.value, self.error = list(statuses), value, error
+
+    @property
+    def status(self) -> str:
+        return self.statuses.pop(0) if len(self.statuses) > 1 else self.statuses[0]
+
+    def result(self) -> Any:
+        return self.value
+
+    def exception(self) -> Any:
+        return self.error
+
+
+class _InOrder:
+    """``as_completed``: one future per batch, in the order given; ``add`` puts one last."""
+
+    def __init__(self, futures: list[Any], loop: Any = None) -> None:
+        self.queue = list(futures)
+
+    def is_empty(self) -> bool:
+        return not self.queue
+
+    def next_batch(self, block: bool = False) -> list[Any]:
+        return [self.queue.pop(0)]
+
+    def add(self, fut: Any) -> None:
+        self.queue.append(fut)
+
+
+def test_a_run_whose_result_was_lost_after_it_ended_is_waited_for(monkeypatch) -> None:
+    """Ended, then its worker died holding the result (``lost``): Dask runs it again, and its
+    row is that run's, not "no reason given" (seen in CI: the reference's run, finished on the
+    worker the test's killer task then killed)."""
+    from distributed.scheduler import KilledWorker
+
+    class Last:
+        address = "tcp://127.0.0.1:4321"
+
+    lost = _Ended("lost", "lost", "finished", value={"summary": "again"})
+    retried = _Ended("error", "pending", "finished", value={"summary": "retried"})
+    killed = _Ended("error", error=KilledWorker("execute_plan-1", Last(), 2))
+    cancelled = _Ended("cancelled")
+    client = FakeClient({})
+    client.cancel = lambda futures: None  # type: ignore[attr-defined]
+    client.loop = None  # type: ignore[attr-defined]
+    monkeypatch.setattr(dask_cluster, "as_completed", _InOrder)
+    futures = {lost: "a", retried: "b", killed: "c", cancelled: "d"}
+    out = dict(dask_cluster.DaskCluster(client, "tcp://x:1").results(futures))
+    assert out["a"] == {"summary": "again"} and out["b"] == {"summary": "retried"}
+    assert "KilledWorker" in out["c"]["error"] and "\n" not in out["c"]["error"]
+    assert out["d"] == {"error": "the run was cancelled on the Dask cluster"}
+
+
 def test_a_scheduler_that_is_not_there_is_one_line() -> None:
     from tippetop.models.errors import TippetopError
 
