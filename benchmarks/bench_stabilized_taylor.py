@@ -22,7 +22,7 @@ in a shuffled order each round, best CPU time (time.process_time) of ``--rounds`
 3), the truth DOP853 at rtol 1e-14 (Verner 9(8) at the same rtol agrees to ~3e-13 rad). The
 table keeps, per level 1e-4 ... 1e-10 rad, the cheapest run reaching both errors (end <=
 level, samples <= 3 x level: a single end-point error can be met by a lucky cancellation) for
-the reference's orders (models.options.TAYLOR_ORDERS: 7, 9, 12), the best plain order and the best
+the reference's orders (models.options.TAYLOR_ORDERS), the best plain order and the best
 stabilized variant, and prints the ratio best plain / best stabilized (> 1: stabilizing pays).
 
 Measured (2026-11-28, 2 shared cores, best of 7/15): the stabilized steps are 1.3-2x fewer, but

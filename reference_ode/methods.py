@@ -24,7 +24,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.options import AUTO_RULE, AUTO_TAYLOR, ODE_METHODS, auto_method
+from tippetop.models.options import (
+    AUTO_RULE,
+    AUTO_TAYLOR,
+    ODE_METHODS,
+    TAYLOR_ORDERS,
+    auto_method,
+)
 
 __all__ = ["AUTO_RULE", "AUTO_TAYLOR", "METHODS", "Method", "choose_method", "get_method"]
 
@@ -64,14 +70,21 @@ class Method:
         return self._kernel().new_stats(n)
 
 
+def _orders() -> str:
+    """The Taylor method's orders as words: "7, 9, 10 and 12" (:data:`TAYLOR_ORDERS`)."""
+    orders = [str(o) for o in sorted({o for _, o in TAYLOR_ORDERS})]
+    return orders[0] if len(orders) == 1 else f"{', '.join(orders[:-1])} and {orders[-1]}"
+
+
 #: The methods there are, by name.
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("dop853", "dop853", 8, "Dormand-Prince 8(5,3) (Hairer's DOP853)"),
     Method("vern9", "verner", 9, "Verner 9(8) (the most efficient pair, IIIXb)"),
     Method("adams", "adams", 12, "variable-order Adams PECE, orders 1-12",
            hands_over_stiff=True),
-    Method("taylor", "taylor", 12, "adaptive Taylor series, orders 7, 9 and 12 (the ball on the "
-           "table, the modified Coulomb law)", hands_over_stiff=True),
+    Method("taylor", "taylor", max(o for _, o in TAYLOR_ORDERS),
+           f"adaptive Taylor series, orders {_orders()} (the ball on the table, the modified "
+           "Coulomb law)", hands_over_stiff=True),
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]
 
