@@ -9,7 +9,9 @@ Solvers: the reference's methods (:data:`reference_ode.methods.METHODS`, each th
 ``auto``) through :func:`simulate_ode` (with its rolling phases on the stiff top); the peers on
 the same compiled right-hand side (:mod:`compare.studies.peer_runs`). Every point is run at
 rtol in :data:`TOLERANCES` with atol = ``ATOL_PER_RTOL`` rtol, its CPU time the best of the
-rounds (the solvers alternate within a round; everything is compiled before the first).
+rounds (the solvers alternate within a round; everything is compiled before the first). A
+compiled solver's point shorter than :data:`SHORT_S` runs :data:`SHORT_ROUNDS` times as many
+rounds: the Fig. 3 top's runs take 0.2-2 ms, where the best of 3 still moves by ~5 %.
 
 Errors, against the truth (:func:`compute_truth`, two methods shown to agree): |theta(t_end) -
 theta_truth| (rad), |t_invert - t_invert_truth| (s) where the top inverts, and Jellett's drift
@@ -46,6 +48,11 @@ from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
 FORMAT = "tippetop-work-precision/1"
 #: The sweep's relative tolerances (atol = ATOL_PER_RTOL rtol), loose to tight.
 TOLERANCES: tuple[float, ...] = tuple(10.0**-k for k in range(3, 14))
+#: A compiled solver's point whose first run is shorter than this (s) ...
+SHORT_S = 0.01
+#: ... runs this many times the rounds asked (its best CPU time is then as steady as a longer
+#: point's: a few ms of runs in all).
+SHORT_ROUNDS = 5
 #: The stiff top's simulated time (s).
 STIFF_T_END_S = 1.0
 #: Error levels per metric: theta(t_end) in rad, t_invert in s, Jellett's drift (relative).
@@ -218,12 +225,14 @@ def _errors(run: PeerPoint, truth: dict) -> dict:
 def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
               tolerances: Sequence[float] = TOLERANCES, peers: Sequence[str] | None = None,
               methods: Sequence[str] | None = None, budget_s: float | None = None,
-              tick: Callable[[], None] | None = None) -> dict:
+              tick: Callable[[], None] | None = None,
+              expect: Callable[[int], None] | None = None) -> dict:
     """One top's sweep: the truth, every solver's points, and the equal-error tables' rows.
 
     Args:
         top: The top.
-        rounds: Rounds of the compiled solvers (each point keeps its best CPU time).
+        rounds: Rounds of the compiled solvers (each point keeps its best CPU time); a point
+            shorter than :data:`SHORT_S` runs :data:`SHORT_ROUNDS` times as many.
         slow_rounds: Rounds of the peers that call a Python wrapper (scipy, CVODE).
         tolerances: rtol values of the compiled solvers; the slow peers run every other one.
         peers: Peer names (default: the available ones).
@@ -231,6 +240,8 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
         budget_s: A slow peer's sweep stops after a point over this CPU time (s); default
             the peer's own.
         tick: Called after each run (progress).
+        expect: Called with the number of runs planned (before the first round), then with
+            the number more or fewer (after it: the rounds of each point it leaves).
     """
     ref_names, skipped = reference_methods()
     if methods is not None:
@@ -258,13 +269,32 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
     for n in names:
         solvers[n] = {"kind": "reference" if n.startswith(REF_PREFIX) else "peer",
                       "points": {}, "stopped": None}
-    for r in range(max(rounds, slow_rounds)):
+    def rounds_of(n: str, rtol: float) -> int:
+        if n in PEERS and PEERS[n].slow:
+            return slow_rounds
+        first = solvers[n]["points"].get(rtol)
+        short = first is not None and first["s"] < SHORT_S
+        return rounds * SHORT_ROUNDS if short else rounds
+
+    def first_runs(n: str) -> int:
+        slow = n in PEERS and PEERS[n].slow
+        return len([t for t in tols if not slow or t in PEERS[n].tolerances(tols)])
+
+    planned = sum(first_runs(n) for n in names)
+    if expect is not None:
+        expect(planned)
+    for r in range(max(rounds * SHORT_ROUNDS, slow_rounds)):
+        if r == 1 and expect is not None:  # the first round told which points run again
+            made = sum(len(sv["points"]) for sv in solvers.values())
+            later = sum(rounds_of(n, q["rtol"]) - 1 for n, sv in solvers.items()
+                        for q in sv["points"].values() if q["status"] == "ok")
+            expect(later - (planned - made))
         for k, rtol in enumerate(tols):
             order = names[(r + k) % len(names):] + names[:(r + k) % len(names)]
             for n in order:
                 sv = solvers[n]
                 slow = n in PEERS and PEERS[n].slow
-                if (r >= (slow_rounds if slow else rounds)
+                if (r >= rounds_of(n, rtol)
                         or (slow and rtol not in PEERS[n].tolerances(tols))
                         or (sv["stopped"] and rtol < sv["stopped"])):
                     continue

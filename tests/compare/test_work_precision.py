@@ -94,6 +94,54 @@ def test_a_method_that_does_not_import_is_skipped(monkeypatch: pytest.MonkeyPatc
     assert "does not import" in skipped["tippetop vern9"]
 
 
+def test_a_short_point_runs_more_rounds_and_the_bar_counts_every_run(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A compiled solver's point under SHORT_S runs SHORT_ROUNDS x the rounds (its best CPU
+    time then as steady as a longer point's); a longer one, and a Python-driven peer's, do
+    not; the runs the sweep says it plans (``expect``) are the runs it makes (``tick``)."""
+    import tippetop.compare.studies.work_precision as wp
+    from tippetop.compare.studies.peer_runs import Peer
+
+    runs: dict[tuple[str, float], int] = {}
+    #: CPU time (s) per rtol: the two loose points are short, the tight ones long
+    times = {1e-3: 0.001, 1e-4: 0.002, 1e-5: 0.02, 1e-6: 0.04}
+
+    def point(name: str, rtol: float) -> PeerPoint:
+        runs[name, rtol] = runs.get((name, rtol), 0) + 1
+        return PeerPoint(s=times[rtol], n_rhs=1, theta=1.0 + rtol, t_invert=None,
+                         J_drift=rtol, status="ok", method=name)
+
+    class Fake(Peer):
+        def warm(self, top: object) -> None:
+            pass
+
+        def run(self, top: object, rtol: float, *, locate_invert: bool,
+                t_end_s: float | None = None) -> PeerPoint:
+            return point(self.name, rtol)
+
+    class Slow(Fake):
+        slow = True
+
+    fakes = {"fast": Fake("fast"), "slow": Slow("slow")}
+    monkeypatch.setattr(wp, "PEERS", fakes)
+    monkeypatch.setattr(wp, "compute_truth", lambda top: {"theta": 1.0, "t_invert": None})
+    monkeypatch.setattr(wp, "run_reference", lambda top, m, rtol: point(m, rtol))
+    planned: list[int] = []
+    ticks: list[int] = []
+    res = wp.sweep_top(make_top("fig3", 0.01), rounds=2, tolerances=tuple(times),
+                       peers=list(fakes), methods=["dop853"],
+                       tick=lambda: ticks.append(1), expect=planned.append)
+    short, long_ = 2 * wp.SHORT_ROUNDS, 2
+    for name in ("fast", "dop853"):
+        # the reference's warm-up run at the loosest rtol is off the count (one more run)
+        warm = 1 if name == "dop853" else 0
+        assert [runs[name, t] for t in times] == [short + warm, short, long_, long_]
+    assert [runs.get(("slow", t), 0) for t in times] == [1, 0, 1, 0]  # every other rtol
+    assert sum(planned) == len(ticks) == sum(runs.values()) - 1
+    assert planned[0] == 4 + 4 + 2  # the first round, as planned before it
+    assert {p["s"] for p in res["solvers"]["fast"]["points"]} == set(times.values())
+
+
 @pytest.mark.parametrize("args", [
     ["bench", "ode", "--sweep", "--tops", "fig3,nope"],
     ["bench", "ode", "--sweep", "--tops", ","],
