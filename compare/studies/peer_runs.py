@@ -28,10 +28,12 @@ import ctypes
 import math
 import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -62,6 +64,8 @@ class PeerPoint:
         status: ``ok`` or why not.
         method: The method that ran (the reference's, ``auto`` resolved).
         locate_err: Estimated error of locating ``t_invert`` from samples (s), or None.
+        printed: Lines the solver's compiled code printed during the timed run (Hairer's
+            DOP853: "the problem seems to become stiff"), kept off the terminal.
     """
 
     s: float
@@ -72,6 +76,7 @@ class PeerPoint:
     status: str
     method: str = ""
     locate_err: float | None = None
+    printed: int = 0
 
 
 def theta_of_states(Y: np.ndarray) -> np.ndarray:
@@ -129,6 +134,8 @@ class Peer:
 
     def __init__(self, name: str) -> None:
         self.name = name
+        #: Lines the last :meth:`solve`'s compiled code printed (kept off the terminal).
+        self.printed = 0
 
     def missing(self) -> str | None:
         """None if the solver can run here, else why not."""
@@ -151,10 +158,13 @@ class Peer:
             t_end_s: float | None = None) -> PeerPoint:
         """One timed run to t_end; with ``locate_invert``, the inversion time too (untimed)."""
         T = top.t_end_s if t_end_s is None else t_end_s
+        self.printed = 0
         t, Y, n, s, status = self.solve(top, rtol, None, T)
+        printed = self.printed
         if status != "ok" or not np.isfinite(Y[-1]).all() or abs(t[-1] - T) > 1e-9 * T:
             return PeerPoint(s=s, n_rhs=n, theta=math.nan, t_invert=None, J_drift=math.nan,
-                             status=status if status != "ok" else "did not reach t_end")
+                             status=status if status != "ok" else "did not reach t_end",
+                             printed=printed)
         t_inv = err = None
         y_end = Y[-1].copy()
         if locate_invert:
@@ -164,21 +174,46 @@ class Peer:
             t_inv, err = locate_crossing(t, Y, lambda tt: self.solve(top, rtol, tt, T)[1])
         return PeerPoint(s=s, n_rhs=n, theta=float(theta_of_states(y_end)[0]), t_invert=t_inv,
                          J_drift=jellett_drift(top, y_end), status="ok", method=self.name,
-                         locate_err=err)
+                         locate_err=err, printed=printed)
+
+
+@cache
+def _gfortran() -> Any:
+    """The gfortran runtime numbalsoda's DOP853 and LSODA are linked to, or None."""
+    try:
+        return ctypes.CDLL("libgfortran.so.5")
+    except OSError:
+        return None
+
+
+def _flush_fortran() -> None:
+    """Flush every gfortran unit: its writes to a file are buffered apart from C's."""
+    lib = _gfortran()
+    if lib is not None:
+        lib._gfortran_flush_i4(None)  # FLUSH with no unit: all of them
 
 
 @contextmanager
-def _stdout_to_stderr() -> Iterator[None]:
-    """Send what compiled code prints on file descriptor 1 to 2 (keeps --json's stdout clean)."""
+def _captured_stdout() -> Iterator[list[str]]:
+    """What compiled code prints on file descriptor 1, kept off it.
+
+    The list holds its lines after the block: --json's stdout stays clean, and a terminal is
+    not filled with them.
+    """
     sys.stdout.flush()
     saved = os.dup(1)
-    try:
-        os.dup2(2, 1)
-        yield
-    finally:
-        ctypes.CDLL(None).fflush(None)  # C's buffered stdout, while it still goes to 2
-        os.dup2(saved, 1)
-        os.close(saved)
+    lines: list[str] = []
+    with tempfile.TemporaryFile() as sink:
+        try:
+            os.dup2(sink.fileno(), 1)
+            yield lines
+        finally:
+            ctypes.CDLL(None).fflush(None)  # C's buffered stdout, while it still goes there
+            _flush_fortran()  # and gfortran's own buffer (unit 6), which C's fflush misses
+            os.dup2(saved, 1)
+            os.close(saved)
+            sink.seek(0)
+            lines.extend(sink.read().decode(errors="replace").splitlines())
 
 
 class NumbalsodaPeer(Peer):
@@ -191,9 +226,10 @@ class NumbalsodaPeer(Peer):
     def solve(self, top, rtol, t_eval, t_end_s):
         """See :meth:`Peer.solve`."""
         te = np.array([0.0, t_end_s]) if t_eval is None else np.concatenate([[0.0], t_eval])
-        with _stdout_to_stderr():  # Hairer's DOP853 prints "the problem seems to become stiff"
+        with _captured_stdout() as said:  # Hairer's DOP853: "the problem seems to become stiff"
             Y, n, s, ok = numbalsoda_solve(self.name, top.y0, top.p, te, rtol,
                                            ATOL_PER_RTOL * rtol)
+        self.printed = len(said)
         if not ok:  # what numbalsoda leaves in the unreached rows is not a state
             Y = np.full_like(Y, np.nan)
         if t_eval is not None:

@@ -308,7 +308,8 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
                                           "s": run.s, "n_rhs": run.n_rhs,
                                           "status": run.status, **_errors(run, truth),
                                           "method": run.method,
-                                          "t_invert_locate_err": run.locate_err}
+                                          "t_invert_locate_err": run.locate_err,
+                                          "printed": run.printed}
                     limit = PEERS[n].budget_s if n in PEERS else None
                     limit = budget_s if (budget_s is not None and slow) else limit
                     if run.status != "ok" or (limit is not None and run.s > limit):

@@ -133,6 +133,13 @@ def top_report(res: dict) -> str:
                 len(sv["points"]) < len(PEERS[n].tolerances(TOLERANCES)):
             lines.append(f"  {n}: stopped after rtol {sv['points'][-1]['rtol']:g} (over its "
                          f"{PEERS[n].budget_s:g} s budget)")
+    for n, sv in res["solvers"].items():
+        said = [p for p in sv["points"] if p.get("printed")]
+        if said:
+            lines.append(f"  {n}: its compiled code printed {sum(p['printed'] for p in said)} "
+                         f"line(s) at {len(said)} of its {len(sv['points'])} tolerances, kept "
+                         "off the terminal (Hairer's DOP853: \"the problem seems to become "
+                         "stiff\"; the run goes on)")
     if res["stiff"]:
         lines.append("  (the reference runs its rolling phases where the law is stiff; the "
                      "truth and the peers integrate the law: the reference's error includes "

@@ -237,3 +237,22 @@ def test_tops() -> None:
     assert make_top("stiff").stiff and make_top("stiff").friction.Lambda_mps == 1e-6
     with pytest.raises(TippetopError):
         make_top("nope")
+
+
+def test_what_a_peer_s_fortran_prints_is_counted_not_shown(
+        capfd: pytest.CaptureFixture[str]) -> None:
+    """Hairer's DOP853 (numbalsoda, gfortran) prints "the problem seems to become stiff" on
+    file descriptor 1 in its own buffer: 216 lines in a terminal over one stiff-top sweep. The
+    run keeps them off both descriptors, even after it ends (gfortran flushes its buffer
+    later unless told), and counts them."""
+    pytest.importorskip("numbalsoda")
+    from tippetop.compare.studies.peer_runs import PEERS
+
+    peer = PEERS["numbalsoda DOP853"]
+    top = make_top("stiff", 0.2)  # its detector fires once at rtol 1e-5 (measured: 1 line)
+    capfd.readouterr()
+    point = peer.run(top, 1e-5, locate_invert=False)
+    peer.run(top, 1e-3, locate_invert=False)  # a later run, to flush anything still held
+    out, err = capfd.readouterr()
+    assert point.status == "ok" and point.printed >= 1
+    assert "stiff" not in out and "stiff" not in err
