@@ -50,7 +50,7 @@ STRIP_FRAMES = 6
 #: The fidelity map's measured results (the default grid takes about 30 min on 2 cores, too
 #: long for a build): the figure is drawn from them by today's code.
 FIDELITY_RESULTS = "docs/data/fidelity-default.json"
-#: Today's work-precision sweep (``tippetop bench ode --sweep``, about 5 min on 2 cores):
+#: Today's work-precision sweep (``tippetop bench ode --sweep``, about 3 min on 2 cores):
 #: its figures are drawn from the results at build time.
 WORK_PRECISION_RESULTS = "docs/data/work-precision.json"
 
