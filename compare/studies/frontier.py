@@ -7,6 +7,11 @@ interpolating log(time) linearly in log(error) between the two frontier points t
 the level: the cheapest time at which the solver reaches at most that error. A level below the
 smallest error it reached is "not reached"; a level above its cheapest point's error is read
 as the cheapest point's time (the frontier is not extrapolated towards cheaper runs).
+
+An end-point error can be small by a cancellation: a run at a loose tolerance whose error
+happens to pass near zero at t_end (heyoka's Jellett drift on Fig. 3: 6.9e-9 at tol 1e-5, 8.3e-9
+at 1e-6). :func:`cancellations` finds such points (an error below the next tighter tolerance's),
+and the benchmark reads every level a second time without them, for every solver alike.
 """
 
 from __future__ import annotations
@@ -58,6 +63,29 @@ def smallest_error(points: Iterable[tuple[float, float]]) -> float | None:
     """The smallest finite error among the points (None without one)."""
     errs = [e for e, t in points if math.isfinite(e) and math.isfinite(t)]
     return min(errs) if errs else None
+
+
+def cancellations(points: Sequence[tuple[float, float, float]]) -> list[float]:
+    """The tolerances of a solver's points whose error looks like a cancellation.
+
+    Args:
+        points: (rtol, error, time) of one solver, in any order; non-finite errors are left
+            out.
+
+    Returns:
+        The rtol of each point whose error is below the error at the next tighter tolerance
+        (errors floored at :data:`ERROR_FLOOR`, so two points at the floor are not one).
+    """
+    pts = sorted(((r, max(e, ERROR_FLOOR)) for r, e, _ in points if math.isfinite(e)),
+                 reverse=True)
+    return [r for (r, e), (_, e_next) in zip(pts, pts[1:], strict=False) if e < e_next]
+
+
+def without_cancellations(points: Sequence[tuple[float, float, float]]
+                          ) -> list[tuple[float, float]]:
+    """(error, time) of the points that are not :func:`cancellations`."""
+    drop = set(cancellations(points))
+    return [(e, t) for r, e, t in points if r not in drop]
 
 
 def compare_at_levels(points: Mapping[str, Sequence[tuple[float, float]]],
@@ -112,11 +140,18 @@ def format_ratio(r: float | None) -> str:
     return "inf" if math.isinf(r) else f"{r:.2f}x"
 
 
-def level_table(title: str, unit: str, rows: Sequence[dict], solvers: Sequence[str]) -> str:
-    """The printed table: rows = levels, columns = solvers' times (ms), then the ratios."""
+def level_table(title: str, unit: str, rows: Sequence[dict], solvers: Sequence[str],
+                cancelled: Mapping[str, Sequence[float]] | None = None) -> str:
+    """The printed table: rows = levels, columns = solvers' times (ms), then the ratios.
+
+    Rows with ``ratio_steady`` (the ratio without cancellations) get that column too, and
+    ``cancelled`` (per solver, the rtols set aside) is listed under the table.
+    """
     width = max(11, *(len(s) for s in solvers)) if solvers else 11
     head = f"  {'level':>9s}  " + " ".join(f"{s:>{width}s}" for s in solvers)
-    lines = [title, head + f"  {'peer/ref':>9s} {'peer/auto':>9s}  target >= {TARGET_RATIO:g}x"]
+    steady = any("ratio_steady" in r for r in rows)
+    lines = [title, head + f"  {'peer/ref':>9s} {'peer/auto':>9s}"
+             + (f" {'steady':>9s}" if steady else "") + f"  target >= {TARGET_RATIO:g}x"]
     for row in rows:
         cells = []
         for s in solvers:
@@ -129,10 +164,19 @@ def level_table(title: str, unit: str, rows: Sequence[dict], solvers: Sequence[s
         verdict = "met" if row["met"] else "NOT met"
         if row["ratio"] is not None and row["met"] != row["met_auto"]:
             verdict += f" (auto: {'met' if row['met_auto'] else 'NOT met'})"
+        if steady and not row["met"] and row.get("met_steady"):
+            verdict += " (met without cancellations)"
         lines.append(f"  {row['level']:>7.0e} {unit:<2s} " + " ".join(cells)
                      + f"  {format_ratio(row['ratio']):>9s} {format_ratio(row['ratio_auto']):>9s}"
+                     + (f" {format_ratio(row.get('ratio_steady')):>9s}" if steady else "")
                      + f"  {verdict}")
     lines.append("  (ms of CPU time at the level, on each solver's frontier; n/r = not reached, "
                  "with the smallest error reached; peer/ref = the fastest peer's time over the "
-                 "fastest reference method's)")
+                 "fastest reference method's" + ("; steady = the same with every solver's "
+                                                  "cancellations set aside" if steady else "")
+                 + ")")
+    if cancelled:
+        lines.append("  cancellations (an error below the next tighter rtol's), set aside in "
+                     "steady: " + "; ".join(f"{n} at rtol {', '.join(f'{r:g}' for r in rs)}"
+                                           for n, rs in cancelled.items()))
     return "\n".join(lines)

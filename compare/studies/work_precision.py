@@ -15,7 +15,9 @@ rounds: the Fig. 3 top's runs take 0.2-2 ms, where the best of 3 still moves by 
 
 Errors, against the truth (:func:`compute_truth`, two methods shown to agree): |theta(t_end) -
 theta_truth| (rad), |t_invert - t_invert_truth| (s) where the top inverts, and Jellett's drift
-|J(t_end) / J(0) - 1| (the law conserves J exactly on a sphere: the drift is the error).
+|J(t_end) / J(0) - 1| (the law conserves J exactly on a sphere: the drift is the error). Each
+level is read twice: on every point, and without each solver's cancellations (a point whose
+error is below the next tighter tolerance's, :func:`frontier.cancellations`): ``ratio_steady``.
 """
 
 from __future__ import annotations
@@ -35,7 +37,11 @@ from tippetop.compare.studies.accuracy.common import (
     ode_plan,
 )
 from tippetop.compare.studies.accuracy.ode_study import STIFF_LAMBDA_MPS, STIFF_SCENE, stiff_scene
-from tippetop.compare.studies.frontier import compare_at_levels
+from tippetop.compare.studies.frontier import (
+    cancellations,
+    compare_at_levels,
+    without_cancellations,
+)
 from tippetop.compare.studies.peer_runs import PEERS, Peer, PeerPoint, available_peers
 from tippetop.models.errors import TippetopError
 from tippetop.models.options import OdeOptions
@@ -326,11 +332,20 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
                         ("J_drift", "J_drift")):
         if metric == "t_invert" and truth["t_invert"] is None:
             continue
-        pts = {n: [(p[key], p["s"]) for p in sv["points"] if p["status"] == "ok"]
-               for n, sv in solvers.items()}
+        by_rtol = {n: [(p["rtol"], p[key], p["s"]) for p in sv["points"]
+                       if p["status"] == "ok" and p[key] is not None]
+                   for n, sv in solvers.items()}
+        pts = {n: [(e, t) for _, e, t in ps] for n, ps in by_rtol.items()}
+        rows = compare_at_levels(pts, refs, auto, peer_names, LEVELS[metric])
+        # the same levels with every solver's cancellations set aside (frontier.cancellations)
+        steady = compare_at_levels({n: without_cancellations(ps) for n, ps in by_rtol.items()},
+                                   refs, auto, peer_names, LEVELS[metric])
+        for row, st in zip(rows, steady, strict=True):
+            row.update(ratio_steady=st["ratio"], ratio_auto_steady=st["ratio_auto"],
+                       met_steady=st["met"], best_peer_steady=st["best_peer"])
+        cancelled = {n: c for n, ps in by_rtol.items() if (c := cancellations(ps))}
         levels[metric] = {"unit": UNITS[metric], "levels": list(LEVELS[metric]),
-                          "rows": compare_at_levels(pts, refs, auto, peer_names,
-                                                    LEVELS[metric])}
+                          "rows": rows, "cancellations": cancelled}
     return {"name": top.name, "title": top.title, "t_end_s": top.t_end_s,
             "stiff": top.stiff, "truth": truth, "solvers": solvers, "skipped": skipped,
             "references": refs, "auto": auto, "peers": peer_names, "levels": levels}

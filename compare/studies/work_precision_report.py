@@ -146,7 +146,7 @@ def top_report(res: dict) -> str:
                      "the rolling phases' modelling error)")
     for metric, lv in res["levels"].items():
         lines.append(level_table(f"  {METRIC_TITLES[metric]}", lv["unit"], lv["rows"],
-                                 solvers))
+                                 solvers, lv.get("cancellations")))
     return "\n".join(lines)
 
 

@@ -16,10 +16,13 @@ import pytest
 
 from tippetop.compare.cli import main
 from tippetop.compare.studies.frontier import (
+    cancellations,
     compare_at_levels,
     frontier,
+    level_table,
     smallest_error,
     time_at_error,
+    without_cancellations,
 )
 from tippetop.compare.studies.peer_runs import PeerPoint
 from tippetop.compare.studies.work_precision import (
@@ -69,6 +72,38 @@ def test_compare_at_levels_ratios() -> None:
     assert rows[2]["smallest"]["peer"] == 1e-6
     # at 1e-10 no one: None, NOT met
     assert rows[3]["ratio"] is None and not rows[3]["met"]
+
+
+def test_a_cancellation_is_an_error_below_the_next_tighter_tolerance_s() -> None:
+    """heyoka's Jellett drift on Fig. 3 (2026-11-28): 6.9e-9 at tol 1e-5 but 8.3e-9 at 1e-6,
+    and 6.9e-15 at 1e-9 but 1.6e-14 at 1e-10: the two loose points are cancellations; the
+    rest falls with the tolerance. Two points at the error floor are not one."""
+    pts = [(1e-4, 3.3e-6, 0.34), (1e-5, 6.9e-9, 0.395), (1e-6, 8.3e-9, 0.445),
+           (1e-7, 2.7e-10, 0.565), (1e-8, 2.8e-12, 0.637), (1e-9, 6.9e-15, 0.716),
+           (1e-10, 1.6e-14, 1.23), (1e-11, 1e-17, 1.4), (1e-12, 0.0, 1.7),
+           (1e-13, math.nan, 2.0)]
+    assert cancellations(pts) == [1e-5, 1e-9]
+    assert cancellations(list(reversed(pts))) == [1e-5, 1e-9]  # order given does not matter
+    kept = without_cancellations(pts)
+    assert (6.9e-9, 0.395) not in kept and (6.9e-15, 0.716) not in kept and len(kept) == 8
+    # at 1e-8 the peer read with its cancellation is 0.40 ms; without it, on the line from
+    # (3.3e-6, 0.34) to (8.3e-9, 0.445): w = log(1e-8/3.3e-6) / log(8.3e-9/3.3e-6)
+    w = math.log(1e-8 / 3.3e-6) / math.log(8.3e-9 / 3.3e-6)
+    steady = time_at_error(kept, 1e-8)
+    assert steady == pytest.approx(0.34 * (0.445 / 0.34) ** w, rel=1e-12)
+    assert time_at_error([(e, t) for _, e, t in pts], 1e-8) < steady
+
+
+def test_the_table_shows_the_steady_ratio_and_the_cancellations() -> None:
+    rows = compare_at_levels({"ours": [(1e-6, 1.0)], "peer": [(1e-6, 1.1)]}, ["ours"], None,
+                             ["peer"], [1e-6])
+    rows[0].update(ratio_steady=1.3, met_steady=True)
+    text = level_table("t", "rad", rows, ["ours", "peer"], {"peer": [1e-5, 1e-9]})
+    assert "steady" in text and "1.30x" in text and "NOT met (met without cancellations)" in text
+    assert "peer at rtol 1e-05, 1e-09" in text
+    plain = level_table("t", "rad", compare_at_levels({"ours": [(1e-6, 1.0)]}, ["ours"], None,
+                                                      [], [1e-6]), ["ours"])
+    assert "steady" not in plain and "cancellations" not in plain
 
 
 def _point(theta: float, t_inv: float | None = 2.0) -> PeerPoint:
