@@ -134,8 +134,6 @@ class Peer:
 
     def __init__(self, name: str) -> None:
         self.name = name
-        #: Lines the last :meth:`solve`'s compiled code printed (kept off the terminal).
-        self.printed = 0
 
     def missing(self) -> str | None:
         """None if the solver can run here, else why not."""
@@ -156,11 +154,15 @@ class Peer:
 
     def run(self, top: Any, rtol: float, *, locate_invert: bool,
             t_end_s: float | None = None) -> PeerPoint:
-        """One timed run to t_end; with ``locate_invert``, the inversion time too (untimed)."""
+        """One timed run to t_end; with ``locate_invert``, the inversion time too (untimed).
+
+        What the solver's compiled code prints is kept off the terminal (:func:`_captured_stdout`)
+        and the timed run's lines are counted (``printed``).
+        """
         T = top.t_end_s if t_end_s is None else t_end_s
-        self.printed = 0
-        t, Y, n, s, status = self.solve(top, rtol, None, T)
-        printed = self.printed
+        with _captured_stdout() as said:  # Hairer's DOP853: "the problem seems to become stiff"
+            t, Y, n, s, status = self.solve(top, rtol, None, T)
+        printed = len(said)
         if status != "ok" or not np.isfinite(Y[-1]).all() or abs(t[-1] - T) > 1e-9 * T:
             return PeerPoint(s=s, n_rhs=n, theta=math.nan, t_invert=None, J_drift=math.nan,
                              status=status if status != "ok" else "did not reach t_end",
@@ -168,10 +170,11 @@ class Peer:
         t_inv = err = None
         y_end = Y[-1].copy()
         if locate_invert:
-            if t.size < 3:
-                t = np.linspace(0.0, T, COARSE_SAMPLES)[1:]  # solve() adds the start
-                Y = self.solve(top, rtol, t, T)[1]
-            t_inv, err = locate_crossing(t, Y, lambda tt: self.solve(top, rtol, tt, T)[1])
+            with _captured_stdout():  # the untimed runs that locate the crossing, uncounted
+                if t.size < 3:
+                    t = np.linspace(0.0, T, COARSE_SAMPLES)[1:]  # solve() adds the start
+                    Y = self.solve(top, rtol, t, T)[1]
+                t_inv, err = locate_crossing(t, Y, lambda tt: self.solve(top, rtol, tt, T)[1])
         return PeerPoint(s=s, n_rhs=n, theta=float(theta_of_states(y_end)[0]), t_invert=t_inv,
                          J_drift=jellett_drift(top, y_end), status="ok", method=self.name,
                          locate_err=err, printed=printed)
@@ -226,10 +229,7 @@ class NumbalsodaPeer(Peer):
     def solve(self, top, rtol, t_eval, t_end_s):
         """See :meth:`Peer.solve`."""
         te = np.array([0.0, t_end_s]) if t_eval is None else np.concatenate([[0.0], t_eval])
-        with _captured_stdout() as said:  # Hairer's DOP853: "the problem seems to become stiff"
-            Y, n, s, ok = numbalsoda_solve(self.name, top.y0, top.p, te, rtol,
-                                           ATOL_PER_RTOL * rtol)
-        self.printed = len(said)
+        Y, n, s, ok = numbalsoda_solve(self.name, top.y0, top.p, te, rtol, ATOL_PER_RTOL * rtol)
         if not ok:  # what numbalsoda leaves in the unreached rows is not a state
             Y = np.full_like(Y, np.nan)
         if t_eval is not None:

@@ -282,11 +282,7 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
         short = first is not None and first["s"] < SHORT_S
         return rounds * SHORT_ROUNDS if short else rounds
 
-    def first_runs(n: str) -> int:
-        slow = n in PEERS and PEERS[n].slow
-        return len([t for t in tols if not slow or t in PEERS[n].tolerances(tols)])
-
-    planned = sum(first_runs(n) for n in names)
+    planned = sum(len(PEERS[n].tolerances(tols)) if n in PEERS else len(tols) for n in names)
     if expect is not None:
         expect(planned)
     for r in range(max(rounds * SHORT_ROUNDS, slow_rounds)):
