@@ -6,21 +6,24 @@ rising, the contact lost.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import mujoco
 import numpy as np
 
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
-from tippetop.mujoco_runner.record import SampleRecord
+from tippetop.mujoco_runner.record import SampleRecord, WindowRecord
 from tippetop.mujoco_runner.settings import integrator_name
 
 #: Deepest admissible penetration of the ball into the table, in radii (the soft contact sinks
 #: ~0.025 R at rest with the default solref; more than this means the contact failed).
 MAX_PENETRATION_R = 0.2
-#: The ball's lowest point more than this above the table counts as "no contact" (m).
+#: A stretch of steps without contact in which the ball's lowest point rose no more than this
+#: above the table is not the top leaving it (m).
 CONTACT_GAP_M = 1e-6
-#: Longer than this without contact is "contact lost" (s); the paper assumes permanent contact.
+#: Longer than this without contact at any step, the ball risen, is "contact lost" (s); the
+#: paper assumes permanent contact.
 MAX_AIRBORNE_S = 0.05
 #: A rise of the mechanical energy by more than this fraction of its initial value marks an
 #: unstable integration (friction and the contact can only dissipate energy).
@@ -69,37 +72,44 @@ def step_failure(record: SampleRecord) -> tuple[int, str | None]:
     return i, warning_reason(record.warnings[i], record.warning_text, record.warning_names)
 
 
-def check_failure(top_model: TopModel, t: np.ndarray, gap: np.ndarray, energy: np.ndarray,
-                   other_touching: np.ndarray, fix: str,
+def check_failure(top_model: TopModel, t: np.ndarray, windows: WindowRecord, steps: int,
+                   dt: float, energy: np.ndarray, fix: str,
                    on_table: bool = True) -> tuple[int, str | None]:
     """The divergence checks over all samples: (first failing sample, reason) or (n, None).
 
-    A sample fails when the ball sank more than :data:`MAX_PENETRATION_R` R into the table,
-    when the energy rose more than :data:`MAX_ENERGY_RISE` above the first sample's, or when
-    the ball has been off the table (gap above :data:`CONTACT_GAP_M`, no other geom of the top
-    touching) for more than :data:`MAX_AIRBORNE_S`. With ``on_table`` False (contacts
-    disabled: the top falls freely, as asked) only the energy is checked.
+    A sample fails when a contact of the top sank more than :data:`MAX_PENETRATION_R` R into
+    the table at a step of its window, when the energy at the sample rose more than
+    :data:`MAX_ENERGY_RISE` above the first sample's, or when the top has not touched at any
+    step for more than :data:`MAX_AIRBORNE_S` and the ball rose more than
+    :data:`CONTACT_GAP_M` meanwhile. With ``on_table`` False (contacts disabled: the top
+    falls freely, as asked) only the energy is checked.
     """
     n = len(t)
     if not n:
         return 0, None
     R = top_model.top.R_m
     e0 = energy[0]
-    sink = gap < -MAX_PENETRATION_R * R if on_table else np.zeros(n, dtype=bool)
+    depth = windows.float_column("depth_max")[:n]
+    sink = depth > MAX_PENETRATION_R * R if on_table else np.zeros(n, dtype=bool)
     with np.errstate(invalid="ignore"):
         rise = energy - e0 > MAX_ENERGY_RISE * abs(e0)
-    ok = (gap <= CONTACT_GAP_M) | other_touching
-    idx = np.arange(n)
-    last_ok = np.maximum.accumulate(np.where(ok, idx, -1))
-    start = np.minimum(last_ok + 1, n - 1)
-    since = t[start]
-    lost = ~ok & (t - since > MAX_AIRBORNE_S) & on_table
+    lost = np.zeros(n, dtype=bool)
+    since = np.full(n, np.nan)
+    if on_table:
+        gaps = windows.head(n).gaps(steps)
+        limit = int(math.floor(MAX_AIRBORNE_S / dt + 1e-9)) + 1  # passes beyond the limit
+        long = gaps[(gaps["passes"] >= limit) & (gaps["height_m"] > CONTACT_GAP_M)]
+        for start in long["start"].tolist():
+            # the sample whose window holds the stretch's pass past MAX_AIRBORNE_S
+            row = math.ceil((start + limit - 1) / steps)
+            if row < n and not lost[row]:
+                lost[row], since[row] = True, start * dt
     hits = np.flatnonzero(sink | rise | lost)
     if not hits.size:
         return n, None
     i = int(hits[0])
     if sink[i]:
-        return i, (f"the ball sank {-gap[i] * 1e3:.3g} mm into the table (bound "
+        return i, (f"the ball sank {depth[i] * 1e3:.3g} mm into the table (bound "
                    f"{MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
     if rise[i]:
         return i, (f"the energy rose {100 * (energy[i] / e0 - 1):.3g}% above its "

@@ -1,125 +1,119 @@
-"""What one MuJoCo run records at its samples: the states, and the contacts at them.
+"""What one MuJoCo run records at its samples: the states, and what happened between them.
 
-:class:`SampleRecord` holds the mjData state after each sample interval's steps (what the
-post-processing, :mod:`.results`, needs); :class:`ContactRecord` the top's contacts at the
-samples' own states, collected by :class:`ContactLog` one memory copy per sample.
+:class:`SampleRecord` holds the mjData state after each sample interval's steps and each
+sample's window (:class:`WindowRecord`: every step's forward pass added to it, see
+:mod:`.worker.windows`), what the post-processing (:mod:`.results`) needs.
 """
 
 from __future__ import annotations
 
-import ctypes
 from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
 
+from tippetop.mujoco_runner.worker.windows import F, I, new_windows
+
 
 @dataclass(frozen=True, eq=False)
-class ContactRecord:
-    """The top's contacts, as MuJoCo computed them at the samples' own states: one row each.
+class WindowRecord:
+    """Each sample's window: what the forward passes of its steps computed, added at each step.
 
-    A forward pass (``mj_forward``) at sample i's state gives its contacts; each of them that
-    touches the top's body is a row here, in MuJoCo's contact order within a sample, samples
-    in increasing order. Contacts of other bodies may be rows too (they are filtered out).
+    The columns of :mod:`.worker.windows` (``INT_FIELDS``, ``FLOAT_FIELDS``), one row per
+    sample: row r holds the passes at the states after each step from sample r - 1 to sample
+    r (row 0: the initial state's).
 
     Attributes:
-        sample: The sample index of each contact, shape (m,), int, non-decreasing.
-        geom: ``mjContact.geom`` (geom1, geom2), shape (m, 2), int.
-        dist: ``mjContact.dist`` (m; negative: penetration), shape (m,).
-        pos: ``mjContact.pos``, world frame (m), shape (m, 3).
-        frame: ``mjContact.frame`` (rows: normal from geom1 to geom2, two tangents), (m, 9).
-        force: ``mj_contactForce`` in the contact frame (normal, tangential, then torques),
-            shape (m, 6).
+        ints: The integer columns, shape (n, len(INT_FIELDS)).
+        floats: The float columns, shape (n, len(FLOAT_FIELDS)).
     """
 
-    sample: np.ndarray
-    geom: np.ndarray
-    dist: np.ndarray
-    pos: np.ndarray
-    frame: np.ndarray
-    force: np.ndarray
+    ints: np.ndarray
+    floats: np.ndarray
+
+    def __len__(self) -> int:
+        """The number of windows (samples)."""
+        return len(self.ints)
+
+    def int_column(self, name: str) -> np.ndarray:
+        """One integer column, by its name in ``INT_FIELDS``."""
+        return self.ints[:, I[name]]
+
+    def float_column(self, name: str) -> np.ndarray:
+        """One float column, by its name in ``FLOAT_FIELDS``."""
+        return self.floats[:, F[name]]
+
+    def head(self, n: int) -> WindowRecord:
+        """The first ``n`` windows (views)."""
+        return WindowRecord(self.ints[:n], self.floats[:n])
 
     @classmethod
-    def empty(cls) -> ContactRecord:
-        """No contacts."""
-        return cls(np.zeros(0, dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros(0),
-                   np.zeros((0, 3)), np.zeros((0, 9)), np.zeros((0, 6)))
+    def empty(cls, n: int = 0) -> WindowRecord:
+        """``n`` windows before their first pass."""
+        return cls(*new_windows(np, n))
 
+    def passes_of(self, offsets: np.ndarray, steps: int) -> np.ndarray:
+        """The run's pass numbers of offsets in their windows; -1 stays -1.
 
-#: The fields of ``mjContact`` a :class:`ContactRecord` keeps.
-CONTACT_FIELDS = (("dist", "f8", ()), ("pos", "f8", (3,)), ("frame", "f8", (9,)),
-                   ("geom", "i4", (2,)))
+        Row r's offset j is pass ``(r - 1) steps + j`` (row 0's: j); pass p is at ``p dt``.
+        """
+        offsets = np.asarray(offsets, dtype=np.int64)
+        rows = np.arange(len(offsets), dtype=np.int64)
+        out = np.maximum(rows - 1, 0) * steps + offsets
+        return np.where(offsets < 0, -1, out)
 
+    def first_pass(self, name: str, steps: int) -> int | None:
+        """The first pass at which an offset column is set; None: at none.
 
-class ContactLog:
-    """Collects :class:`ContactRecord` rows from one mjData, sample by sample.
+        ``first_other``, ``flip``, ``first_touch``: the windows' offsets of their events.
+        """
+        p = self.passes_of(self.int_column(name), steps)
+        hit = np.flatnonzero(p >= 0)
+        return int(p[hit[0]]) if hit.size else None
 
-    MuJoCo keeps an mjData's contacts at the start of its arena (``mj_clearEfc`` sets
-    ``d->contact = d->arena`` before each collision pass), so once the first contact shows its
-    address and layout, each sample's contacts are one memory copy of ``ncon`` structs into
-    this log's buffer (no Python object per field and sample), and ``mj_contactForce`` per
-    contact.
-    """
+    def gaps(self, steps: int) -> np.ndarray:
+        """The stretches of passes at which the top did not touch, located to the pass.
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self.model, self.data = model, data
-        self.counts: list[tuple[int, int]] = []  # (sample, ncon)
-        self._dtype: np.dtype | None = None
-        self._base = 0
-        self._rows = np.zeros(0)
-        self._force = np.empty((0, 6))
-        self._used = 0
-
-    def _layout(self) -> None:
-        """Find the contact structs' address and layout from the bindings' views."""
-        c = self.data.contact
-        base = c.dist.ctypes.data
-        fields = [getattr(c, name) for name, _, _ in CONTACT_FIELDS]
-        if min(f.ctypes.data for f in fields) != base:  # pragma: no cover - a new layout
-            raise RuntimeError("mjContact no longer starts with dist")
-        self._dtype = np.dtype({
-            "names": [name for name, _, _ in CONTACT_FIELDS],
-            "formats": [(kind, shape) for _, kind, shape in CONTACT_FIELDS],
-            "offsets": [f.ctypes.data - base for f in fields],
-            "itemsize": c.dist.strides[0]})
-        self._base = base
-        self._grow(256)
-
-    def _grow(self, need: int) -> None:
-        size = max(need, 2 * len(self._rows))
-        rows, force = np.empty(size, dtype=self._dtype), np.empty((size, 6))
-        rows[:self._used] = self._rows[:self._used]
-        force[:self._used] = self._force[:self._used]
-        self._rows, self._force = rows, force
-
-    def add(self, i: int, data: mujoco.MjData) -> None:
-        """Append the contacts of the log's mjData (after a forward pass) as sample ``i``'s."""
-        ncon = data.ncon
-        if not ncon:
-            return
-        if self._dtype is None:
-            self._layout()
-        used = self._used
-        if used + ncon > len(self._rows):
-            self._grow(used + ncon)
-        size = self._dtype.itemsize
-        ctypes.memmove(self._rows.ctypes.data + used * size, self._base, ncon * size)
-        force = self._force
-        for k in range(ncon):
-            mujoco.mj_contactForce(self.model, data, k, force[used + k])
-        self._used = used + ncon
-        self.counts.append((i, ncon))
-
-    def record(self) -> ContactRecord:
-        """Everything added, as one record."""
-        if not self.counts:
-            return ContactRecord.empty()
-        counts = np.array(self.counts, dtype=np.int64)
-        rows = self._rows[:self._used]
-        return ContactRecord(np.repeat(counts[:, 0], counts[:, 1]),
-                             rows["geom"].astype(np.int64), rows["dist"].copy(),
-                             rows["pos"].copy(), rows["frame"].copy(),
-                             self._force[:self._used].copy())
+        Each is ``(start, passes, height_m)``: its first pass, how many passes it lasts and
+        the largest gap between the ball and the table over its passes (m). Every stretch
+        that spans a window's edge is here; within a window, only its longest stretch between
+        two touches (``inner_free``): all of them when a window is shorter than the stretches
+        that matter (the samples are 1-3 ms apart, a flight lasts 10 ms). A structured
+        array, by start.
+        """
+        dtype = np.dtype([("start", np.int64), ("passes", np.int64), ("height_m", float)])
+        n = len(self)
+        if not n:
+            return np.zeros(0, dtype=dtype)
+        first = self.passes_of(self.int_column("first_touch"), steps)
+        last = self.passes_of(self.int_column("last_touch"), steps)
+        gap = self.float_column("gap_max")
+        lead, trail = self.float_column("lead_gap"), self.float_column("trail_gap")
+        end = (n - 1) * steps  # the last pass
+        rows = np.flatnonzero(first >= 0)
+        # between touching windows a < b (and before the first, after the last): the passes
+        # after a's last touch, the windows between (no touch at all), b's before its first
+        starts = np.concatenate(([0], last[rows] + 1))
+        stops = np.concatenate((first[rows], [end + 1]))
+        row_a = np.concatenate(([-1], rows))
+        row_b = np.concatenate((rows, [n]))
+        length = stops - starts
+        keep = length > 0
+        starts, length, row_a, row_b = starts[keep], length[keep], row_a[keep], row_b[keep]
+        ext_gap = np.concatenate((gap, [-np.inf]))
+        inside = _range_max(ext_gap, row_a + 1, np.maximum(row_b - 1, row_a + 1))
+        inside = np.where(row_b - 1 >= row_a + 1, inside, -np.inf)
+        edge_a = np.where(row_a >= 0, trail[np.maximum(row_a, 0)], -np.inf)
+        edge_b = np.where(row_b < n, lead[np.minimum(row_b, n - 1)], -np.inf)
+        height = np.maximum(np.maximum(edge_a, inside), edge_b)
+        inner = self.int_column("inner_free")
+        rows_in = np.flatnonzero(inner > 0)
+        in_start = self.passes_of(self.int_column("inner_start"), steps)[rows_in]
+        out = np.zeros(len(starts) + rows_in.size, dtype=dtype)
+        out["start"] = np.concatenate((starts, in_start))
+        out["passes"] = np.concatenate((length, inner[rows_in]))
+        out["height_m"] = np.concatenate((height, self.float_column("inner_gap")[rows_in]))
+        return np.sort(out, order="start")
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +135,8 @@ class SampleRecord:
             of the step's LAST dynamics evaluation (with RK4 its last stage's, not the sample
             state's), shape (n, nv). Paper mode's callback takes its normal force from it in
             the first forward pass at the sample's state (see docs/design.md).
+        windows: Each sample's window: what every step's forward pass since the sample
+            before computed (:class:`WindowRecord`).
         warnings: ``mjData.warning.number`` (cumulative counters), shape (n, mjNWARNING), int;
             None: not recorded (the caller checked them while stepping and stopped at the first
             sample with a warning, passing ``failure`` to :func:`result_from_samples`).
@@ -149,11 +145,8 @@ class SampleRecord:
         warning_names: The names of ``warnings``' columns (``mjtWarning``), from the release
             that stepped (its enum need not be this one's: 4.0 dropped ``mjWARN_VGEOMFULL``);
             None: this process's ``mujoco.mjtWarning``.
-        contacts: The contacts at each sample's own state, if the stepping computed them (a
-            forward pass at the sample's state); None: :func:`result_from_samples` computes
-            them with forward passes on a scratch mjData.
         path: How the samples were stepped: ``compiled stepper``, ``plain loop`` (Python),
-            ``mujoco.batch``, or a worker's (``worker: plain loop``).
+            or a worker's (``worker: plain loop``).
     """
 
     time: np.ndarray
@@ -161,10 +154,10 @@ class SampleRecord:
     qvel: np.ndarray
     qacc_warmstart: np.ndarray
     qfrc_constraint: np.ndarray
+    windows: WindowRecord
     warnings: np.ndarray | None = None
     warning_text: str | None = None
     warning_names: tuple[str, ...] | None = None
-    contacts: ContactRecord | None = None
     path: str = ""
 
     def __len__(self) -> int:
@@ -173,16 +166,29 @@ class SampleRecord:
 
     def head(self, n: int) -> SampleRecord:
         """The first ``n`` samples (views)."""
-        contacts = self.contacts
-        if contacts is not None:
-            keep = contacts.sample < n
-            contacts = ContactRecord(*(getattr(contacts, f)[keep] for f in
-                                       ("sample", "geom", "dist", "pos", "frame", "force")))
         return replace(self, time=self.time[:n], qpos=self.qpos[:n], qvel=self.qvel[:n],
                        qacc_warmstart=self.qacc_warmstart[:n],
                        qfrc_constraint=self.qfrc_constraint[:n],
                        warnings=None if self.warnings is None else self.warnings[:n],
-                       contacts=contacts)
+                       windows=self.windows.head(n))
+
+
+def _range_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``values[lo[i]:hi[i] + 1].max()`` for many ranges (a sparse table of maxima)."""
+    table = [np.asarray(values, dtype=float)]
+    span = 1
+    while 2 * span <= len(values):
+        prev = table[-1]
+        table.append(np.maximum(prev[:-span], prev[span:]))
+        span *= 2
+    size = hi - lo + 1
+    level = np.floor(np.log2(size)).astype(np.int64)
+    out = np.empty(len(lo))
+    for k in np.unique(level):
+        sel = level == k
+        t = table[k]
+        out[sel] = np.maximum(t[lo[sel]], t[hi[sel] - (1 << k) + 1])
+    return out
 
 
 #: What a run records of mjData's state per sample (with qfrc_constraint beside it).
@@ -190,4 +196,4 @@ STATE_SPEC = (mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS
                | mujoco.mjtState.mjSTATE_QVEL | mujoco.mjtState.mjSTATE_WARMSTART)
 
 
-__all__ = ["CONTACT_FIELDS", "STATE_SPEC", "ContactLog", "ContactRecord", "SampleRecord"]
+__all__ = ["STATE_SPEC", "SampleRecord", "WindowRecord"]

@@ -6,7 +6,6 @@ stepping and vectorised over the samples; the single run and every run of a batc
 
 from __future__ import annotations
 
-import contextlib
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -16,22 +15,17 @@ import numpy as np
 import pandas as pd
 
 from tippetop.models.numbers import float_text
-from tippetop.models.params import FrictionParams, StemParams
 from tippetop.models.plan import MujocoPlan
-from tippetop.mujoco_runner import stepper
 from tippetop.mujoco_runner.checks import check_failure, divergence_fix, step_failure
-from tippetop.mujoco_runner.friction_callback import LAST_OUTPUT, USERDATA_SIZE, PaperFriction
 from tippetop.mujoco_runner.model import TopModel
 from tippetop.mujoco_runner.observables import observables_table
-from tippetop.mujoco_runner.record import STATE_SPEC, ContactLog, ContactRecord, SampleRecord
+from tippetop.mujoco_runner.record import SampleRecord, WindowRecord
 from tippetop.mujoco_runner.settings import integrator_name
 from tippetop.mujoco_runner.state import rotations
+from tippetop.mujoco_runner.worker.windows import F
 
-#: The top's contacts at a sample: none, the ball, another geom (the stem), both.
+#: The top's contacts in a sample's window: none, the ball, another geom (the stem), both.
 CONTACT_LABELS = ("none", "ball", "stem", "both")
-#: Forward passes per sample in paper mode that bring the recorded normal force to the state's
-#: own (the callback uses the previous evaluation's N; see docs/design.md).
-N_FORCE_PASSES = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,7 +34,9 @@ class MujocoResult:
 
     Attributes:
         table: ``models.observables.COLUMNS + EXTRA_COLUMNS``, one row per sample at t = 0,
-            sample_dt, ...; on divergence only the samples before it.
+            sample_dt, ...; on divergence only the samples before it. Its forces (N, FX, FY)
+            and friction power (P_fric) are each sample's window's means (every step's
+            forward pass since the sample before, :mod:`.worker.windows`), not one step's.
         n_steps: Integration steps taken.
         wall_s: Wall-clock time of the run (s): the stepping with its recording, and the
             post-processing (:func:`result_from_samples`).
@@ -50,16 +46,19 @@ class MujocoResult:
         warnings: Warnings about the model (extra colliding geoms).
         ran: What ran, read back from the compiled model and the top's contact
             (:func:`settings_that_ran`), and the row spacing ``sample_dt_s``.
-        contacts: Per sample, which of the top's geoms touched the table (a code of
-            :data:`CONTACT_LABELS`).
-        max_penetration_m: The deepest penetration of the top's contacts over the samples (m).
+        contacts: Per sample, which of the top's geoms touched the table at any step of its
+            window (a code of :data:`CONTACT_LABELS`).
+        max_penetration_m: The deepest penetration of the top's contacts at any step (m).
         engine: What ran the steps, read back: ``implementation`` (``mujoco``), ``version``
             (its ``mujoco.__version__``), ``precision``, ``device`` and ``path`` (how the
             samples were stepped, :attr:`~.record.SampleRecord.path`).
-        contact_energy_bound_J: The most elastic energy the soft contacts held at a sample,
-            bounded by the normal force times the deepest contact's depth (J; the force grows
-            with depth). E, the rigid body's energy, leaves it out and may rise by it when a
-            contact springs back.
+        contact_energy_bound_J: The most elastic energy the soft contacts held in a window,
+            bounded by the window's largest mean normal force times its deepest contact's depth
+            (J; the force grows with depth). E, the rigid body's energy, leaves it out and may
+            rise by it when a contact springs back.
+        windows: Each sample's window (:class:`~.record.WindowRecord`), the table's rows.
+        steps_per_sample: Integration steps between two samples.
+        dt_s: The timestep that ran (s): pass p of the windows is at time p dt.
     """
 
     table: pd.DataFrame
@@ -74,9 +73,12 @@ class MujocoResult:
     max_penetration_m: float = 0.0
     contact_energy_bound_J: float = 0.0
     engine: dict[str, Any] = field(default_factory=dict)
+    windows: WindowRecord = field(default_factory=WindowRecord.empty)
+    steps_per_sample: int = 1
+    dt_s: float = 0.0
 
     def phases(self) -> list[dict[str, Any]]:
-        """The sampled contact phases: runs of samples with the same contacts.
+        """The contact phases: runs of samples whose windows touched with the same geoms.
 
         Each is ``{"contact", "t_start", "t_end"}``, ``contact`` one of :data:`CONTACT_LABELS`.
         """
@@ -90,11 +92,38 @@ class MujocoResult:
                 out.append({"contact": label, "t_start": float(t[i]), "t_end": float(t[i])})
         return out
 
+    def _time_of(self, name: str) -> float | None:
+        p = self.windows.first_pass(name, self.steps_per_sample)
+        return None if p is None else p * self.dt_s
+
     @property
     def t_stem(self) -> float | None:
-        """First sampled time another geom of the top (the stem) touched the table, or None."""
-        hit = np.flatnonzero(self.contacts & 2)
-        return float(self.table["t"].iloc[hit[0]]) if hit.size else None
+        """The first step at which another geom of the top (the stem) touched the table (s)."""
+        return self._time_of("first_other")
+
+    @property
+    def t_invert(self) -> float | None:
+        """The first step at which the axis points down after pointing up (s), or None.
+
+        theta crosses pi/2 from below there.
+        """
+        return self._time_of("flip")
+
+    def gaps(self) -> dict[str, np.ndarray]:
+        """The stretches of steps without any contact of the top, located to the step.
+
+        ``{"t_start", "duration_s", "height_m"}`` (arrays, by start): when each began, how
+        long it lasted (its steps times dt) and the largest gap between the ball and the
+        table over it (m). Also ``count`` (every stretch, :data:`~.worker.windows` ``lifts``)
+        and ``airborne_s`` per sample window, for sums over a part of the run.
+        """
+        g = self.windows.gaps(self.steps_per_sample)
+        w = self.windows
+        return {"t_start": g["start"] * self.dt_s, "duration_s": g["passes"] * self.dt_s,
+                "height_m": g["height_m"],
+                "count": w.int_column("lifts").copy(),
+                "airborne_s": (w.int_column("passes") - w.int_column("touch_passes"))
+                * self.dt_s}
 
     @property
     def ok(self) -> bool:
@@ -102,128 +131,28 @@ class MujocoResult:
         return self.status == "ok"
 
 
-def scratch_contacts(top_model: TopModel, record: SampleRecord, law: FrictionParams | None,
-                     stem: StemParams | None, *, compiled: bool | None = None
-                     ) -> tuple[ContactRecord, np.ndarray | None, np.ndarray | None]:
-    """Forward passes at each sample's state on a scratch mjData.
+def window_means(windows: WindowRecord) -> dict[str, np.ndarray]:
+    """Each window's means over its passes, with its touching code and deepest penetration.
 
-    Returns its contacts, and in paper mode with a law the law's (Fx, Fy) (n, 2) and power
-    (n,) as the callback applied them at the last pass (else None, None).
-
-    The scratch copy is armed like the run's data: its passes apply the same friction, so N is
-    the contact force with friction acting. The callback's N is the previous evaluation's: the
-    first pass starts from the step's last one (``qfrc_constraint``), then each pass iterates
-    to the state's own (friction moves N by ~1 %, so each pass gains about two digits).
-
-    In :func:`.stepper.forward_passes`'s compiled loop when it is available (``compiled``:
-    None), else (``compiled=False``) from Python: the same C calls.
+    N, F (n, 3), tau (n, 3), power, and the law's F (n, 2) and power.
     """
-    model = top_model.model
-    scratch = mujoco.MjData(model)
-    log = ContactLog(model, scratch)
-    n = len(record)
-    law_xy = np.empty((n, 2)) if law is not None else None
-    law_power = np.empty(n) if law is not None else None
-    spec = STATE_SPEC
-    state = np.empty((n, mujoco.mj_stateSize(model, spec)))
-    nq, nv = model.nq, model.nv
-    state[:, 0] = record.time
-    state[:, 1:1 + nq] = record.qpos
-    state[:, 1 + nq:1 + nq + nv] = record.qvel
-    state[:, 1 + nq + nv:] = record.qacc_warmstart
-    passes = N_FORCE_PASSES if law is not None else 1
-    forward, forward_skip = mujoco.mj_forward, mujoco.mj_forwardSkip
-    skip_pos = int(mujoco.mjtStage.mjSTAGE_POS)
-    with contextlib.ExitStack() as stack:
-        scratch_law = None
-        if law is not None:
-            scratch_law = stack.enter_context(PaperFriction(top_model, scratch, law,
-                                                            stem=stem))
-        if compiled is None:
-            compiled = stepper.available()[0]
-        if compiled:
-            law_index = None
-            if law is not None:  # the callback's block: the last USERDATA_SIZE entries
-                law_index = model.nuserdata - USERDATA_SIZE + LAST_OUTPUT
-            sample, rows, force, out = stepper.forward_passes(
-                model, scratch, state, record.qfrc_constraint, spec=int(spec), passes=passes,
-                law_index=law_index)
-            contacts = ContactRecord(sample, rows["geom"].astype(np.int64),
-                                     rows["dist"].copy(), rows["pos"].copy(),
-                                     rows["frame"].copy(), force)
-            if out is None:
-                return contacts, None, None
-            return contacts, out[:, :2].copy(), out[:, 2].copy()
-        con = scratch.qfrc_constraint
-        for i in range(n):
-            mujoco.mj_setState(model, scratch, state[i], spec)
-            con[:] = record.qfrc_constraint[i]
-            forward(model, scratch)
-            for _ in range(passes - 1):  # the same positions: only N and friction change
-                forward_skip(model, scratch, skip_pos, 1)
-            log.add(i, scratch)
-            if scratch_law is not None:
-                fx, fy, _n = scratch_law.last_force
-                law_xy[i] = fx, fy
-                law_power[i] = scratch_law.last_power
-    return log.record(), law_xy, law_power
+    passes = np.maximum(windows.int_column("passes"), 1).astype(float)
+    f = windows.floats
 
+    def mean(*names: str) -> np.ndarray:
+        cols = [f[:, F[name]] / passes for name in names]
+        return cols[0] if len(cols) == 1 else np.stack(cols, axis=1)
 
-def contact_sums(top_model: TopModel, contacts: ContactRecord, qpos: np.ndarray,
-                  qvel: np.ndarray, n: int) -> dict[str, np.ndarray]:
-    """Per sample: N, F (n, 3), tau (n, 3), power, touching code, deepest penetration.
-
-    Sums over the top's contacts in MuJoCo's order.
-    ``qpos``/``qvel``: the top's free joint (n, 7), (n, 6).
-    """
-    model, body, ball = top_model.model, top_model.body_id, top_model.ball_geom_id
-    N, F, tau = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3))
-    power, depth = np.zeros(n), np.zeros(n)
-    touching = np.zeros(n, dtype=np.int8)
-    keep = contacts.sample < n
-    geom = contacts.geom[keep]
-    b1, b2 = model.geom_bodyid[geom[:, 0]], model.geom_bodyid[geom[:, 1]]
-    mine = (b1 == body) | (b2 == body)
-    s = contacts.sample[keep][mine]
-    if not s.size:
-        return {"N": N, "F": F, "tau": tau, "power": power, "touching": touching,
-                "depth": depth}
-    geom, b2 = geom[mine], b2[mine]
-    f6 = contacts.force[keep][mine]
-    frame = contacts.frame[keep][mine].reshape(-1, 3, 3)
-    pos = contacts.pos[keep][mine]
-    dist = contacts.dist[keep][mine]
-    code = np.where((geom[:, 0] == ball) | (geom[:, 1] == ball), 1, 2).astype(np.int8)
-    np.bitwise_or.at(touching, s, code)
-    np.maximum.at(depth, s, -dist)
-    sign = np.where(b2 == body, 1.0, -1.0)[:, None]  # the force acts on geom2 along +normal
-    frame_t = np.swapaxes(frame, 1, 2)
-    force = sign * _matvec(frame_t, f6[:, :3])
-    normal = sign * frame[:, 0]
-    friction = force - f6[:, :1] * normal
-    torque = sign * _matvec(frame_t, f6[:, 3:])
-    # the same operations as one sample's (matrix products, 3-term sums left to right), so
-    # the same numbers to the last bit
-    rot = rotations(qpos[s, 3:7])
-    origin, v_origin = qpos[s, 0:3], qvel[s, 0:3]
-    omega = _matvec(rot, qvel[s, 3:6])
-    v_point = v_origin + np.cross(omega, pos - origin)
-    p = _dot(friction, v_point) + _dot(torque, omega)
-    np.add.at(N, s, f6[:, 0])
-    np.add.at(F, s, friction)
-    np.add.at(tau, s, torque)
-    np.add.at(power, s, p)
-    return {"N": N, "F": F, "tau": tau, "power": power, "touching": touching, "depth": depth}
+    return {"N": mean("n_sum"), "F": mean("fx_sum", "fy_sum", "fz_sum"),
+            "tau": mean("tx_sum", "ty_sum", "tz_sum"), "power": mean("power_sum"),
+            "law_F": mean("law_fx_sum", "law_fy_sum"), "law_power": mean("law_power_sum"),
+            "touching": windows.int_column("touch").astype(np.int8),
+            "depth": windows.float_column("depth_max")}
 
 
 def _matvec(mats: np.ndarray, vecs: np.ndarray) -> np.ndarray:
     """Row-wise ``mats[i] @ vecs[i]``, (n, 3, 3) x (n, 3) -> (n, 3), as numpy does one."""
     return (mats @ vecs[:, :, None])[:, :, 0]
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise ``a[i] @ b[i]`` of (n, 3) arrays, summed left to right as numpy does one."""
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def gap_energy_many(top_model: TopModel, qpos: np.ndarray, qvel: np.ndarray
@@ -261,40 +190,35 @@ def result_from_samples(
     failure: str | None = None,
     wall_s: float = 0.0,
     ran: dict[str, Any] | None = None,
-    law_forces: tuple[np.ndarray, np.ndarray] | None = None,
     version: str | None = None,
 ) -> MujocoResult:
-    """The :class:`MujocoResult` of one simulation from its recorded samples.
+    """The :class:`MujocoResult` of one simulation from its recorded samples and windows.
 
     Everything a run reports besides the states is computed here, after the stepping: the
-    contacts and forces at each sample's own state (from ``record.contacts``, or forward
-    passes on a scratch mjData: one, or :data:`N_FORCE_PASSES` in paper mode with a law,
-    armed with the same law), the checks that end a run (a non-finite state or a MuJoCo
-    warning at a sample; then the ball sinking more than :data:`MAX_PENETRATION_R`, the
-    energy rising more than :data:`MAX_ENERGY_RISE`, contact lost longer than
-    :data:`MAX_AIRBORNE_S`, in that order at one sample), and the observables table. The run
-    ends at the first failed sample, which is not in the table, with its one-line reason.
+    forces and contacts from each sample's window (every step's forward pass since the sample
+    before: :mod:`.worker.windows`), the checks that end a run (a non-finite state or a
+    MuJoCo warning at a sample; then the top sinking more than :data:`MAX_PENETRATION_R` at
+    any step, the energy rising more than :data:`MAX_ENERGY_RISE` at a sample, no contact
+    at any step for longer than :data:`MAX_AIRBORNE_S` with the ball risen, in that order at
+    one sample), and the observables table. The run ends at the first failed sample, which is
+    not in the table, with its one-line reason.
 
     Args:
         top_model: The top the record was stepped on (the plan's compiled model).
         record: The samples, row i at t = i * steps * dt (see :class:`SampleRecord`).
         plan: The plan that ran: its mode, law (the callback's; None: no friction), steps
-            per sample, sample intervals (``len(record) - 1`` when it ran to the end) and stem
-            (where paper mode's law also acts).
+            per sample and sample intervals (``len(record) - 1`` when it ran to the end).
         failure: Why the stepping stopped after the last recorded sample (the sample after it
             failed: e.g. :data:`NONFINITE_REASON`, :func:`warning_reason`, a MuJoCo error);
             None: it did not stop early. The reason is followed by ``; <what to change>``.
         wall_s: Wall time of the stepping (s); the post-processing's own time is added.
         ran: The run's :func:`~.stepping.ran_settings`.
-        law_forces: Paper mode: the law's (Fx, Fy) (n, 2) and power (n,) at each sample's own
-            state, where ``record.contacts`` was computed too (by a worker in another Python,
-            :mod:`.remote`); None: computed here, from forward passes.
         version: The MuJoCo release that stepped the samples (default this process's).
 
     Returns:
         The run's result.
     """
-    mode, law, stem = plan.friction, plan.law, plan.stem
+    mode, law = plan.friction, plan.law
     steps, n_intervals = plan.steps_per_sample, plan.n_intervals
     start = time.perf_counter()
     model = top_model.model
@@ -309,39 +233,32 @@ def result_from_samples(
         reason = f"{failure}; {fix}"
     rec = record.head(n_step_ok)
     n = len(rec)
-    law_xy = law_power = None
-    contacts = rec.contacts
-    if law_forces is not None and contacts is not None:
-        law_xy, law_power = law_forces[0][:n], law_forces[1][:n]
-    elif contacts is None or law is not None:
-        contacts, law_xy, law_power = scratch_contacts(top_model, rec, law, stem)
     qpos, qvel = rec.qpos[:, qa:qa + 7], rec.qvel[:, va:va + 6]
-    sums = contact_sums(top_model, contacts, qpos, qvel, n)
+    means = window_means(rec.windows)
     t_check = np.arange(n) * steps * dt  # as the checks always had it: (i * steps) * dt
-    gap, energy = gap_energy_many(top_model, qpos, qvel)
-    n_good, check = check_failure(top_model, t_check, gap, energy,
-                                   (sums["touching"] & 2) > 0, fix,
+    _gap, energy = gap_energy_many(top_model, qpos, qvel)
+    n_good, check = check_failure(top_model, t_check, rec.windows, steps, dt, energy, fix,
                                    on_table=plan.contacts_on)
     if check is not None:
         reason = check
     status = "ok" if reason is None else "diverged"
     t_s = np.arange(n_good) * (steps * dt)
     qpos, qvel = qpos[:n_good], qvel[:n_good]
-    N = sums["N"][:n_good]
-    power = sums["power"][:n_good]  # as applied: the callback's, or each contact's
+    N = means["N"][:n_good]
+    power = means["power"][:n_good]  # as applied: the callback's, or each contact's
     if law is not None:
         F = np.zeros((n_good, 3))
-        F[:, :2] = law_xy[:n_good]
-        tau, power = None, law_power[:n_good]
+        F[:, :2] = means["law_F"][:n_good]
+        tau, power = None, means["law_power"][:n_good]
     elif mode == "paper":
         F, tau, power = np.zeros((n_good, 3)), None, np.zeros(n_good)
     else:
-        F, tau = sums["F"][:n_good], sums["tau"][:n_good]
-    # the contact bounds cover the failed sample too when the checks failed it (its contacts
-    # were read), not when it failed while stepping (it has none)
+        F, tau = means["F"][:n_good], means["tau"][:n_good]
+    # the contact bounds cover the failed sample too when the checks failed it (its window
+    # was stepped), not when it failed while stepping
     held = n_good + 1 if check is not None else n_good
-    depth = sums["depth"][:held]
-    bound = sums["N"][:held] * depth
+    depth = means["depth"][:held]
+    bound = means["N"][:held] * depth
     table = observables_table(top_model, t_s, qpos, qvel, N, F, tau, power=power)
     n_steps = n_intervals * steps if status == "ok" else n_good * steps
     wall = wall_s + (time.perf_counter() - start)
@@ -352,14 +269,15 @@ def result_from_samples(
         message = f"diverged by t = {n_good * steps * dt:.6g} s ({mode} mode): {reason}"
     return MujocoResult(table=table, n_steps=n_steps, wall_s=wall, status=status,
                         message=message, mode=mode, warnings=top_model.warnings,
-                        ran=dict(ran or {}), contacts=sums["touching"][:n_good].copy(),
+                        ran=dict(ran or {}), contacts=means["touching"][:n_good].copy(),
                         max_penetration_m=float(np.fmax.reduce(depth, initial=0.0)),
                         contact_energy_bound_J=float(np.fmax.reduce(bound, initial=0.0)),
                         engine={"implementation": "mujoco",
                                 "version": version or mujoco.__version__,
                                 "precision": "float64", "device": "cpu",
-                                "path": record.path or "?"})
+                                "path": record.path or "?"},
+                        windows=rec.windows.head(n_good), steps_per_sample=steps, dt_s=dt)
 
 
-__all__ = ["CONTACT_LABELS", "N_FORCE_PASSES", "MujocoResult", "contact_sums",
-           "gap_energy_many", "result_from_samples", "scratch_contacts"]
+__all__ = ["CONTACT_LABELS", "MujocoResult", "gap_energy_many", "result_from_samples",
+           "window_means"]

@@ -23,9 +23,12 @@ from numba import types
 from numba.extending import intrinsic
 
 import tippetop.reference_ode  # noqa: F401  (sets numba's cache folder, reference_ode._jit)
-
-#: ``rows`` written by :func:`advance` when it stopped because its contact buffers were full.
-NEED_ROOM = -1
+from tippetop.mujoco_runner.worker.windows import (
+    FLOAT_FIELDS,
+    INT_FIELDS,
+    WindowTop,
+    new_windows,
+)
 
 # integrator codes for the kernel
 INTEG_STEP = 0  # no split: mj_step whole
@@ -34,10 +37,9 @@ INTEG_PLAIN = 2  # a (m, d) integrator: mj_Euler, mj_implicit
 
 # slots of the function-address vector
 _F_STEP, _F_FORWARD, _F_CHECKPOS, _F_CHECKVEL, _F_CHECKACC = 0, 1, 2, 3, 4
-_F_RK, _F_PLAIN, _F_GETSTATE, _F_CONTACTFORCE, _F_SETSTATE, _F_FORWARDSKIP = 5, 6, 7, 8, 9, 10
+_F_RK, _F_PLAIN, _F_GETSTATE, _F_CONTACTFORCE = 5, 6, 7, 8
 _FUNCTIONS = ("mj_step", "mj_forward", "mj_checkPos", "mj_checkVel", "mj_checkAcc",
-              "mj_RungeKutta", "mj_Euler", "mj_getState", "mj_contactForce", "mj_setState",
-              "mj_forwardSkip")
+              "mj_RungeKutta", "mj_Euler", "mj_getState", "mj_contactForce")
 
 
 def _emit(builder, kinds: str, fnaddr, llargs) -> None:
@@ -70,18 +72,6 @@ def _c_ppi(typingctx, fn, a, b, c):
 
     def codegen(context, builder, signature, args):
         _emit(builder, "ppi", args[0], args[1:])
-        return context.get_dummy_value()
-
-    return sig, codegen
-
-
-@intrinsic
-def _c_ppii(typingctx, fn, a, b, c, e):
-    """``fn(void* a, void* b, int c, int e)``."""
-    sig = types.void(types.int64, types.int64, types.int64, types.int64, types.int64)
-
-    def codegen(context, builder, signature, args):
-        _emit(builder, "ppii", args[0], args[1:])
         return context.get_dummy_value()
 
     return sig, codegen
@@ -136,19 +126,6 @@ def _f64_at(typingctx, address):
 
 
 @intrinsic
-def _f64_put(typingctx, address, value):
-    """Store the double ``value`` at ``address``."""
-    sig = types.void(types.int64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        ptr = builder.inttoptr(args[0], ir.DoubleType().as_pointer())
-        builder.store(args[1], ptr)
-        return context.get_dummy_value()
-
-    return sig, codegen
-
-
-@intrinsic
 def _i64_at(typingctx, address):
     """The 64-bit integer (a pointer) at ``address``."""
     sig = types.int64(types.int64)
@@ -160,139 +137,179 @@ def _i64_at(typingctx, address):
     return sig, codegen
 
 
-@intrinsic
-def _u8_at(typingctx, address):
-    """The byte at ``address``."""
-    sig = types.uint8(types.int64)
-
-    def codegen(context, builder, signature, args):
-        ptr = builder.inttoptr(args[0], ir.IntType(8).as_pointer())
-        return builder.load(ptr)
-
-    return sig, codegen
-
-
 _I8 = types.int64
-_ADVANCE_SIG = types.UniTuple(_I8, 3)(
+
+# slots of the integer parameters of :func:`_accumulate` (``ip``)
+(_P_NCON, _P_ARENA, _P_CSIZE, _P_DIST, _P_POS, _P_FRAME, _P_GEOM, _P_BODY, _P_BALL, _P_QPOS,
+ _P_QVEL, _P_XMAT, _P_BALLZ, _P_LAW) = range(14)
+# columns of the windows (worker/windows.py's INT_FIELDS and FLOAT_FIELDS, in their order)
+(_W_PASSES, _W_TOUCH, _W_TOUCH_PASSES, _W_FIRST, _W_LAST, _W_INNER, _W_INNER_START, _W_LIFTS,
+ _W_OTHER, _W_FLIP) = range(10)
+(_W_GAP, _W_LEAD, _W_TRAIL, _W_INNER_GAP, _W_DEPTH, _W_N, _W_FX, _W_FY, _W_FZ, _W_TX, _W_TY,
+ _W_TZ, _W_POWER, _W_LFX, _W_LFY, _W_LPOWER) = range(16)
+
+
+def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: no cover
+    """Add the mjData's last forward pass to window ``r`` as its pass at offset ``j``.
+
+    The arithmetic of :class:`~.worker.windows.WindowAccumulator`, over the raw structs.
+    """
+    body, ball = ip[_P_BODY], ip[_P_BALL]
+    size = ip[_P_CSIZE]
+    ncon = np.int64(_i32_at(ip[_P_NCON]))
+    arena = _i64_at(ip[_P_ARENA])
+    xm = ip[_P_XMAT]
+    m0, m1, m2 = _f64_at(xm), _f64_at(xm + 8), _f64_at(xm + 16)
+    m3, m4, m5 = _f64_at(xm + 24), _f64_at(xm + 32), _f64_at(xm + 40)
+    m6, m7, m8 = _f64_at(xm + 48), _f64_at(xm + 56), _f64_at(xm + 64)
+    qp, qv = ip[_P_QPOS], ip[_P_QVEL]
+    vx, vy, vz = _f64_at(qv), _f64_at(qv + 8), _f64_at(qv + 16)
+    lx, ly, lz = _f64_at(qv + 24), _f64_at(qv + 32), _f64_at(qv + 40)
+    ox = m0 * lx + m1 * ly + m2 * lz
+    oy = m3 * lx + m4 * ly + m5 * lz
+    oz = m6 * lx + m7 * ly + m8 * lz
+    px, py, pz = _f64_at(qp), _f64_at(qp + 8), _f64_at(qp + 16)
+    code = 0
+    depth = 0.0
+    n = fx = fy = fz = tx = ty = tz = power = 0.0
+    for k in range(ncon):
+        base = arena + k * size
+        g1 = np.int64(_i32_at(base + ip[_P_GEOM]))
+        g2 = np.int64(_i32_at(base + ip[_P_GEOM] + 4))
+        b1, b2 = gbody[g1], gbody[g2]
+        if b1 != body and b2 != body:
+            continue
+        code |= 1 if (g1 == ball or g2 == ball) else 2
+        depth = max(depth, -_f64_at(base + ip[_P_DIST]))
+        _c_ppip(fns[_F_CONTACTFORCE], m, d, k, f6.ctypes.data)
+        s = 1.0 if b2 == body else -1.0
+        fr = base + ip[_P_FRAME]
+        f0, f1, f2, f3, f4, f5 = f6[0], f6[1], f6[2], f6[3], f6[4], f6[5]
+        ax = s * (f1 * _f64_at(fr + 24) + f2 * _f64_at(fr + 48))
+        ay = s * (f1 * _f64_at(fr + 32) + f2 * _f64_at(fr + 56))
+        az = s * (f1 * _f64_at(fr + 40) + f2 * _f64_at(fr + 64))
+        bx = s * (f3 * _f64_at(fr) + f4 * _f64_at(fr + 24) + f5 * _f64_at(fr + 48))
+        by = s * (f3 * _f64_at(fr + 8) + f4 * _f64_at(fr + 32) + f5 * _f64_at(fr + 56))
+        bz = s * (f3 * _f64_at(fr + 16) + f4 * _f64_at(fr + 40) + f5 * _f64_at(fr + 64))
+        cp = base + ip[_P_POS]
+        rx, ry, rz = _f64_at(cp) - px, _f64_at(cp + 8) - py, _f64_at(cp + 16) - pz
+        ux = vx + (oy * rz - oz * ry)
+        uy = vy + (oz * rx - ox * rz)
+        uz = vz + (ox * ry - oy * rx)
+        power += (ax * ux + ay * uy + az * uz) + (bx * ox + by * oy + bz * oz)
+        n += f0
+        fx += ax
+        fy += ay
+        fz += az
+        tx += bx
+        ty += by
+        tz += bz
+    gap = _f64_at(ip[_P_BALLZ]) - fp[0]
+    kz = m6 * fp[1] + m7 * fp[2] + m8 * fp[3]
+    wi[r, _W_PASSES] += 1
+    if code:
+        trail = wf[r, _W_TRAIL]
+        wf[r, _W_TRAIL] = -np.inf
+        wi[r, _W_TOUCH] |= code
+        wi[r, _W_TOUCH_PASSES] += 1
+        if wi[r, _W_FIRST] < 0:
+            wi[r, _W_FIRST] = j
+        last = wi[r, _W_LAST]
+        if last >= 0 and j - last - 1 > wi[r, _W_INNER]:
+            wi[r, _W_INNER] = j - last - 1
+            wi[r, _W_INNER_START] = last + 1
+            wf[r, _W_INNER_GAP] = trail
+        wi[r, _W_LAST] = j
+        if code & 2 and wi[r, _W_OTHER] < 0:
+            wi[r, _W_OTHER] = j
+    else:
+        if carry[0] != 0.0:
+            wi[r, _W_LIFTS] += 1
+        wf[r, _W_TRAIL] = max(wf[r, _W_TRAIL], gap)
+        if wi[r, _W_FIRST] < 0:
+            wf[r, _W_LEAD] = max(wf[r, _W_LEAD], gap)
+    carry[0] = 1.0 if code else 0.0
+    if carry[1] > 0.0 and kz <= 0.0 and wi[r, _W_FLIP] < 0:
+        wi[r, _W_FLIP] = j
+    carry[1] = kz
+    wf[r, _W_GAP] = max(wf[r, _W_GAP], gap)
+    wf[r, _W_DEPTH] = max(wf[r, _W_DEPTH], depth)
+    wf[r, _W_N] += n
+    wf[r, _W_FX] += fx
+    wf[r, _W_FY] += fy
+    wf[r, _W_FZ] += fz
+    wf[r, _W_TX] += tx
+    wf[r, _W_TY] += ty
+    wf[r, _W_TZ] += tz
+    wf[r, _W_POWER] += power
+    law = ip[_P_LAW]
+    if law >= 0:
+        wf[r, _W_LFX] += _f64_at(law)
+        wf[r, _W_LFY] += _f64_at(law + 8)
+        wf[r, _W_LPOWER] += _f64_at(law + 24)
+
+
+if (INT_FIELDS.index("flip"), FLOAT_FIELDS.index("law_power_sum")) != (
+        _W_FLIP, _W_LPOWER):  # pragma: no cover - an edit of one list without the other
+    raise RuntimeError("stepper's window columns are not worker/windows.py's")
+
+_accumulate_jit = nb.njit(inline="always", error_model="numpy", nogil=True,
+                          cache=True)(_accumulate)
+
+_ADVANCE_SIG = types.void(
     types.int64[::1],  # fns: function addresses
     _I8, _I8,  # model, data
-    _I8, _I8, types.boolean, types.boolean,  # steps, integrator, first, resume
+    _I8, _I8, types.boolean,  # steps, integrator, first
     _I8, _I8, _I8,  # row0, nrows, state spec
     types.float64[:, ::1], types.float64[:, ::1], types.int32[:, ::1],  # state, con, warn
     _I8, _I8, _I8,  # addresses: qfrc_constraint, warning numbers, their stride
-    _I8, _I8, _I8,  # contacts (0: none), ncon address, arena-pointer address
-    types.uint8[::1], types.float64[:, ::1], types.int64[:, ::1],  # contact bytes, forces, counts
-    _I8, _I8,  # contacts used, counts used
+    types.int64[::1], types.float64[::1], types.int64[::1],  # ip, fp (R, axis), geom bodies
+    types.int64[:, ::1], types.float64[:, ::1],  # the windows: integers, floats
+    types.float64[::1], types.float64[::1],  # carry (touched, k_z at the last pass), scratch
 )
 
 
-def _advance(fns, m, d, steps, integ, first, resume, row0, nrows, spec, state, con, warn,
-             con_addr, warn_addr, warn_stride, contact_size, ncon_addr, arena_addr,
-             cbytes, cforce, counts, cused, nused):  # pragma: no cover - compiled
+def _advance(fns, m, d, steps, integ, first, row0, nrows, spec, state, con, warn,
+             con_addr, warn_addr, warn_stride, ip, fp, gbody, wi, wf, carry,
+             f6):  # pragma: no cover - compiled
     nv = con.shape[1]
     nw = warn.shape[1]
+    split = integ != INTEG_STEP
     for r in range(row0, row0 + nrows):
-        if resume and r == row0:  # row0 is recorded and its forward pass done: its contacts
-            ncon = np.int64(_i32_at(ncon_addr))
-            if cused + ncon > cforce.shape[0]:
-                return r, cused, nused
-            arena = _i64_at(arena_addr)
-            start = cused * contact_size
-            for b in range(ncon * contact_size):
-                cbytes[start + b] = _u8_at(arena + b)
-            for k in range(ncon):
-                _c_ppip(fns[_F_CONTACTFORCE], m, d, k, cforce[cused + k].ctypes.data)
-            counts[nused, 0] = r
-            counts[nused, 1] = ncon
-            cused += ncon
-            nused += 1
-            continue
-        if r > row0 or not first:  # step from row r - 1 to row r
-            if integ == INTEG_RK4:
-                _c_ppi(fns[_F_RK], m, d, 4)  # the rest of the step the forward pass began
-                for _ in range(steps - 1):
+        if r > row0 or not first:  # step from row r - 1 to row r, each step's pass added
+            for j in range(1, steps + 1):
+                if integ == INTEG_RK4:
+                    _c_ppi(fns[_F_RK], m, d, 4)  # the rest of the step its pass began
+                elif integ == INTEG_PLAIN:
+                    _c_pp(fns[_F_PLAIN], m, d)
+                else:
                     _c_pp(fns[_F_STEP], m, d)
-            elif integ == INTEG_PLAIN:
-                _c_pp(fns[_F_PLAIN], m, d)
-                for _ in range(steps - 1):
-                    _c_pp(fns[_F_STEP], m, d)
-            else:
-                for _ in range(steps):
-                    _c_pp(fns[_F_STEP], m, d)
-        _c_pppi(fns[_F_GETSTATE], m, d, state[r].ctypes.data, spec)
-        for j in range(nv):
-            con[r, j] = _f64_at(con_addr + 8 * j)
-        for j in range(nw):
-            warn[r, j] = _i32_at(warn_addr + warn_stride * j)
-        if contact_size:
-            # mj_step's own start: its forward pass at this row's state
-            _c_pp(fns[_F_CHECKPOS], m, d)
-            _c_pp(fns[_F_CHECKVEL], m, d)
-            _c_pp(fns[_F_FORWARD], m, d)
-            _c_pp(fns[_F_CHECKACC], m, d)
-            ncon = np.int64(_i32_at(ncon_addr))
-            if ncon > 0:
-                if cused + ncon > cforce.shape[0]:
-                    return r, cused, nused  # row r is recorded but not its contacts
-                arena = _i64_at(arena_addr)  # d->arena: the contacts start there
-                start = cused * contact_size
-                for b in range(ncon * contact_size):
-                    cbytes[start + b] = _u8_at(arena + b)
-                for k in range(ncon):
-                    _c_ppip(fns[_F_CONTACTFORCE], m, d, k, cforce[cused + k].ctypes.data)
-                counts[nused, 0] = r
-                counts[nused, 1] = ncon
-                cused += ncon
-                nused += 1
-    return row0 + nrows, cused, nused
-
-
-_PASSES_SIG = types.UniTuple(_I8, 3)(
-    types.int64[::1], _I8, _I8,  # fns, model, scratch data
-    _I8, _I8, _I8, _I8,  # row0, state spec, passes, skip stage of passes 2..
-    types.float64[:, ::1], types.float64[:, ::1],  # state rows, qfrc_constraint rows
-    _I8, _I8, types.float64[:, ::1],  # scratch qfrc_constraint, law outputs (-1: none), out
-    _I8, _I8, _I8,  # contact size, ncon address, arena-pointer address
-    types.uint8[::1], types.float64[:, ::1], types.int64[:, ::1], _I8, _I8,
-)
-
-
-def _passes(fns, m, d, row0, spec, passes, skip, state, con, con_addr, law_addr, law_out,
-            contact_size, ncon_addr, arena_addr, cbytes, cforce, counts, cused,
-            nused):  # pragma: no cover - compiled
-    nv = con.shape[1]
-    for r in range(row0, state.shape[0]):
-        _c_pppi(fns[_F_SETSTATE], m, d, state[r].ctypes.data, spec)
-        for j in range(nv):
-            _f64_put(con_addr + 8 * j, con[r, j])
-        _c_pp(fns[_F_FORWARD], m, d)
-        for _ in range(passes - 1):
-            _c_ppii(fns[_F_FORWARDSKIP], m, d, skip, 1)
-        if law_addr >= 0:  # the callback's (Fx, Fy, power) of the last pass
-            law_out[r, 0] = _f64_at(law_addr)
-            law_out[r, 1] = _f64_at(law_addr + 8)
-            law_out[r, 2] = _f64_at(law_addr + 24)
-        ncon = np.int64(_i32_at(ncon_addr))
-        if ncon > 0:
-            if cused + ncon > cforce.shape[0]:
-                return r, cused, nused  # this row again, with more room
-            arena = _i64_at(arena_addr)
-            start = cused * contact_size
-            for b in range(ncon * contact_size):
-                cbytes[start + b] = _u8_at(arena + b)
-            for k in range(ncon):
-                _c_ppip(fns[_F_CONTACTFORCE], m, d, k, cforce[cused + k].ctypes.data)
-            counts[nused, 0] = r
-            counts[nused, 1] = ncon
-            cused += ncon
-            nused += 1
-    return state.shape[0], cused, nused
-
-
-@functools.cache
-def _compiled_passes():
-    """:func:`_passes` compiled (or loaded from numba's disk cache) on first use."""
-    return nb.njit(_PASSES_SIG, cache=True, error_model="numpy", nogil=True)(_passes)
+                if j == steps:
+                    _c_pppi(fns[_F_GETSTATE], m, d, state[r].ctypes.data, spec)
+                    for q in range(nv):
+                        con[r, q] = _f64_at(con_addr + 8 * q)
+                    for q in range(nw):
+                        warn[r, q] = _i32_at(warn_addr + warn_stride * q)
+                if split:  # mj_step's own start: its forward pass at the new state
+                    _c_pp(fns[_F_CHECKPOS], m, d)
+                    _c_pp(fns[_F_CHECKVEL], m, d)
+                    _c_pp(fns[_F_FORWARD], m, d)
+                    _c_pp(fns[_F_CHECKACC], m, d)
+                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j)
+                else:  # the step's own pass, at the state before it
+                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j - 1)
+        else:
+            _c_pppi(fns[_F_GETSTATE], m, d, state[r].ctypes.data, spec)
+            for q in range(nv):
+                con[r, q] = _f64_at(con_addr + 8 * q)
+            for q in range(nw):
+                warn[r, q] = _i32_at(warn_addr + warn_stride * q)
+            if split:
+                _c_pp(fns[_F_CHECKPOS], m, d)
+                _c_pp(fns[_F_CHECKVEL], m, d)
+                _c_pp(fns[_F_FORWARD], m, d)
+                _c_pp(fns[_F_CHECKACC], m, d)
+            _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, 0)
 
 
 @functools.cache
@@ -398,7 +415,7 @@ def available() -> tuple[bool, str]:
 
 
 def load() -> bool:
-    """Check the layout and compile (or load) both loops now, in this thread; True if usable.
+    """Check the layout and compile (or load) the loop now, in this thread; True if usable.
 
     Call it before steppers are made on other threads: each of these is done once per
     process, and two threads doing it at once would do it twice.
@@ -406,31 +423,39 @@ def load() -> bool:
     if not available()[0]:
         return False
     _compiled_advance()
-    _compiled_passes()
     return True
 
 
 class CompiledStepper:
     """Steps one mjData of one model in :func:`_advance` and keeps what it records.
 
+    Each sample's state, and its window: every step's forward pass added to it
+    (:mod:`.worker.windows`).
+
     Args:
         model: The model.
         data: Its mjData (kept alive by this object).
         steps: Integration steps per sample interval.
         n_rows: Samples to hold.
-        integrator: :data:`INTEG_STEP` (whole ``mj_step`` calls, no contacts) or, to read each
-            sample's contacts from the step's own forward pass, :data:`INTEG_RK4` or
-            :data:`INTEG_PLAIN` (with ``plain``, the model's ``mj_Euler``/``mj_implicit``).
+        integrator: :data:`INTEG_RK4` or :data:`INTEG_PLAIN` (with ``plain``, the model's
+            ``mj_Euler``/``mj_implicit``): ``mj_step`` taken apart, each step's forward pass
+            done at the end of the step before and added to the window there; or
+            :data:`INTEG_STEP`, whole ``mj_step`` calls, each step's pass (at the state
+            before it) added after it.
         plain: The C name of the (m, d) integrator for :data:`INTEG_PLAIN`.
         spec: The ``mjtState`` of the state rows.
+        top: Whose contacts the windows add, and what they read of it.
+        law_index: Paper mode: where the callback leaves its last (Fx, Fy, N, power) in
+            ``data.userdata``; None: no law.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, n_rows: int,
-                 integrator: int, plain: str = "mj_Euler", spec: int) -> None:
+                 integrator: int, plain: str = "mj_Euler", spec: int, top: WindowTop,
+                 law_index: int | None = None) -> None:
         layout, why = _checked()
         if layout is None:
             raise RuntimeError(why)
-        load()  # both loops compiled or loaded before any clock runs
+        load()  # compiled or loaded before any clock runs
         self.model, self.data = model, data
         self.steps, self.integrator, self.spec = steps, integrator, int(spec)
         self.fns = _function_addresses()
@@ -441,95 +466,30 @@ class CompiledStepper:
         self.warn = np.zeros((n_rows, counters.size), dtype=np.int32)
         self._warn_addr, self._warn_stride = counters.ctypes.data, counters.strides[0]
         self._con_addr = data.qfrc_constraint.ctypes.data
-        self.layout = layout
-        self.contacts = integrator != INTEG_STEP
-        size = layout.dtype.itemsize
-        self._csize = size if self.contacts else 0
-        cap = 256 if self.contacts else 0
-        self.cbytes = np.zeros(cap * size, dtype=np.uint8)
-        self.cforce = np.zeros((cap, 6))
-        self.counts = np.zeros((n_rows if self.contacts else 0, 2), dtype=np.int64)
-        self.cused = self.nused = 0
-
-    def _grow(self) -> None:
-        cap = 2 * len(self.cforce)
-        cbytes = np.zeros(cap * self.layout.dtype.itemsize, dtype=np.uint8)
-        cbytes[:len(self.cbytes)] = self.cbytes
-        cforce = np.zeros((cap, 6))
-        cforce[:len(self.cforce)] = self.cforce
-        self.cbytes, self.cforce = cbytes, cforce
+        self.ints, self.floats = new_windows(np, n_rows)
+        offsets = layout.dtype.fields
+        base = data._address
+        self.ip = np.array([
+            base + layout.ncon_offset, base + layout.arena_offset, layout.dtype.itemsize,
+            offsets["dist"][1], offsets["pos"][1], offsets["frame"][1], offsets["geom"][1],
+            top.body, top.ball, data.qpos.ctypes.data + 8 * top.qpos_adr,
+            data.qvel.ctypes.data + 8 * top.dof_adr, data.xmat.ctypes.data + 72 * top.body,
+            data.geom_xpos.ctypes.data + 24 * top.ball + 16,
+            -1 if law_index is None else data.userdata.ctypes.data + 8 * law_index],
+            dtype=np.int64)
+        self.fp = np.array([top.radius_m, *top.axis_body], dtype=np.float64)
+        self.gbody = np.ascontiguousarray(model.geom_bodyid, dtype=np.int64)
+        self.carry = np.array([1.0, np.nan])  # a run that starts without contact starts a gap
+        self.f6 = np.zeros(6)
 
     def advance(self, row0: int, nrows: int, *, first: bool) -> None:
         """Record rows ``row0 .. row0 + nrows - 1``, stepping into each.
 
-        With ``first`` it does not step into ``row0``: the data is at that row's state already.
+        With ``first`` it does not step into ``row0``: the data is at that row's state already
+        (after a forward pass).
         """
-        row, end, resume = row0, row0 + nrows, False
-        while row < end:
-            done, self.cused, self.nused = _compiled_advance()(
-                self.fns, self.model._address, self.data._address, self.steps,
-                self.integrator, first, resume, row, end - row, self.spec, self.state, self.con,
-                self.warn, self._con_addr, self._warn_addr, self._warn_stride, self._csize,
-                self.data._address + self.layout.ncon_offset,
-                self.data._address + self.layout.arena_offset, self.cbytes, self.cforce,
-                self.counts, self.cused, self.nused)
-            if done == end:
-                return
-            # row ``done`` is recorded and its forward pass done, its contacts not copied
-            self._grow()
-            row, first, resume = done, True, True
-
-    def contact_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(sample of each contact, the contact structs (layout dtype), forces (m, 6))."""
-        counts = self.counts[:self.nused]
-        rows = np.frombuffer(self.cbytes[:self.cused * self.layout.dtype.itemsize].tobytes(),
-                             dtype=self.layout.dtype)
-        return (np.repeat(counts[:, 0], counts[:, 1]), rows, self.cforce[:self.cused].copy())
-
-
-def forward_passes(model: mujoco.MjModel, scratch: mujoco.MjData, state: np.ndarray,
-                   con: np.ndarray, *, spec: int, passes: int, law_index: int | None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """Forward passes at many states on one scratch mjData, in one compiled loop.
-
-    For each row i: ``mj_setState(state[i], spec)``, ``qfrc_constraint = con[i]``, then
-    ``mj_forward`` and ``passes - 1`` times ``mj_forwardSkip`` past the position stage (the
-    same positions: only the forces change), then its contacts (as :class:`CompiledStepper`)
-    and, if ``law_index`` is given, the three doubles of ``scratch.userdata`` at
-    ``law_index``, ``+ 1`` and ``+ 3`` (the paper-mode callback's last Fx, Fy and power).
-
-    Returns:
-        (sample of each contact, the contact structs, forces (m, 6), law outputs (n, 3) or
-        None).
-    """
-    layout, why = _checked()
-    if layout is None:
-        raise RuntimeError(why)
-    kernel = _compiled_passes()
-    fns = _function_addresses()
-    n = len(state)
-    size = layout.dtype.itemsize
-    cap = max(256, 2 * n)
-    cbytes, cforce = np.zeros(cap * size, dtype=np.uint8), np.zeros((cap, 6))
-    counts = np.zeros((n, 2), dtype=np.int64)
-    law_out = np.zeros((n, 3))
-    law_addr = -1 if law_index is None else scratch.userdata.ctypes.data + 8 * law_index
-    state = np.ascontiguousarray(state, dtype=np.float64)
-    con = np.ascontiguousarray(con, dtype=np.float64)
-    row = cused = nused = 0
-    while True:
-        row, cused, nused = kernel(
-            fns, model._address, scratch._address, row, int(spec), passes,
-            int(mujoco.mjtStage.mjSTAGE_POS), state, con, scratch.qfrc_constraint.ctypes.data,
-            law_addr, law_out, size, scratch._address + layout.ncon_offset,
-            scratch._address + layout.arena_offset, cbytes, cforce, counts, cused, nused)
-        if row == n:
-            break
-        cap *= 2  # row ``row`` did not fit: grow, and do it again from its state
-        more_bytes, more_force = np.zeros(cap * size, dtype=np.uint8), np.zeros((cap, 6))
-        more_bytes[:len(cbytes)], more_force[:len(cforce)] = cbytes, cforce
-        cbytes, cforce = more_bytes, more_force
-    counts = counts[:nused]
-    rows = np.frombuffer(cbytes[:cused * size].tobytes(), dtype=layout.dtype)
-    return (np.repeat(counts[:, 0], counts[:, 1]), rows, cforce[:cused].copy(),
-            None if law_index is None else law_out)
+        _compiled_advance()(
+            self.fns, self.model._address, self.data._address, self.steps, self.integrator,
+            first, row0, nrows, self.spec, self.state, self.con, self.warn, self._con_addr,
+            self._warn_addr, self._warn_stride, self.ip, self.fp, self.gbody, self.ints,
+            self.floats, self.carry, self.f6)

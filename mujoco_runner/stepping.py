@@ -1,8 +1,9 @@
-"""Stepping a MuJoCo run sample by sample and recording each sample (:mod:`.record`).
+"""Stepping a MuJoCo run sample by sample, recording each sample and its window (:mod:`.record`).
 
 In :mod:`.stepper`'s compiled loop when it is available, else from Python: the same C calls.
-Without paper mode's callback each sample's contacts are read from the forward pass that begins
-the next step (``mj_step`` taken apart, bit for bit), so they cost no extra pass.
+Every step's forward pass is added to its sample's window (:mod:`.worker.windows`): ``mj_step``
+taken apart (bit for bit the same), each step's pass done at the end of the step before, so
+the windows cost no extra pass.
 """
 
 from __future__ import annotations
@@ -18,10 +19,21 @@ import numpy as np
 from tippetop.models.params import FrictionParams
 from tippetop.models.plan import NATIVE_LAW, MujocoPlan
 from tippetop.mujoco_runner import stepper
-from tippetop.mujoco_runner.friction_callback import PaperFriction, compiled_callback
+from tippetop.mujoco_runner.friction_callback import (
+    LAST_OUTPUT,
+    USERDATA_SIZE,
+    PaperFriction,
+    compiled_callback,
+)
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS, TopModel
-from tippetop.mujoco_runner.record import STATE_SPEC, ContactLog, ContactRecord, SampleRecord
+from tippetop.mujoco_runner.record import STATE_SPEC, SampleRecord, WindowRecord
 from tippetop.mujoco_runner.settings import settings_that_ran
+from tippetop.mujoco_runner.worker.windows import (
+    WindowAccumulator,
+    WindowTop,
+    integrator_call,
+    new_windows,
+)
 
 #: Wall time between calls of the progress callback (s).
 PROGRESS_INTERVAL_S = 0.2
@@ -58,10 +70,27 @@ def start_data(top_model: TopModel, plan: MujocoPlan) -> mujoco.MjData:
     return data
 
 
+def window_top(top_model: TopModel) -> WindowTop:
+    """What a run's windows read of its top (:class:`~.worker.windows.WindowTop`)."""
+    return WindowTop(body=top_model.body_id, ball=top_model.ball_geom_id,
+                     radius_m=float(top_model.top.R_m),
+                     axis_body=tuple(float(v) for v in top_model.axis_body),
+                     qpos_adr=top_model.qpos_adr, dof_adr=top_model.dof_adr)
+
+
+def law_index(model: mujoco.MjModel, law: FrictionParams | None) -> int | None:
+    """Where paper mode's callback leaves its last (Fx, Fy, N, power) in userdata.
+
+    None: no law.
+    """
+    return None if law is None else model.nuserdata - USERDATA_SIZE + LAST_OUTPUT
+
+
 def step_top_model(top_model: TopModel, plan: MujocoPlan, *,
                    progress: Callable[[float], None] | None = None,
+                   compiled: bool | None = None,
                    ) -> tuple[SampleRecord, str | None, float, dict[str, Any]]:
-    """Step a plan's run on its compiled model and record its samples.
+    """Step a plan's run on its compiled model and record its samples and their windows.
 
     Starts a new mjData as the plan says (:func:`start_data`; the callback armed with the
     plan's law, a forward pass for what ran) and steps it sample by sample. Touches nothing
@@ -84,18 +113,8 @@ def step_top_model(top_model: TopModel, plan: MujocoPlan, *,
     with callback:
         record, failure, wall_s = step_and_record(
             model, data, plan.steps_per_sample, plan.n_intervals, progress,
-            contacts=plan.law is None)
+            top=window_top(top_model), law_index=law_index(model, plan.law), compiled=compiled)
     return record, failure, wall_s, ran
-
-
-def contacts_from_steps(model: mujoco.MjModel, law: FrictionParams | None) -> bool:
-    """Whether a run reads each sample's contacts from its own steps (no passes afterwards).
-
-    True for a run without paper mode's law on a model whose ``mj_step`` is known to split
-    after its forward pass (:func:`integrator_split`); the others' contacts come from
-    forward passes at the recorded states in :func:`result_from_samples`.
-    """
-    return law is None and integrator_split(model) is not None
 
 
 def integrator_split(model: mujoco.MjModel) -> tuple[int, str] | None:
@@ -103,49 +122,35 @@ def integrator_split(model: mujoco.MjModel) -> tuple[int, str] | None:
 
     ``mj_step`` is ``mj_checkPos``, ``mj_checkVel``, ``mj_forward``, ``mj_checkAcc``, then the
     integrator (tests/mujoco_runner/test_record.py checks the split is bit-identical): a
-    :mod:`.stepper` integrator code and the C name of a (m, d) integrator.
+    :mod:`.stepper` integrator code and the C name of a (m, d) integrator
+    (:func:`~.worker.windows.integrator_call` is the same as a Python call).
     """
-    enabled = int(model.opt.enableflags)
-    bits = mujoco.mjtEnableBit
-    # sleeping islands (newer releases only) change what mj_step does after its forward pass
-    if enabled & (int(bits.mjENBL_FWDINV) | int(getattr(bits, "mjENBL_SLEEP", 0))):
+    if integrator_call(mujoco, model) is None:
         return None
     kind = int(model.opt.integrator)
     if kind == int(mujoco.mjtIntegrator.mjINT_RK4):
         return stepper.INTEG_RK4, "mj_Euler"
     if kind == int(mujoco.mjtIntegrator.mjINT_EULER):
         return stepper.INTEG_PLAIN, "mj_Euler"
-    if kind in (int(mujoco.mjtIntegrator.mjINT_IMPLICIT),
-                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST)):
-        return stepper.INTEG_PLAIN, "mj_implicit"
-    return None
-
-
-def integrator_step(model: mujoco.MjModel) -> Callable[[mujoco.MjModel, mujoco.MjData],
-                                                       None] | None:
-    """:func:`integrator_split` as a Python call; None: not known."""
-    split = integrator_split(model)
-    if split is None:
-        return None
-    if split[0] == stepper.INTEG_RK4:
-        return lambda m, d: mujoco.mj_RungeKutta(m, d, 4)
-    return getattr(mujoco, split[1])
+    return stepper.INTEG_PLAIN, "mj_implicit"
 
 
 def step_and_record(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
-                     progress: Callable[[float], None] | None, *, contacts: bool = False,
-                     compiled: bool | None = None
+                     progress: Callable[[float], None] | None, *, top: WindowTop,
+                     law_index: int | None = None, compiled: bool | None = None
                      ) -> tuple[SampleRecord, str | None, float]:
-    """Step ``data`` sample by sample, recording each; (record, failure, wall time).
+    """Step ``data`` sample by sample, recording each sample and its window.
 
     In :mod:`.stepper`'s compiled loop when it is available (``compiled``: None, the
-    default), else (or with ``compiled=False``) from Python: the same C calls either way.
+    default), else (or with ``compiled=False``) from Python: the same C calls either way,
+    and the same windows to rounding.
     """
     if compiled is None:
         compiled = stepper.available()[0]
     if compiled:
-        return step_compiled(model, data, steps, n_intervals, progress, contacts=contacts)
-    return step_python(model, data, steps, n_intervals, progress, contacts=contacts)
+        return step_compiled(model, data, steps, n_intervals, progress, top=top,
+                             law_index=law_index)
+    return step_python(model, data, steps, n_intervals, progress, top=top, law_index=law_index)
 
 
 def chunk_failure(state: np.ndarray, warn: np.ndarray, nq: int, nv: int) -> int | None:
@@ -156,18 +161,19 @@ def chunk_failure(state: np.ndarray, warn: np.ndarray, nq: int, nv: int) -> int 
 
 
 def step_compiled(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
-                   progress: Callable[[float], None] | None, *, contacts: bool
-                   ) -> tuple[SampleRecord, str | None, float]:
+                   progress: Callable[[float], None] | None, *, top: WindowTop,
+                   law_index: int | None = None) -> tuple[SampleRecord, str | None, float]:
     """:func:`step_python` in :class:`.stepper.CompiledStepper` calls of many samples each.
 
     Each call lasts about half of :data:`PROGRESS_INTERVAL_S` (its length adapts), so the
     checks and the progress reports keep the single loop's pace.
     """
     n_rows = n_intervals + 1
-    split = integrator_split(model) if contacts else None
+    split = integrator_split(model)
     integ, plain = split if split is not None else (stepper.INTEG_STEP, "mj_Euler")
     run = stepper.CompiledStepper(model, data, steps=steps, n_rows=n_rows, integrator=integ,
-                                  plain=plain, spec=int(STATE_SPEC))
+                                  plain=plain, spec=int(STATE_SPEC), top=top,
+                                  law_index=law_index)
     nq, nv = model.nq, model.nv
     dt = float(model.opt.timestep)
     text = None
@@ -195,39 +201,29 @@ def step_compiled(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_inte
         chunk = max(1, min(4 * k, int(k * 0.5 * PROGRESS_INTERVAL_S / max(elapsed, 1e-9))))
     wall_s = time.perf_counter() - wall0
     state = run.state[:n]
-    record_contacts = None
-    if run.contacts:
-        sample, rows, force = run.contact_rows()
-        keep = sample < n
-        rows = rows[keep]
-        record_contacts = ContactRecord(sample[keep], rows["geom"].astype(np.int64),
-                                        rows["dist"].copy(), rows["pos"].copy(),
-                                        rows["frame"].copy(), force[keep])
     record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
                           qvel=state[:, 1 + nq:1 + nq + nv],
                           qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=run.con[:n],
-                          warnings=run.warn[:n], warning_text=text, contacts=record_contacts,
-                          path="compiled stepper")
+                          windows=WindowRecord(run.ints[:n], run.floats[:n]),
+                          warnings=run.warn[:n], warning_text=text, path="compiled stepper")
     return record, None, wall_s
 
 
 def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
-                 progress: Callable[[float], None] | None, *, contacts: bool = False
-                 ) -> tuple[SampleRecord, str | None, float]:
-    """Step ``data`` sample by sample from Python, recording each.
+                 progress: Callable[[float], None] | None, *, top: WindowTop,
+                 law_index: int | None = None) -> tuple[SampleRecord, str | None, float]:
+    """Step ``data`` sample by sample from Python, recording each sample and its window.
 
     The state (time, qpos, qvel, warm start), qfrc_constraint and the warning counters
     are copied at each sample; once per :data:`PROGRESS_INTERVAL_S` of wall time the new rows
     are checked (finite, no warning) and the stepping stops at the first failed one, which is
     kept in the record (:func:`result_from_samples` ends the run there).
 
-    With ``contacts`` (for a model without the paper-mode callback, whose forward pass at a
-    state depends on nothing the record leaves out), each sample interval's first step is
-    ``mj_step`` taken apart: its forward pass at the sample's state is the one the table's
-    contacts need, so they are read from ``data`` there (:attr:`SampleRecord.contacts`) and
-    the run needs no second forward pass per sample. Models whose ``mj_step`` is not known to
-    split so are stepped whole (then ``contacts`` is None and the post-processing computes
-    them).
+    Each step is ``mj_step`` taken apart where the model's split is known
+    (:func:`~.worker.windows.integrator_call`): its forward pass is done at the end of the
+    step before, and added to the window there
+    (:class:`~.worker.windows.WindowAccumulator`); else each ``mj_step`` is called whole and
+    its pass (at the state before it) is added after it.
     """
     n_rows = n_intervals + 1
     spec = STATE_SPEC
@@ -235,10 +231,18 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
     con = np.empty((n_rows, model.nv))
     counts = data.warning.number  # a live view of the counters
     warn = np.zeros((n_rows, counts.size), dtype=counts.dtype)
+    ints, floats = new_windows(np, n_rows)
+    law_output = None
+    if law_index is not None:
+        u = data.userdata
+
+        def law_output() -> tuple[float, float, float]:
+            return float(u[law_index]), float(u[law_index + 1]), float(u[law_index + 3])
+
+    acc = WindowAccumulator(mujoco, np, model, data, top, law_output)
     nq, nv = model.nq, model.nv
     data_con = data.qfrc_constraint
-    integrate = integrator_step(model) if contacts else None
-    log = ContactLog(model, data) if integrate is not None else None
+    integrate = integrator_call(mujoco, model)
     wall0 = time.perf_counter()
     next_report = wall0  # report t = 0 at once
     n = 0  # rows recorded
@@ -247,16 +251,36 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
     mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
     get_state, step, forward = mujoco.mj_getState, mujoco.mj_step, mujoco.mj_forward
     check_pos, check_vel, check_acc = mujoco.mj_checkPos, mujoco.mj_checkVel, mujoco.mj_checkAcc
+
+    def begin_step() -> None:  # mj_step's own start: its forward pass
+        check_pos(model, data)
+        check_vel(model, data)
+        forward(model, data)
+        check_acc(model, data)
+
     while True:
-        get_state(model, data, state[n], spec)
-        con[n] = data_con
-        warn[n] = counts
-        if log is not None:  # the next step's own start: its forward pass at this state
-            check_pos(model, data)
-            check_vel(model, data)
-            forward(model, data)
-            check_acc(model, data)
-            log.add(n, data)
+        if n:  # step from row n - 1 to row n, each step's pass added
+            for j in range(1, steps + 1):
+                if integrate is not None:
+                    integrate(model, data)  # the rest of the step begun by its pass
+                else:
+                    step(model, data)
+                if j == steps:
+                    get_state(model, data, state[n], spec)
+                    con[n] = data_con
+                    warn[n] = counts
+                if integrate is not None:
+                    begin_step()
+                    acc.add(ints, floats, n, j)
+                else:
+                    acc.add(ints, floats, n, j - 1)
+        else:
+            get_state(model, data, state[n], spec)
+            con[n] = data_con
+            warn[n] = counts
+            if integrate is not None:
+                begin_step()
+            acc.add(ints, floats, n, 0)
         n += 1
         now = time.perf_counter()
         if n == n_rows or now >= next_report:
@@ -275,21 +299,15 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
             if progress is not None:
                 progress((n - 1) * steps * float(model.opt.timestep))
             next_report = time.perf_counter() + PROGRESS_INTERVAL_S
-        if integrate is not None:
-            integrate(model, data)  # the rest of the step begun above
-            if steps > 1:
-                step(model, data, steps - 1)
-        else:
-            step(model, data, steps)
     wall_s = time.perf_counter() - wall0
     state = state[:n]
     record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
                           qvel=state[:, 1 + nq:1 + nq + nv],
                           qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=con[:n],
-                          warnings=warn[:n], warning_text=text,
-                          contacts=None if log is None else log.record(), path="plain loop")
+                          windows=WindowRecord(ints[:n], floats[:n]),
+                          warnings=warn[:n], warning_text=text, path="plain loop")
     return record, None, wall_s
 
 
-__all__ = ["PROGRESS_INTERVAL_S", "chunk_failure", "contacts_from_steps", "integrator_split",
-           "ran_settings", "start_data", "step_and_record", "step_top_model"]
+__all__ = ["PROGRESS_INTERVAL_S", "chunk_failure", "integrator_split", "law_index",
+           "ran_settings", "start_data", "step_and_record", "step_top_model", "window_top"]
