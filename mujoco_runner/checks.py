@@ -77,11 +77,11 @@ def check_failure(top_model: TopModel, t: np.ndarray, windows: WindowRecord, ste
                    on_table: bool = True) -> tuple[int, str | None]:
     """The divergence checks over all samples: (first failing sample, reason) or (n, None).
 
-    A sample fails when a contact of the top sank more than :data:`MAX_PENETRATION_R` R into
-    the table at a step of its window, when the energy at the sample rose more than
-    :data:`MAX_ENERGY_RISE` above the first sample's, or when the top has not touched at any
-    step for more than :data:`MAX_AIRBORNE_S` and the ball rose more than
-    :data:`CONTACT_GAP_M` meanwhile. With ``on_table`` False (contacts disabled: the top
+    A sample fails when the ball sank more than :data:`MAX_PENETRATION_R` R into the table at
+    a step of its window (its centre below R (1 - MAX_PENETRATION_R)), when the energy at the
+    sample rose more than :data:`MAX_ENERGY_RISE` above the first sample's, or when the top
+    has not touched at any step for more than :data:`MAX_AIRBORNE_S` and the ball rose more
+    than :data:`CONTACT_GAP_M` meanwhile. With ``on_table`` False (contacts disabled: the top
     falls freely, as asked) only the energy is checked.
     """
     n = len(t)
@@ -89,8 +89,8 @@ def check_failure(top_model: TopModel, t: np.ndarray, windows: WindowRecord, ste
         return 0, None
     R = top_model.top.R_m
     e0 = energy[0]
-    depth = windows.float_column("depth_max")[:n]
-    sink = depth > MAX_PENETRATION_R * R if on_table else np.zeros(n, dtype=bool)
+    sunk = -windows.float_column("gap_min")[:n]  # the ball's deepest, at any step
+    sink = sunk > MAX_PENETRATION_R * R if on_table else np.zeros(n, dtype=bool)
     with np.errstate(invalid="ignore"):
         rise = energy - e0 > MAX_ENERGY_RISE * abs(e0)
     lost = np.zeros(n, dtype=bool)
@@ -109,7 +109,7 @@ def check_failure(top_model: TopModel, t: np.ndarray, windows: WindowRecord, ste
         return n, None
     i = int(hits[0])
     if sink[i]:
-        return i, (f"the ball sank {depth[i] * 1e3:.3g} mm into the table (bound "
+        return i, (f"the ball sank {sunk[i] * 1e3:.3g} mm into the table (bound "
                    f"{MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
     if rise[i]:
         return i, (f"the energy rose {100 * (energy[i] / e0 - 1):.3g}% above its "

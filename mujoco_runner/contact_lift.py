@@ -64,10 +64,13 @@ _XML = """<mujoco><option timestep="{dt}" cone="{cone}" impratio="{impratio}"
 <body pos="0 0 {R}"><freejoint/><geom name="ball" type="sphere" size="{R}" mass="{M}"
  {contact}/></body>
 </worldbody>{pairs}</mujoco>"""
-#: How long the probe slides at one slip (s), and the flight that counts as leaving the table
-#: (s): the harness's own (:data:`tippetop.compare.measures.series.HOP_MIN_S`, 10 ms).
+#: How long the probe slides at one slip (s), and the flight that counts as leaving the table:
+#: the harness's own (:data:`tippetop.compare.measures.series.HOP_MIN_S`, 10 ms, and
+#: :data:`~tippetop.compare.measures.series.FLIGHT_RISE_M`, 10 um), no contact at any step for
+#: that long with the ball risen that high.
 SLIDE_S = 0.1
 FLIGHT_S = 0.01
+FLIGHT_RISE_M = 1e-5
 
 
 @dataclass(frozen=True)
@@ -175,15 +178,16 @@ class Probe:
         """Whether the ball, held at this slip, leaves the table within :data:`SLIDE_S`.
 
         It starts at its resting penetration and slides, its slip held by a torque against
-        the friction's; it leaves if it has no contact for :data:`FLIGHT_S` or more at a
-        time.
+        the friction's; it leaves if it has no contact at any step for :data:`FLIGHT_S` or
+        more and rises :data:`FLIGHT_RISE_M` or more meanwhile (a flight, as the harness
+        counts one).
         """
         mj, m, d = self._mj, self.model, self.data
         mj.mj_resetData(m, d)
         d.qpos[2] = self.radius_m - self.rest_penetration()
         d.qvel[3] = slip_mps / self.radius_m
         dt = m.opt.timestep
-        airborne = 0.0
+        airborne, rise = 0.0, 0.0
         for _ in range(round(SLIDE_S / dt)):
             # hold the slip: a torque on the ball against the friction's about its centre
             torque = np.zeros(3)
@@ -194,12 +198,14 @@ class Probe:
                 torque += np.cross(c.pos - d.qpos[:3], force)
             d.xfrc_applied[1, 3:] = -torque
             mj.mj_step(m, d)
-            if d.qpos[2] > self.radius_m:  # no contact: the ball is above the table
+            gap = float(d.qpos[2]) - self.radius_m
+            if gap > 0.0:  # no contact: the ball is above the table
                 airborne += dt
-                if airborne >= FLIGHT_S - 1e-12:
+                rise = max(rise, gap)
+                if airborne >= FLIGHT_S - 1e-12 and rise >= FLIGHT_RISE_M:
                     return True
             else:
-                airborne = 0.0
+                airborne, rise = 0.0, 0.0
         return False
 
     def lift_off_slip(self) -> float | None:

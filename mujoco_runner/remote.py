@@ -2,9 +2,9 @@
 
 :func:`simulate_in` sends the plan's model, start, grid and law to the worker (the folder
 ``worker/``, started by path) in the given interpreter, which needs nothing but ``mujoco`` and
-``numpy``; its samples, contacts and forces come back in a ``.npz`` file, and this process turns
-them into the same :class:`~.results.MujocoResult` as an in-process run
-(:func:`~.results.result_from_samples`).
+``numpy``; its samples and their windows (every step's forward pass added to its sample's:
+:mod:`.worker.windows`) come back in a ``.npz`` file, and this process turns them into the same
+:class:`~.results.MujocoResult` as an in-process run (:func:`~.results.result_from_samples`).
 A worker that crashes, hangs past its budget or answers with anything but its reply is one
 failed run, with the reason (:class:`WorkerFailed`).
 """
@@ -34,9 +34,10 @@ from tippetop.models.resources import user_cache_dir
 from tippetop.mujoco_runner import worker
 from tippetop.mujoco_runner.friction_callback import law_parameters
 from tippetop.mujoco_runner.model import TopModel
-from tippetop.mujoco_runner.record import ContactRecord, SampleRecord
+from tippetop.mujoco_runner.record import SampleRecord, WindowRecord
 from tippetop.mujoco_runner.results import MujocoResult, result_from_samples
 from tippetop.mujoco_runner.settings import build_model, friction_that_acts
+from tippetop.mujoco_runner.stepping import window_top
 
 #: The worker's folder, run by path in the other interpreter (``PYTHON -u WORKER``: its
 #: ``__main__.py``).
@@ -50,9 +51,15 @@ BUDGET_COMPILE_S = 180.0
 #: What steps a plan when the caller names nothing: MuJoCo C in float64.
 DEFAULT_ENGINE = {"implementation": "mujoco", "precision": "float64"}
 #: The keys of a worker's ``engine`` reply kept in a result's ``engine`` besides the five
-#: every summary has (an accelerated engine's: where its contacts and warnings come from).
+#: every summary has (an accelerated engine's: what its windows read and where its warnings
+#: come from).
 ENGINE_EXTRA = ("mujoco_c_version", "device_kind", "contacts_from", "warnings", "law_applied",
                 "note")
+
+
+#: The arrays a worker's results hold (protocol 5): the samples' states and their windows.
+WORKER_ARRAYS = frozenset({"time", "qpos", "qvel", "qacc_warmstart", "qfrc_constraint",
+                           "warnings", "windows_int", "windows_float"})
 
 
 class WorkerFailed(RuntimeError):
@@ -94,7 +101,9 @@ def request(plan: MujocoPlan, top_model: TopModel, out: Path,
     """The worker's request for ``plan`` (its arrays go to ``out``).
 
     ``engine`` (``{"implementation": "mujoco"|"mjx"|"warp", "precision": ...}``) says what
-    steps it there; default MuJoCo C in float64.
+    steps it there; default MuJoCo C in float64. Its ``top`` is whose contacts the windows
+    add (:func:`~.stepping.window_top`'s fields: body, ball geom, radius, symmetry axis, the
+    free joint's addresses), as this process's model has them.
     """
     start: dict[str, Any] = ({"keyframe": plan.keyframe} if plan.keyframe is not None
                              else {"qpos": list(plan.start_qpos), "qvel": list(plan.start_qvel)})
@@ -108,8 +117,12 @@ def request(plan: MujocoPlan, top_model: TopModel, out: Path,
                "stem_kind": 0 if stem is None else 2 if stem.kind == "cylinder" else 1,
                "stem_l": 0.0 if stem is None else stem.offset_m,
                "stem_r": 0.0 if stem is None else stem.radius_m}
+    w = window_top(top_model)
+    top = {"body": int(w.body), "ball": int(w.ball), "radius_m": float(w.radius_m),
+           "axis_body": [float(v) for v in w.axis_body], "qpos_adr": int(w.qpos_adr),
+           "dof_adr": int(w.dof_adr)}
     return {"protocol": worker.PROTOCOL, "mjcf": plan.mjcf, "userdata": HARNESS_USERDATA,
-            "start": start, "ball_geom": top_model.ball_geom_id,
+            "start": start, "top": top,
             "steps_per_sample": plan.steps_per_sample,
             "n_intervals": plan.n_intervals, "law": law, "out": str(out),
             "engine": dict(engine or DEFAULT_ENGINE),
@@ -194,21 +207,20 @@ def simulate_in(python: str, plan: MujocoPlan, *, budget_s: float | None = None,
         except (OSError, ValueError) as exc:
             raise WorkerFailed(f"the worker in {python} wrote no readable results ({exc})") \
                 from None
+        missing = sorted(WORKER_ARRAYS - set(arrays))
+        if missing:
+            raise WorkerFailed(f"the worker in {python} wrote results without "
+                               f"{', '.join(missing)}")
     record = SampleRecord(
         time=arrays["time"], qpos=arrays["qpos"], qvel=arrays["qvel"],
         qacc_warmstart=arrays["qacc_warmstart"], qfrc_constraint=arrays["qfrc_constraint"],
         warnings=arrays["warnings"], warning_text=reply.get("warning_text"),
         warning_names=tuple(reply["warning_names"]),
-        contacts=ContactRecord(arrays["contact_sample"], arrays["contact_geom"],
-                               arrays["contact_dist"], arrays["contact_pos"],
-                               arrays["contact_frame"], arrays["contact_force"]),
+        windows=WindowRecord(arrays["windows_int"], arrays["windows_float"]),
         path=f"worker: {info.path}")
-    law_out = arrays["law_out"]
-    forces = (law_out[:, :2], law_out[:, 2]) if plan.law is not None else None
     with np.errstate(over="ignore", invalid="ignore"):
         result = result_from_samples(top_model, record, plan, wall_s=float(reply["wall_s"]),
-                                     ran=_ran(reply, plan), law_forces=forces,
-                                     version=info.version)
+                                     ran=_ran(reply, plan), version=info.version)
     said = reply.get("engine")
     if isinstance(said, dict):  # what stepped it, as the worker read it back
         ran_engine = {k: said.get(k, "?") for k in ("implementation", "version", "precision",
@@ -407,5 +419,5 @@ def _kill(proc: subprocess.Popen[str]) -> None:
 
 
 __all__ = ["BUDGET_COMPILE_S", "BUDGET_FACTOR", "BUDGET_MIN_S", "DEFAULT_ENGINE", "WORKER",
-           "WorkerFailed", "WorkerInfo", "close_workers", "live_workers", "request", "simulate_in",
-           "stop_workers"]
+           "WORKER_ARRAYS", "WorkerFailed", "WorkerInfo", "close_workers", "live_workers",
+           "request", "simulate_in", "stop_workers"]

@@ -125,6 +125,26 @@ class MujocoResult:
                 "airborne_s": (w.int_column("passes") - w.int_column("touch_passes"))
                 * self.dt_s}
 
+    def force_and_slip(self) -> dict[str, np.ndarray]:
+        """Each window's mean friction force against its slip: what a realised law is fit to.
+
+        ``{"t", "N", "F", "slip"}``: the samples' times (s), each window's mean normal force
+        (N), its mean friction force on the ball in the world's horizontal plane (n, 2; N:
+        the contacts' own in native mode, the law's in paper mode) and the slip of the
+        ball's lowest point there, each step's weighted by its normal force (n, 2; m/s; NaN
+        where no step had any).
+        """
+        means = window_means(self.windows)
+        n = len(self.table)
+        force = means["law_F"] if self.mode == "paper" else means["F"][:, :2]
+        w = self.windows.floats
+        total = w[:, F["n_sum"]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slip = np.stack([w[:, F["slip_nx_sum"]], w[:, F["slip_ny_sum"]]], axis=1) / \
+                np.where(total > 0, total, np.nan)[:, None]
+        return {"t": self.table["t"].to_numpy(), "N": means["N"][:n], "F": force[:n],
+                "slip": slip[:n]}
+
     @property
     def ok(self) -> bool:
         """True when the run reached t_end without diverging."""

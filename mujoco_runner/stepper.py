@@ -146,13 +146,15 @@ _I8 = types.int64
 (_W_PASSES, _W_TOUCH, _W_TOUCH_PASSES, _W_FIRST, _W_LAST, _W_INNER, _W_INNER_START, _W_LIFTS,
  _W_OTHER, _W_FLIP) = range(10)
 (_W_GAP, _W_LEAD, _W_TRAIL, _W_INNER_GAP, _W_DEPTH, _W_N, _W_FX, _W_FY, _W_FZ, _W_TX, _W_TY,
- _W_TZ, _W_POWER, _W_LFX, _W_LFY, _W_LPOWER) = range(16)
+ _W_TZ, _W_POWER, _W_LFX, _W_LFY, _W_LPOWER, _W_GAP_MIN, _W_SLIP_X, _W_SLIP_Y) = range(19)
 
 
-def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: no cover
+def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j, qp,
+                qv):  # pragma: no cover
     """Add the mjData's last forward pass to window ``r`` as its pass at offset ``j``.
 
-    The arithmetic of :class:`~.worker.windows.WindowAccumulator`, over the raw structs.
+    The arithmetic of :class:`~.worker.windows.WindowAccumulator`, over the raw structs;
+    ``qp``, ``qv``: the addresses of the free joint's qpos and qvel at the pass's state.
     """
     body, ball = ip[_P_BODY], ip[_P_BALL]
     size = ip[_P_CSIZE]
@@ -162,7 +164,6 @@ def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: n
     m0, m1, m2 = _f64_at(xm), _f64_at(xm + 8), _f64_at(xm + 16)
     m3, m4, m5 = _f64_at(xm + 24), _f64_at(xm + 32), _f64_at(xm + 40)
     m6, m7, m8 = _f64_at(xm + 48), _f64_at(xm + 56), _f64_at(xm + 64)
-    qp, qv = ip[_P_QPOS], ip[_P_QVEL]
     vx, vy, vz = _f64_at(qv), _f64_at(qv + 8), _f64_at(qv + 16)
     lx, ly, lz = _f64_at(qv + 24), _f64_at(qv + 32), _f64_at(qv + 40)
     ox = m0 * lx + m1 * ly + m2 * lz
@@ -204,8 +205,13 @@ def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: n
         tx += bx
         ty += by
         tz += bz
-    gap = _f64_at(ip[_P_BALLZ]) - fp[0]
+    ball_x = ip[_P_BALLZ]  # the ball's centre, x y z
+    gap = _f64_at(ball_x + 16) - fp[0]
     kz = m6 * fp[1] + m7 * fp[2] + m8 * fp[3]
+    # the slip of the ball's lowest point, v + omega x (centre - R z - origin)
+    rx, ry, rz = _f64_at(ball_x) - px, _f64_at(ball_x + 8) - py, gap - pz
+    slip_x = vx + (oy * rz - oz * ry)
+    slip_y = vy + (oz * rx - ox * rz)
     wi[r, _W_PASSES] += 1
     if code:
         trail = wf[r, _W_TRAIL]
@@ -233,7 +239,10 @@ def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: n
         wi[r, _W_FLIP] = j
     carry[1] = kz
     wf[r, _W_GAP] = max(wf[r, _W_GAP], gap)
+    wf[r, _W_GAP_MIN] = min(wf[r, _W_GAP_MIN], gap)
     wf[r, _W_DEPTH] = max(wf[r, _W_DEPTH], depth)
+    wf[r, _W_SLIP_X] += n * slip_x
+    wf[r, _W_SLIP_Y] += n * slip_y
     wf[r, _W_N] += n
     wf[r, _W_FX] += fx
     wf[r, _W_FY] += fy
@@ -249,8 +258,9 @@ def _accumulate(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j):  # pragma: n
         wf[r, _W_LPOWER] += _f64_at(law + 24)
 
 
-if (INT_FIELDS.index("flip"), FLOAT_FIELDS.index("law_power_sum")) != (
-        _W_FLIP, _W_LPOWER):  # pragma: no cover - an edit of one list without the other
+if (INT_FIELDS.index("flip"), FLOAT_FIELDS.index("law_power_sum"),
+        FLOAT_FIELDS.index("slip_ny_sum"), len(FLOAT_FIELDS)) != (
+        _W_FLIP, _W_LPOWER, _W_SLIP_Y, 19):  # pragma: no cover - one list edited alone
     raise RuntimeError("stepper's window columns are not worker/windows.py's")
 
 _accumulate_jit = nb.njit(inline="always", error_model="numpy", nogil=True,
@@ -266,15 +276,18 @@ _ADVANCE_SIG = types.void(
     types.int64[::1], types.float64[::1], types.int64[::1],  # ip, fp (R, axis), geom bodies
     types.int64[:, ::1], types.float64[:, ::1],  # the windows: integers, floats
     types.float64[::1], types.float64[::1],  # carry (touched, k_z at the last pass), scratch
+    types.float64[::1],  # the free joint's qpos and qvel before a whole mj_step (13)
 )
 
 
 def _advance(fns, m, d, steps, integ, first, row0, nrows, spec, state, con, warn,
              con_addr, warn_addr, warn_stride, ip, fp, gbody, wi, wf, carry,
-             f6):  # pragma: no cover - compiled
+             f6, before):  # pragma: no cover - compiled
     nv = con.shape[1]
     nw = warn.shape[1]
     split = integ != INTEG_STEP
+    qp, qv = ip[_P_QPOS], ip[_P_QVEL]
+    bp, bv = before.ctypes.data, before.ctypes.data + 56
     for r in range(row0, row0 + nrows):
         if r > row0 or not first:  # step from row r - 1 to row r, each step's pass added
             for j in range(1, steps + 1):
@@ -282,7 +295,11 @@ def _advance(fns, m, d, steps, integ, first, row0, nrows, spec, state, con, warn
                     _c_ppi(fns[_F_RK], m, d, 4)  # the rest of the step its pass began
                 elif integ == INTEG_PLAIN:
                     _c_pp(fns[_F_PLAIN], m, d)
-                else:
+                else:  # whole: its pass is at the state before it, kept for the window
+                    for q in range(7):
+                        before[q] = _f64_at(qp + 8 * q)
+                    for q in range(6):
+                        before[7 + q] = _f64_at(qv + 8 * q)
                     _c_pp(fns[_F_STEP], m, d)
                 if j == steps:
                     _c_pppi(fns[_F_GETSTATE], m, d, state[r].ctypes.data, spec)
@@ -295,9 +312,11 @@ def _advance(fns, m, d, steps, integ, first, row0, nrows, spec, state, con, warn
                     _c_pp(fns[_F_CHECKVEL], m, d)
                     _c_pp(fns[_F_FORWARD], m, d)
                     _c_pp(fns[_F_CHECKACC], m, d)
-                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j)
-                else:  # the step's own pass, at the state before it
-                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j - 1)
+                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j, qp, qv)
+                elif r > 1 or j > 1:  # the step's own pass, at the state before it (the
+                    # first step's is the start's, row 0's already)
+                    _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, j - 1,
+                                    bp, bv)
         else:
             _c_pppi(fns[_F_GETSTATE], m, d, state[r].ctypes.data, spec)
             for q in range(nv):
@@ -309,7 +328,7 @@ def _advance(fns, m, d, steps, integ, first, row0, nrows, spec, state, con, warn
                 _c_pp(fns[_F_CHECKVEL], m, d)
                 _c_pp(fns[_F_FORWARD], m, d)
                 _c_pp(fns[_F_CHECKACC], m, d)
-            _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, 0)
+            _accumulate_jit(fns, m, d, ip, fp, gbody, wi, wf, carry, f6, r, 0, qp, qv)
 
 
 @functools.cache
@@ -474,13 +493,14 @@ class CompiledStepper:
             offsets["dist"][1], offsets["pos"][1], offsets["frame"][1], offsets["geom"][1],
             top.body, top.ball, data.qpos.ctypes.data + 8 * top.qpos_adr,
             data.qvel.ctypes.data + 8 * top.dof_adr, data.xmat.ctypes.data + 72 * top.body,
-            data.geom_xpos.ctypes.data + 24 * top.ball + 16,
+            data.geom_xpos.ctypes.data + 24 * top.ball,
             -1 if law_index is None else data.userdata.ctypes.data + 8 * law_index],
             dtype=np.int64)
         self.fp = np.array([top.radius_m, *top.axis_body], dtype=np.float64)
         self.gbody = np.ascontiguousarray(model.geom_bodyid, dtype=np.int64)
         self.carry = np.array([1.0, np.nan])  # a run that starts without contact starts a gap
         self.f6 = np.zeros(6)
+        self.before = np.zeros(13)
 
     def advance(self, row0: int, nrows: int, *, first: bool) -> None:
         """Record rows ``row0 .. row0 + nrows - 1``, stepping into each.
@@ -492,4 +512,4 @@ class CompiledStepper:
             self.fns, self.model._address, self.data._address, self.steps, self.integrator,
             first, row0, nrows, self.spec, self.state, self.con, self.warn, self._con_addr,
             self._warn_addr, self._warn_stride, self.ip, self.fp, self.gbody, self.ints,
-            self.floats, self.carry, self.f6)
+            self.floats, self.carry, self.f6, self.before)

@@ -223,7 +223,8 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
     (:func:`~.worker.windows.integrator_call`): its forward pass is done at the end of the
     step before, and added to the window there
     (:class:`~.worker.windows.WindowAccumulator`); else each ``mj_step`` is called whole and
-    its pass (at the state before it) is added after it.
+    its pass (at the state before it, with the motion it had there) is added after it, the
+    first step's being the start's (row 0's).
     """
     n_rows = n_intervals + 1
     spec = STATE_SPEC
@@ -240,6 +241,7 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
             return float(u[law_index]), float(u[law_index + 1]), float(u[law_index + 3])
 
     acc = WindowAccumulator(mujoco, np, model, data, top, law_output)
+    qa, va = top.qpos_adr, top.dof_adr
     nq, nv = model.nq, model.nv
     data_con = data.qfrc_constraint
     integrate = integrator_call(mujoco, model)
@@ -263,7 +265,8 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
             for j in range(1, steps + 1):
                 if integrate is not None:
                     integrate(model, data)  # the rest of the step begun by its pass
-                else:
+                else:  # whole: its pass is at the state before it, kept for the window
+                    motion = (data.qpos[qa:qa + 7].copy(), data.qvel[va:va + 6].copy())
                     step(model, data)
                 if j == steps:
                     get_state(model, data, state[n], spec)
@@ -272,8 +275,8 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
                 if integrate is not None:
                     begin_step()
                     acc.add(ints, floats, n, j)
-                else:
-                    acc.add(ints, floats, n, j - 1)
+                elif n > 1 or j > 1:  # the first step's pass is the start's, row 0's already
+                    acc.add(ints, floats, n, j - 1, motion)
         else:
             get_state(model, data, state[n], spec)
             con[n] = data_con

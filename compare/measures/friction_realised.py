@@ -34,10 +34,10 @@ def law_mu(v: np.ndarray, mu: float, lam: float) -> np.ndarray:
 
 
 def samples(table: pd.DataFrame) -> pd.DataFrame:
-    """The samples that touch and slip: slip speed, mu_eff and the angle to -v_P."""
+    """The samples that touch and slip: slip speed, mu_eff, the angle to -v_P, and N."""
     cols = ("FX", "FY", "vPX", "vPY", "N")
     if table is None or not all(c in table for c in cols):
-        return pd.DataFrame({"slip": [], "mu_eff": [], "angle": []})
+        return pd.DataFrame({"slip": [], "mu_eff": [], "angle": [], "N": []})
     t = table[list(cols)].to_numpy(dtype=float)
     FX, FY, vX, vY, N = t.T
     F, v = np.hypot(FX, FY), np.hypot(vX, vY)
@@ -46,21 +46,25 @@ def samples(table: pd.DataFrame) -> pd.DataFrame:
     angle = np.arctan2(np.abs(FX * vY - FY * vX), -(FX * vX + FY * vY))
     angle = np.where(F > 0, angle, 0.0)
     return pd.DataFrame({"slip": v[ok], "mu_eff": (F / np.where(N > 0, N, 1.0))[ok],
-                         "angle": angle[ok]})
+                         "angle": angle[ok], "N": N[ok]})
 
 
 def fit_law(slip: np.ndarray, mu_eff: np.ndarray, mu0: float,
-            lam0: float) -> tuple[float, float, float]:
+            lam0: float, weight: np.ndarray | None = None) -> tuple[float, float, float]:
     """(mu, Lambda, residual): the modified Coulomb law fitted to (slip, mu_eff).
 
     Least squares on the coefficient, both parameters positive (scipy's ``least_squares``,
     Lambda on a log scale, from the law's own values); the residual is the RMS of mu_eff less
-    the fitted law.
+    the fitted law. ``weight``: each sample's weight (its normal force: see
+    :func:`friction_realised`); None: all alike.
     """
     from scipy.optimize import least_squares
 
+    root = None if weight is None else np.sqrt(np.asarray(weight) / np.mean(weight))
+
     def resid(x: np.ndarray) -> np.ndarray:
-        return law_mu(slip, x[0], math.exp(x[1])) - mu_eff
+        r = law_mu(slip, x[0], math.exp(x[1])) - mu_eff
+        return r if root is None else r * root
 
     lo = math.log(min(1e-12, lam0 / 10.0)) if lam0 > 0 else math.log(1e-12)
     hi = math.log(max(10.0, 10.0 * lam0))
@@ -98,14 +102,19 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
     """``friction_realised`` of a run: the law the engine realised, against the paper's.
 
     Args:
-        table: The run's observables (with ``FX``, ``FY``).
+        table: The run's forces against its slips: ``t``, ``FX``, ``FY``, ``vPX``, ``vPY``
+            and ``N``, the force and the slip in any one horizontal frame (the fit reads
+            magnitudes and the angle between them): the observables table, or a MuJoCo run's
+            windows (:func:`window_pairs`: each window's mean force against its slip weighted
+            as the force).
         mu: The law's mu (the scene's: what the engine was meant to realise).
         lam: The law's Lambda (m/s).
         t_stem: The stem's first contact (s): only the samples before it count, while the
             ball alone touches (after it the force is two points' and the slip one point's).
 
     Returns:
-        ``mu_fit``, ``Lambda_fit_mps``, ``residual`` (RMS of mu_eff less the fitted law),
+        ``mu_fit``, ``Lambda_fit_mps`` (each sample weighted by its normal force),
+        ``residual`` (RMS of mu_eff less the fitted law, so weighted),
         ``half_mu_slip_mps`` and ``ninety_mu_slip_mps`` (the slip speeds at which the
         median |F_t| reaches half and 90 % of mu_fit N, measured in log-slip bins),
         ``law_half_mu_slip_mps`` (the paper's law's: Lambda / sqrt(3)), ``angle_rms_rad``
@@ -125,7 +134,10 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
         return {**out, **dict.fromkeys(keys)}
     slip, mu_eff = s["slip"].to_numpy(), s["mu_eff"].to_numpy()
     try:
-        mu_fit, lam_fit, residual = fit_law(slip, mu_eff, mu, lam)
+        # each sample weighs as its normal force: a MuJoCo sample's F and N are its window's
+        # means (the impulses over the steps since the sample before), so a window of k steps
+        # weighs as its k steps would at every step, where the slip barely moves within it
+        mu_fit, lam_fit, residual = fit_law(slip, mu_eff, mu, lam, weight=s["N"].to_numpy())
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         return {**out, **dict.fromkeys(keys), "fit_error": str(exc)}
     law = law_mu(slip, mu, lam)
@@ -135,6 +147,29 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
                angle_rms_rad=float(np.sqrt(np.mean(s["angle"].to_numpy() ** 2))),
                creep_fraction=float(np.mean(mu_eff < (1.0 - CREEP_MARGIN) * law)))
     return out
+
+
+def window_pairs(t: np.ndarray, N: np.ndarray, F: np.ndarray, slip: np.ndarray
+                 ) -> pd.DataFrame:
+    """A MuJoCo run's force-slip pairs for :func:`friction_realised`, one per window.
+
+    Args:
+        t: The samples' times (s).
+        N: Each window's mean normal force (N).
+        F: Each window's mean friction force, world frame (n, 2 or 3; N).
+        slip: Each window's slip, world frame, weighted as its normal force: the sum of
+            N v_P over its steps over the sum of N (n, 2 or 3; m/s). Paired with the mean
+            force, a window weighs as its steps would one by one where the law is smooth,
+            whatever the sample spacing; the slip at the sample, half a window after the
+            force's mean, would turn the force away from it as the slip turns.
+
+    Returns:
+        ``t, FX, FY, vPX, vPY, N`` in the world's horizontal frame.
+    """
+    F, slip = np.asarray(F, dtype=float), np.asarray(slip, dtype=float)
+    return pd.DataFrame({"t": np.asarray(t, dtype=float), "FX": F[:, 0], "FY": F[:, 1],
+                         "vPX": slip[:, 0], "vPY": slip[:, 1],
+                         "N": np.asarray(N, dtype=float)})
 
 
 def not_refit(reason: str) -> dict[str, Any]:
@@ -186,4 +221,5 @@ SENTENCE_TERMS = (
     "below the paper's law at the same slip")
 
 __all__ = ["CREEP_MARGIN", "MIN_SAMPLES", "MIN_SLIP_MPS", "SENTENCE_TERMS", "fit_law",
-           "friction_realised", "law_mu", "not_refit", "realised_sentence", "samples"]
+           "friction_realised", "law_mu", "not_refit", "realised_sentence", "samples",
+           "window_pairs"]

@@ -196,12 +196,12 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
            against="theory"),
     Metric("theta_final", "rad", "the tilt theta at the last sample"),
     Metric("t_invert", "s", "the first time theta crosses pi/2 from below: the top turns "
-           "over (none: it never does within the run)",
+           "over (none: it never does within the run); MuJoCo's located to the step",
            tolerance=_tol("abs", 0.1, "s", "~3 % of the Fig. 3 inversion time; the ODE locates "
                           "it to 1e-6 s and a MuJoCo timestep change moves it by milliseconds"),
            agreement=_EVENT, against="reference"),
     Metric("t_stem", "s", "the first time the stem touches the table (none: no stem, or it "
-           "never does)",
+           "never does); MuJoCo's located to the step",
            tolerance=_tol("abs", 0.1, "s", "as t_invert: ~3 % of the Fig. 3 "
                                               "inversion time"),
            agreement=_EVENT, against="reference"),
@@ -239,8 +239,9 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
            tolerance=_tol("exact", why="leaving the table is a different regime, never a "
                           "tolerance"), style="flag"),
     Metric("t_left_table", "s", "the first time the ball leaves the table before the stem "
-           "lands: the start of its first flight of 10 ms or more after the first 0.05 s "
-           "(shorter flights are a soft contact chattering: see flights); the reference's is "
+           "lands: the start of its first flight after the first 0.05 s (10 ms or more without "
+           "contact at any step, the ball risen 10 um or more; a shorter or lower stretch is a "
+           "soft contact chattering: see flights), located to the step; the reference's is "
            "where it stopped because its normal force reached 0 (none: the ball stays on)",
            tolerance=_tol("abs", 0.1, "s", "as t_invert: ~3 % of the Fig. 3 "
                                               "inversion time"),
@@ -248,10 +249,11 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
                           "stays on departs: J is not kept in flight, and the paper's model "
                           "has the ball on the table"),
            against="reference", label="left the table"),
-    Metric("flights", "", "a MuJoCo run's flights before the stem lands (samples with no "
-           "contact): how many, the longest and all of them together (s), the first's start, "
-           "and how many lasted 10 ms or more (hops: the ball leaving the table) and the "
-           "first of those's start",
+    Metric("flights", "", "a MuJoCo run's stretches of steps without contact before the stem "
+           "lands, measured at every step: how many, the longest and all of them together "
+           "(s), the first's start and the highest's rise (m); and how many are flights "
+           "(hops: 10 ms or more and risen 10 um or more, the ball leaving the table), the "
+           "first's start, the longest and the highest",
            style="class"),
     Metric("status", "", "how the run ended: ok, contact_lost or hop (the physics ended it), "
            "or why it failed (diverged, max_steps, step_too_small, singular ...)",

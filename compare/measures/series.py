@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -53,44 +54,69 @@ def jellett_drift(table: pd.DataFrame, J_scale: float | None = None) -> float:
 SETTLING_S = 0.05
 
 
-#: A flight at least this long is the ball leaving the table (s); a shorter one is its soft
-#: contact chattering. Measured on MuJoCo's soft contacts: the calibrated native settings
-#: chatter in flights of at most 6 ms on Fig. 3 (269 of them while it rises) and 8 ms on the
-#: tutorial's top, the tuned settings at most 5 ms on the paper's top and 1 ms on the
-#: tutorial's, each rising at most g t^2 / 8 = 0.08 mm, and Jellett's constant, which a flight
-#: does not keep, moves by under 2e-4 through them; the tutorial top's own contact (MuJoCo's
-#: default solref, 20 ms) hops for up to 32 ms at a time.
+#: A stretch of steps without contact is the ball leaving the table (a flight, a "hop") when it
+#: lasts at least this long (s) and the ball rises at least :data:`FLIGHT_RISE_M` in it; a
+#: shorter or lower one is its soft contact chattering. Measured at every step (the stepping
+#: adds each step's contact to its sample's window): see :data:`FLIGHT_RISE_M` and
+#: docs/guide/tuning.md for the stretches MuJoCo's soft contacts make.
 HOP_MIN_S = 0.01
+#: The least rise of the ball above the table in a stretch without contact that makes it a
+#: flight (m). A ball that leaves the table for 10 ms on its own rises g t^2 / 8 = 0.12 mm;
+#: MuJoCo's soft contacts, tuned or calibrated, chatter in stretches of at most 2-8 ms in which
+#: the ball's lowest point stays within about 1 um of the table (its centre follows the top's
+#: turning, not a fall), measured at every step (docs/guide/tuning.md).
+FLIGHT_RISE_M = 1e-5
 
 
-def flights(t: np.ndarray, touching: np.ndarray, t_stem: float | None,
-            settling_s: float = SETTLING_S, hop_min_s: float = HOP_MIN_S
-            ) -> dict[str, Any] | None:
-    """The ball's flights before the stem's first contact: stretches of samples with no contact.
+def flights(t: np.ndarray, gaps: Mapping[str, np.ndarray], t_stem: float | None,
+            settling_s: float = SETTLING_S, hop_min_s: float = HOP_MIN_S,
+            rise_min_m: float = FLIGHT_RISE_M) -> dict[str, Any] | None:
+    """The ball's stretches without contact before the stem lands, and its flights among them.
+
+    Args:
+        t: The samples' times (s), one per window.
+        gaps: A MuJoCo run's stretches of steps without contact, located to the step
+            (:meth:`tippetop.mujoco_runner.results.MujocoResult.gaps`): ``t_start``,
+            ``duration_s`` and ``height_m`` per stretch, and ``count`` and ``airborne_s`` per
+            sample's window.
+        t_stem: The stem's first contact (s); None: never.
+        settling_s: The start in which the ball may still settle into its contact.
+        hop_min_s: What makes a stretch a flight: its least length (s) ...
+        rise_min_m: ... and its least rise (m).
 
     Returns:
-        ``{count, longest_s, airborne_s, t_first, hops, t_first_hop}``: how many flights, the
-        longest and their total (each a flight's samples times the spacing), the first's
-        start (s), how many lasted ``hop_min_s`` or more (the ball leaving the table, not
-        its contact chattering) and the first of those's start (None: none); None when the
-        ball never leaves the table (after ``settling_s``, until the stem lands or the run
-        ends).
+        ``{count, longest_s, airborne_s, t_first, height_m, hops, t_first_hop,
+        longest_hop_s, hop_height_m, hop_min_s, rise_min_m, measured}``: how many stretches
+        without contact, the longest, their total, the first's start (s) and the highest's
+        rise (m); how many are flights (``hops``: at least ``hop_min_s`` long and risen at least
+        ``rise_min_m``), the first's start, the longest's length and the highest's rise (None:
+        no flight); the rule; ``measured``: at every step. None when the top touches at every
+        step (after ``settling_s``, until the stem lands or the run ends).
     """
     t = np.asarray(t, dtype=float)
-    free = (t >= settling_s) & ~np.asarray(touching, dtype=bool)
+    start = np.asarray(gaps["t_start"], dtype=float)
+    length = np.asarray(gaps["duration_s"], dtype=float)
+    height = np.asarray(gaps["height_m"], dtype=float)
+    eps = 1e-9 * max(float(t[-1]) if len(t) else 0.0, 1.0)
+    mine = start >= settling_s - eps
+    # a window holds the steps after the sample before it: window i ends at t[i]
+    counted = t > settling_s + eps
     if t_stem is not None:
-        free &= t < t_stem
-    if not free.any():
+        mine &= start < t_stem - eps
+        counted &= t <= t_stem + eps
+    count = int(np.asarray(gaps["count"])[counted].sum())
+    if not mine.any():
         return None
-    dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
-    edges = np.diff(np.concatenate(([0], free.astype(np.int8), [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    lengths = (ends - starts) * dt
-    hops = np.flatnonzero(lengths >= hop_min_s * (1.0 - 1e-9))
-    return {"count": int(len(starts)), "longest_s": float(lengths.max()),
-            "airborne_s": float(lengths.sum()), "t_first": float(t[starts[0]]),
-            "hops": int(len(hops)),
-            "t_first_hop": float(t[starts[hops[0]]]) if hops.size else None}
+    start, length, height = start[mine], length[mine], height[mine]
+    hop = (length >= hop_min_s * (1.0 - 1e-9)) & (height >= rise_min_m)
+    return {"count": max(count, int(mine.sum())), "longest_s": float(length.max()),
+            "airborne_s": float(np.asarray(gaps["airborne_s"])[counted].sum()),
+            "t_first": float(start[0]), "height_m": float(height.max()),
+            "hops": int(hop.sum()),
+            "t_first_hop": float(start[hop][0]) if hop.any() else None,
+            "longest_hop_s": float(length[hop].max()) if hop.any() else None,
+            "hop_height_m": float(height[hop].max()) if hop.any() else None,
+            "hop_min_s": hop_min_s, "rise_min_m": rise_min_m, "measured": "at every step"}
 
 
 def ball_alone_end(t_stem: float | None, t_left_table: float | None) -> float | None:

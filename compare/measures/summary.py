@@ -151,20 +151,24 @@ class RunSummary(Mapping[str, Any]):
         message: The same in words.
         theta_final: The tilt at the last sample (rad); None for a failed run.
         theta_asymp: The mean tilt over the run's last 10 % (rad).
-        t_invert: The first time theta crosses pi/2 (s); None if never.
+        t_invert: The first time theta crosses pi/2 (s; MuJoCo's located to the step); None
+            if never.
         J_rel_drift: Jellett's constant's largest relative change while the ball alone
             touches the table.
         energy_monotone: Whether E never rises beyond the integration's error.
         energy_rise_rel: E's largest rise above its running minimum, of E0.
         contact_lost: The reference stopped because the ball left the table.
-        t_stem: The stem's first contact (s); None if never.
+        t_stem: The stem's first contact (s; MuJoCo's located to the step); None if never.
         t_left_table: The first time the ball leaves the table before the stem lands (s):
-            the start of its first flight of 10 ms or more (:data:`~.series.HOP_MIN_S`;
-            shorter ones are its soft contact chattering) after the first 0.05 s; None if
-            never (the reference: where it stopped because its ball left the table).
-        flights: A MuJoCo run's flights before the stem lands: ``{count, longest_s,
-            airborne_s, t_first, hops, t_first_hop}`` (:func:`~.series.flights`); None:
-            none (and for the reference, which stops at the first).
+            the start of its first flight (:data:`~.series.HOP_MIN_S` or more without contact
+            at any step, the ball risen :data:`~.series.FLIGHT_RISE_M`; shorter or lower
+            stretches are its soft contact chattering) after the first 0.05 s; None if never
+            (the reference: where it stopped because its ball left the table).
+        flights: A MuJoCo run's stretches without contact before the stem lands, measured at
+            every step, and its flights among them: ``{count, longest_s, airborne_s,
+            t_first, height_m, hops, t_first_hop, longest_hop_s, hop_height_m, hop_min_s,
+            rise_min_m, measured}`` (:func:`~.series.flights`); None: none (and for the
+            reference, which stops at the first).
         wall_s: Wall time (s).
         n_rhs: The reference's right-hand-side evaluations.
         n_steps: MuJoCo's steps.

@@ -169,8 +169,8 @@ MAX_PHASES_SHOWN = 8
 def _phases(value: Any) -> str | None:
     """``[{contact, t_start, t_end}, ...]`` -> ``ball 0-2.5 s, stem 2.5-8 s``, else None.
 
-    A flight shorter than :data:`~tippetop.compare.measures.series.HOP_MIN_S` (the soft
-    contact chattering) is folded into the phases around it and counted; past
+    A phase without contact shorter than :data:`~tippetop.compare.measures.series.HOP_MIN_S`
+    (the soft contact chattering) is folded into the phases around it; past
     :data:`MAX_PHASES_SHOWN` phases the middle ones are counted, not listed.
     """
     if not (isinstance(value, list) and value and all(
@@ -197,9 +197,9 @@ def _phases(value: Any) -> str | None:
         head, tail = MAX_PHASES_SHOWN // 2, MAX_PHASES_SHOWN // 4
         parts = [*parts[:head], f"... {len(parts) - head - tail:,} more ...", *parts[-tail:]]
     text = ", ".join(parts)
-    if folded:
-        text += (f" ({folded:,} flight{'s' if folded != 1 else ''} under "
-                 f"{fmt(1e3 * HOP_MIN_S, 'ms')} folded in: see flights)")
+    if folded:  # how many depends on the sample spacing: the flights line counts them
+        text += (f" (samples without contact for under {fmt(1e3 * HOP_MIN_S, 'ms')} folded in: "
+                 "see flights)")
     return text
 
 
@@ -223,23 +223,30 @@ _STIFF_MEANS = {"rolling": "rolling phases where the law turns stiff",
 
 
 def fmt_flights(fl: dict[str, Any]) -> str:
-    """A MuJoCo run's flights (samples without contact) in words.
+    """A MuJoCo run's stretches without contact, measured at every step, in words.
 
-    Example: ``269 from 1.397 s, up to 6 ms, 0.366 s in all; none of 10 ms or more (the
-    contact chattering, not the ball leaving the table)``.
+    Example: ``1,166 from 0.637 s, up to 3.2 ms and 0.81 um high, 0.411 s in all; no flight
+    (10 ms or more, risen 10 um or more: the contact chattering, not the ball leaving the
+    table)``.
     """
-    from tippetop.compare.measures.series import HOP_MIN_S
+    from tippetop.compare.measures.series import FLIGHT_RISE_M, HOP_MIN_S
 
     n, hops = int(fl.get("count") or 0), int(fl.get("hops") or 0)
+    high = fl.get("height_m")
     head = (f"{n:,} from {fmt(fl.get('t_first'), 's')}, up to "
-            f"{fmt(1e3 * float(fl.get('longest_s') or 0.0), 'ms')}, "
-            f"{fmt(fl.get('airborne_s'), 's')} in all")
-    limit = fmt(1e3 * HOP_MIN_S, "ms")
+            f"{fmt(1e3 * float(fl.get('longest_s') or 0.0), 'ms')}"
+            + (f" and {fmt(1e6 * float(high), 'um')} high" if high is not None else "")
+            + f", {fmt(fl.get('airborne_s'), 's')} in all")
+    rule = (f"{fmt(1e3 * float(fl.get('hop_min_s') or HOP_MIN_S), 'ms')} or more, risen "
+            f"{fmt(1e6 * float(fl.get('rise_min_m') or FLIGHT_RISE_M), 'um')} or more")
     if hops:
-        return (f"{head}; {hops:,} of {limit} or more from {fmt(fl.get('t_first_hop'), 's')} "
-                "(the ball leaving the table)")
-    return f"{head}; none of {limit} or more (the contact chattering, not the ball leaving " \
-        "the table)"
+        longest, top = fl.get("longest_hop_s"), fl.get("hop_height_m")
+        size = (f", up to {fmt(1e3 * float(longest), 'ms')} and "
+                f"{fmt(1e3 * float(top), 'mm')} high" if longest is not None
+                and top is not None else "")
+        return (f"{head}; {hops:,} flight{'s' if hops != 1 else ''} ({rule}) from "
+                f"{fmt(fl.get('t_first_hop'), 's')}{size}: the ball leaving the table")
+    return f"{head}; no flight ({rule}: the contact chattering, not the ball leaving the table)"
 
 
 def fmt_rolling(rolling: Any) -> str:

@@ -15,10 +15,13 @@ from typing import Any
 
 import pandas as pd
 
-from tippetop.compare.measures.friction_realised import friction_realised, not_refit
+from tippetop.compare.measures.friction_realised import (
+    friction_realised,
+    not_refit,
+    window_pairs,
+)
 from tippetop.compare.measures.series import (
     ball_alone_end,
-    first_inversion_time,
     flights,
     jellett_drift,
     jellett_scale,
@@ -180,15 +183,17 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
         # the table keeps the samples before the failure (the runner's cache needs a row)
         return EngineRun(res.table, RunSummary.from_json(s), res.status, res.message)
     top = p.top
+    # the events located to the step (each step's forward pass is in its sample's window)
     s = summary(res.table, engine=plan.engine, mode=plan.mode, rtol=MUJOCO_ENERGY_RTOL,
-                t_invert=first_inversion_time(res.table), contact_lost=False,
+                t_invert=res.t_invert, contact_lost=False,
                 wall_s=res.wall_s,
                 J_scale=jellett_scale(res.table, top.R_m, top.A_kgm2, top.C_kgm2),
                 n_steps=res.n_steps)
     t_stem = res.t_stem
-    hops = flights(res.table["t"].to_numpy(), res.contacts > 0, t_stem)
-    # the ball leaves the table in its first flight of HOP_MIN_S or more (a shorter one is its
-    # soft contact chattering: in ``flights`` only)
+    hops = flights(res.table["t"].to_numpy(), res.gaps(), t_stem)
+    # the ball leaves the table in its first flight (HOP_MIN_S or more without contact at any
+    # step, the ball risen FLIGHT_RISE_M; a shorter or lower stretch is its soft contact
+    # chattering: in ``flights`` only)
     t_left = None if hops is None else hops["t_first_hop"]
     end = ball_alone_end(t_stem, t_left)
     if end is not None:
@@ -203,8 +208,10 @@ def mujoco_engine_run(plan: RunPlan, res: Any) -> EngineRun:
              phases=res.phases(), max_penetration_m=res.max_penetration_m,
              contact_energy_bound_J=res.contact_energy_bound_J, unused=list(plan.unused))
     law = p.law or p.reference_law
-    s["friction_realised"] = (friction_realised(res.table, law.mu, law.Lambda_mps,
-                                                t_stem=t_stem)
+    # each window's mean force against its slip, weighted as the force: at any sample
+    # spacing the pairs of the steps (friction_realised.window_pairs)
+    pairs = window_pairs(**res.force_and_slip())
+    s["friction_realised"] = (friction_realised(pairs, law.mu, law.Lambda_mps, t_stem=t_stem)
                               if law is not None else None)
     if s["friction_realised"] is not None:
         s["friction_realised"]["refit"] = not_refit(

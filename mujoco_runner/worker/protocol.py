@@ -15,8 +15,10 @@ import os
 import sys
 
 #: The version of the request and reply formats (3: the request's ``engine``; 4: one request
-#: per line, answered in turn until the input ends).
-PROTOCOL = 4
+#: per line, answered in turn until the input ends; 5: the request's ``top``, every step's
+#: forward pass added to its sample's window, ``windows_int`` and ``windows_float`` in
+#: place of the contacts at the samples and paper mode's forces there).
+PROTOCOL = 5
 #: What can step a plan: implementation -> the precisions it runs in.
 ENGINES = {"mujoco": ("float64",), "mjx": ("float64", "float32"), "warp": ("float32",)}
 #: Where the accelerated engines' PyPI packages are (their version is the reply's).

@@ -1,30 +1,53 @@
 """The worker's work: each request's plan run, its arrays written and its reply, in turn.
 
 :func:`main` answers the requests on stdin one after another (:func:`answer`); :func:`run`
-steps one plan and writes its arrays.
+steps one plan and writes its arrays: the state at each sample and each sample's **window**,
+what every step's forward pass since the sample before computed (:mod:`.windows`: the
+columns and their meaning, the same the harness records in process).
 
 The request's optional ``engine`` (``{"implementation": "mujoco"|"mjx"|"warp", "precision":
-"float64"|"float32"}``) picks what steps the plan: MuJoCo C (``mj_step``, the default), MuJoCo
-MJX on JAX (one jitted ``fori_loop`` of ``mjx.step`` per sample interval; float32 unless
-``jax_enable_x64``) or MuJoCo Warp (float32; the interval's steps captured once as a Warp
-graph, or ``mjw.step`` in a loop where capture fails). Those two need their packages beside
-``mujoco`` (a managed environment holds them). The model is compiled by MuJoCo C either way
-and the start set and ``mj_forward``-ed there; the states are read back from the device at
-each sample, and the contacts at each sample (and paper mode's law output) come from MuJoCo
-C's ``mj_forward`` at those states. MJX and Warp have no warning counters (their column is
-zeros). Paper mode's law is a force of the engine's own there: before each step the law's
-force from the current state and the previous step's ``qfrc_constraint`` goes into
-``qfrc_applied`` (MJX: the arithmetic of :class:`PaperLaw` in ``jax.numpy`` inside the jitted
-loop; Warp: the same in a Warp kernel launched before each step, inside the captured graph).
-C's callback is called at every stage of RK4, the applied force is held over the step: the
-two agree to rounding with Euler. The request's optional ``compile_cache`` is JAX's persistent
-compilation cache folder (a later run of the same model skips most of MJX's compile).
+"float64"|"float32"}``) picks what steps the plan:
+
+- MuJoCo C (the default), one step at a time as the harness steps from Python
+  (``stepping.step_python``): ``mj_step`` taken apart where the model's split is known
+  (:func:`.windows.integrator_call`: ``mj_checkPos``, ``mj_checkVel``, ``mj_forward``,
+  ``mj_checkAcc``, then the integrator; bit for bit ``mj_step``), each step's forward pass
+  done at the end of the step before and added to the window there at offsets 1 ..
+  ``steps``; else ``mj_step`` whole, its pass (at the state before it) added after it at
+  offsets 0 .. ``steps`` - 1. Each pass is added by :class:`.windows.WindowAccumulator`
+  (``mj_contactForce`` per contact of the top); paper mode's law is :class:`.PaperLaw`, a
+  Python ``mjcb_passive``, and its output at each pass goes to the law's columns.
+- MuJoCo MJX on JAX (:mod:`.mjx_stepper`: one jitted loop per sample interval; float32
+  unless ``jax_enable_x64``) or MuJoCo Warp (:mod:`.warp_stepper`: float32; the interval's
+  steps captured once as a Warp graph, or run in a loop where capture fails). Each step is
+  split on the device as MuJoCo C's is (the integrator, then the next step's forward pass,
+  its window added on the device), so the windows have MuJoCo C's offsets; what they read
+  of each pass differs from MuJoCo C's (the steppers' docstrings, and the reply's
+  ``contacts_from``). Those two need their packages beside ``mujoco`` (a managed
+  environment holds them); they have no warning counters (their column is zeros). Paper
+  mode's law is a force of the engine's own there: before each forward pass the law's
+  force from the current state and the last evaluation's ``qfrc_constraint`` goes into
+  ``qfrc_applied`` (MJX: the arithmetic of :class:`PaperLaw` in ``jax.numpy`` inside the
+  jitted loop; Warp: the same in a Warp kernel, inside the captured graph). C's callback is
+  called at every stage of RK4, the applied force is held over the step: the two agree to
+  rounding with Euler. The request's optional ``compile_cache`` is JAX's persistent
+  compilation cache folder (a later run of the same model skips most of MJX's compile).
+
+The model is compiled by MuJoCo C either way, and the start set and ``mj_forward``-ed there
+twice (paper mode's law armed, as the harness does: the law's N is the last pass's), which
+is the state every engine starts from. The request's ``top`` says whose contacts the windows
+add (:class:`.windows.WindowTop`'s fields).
 
 The reply's ``engine`` says what stepped, read back: ``implementation``, ``version`` (MuJoCo
 C's, or ``mujoco-mjx``'s / ``mujoco-warp``'s package version), ``precision`` (the dtype of
 the device's ``qpos``), ``device`` (JAX's platform, Warp's device alias); for MJX and Warp
 also ``device_kind``, ``path``, ``mujoco_c_version``, ``warnings``, ``contacts_from``,
 ``setup_s`` and ``first_call_s`` (the compile), and ``law_applied`` in paper mode.
+
+The arrays (``request['out']``, ``.npz``): ``time``, ``qpos``, ``qvel``, ``qacc_warmstart``,
+``qfrc_constraint`` and ``warnings`` per sample, and ``windows_int`` and ``windows_float``
+(one row per sample, the columns of :data:`.windows.INT_FIELDS` and
+:data:`.windows.FLOAT_FIELDS`).
 """
 
 from __future__ import annotations
@@ -39,17 +62,23 @@ from .mjx_stepper import MjxStepper
 from .paper_law import PaperLaw
 from .protocol import PROGRESS_S, PROTOCOL, Refused, engine_of, say
 from .warp_stepper import WarpStepper
-
-#: Forward passes per sample in paper mode (the law's N iterated to the state's own), as in
-#: the harness's own runs.
-N_FORCE_PASSES = 3
+from .windows import WindowAccumulator, WindowTop, integrator_call, new_windows
 
 
-def _free_joint(mujoco, model) -> int:
-    free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
-    if len(free) != 1:
-        raise ValueError(f"expected one free joint, got {len(free)}")
-    return free[0]
+def window_top(request: dict) -> WindowTop:
+    """The request's ``top``: whose contacts the windows add (:class:`.windows.WindowTop`).
+
+    Raises:
+        Refused: No ``top``, or one without :class:`.windows.WindowTop`'s fields (one line).
+    """
+    top = request.get("top")
+    fields = WindowTop._fields
+    if not isinstance(top, dict) or set(top) != set(fields):
+        raise Refused(f"top: expected an object with {', '.join(fields)}, got {top!r}")
+    return WindowTop(body=int(top["body"]), ball=int(top["ball"]),
+                     radius_m=float(top["radius_m"]),
+                     axis_body=tuple(float(v) for v in top["axis_body"]),
+                     qpos_adr=int(top["qpos_adr"]), dof_adr=int(top["dof_adr"]))
 
 
 def _ran(mujoco, model, data, body: int, ball: int) -> dict:
@@ -89,6 +118,7 @@ def run(request: dict) -> dict:
     import numpy as np
 
     impl, precision = engine_of(request)
+    top = window_top(request)
     # MuJoCo's warnings, kept (one line each) as in-process runs keep them, instead of printed
     # on stdout (the reply's channel) and appended to ./MUJOCO_LOG.TXT
     kept: list[str] = []
@@ -100,9 +130,7 @@ def run(request: dict) -> dict:
         model = spec.compile()
     else:  # pragma: no cover - releases before MjSpec
         model = mujoco.MjModel.from_xml_string(request["mjcf"])
-    joint = _free_joint(mujoco, model)
-    qa, va = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
-    body = int(model.jnt_bodyid[joint])
+    qa, va = top.qpos_adr, top.dof_adr
     data = mujoco.MjData(model)
     start = request["start"]
     if "keyframe" in start:
@@ -113,11 +141,12 @@ def run(request: dict) -> dict:
     law = None
     if request.get("law") is not None:
         law = PaperLaw(model, {**request["law"], "qpos_adr": qa, "dof_adr": va})
-        if impl == "mujoco":  # the others apply a force of their own, armed here afterwards
-            mujoco.set_mjcb_passive(law)
+        # armed for the start's passes in every engine (the law's N iterated as the
+        # harness's); MJX and Warp then apply a force of their own
+        mujoco.set_mjcb_passive(law)
     try:
         mujoco.mj_forward(model, data)
-        ran = _ran(mujoco, model, data, body, int(request["ball_geom"]))
+        ran = _ran(mujoco, model, data, top.body, top.ball)
         steps, n_rows = int(request["steps_per_sample"]), int(request["n_intervals"]) + 1
         nq, nv = model.nq, model.nv
         counts = data.warning.number
@@ -125,97 +154,42 @@ def run(request: dict) -> dict:
                "qvel": np.empty((n_rows, nv)), "qacc_warmstart": np.empty((n_rows, nv)),
                "qfrc_constraint": np.empty((n_rows, nv)),
                "warnings": np.zeros((n_rows, len(counts)), dtype=np.int64)}
+        ints, floats = new_windows(np, n_rows)
         mujoco.mj_forward(model, data)  # the contact force of the initial state, for N
         accel = None
         engine: dict[str, Any] = {"implementation": "mujoco", "version": mujoco.__version__,
                                   "precision": "float64", "device": "cpu"}
         if impl != "mujoco":
+            if law is not None:
+                mujoco.set_mjcb_passive(None)
             t_setup = time.perf_counter()
             kind = MjxStepper if impl == "mjx" else WarpStepper
-            accel = kind(mujoco, model, data, int(request["steps_per_sample"]), precision,
-                         request.get("law"), qa, va, request.get("compile_cache"))
+            accel = kind(mujoco, model, data, steps, precision, request.get("law"), top,
+                         request.get("compile_cache"))
             engine = {"implementation": impl, "version": accel.version,
                       "precision": accel.precision, "device": accel.device,
                       "device_kind": accel.device_kind, "path": accel.path,
                       "mujoco_c_version": mujoco.__version__,
                       "warnings": f"none counted ({impl} has no warning counters)",
-                      "contacts_from": "MuJoCo C at the sample states",
+                      "contacts_from": accel.contacts_from,
                       "setup_s": time.perf_counter() - t_setup}
             if getattr(accel, "note", None):
                 engine["note"] = accel.note
             if law is not None:
-                engine["law_applied"] = ("the paper's law in qfrc_applied before each step, "
-                                         "from the step's start state and the previous "
-                                         "step's qfrc_constraint")
-        n, wall0 = 0, time.perf_counter()
-        next_report = wall0
-        dt = float(model.opt.timestep)
-        first_call_s = None
-        while True:
-            if accel is None:
-                rec["time"][n] = data.time
-                rec["qpos"][n], rec["qvel"][n] = data.qpos, data.qvel
-                rec["qacc_warmstart"][n] = data.qacc_warmstart
-                rec["qfrc_constraint"][n] = data.qfrc_constraint
-                rec["warnings"][n] = counts
-            else:
-                (rec["time"][n], rec["qpos"][n], rec["qvel"][n], rec["qacc_warmstart"][n],
-                 rec["qfrc_constraint"][n]) = accel.state()
-            n += 1
-            bad = not (np.isfinite(rec["qpos"][n - 1]).all()
-                       and np.isfinite(rec["qvel"][n - 1]).all())
-            if bad or rec["warnings"][n - 1].any() or n == n_rows:
-                break
-            now = time.perf_counter()
-            if now >= next_report:
-                say({"t": (n - 1) * steps * dt})
-                next_report = now + PROGRESS_S
-            if accel is None:
-                mujoco.mj_step(model, data, steps)
-            else:
-                t_call = time.perf_counter()
-                accel.advance()
-                if first_call_s is None:  # MJX compiles its loop on the first call
-                    first_call_s = time.perf_counter() - t_call
-        wall_s = time.perf_counter() - wall0
-        rec = {k: v[:n] for k, v in rec.items()}
-        if accel is not None:
+                engine["law_applied"] = ("the paper's law in qfrc_applied before each "
+                                         "forward pass, from its state and the last "
+                                         "evaluation's qfrc_constraint, held over the step")
+            wall0 = time.perf_counter()
+            n, first_call_s = _step_accelerated(np, accel, rec, ints, floats, steps,
+                                                float(model.opt.timestep))
+            wall_s = time.perf_counter() - wall0
             engine["first_call_s"] = first_call_s
-            if law is not None:  # the law's output at the samples, from MuJoCo C's passes
-                mujoco.set_mjcb_passive(law)
-        # the contacts (and paper mode's forces) at each sample's own state
-        scratch = mujoco.MjData(model)
-        c_sample, c_geom, c_dist, c_pos, c_frame, c_force = [], [], [], [], [], []
-        law_out = np.zeros((n, 3))
-        passes = N_FORCE_PASSES if law is not None else 1
-        f6 = np.zeros(6)
-        for i in range(n):
-            scratch.time = rec["time"][i]
-            scratch.qpos[:], scratch.qvel[:] = rec["qpos"][i], rec["qvel"][i]
-            scratch.qacc_warmstart[:] = rec["qacc_warmstart"][i]
-            scratch.qfrc_constraint[:] = rec["qfrc_constraint"][i]
-            for k in range(passes):
-                if k == 0:
-                    mujoco.mj_forward(model, scratch)
-                else:  # the same positions: only N and friction change
-                    mujoco.mj_forwardSkip(model, scratch, int(mujoco.mjtStage.mjSTAGE_POS), 1)
-            for j in range(scratch.ncon):
-                c = scratch.contact[j]
-                mujoco.mj_contactForce(model, scratch, j, f6)
-                c_sample.append(i)
-                c_geom.append((int(c.geom1), int(c.geom2)))
-                c_dist.append(float(c.dist))
-                c_pos.append(np.array(c.pos))
-                c_frame.append(np.array(c.frame))
-                c_force.append(f6.copy())
-            if law is not None:
-                fx, fy, _N, power = law.last
-                law_out[i] = fx, fy, power
-        arrays = {**rec, "contact_sample": np.array(c_sample, dtype=np.int64),
-                  "contact_geom": np.array(c_geom, dtype=np.int64).reshape(-1, 2),
-                  "contact_dist": np.array(c_dist), "contact_pos": np.array(c_pos).reshape(-1, 3),
-                  "contact_frame": np.array(c_frame).reshape(-1, 9),
-                  "contact_force": np.array(c_force).reshape(-1, 6), "law_out": law_out}
+        else:
+            wall0 = time.perf_counter()
+            n = _step_mujoco(mujoco, np, model, data, rec, ints, floats, steps, top, law)
+            wall_s = time.perf_counter() - wall0
+        arrays = {**{k: v[:n] for k, v in rec.items()},
+                  "windows_int": ints[:n], "windows_float": floats[:n]}
         np.savez(request["out"], **arrays)
         return {"status": "ok", "samples": n, "wall_s": wall_s, "ran": ran, "engine": engine,
                 **({"version": engine["version"], "path": engine["path"]}
@@ -225,6 +199,103 @@ def run(request: dict) -> dict:
     finally:
         if law is not None:
             mujoco.set_mjcb_passive(None)
+
+
+def _ended(np, rec: dict, n: int) -> bool:
+    """Whether row ``n`` ends the run: not finite, or a warning counted (it is kept)."""
+    return not (np.isfinite(rec["qpos"][n]).all() and np.isfinite(rec["qvel"][n]).all()) \
+        or bool(rec["warnings"][n].any())
+
+
+def _step_mujoco(mujoco, np, model, data, rec: dict, ints, floats, steps: int,
+                 top: WindowTop, law: PaperLaw | None) -> int:
+    """Step MuJoCo C sample by sample, each step's pass added to its window; the rows made.
+
+    The harness's ``stepping.step_python`` (the same C calls in the same order, so the same
+    states to the bit), with the law's output read from :class:`PaperLaw`. Stops after the
+    first row that is not finite or has a warning (kept), as the harness reads it.
+    """
+    n_rows = len(rec["time"])
+    law_output = None if law is None else (lambda: (law.last[0], law.last[1], law.last[3]))
+    acc = WindowAccumulator(mujoco, np, model, data, top, law_output)
+    add = acc.add
+    integrate = integrator_call(mujoco, model)
+    step, forward = mujoco.mj_step, mujoco.mj_forward
+    check_pos, check_vel, check_acc = mujoco.mj_checkPos, mujoco.mj_checkVel, mujoco.mj_checkAcc
+    counts = data.warning.number
+    t, qpos, qvel = rec["time"], rec["qpos"], rec["qvel"]
+    warm, con, warn = rec["qacc_warmstart"], rec["qfrc_constraint"], rec["warnings"]
+    dt = float(model.opt.timestep)
+    next_report = time.perf_counter()
+
+    def record(n: int) -> None:
+        t[n] = data.time
+        qpos[n], qvel[n] = data.qpos, data.qvel
+        warm[n], con[n] = data.qacc_warmstart, data.qfrc_constraint
+        warn[n] = counts
+
+    n = 0
+    while True:
+        if n == 0:
+            record(0)
+            if integrate is not None:  # mj_step's own start: its forward pass
+                check_pos(model, data)
+                check_vel(model, data)
+                forward(model, data)
+                check_acc(model, data)
+            add(ints, floats, 0, 0)
+        elif integrate is not None:  # each step's pass done at the end of the step before
+            for j in range(1, steps + 1):
+                integrate(model, data)
+                if j == steps:
+                    record(n)
+                check_pos(model, data)
+                check_vel(model, data)
+                forward(model, data)
+                check_acc(model, data)
+                add(ints, floats, n, j)
+        else:  # mj_step whole: its pass, at the state before it, added after it
+            for j in range(1, steps + 1):
+                step(model, data)
+                if j == steps:
+                    record(n)
+                add(ints, floats, n, j - 1)
+        n += 1
+        if _ended(np, rec, n - 1) or n == n_rows:
+            return n
+        now = time.perf_counter()
+        if now >= next_report:
+            say({"t": (n - 1) * steps * dt})
+            next_report = now + PROGRESS_S
+
+
+def _step_accelerated(np, accel: Any, rec: dict, ints, floats, steps: int,
+                      dt: float) -> tuple[int, float]:
+    """Step MJX or Warp sample by sample, the windows added on the device; (rows, first call).
+
+    The first call (row 0's pass, which compiles MJX's loop) is timed apart.
+    """
+    n_rows = len(rec["time"])
+    next_report = time.perf_counter()
+    first_call_s = 0.0
+    n = 0
+    while True:
+        if n == 0:
+            t_call = time.perf_counter()
+            accel.first()
+            first_call_s = time.perf_counter() - t_call
+        else:
+            accel.advance()
+        (rec["time"][n], rec["qpos"][n], rec["qvel"][n], rec["qacc_warmstart"][n],
+         rec["qfrc_constraint"][n]) = accel.state()
+        ints[n], floats[n] = accel.window()
+        n += 1
+        if _ended(np, rec, n - 1) or n == n_rows:
+            return n, first_call_s
+        now = time.perf_counter()
+        if now >= next_report:
+            say({"t": (n - 1) * steps * dt})
+            next_report = now + PROGRESS_S
 
 
 def main() -> int:
@@ -269,4 +340,4 @@ def answer(line: str) -> dict:
                 "message": " ".join(f"{type(exc).__name__}: {exc}{where}".split())[:2000]}
 
 
-__all__ = ["N_FORCE_PASSES", "answer", "main", "run"]
+__all__ = ["answer", "main", "run", "window_top"]

@@ -41,13 +41,19 @@ time):
 - ``lead_gap``, ``trail_gap``, ``inner_gap``: the largest gap over the passes without contact
   before the window's first touch, after its last, and in its longest stretch between two
   (``inner_free``), so that each stretch without contact has its own height (-inf: none);
+- ``gap_min``: the smallest gap between the ball and the table (m; negative: the ball sunk
+  into it);
 - ``depth_max``: the deepest penetration of the top's contacts (m, >= 0: -dist);
 - ``n_sum``: the normal force of the top's contacts (N);
 - ``fx_sum`` .. ``fz_sum``: their friction force (the contact force less its normal part);
 - ``tx_sum`` .. ``tz_sum``: their friction torque (torsional and rolling);
 - ``power_sum``: their friction power, F . v at each contact point plus tau . omega (W);
 - ``law_fx_sum``, ``law_fy_sum``, ``law_power_sum``: paper mode's law as its callback applied
-  it at the pass (zeros without a law).
+  it at the pass (zeros without a law);
+- ``slip_nx_sum``, ``slip_ny_sum``: the slip of the ball's lowest point (its centre less R
+  along z), world x and y, times the pass's normal force: over ``n_sum``, the window's slip
+  weighted as its force (what the window's mean force is paired with when the friction law a
+  run realised is fitted).
 
 This module needs nothing but ``mujoco`` and ``numpy`` (a worker in another Python uses it).
 """
@@ -59,14 +65,16 @@ from typing import NamedTuple
 
 INT_FIELDS = ("passes", "touch", "touch_passes", "first_touch", "last_touch", "inner_free",
               "inner_start", "lifts", "first_other", "flip")
-FLOAT_FIELDS = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max", "n_sum", "fx_sum", "fy_sum", "fz_sum", "tx_sum",
-                "ty_sum", "tz_sum", "power_sum", "law_fx_sum", "law_fy_sum", "law_power_sum")
+FLOAT_FIELDS = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max", "n_sum", "fx_sum",
+                "fy_sum", "fz_sum", "tx_sum", "ty_sum", "tz_sum", "power_sum", "law_fx_sum",
+                "law_fy_sum", "law_power_sum", "gap_min", "slip_nx_sum", "slip_ny_sum")
 #: Column numbers, by name.
 I = {name: k for k, name in enumerate(INT_FIELDS)}
 F = {name: k for k, name in enumerate(FLOAT_FIELDS)}
 #: A new window's integers and floats, before its first pass.
 INT_START = (0, 0, 0, -1, -1, 0, -1, 0, -1, -1)
-FLOAT_START = (-math.inf,) * 4 + (0.0,) * (len(FLOAT_FIELDS) - 4)
+FLOAT_START = tuple(-math.inf if name in ("gap_max", "lead_gap", "trail_gap", "inner_gap")
+                    else math.inf if name == "gap_min" else 0.0 for name in FLOAT_FIELDS)
 #: The contact code of the ball, and of any other geom of the top.
 BALL, OTHER = 1, 2
 
@@ -150,8 +158,13 @@ class WindowAccumulator:
         self.prev_touch = True  # a run that starts without contact starts a stretch
         self.prev_kz = math.nan
 
-    def add(self, ints, floats, row: int, offset: int) -> None:
-        """Add the mjData's last forward pass to window ``row`` as its pass at ``offset``."""
+    def add(self, ints, floats, row: int, offset: int, motion=None) -> None:
+        """Add the mjData's last forward pass to window ``row`` as its pass at ``offset``.
+
+        ``motion``: the free joint's (qpos, qvel) at the pass's state, where the mjData has
+        moved on since the pass (a whole ``mj_step``: its pass was at the state before it);
+        None: the mjData's own.
+        """
         np, d = self.np, self.data
         code = 0
         depth = 0.0
@@ -160,9 +173,11 @@ class WindowAccumulator:
         tau = np.zeros(3)
         power = 0.0
         xmat = d.xmat[self.body]
-        origin = d.qpos[self.qa:self.qa + 3]
-        v = d.qvel[self.va:self.va + 3]
-        wl = d.qvel[self.va + 3:self.va + 6]
+        qpos, qvel = motion if motion is not None else (d.qpos[self.qa:self.qa + 7],
+                                                        d.qvel[self.va:self.va + 6])
+        origin = qpos[0:3]
+        v = qvel[0:3]
+        wl = qvel[3:6]
         omega = np.array([xmat[0] * wl[0] + xmat[1] * wl[1] + xmat[2] * wl[2],
                           xmat[3] * wl[0] + xmat[4] * wl[1] + xmat[5] * wl[2],
                           xmat[6] * wl[0] + xmat[7] * wl[1] + xmat[8] * wl[2]])
@@ -181,13 +196,26 @@ class WindowAccumulator:
             n += f6[0]
             friction = s * (f6[1] * fr[1] + f6[2] * fr[2])
             torque = s * (f6[3] * fr[0] + f6[4] * fr[1] + f6[5] * fr[2])
-            arm = np.asarray(c.pos, dtype=float) - origin
-            vp = v + np.cross(omega, arm)
-            power += float(friction @ vp) + float(torque @ omega)
+            rx, ry, rz = (float(p) - float(o) for p, o in zip(c.pos, origin, strict=True))
+            ox, oy, oz = float(omega[0]), float(omega[1]), float(omega[2])
+            ux = float(v[0]) + (oy * rz - oz * ry)  # v + omega x arm, written out as the
+            uy = float(v[1]) + (oz * rx - ox * rz)  # compiled loop has it (np.cross and @
+            uz = float(v[2]) + (ox * ry - oy * rx)  # cost most of a pass here)
+            ax, ay, az = (float(e) for e in friction)
+            bx, by, bz = (float(e) for e in torque)
+            power += (ax * ux + ay * uy + az * uz) + (bx * ox + by * oy + bz * oz)
             f += friction
             tau += torque
-        gap = float(d.geom_xpos[self.ball, 2]) - self.R
+        centre = d.geom_xpos[self.ball]
+        gap = float(centre[2]) - self.R
         kz = float(xmat[6] * self.axis[0] + xmat[7] * self.axis[1] + xmat[8] * self.axis[2])
+        # the slip of the ball's lowest point, v + omega x (centre - R z - origin)
+        ox, oy, oz = float(omega[0]), float(omega[1]), float(omega[2])
+        rx = float(centre[0]) - float(origin[0])
+        ry = float(centre[1]) - float(origin[1])
+        rz = gap - float(origin[2])
+        slip_x = float(v[0]) + (oy * rz - oz * ry)
+        slip_y = float(v[1]) + (oz * rx - ox * rz)
         wi, wf = ints[row], floats[row]
         wi[I["passes"]] += 1
         if code:
@@ -216,7 +244,10 @@ class WindowAccumulator:
             wi[I["flip"]] = offset
         self.prev_kz = kz
         wf[F["gap_max"]] = max(wf[F["gap_max"]], gap)
+        wf[F["gap_min"]] = min(wf[F["gap_min"]], gap)
         wf[F["depth_max"]] = max(wf[F["depth_max"]], depth)
+        wf[F["slip_nx_sum"]] += n * slip_x
+        wf[F["slip_ny_sum"]] += n * slip_y
         wf[F["n_sum"]] += n
         wf[F["fx_sum"]:F["fz_sum"] + 1] += f
         wf[F["tx_sum"]:F["tz_sum"] + 1] += tau

@@ -27,27 +27,34 @@ from tippetop.compare.running.engines import run_engine
 from tippetop.models.scene import load_scene
 
 
-def _run(run_name: str, t_end: float = 3.0) -> tuple[dict, float, float]:
-    scene = load_scene("fig3", [f"run.t_end_s={t_end}"])
+def _run(run_name: str, t_end: float = 3.0, *over: str) -> tuple[dict, float, float]:
+    scene = load_scene("fig3", [f"run.t_end_s={t_end}", *over])
     engine, mode = run_name.split("/")
     run = run_engine(scene, engine, mode, progress=False)
     return run.summary, scene.friction.mu, scene.friction.Lambda_mps
 
 
-@pytest.mark.parametrize(("mode", "tol"), [
+@pytest.mark.parametrize(("mode", "tol", "residual", "over"), [
     # the reference integrates the law itself: the fit's residual is round-off
-    ("ode/paper", 1e-9),
-    # paper mode: the law at the callback's normal force, one evaluation behind the table's
-    # (4e-11 of the force, measured): 1e-6 bounds what that does to the fitted parameters
-    ("mujoco/paper", 1e-6),
-])
-def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float) -> None:
-    s, mu, lam = _run(mode)
+    ("ode/paper", 1e-9, 1e-9, ()),
+    # paper mode with a sample at every step: the law at the callback's normal force, one
+    # evaluation behind the table's (2e-7 of the force once settled, measured): 1e-6 bounds
+    # what that does to the fitted parameters; the residual's RMS is the settling start's,
+    # where N changes by 3 % a step (measured 9.5e-5 of mu): 1e-4
+    ("mujoco/paper", 1e-6, 1e-4, ("run.sample_dt_s=2e-05",)),
+    # 1-ms samples: each sample's force is its window's mean over 50 steps, against the slip
+    # at the sample, which moves within the window (the fit is 3e-4 off, the residual 2.2e-3
+    # of mu, measured): 1e-3 and 3e-3
+    ("mujoco/paper", 1e-3, 3e-3, ()),
+], ids=["ode", "mujoco-every-step", "mujoco-1ms"])
+def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float, residual: float,
+                                                  over: tuple[str, ...]) -> None:
+    s, mu, lam = _run(mode, 3.0, *over)
     fr = s["friction_realised"]
     assert fr["samples"] > 1000
     assert fr["mu_fit"] == pytest.approx(mu, rel=tol)
     assert fr["Lambda_fit_mps"] == pytest.approx(lam, rel=tol)
-    assert fr["residual"] < tol * mu
+    assert fr["residual"] < residual * mu
     assert fr["angle_rms_rad"] < 1e-9 and fr["creep_fraction"] == 0.0
     # the binned crossing (40 log bins, interpolated) of the closed form Lambda / sqrt(3) and
     # 0.9 / sqrt(0.19) Lambda, within the interpolation's 2 %

@@ -1,14 +1,11 @@
 """Many MuJoCo runs on threads (mujoco_runner.batch) equal their single runs bit for bit.
 
-Every comparison here is ``==`` on floats, with no tolerance: a batch steps each simulation
-with the same ``mj_step`` on its own mjData (MuJoCo's guarantee for ``mujoco.batch.Batch``),
-and paper mode's callback reads only the mjData it is given, so the same floating-point
-operations run in the same order as in the single run. Any difference is a bug (a callback
-reading another simulation's state, a lost N, a wrong start), not rounding.
-
-MuJoCo's ``mj_step`` is bit-identical in a batch and in a loop over mjData (MuJoCo's own
-guarantee, and these tests check it for this harness: == on every sample's qpos and qvel, and
-on the tables, contacts and messages).
+Every comparison here is ``==`` on floats, with no tolerance: each run is stepped on its own
+thread by the single run's own stepping (the compiled stepper, on its own mjData), and paper
+mode's callback reads only the mjData it is given, so the same floating-point operations run in
+the same order as in the single run. Any difference is a bug (a callback reading another
+simulation's state, a lost N, a wrong start), not rounding: == on every sample's qpos and qvel,
+and on the tables, windows, contacts and messages.
 """
 
 from __future__ import annotations
@@ -16,7 +13,6 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import replace
-from importlib.util import find_spec
 from pathlib import Path
 
 import mujoco
@@ -26,15 +22,12 @@ import pytest
 from tests.conftest import mujoco_plan
 from tippetop.models.errors import TippetopError
 from tippetop.mujoco_runner import friction_callback
-from tippetop.mujoco_runner.batch import iter_simulate_plans, layout_key, simulate_plans
+from tippetop.mujoco_runner.batch import iter_simulate_plans, simulate_plans
 from tippetop.mujoco_runner.friction_callback import PaperFriction
 from tippetop.mujoco_runner.results import MujocoResult
 from tippetop.mujoco_runner.run import simulate_plan
 from tippetop.mujoco_runner.settings import build_model
 from tippetop.mujoco_runner.state import initial_qpos_qvel
-
-pytestmark = pytest.mark.skipif(find_spec("mujoco.batch") is None,
-                                reason="this MuJoCo has no mujoco.batch")
 
 #: Short: a tenth of a second is 5000 paper-mode steps, through the first nutation.
 T_END = ("run.t_end_s=0.1",)
@@ -44,17 +37,6 @@ T_END = ("run.t_end_s=0.1",)
 def _no_leftover_callback():
     yield
     assert friction_callback._install_count == 0, "a batch left the callback installed"
-
-
-@pytest.fixture(params=["threads", "batch"])
-def native_path(request, monkeypatch) -> str:
-    """Runs that read their contacts from their own steps: on threads (the default), or made
-    to run in a ``Batch`` as runs whose contacts need forward passes afterwards do."""
-    from tippetop.mujoco_runner import batch as mjb
-
-    if request.param == "batch":
-        monkeypatch.setattr(mjb, "_steps_own_contacts", lambda sim: False)
-    return request.param
 
 
 def _plan(scene: str, *overrides: str):
@@ -73,6 +55,8 @@ def _assert_same(batched: MujocoResult, alone: MujocoResult) -> None:
     assert batched.ran == alone.ran
     assert batched.warnings == alone.warnings
     assert batched.contacts.tobytes() == alone.contacts.tobytes()
+    assert batched.windows.ints.tobytes() == alone.windows.ints.tobytes()
+    assert batched.windows.floats.tobytes() == alone.windows.floats.tobytes()
     assert batched.max_penetration_m == alone.max_penetration_m
     assert batched.contact_energy_bound_J == alone.contact_energy_bound_J
     assert list(batched.table.columns) == list(alone.table.columns)
@@ -81,7 +65,7 @@ def _assert_same(batched: MujocoResult, alone: MujocoResult) -> None:
 
 
 @pytest.mark.parametrize("friction", ["paper", "native"])
-def test_a_batch_on_two_threads_equals_single_runs(friction: str, native_path: str) -> None:
+def test_a_batch_on_two_threads_equals_single_runs(friction: str) -> None:
     # fig3's top at four spins and, in paper mode, another mu (another law in one batch)
     overrides = [(f"init.n0={n0}",) for n0 in (40.0, 75.0, 100.0, 140.0)]
     overrides.append(("init.n0=90.0", "friction.mu=0.3"))
@@ -116,53 +100,47 @@ def test_paper_mode_in_a_batch_applies_the_law() -> None:
 
 def test_recorded_states_equal_a_loop_over_mjdata(monkeypatch) -> None:
     # The state each sample records is that of one MjData stepped alone with the harness's
-    # PaperFriction (the single run's stepping), on every sample: qpos and qvel ==.
+    # PaperFriction and plain mj_step, on every sample: qpos and qvel ==.
     from tippetop.mujoco_runner import batch as mjb
 
     plans = [_plan("fig3", "mujoco.friction=paper", f"init.n0={n0}") for n0 in (50.0, 120.0)]
-    sims = [mjb._prepare(i, p) for i, p in enumerate(plans)]
     kept = {}
-    original = mjb._finish
+    original = mjb._result
 
-    def keep(sim):
-        record = sim.record()
+    def keep(sim, record, *args):
         kept[sim.index] = (record.qpos.copy(), record.qvel.copy())
-        return original(sim)
+        return original(sim, record, *args)
 
-    monkeypatch.setattr(mjb, "_finish", keep)
-    list(mjb._run_group(sims, 2, None, None))
-    for i, sim in enumerate(sims):
-        tm = build_model(plans[i])
+    monkeypatch.setattr(mjb, "_result", keep)
+    simulate_plans(plans, nthread=2)
+    for i, plan in enumerate(plans):
+        tm = build_model(plan)
         data = mujoco.MjData(tm.model)
-        data.qpos[:7], data.qvel[:6] = initial_qpos_qvel(tm, plans[i].init)
-        assert (tuple(data.qpos[:7]), tuple(data.qvel[:6])) == (plans[i].start_qpos,
-                                                                plans[i].start_qvel)
+        data.qpos[:7], data.qvel[:6] = initial_qpos_qvel(tm, plan.init)
+        assert (tuple(data.qpos[:7]), tuple(data.qvel[:6])) == (plan.start_qpos,
+                                                                plan.start_qvel)
         qpos, qvel = [], []
-        with PaperFriction(tm, data, plans[i].law):
+        with PaperFriction(tm, data, plan.law):
             mujoco.mj_forward(tm.model, data)
             mujoco.mj_forward(tm.model, data)
-            for row in range(sim.n_rows):
+            for row in range(plan.n_intervals + 1):
                 if row:
-                    mujoco.mj_step(tm.model, data, sim.steps)
+                    mujoco.mj_step(tm.model, data, plan.steps_per_sample)
                 qpos.append(data.qpos.copy())
                 qvel.append(data.qvel.copy())
         assert kept[i][0].tobytes() == np.array(qpos).tobytes()
         assert kept[i][1].tobytes() == np.array(qvel).tobytes()
 
 
-def test_tops_of_one_layout_share_a_batch_and_each_runs_on_its_own_model() -> None:
-    # Different tops (A/C, a/R) compile to models of one layout: one batch, set_models with a
-    # model per simulation, and each equals its single run.
+def test_other_tops_each_run_on_their_own_model() -> None:
+    # Different tops (A/C, a/R) on the threads at once: each equals its single run.
     plans = [_plan("fig3", "mujoco.friction=paper"), _plan("fig6", "mujoco.friction=paper"),
              _plan("fig3", "mujoco.friction=paper", "top.A_over_C=0.95")]
-    models = [build_model(p).model for p in plans]
-    assert len({layout_key(m) for m in models}) == 1
     for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
         _assert_same(res, simulate_plan(plan))
 
 
-def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path, monkeypatch,
-                                                                   native_path) -> None:
+def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
     plans = [
         _plan("fig3", "mujoco.friction=paper"),
@@ -194,9 +172,9 @@ def test_failed_runs_in_a_batch_fail_as_alone_and_the_others_run_on(tmp_path, mo
     assert [out[i].ok for i in (0, 1, 2, 4, 5)] == [True, False, False, True, False]
 
 
-def test_progress_reports_each_simulation(native_path: str) -> None:
+def test_progress_reports_each_simulation() -> None:
     # on threads a run reports every PROGRESS_INTERVAL_S of its stepping: 2 s is ~0.3 s
-    t_end = "run.t_end_s=2.0" if native_path == "threads" else "run.t_end_s=0.4"
+    t_end = "run.t_end_s=2.0"
     plans = [_plan("fig3", "mujoco.friction=native", f"init.n0={n0}", t_end)
              for n0 in (60.0, 90.0)]
     seen: dict[int, list[float]] = {}
@@ -223,7 +201,7 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.xml
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_loaded_tops_with_keyframes_and_stems_equal_single_runs(path: Path,
-                                                                native_path: str) -> None:
+                                                                ) -> None:
     # The example tops: a file's keyframe as the start (mj_resetDataKeyframe) or the scene's
     # spin, a stem the law also acts at (paper mode) or MuJoCo's contact (native), in one call.
     plans = []
@@ -240,58 +218,16 @@ def test_loaded_tops_with_keyframes_and_stems_equal_single_runs(path: Path,
         _assert_same(res, simulate_plan(plan))
 
 
-def test_a_sample_interval_split_into_several_calls_changes_nothing(monkeypatch) -> None:
-    # A long sample interval is stepped in several calls (so that Ctrl-C is seen); at most
-    # 7 steps over 3 simulations per call splits each 50-step interval into odd pieces.
-    import tippetop.mujoco_runner.batch as mjb
-
-    monkeypatch.setattr(mjb, "MAX_CALL_STEPS", 7)
-    plans = [_plan("fig3", "mujoco.friction=paper", f"init.n0={n0}", "run.t_end_s=0.02")
-             for n0 in (60.0, 90.0, 120.0)]
-    for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
-        _assert_same(res, simulate_plan(plan))
-
-
-def test_runs_of_other_timesteps_and_samplings_share_one_batch(native_path: str) -> None:
+def test_runs_of_other_timesteps_and_samplings_run_together() -> None:
     # compare's modes: paper at dt = 2e-5 s (50 steps a sample), native at 2e-4 s (5 steps),
-    # native elliptic sampled every 2 ms (10 steps): one batch, stepped 5 steps a call
-    from tippetop.mujoco_runner import batch as mjb
-
+    # native elliptic sampled every 2 ms (10 steps), implicitfast: on the threads at once
     plans = [_plan("fig3", "mujoco.friction=paper"), _plan("fig3", "mujoco.friction=native"),
              _plan("fig3", "mujoco.friction=native", "mujoco.cone=elliptic",
-                   "run.sample_dt_s=0.002")]
-    sims = [mjb._prepare(i, p) for i, p in enumerate(plans)]
-    assert sorted(s.steps for s in sims) == [5, 10, 50]
-    assert len(mjb._groups(sims, 2.0**30)) == 1
-    for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
-        _assert_same(res, simulate_plan(plan))
-
-
-def test_runs_that_read_their_contacts_from_their_steps_run_on_threads(monkeypatch) -> None:
-    # Native mode and paper mode without a law read each sample's contacts from their own
-    # steps: they run on the compiled stepper's threads; paper mode's law needs forward passes
-    # afterwards whichever way it runs, and runs in a Batch.
-    from tippetop.mujoco_runner import batch as mjb
-
-    seen: dict[str, list[int]] = {"threads": [], "batch": []}
-    run_threads, run_group = mjb._run_threads, mjb._run_group
-
-    def threads(sims, *args):
-        seen["threads"] += [s.index for s in sims]
-        return run_threads(sims, *args)
-
-    def group(sims, *args):
-        seen["batch"] += [s.index for s in sims]
-        return run_group(sims, *args)
-
-    monkeypatch.setattr(mjb, "_run_threads", threads)
-    monkeypatch.setattr(mjb, "_run_group", group)
-    plans = [_plan("fig3", "mujoco.friction=native"), _plan("fig3", "mujoco.friction=paper"),
+                   "run.sample_dt_s=0.002"),
              _plan("fig3", "mujoco.friction=paper", "effects.sliding=false"),
              _plan("fig3", "mujoco.friction=native", "mujoco.integrator=implicitfast")]
-    out = simulate_plans(plans, nthread=2)
-    assert sorted(seen["threads"]) == [0, 2, 3] and seen["batch"] == [1]
-    for plan, res in zip(plans, out, strict=True):
+    assert sorted(p.steps_per_sample for p in plans) == [5, 5, 10, 50, 50]
+    for plan, res in zip(plans, simulate_plans(plans, nthread=2), strict=True):
         _assert_same(res, simulate_plan(plan))
 
 

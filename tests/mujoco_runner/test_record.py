@@ -1,15 +1,19 @@
-"""A run records states and computes the rest afterwards: the same numbers as sample by sample.
+"""A run records states and windows, and computes the rest afterwards.
 
-A run (:func:`mujoco_runner.run.run_compiled`) records the state at each sample (in
-:mod:`mujoco_runner.stepper`'s compiled loop, or from Python) and :func:`result_from_samples`
-computes contacts, forces, checks and the table afterwards, vectorised. Every comparison here is
-exact (``==`` on float64): the same C calls on the same states, and the same floating-point
-operations in the same order, give the same bits; any tolerance would hide a change of what is
-computed. One exception: the per-sample contact reader kept as the oracle of the vectorised
-contact sums computes with numpy's matrix and dot products, which BLAS may evaluate in another
-order or with fused multiply-adds (it differs between machines and numpy builds), so its
-forces, torques and power are compared within a rounding bound the test derives from the same
-sums of absolute values.
+A run (:func:`mujoco_runner.run.run_compiled`) records the state at each sample and adds every
+step's forward pass to its sample's window (:mod:`mujoco_runner.worker.windows`), in
+:mod:`mujoco_runner.stepper`'s compiled loop or from Python
+(:class:`~mujoco_runner.worker.windows.WindowAccumulator`); :func:`result_from_samples` computes
+the contacts, forces, checks and the table afterwards. The states are compared exactly (``==``
+on float64): the same C calls on the same states give the same bits, and any tolerance would
+hide a change of what is stepped. So are the windows' integers, and their maxima (a maximum
+picks one of the same doubles). Their sums are sums of products: the compiled loop, the Python
+loop and the oracle here (a per-pass contact reader, the old per-sample one) compute the same
+exact value from the same doubles, the oracle with numpy's matrix products (BLAS may sum in
+another order or fuse a multiply-add: it differs between machines and builds) and the loops
+each as its compiler makes it; so they are compared within a rounding bound derived from the
+same sums of absolute values (:func:`_window_gamma`, :func:`_assert_windows`). Where the two
+loops only add the same doubles in the same order they are compared exactly.
 """
 
 from __future__ import annotations
@@ -29,9 +33,11 @@ from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.mujoco_runner import checks, results, run, stepper, stepping
 from tippetop.mujoco_runner.friction_callback import PaperFriction
 from tippetop.mujoco_runner.model import TopModel, load_top
-from tippetop.mujoco_runner.record import SampleRecord
+from tippetop.mujoco_runner.record import STATE_SPEC, SampleRecord, WindowRecord
 from tippetop.mujoco_runner.settings import build_model
 from tippetop.mujoco_runner.state import initial_qpos_qvel
+from tippetop.mujoco_runner.worker import windows
+from tippetop.mujoco_runner.worker.windows import FLOAT_FIELDS, INT_FIELDS, F, I
 
 FIG3_TOP = TopParams.from_ratios(1.0, 0.1)
 FIG3_INIT = InitialState(theta0=0.1, n0=100.0)
@@ -67,13 +73,30 @@ def _start(tm, init=FIG3_INIT) -> mujoco.MjData:
     return data
 
 
+def _capsule_start() -> tuple[TopModel, mujoco.MjData]:
+    """The capsule-stem top as its file says (its own Euler at 0.5 ms), at its keyframe."""
+    tm = load_top(CAPSULE)
+    data = mujoco.MjData(tm.model)
+    mujoco.mj_resetDataKeyframe(tm.model, data, 0)
+    return tm, data
+
+
+def _armed(tm: TopModel, data: mujoco.MjData, law: FrictionParams | None, stem=None):
+    return (PaperFriction(tm, data, law, stem=stem) if law is not None
+            else contextlib.nullcontext())
+
+
+# --- mj_step taken apart, the compiled loop ---------------------------------------------------
+
+
 @pytest.mark.parametrize("integrator", ["RK4", "Euler", "implicitfast", "implicit"])
 def test_mj_step_taken_apart_is_mj_step(integrator: str) -> None:
-    # the run reads each sample's contacts from the forward pass that begins the next step:
-    # mj_step split into its checks, mj_forward and the integrator must be mj_step exactly
+    # the run reads each step's forward pass from the pass that begins the step, done at the
+    # end of the step before: mj_step split into its checks, mj_forward and the integrator must
+    # be mj_step exactly
     tm = _native(integrator)
     whole, split = _start(tm), _start(tm)
-    finish = stepping.integrator_step(tm.model)
+    finish = windows.integrator_call(mujoco, tm.model)
     assert finish is not None
     for _ in range(200):
         mujoco.mj_step(tm.model, whole, 5)
@@ -91,155 +114,91 @@ def test_the_compiled_stepper_checks_its_layout() -> None:
     assert ok, why  # on this MuJoCo the compiled loop must run; the Python loop is the fallback
 
 
-@pytest.mark.parametrize("mode", ["paper", "native"])
-def test_compiled_and_python_loops_record_the_same(mode: str) -> None:
-    tm = _paper() if mode == "paper" else _native()
-    steps = 50 if mode == "paper" else 5
-    records = []
-    for compiled in (True, False):
-        data = _start(tm)
-        armed = (PaperFriction(tm, data, LAW) if mode == "paper" else contextlib.nullcontext())
-        with armed:
-            mujoco.mj_forward(tm.model, data)
-            rec, failure, _ = stepping.step_and_record(tm.model, data, steps, 300, None,
-                                                       contacts=mode == "native",
-                                                       compiled=compiled)
-        assert failure is None
-        records.append(rec)
-    a, b = records
-    for field in ("time", "qpos", "qvel", "qacc_warmstart", "qfrc_constraint", "warnings"):
-        assert np.array_equal(getattr(a, field), getattr(b, field)), field
-    assert len(a) == 301
-    if mode == "native":
-        assert len(a.contacts.sample) >= 300  # the ball touches at (nearly) every sample
-        for field in ("sample", "geom", "dist", "pos", "frame", "force"):
-            assert np.array_equal(getattr(a.contacts, field), getattr(b.contacts, field)), field
-    else:
-        assert a.contacts is None and b.contacts is None  # paper mode: passes afterwards
+# --- the oracle: each pass read on its own, the windows built from the passes -----------------
 
 
-@pytest.mark.parametrize("mode", ["paper", "native"])
-def test_a_record_from_a_plain_loop_gives_the_run(mode: str) -> None:
-    # SampleRecord's contract, as a batch would fill it: the state after each sample
-    # interval's mj_step (row 0: after two forward passes), nothing else
-    steps, n_intervals = (50, 200) if mode == "paper" else (5, 400)
-    over = ("run.sample_dt_s=1e-3", f"run.t_end_s={n_intervals * 1e-3!r}")
-    plan = _paper_plan(2e-5, *over) if mode == "paper" else _native_plan("RK4", 2e-4, *over)
-    assert (plan.steps_per_sample, plan.n_intervals) == (steps, n_intervals)
-    tm = build_model(plan)
-    law = plan.law
-    result = run.run_compiled(tm, plan)
-    data = _start(tm)
-    rows = {k: [] for k in ("time", "qpos", "qvel", "qacc_warmstart", "qfrc_constraint")}
-    armed = PaperFriction(tm, data, law) if law is not None else contextlib.nullcontext()
-    with armed:
-        mujoco.mj_forward(tm.model, data)
-        mujoco.mj_forward(tm.model, data)
-        for i in range(n_intervals + 1):
-            if i:
-                mujoco.mj_step(tm.model, data, steps)
-            for key, value in rows.items():
-                value.append(np.copy(getattr(data, key)))
-    record = SampleRecord(**{k: np.array(v) for k, v in rows.items()})
-    again = results.result_from_samples(tm, record, plan, ran=result.ran)
-    assert again.ok and result.ok, (again.message, result.message)
-    assert again.table.equals(result.table)
-    assert np.array_equal(again.contacts, result.contacts)
-    assert (again.max_penetration_m, again.contact_energy_bound_J, again.n_steps) == (
-        result.max_penetration_m, result.contact_energy_bound_J, result.n_steps)
+def _gamma(k: int) -> float:
+    """gamma_k = k u / (1 - k u), u = 2**-53: the bound on k roundings in float64.
+
+    A sum of products computed with k roundings along its deepest chain, in any order and
+    with or without fused multiply-adds, is within gamma_k times the same sum of absolute
+    values of the exact result (Higham, Accuracy and Stability, 3.1-3.5).
+    """
+    u = 2.0**-53
+    return k * u / (1 - k * u)
 
 
-def test_contact_sums_are_the_per_sample_reader() -> None:
-    # a tippe top onto its stem (examples/capsule_stem_top.xml, its own Euler at 0.5 ms, 6 s):
-    # the ball, the stem, and both at once (two contacts in one sample)
-    tm = load_top(CAPSULE)
-    steps, n_intervals = 1, 12000
-    data = mujoco.MjData(tm.model)
-    mujoco.mj_resetDataKeyframe(tm.model, data, 0)
-    mujoco.mj_forward(tm.model, data)
-    rec, _, _ = stepping.step_and_record(tm.model, data, steps, n_intervals, None,
-                                         contacts=True)
-    qa, va = tm.qpos_adr, tm.dof_adr
-    n = len(rec)
-    sums = results.contact_sums(tm, rec.contacts, rec.qpos[:, qa:qa + 7],
-                                rec.qvel[:, va:va + 6], n)
-    assert set(np.unique(sums["touching"])) >= {1, 2, 3}
-    assert np.bincount(rec.contacts.sample).max() >= 2
-    reader = _ContactReader(tm)
-    scratch = mujoco.MjData(tm.model)
-    for i in range(n):
-        scratch.qpos[:], scratch.qvel[:], scratch.time = rec.qpos[i], rec.qvel[i], rec.time[i]
-        scratch.qacc_warmstart[:] = rec.qacc_warmstart[i]
-        mujoco.mj_forward(tm.model, scratch)
-        N, F, tau = reader.read(scratch)
-        # N (MuJoCo's numbers added in MuJoCo's contact order), which geoms touch and the
-        # deepest penetration are the same operations on the same numbers: exact
-        assert (N, reader.touching, reader.depth) == (
-            sums["N"][i], sums["touching"][i], sums["depth"][i]), i
-        # F, tau and the power are rotations, cross and dot products: the reader's go through
-        # numpy's BLAS, which may sum in another order or fuse a multiply-add. Each such
-        # result is within gamma_k = k u / (1 - k u) (u the unit roundoff) of the exact one,
-        # times the same expression evaluated on absolute values (the reader's *_abs), k the
-        # roundings along the deepest chain: the rotation from the quaternion (4), omega (3),
-        # the cross product (2), the contact point's velocity (1), the dot products (3), the
-        # sum over contacts (1): 14 <= 16, for each path, hence twice gamma_16 between them.
-        # Any change of what is computed (a contact lost, a sign, a frame) is order 1, not
-        # 1e-15 of the scale.
-        assert np.all(np.abs(F - sums["F"][i]) <= 2 * _GAMMA_16 * reader.F_abs), i
-        assert np.all(np.abs(tau - sums["tau"][i]) <= 2 * _GAMMA_16 * reader.tau_abs), i
-        assert abs(reader.power - sums["power"][i]) <= 2 * _GAMMA_16 * reader.power_abs, i
+def _window_gamma(steps: int) -> float:
+    """The bound on one window's sums, each computed by two of the loops (hence the 2).
+
+    Per pass and contact the deepest chain is the power: omega from xmat (3 roundings), the
+    arm (1), the cross product and v + it (3), the friction force (the oracle's frame^T f
+    less its normal part: 5), its dot product with v (3), the torque's (6 in all), their sum
+    (1): 11; the sum over a pass's contacts (<= 4: 3): 14 per pass. The window's sum over its
+    ``steps`` passes adds steps - 1. 16 + steps covers it: gamma_66 = 7.3e-15 of the scale
+    for 50 steps. A change of what is computed (a contact lost, a sign, a frame) is order 1.
+    """
+    return 2 * _gamma(16 + steps)
 
 
-#: gamma_16 = 16 u / (1 - 16 u), u = 2**-53: the bound on 16 roundings in float64.
-_GAMMA_16 = 16 * 2.0**-53 / (1 - 16 * 2.0**-53)
+#: The window's float columns that are maxima (exact: a maximum picks one of the same doubles),
+#: and its sums, with the per-pass quantity each one adds (and its component).
+MAXIMA = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max")
+SUMS = {"n_sum": ("n", None), "fx_sum": ("f", 0), "fy_sum": ("f", 1), "fz_sum": ("f", 2),
+        "tx_sum": ("tau", 0), "ty_sum": ("tau", 1), "tz_sum": ("tau", 2),
+        "power_sum": ("power", None), "law_fx_sum": ("law", 0), "law_fy_sum": ("law", 1),
+        "law_power_sum": ("law", 2)}
+assert set(MAXIMA) | set(SUMS) == set(FLOAT_FIELDS) and not set(MAXIMA) & set(SUMS)
 
 
-class _ContactReader:
-    """The per-sample contact reader the run used before its contacts were summed afterwards
-    (kept here as the oracle of :func:`results.contact_sums`): normal force, friction force and
-    friction torque on the top, from one mjData; beside them the same expressions evaluated on
-    absolute values (the scale of their rounding errors)."""
+class _Reader:
+    """The oracle: the top's contacts at one forward pass, read on their own.
 
-    def __init__(self, top_model: TopModel) -> None:
+    The per-sample contact reader the run used before it summed windows (now read at every
+    pass): normal force, friction force and torque on the top, the friction power, which of
+    the top's geoms touch and the deepest penetration, the ball's gap and the axis' k_z; beside
+    the sums the same expressions evaluated on absolute values (the scale of their rounding).
+    Its arithmetic is its own (numpy's matrix products, the force less its normal part); its
+    inputs are MuJoCo's (the contacts, mj_contactForce, the body's xmat: the rotation is
+    checked against the quaternion's once per pass).
+    """
+
+    def __init__(self, top_model: TopModel, law_index: int | None = None, *,
+                 consistent: bool = True) -> None:
         self.model = top_model.model
+        self.consistent = consistent  # the body's rotation is its quaternion's
         self.body = top_model.body_id
         self.ball = top_model.ball_geom_id
+        self.R = float(self.model.geom_size[self.ball, 0])  # the ball's own radius
+        assert self.R == top_model.top.R_m
+        self.axis = np.asarray(top_model.axis_body, dtype=float)
         self.qpos_adr, self.dof_adr = top_model.qpos_adr, top_model.dof_adr
-        #: the friction power of the last :meth:`read` (W): each contact's tangential force
-        #: and torque on the material point it acts on
-        self.power = 0.0
+        self.law_index = law_index
         self._f6 = np.zeros(6)
-        #: which of the top's geoms touched at the last :meth:`read`: code of
-        #: :data:`CONTACT_LABELS` (0 none, 1 the ball, 2 another geom: the stem, 3 both)
-        self.touching = 0
-        #: the deepest penetration of the top's contacts at the last :meth:`read` (m, >= 0)
-        self.depth = 0.0
-        #: F, tau and the power of the last :meth:`read` evaluated on absolute values
-        self.F_abs, self.tau_abs, self.power_abs = np.zeros(3), np.zeros(3), 0.0
+        self.rows: dict[str, list] = {k: [] for k in _PASS_KEYS}
 
-    def read(self, data: mujoco.MjData) -> tuple[float, np.ndarray, np.ndarray]:
-        """(N, F (3,), tau (3,)) on the top, world frame, summed over its contacts."""
-        N, F, tau = 0.0, np.zeros(3), np.zeros(3)
-        self.touching = 0
-        self.power = 0.0
-        self.depth = 0.0
-        self.F_abs, self.tau_abs, self.power_abs = np.zeros(3), np.zeros(3), 0.0
-        if data.ncon == 0:
-            return N, F, tau
+    def read(self, data: mujoco.MjData) -> None:
+        """Read the last forward pass of ``data`` as the next pass."""
+        N, F, tau, power = 0.0, np.zeros(3), np.zeros(3), 0.0
+        N_abs, F_abs, tau_abs, power_abs = 0.0, np.zeros(3), np.zeros(3), 0.0
+        touching, depth = 0, 0.0
         qa, va = self.qpos_adr, self.dof_adr
-        rot = quat_to_mat(data.qpos[qa + 3:qa + 7])
+        rot = data.xmat[self.body].reshape(3, 3)  # its k_z: the sign is what counts (a k_z
+        # within rounding of 0 could read another sign than the loops': ~1e-16 a pass)
+        # the body's rotation is the free joint's quaternion's (MuJoCo normalises it first)
+        assert not self.consistent or np.all(
+            np.abs(rot - quat_to_mat(data.qpos[qa + 3:qa + 7])) <= 1e-14)
         origin, v_origin = data.qpos[qa:qa + 3], data.qvel[va:va + 3]
-        omega = rot @ data.qvel[va + 3:va + 6]
-        # each entry of a rotation from a unit quaternion is a sum of products whose absolute
-        # values add up to at most 3 (1 + 2 (y^2 + z^2), 2 (|x y| + |w z|), ...)
-        omega_abs = np.full(3, 3.0 * np.abs(data.qvel[va + 3:va + 6]).sum())
+        omega_local = data.qvel[va + 3:va + 6]
+        omega = rot @ omega_local
+        omega_abs = np.abs(rot) @ np.abs(omega_local)
         geoms, frames = data.contact.geom, data.contact.frame
         for i in range(data.ncon):
             b1, b2 = self.model.geom_bodyid[geoms[i]]
             if self.body not in (b1, b2):
                 continue
-            self.touching |= 1 if self.ball in geoms[i] else 2
-            self.depth = max(self.depth, -float(data.contact.dist[i]))
+            touching |= 1 if self.ball in geoms[i] else 2
+            depth = max(depth, -float(data.contact.dist[i]))
             mujoco.mj_contactForce(self.model, data, i, self._f6)
             frame = frames[i].reshape(3, 3)  # rows: normal (geom1 -> geom2), tangents
             sign = 1.0 if b2 == self.body else -1.0  # the force acts on geom2 along +normal
@@ -252,7 +211,7 @@ class _ContactReader:
             tau += torque
             arm = data.contact.pos[i] - origin
             v_point = v_origin + np.cross(omega, arm)
-            self.power += float(friction @ v_point + torque @ omega)
+            power += float(friction @ v_point + torque @ omega)
             f_abs = np.abs(frame).T @ np.abs(self._f6[:3]) + abs(self._f6[0]) * np.abs(frame[0])
             t_abs = np.abs(frame).T @ np.abs(self._f6[3:])
             a = np.abs(data.contact.pos[i]) + np.abs(origin)  # arm = pos - origin
@@ -260,86 +219,649 @@ class _ContactReader:
                 omega_abs[1] * a[2] + omega_abs[2] * a[1],
                 omega_abs[2] * a[0] + omega_abs[0] * a[2],
                 omega_abs[0] * a[1] + omega_abs[1] * a[0]])
-            self.F_abs += f_abs
-            self.tau_abs += t_abs
-            self.power_abs += float(f_abs @ v_abs + t_abs @ omega_abs)
-        return N, F, tau
+            N_abs += abs(self._f6[0])
+            F_abs += f_abs
+            tau_abs += t_abs
+            power_abs += float(f_abs @ v_abs + t_abs @ omega_abs)
+        law = np.zeros(3)
+        if self.law_index is not None:
+            u = data.userdata[self.law_index:self.law_index + 4]
+            law = np.array([u[0], u[1], u[3]])  # Fx, Fy, (N), the power
+        gap = float(data.geom_xpos[self.ball, 2]) - self.R  # the ball's centre less R
+        row = {"code": touching, "depth": depth, "gap": gap, "kz": float((rot @ self.axis)[2]),
+               "n": N, "f": F, "tau": tau, "power": power,
+               "law": law, "n_abs": N_abs, "f_abs": F_abs, "tau_abs": tau_abs,
+               "power_abs": power_abs, "law_abs": np.abs(law)}
+        for key, value in row.items():
+            self.rows[key].append(value)
+
+    def passes(self) -> dict[str, np.ndarray]:
+        """Every pass read so far, as arrays (pass p at row p)."""
+        return {k: np.array(v) for k, v in self.rows.items()}
 
 
-class _SampleChecks:
-    """The per-sample divergence checks the run used before they ran vectorised afterwards
-    (kept here as the oracle of :func:`checks.check_failure`): penetration, energy rise, lost
-    contact."""
-
-    def __init__(self, R_m: float, fix: str) -> None:
-        self.R_m, self.fix = R_m, fix
-        self.energy0: float | None = None
-        self.airborne_since: float | None = None
-
-    def failure(self, t: float, gap: float, energy: float, other_touching: bool = False
-                ) -> str | None:
-        """A one-line reason if the sample at time t (s) shows a failed run, else None.
-
-        ``other_touching``: another geom of the top (a stem) is on the table: the ball may be
-        off it then (a real tippe top's stem takes over), and that is not a lost contact.
-        """
-        if self.energy0 is None:
-            self.energy0 = energy
-        if gap < -checks.MAX_PENETRATION_R * self.R_m:
-            return (f"the ball sank {-gap * 1e3:.3g} mm into the table (bound "
-                    f"{checks.MAX_PENETRATION_R:g} R); stiffen solref or {self.fix}")
-        if energy - self.energy0 > checks.MAX_ENERGY_RISE * abs(self.energy0):
-            return (f"the energy rose {100 * (energy / self.energy0 - 1):.3g}% above its "
-                    f"initial value (friction can only dissipate it); {self.fix}")
-        if gap <= checks.CONTACT_GAP_M or other_touching:
-            self.airborne_since = None
-            return None
-        if self.airborne_since is None:
-            self.airborne_since = t
-        if t - self.airborne_since > checks.MAX_AIRBORNE_S:
-            return (f"contact lost: the top left the table at t = {self.airborne_since:.6g} s "
-                    f"for more than {checks.MAX_AIRBORNE_S:g} s (the model follows it on the table "
-                    "only)")
-        return None
+_PASS_KEYS = ("code", "depth", "gap", "kz", "n", "f", "tau", "power", "law", "n_abs", "f_abs",
+              "tau_abs", "power_abs", "law_abs")
 
 
-def _sequences(rng: np.random.Generator, n: int, R: float):
-    """Gap, energy and stem-contact sequences that fail in each way (or not) at random."""
-    t = np.arange(n) * 7 * 2e-4
-    gap = rng.normal(0.0, 1e-6, n) - 2e-7
-    energy = 1.0 + rng.normal(0.0, 1e-3, n)
-    other = rng.random(n) < 0.05
-    kind = rng.integers(0, 4)
-    at = int(rng.integers(1, n))
-    if kind == 0:  # the ball sinks
-        gap[at] = -(checks.MAX_PENETRATION_R + 0.01) * R
-    elif kind == 1:  # the energy rises
-        energy[at:] += 0.2
-    elif kind == 2:  # airborne for longer than MAX_AIRBORNE_S, possibly interrupted
-        gap[at:] = 1e-3
-        other[at:] = rng.random(n - at) < 0.002
-    return t, gap, energy, other
+def _passes(code, gap, kz=None, depth=None) -> dict[str, np.ndarray]:
+    """A pass sequence of its own (no forces): the contact codes, gaps, k_z, depths."""
+    code = np.asarray(code, dtype=np.int64)
+    P = len(code)
+    out = {"code": code, "gap": np.asarray(gap, dtype=float),
+           "kz": np.ones(P) if kz is None else np.asarray(kz, dtype=float),
+           "depth": np.zeros(P) if depth is None else np.asarray(depth, dtype=float)}
+    for key in ("n", "power", "n_abs", "power_abs"):
+        out[key] = np.zeros(P)
+    for key in ("f", "tau", "law", "f_abs", "tau_abs", "law_abs"):
+        out[key] = np.zeros((P, 3))
+    return out
 
 
-def test_vectorised_checks_are_the_per_sample_checks() -> None:
+def _window_passes(r: int, steps: int) -> np.ndarray:
+    """The run's pass numbers in window r: pass 0 in row 0, ((r-1) steps, r steps] in row r."""
+    return np.array([0]) if r == 0 else np.arange((r - 1) * steps + 1, r * steps + 1)
+
+
+def _row_of(p: int, steps: int) -> int:
+    """The window that holds pass p."""
+    return 0 if p == 0 else -(-p // steps)
+
+
+def _top(values) -> float:
+    """The largest of ``values``; -inf: none."""
+    return float(np.max(values)) if len(values) else -math.inf
+
+
+def _expected_windows(p: dict[str, np.ndarray], steps: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(ints, floats, scale)``: the windows of a pass sequence, built from the whole list.
+
+    Written from the spec (worker/windows.py's docstring) window by window, with the whole
+    sequence in view, not as the accumulators' one-pass state machine; ``scale``: each sum's
+    sum of absolute values (zero for the maxima).
+    """
+    code = np.asarray(p["code"])
+    P = len(code)
+    assert (P - 1) % steps == 0
+    n = 1 + (P - 1) // steps
+    touching = code != 0
+    # a lift: a pass without contact after one with contact; the run's first pass counts
+    lift = ~touching & np.concatenate(([True], touching[:-1]))
+    kz = p["kz"]
+    flip = np.concatenate(([False], (kz[:-1] > 0) & (kz[1:] <= 0)))
+    ints = np.zeros((n, len(INT_FIELDS)), dtype=np.int64)
+    floats = np.zeros((n, len(FLOAT_FIELDS)))
+    scale = np.zeros_like(floats)
+    for r in range(n):
+        idx = _window_passes(r, steps)
+        off = idx - idx[0] + (0 if r == 0 else 1)
+        gap = p["gap"][idx]
+        t = off[touching[idx]]  # the offsets of the passes with contact
+        wi, wf = ints[r], floats[r]
+        wi[I["passes"]] = len(idx)
+        wi[I["touch"]] = np.bitwise_or.reduce(code[idx])
+        wi[I["touch_passes"]] = len(t)
+        wi[I["first_touch"]] = t[0] if len(t) else -1
+        wi[I["last_touch"]] = t[-1] if len(t) else -1
+        # the stretches between two touches of the window: the longest, the first of equals
+        inner = [(b - a - 1, a + 1) for a, b in zip(t[:-1], t[1:], strict=True) if b - a > 1]
+        if inner:
+            length = max(x[0] for x in inner)
+            start = next(s for k, s in inner if k == length)
+            wi[I["inner_free"]], wi[I["inner_start"]] = length, start
+            wf[F["inner_gap"]] = _top(gap[(off >= start) & (off < start + length)])
+        else:
+            wi[I["inner_free"]], wi[I["inner_start"]] = 0, -1
+            wf[F["inner_gap"]] = -math.inf
+        wi[I["lifts"]] = int(lift[idx].sum())
+        other = off[(code[idx] & windows.OTHER) != 0]
+        wi[I["first_other"]] = other[0] if len(other) else -1
+        flips = off[flip[idx]]
+        wi[I["flip"]] = flips[0] if len(flips) else -1
+        wf[F["gap_max"]] = _top(gap)
+        wf[F["lead_gap"]] = _top(gap[off < t[0]] if len(t) else gap)
+        wf[F["trail_gap"]] = _top(gap[off > t[-1]] if len(t) else gap)
+        wf[F["depth_max"]] = max(0.0, _top(p["depth"][idx]))
+        for name, (key, col) in SUMS.items():
+            values = p[key][idx] if col is None else p[key][idx, col]
+            absolute = p[f"{key}_abs"][idx] if col is None else p[f"{key}_abs"][idx, col]
+            wf[F[name]] = math.fsum(values)  # exact, then rounded once
+            scale[r, F[name]] = math.fsum(absolute)
+    return ints, floats, scale
+
+
+def _assert_windows(got: WindowRecord, ints: np.ndarray, floats: np.ndarray,
+                    scale: np.ndarray, steps: int, what: str) -> None:
+    """``got`` is these windows: integers and maxima exact, sums within the rounding bound."""
+    assert got.ints.shape == ints.shape, what
+    bad = np.argwhere(got.ints != ints)
+    assert not bad.size, (what, [(int(r), INT_FIELDS[c], int(got.ints[r, c]), int(ints[r, c]))
+                                 for r, c in bad[:5]])
+    for name in MAXIMA:
+        a, b = got.float_column(name), floats[:, F[name]]
+        assert np.array_equal(a, b), (what, name, np.flatnonzero(a != b)[:5])
+    bound = _window_gamma(steps) * scale
+    for name in SUMS:
+        k = F[name]
+        off = np.abs(got.floats[:, k] - floats[:, k]) > bound[:, k]
+        assert not off.any(), (what, name, np.flatnonzero(off)[:5])
+
+
+def _by_hand(tm: TopModel, data: mujoco.MjData, steps: int, n_intervals: int,
+             law_index: int | None = None) -> tuple[SampleRecord, dict[str, np.ndarray]]:
+    """A run stepped one step at a time, mj_step taken apart, as SampleRecord's contract says.
+
+    Two forward passes at the start (row 0's state after them), then each step's pass at the
+    end of the step before it (row 0's window: the pass at the initial state), each added to
+    its window with :class:`~.worker.windows.WindowAccumulator` and read by the oracle
+    (:class:`_Reader`). Returns the record and every pass the oracle read.
+    """
+    model = tm.model
+    finish = windows.integrator_call(mujoco, model)
+    assert finish is not None
+    u = data.userdata
+
+    def law() -> tuple[float, float, float]:
+        return float(u[law_index]), float(u[law_index + 1]), float(u[law_index + 3])
+
+    acc = windows.WindowAccumulator(mujoco, np, model, data, stepping.window_top(tm),
+                                    None if law_index is None else law)
+    ints, floats = windows.new_windows(np, n_intervals + 1)
+    reader = _Reader(tm, law_index)
+    size = mujoco.mj_stateSize(model, STATE_SPEC)
+    state = np.empty((n_intervals + 1, size))
+    con = np.empty((n_intervals + 1, model.nv))
+    warn = np.empty((n_intervals + 1, data.warning.number.size), dtype=np.int32)
+
+    def sample(i: int) -> None:
+        mujoco.mj_getState(model, data, state[i], STATE_SPEC)
+        con[i], warn[i] = data.qfrc_constraint, data.warning.number
+
+    def begin() -> None:
+        for check in (mujoco.mj_checkPos, mujoco.mj_checkVel, mujoco.mj_forward,
+                      mujoco.mj_checkAcc):
+            check(model, data)
+
+    mujoco.mj_forward(model, data)
+    mujoco.mj_forward(model, data)
+    sample(0)
+    begin()
+    acc.add(ints, floats, 0, 0)
+    reader.read(data)
+    for i in range(1, n_intervals + 1):
+        for j in range(1, steps + 1):
+            finish(model, data)
+            if j == steps:
+                sample(i)
+            begin()
+            acc.add(ints, floats, i, j)
+            reader.read(data)
+    nq, nv = model.nq, model.nv
+    record = SampleRecord(time=state[:, 0], qpos=state[:, 1:1 + nq],
+                          qvel=state[:, 1 + nq:1 + nq + nv],
+                          qacc_warmstart=state[:, 1 + nq + nv:], qfrc_constraint=con,
+                          windows=WindowRecord(ints, floats), warnings=warn,
+                          path="by hand")
+    return record, reader.passes()
+
+
+STATE_FIELDS = ("time", "qpos", "qvel", "qacc_warmstart", "qfrc_constraint", "warnings")
+
+
+def _recorded(tm: TopModel, data: mujoco.MjData, steps: int, n_intervals: int, *,
+              compiled: bool, law_index: int | None = None) -> SampleRecord:
+    mujoco.mj_forward(tm.model, data)
+    rec, failure, _ = stepping.step_and_record(tm.model, data, steps, n_intervals, None,
+                                               top=stepping.window_top(tm),
+                                               law_index=law_index, compiled=compiled)
+    assert failure is None
+    return rec
+
+
+# --- the loops against each other and against the oracle ---------------------------------------
+
+
+@pytest.mark.parametrize("mode", ["paper", "native"])
+def test_compiled_and_python_loops_record_the_same(mode: str) -> None:
+    # native: condim 6, so the windows add torsional and rolling friction torques too
+    tm = _paper() if mode == "paper" else build_model(_native_plan("RK4", 2e-4, "mujoco.condim=6"))
+    law = LAW if mode == "paper" else None
+    index = stepping.law_index(tm.model, law)
+    steps, n_intervals = (50, 300) if mode == "paper" else (5, 300)
+    records = []
+    for compiled in (True, False):
+        data = _start(tm)
+        with _armed(tm, data, law):
+            records.append(_recorded(tm, data, steps, n_intervals, compiled=compiled,
+                                     law_index=index))
+    data = _start(tm)
+    with _armed(tm, data, law):
+        hand, passes = _by_hand(tm, data, steps, n_intervals, index)
+    a, b = records
+    assert (a.path, b.path) == ("compiled stepper", "plain loop")
+    assert len(a) == len(b) == n_intervals + 1
+    for field in STATE_FIELDS:  # the same steps: the same bits, and as the contract says
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+        assert np.array_equal(getattr(a, field), getattr(hand, field)), field
+    ints, floats, scale = _expected_windows(passes, steps)
+    for rec in (a, b, hand):
+        _assert_windows(rec.windows, ints, floats, scale, steps, rec.path)
+    # the two loops against each other: the same expressions of the same doubles, so within
+    # the bound of each against the exact value; the additions of the same doubles in the same
+    # order (N, the law's copies: no product to fuse, no order to change) are the same bits
+    _assert_windows(a.windows, b.windows.ints, b.windows.floats, scale, steps, "loops")
+    for name in ("n_sum", "law_fx_sum", "law_fy_sum", "law_power_sum"):
+        assert np.array_equal(a.windows.float_column(name), b.windows.float_column(name)), name
+    w = a.windows
+    assert (w.int_column("passes") == [1] + [steps] * n_intervals).all()
+    if mode == "native":  # the ball touches in most windows (it hops), with friction
+        assert (w.int_column("touch") == windows.BALL).sum() >= 0.8 * n_intervals
+        assert np.abs(w.float_column("fx_sum")).max() > 0 and w.float_column("n_sum").max() > 0
+        assert np.abs(w.floats[:, F["tx_sum"]:F["tz_sum"] + 1]).max(axis=0).min() > 0
+        assert not w.float_column("law_fx_sum").any()
+    else:  # the law acted, and the frictionless contact none
+        assert np.abs(w.float_column("law_fx_sum")).max() > 0
+        assert np.abs(w.float_column("law_power_sum")).max() > 0
+
+
+def test_whole_mj_step_loops_record_the_same() -> None:
+    # where mj_step does more after its forward pass (here its forward-inverse comparison)
+    # both loops call it whole and add its pass (at the state before the step) after it: row
+    # r's window then holds the passes at the states from sample r - 1 (offset 0) on
+    tm = _native()
+    tm.model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_FWDINV)
+    assert windows.integrator_call(mujoco, tm.model) is None
+    assert stepping.integrator_split(tm.model) is None
+    steps, n_intervals = 5, 200
+    a, b = (_recorded(tm, _start(tm), steps, n_intervals, compiled=c) for c in (True, False))
+    for field in STATE_FIELDS:
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+    # the scale of the sums' rounding: the oracle reading each pass as the loops do, after
+    # the step (whose qpos and qvel are the new state's already, its xmat and contacts the
+    # pass's)
+    data = _start(tm)
+    mujoco.mj_forward(tm.model, data)
+    mujoco.mj_forward(tm.model, data)
+    reader = _Reader(tm, consistent=False)
+    reader.read(data)
+    for _ in range(steps * n_intervals):
+        mujoco.mj_step(tm.model, data)
+        reader.read(data)
+    ints, floats, scale = _expected_windows(reader.passes(), steps)
+    _assert_windows(a.windows, b.windows.ints, b.windows.floats, scale, steps, "loops")
+    w = a.windows
+    assert (w.int_column("passes") == [1] + [steps] * n_intervals).all()
+    assert w.int_column("first_touch")[1:].min() == 0 and w.int_column("last_touch").max() < steps
+    assert np.array_equal(w.ints[:, I["touch"]], ints[:, I["touch"]])
+
+
+@pytest.mark.parametrize("mode", ["paper", "native"])
+def test_a_record_from_a_plain_loop_gives_the_run(mode: str) -> None:
+    # SampleRecord's contract, as a batch or a worker fills it: the state after each sample
+    # interval's steps (row 0: after two forward passes) and each window built from every
+    # step's pass (mj_step taken apart, WindowAccumulator)
+    steps, n_intervals = (50, 200) if mode == "paper" else (5, 400)
+    over = ("run.sample_dt_s=1e-3", f"run.t_end_s={n_intervals * 1e-3!r}")
+    plan = _paper_plan(2e-5, *over) if mode == "paper" else _native_plan("RK4", 2e-4, *over)
+    assert (plan.steps_per_sample, plan.n_intervals) == (steps, n_intervals)
+    tm = build_model(plan)
+    result = run.run_compiled(tm, plan)
+    data = stepping.start_data(tm, plan)
+    with _armed(tm, data, plan.law, plan.stem):
+        record, passes = _by_hand(tm, data, steps, n_intervals,
+                                  stepping.law_index(tm.model, plan.law))
+    again = results.result_from_samples(tm, record, plan, ran=result.ran)
+    assert again.ok and result.ok, (again.message, result.message)
+    # the windows: the run's and the plain loop's are each the oracle's, to rounding
+    ints, floats, scale = _expected_windows(passes, steps)
+    _assert_windows(result.windows, ints, floats, scale, steps, "run")
+    _assert_windows(again.windows, result.windows.ints, result.windows.floats, scale, steps,
+                    "plain loop")
+    # with the run's windows the plain loop's record is the run, exactly (the same states)
+    same = results.result_from_samples(tm, replace(record, windows=result.windows), plan,
+                                       ran=result.ran)
+    assert same.table.equals(result.table)
+    for r in (same, again):
+        assert np.array_equal(r.contacts, result.contacts)
+        assert (r.max_penetration_m, r.n_steps, r.status) == (
+            result.max_penetration_m, result.n_steps, result.status)
+        assert r.t_stem == result.t_stem and r.t_invert == result.t_invert
+    assert same.contact_energy_bound_J == result.contact_energy_bound_J
+    # with its own windows: every column the states make exactly; the windows' means within
+    # their sums' bound: N and P_fric a window's sum (within _window_gamma of its scale)
+    # divided by its passes (one rounding each), FX and FY the mean force (its sums' bound,
+    # one rounding) dotted with a unit vector (3 roundings: gamma_4 of |F| in all)
+    forces = ["N", "FX", "FY", "P_fric"]
+    assert again.table.drop(columns=forces).equals(result.table.drop(columns=forces))
+    u = 2.0**-53
+    passes = result.windows.int_column("passes")
+    mean_a, mean_b = results.window_means(again.windows), results.window_means(result.windows)
+    force = "law_F" if mode == "paper" else "F"
+    sums = {"N": ["n_sum"], "P_fric": ["law_power_sum" if mode == "paper" else "power_sum"]}
+    sums["FX"] = sums["FY"] = (["law_fx_sum", "law_fy_sum"] if mode == "paper"
+                               else ["fx_sum", "fy_sum", "fz_sum"])
+    for name in forces:
+        x, y = again.table[name].to_numpy(), result.table[name].to_numpy()
+        bound = _window_gamma(steps) * sum(scale[:, F[k]] for k in sums[name]) / passes
+        if name in ("FX", "FY"):
+            bound += _gamma(4) * (np.abs(mean_a[force]) + np.abs(mean_b[force])).sum(axis=1)
+        else:
+            bound += u * (np.abs(x) + np.abs(y))
+        assert (np.abs(x - y) <= bound).all(), name
+    if mode == "paper":  # N and the law's copies: the same doubles added in one order
+        assert again.table.equals(result.table)
+
+
+def test_windows_are_the_per_pass_reader() -> None:
+    # a tippe top onto its stem (examples/capsule_stem_top.xml, its own Euler at 0.5 ms, 6.3
+    # s): the ball, the stem, and both at once; the axis turns over; contacts lost for a step
+    # or two. One step at a time, the oracle reads every pass; the windows of every sample
+    # spacing are built from that one list (the steps are the same whatever the spacing)
+    tm, data = _capsule_start()
+    n_steps = 12600  # divisible by 1, 5 and 7
+    _, passes = _by_hand(tm, data, 1, n_steps)
+    code = passes["code"]
+    assert set(np.unique(code)) == {0, 1, 2, 3}
+    kz = passes["kz"]
+    assert ((kz[:-1] > 0) & (kz[1:] <= 0)).any()  # the top turns over
+    for steps in (1, 5, 7):
+        ints, floats, scale = _expected_windows(passes, steps)
+        n_intervals = n_steps // steps
+        assert len(ints) == n_intervals + 1
+        if steps > 2:  # the windows hold stretches between two touches
+            assert ints[:, I["inner_free"]].max() > 0
+            assert ints[:, I["lifts"]].max() >= 2
+        for compiled in (True, False):
+            tm, data = _capsule_start()
+            rec = _recorded(tm, data, steps, n_intervals, compiled=compiled)
+            _assert_windows(rec.windows, ints, floats, scale, steps, f"{steps} {rec.path}")
+            assert rec.windows.first_pass("first_other", steps) == np.flatnonzero(code & 2)[0]
+
+
+class _FakeContact:
+    def __init__(self, geom1: int, geom2: int, dist: float, frame: np.ndarray) -> None:
+        self.geom1, self.geom2, self.dist = geom1, geom2, dist
+        self.frame = frame.ravel()
+        self.pos = np.zeros(3)
+
+
+class _FakeData:
+    """An mjData as WindowAccumulator reads it, made pass by pass from a random sequence.
+
+    The table is geom 0 (body 0); the top is body 1 with its ball (geom 1) and a stem (geom
+    2); a third body (geom 3) touches the table too, deeper, and must not count. Each of the
+    top's contacts has a random frame and force (normal, tangential, torsional and rolling),
+    the table as geom1 or as geom2; the top moves at a random velocity without turning.
+    """
+
+    geom_bodyid = np.array([0, 1, 1, 2])
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+        self.qpos, self.qvel = np.zeros(7), np.zeros(6)
+        self.xmat = np.zeros((3, 9))
+        self.geom_xpos = np.zeros((4, 3))
+        self.contact: list[_FakeContact] = []
+        self.forces: list[np.ndarray] = []
+
+    @property
+    def ncon(self) -> int:
+        return len(self.contact)
+
+    def set(self, code: int, gap: float, kz: float, depth: float) -> dict:
+        """Make the pass; return what the oracle adds of it (as :class:`_Reader` reads it)."""
+        rng = self.rng
+        self.geom_xpos[1, 2] = _FAKE_R + gap
+        self.xmat[1, 6:9] = 0.0, 0.0, kz
+        self.qvel[:3] = v = rng.normal(0, 1, 3)
+        far = _FakeContact(0, 3, -2.0, np.eye(3))  # another body's, deeper than any
+        self.contact, self.forces = [far], [rng.normal(0, 1, 6)]
+        out = {"n": 0.0, "f": np.zeros(3), "tau": np.zeros(3), "power": 0.0, "n_abs": 0.0,
+               "f_abs": np.zeros(3), "tau_abs": np.zeros(3), "power_abs": 0.0}
+        mine = [g for g, bit in ((1, windows.BALL), (2, windows.OTHER)) if code & bit]
+        for k, g in enumerate(mine):  # the deepest one last
+            frame = np.linalg.qr(rng.normal(0, 1, (3, 3)))[0]
+            flipped = bool(rng.random() < 0.5)  # the top as geom1: the force acts on it -f
+            c = _FakeContact(*((g, 0) if flipped else (0, g)), -depth * (k + 1) / len(mine),
+                             frame)
+            f6 = rng.normal(0, 1, 6)
+            f6[0] = abs(f6[0])
+            self.contact.append(c)
+            self.forces.append(f6)
+            sign = -1.0 if flipped else 1.0
+            friction = sign * (frame.T @ f6[:3]) - f6[0] * sign * frame[0]
+            torque = sign * (frame.T @ f6[3:])
+            f_abs = np.abs(frame).T @ np.abs(f6[:3]) + abs(f6[0]) * np.abs(frame[0])
+            t_abs = np.abs(frame).T @ np.abs(f6[3:])
+            out["n"] += f6[0]
+            out["f"] = out["f"] + friction
+            out["tau"] = out["tau"] + torque
+            out["power"] += float(friction @ v)  # no turning: each point moves at v
+            out["n_abs"] += f6[0]
+            out["f_abs"] = out["f_abs"] + f_abs
+            out["tau_abs"] = out["tau_abs"] + t_abs
+            out["power_abs"] += float(f_abs @ np.abs(v))
+        return out
+
+    def contact_force(self, model, data, k: int, f6: np.ndarray) -> None:
+        f6[:] = self.forces[k]
+
+
+_FAKE_R = 0.02
+
+
+def test_the_accumulator_is_the_spec_on_random_passes() -> None:
+    # WindowAccumulator's one-pass state machine against the windows built from the whole
+    # pass list (_expected_windows), on random sequences: stretches of every length between
+    # and across windows, ties between stretches, the ball and the stem, k_z crossing zero both
+    # ways, forces on the top as geom1 and as geom2, at several sample spacings (the compiled
+    # kernel is the same arithmetic: the tests above hold it to this one on real runs)
+    rng = np.random.default_rng(5)
+    top = windows.WindowTop(body=1, ball=1, radius_m=_FAKE_R, axis_body=(0.0, 0.0, 1.0),
+                            qpos_adr=0, dof_adr=0)
+    for _ in range(150):
+        steps = int(rng.choice([1, 2, 3, 5, 8]))
+        n = int(rng.integers(1, 30))
+        P = 1 + steps * (n - 1)
+        code, gap = _random_passes(rng, P)
+        gap = (_FAKE_R + gap) - _FAKE_R  # as the accumulator reads it back
+        kz = np.cumsum(rng.normal(0, 0.3, P)) + rng.normal(0, 0.5)
+        kz[rng.random(P) < 0.05] = 0.0  # k_z <= 0 counts as down
+        depth = np.where(code != 0, rng.uniform(0, 1e-3, P), 0.0)
+        data = _FakeData(rng)
+        fake = type("mujoco", (), {"mj_contactForce": staticmethod(data.contact_force)})
+        model = type("model", (), {"geom_bodyid": _FakeData.geom_bodyid})
+        acc = windows.WindowAccumulator(fake, np, model, data, top)
+        got = windows.new_windows(np, n)
+        passes = _passes(code, gap, kz=kz, depth=depth)
+        for q in range(P):
+            for key, value in data.set(int(code[q]), float(gap[q]), float(kz[q]),
+                                       float(depth[q])).items():
+                passes[key][q] = value
+            r = _row_of(q, steps)
+            acc.add(*got, r, 0 if r == 0 else q - (r - 1) * steps)
+        ints, floats, scale = _expected_windows(passes, steps)
+        _assert_windows(WindowRecord(*got), ints, floats, scale, steps, f"steps {steps}")
+
+
+# --- WindowRecord.gaps --------------------------------------------------------------------------
+
+
+def _stretches(code: np.ndarray, gap: np.ndarray) -> list[tuple[int, int, float]]:
+    """Every stretch of passes without contact: (start, passes, its largest gap)."""
+    out, start = [], None
+    for p, c in enumerate(list(code) + [1]):
+        if c == 0 and start is None:
+            start = p
+        elif c != 0 and start is not None:
+            out.append((start, p - start, float(np.max(gap[start:p]))))
+            start = None
+    return out
+
+
+def _random_passes(rng: np.random.Generator, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """Contact codes in runs of random lengths (stretches of 1 pass to many), and gaps."""
+    code = np.empty(P, dtype=np.int64)
+    stay = rng.uniform(0.3, 0.97)
+    c = int(rng.integers(0, 4))
+    for p in range(P):
+        if rng.random() > stay:
+            c = int(rng.integers(0, 4)) if c == 0 else int(rng.choice([0, 0, 1, 2, 3]))
+        code[p] = c
+    gap = np.where(code == 0, rng.uniform(-1e-6, 1e-3, P), rng.uniform(-1e-4, 0, P))
+    return code, gap
+
+
+def test_gaps_are_the_stretches_without_contact() -> None:
+    rng = np.random.default_rng(3)
+    assert len(WindowRecord.empty().gaps(3)) == 0
+    exact = partial = 0
+    for trial in range(600):
+        steps = int(rng.choice([1, 2, 3, 5, 8]))
+        n = int(rng.integers(1, 40))
+        P = 1 + steps * (n - 1)
+        code, gap = _random_passes(rng, P)
+        if trial % 50 == 0:  # never a contact, or always
+            code[:] = 0 if trial % 100 else 1
+        got = WindowRecord(*_expected_windows(_passes(code, gap), steps)[:2]).gaps(steps)
+        got = [(int(s), int(k), float(h)) for s, k, h in got]
+        assert got == sorted(got)
+        true = _stretches(code, gap)
+        kept, every = _kept_stretches(true, steps, P)
+        assert got == kept, (steps, code.tolist())
+        if every:
+            assert got == true  # no window holds two: every stretch, exactly
+            exact += 1
+        else:
+            partial += 1
+        assert every or steps > 2  # two stretches between touches take 5 passes
+    assert exact > 400 and partial > 20  # both cases exercised
+
+
+def _kept_stretches(true: list, steps: int, P: int) -> tuple[list, bool]:
+    """What :meth:`WindowRecord.gaps` keeps of the stretches of P passes, and if that is all.
+
+    A stretch between two touches of one window is inner to it; the windows keep each one's
+    longest (the first of equals), every other stretch (one that spans a window's edge, or
+    the run's start or end) exactly.
+    """
+    inner: dict[int, list] = {}
+    edge = []
+    for s in true:
+        start, length, _ = s
+        if start > 0 and start + length < P and (
+                _row_of(start - 1, steps) == _row_of(start + length, steps)):
+            inner.setdefault(_row_of(start, steps), []).append(s)
+        else:
+            edge.append(s)
+    kept = [max(v, key=lambda s: (s[1], -s[0])) for v in inner.values()]
+    return sorted(edge + kept), all(len(v) == 1 for v in inner.values())
+
+
+# --- the checks ---------------------------------------------------------------------------------
+
+
+def _check_oracle(code, gap, depth, energy, steps: int, dt: float, R: float, fix: str,
+                  on_table: bool) -> tuple[int, str | None]:
+    """The checks, pass by pass: (first failing sample, reason) or (n, None).
+
+    Sink: a pass's penetration deeper than MAX_PENETRATION_R R; its sample is the window's
+    that holds it. The energy at a sample. Contact lost: a stretch without contact that lasts
+    past MAX_AIRBORNE_S (its passes times dt, :func:`_past`), with the ball risen above
+    CONTACT_GAP_M at some pass of it; its sample is the window's that holds its first pass
+    past the limit. At one sample: sink, then energy, then lost.
+    """
+    n = len(energy)
+    failures: dict[int, list] = {}  # sample -> [(order, reason)]
+
+    def fail(row: int, order: int, reason: str) -> None:
+        failures.setdefault(row, []).append((order, reason))
+
+    if on_table:
+        for p in range(len(code)):
+            if depth[p] > checks.MAX_PENETRATION_R * R:
+                r = _row_of(p, steps)
+                deepest = max(depth[q] for q in _window_passes(r, steps))
+                fail(r, 0, f"the ball sank {deepest * 1e3:.3g} mm into the table (bound "
+                           f"{checks.MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
+        for start, length, height in _stretches(code, gap):
+            if height <= checks.CONTACT_GAP_M:
+                continue
+            for p in range(start, start + length):
+                if _past(p - start + 1, dt):  # the first pass past the limit
+                    fail(_row_of(p, steps), 2,
+                         f"contact lost: the top left the table at t = {start * dt:.6g} s "
+                         f"for more than {checks.MAX_AIRBORNE_S:g} s (the model follows it on "
+                         "the table only)")
+                    break
+    e0 = energy[0]
+    for i in range(n):
+        if energy[i] - e0 > checks.MAX_ENERGY_RISE * abs(e0):
+            fail(i, 1, f"the energy rose {100 * (energy[i] / e0 - 1):.3g}% above its "
+                       f"initial value (friction can only dissipate it); {fix}")
+    if not failures:
+        return n, None
+    row = min(failures)
+    return row, min(failures[row])[1]
+
+
+def _past(passes: int, dt: float) -> bool:
+    """Whether ``passes`` steps of dt last past MAX_AIRBORNE_S, beyond rounding.
+
+    A stretch of exactly 0.05 s (5 steps of 0.01 s, 11 of 0.05/11 s: its dt and 0.05 each
+    rounded, 11 dt is 0.05000000000000001) is not past it.
+    """
+    return passes * dt > checks.MAX_AIRBORNE_S * (1 + 1e-12)
+
+
+def test_the_checks_are_the_per_pass_checks() -> None:
     rng = np.random.default_rng(14)
-    R = FIG3_TOP.R_m
     top_model = _native()
+    R = top_model.top.R_m
+    deepest_ok = checks.MAX_PENETRATION_R * R  # as deep as allowed, and the next double
     seen: set[str] = set()
-    for _ in range(300):
-        t, gap, energy, other = _sequences(rng, int(rng.integers(2, 400)), R)
-        oracle = _SampleChecks(R, "FIX")
-        expected = (len(t), None)
-        for i in range(len(t)):
-            reason = oracle.failure(float(t[i]), float(gap[i]), float(energy[i]),
-                                    other_touching=bool(other[i]))
-            if reason:
-                expected = (i, reason)
-                break
-        assert checks.check_failure(top_model, t, gap, energy, other, "FIX") == expected
+    for trial in range(500):
+        dt = float(rng.choice([0.01, 0.003, 0.007, 0.05 / 11]))
+        limit = next(k for k in range(1, 100) if _past(k, dt))  # 6, 17, 8, 12 passes
+        steps = int(rng.choice([1, 2, 3, 5]))  # <= limit: no window holds two long stretches
+        n = int(rng.integers(2, 60))
+        P = 1 + steps * (n - 1)
+        code = np.ones(P, dtype=np.int64)
+        gap = rng.uniform(-1e-4, 0, P)
+        depth = rng.uniform(0, 0.15 * R, P)
+        energy = 1.0 + rng.normal(0.0, 1e-3, n)
+        for _ in range(int(rng.integers(0, 4))):  # stretches without contact, short or long
+            start = int(rng.integers(0, P))
+            length = int(rng.choice([1, limit - 1, limit, limit + 1, 3 * limit]))
+            code[start:start + length] = 0
+            risen = rng.random() < 0.8  # else the ball stays within CONTACT_GAP_M
+            top = 1e-3 if risen else checks.CONTACT_GAP_M
+            k = len(gap[start:start + length])
+            gap[start:start + length] = rng.uniform(-1e-6, top, k)
+            if not risen:  # at most CONTACT_GAP_M is not risen
+                gap[start + int(rng.integers(0, k))] = checks.CONTACT_GAP_M
+        depth[code == 0] = 0.0
+        kind = rng.integers(0, 3)
+        if kind == 0:  # the ball sinks at a pass, or goes exactly as deep as allowed
+            depth[int(rng.integers(0, P))] = rng.choice(
+                [deepest_ok, np.nextafter(deepest_ok, 1.0), 1.05 * deepest_ok])
+        elif kind == 1:  # the energy rises
+            energy[int(rng.integers(1, n)):] += 0.2
+        on_table = trial % 10 != 0
+        if not on_table:
+            code[:] = 0
+        t = np.arange(n) * steps * dt
+        w = WindowRecord(*_expected_windows(_passes(code, gap, depth=depth), steps)[:2])
+        expected = _check_oracle(code, gap, depth, energy, steps, dt, R, "FIX", on_table)
+        got = checks.check_failure(top_model, t, w, steps, dt, energy, "FIX", on_table=on_table)
+        assert got == expected, (trial, steps, dt)
         seen.add("ok" if expected[1] is None else expected[1].split(":")[0][:13])
     # every outcome was exercised: no failure, and each kind of failure
     assert seen == {"ok", "the ball sank", "the energy ro", "contact lost"}
+
+
+# --- failures ----------------------------------------------------------------------------------
 
 
 def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
@@ -347,10 +869,7 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
     plan = _native_plan("RK4", dt, "run.sample_dt_s=1e-3", "run.t_end_s=0.3")
     assert (plan.steps_per_sample, plan.n_intervals) == (steps, n_intervals)
     tm = build_model(plan)
-    data = _start(tm)
-    mujoco.mj_forward(tm.model, data)
-    rec, _, _ = stepping.step_and_record(tm.model, data, steps, n_intervals, None,
-                                         contacts=True)
+    rec = _recorded(tm, _start(tm), steps, n_intervals, compiled=True)
     fix = "reduce timestep_s (now 0.0002 s)"
     full = results.result_from_samples(tm, rec, plan)
     assert full.ok and len(full.table) == n_intervals + 1
@@ -361,8 +880,11 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
     res = results.result_from_samples(tm, replace(rec, qvel=qvel), plan)
     assert res.message == (f"diverged by t = {bad * steps * dt:.6g} s (native mode): NaN or "
                            f"Inf in qpos/qvel; {fix}")
-    assert len(res.table) == len(res.contacts) == bad and res.n_steps == bad * steps
+    assert len(res.table) == len(res.contacts) == len(res.windows) == bad
+    assert res.n_steps == bad * steps
     assert res.table.equals(full.table.iloc[:bad])
+    # its window was not stepped to a state the run keeps: the bounds stop before it
+    assert res.max_penetration_m == full.windows.float_column("depth_max")[:bad].max()
 
     warnings = rec.warnings.copy()
     warnings[bad:, int(mujoco.mjtWarning.mjWARN_BADQACC)] = 1
@@ -382,18 +904,23 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
                                                   warning_names=old_names), plan)
     assert "MuJoCo warning mjWARN_BADQVEL (1x): Bad qvel," in res.message
 
-    # a failure of the checks: its sample's contacts were read, so the contact bounds cover it
-    # (as when each sample was read and then checked): sink the ball where it was deepest
-    depth = np.zeros(len(rec))
-    np.maximum.at(depth, rec.contacts.sample, -rec.contacts.dist)
-    deep = int(np.argmax(depth))
-    assert deep > 0 and depth[deep] > depth[:deep].max()
-    qpos = rec.qpos.copy()
-    qpos[deep, 2] -= 0.3 * FIG3_TOP.R_m
-    res = results.result_from_samples(tm, replace(rec, qpos=qpos), plan)
-    assert res.message.startswith(f"diverged by t = {deep * steps * dt:.6g} s (native mode): "
-                                  "the ball sank")
-    assert len(res.table) == deep and res.max_penetration_m == depth[deep]
+    # a failure of the checks: its window was stepped, so the contact bounds cover it: sink
+    # the ball in a window (its depth_max) deeper than any before
+    depth = rec.windows.float_column("depth_max")
+    deep = 200
+    sunk = 0.3 * FIG3_TOP.R_m
+    assert 0 < depth[:deep].max() < sunk
+    floats = rec.windows.floats.copy()
+    floats[deep, F["depth_max"]] = sunk
+    res = results.result_from_samples(
+        tm, replace(rec, windows=WindowRecord(rec.windows.ints, floats)), plan)
+    assert res.message == (f"diverged by t = {deep * steps * dt:.6g} s (native mode): the "
+                           f"ball sank {sunk * 1e3:.3g} mm into the table (bound "
+                           f"{checks.MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
+    assert len(res.table) == len(res.windows) == deep and res.max_penetration_m == sunk
+    assert res.table.equals(full.table.iloc[:deep])
+    N = results.window_means(rec.windows)["N"]
+    assert res.contact_energy_bound_J == max(np.max(N[:deep] * depth[:deep]), N[deep] * sunk)
 
     # stepping that stopped early (a batch's error), the record ending before the failure
     res = results.result_from_samples(tm, rec.head(bad), plan, failure="MuJoCo error: boom")
@@ -418,44 +945,93 @@ def test_failures_end_at_the_same_sample_compiled_or_not(A_over_C, n0, dt, integ
                        f"init.n0={n0!r}", f"mujoco.timestep_s={dt!r}",
                        f"mujoco.integrator={integrator!r}", "run.t_end_s=2.0",
                        f"run.sample_dt_s={max(dt, 1e-3)!r}")
+    assert plan.law is None  # no sliding: no law to arm
     tm = build_model(plan)
     init = InitialState(theta0=0.1, n0=n0)
     outs = []
     for compiled in (True, False):
         data = _start(tm, init)
         mujoco.mj_forward(tm.model, data)
-        rec, failure, _ = stepping.step_and_record(tm.model, data, plan.steps_per_sample,
-                                                   plan.n_intervals, None, contacts=True,
-                                                   compiled=compiled)
+        rec, failure, _ = stepping.step_and_record(
+            tm.model, data, plan.steps_per_sample, plan.n_intervals, None,
+            top=stepping.window_top(tm), law_index=stepping.law_index(tm.model, plan.law),
+            compiled=compiled)
         outs.append(results.result_from_samples(tm, rec, plan, failure=failure))
     a, b = outs
     assert a.status == b.status == "diverged"
     assert a.message == b.message and a.table.equals(b.table) and a.n_steps == b.n_steps
+    assert np.array_equal(a.windows.ints, b.windows.ints)
 
 
-@pytest.mark.parametrize("top", ["fig3", "capsule"])
-def test_compiled_and_python_passes_give_the_same(top: str) -> None:
-    # paper mode's forward passes afterwards (N iterated to the state's own, the law's force
-    # and power as the callback applied them); the capsule top with its stem: two points
-    if top == "fig3":
-        tm, stem, dt, law = _paper(), None, 2e-5, LAW
-        data = _start(tm)
-    else:
-        plan = mujoco_plan(f"top.mjcf={str(CAPSULE)!r}", "mujoco.timestep_s=1e-4",
-                           "mujoco.friction='paper'")
-        tm, stem, dt, law = build_model(plan), plan.stem, 1e-4, plan.law
-        assert stem is not None
-        data = mujoco.MjData(tm.model)
-        mujoco.mj_resetDataKeyframe(tm.model, data, plan.keyframe)
-    steps = round(1e-3 / dt)
-    with PaperFriction(tm, data, law, stem=stem):
-        mujoco.mj_forward(tm.model, data)
-        rec, _, _ = stepping.step_and_record(tm.model, data, steps, 3000 if stem else 200, None)
-    outs = [results.scratch_contacts(tm, rec, law, stem, compiled=c) for c in (True, False)]
-    (ca, xy_a, p_a), (cb, xy_b, p_b) = outs
-    assert np.array_equal(xy_a, xy_b) and np.array_equal(p_a, p_b)
-    for field in ("sample", "geom", "dist", "pos", "frame", "force"):
-        assert np.array_equal(getattr(ca, field), getattr(cb, field)), field
-    assert np.abs(xy_a).max() > 0  # the law acted
-    if stem is not None:  # ball and stem on the table at once (from t = 0.89 s)
-        assert np.bincount(ca.sample).max() >= 2
+# --- paper mode's law, the events to the step ---------------------------------------------------
+
+
+def test_paper_mode_law_columns() -> None:
+    # the capsule top in paper mode: the law at the ball and at the stem's end (from t = 0.89
+    # s), as its callback applied it at each pass
+    plan = mujoco_plan(f"top.mjcf={str(CAPSULE)!r}", "mujoco.timestep_s=1e-4",
+                       "mujoco.friction='paper'", "run.sample_dt_s=1e-3", "run.t_end_s=1.0")
+    tm = build_model(plan)
+    assert plan.law is not None and plan.stem is not None and plan.steps_per_sample == 10
+    index = stepping.law_index(tm.model, plan.law)
+    records = []
+    for compiled in (True, False):
+        data = stepping.start_data(tm, plan)
+        with _armed(tm, data, plan.law, plan.stem):
+            records.append(_recorded(tm, data, plan.steps_per_sample, plan.n_intervals,
+                                     compiled=compiled, law_index=index))
+    a, b = records
+    for field in STATE_FIELDS:
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+    assert np.array_equal(a.windows.ints, b.windows.ints)
+    for name in ("law_fx_sum", "law_fy_sum", "law_power_sum"):
+        x, y = a.windows.float_column(name), b.windows.float_column(name)
+        assert np.array_equal(x, y), name  # copies summed in one order: the same bits
+        assert np.count_nonzero(x) >= len(x) - 1, name  # at every pass but the first's
+    assert (a.windows.float_column("law_power_sum")[1:] < 0).all()  # friction dissipates
+    # the frictionless contact itself: no tangential force
+    assert not a.windows.floats[:, F["fx_sum"]:F["tz_sum"] + 1].any()
+    assert a.windows.first_pass("first_other", plan.steps_per_sample) is not None
+
+
+@pytest.mark.parametrize("dt", [5e-4, 1e-4])
+def test_t_stem_and_t_invert_are_located_to_the_step(dt: float) -> None:
+    # the capsule top sampled every 1 ms and at every step: the same steps, bit for bit, so
+    # the same first step of the stem and of the axis pointing down, and the same stretches
+    # without contact
+    common = (f"top.mjcf={str(CAPSULE)!r}", f"mujoco.timestep_s={dt!r}", "run.t_end_s=2.0")
+    outs = []
+    for sample_dt in (1e-3, dt):
+        plan = mujoco_plan(*common, f"run.sample_dt_s={sample_dt!r}")
+        outs.append(run.run_compiled(build_model(plan), plan))
+    every_ms, every_step = outs
+    assert every_ms.ok and every_step.ok
+    assert (every_ms.steps_per_sample, every_step.steps_per_sample) == (round(1e-3 / dt), 1)
+    # the states at the common samples (t is i * sample_dt, rounded each its own way; the
+    # forces are the windows' means)
+    states = [c for c in every_ms.table.columns if c not in ("t", "N", "FX", "FY", "P_fric")]
+    thinned = every_step.table.iloc[::every_ms.steps_per_sample].reset_index(drop=True)
+    assert thinned[states].equals(every_ms.table[states])
+    assert every_ms.t_stem is not None and every_ms.t_invert is not None
+    assert (every_ms.t_stem, every_ms.t_invert) == (every_step.t_stem, every_step.t_invert)
+    assert 0 < every_ms.t_invert < every_ms.t_stem < 2.0
+    # every step: every stretch without contact (a window of one pass holds none inside)
+    true = [(int(a), int(k), float(h)) for a, k, h in every_step.windows.gaps(1)]
+    P = len(every_step.windows)
+    assert len(true) > 10 and sum(every_step.windows.int_column("lifts")) == len(true)
+    kept, every = _kept_stretches(true, every_ms.steps_per_sample, P)
+    got = [(int(a), int(k), float(h)) for a, k, h in every_ms.windows.gaps(
+        every_ms.steps_per_sample)]
+    assert got == kept
+    # at the file's 0.5 ms a 1-ms window holds two passes: no stretch inside, all the same;
+    # at 0.1 ms the contact flickers within a window, which keeps its longest stretch
+    assert every == (dt == 5e-4)
+    if every:
+        g_ms, g_step = every_ms.gaps(), every_step.gaps()
+        for key in ("t_start", "duration_s", "height_m"):
+            assert np.array_equal(g_ms[key], g_step[key]), key
+    # the counts of stretches and of passes without contact are the same either way
+    assert every_ms.gaps()["count"].sum() == len(true)
+    airborne = [(r.windows.int_column("passes") - r.windows.int_column("touch_passes")).sum()
+                for r in outs]
+    assert airborne[0] == airborne[1] == sum(k for _, k, _ in true)

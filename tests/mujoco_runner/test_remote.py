@@ -2,11 +2,13 @@
 failed run with its reason.
 
 The worker (the folder ``mujoco_runner/worker/``, started by path) needs nothing but ``mujoco``
-and ``numpy``: it steps from Python (``mj_step`` per sample interval) with paper mode's law as a
-Python passive callback, where an in-process run steps in the compiled loop with the compiled
-callback. In this very interpreter (the same MuJoCo) both do the same floating-point operations
-on the same states, so the tables are compared bit for bit: native and paper mode, a stem the
-law also acts at, a file's keyframe as the start.
+and ``numpy``: it steps from Python one step at a time (``mj_step`` taken apart, each step's
+forward pass added to its sample's window by ``worker.windows.WindowAccumulator``) with paper
+mode's law as a Python passive callback, where an in-process run steps in the compiled loop
+(its windows added by compiled code) with the compiled callback. In this very interpreter (the
+same MuJoCo) both make the same C calls on the same states, so the states are compared bit for
+bit and the windows' integers exactly, their floats to rounding: native and paper mode, RK4 and
+Euler, a stem the law also acts at, a file's keyframe as the start.
 """
 
 from __future__ import annotations
@@ -16,15 +18,54 @@ import os
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.conftest import mujoco_plan
 from tippetop.mujoco_runner import remote
 from tippetop.mujoco_runner.model import MUJOCO_WARNINGS
+from tippetop.mujoco_runner.results import MujocoResult
 from tippetop.mujoco_runner.run import simulate_plan
+from tippetop.mujoco_runner.worker.windows import FLOAT_FIELDS
 
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.filterwarnings("ignore::tippetop.mujoco_runner.model.TopModelWarning")
+#: The table's columns made from the windows' floats (the rest are the states').
+WINDOW_COLUMNS = ("N", "P_fric", "FX", "FY")
+#: How far apart a window's float may be in the two loops, relative to its column's largest
+#: value. Both add the same passes (the same C calls: ``mj_contactForce``, the law's output)
+#: with the same products written out in the same order, so they are equal (measured: 0
+#: apart in every case here); a compiler that fused or reordered the compiled loop's
+#: arithmetic would move each pass's terms by a few ulps (1e-16 relative), summed over a
+#: window's few passes. 1e-12 is four orders above that and still far below what a
+#: different pass would change (a step or a contact apart moves them by 1e-6 and more).
+ROUNDING = 1e-12
+
+
+def assert_same_windows(there: MujocoResult, alone: MujocoResult) -> None:
+    """The windows of two runs of one plan: integers equal, floats to :data:`ROUNDING`."""
+    a, b = there.windows, alone.windows
+    assert len(a) == len(b) >= 1
+    np.testing.assert_array_equal(a.ints, b.ints)
+    assert np.array_equal(np.isfinite(a.floats), np.isfinite(b.floats))
+    finite = np.isfinite(b.floats)
+    scale = np.nanmax(np.where(finite, np.abs(b.floats), np.nan), axis=0, initial=0.0)
+    gap = np.where(finite, np.abs(a.floats - np.where(finite, b.floats, 0.0)), 0.0)
+    assert np.array_equal(a.floats[~finite], b.floats[~finite])  # -inf: none, the same
+    for k, name in enumerate(FLOAT_FIELDS):
+        assert gap[:, k].max() <= ROUNDING * scale[k], (name, gap[:, k].max(), scale[k])
+
+
+def assert_same_tables(there: MujocoResult, alone: MujocoResult) -> None:
+    """The states' columns bit for bit, the windows' to :data:`ROUNDING` of their scale."""
+    assert list(there.table.columns) == list(alone.table.columns)
+    for name in there.table.columns:
+        x, y = there.table[name].to_numpy(), alone.table[name].to_numpy()
+        if name in WINDOW_COLUMNS:
+            np.testing.assert_allclose(x, y, rtol=0.0,
+                                       atol=ROUNDING * max(float(np.abs(y).max()), 1e-300))
+        else:
+            assert x.tobytes() == y.tobytes(), name
 
 
 @pytest.mark.parametrize("over", [
@@ -44,11 +85,39 @@ def test_a_worker_in_this_python_is_the_in_process_run(over: tuple[str, ...]) ->
     assert there.status == alone.status and there.n_steps == alone.n_steps
     assert there.message.split(" in ")[0] == alone.message.split(" in ")[0]
     assert there.ran == alone.ran
-    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+    assert_same_tables(there, alone)
+    assert_same_windows(there, alone)
     assert there.contacts.tobytes() == alone.contacts.tobytes()
     assert reported and reported[-1] == pytest.approx(0.3)
     if "init.theta0=2.0" in over:  # turned over far enough: the stem touches, the law acts there
         assert there.t_stem is not None
+
+
+@pytest.mark.parametrize("integrator", ["RK4", "Euler"])
+@pytest.mark.parametrize("friction", ["native", "paper"])
+def test_a_worker_in_this_python_has_the_in_process_windows(friction: str,
+                                                            integrator: str) -> None:
+    """Every step's pass in the worker's Python loop and in the compiled loop: the same windows.
+
+    0.5 s of the Fig. 3 top (2,500 steps, 501 windows of 5 passes) from the harness's
+    in-process run and from a worker in this very Python; the windows touch, the ball's gap
+    and the forces vary (a run whose windows were all alike could not tell a pass apart).
+    """
+    plan = mujoco_plan("run.t_end_s=0.5", f"mujoco.friction={friction!r}",
+                       f"mujoco.integrator={integrator!r}")
+    alone = simulate_plan(plan)
+    there, _ = remote.simulate_in(sys.executable, plan)
+    assert alone.engine["path"] == "compiled stepper" and there.engine["path"] == \
+        "worker: plain loop"
+    assert there.status == alone.status == "ok"
+    assert_same_windows(there, alone)
+    assert_same_tables(there, alone)
+    w = alone.windows
+    assert (w.int_column("passes")[1:] == plan.steps_per_sample).all()
+    assert w.int_column("touch_passes").sum() > 0
+    assert np.ptp(w.float_column("n_sum")) > 0.0
+    if friction == "paper":  # the law's columns are the Python callback's as the compiled one's
+        assert np.abs(w.float_column("law_power_sum")).max() > 0.0
 
 
 def alone_version() -> str:
@@ -69,7 +138,8 @@ def test_a_diverging_run_fails_there_as_here(tmp_path: Path, monkeypatch) -> Non
     assert alone.status == there.status == "diverged"
     assert "mjWARN_BADQVEL" in there.message and "Nan, Inf or huge value" in there.message
     assert there.message == alone.message
-    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+    assert_same_tables(there, alone)
+    assert_same_windows(there, alone)
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
@@ -88,7 +158,11 @@ def _fake(tmp_path: Path, body: str) -> str:
     ("echo 'hello'; echo '[1, 2]'", "ended without its reply"),
     ("echo '{\"status\": \"error\", \"message\": \"no GPU here\"}'", "failed: no GPU here"),
     ("echo '{\"status\": \"ok\", \"wall_s\": 1, \"ran\": {}}'", "wrote no readable results"),
-], ids=["crash", "cut-off", "garbage", "error", "no-results"])
+    ("python3 -c \"import sys, zipfile, json; o = json.loads(sys.stdin.readline())['out']; "
+     "zipfile.ZipFile(o, 'w').close()\"; echo '{\"status\": \"ok\", \"wall_s\": 1}'",
+     "wrote results without qacc_warmstart, qfrc_constraint, qpos, qvel, time, warnings, "
+     "windows_float, windows_int"),
+], ids=["crash", "cut-off", "garbage", "error", "no-results", "no-windows"])
 def test_a_broken_worker_is_one_failed_run_with_its_reason(tmp_path: Path, body: str,
                                                            says: str) -> None:
     plan = mujoco_plan("run.t_end_s=0.01")
@@ -149,7 +223,7 @@ def test_the_worker_modules_shadow_nothing_it_imports() -> None:
     """Its modules are reached through its package alone (off ``sys.path`` when run by path);
     even so none is named like a module of the standard library or of the engines' packages."""
     own = {p.stem for p in remote.WORKER.glob("*.py")} - {"__init__", "__main__"}
-    assert own == {"protocol", "serve", "paper_law", "mjx_stepper", "warp_stepper"}
+    assert own == {"protocol", "serve", "paper_law", "mjx_stepper", "warp_stepper", "windows"}
     assert not own & (set(sys.stdlib_module_names) | {"mujoco", "numpy", "jax", "jaxlib",
                                                        "warp", "mujoco_warp", "glfw"})
 
@@ -195,17 +269,17 @@ def test_the_worker_runs_from_its_files_alone_in_a_python_without_tippetop(
     bare = subprocess.run([python, "-I", "-c", "import mujoco, numpy, tippetop"],
                           capture_output=True, text=True, timeout=120, env=env)
     assert "No module named 'tippetop'" in bare.stderr, bare.stderr
-    for name in ("protocol", "serve", "paper_law", "__main__"):  # never these
+    for name in ("protocol", "serve", "paper_law", "windows", "__main__"):  # never these
         (lean / f"{name}.py").write_text("raise SystemExit('shadowed: wrong module')\n")
     copy = tmp_path / "elsewhere" / "worker"
     shutil.copytree(remote.WORKER, copy, ignore=shutil.ignore_patterns("__pycache__"))
-    said = subprocess.run([python, "-I", "-u", str(copy)], input='{"protocol": 3}\n',
+    said = subprocess.run([python, "-I", "-u", str(copy)], input='{"protocol": 4}\n',
                           capture_output=True, text=True, timeout=120, cwd=tmp_path, env=env)
     assert said.returncode == 0, said.stderr
     (line,) = said.stdout.splitlines()
     reply = json.loads(line)
     assert reply["protocol"] == remote.worker.PROTOCOL and reply["status"] == "error"
-    assert reply["message"].startswith("ValueError: expected protocol 4, got 3")
+    assert reply["message"].startswith("ValueError: expected protocol 5, got 4")
     assert reply["executable"] == python and reply["version"] == alone_version()
 
     monkeypatch.setattr(remote, "WORKER", copy)
@@ -217,7 +291,8 @@ def test_the_worker_runs_from_its_files_alone_in_a_python_without_tippetop(
     alone = simulate_plan(plan)
     assert info.executable == python and info.path == "plain loop"
     assert there.status == alone.status == "ok" and there.ran == alone.ran
-    assert there.table.to_numpy().tobytes() == alone.table.to_numpy().tobytes()
+    assert_same_tables(there, alone)
+    assert_same_windows(there, alone)
     assert there.contacts.tobytes() == alone.contacts.tobytes()
 
 
