@@ -113,8 +113,8 @@ RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
              "loop, a captured graph ...)"),
     RanField("mujoco_c_version", "", "MuJoCo C's version beside an accelerated engine"),
     RanField("device_kind", "", "the accelerated engine's device kind"),
-    RanField("contacts_from", "", "where an accelerated engine's contacts at each sample come "
-             "from"),
+    RanField("contacts_from", "", "what an accelerated engine's windows read of its contacts "
+             "and forces at each step (on the device, not MuJoCo C's mj_contactForce)"),
     RanField("warnings", "", "MuJoCo's warnings over the run"),
     RanField("law_applied", "", "how an accelerated engine applies paper mode's law"),
     RanField("note", "", "what an accelerated engine's run leaves out"),

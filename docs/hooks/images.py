@@ -65,6 +65,8 @@ IMAGES = {
     "images/render-strip.png": "tippetop render fig3 --engines mujoco,ode: frames of the MP4",
     "images/contact-lift.png": ("python -m tippetop.compare.report.lift: the slip above "
                                 "which MuJoCo's contact lifts the ball"),
+    "images/contact-window.png": ("python -m tippetop.compare.report.window: each step's "
+                                  "contact against the samples"),
     "images/fidelity-map.png": ("python -m tippetop.compare.report.fidelity "
                                 f"{FIDELITY_RESULTS}: the default grid's map"),
     **{f"images/work-precision-{top}.png": (
@@ -97,6 +99,7 @@ def _images(config: MkDocsConfig) -> dict[str, bytes]:
         "images/nightly-report.png": _nightly_report,
         "images/render-strip.png": _render_strip,
         "images/contact-lift.png": _contact_lift,
+        "images/contact-window.png": _contact_window,
         "images/fidelity-map.png": _fidelity_map,
         **{f"images/work-precision-{top}.png": _work_precision(top)
            for top in ("fig3", "fig11", "stiff")},
@@ -206,6 +209,14 @@ def _render_strip(root: Path, tmp: Path) -> bytes:
     for k, i in enumerate(picks):
         strip.paste(Image.fromarray(frames[i]), ((k % cols) * w, (k // cols) * h))
     return _png(strip)
+
+
+def _contact_window(root: Path, tmp: Path) -> bytes:
+    png = tmp / "contact-window.png"
+    _run([sys.executable, "-m", "tippetop.compare.report.window", str(png)], root)
+    if not png.is_file():
+        raise ImageError("the window figure was not written")
+    return png.read_bytes()
 
 
 def _contact_lift(root: Path, tmp: Path) -> bytes:

@@ -24,12 +24,13 @@ MJX_CONTACTS_FROM = (
     "MJX's own forward pass at every step, its window added on the device: touch, depth and "
     "the stretches from the contacts MJX's solver includes (dist < includemargin); N and the "
     "friction force from qfrc_constraint of the top's free joint (the world force of its "
-    "contacts), friction torque not read (0), friction power at the ball's lowest point")
+    "contacts), friction torque not read (0), friction power and the slip (times N) at the "
+    "ball's lowest point")
 
 
 def window_add(xp: Any, wi: Any, wf: Any, prev: tuple[Any, Any], code: Any, depth: Any,
-               forces: tuple[Any, ...], gap: Any, kz: Any, law: tuple[Any, Any, Any],
-               offset: Any) -> tuple[Any, Any, tuple[Any, Any]]:
+               forces: tuple[Any, ...], gap: Any, slip: tuple[Any, Any], kz: Any,
+               law: tuple[Any, Any, Any], offset: Any) -> tuple[Any, Any, tuple[Any, Any]]:
     """One pass added to a window, in array arithmetic (``xp``: ``numpy`` or ``jax.numpy``).
 
     :meth:`.windows.WindowAccumulator.add`'s update with its branches written as ``xp.where``
@@ -45,6 +46,8 @@ def window_add(xp: Any, wi: Any, wf: Any, prev: tuple[Any, Any], code: Any, dept
         depth: Its deepest penetration (m, >= 0).
         forces: Its ``(n, fx, fy, fz, tx, ty, tz, power)`` (the float sums' terms).
         gap: The ball's centre height less its radius (m).
+        slip: The velocity of the ball's lowest point, world (x, y) (m/s); the window sums
+            it times the pass's ``n``.
         kz: The symmetry axis' z component.
         law: Paper mode's ``(fx, fy, power)`` at the pass (zeros without a law).
         offset: The pass's offset in its window.
@@ -76,6 +79,7 @@ def window_add(xp: Any, wi: Any, wf: Any, prev: tuple[Any, Any], code: Any, dept
     n, fx, fy, fz, tx, ty, tz, power = forces
     floats = {
         "gap_max": xp.maximum(wf[F["gap_max"]], gap),
+        "gap_min": xp.minimum(wf[F["gap_min"]], gap),
         "lead_gap": xp.where(free & (first < 0), xp.maximum(lead, gap), lead),
         "trail_gap": xp.where(touched, -xp.inf, xp.maximum(trail, gap)),
         "inner_gap": xp.where(widen, trail, wf[F["inner_gap"]]),
@@ -86,6 +90,8 @@ def window_add(xp: Any, wi: Any, wf: Any, prev: tuple[Any, Any], code: Any, dept
         "tz_sum": wf[F["tz_sum"]] + tz, "power_sum": wf[F["power_sum"]] + power,
         "law_fx_sum": wf[F["law_fx_sum"]] + law[0], "law_fy_sum": wf[F["law_fy_sum"]] + law[1],
         "law_power_sum": wf[F["law_power_sum"]] + law[2],
+        "slip_nx_sum": wf[F["slip_nx_sum"]] + n * slip[0],
+        "slip_ny_sum": wf[F["slip_ny_sum"]] + n * slip[1],
     }
     # a column of :mod:`.windows` not written here keeps its value
     new_i = xp.stack([xp.asarray(ints.get(name, wi[k]), dtype=wi.dtype)
@@ -97,8 +103,8 @@ def window_add(xp: Any, wi: Any, wf: Any, prev: tuple[Any, Any], code: Any, dept
 
 def table_pass(xp: Any, geom_body: Any, top: WindowTop, dist: Any, includemargin: Any,
                geom: Any, xmat: Any, ball_xpos: Any, qpos: Any, qvel: Any,
-               qcon: Any) -> tuple[Any, Any, tuple[Any, ...], Any, Any]:
-    """What a window adds of one MJX forward pass: ``(code, depth, forces, gap, kz)``.
+               qcon: Any) -> tuple[Any, Any, tuple[Any, ...], Any, tuple[Any, Any], Any]:
+    """What a window adds of one MJX forward pass: ``(code, depth, forces, gap, slip, kz)``.
 
     The arrays are the pass's (one world): the contacts' ``dist``, ``includemargin`` and
     ``geom`` (all of MJX's fixed contact slots: a slot is a contact where its solver
@@ -108,9 +114,11 @@ def table_pass(xp: Any, geom_body: Any, top: WindowTop, dist: Any, includemargin
     first three dofs are the world force on the body, so ``n`` (its z) is the contacts'
     normal force on the table z = 0 and ``fx``, ``fy`` their friction; ``fz`` and the
     friction torque are 0, and the power is the friction force times the velocity of the
-    ball's lowest point. MuJoCo C's windows (:class:`.windows.WindowAccumulator`) sum
-    ``mj_contactForce`` per contact instead: the same on a flat table, but for the torque
-    (and a contact point's offset from the lowest point, the depth over two, in the power).
+    ball's lowest point, its ``slip`` (x, y; written out as MuJoCo C's windows have it, so
+    the same doubles from the same state). MuJoCo C's windows
+    (:class:`.windows.WindowAccumulator`) sum ``mj_contactForce`` per contact instead: the
+    same on a flat table, but for the torque (and a contact point's offset from the lowest
+    point, the depth over two, in the power).
     """
     qa, va = top.qpos_adr, top.dof_adr
     if dist.shape[0]:
@@ -123,17 +131,20 @@ def table_pass(xp: Any, geom_body: Any, top: WindowTop, dist: Any, includemargin
     else:  # nothing can touch
         code, depth = xp.asarray(0), xp.asarray(0.0, dtype=qpos.dtype)
     fx, fy, n = qcon[va], qcon[va + 1], qcon[va + 2]
-    omega = xmat @ qvel[va + 3:va + 6]
-    arm = ball_xpos - qpos[qa:qa + 3]
-    ax, ay, az = arm[0], arm[1], arm[2] - top.radius_m  # to the lowest point
-    vx = qvel[va] + omega[1] * az - omega[2] * ay
-    vy = qvel[va + 1] + omega[2] * ax - omega[0] * az
+    lx, ly, lz = qvel[va + 3], qvel[va + 4], qvel[va + 5]
+    ox = xmat[0, 0] * lx + xmat[0, 1] * ly + xmat[0, 2] * lz  # omega, world
+    oy = xmat[1, 0] * lx + xmat[1, 1] * ly + xmat[1, 2] * lz
+    oz = xmat[2, 0] * lx + xmat[2, 1] * ly + xmat[2, 2] * lz
+    gap = ball_xpos[2] - top.radius_m
+    # the arm to the ball's lowest point, centre - R z - origin
+    ax, ay, az = ball_xpos[0] - qpos[qa], ball_xpos[1] - qpos[qa + 1], gap - qpos[qa + 2]
+    vx = qvel[va] + (oy * az - oz * ay)
+    vy = qvel[va + 1] + (oz * ax - ox * az)
     zero = 0.0 * n
     forces = (n, fx, fy, zero, zero, zero, zero, fx * vx + fy * vy)
-    gap = ball_xpos[2] - top.radius_m
     a0, a1, a2 = top.axis_body
     kz = xmat[2, 0] * a0 + xmat[2, 1] * a1 + xmat[2, 2] * a2
-    return code, depth, forces, gap, kz
+    return code, depth, forces, gap, (vx, vy), kz
 
 
 class MjxStepper:
@@ -237,12 +248,12 @@ class MjxStepper:
             # MJX 3.17 keeps the contacts in its JAX implementation's data (d.contact is
             # deprecated there); an older MJX has them on d
             contact = getattr(d, "_impl", d).contact
-            code, depth, forces, gap, kz = table_pass(
+            code, depth, forces, gap, slip, kz = table_pass(
                 jnp, geom_body, top, contact.dist, contact.includemargin, contact.geom,
                 d.xmat[top.body], d.geom_xpos[top.ball], d.qpos, d.qvel, d.qfrc_constraint)
             offset = jnp.where(first, i, i + 1).astype(idt)
-            wi, wf, prev = window_add(jnp, wi, wf, prev, code, depth, forces, gap, kz, out,
-                                      offset)
+            wi, wf, prev = window_add(jnp, wi, wf, prev, code, depth, forces, gap, slip, kz,
+                                      out, offset)
             return d, wi, wf, prev, con, first
 
         def interval(d, prev, n, first):

@@ -219,6 +219,7 @@ def _step_mujoco(mujoco, np, model, data, rec: dict, ints, floats, steps: int,
     law_output = None if law is None else (lambda: (law.last[0], law.last[1], law.last[3]))
     acc = WindowAccumulator(mujoco, np, model, data, top, law_output)
     add = acc.add
+    qa, va = top.qpos_adr, top.dof_adr
     integrate = integrator_call(mujoco, model)
     step, forward = mujoco.mj_step, mujoco.mj_forward
     check_pos, check_vel, check_acc = mujoco.mj_checkPos, mujoco.mj_checkVel, mujoco.mj_checkAcc
@@ -254,12 +255,14 @@ def _step_mujoco(mujoco, np, model, data, rec: dict, ints, floats, steps: int,
                 forward(model, data)
                 check_acc(model, data)
                 add(ints, floats, n, j)
-        else:  # mj_step whole: its pass, at the state before it, added after it
-            for j in range(1, steps + 1):
+        else:  # mj_step whole: its pass, at the state before it, added after it with the
+            for j in range(1, steps + 1):  # motion it had there
+                motion = (data.qpos[qa:qa + 7].copy(), data.qvel[va:va + 6].copy())
                 step(model, data)
                 if j == steps:
                     record(n)
-                add(ints, floats, n, j - 1)
+                if n > 1 or j > 1:  # the first step's pass is the start's, row 0's already
+                    add(ints, floats, n, j - 1, motion)
         n += 1
         if _ended(np, rec, n - 1) or n == n_rows:
             return n

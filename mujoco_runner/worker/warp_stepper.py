@@ -22,15 +22,16 @@ WARP_CONTACTS_FROM = (
     "Warp's own forward pass at every step, its window added on the device: touch, depth and "
     "the stretches from the contacts Warp's collision wrote (d.nacon, as MuJoCo C's "
     "d.contact); N and the friction force from qfrc_constraint of the top's free joint (the "
-    "world force of its contacts), friction torque not read (0), friction power at the "
-    "ball's lowest point")
+    "world force of its contacts), friction torque not read (0), friction power and the "
+    "slip (times N) at the ball's lowest point")
 
 #: The window columns the kernel writes, in the order of its column arguments (``ic``, ``fc``:
 #: their numbers in :mod:`.windows`' rows, looked up there); any other column keeps its start.
 KERNEL_INTS = ("passes", "touch", "touch_passes", "first_touch", "last_touch", "inner_free",
                "inner_start", "lifts", "first_other", "flip")
 KERNEL_FLOATS = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max", "n_sum",
-                 "fx_sum", "fy_sum", "power_sum", "law_fx_sum", "law_fy_sum", "law_power_sum")
+                 "fx_sum", "fy_sum", "power_sum", "law_fx_sum", "law_fy_sum", "law_power_sum",
+                 "gap_min", "slip_nx_sum", "slip_ny_sum")
 
 
 def warp_law_kernel(wp: Any) -> Any:
@@ -150,9 +151,10 @@ def warp_window_kernels(wp: Any) -> tuple[Any, Any, Any]:
     as MuJoCo C's ``d.contact``), and the forces of all the top's contacts at once from its
     free joint's ``qfrc_constraint`` (the first three dofs are the world force on the body:
     z is the normal force on the table, x and y the friction; no friction torque, the power
-    at the ball's lowest point). The window's floats are float64, Warp's data float32. It
-    writes the columns :data:`KERNEL_INTS` and :data:`KERNEL_FLOATS` (their numbers given as
-    ``ic`` and ``fc``); any other keeps its start (``fz_sum`` and the torques: 0).
+    and the slip at the ball's lowest point). The window's floats are float64, Warp's data
+    float32. It writes the columns :data:`KERNEL_INTS` and :data:`KERNEL_FLOATS` (their
+    numbers given as ``ic`` and ``fc``, each read once by its slot); any other keeps its
+    start (``fz_sum`` and the torques: 0).
     ``keep`` copies world 0's ``qfrc_constraint`` (the record's, as the interval's last step
     left it).
     """
@@ -225,6 +227,12 @@ def warp_window_kernels(wp: Any) -> tuple[Any, Any, Any]:
         fx_sum = fc[6]
         fy_sum = fc[7]
         power_sum = fc[8]
+        law_fx = fc[9]
+        law_fy = fc[10]
+        law_power = fc[11]
+        gap_min = fc[12]
+        slip_nx = fc[13]
+        slip_ny = fc[14]
         wi[passes] = wi[passes] + 1
         if code != 0:
             trail = wf[trail_gap]
@@ -255,14 +263,19 @@ def warp_window_kernels(wp: Any) -> tuple[Any, Any, Any]:
             wi[flip] = offset
         prev[1] = kz
         wf[gap_max] = wp.max(wf[gap_max], gap)
+        wf[gap_min] = wp.min(wf[gap_min], gap)
         wf[depth_max] = wp.max(wf[depth_max], wp.float64(depth))
         wf[n_sum] = wf[n_sum] + wp.float64(n)
         wf[fx_sum] = wf[fx_sum] + wp.float64(fx)
         wf[fy_sum] = wf[fy_sum] + wp.float64(fy)
         wf[power_sum] = wf[power_sum] + wp.float64(power)
+        # the lowest point's slip times N (float32 each: their product exact in float64)
+        wf[slip_nx] = wf[slip_nx] + wp.float64(n) * wp.float64(v[0])
+        wf[slip_ny] = wf[slip_ny] + wp.float64(n) * wp.float64(v[1])
         if law_on != 0:
-            for q in range(3):
-                wf[fc[9 + q]] = wf[fc[9 + q]] + wp.float64(law_out[0, q])
+            wf[law_fx] = wf[law_fx] + wp.float64(law_out[0, 0])
+            wf[law_fy] = wf[law_fy] + wp.float64(law_out[0, 1])
+            wf[law_power] = wf[law_power] + wp.float64(law_out[0, 2])
 
     return reset, add, keep
 

@@ -34,20 +34,22 @@ def _run(run_name: str, t_end: float = 3.0, *over: str) -> tuple[dict, float, fl
     return run.summary, scene.friction.mu, scene.friction.Lambda_mps
 
 
-@pytest.mark.parametrize(("mode", "tol", "residual", "over"), [
+@pytest.mark.parametrize(("mode", "tol", "residual", "angle", "creep", "over"), [
     # the reference integrates the law itself: the fit's residual is round-off
-    ("ode/paper", 1e-9, 1e-9, ()),
+    ("ode/paper", 1e-9, 1e-9, 1e-9, 0.0, ()),
     # paper mode with a sample at every step: the law at the callback's normal force, one
     # evaluation behind the table's (2e-7 of the force once settled, measured): 1e-6 bounds
     # what that does to the fitted parameters; the residual's RMS is the settling start's,
-    # where N changes by 3 % a step (measured 9.5e-5 of mu): 1e-4
-    ("mujoco/paper", 1e-6, 1e-4, ("run.sample_dt_s=2e-05",)),
-    # 1-ms samples: each sample's force is its window's mean over 50 steps, against the slip
-    # at the sample, which moves within the window (the fit is 3e-4 off, the residual 2.2e-3
-    # of mu, measured): 1e-3 and 3e-3
-    ("mujoco/paper", 1e-3, 3e-3, ()),
+    # where N changes by 3 % a step (measured 9.5e-5 of mu): 1e-4; that start's first step,
+    # 3 % below the law, is its one creeping sample of 150,000: 1e-4
+    ("mujoco/paper", 1e-6, 1e-4, 1e-9, 1e-4, ("run.sample_dt_s=2e-05",)),
+    # 1-ms samples: each window's mean force against its slip weighted as the force (50
+    # steps of a slip that turns and changes within the window: the fit is 3e-4 off, the
+    # residual 2.2e-3 of mu, the angle 2.8e-5 rad, measured): 1e-3, 3e-3 and 1e-4 rad
+    ("mujoco/paper", 1e-3, 3e-3, 1e-4, 0.0, ()),
 ], ids=["ode", "mujoco-every-step", "mujoco-1ms"])
 def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float, residual: float,
+                                                  angle: float, creep: float,
                                                   over: tuple[str, ...]) -> None:
     s, mu, lam = _run(mode, 3.0, *over)
     fr = s["friction_realised"]
@@ -55,7 +57,7 @@ def test_the_law_is_given_back_where_the_law_acts(mode: str, tol: float, residua
     assert fr["mu_fit"] == pytest.approx(mu, rel=tol)
     assert fr["Lambda_fit_mps"] == pytest.approx(lam, rel=tol)
     assert fr["residual"] < residual * mu
-    assert fr["angle_rms_rad"] < 1e-9 and fr["creep_fraction"] == 0.0
+    assert fr["angle_rms_rad"] < angle and fr["creep_fraction"] <= creep
     # the binned crossing (40 log bins, interpolated) of the closed form Lambda / sqrt(3) and
     # 0.9 / sqrt(0.19) Lambda, within the interpolation's 2 %
     assert fr["law_half_mu_slip_mps"] == pytest.approx(lam / math.sqrt(3), rel=1e-15)

@@ -66,14 +66,59 @@ def test_a_request_without_its_top_is_one_line() -> None:
 
 
 def test_the_device_windows_fill_every_column_they_can() -> None:
-    """Warp's kernel writes every column of ``worker.windows`` but those the device does not
-    read (the friction torque, and fz: the table is flat); a column added there and not here
-    fails this test (it would stay at its start on Warp)."""
-    from tippetop.mujoco_runner.worker import warp_stepper, windows
+    """Every column of ``worker.windows`` but those the device does not read (the friction
+    torque, and fz: the table is flat) is written by MJX's update and Warp's kernel; a column
+    added there and not here fails this test (it would stay at its start on the device).
 
+    MJX: ``table_pass`` and ``window_add`` (on numpy) over six made-up passes of one window
+    that move every column (a lift, a touch of the ball, a stretch between touches, the stem,
+    the axis turning over; forces, slip and the law nonzero): each column but those four
+    leaves its start. Warp (not importable here): its kernel's column lists are the windows'
+    but those four, and its source reads each of their slots.
+    """
+    import inspect
+    import re
+
+    from tippetop.mujoco_runner.worker import mjx_stepper, warp_stepper, windows
+
+    unread = {"fz_sum", "tx_sum", "ty_sum", "tz_sum"}
+    # MJX
+    top = worker.WindowTop(body=1, ball=1, radius_m=0.015, axis_body=(0.0, 0.0, 1.0),
+                           qpos_adr=0, dof_adr=0)
+    geom_body = np.array([0, 1, 1])
+    qpos = np.array([0.001, -0.002, 0.02, 1.0, 0.0, 0.0, 0.0])
+    qvel = np.array([0.01, -0.02, 0.003, 4.0, -3.0, 90.0])
+    qcon = np.array([-0.004, 0.003, 0.15, 0.0, 0.0, 0.0])
+    wi, wf = (np.array(windows.INT_START, dtype=np.int64),
+              np.array(windows.FLOAT_START, dtype=float))
+    prev = (np.bool_(True), math.nan)
+    # (the top's geoms touching, k_z): free (a lift), the ball, free, the stem (the stretch
+    # between), the ball with the axis turned over, free (after the last touch)
+    for offset, (touching, kz) in enumerate(
+            [((), 0.9), ((1,), 0.8), ((), 0.7), ((2,), 0.1), ((1,), -0.2), ((), -0.3)],
+            start=1):
+        xmat = np.array([[1.0, 0.0, 0.0], [0.0, kz, -math.sqrt(1 - kz * kz)],
+                         [0.0, math.sqrt(1 - kz * kz), kz]])
+        ball = np.array([0.0015, -0.0025, 0.015 + (2e-4 if not touching else -1e-5)])
+        geom = np.array([[0, g] for g in touching], dtype=np.int64).reshape(-1, 2)
+        dist = np.full(len(touching), -1e-5)
+        code, depth, forces, gap, slip, kz_read = mjx_stepper.table_pass(
+            np, geom_body, top, dist, np.full(len(touching), np.inf), geom, xmat, ball, qpos,
+            qvel, qcon)
+        wi, wf, prev = mjx_stepper.window_add(np, wi, wf, prev, code, depth, forces, gap,
+                                              slip, kz_read, (0.01, -0.02, -0.003), offset)
+    moved_i = {name for name, k in windows.I.items() if wi[k] != windows.INT_START[k]}
+    moved_f = {name for name, k in windows.F.items() if wf[k] != windows.FLOAT_START[k]}
+    assert moved_i == set(windows.INT_FIELDS)
+    assert moved_f == set(windows.FLOAT_FIELDS) - unread
+    # Warp
     assert set(warp_stepper.KERNEL_INTS) == set(windows.INT_FIELDS)
-    assert set(windows.FLOAT_FIELDS) - set(warp_stepper.KERNEL_FLOATS) == \
-        {"fz_sum", "tx_sum", "ty_sum", "tz_sum"}
+    assert set(warp_stepper.KERNEL_FLOATS) <= set(windows.FLOAT_FIELDS)
+    assert set(windows.FLOAT_FIELDS) - set(warp_stepper.KERNEL_FLOATS) == unread
+    source = inspect.getsource(warp_stepper.warp_window_kernels)
+    for slots, names in (("ic", warp_stepper.KERNEL_INTS), ("fc", warp_stepper.KERNEL_FLOATS)):
+        read = {int(k) for k in re.findall(rf"\b{slots}\[(\d+)\]", source)}
+        assert read == set(range(len(names))), (slots, read)
 
 
 class _Contact(NamedTuple):
@@ -85,25 +130,38 @@ class _Contact(NamedTuple):
 
 
 def test_the_device_window_update_is_the_accumulators_pass_for_pass() -> None:
-    """What MJX traces (``worker.window_add`` on numpy) against ``WindowAccumulator``.
+    """What MJX traces (``table_pass`` and ``window_add`` on numpy) against
+    ``WindowAccumulator``.
 
     Random passes of a made-up top (geom 1 its ball, geom 2 its stem, geom 0 the table):
     touching with either, both or neither in runs of random length, its axis turning over
-    and back (k_z crossing 0 both ways), its ball's height and depth random; 300 windows of
-    7 passes, the carry kept across them. Both make the same comparisons on the same
-    numbers, so every column is equal (the forces are zero here: the next test has them).
+    and back (k_z crossing 0 both ways), its ball's height and depth random, each contact
+    with a random normal force and the law's output random; the top moving and spinning at
+    random, its ball off its origin. 300 windows of 7 passes, the carry kept across them.
+    Both make the same comparisons and the same products on the same numbers (N the
+    contacts' normal forces summed in their order, the slip of the ball's lowest point
+    written out alike), so every column is equal. No friction force here (0 on both sides):
+    the next test has it.
     """
     rng = np.random.default_rng(11)
     top = worker.WindowTop(body=1, ball=1, radius_m=0.015, axis_body=(0.0, 0.0, 1.0),
                            qpos_adr=0, dof_adr=0)
     model = SimpleNamespace(geom_bodyid=np.array([0, 1, 1]))
-    fake = SimpleNamespace(mj_contactForce=lambda m, d, k, f6: f6.fill(0.0))
+    normals: list[float] = []
+
+    def contact_force(m, d, k: int, f6: np.ndarray) -> None:
+        f6.fill(0.0)
+        f6[0] = normals[k]
+
+    fake = SimpleNamespace(mj_contactForce=contact_force)
     data = SimpleNamespace(xmat=np.zeros((2, 9)), qpos=np.zeros(7), qvel=np.zeros(6), ncon=0,
                            contact=[], geom_xpos=np.zeros((3, 3)))
-    acc = worker.WindowAccumulator(fake, np, model, data, top)
+    law = np.zeros(3)
+    acc = worker.WindowAccumulator(fake, np, model, data, top, lambda: tuple(law))
     rows, steps = 300, 7
     ints, floats = new_windows(np, rows)
     mine_i, mine_f = new_windows(np, rows)
+    geom_body = model.geom_bodyid
     prev = (np.bool_(True), math.nan)
     theta, touching, run = 1.4, (), 0
     for r in range(rows):
@@ -116,24 +174,39 @@ def test_the_device_window_update_is_the_accumulators_pass_for_pass() -> None:
             theta = float(np.clip(theta + rng.normal(0.0, 0.05), 1.2, 1.9))
             c, s = math.cos(theta), math.sin(theta)
             data.xmat[1] = [1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c]  # k_z = cos(theta)
+            data.qpos[:3] = rng.normal(0.0, 1e-3, 3)
+            data.qvel[:] = rng.normal(0.0, 1.0, 6) * [0.05, 0.05, 0.01, 5.0, 5.0, 80.0]
+            data.geom_xpos[1] = data.qpos[:3] + rng.normal(0.0, 2e-3, 3)
             data.geom_xpos[1, 2] = top.radius_m + rng.normal(0.0, 1e-5)
             data.contact = [_Contact(0, g, -abs(rng.normal(0.0, 1e-5)), np.eye(3).ravel(),
                                      np.zeros(3)) for g in touching]
             data.ncon = len(data.contact)
+            normals[:] = rng.uniform(0.0, 0.2, data.ncon)
+            law[:] = rng.normal(0.0, 0.01, 3)
             acc.add(ints, floats, r, j)
-            code = sum(worker.windows.BALL if g == 1 else worker.windows.OTHER
-                       for g in touching)
-            depth = max([0.0] + [-con.dist for con in data.contact])
-            zero = (0.0,) * 8
-            wi, wf, prev = worker.window_add(np, wi, wf, prev, code, depth, zero,
-                                             data.geom_xpos[1, 2] - top.radius_m, c,
-                                             (0.0, 0.0, 0.0), j)
+            n = 0.0  # as the accumulator sums them (MJX: qfrc_constraint's z)
+            for value in normals:
+                n += value
+            qcon = np.array([0.0, 0.0, n, 0.0, 0.0, 0.0])
+            geoms = np.array([(con.geom1, con.geom2) for con in data.contact],
+                             dtype=np.int64).reshape(-1, 2)
+            code, depth, forces, gap, slip, kz = worker.mjx_stepper.table_pass(
+                np, geom_body, top, np.array([con.dist for con in data.contact]),
+                np.full(data.ncon, np.inf), geoms, data.xmat[1].reshape(3, 3),
+                data.geom_xpos[1], data.qpos, data.qvel, qcon)
+            assert code == sum(worker.windows.BALL if g == 1 else worker.windows.OTHER
+                               for g in touching) and kz == c
+            wi, wf, prev = worker.window_add(np, wi, wf, prev, code, depth, forces, gap, slip,
+                                             kz, tuple(law), j)
         mine_i[r], mine_f[r] = wi, wf
     np.testing.assert_array_equal(mine_i, ints)
     np.testing.assert_array_equal(mine_f, floats)
     flips = ints[:, worker.windows.I["flip"]]
     assert (flips >= 0).sum() > 3 and (ints[:, worker.windows.I["first_other"]] >= 0).any()
     assert (ints[:, worker.windows.I["inner_free"]] > 0).any()
+    F = worker.windows.F
+    for name in ("gap_min", "slip_nx_sum", "slip_ny_sum", "n_sum", "law_power_sum"):
+        assert np.ptp(floats[:, F[name]]) > 0.0, name  # the columns vary: a real comparison
 
 
 def test_the_device_window_pass_reads_what_mujoco_c_passes_read() -> None:
@@ -142,10 +215,13 @@ def test_the_device_window_pass_reads_what_mujoco_c_passes_read() -> None:
     0.2 s of the Fig. 3 top native (RK4, 1,000 passes, a contact that comes and goes) stepped
     here as the worker steps it, each pass added by ``WindowAccumulator`` and by the device's
     arithmetic from the same mjData (every contact of ``mjData.contact`` counting, as C's).
-    The integers, gaps and depths are the same comparisons on the same numbers: equal. N and
-    the friction force are the free joint's ``qfrc_constraint`` there and ``mj_contactForce``
-    per contact here: the same forces on a flat table, apart by rounding (measured 0 for N,
-    7e-18 N for the friction; bound 1e-12 of the largest). The power is taken at the ball's
+    The integers, gaps (the largest and the smallest) and depths are the same comparisons on
+    the same numbers: equal. N and the friction force are the free joint's
+    ``qfrc_constraint`` there and ``mj_contactForce`` per contact here: the same forces on a
+    flat table, apart by rounding (measured 0 for N, 7e-18 N for the friction; bound 1e-12
+    of the largest). The slip of the ball's lowest point is the same expression of the same
+    state, so its sums times N are apart by N's rounding alone (measured 0; the same bound).
+    The power is taken at the ball's
     lowest point there and at the contact point (the midpoint of the overlap) here: apart by
     at most |F| |omega| depth / 2 a pass (measured 3.4e-7 W on 0.019 W), which bounds it.
     """
@@ -170,27 +246,28 @@ def test_the_device_window_pass_reads_what_mujoco_c_passes_read() -> None:
             mujoco.mj_forward(model, data)
             acc.add(ints, floats, r, j)
             c = data.contact
-            code, depth, forces, gap, kz = worker.mjx_stepper.table_pass(
+            code, depth, forces, gap, slip, kz = worker.mjx_stepper.table_pass(
                 np, geom_body, top, np.array(c.dist), np.full(data.ncon, np.inf),
                 np.array(c.geom).reshape(-1, 2), data.xmat[top.body].reshape(3, 3),
                 data.geom_xpos[top.ball], data.qpos, data.qvel, data.qfrc_constraint)
             omega = data.xmat[top.body].reshape(3, 3) @ data.qvel[top.dof_adr + 3:]
             slack[r] += math.hypot(forces[1], forces[2]) * np.linalg.norm(omega) * depth / 2
-            wi, wf, prev = worker.window_add(np, wi, wf, prev, code, depth, forces, gap, kz,
-                                             (0.0, 0.0, 0.0), j)
+            wi, wf, prev = worker.window_add(np, wi, wf, prev, code, depth, forces, gap, slip,
+                                             kz, (0.0, 0.0, 0.0), j)
         mine_i[r], mine_f[r] = wi, wf
     np.testing.assert_array_equal(mine_i, ints)
     touch = ints[:, worker.windows.I["touch_passes"]]
     assert 0 < touch.sum() < rows * steps and ints[:, worker.windows.I["lifts"]].sum() > 10
     F = worker.windows.F
-    exact = ["gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max"]
+    exact = ["gap_max", "lead_gap", "trail_gap", "inner_gap", "gap_min", "depth_max"]
     np.testing.assert_array_equal(mine_f[:, [F[k] for k in exact]],
                                   floats[:, [F[k] for k in exact]])
-    for name in ("n_sum", "fx_sum", "fy_sum", "fz_sum"):
+    for name in ("n_sum", "fx_sum", "fy_sum", "fz_sum", "slip_nx_sum", "slip_ny_sum"):
         k = F[name]
         np.testing.assert_allclose(mine_f[:, k], floats[:, k], rtol=0.0,
                                    atol=1e-12 * max(np.abs(floats[:, k]).max(), 1e-300))
     assert np.abs(floats[:, F["n_sum"]]).max() > 0.1
+    assert min(np.abs(floats[:, F[k]]).max() for k in ("slip_nx_sum", "slip_ny_sum")) > 0.0
     power_gap = np.abs(mine_f[:, F["power_sum"]] - floats[:, F["power_sum"]])
     assert (power_gap <= slack * (1 + 1e-9) + 1e-15).all()
     assert power_gap.max() > 0.0  # the two points differ: the bound is what holds them
@@ -307,6 +384,12 @@ def _mean_n(result) -> float:
     return float(w.float_column("n_sum").sum() / w.int_column("passes").sum())
 
 
+def _mean_slip_y(result) -> float:
+    """The run's slip of the ball's lowest point along y, weighted by N (m/s)."""
+    w = result.windows
+    return float(w.float_column("slip_ny_sum").sum() / w.float_column("n_sum").sum())
+
+
 def _same_touch_after_the_start(a, c) -> None:
     """The touch codes of every window but row 0's, and row 0's difference.
 
@@ -336,11 +419,13 @@ def test_mjx_float64_is_mujoco_c_of_its_release_on_the_cpu(mjx_python: str,
 
     The windows, added on the device at every step: the same touches pass for pass (every
     integer column equal after row 0, though the contact comes and goes within windows),
-    the ball's gap to 5e-16 m (tolerance 1e-12 m), N summed per window to 4e-9 N on 1.3 N
-    (tolerance 1e-6 of the largest) and the friction to 2e-9 N (the same bound): the free
-    joint's constraint force against ``mj_contactForce`` per contact, the same forces on a
-    flat table. The power, taken at the ball's lowest point rather than the contact point,
-    to 4e-7 W on 0.02 W (tolerance 1e-3 of the largest).
+    the ball's gap (largest and smallest) to 5e-16 m (tolerance 1e-12 m), N summed per
+    window to 4e-9 N on 1.3 N (tolerance 1e-6 of the largest) and the friction to 2e-9 N
+    (the same bound): the free joint's constraint force against ``mj_contactForce`` per
+    contact, the same forces on a flat table. The slip of the ball's lowest point times N,
+    summed per window: 3.4e-11 on 2.1e-3 (x) and 2.9e-11 on 0.18 (y) m N/s (tolerance 1e-6
+    of each one's largest). The power, taken at the ball's lowest point rather than the
+    contact point, to 4e-7 W on 0.02 W (tolerance 1e-3 of the largest).
     """
     plan = mujoco_plan("mujoco.friction=native", "run.t_end_s=0.3")
     mjx, info = remote.simulate_in(mjx_python, plan, engine=MJX64)
@@ -359,12 +444,15 @@ def test_mjx_float64_is_mujoco_c_of_its_release_on_the_cpu(mjx_python: str,
     _same_touch_after_the_start(mjx, c)
     np.testing.assert_array_equal(mjx.windows.ints[1:], c.windows.ints[1:])
     assert 0 < c.windows.int_column("touch_passes").sum() < 1500  # it lifts off
-    gap, _ = _column_gap(mjx, c, "gap_max")
-    assert gap < 1e-12
+    for name in ("gap_max", "gap_min"):
+        assert _column_gap(mjx, c, name)[0] < 1e-12, name
     n_gap, n_scale = _column_gap(mjx, c, "n_sum")
     assert n_gap < 1e-6 * n_scale
     for name in ("fx_sum", "fy_sum"):
         assert _column_gap(mjx, c, name)[0] < 1e-6 * n_scale, name
+    for name in ("slip_nx_sum", "slip_ny_sum"):
+        s_gap, s_scale = _column_gap(mjx, c, name)
+        assert s_gap < 1e-6 * s_scale and s_scale > 0.0, name
     p_gap, p_scale = _column_gap(mjx, c, "power_sum")
     assert 0.0 < p_gap < 1e-3 * p_scale
 
@@ -377,7 +465,8 @@ def test_mjx_paper_mode_differs_from_c_only_by_when_the_law_is_evaluated(
     With Euler (one evaluation a step in both, at the step's start state with the last
     evaluation's constraint force) the two agree to rounding: measured 5.1e-16 rad over 0.3
     s (tolerance 1e-12), and the law's force and power summed in each window to 1e-14 on
-    0.74 N and 0.11 W (tolerance 1e-9 of the largest window). With RK4, C evaluates the
+    0.74 N and 0.11 W (tolerance 1e-9 of the largest window), the slip times N to 3e-15 on
+    1.1 m N/s (the same tolerance). With RK4, C evaluates the
     law at each of the four stages while MJX holds the step's first one: measured 6.2e-5
     rad over 0.3 s at dt = 2e-5 s, asserted between 1e-6 and 1e-3 rad; the law's power over
     the run apart by 1.1e-4 of itself (tolerance 1e-3), N's sum by 1.6e-7 (tolerance 1e-5).
@@ -391,7 +480,7 @@ def test_mjx_paper_mode_differs_from_c_only_by_when_the_law_is_evaluated(
     assert _theta_gap(mjx, c) < 1e-12
     # the law's output at every pass, summed on the device
     assert np.abs(mjx.table["P_fric"].to_numpy()[1:]).max() > 0.0
-    for name in ("law_fx_sum", "law_fy_sum", "law_power_sum"):
+    for name in ("law_fx_sum", "law_fy_sum", "law_power_sum", "slip_nx_sum", "slip_ny_sum"):
         gap, scale = _column_gap(mjx, c, name)
         assert gap < 1e-9 * scale and scale > 0.0, name
     _same_touch_after_the_start(mjx, c)
@@ -438,7 +527,10 @@ def test_warp_on_the_cpu_is_near_mujoco_40_in_float32() -> None:
     Its windows, added by its kernel in the captured graph: touches in the same windows as
     C's after row 0, and N averaged over every pass 0.1483 N against C's 0.1524 N (2.7%
     apart; over 0.3 s 0.9%: the ball settles, and the passes sample a force that comes and
-    goes from step to step at steps float32 has moved); tolerance 5%.
+    goes from step to step at steps float32 has moved); tolerance 5%. The ball's smallest
+    gap is in every window, at most its largest; the run's slip weighted by N (the slip
+    sums over N's), along y (its larger component here): 0.0355 m/s against C's 0.0372 (4.6%
+    apart, the same sampled force), tolerance 10%.
     """
     from tippetop.mujoco_runner.run import simulate_plan
 
@@ -459,6 +551,9 @@ def test_warp_on_the_cpu_is_near_mujoco_40_in_float32() -> None:
     _same_touch_after_the_start(warp, here)
     assert (warp.windows.int_column("passes")[1:] == plan.steps_per_sample).all()
     assert _mean_n(warp) == pytest.approx(_mean_n(here), rel=0.05)
+    low, high = warp.windows.float_column("gap_min"), warp.windows.float_column("gap_max")
+    assert np.isfinite(low).all() and (low <= high).all()
+    assert _mean_slip_y(warp) == pytest.approx(_mean_slip_y(here), rel=0.1)
 
 
 @pytest.mark.slow
@@ -471,7 +566,9 @@ def test_warp_paper_mode_applies_the_law_in_its_graph() -> None:
     1e-4 rad for both; theta itself moves by far more over the run, so a law that did not act
     could not pass. The law's power summed over the run's windows (its kernel's output at
     every pass) within 1e-3 of C's callback's (measured 1.7e-5 with Euler, 1.5e-4 with RK4),
-    the mean N within 1e-4 (measured 1.2e-5 and 1.0e-5).
+    the mean N within 1e-4 (measured 1.2e-5 and 1.0e-5). The windows' smallest gap within
+    1e-7 m of C's (measured 1.3e-8 and 1.2e-8 m on 2.7e-7), the run's slip times N along y
+    (its larger component) within 1e-3 (measured 1.8e-5 and 1.1e-4).
     """
     from tippetop.mujoco_runner.run import simulate_plan
 
@@ -491,6 +588,9 @@ def test_warp_paper_mode_applies_the_law_in_its_graph() -> None:
         power = [float(r.windows.float_column("law_power_sum").sum()) for r in (warp, here)]
         assert power[0] == pytest.approx(power[1], rel=1e-3) and power[1] != 0.0
         assert _mean_n(warp) == pytest.approx(_mean_n(here), rel=1e-4)
+        assert _column_gap(warp, here, "gap_min")[0] < 1e-7
+        slip = [float(r.windows.float_column("slip_ny_sum").sum()) for r in (warp, here)]
+        assert slip[0] == pytest.approx(slip[1], rel=1e-3) and slip[1] != 0.0
         _same_touch_after_the_start(warp, here)
 
 

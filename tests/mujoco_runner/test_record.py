@@ -6,8 +6,8 @@ step's forward pass to its sample's window (:mod:`mujoco_runner.worker.windows`)
 (:class:`~mujoco_runner.worker.windows.WindowAccumulator`); :func:`result_from_samples` computes
 the contacts, forces, checks and the table afterwards. The states are compared exactly (``==``
 on float64): the same C calls on the same states give the same bits, and any tolerance would
-hide a change of what is stepped. So are the windows' integers, and their maxima (a maximum
-picks one of the same doubles). Their sums are sums of products: the compiled loop, the Python
+hide a change of what is stepped. So are the windows' integers, and their maxima and minimum
+(each picks one of the same doubles). Their sums are sums of products: the compiled loop, the Python
 loop and the oracle here (a per-pass contact reader, the old per-sample one) compute the same
 exact value from the same doubles, the oracle with numpy's matrix products (BLAS may sum in
 another order or fuse a multiply-add: it differs between machines and builds) and the loops
@@ -134,21 +134,23 @@ def _window_gamma(steps: int) -> float:
     Per pass and contact the deepest chain is the power: omega from xmat (3 roundings), the
     arm (1), the cross product and v + it (3), the friction force (the oracle's frame^T f
     less its normal part: 5), its dot product with v (3), the torque's (6 in all), their sum
-    (1): 11; the sum over a pass's contacts (<= 4: 3): 14 per pass. The window's sum over its
+    (1): 11; the sum over a pass's contacts (<= 4: 3): 14 per pass. The slip times N is
+    shallower: N (3), the slip (omega 3, the arm to the lowest point 2, the cross product and
+    v + it 3), their product (1): 12. The window's sum over its
     ``steps`` passes adds steps - 1. 16 + steps covers it: gamma_66 = 7.3e-15 of the scale
     for 50 steps. A change of what is computed (a contact lost, a sign, a frame) is order 1.
     """
     return 2 * _gamma(16 + steps)
 
 
-#: The window's float columns that are maxima (exact: a maximum picks one of the same doubles),
-#: and its sums, with the per-pass quantity each one adds (and its component).
-MAXIMA = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "depth_max")
+#: The window's float columns that are maxima or a minimum (exact: each picks one of the same
+#: doubles), and its sums, with the per-pass quantity each one adds (and its component).
+EXTREMA = ("gap_max", "lead_gap", "trail_gap", "inner_gap", "gap_min", "depth_max")
 SUMS = {"n_sum": ("n", None), "fx_sum": ("f", 0), "fy_sum": ("f", 1), "fz_sum": ("f", 2),
         "tx_sum": ("tau", 0), "ty_sum": ("tau", 1), "tz_sum": ("tau", 2),
         "power_sum": ("power", None), "law_fx_sum": ("law", 0), "law_fy_sum": ("law", 1),
-        "law_power_sum": ("law", 2)}
-assert set(MAXIMA) | set(SUMS) == set(FLOAT_FIELDS) and not set(MAXIMA) & set(SUMS)
+        "law_power_sum": ("law", 2), "slip_nx_sum": ("slip_n", 0), "slip_ny_sum": ("slip_n", 1)}
+assert set(EXTREMA) | set(SUMS) == set(FLOAT_FIELDS) and not set(EXTREMA) & set(SUMS)
 
 
 class _Reader:
@@ -156,8 +158,9 @@ class _Reader:
 
     The per-sample contact reader the run used before it summed windows (now read at every
     pass): normal force, friction force and torque on the top, the friction power, which of
-    the top's geoms touch and the deepest penetration, the ball's gap and the axis' k_z; beside
-    the sums the same expressions evaluated on absolute values (the scale of their rounding).
+    the top's geoms touch and the deepest penetration, the ball's gap and the axis' k_z, the
+    slip of the ball's lowest point (x, y) times the normal force; beside the sums the same
+    expressions evaluated on absolute values (the scale of their rounding).
     Its arithmetic is its own (numpy's matrix products, the force less its normal part); its
     inputs are MuJoCo's (the contacts, mj_contactForce, the body's xmat: the rotation is
     checked against the quaternion's once per pass).
@@ -215,10 +218,7 @@ class _Reader:
             f_abs = np.abs(frame).T @ np.abs(self._f6[:3]) + abs(self._f6[0]) * np.abs(frame[0])
             t_abs = np.abs(frame).T @ np.abs(self._f6[3:])
             a = np.abs(data.contact.pos[i]) + np.abs(origin)  # arm = pos - origin
-            v_abs = np.abs(v_origin) + np.array([
-                omega_abs[1] * a[2] + omega_abs[2] * a[1],
-                omega_abs[2] * a[0] + omega_abs[0] * a[2],
-                omega_abs[0] * a[1] + omega_abs[1] * a[0]])
+            v_abs = np.abs(v_origin) + _cross_abs(omega_abs, a)
             N_abs += abs(self._f6[0])
             F_abs += f_abs
             tau_abs += t_abs
@@ -227,11 +227,18 @@ class _Reader:
         if self.law_index is not None:
             u = data.userdata[self.law_index:self.law_index + 4]
             law = np.array([u[0], u[1], u[3]])  # Fx, Fy, (N), the power
-        gap = float(data.geom_xpos[self.ball, 2]) - self.R  # the ball's centre less R
+        centre = data.geom_xpos[self.ball]
+        gap = float(centre[2]) - self.R  # the ball's centre less R
+        # the slip of the ball's lowest point (its centre less R along z) times N
+        lowest = centre - np.array([0.0, 0.0, self.R])
+        slip = v_origin + np.cross(omega, lowest - origin)
+        slip_abs = np.abs(v_origin) + _cross_abs(
+            omega_abs, np.abs(centre) + np.array([0.0, 0.0, self.R]) + np.abs(origin))
         row = {"code": touching, "depth": depth, "gap": gap, "kz": float((rot @ self.axis)[2]),
                "n": N, "f": F, "tau": tau, "power": power,
-               "law": law, "n_abs": N_abs, "f_abs": F_abs, "tau_abs": tau_abs,
-               "power_abs": power_abs, "law_abs": np.abs(law)}
+               "law": law, "slip_n": N * slip[:2], "n_abs": N_abs, "f_abs": F_abs,
+               "tau_abs": tau_abs, "power_abs": power_abs, "law_abs": np.abs(law),
+               "slip_n_abs": N_abs * slip_abs[:2]}
         for key, value in row.items():
             self.rows[key].append(value)
 
@@ -240,8 +247,14 @@ class _Reader:
         return {k: np.array(v) for k, v in self.rows.items()}
 
 
-_PASS_KEYS = ("code", "depth", "gap", "kz", "n", "f", "tau", "power", "law", "n_abs", "f_abs",
-              "tau_abs", "power_abs", "law_abs")
+_PASS_KEYS = ("code", "depth", "gap", "kz", "n", "f", "tau", "power", "law", "slip_n", "n_abs",
+              "f_abs", "tau_abs", "power_abs", "law_abs", "slip_n_abs")
+
+
+def _cross_abs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The cross product's terms on absolute values: its rounding's scale (a, b >= 0)."""
+    return np.array([a[1] * b[2] + a[2] * b[1], a[2] * b[0] + a[0] * b[2],
+                     a[0] * b[1] + a[1] * b[0]])
 
 
 def _passes(code, gap, kz=None, depth=None) -> dict[str, np.ndarray]:
@@ -255,12 +268,23 @@ def _passes(code, gap, kz=None, depth=None) -> dict[str, np.ndarray]:
         out[key] = np.zeros(P)
     for key in ("f", "tau", "law", "f_abs", "tau_abs", "law_abs"):
         out[key] = np.zeros((P, 3))
+    for key in ("slip_n", "slip_n_abs"):
+        out[key] = np.zeros((P, 2))
     return out
 
 
-def _window_passes(r: int, steps: int) -> np.ndarray:
-    """The run's pass numbers in window r: pass 0 in row 0, ((r-1) steps, r steps] in row r."""
-    return np.array([0]) if r == 0 else np.arange((r - 1) * steps + 1, r * steps + 1)
+def _window_passes(r: int, steps: int, whole: bool = False) -> np.ndarray:
+    """The run's pass numbers in window r: pass 0 in row 0, ((r-1) steps, r steps] in row r.
+
+    ``whole``: ``mj_step`` called whole, each step's pass (at the state before it) added
+    after it: [(r-1) steps, r steps) in row r, but pass 0 (row 0's) not again in row 1. Pass
+    p is at offset p - (r-1) steps in row r > 0 either way (at t = p dt).
+    """
+    if r == 0:
+        return np.array([0])
+    if whole:
+        return np.arange(max((r - 1) * steps, 1), r * steps)
+    return np.arange((r - 1) * steps + 1, r * steps + 1)
 
 
 def _row_of(p: int, steps: int) -> int:
@@ -273,18 +297,26 @@ def _top(values) -> float:
     return float(np.max(values)) if len(values) else -math.inf
 
 
-def _expected_windows(p: dict[str, np.ndarray], steps: int
+def _bottom(values) -> float:
+    """The smallest of ``values``; +inf: none."""
+    return float(np.min(values)) if len(values) else math.inf
+
+
+def _expected_windows(p: dict[str, np.ndarray], steps: int, whole: bool = False
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(ints, floats, scale)``: the windows of a pass sequence, built from the whole list.
 
     Written from the spec (worker/windows.py's docstring) window by window, with the whole
     sequence in view, not as the accumulators' one-pass state machine; ``scale``: each sum's
-    sum of absolute values (zero for the maxima).
+    sum of absolute values (zero for the extrema). ``whole``: the passes of whole
+    ``mj_step`` calls (:func:`_window_passes`; the pass at the last sample's state is
+    never done).
     """
     code = np.asarray(p["code"])
     P = len(code)
-    assert (P - 1) % steps == 0
-    n = 1 + (P - 1) // steps
+    later = P - (0 if whole else 1)  # the passes after row 0's
+    assert later % steps == 0
+    n = 1 + later // steps
     touching = code != 0
     # a lift: a pass without contact after one with contact; the run's first pass counts
     lift = ~touching & np.concatenate(([True], touching[:-1]))
@@ -294,8 +326,8 @@ def _expected_windows(p: dict[str, np.ndarray], steps: int
     floats = np.zeros((n, len(FLOAT_FIELDS)))
     scale = np.zeros_like(floats)
     for r in range(n):
-        idx = _window_passes(r, steps)
-        off = idx - idx[0] + (0 if r == 0 else 1)
+        idx = _window_passes(r, steps, whole)
+        off = idx if r == 0 else idx - (r - 1) * steps
         gap = p["gap"][idx]
         t = off[touching[idx]]  # the offsets of the passes with contact
         wi, wf = ints[r], floats[r]
@@ -320,6 +352,7 @@ def _expected_windows(p: dict[str, np.ndarray], steps: int
         flips = off[flip[idx]]
         wi[I["flip"]] = flips[0] if len(flips) else -1
         wf[F["gap_max"]] = _top(gap)
+        wf[F["gap_min"]] = _bottom(gap)
         wf[F["lead_gap"]] = _top(gap[off < t[0]] if len(t) else gap)
         wf[F["trail_gap"]] = _top(gap[off > t[-1]] if len(t) else gap)
         wf[F["depth_max"]] = max(0.0, _top(p["depth"][idx]))
@@ -333,12 +366,12 @@ def _expected_windows(p: dict[str, np.ndarray], steps: int
 
 def _assert_windows(got: WindowRecord, ints: np.ndarray, floats: np.ndarray,
                     scale: np.ndarray, steps: int, what: str) -> None:
-    """``got`` is these windows: integers and maxima exact, sums within the rounding bound."""
+    """``got`` is these windows: integers and extrema exact, sums within the rounding bound."""
     assert got.ints.shape == ints.shape, what
     bad = np.argwhere(got.ints != ints)
     assert not bad.size, (what, [(int(r), INT_FIELDS[c], int(got.ints[r, c]), int(ints[r, c]))
                                  for r, c in bad[:5]])
-    for name in MAXIMA:
+    for name in EXTREMA:
         a, b = got.float_column(name), floats[:, F[name]]
         assert np.array_equal(a, b), (what, name, np.flatnonzero(a != b)[:5])
     bound = _window_gamma(steps) * scale
@@ -465,35 +498,62 @@ def test_compiled_and_python_loops_record_the_same(mode: str) -> None:
         assert np.abs(w.float_column("law_power_sum")).max() > 0
 
 
-def test_whole_mj_step_loops_record_the_same() -> None:
+@pytest.mark.parametrize("integrator", [
+    "Euler", "implicitfast",
+    # mj_RungeKutta ends with its last stage's forward pass in the mjData (its kinematics and
+    # contacts at an intermediate state), which the loops read as the step's own pass
+    pytest.param("RK4", marks=pytest.mark.xfail(
+        strict=True, raises=AssertionError,
+        reason="after a whole mj_step with RK4 the mjData holds its last stage's pass"))])
+def test_whole_mj_step_loops_record_the_same(integrator: str) -> None:
     # where mj_step does more after its forward pass (here its forward-inverse comparison)
-    # both loops call it whole and add its pass (at the state before the step) after it: row
-    # r's window then holds the passes at the states from sample r - 1 (offset 0) on
-    tm = _native()
+    # both loops call it whole and add its pass (at the state before the step, with the
+    # motion the top had there) after it: row r's window holds the passes at the states from
+    # sample r - 1 (offset 0) to the one before sample r, but row 1's first (the start's,
+    # row 0's already): no pass twice
+    tm = _native(integrator)
     tm.model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_FWDINV)
     assert windows.integrator_call(mujoco, tm.model) is None
     assert stepping.integrator_split(tm.model) is None
     steps, n_intervals = 5, 200
     a, b = (_recorded(tm, _start(tm), steps, n_intervals, compiled=c) for c in (True, False))
+    assert (a.path, b.path) == ("compiled stepper", "plain loop")
     for field in STATE_FIELDS:
         assert np.array_equal(getattr(a, field), getattr(b, field)), field
-    # the scale of the sums' rounding: the oracle reading each pass as the loops do, after
-    # the step (whose qpos and qvel are the new state's already, its xmat and contacts the
-    # pass's)
+    # the oracle: each step's pass read at the state before the step (its own mj_forward
+    # there is the pass mj_step begins with, and changes none of the steps: no callback reads
+    # the last evaluation in native mode), then the step whole; beside it what the loops
+    # read before the fix, the step's pass with the motion after it
     data = _start(tm)
     mujoco.mj_forward(tm.model, data)
     mujoco.mj_forward(tm.model, data)
-    reader = _Reader(tm, consistent=False)
-    reader.read(data)
+    reader, after = _Reader(tm), _Reader(tm, consistent=False)
     for _ in range(steps * n_intervals):
-        mujoco.mj_step(tm.model, data)
+        mujoco.mj_forward(tm.model, data)
         reader.read(data)
-    ints, floats, scale = _expected_windows(reader.passes(), steps)
-    _assert_windows(a.windows, b.windows.ints, b.windows.floats, scale, steps, "loops")
+        mujoco.mj_step(tm.model, data)
+        after.read(data)
+    assert np.array_equal(data.qpos, a.qpos[-1]) and np.array_equal(data.qvel, a.qvel[-1])
+    passes = reader.passes()
+    ints, floats, scale = _expected_windows(passes, steps, whole=True)
+    for rec in (a, b):
+        _assert_windows(rec.windows, ints, floats, scale, steps, rec.path)
     w = a.windows
-    assert (w.int_column("passes") == [1] + [steps] * n_intervals).all()
-    assert w.int_column("first_touch")[1:].min() == 0 and w.int_column("last_touch").max() < steps
-    assert np.array_equal(w.ints[:, I["touch"]], ints[:, I["touch"]])
+    assert (w.int_column("passes") == [1, steps - 1] + [steps] * (n_intervals - 1)).all()
+    assert w.int_column("first_touch")[2:].min() == 0 and w.int_column("last_touch").max() < steps
+    # every pass once: the windows' N is the passes' (row 0's pass at the start not again)
+    assert math.fsum(w.float_column("n_sum")) == pytest.approx(math.fsum(passes["n"]),
+                                                                rel=1e-12)
+    assert w.float_column("n_sum")[1] == pytest.approx(math.fsum(passes["n"][1:steps]),
+                                                       rel=1e-12)
+    # the motion after the step (the old reading) moves the power and the slip far beyond
+    # the rounding: the comparison above tells the two apart
+    _, old, _ = _expected_windows(after.passes(), steps, whole=True)
+    bound = _window_gamma(steps) * scale
+    for name in ("power_sum", "slip_nx_sum", "slip_ny_sum"):
+        k = F[name]
+        assert (np.abs(old[:, k] - floats[:, k]) > 1e3 * bound[:, k]).any(), name
+        assert np.abs(floats[:, k]).max() > 0.0, name
 
 
 @pytest.mark.parametrize("mode", ["paper", "native"])
@@ -580,10 +640,11 @@ def test_windows_are_the_per_pass_reader() -> None:
 
 
 class _FakeContact:
-    def __init__(self, geom1: int, geom2: int, dist: float, frame: np.ndarray) -> None:
+    def __init__(self, geom1: int, geom2: int, dist: float, frame: np.ndarray,
+                 pos: np.ndarray) -> None:
         self.geom1, self.geom2, self.dist = geom1, geom2, dist
         self.frame = frame.ravel()
-        self.pos = np.zeros(3)
+        self.pos = pos
 
 
 class _FakeData:
@@ -591,8 +652,10 @@ class _FakeData:
 
     The table is geom 0 (body 0); the top is body 1 with its ball (geom 1) and a stem (geom
     2); a third body (geom 3) touches the table too, deeper, and must not count. Each of the
-    top's contacts has a random frame and force (normal, tangential, torsional and rolling),
-    the table as geom1 or as geom2; the top moves at a random velocity without turning.
+    top's contacts has a random frame, point and force (normal, tangential, torsional and
+    rolling), the table as geom1 or as geom2; the top's origin, velocity and spin are random,
+    its ball's centre off its origin, and its rotation a random matrix whose last row's z is
+    the pass's k_z (the accumulator reads it, not its orthogonality).
     """
 
     geom_bodyid = np.array([0, 1, 1, 2])
@@ -612,10 +675,17 @@ class _FakeData:
     def set(self, code: int, gap: float, kz: float, depth: float) -> dict:
         """Make the pass; return what the oracle adds of it (as :class:`_Reader` reads it)."""
         rng = self.rng
-        self.geom_xpos[1, 2] = _FAKE_R + gap
-        self.xmat[1, 6:9] = 0.0, 0.0, kz
+        self.qpos[:3] = origin = rng.normal(0, 1e-2, 3)
         self.qvel[:3] = v = rng.normal(0, 1, 3)
-        far = _FakeContact(0, 3, -2.0, np.eye(3))  # another body's, deeper than any
+        self.qvel[3:6] = local = rng.normal(0, 10, 3)
+        rot = rng.normal(0, 1, (3, 3))
+        rot[2, 2] = kz  # k_z: the axis is the body's z
+        self.xmat[1] = rot.ravel()
+        omega, omega_abs = rot @ local, np.abs(rot) @ np.abs(local)
+        centre = self.geom_xpos[1]
+        centre[:2] = origin[:2] + rng.normal(0, 1e-2, 2)
+        centre[2] = _FAKE_R + gap
+        far = _FakeContact(0, 3, -2.0, np.eye(3), np.zeros(3))  # another body's, deeper
         self.contact, self.forces = [far], [rng.normal(0, 1, 6)]
         out = {"n": 0.0, "f": np.zeros(3), "tau": np.zeros(3), "power": 0.0, "n_abs": 0.0,
                "f_abs": np.zeros(3), "tau_abs": np.zeros(3), "power_abs": 0.0}
@@ -623,8 +693,9 @@ class _FakeData:
         for k, g in enumerate(mine):  # the deepest one last
             frame = np.linalg.qr(rng.normal(0, 1, (3, 3)))[0]
             flipped = bool(rng.random() < 0.5)  # the top as geom1: the force acts on it -f
+            pos = origin + rng.normal(0, 1e-2, 3)
             c = _FakeContact(*((g, 0) if flipped else (0, g)), -depth * (k + 1) / len(mine),
-                             frame)
+                             frame, pos)
             f6 = rng.normal(0, 1, 6)
             f6[0] = abs(f6[0])
             self.contact.append(c)
@@ -634,14 +705,23 @@ class _FakeData:
             torque = sign * (frame.T @ f6[3:])
             f_abs = np.abs(frame).T @ np.abs(f6[:3]) + abs(f6[0]) * np.abs(frame[0])
             t_abs = np.abs(frame).T @ np.abs(f6[3:])
+            v_point = v + np.cross(omega, pos - origin)
+            v_abs = np.abs(v) + _cross_abs(omega_abs, np.abs(pos) + np.abs(origin))
             out["n"] += f6[0]
             out["f"] = out["f"] + friction
             out["tau"] = out["tau"] + torque
-            out["power"] += float(friction @ v)  # no turning: each point moves at v
+            out["power"] += float(friction @ v_point + torque @ omega)
             out["n_abs"] += f6[0]
             out["f_abs"] = out["f_abs"] + f_abs
             out["tau_abs"] = out["tau_abs"] + t_abs
-            out["power_abs"] += float(f_abs @ np.abs(v))
+            out["power_abs"] += float(f_abs @ v_abs + t_abs @ omega_abs)
+        # the slip of the ball's lowest point times N (0 without contact)
+        lowest = centre - np.array([0.0, 0.0, _FAKE_R])
+        slip = v + np.cross(omega, lowest - origin)
+        slip_abs = np.abs(v) + _cross_abs(
+            omega_abs, np.abs(centre) + np.array([0.0, 0.0, _FAKE_R]) + np.abs(origin))
+        out["slip_n"] = out["n"] * slip[:2]
+        out["slip_n_abs"] = out["n_abs"] * slip_abs[:2]
         return out
 
     def contact_force(self, model, data, k: int, f6: np.ndarray) -> None:
@@ -655,8 +735,10 @@ def test_the_accumulator_is_the_spec_on_random_passes() -> None:
     # WindowAccumulator's one-pass state machine against the windows built from the whole
     # pass list (_expected_windows), on random sequences: stretches of every length between
     # and across windows, ties between stretches, the ball and the stem, k_z crossing zero both
-    # ways, forces on the top as geom1 and as geom2, at several sample spacings (the compiled
-    # kernel is the same arithmetic: the tests above hold it to this one on real runs)
+    # ways, forces on the top as geom1 and as geom2, the top moving and spinning (the power at
+    # each contact point, the slip at the ball's lowest point), the ball's gap negative and
+    # positive (its smallest and largest), at several sample spacings (the compiled kernel is
+    # the same arithmetic: the tests above hold it to this one on real runs)
     rng = np.random.default_rng(5)
     top = windows.WindowTop(body=1, ball=1, radius_m=_FAKE_R, axis_body=(0.0, 0.0, 1.0),
                             qpos_adr=0, dof_adr=0)
@@ -762,15 +844,17 @@ def _kept_stretches(true: list, steps: int, P: int) -> tuple[list, bool]:
 # --- the checks ---------------------------------------------------------------------------------
 
 
-def _check_oracle(code, gap, depth, energy, steps: int, dt: float, R: float, fix: str,
+def _check_oracle(code, gap, energy, steps: int, dt: float, R: float, fix: str,
                   on_table: bool) -> tuple[int, str | None]:
     """The checks, pass by pass: (first failing sample, reason) or (n, None).
 
-    Sink: a pass's penetration deeper than MAX_PENETRATION_R R; its sample is the window's
-    that holds it. The energy at a sample. Contact lost: a stretch without contact that lasts
-    past MAX_AIRBORNE_S (its passes times dt, :func:`_past`), with the ball risen above
-    CONTACT_GAP_M at some pass of it; its sample is the window's that holds its first pass
-    past the limit. At one sample: sink, then energy, then lost.
+    Sink: the ball's gap below -MAX_PENETRATION_R R at a pass (its centre lower than R (1 -
+    MAX_PENETRATION_R); a stem's contact however deep is not the ball sinking); its sample is
+    the window's that holds it, which says the ball's deepest in it. The energy at a sample.
+    Contact lost: a stretch without contact that lasts past MAX_AIRBORNE_S (its passes times
+    dt, :func:`_past`), with the ball risen above CONTACT_GAP_M at some pass of it; its
+    sample is the window's that holds its first pass past the limit. At one sample: sink,
+    then energy, then lost.
     """
     n = len(energy)
     failures: dict[int, list] = {}  # sample -> [(order, reason)]
@@ -780,9 +864,9 @@ def _check_oracle(code, gap, depth, energy, steps: int, dt: float, R: float, fix
 
     if on_table:
         for p in range(len(code)):
-            if depth[p] > checks.MAX_PENETRATION_R * R:
+            if -gap[p] > checks.MAX_PENETRATION_R * R:
                 r = _row_of(p, steps)
-                deepest = max(depth[q] for q in _window_passes(r, steps))
+                deepest = -min(gap[q] for q in _window_passes(r, steps))
                 fail(r, 0, f"the ball sank {deepest * 1e3:.3g} mm into the table (bound "
                            f"{checks.MAX_PENETRATION_R:g} R); stiffen solref or {fix}")
         for start, length, height in _stretches(code, gap):
@@ -821,6 +905,7 @@ def test_the_checks_are_the_per_pass_checks() -> None:
     R = top_model.top.R_m
     deepest_ok = checks.MAX_PENETRATION_R * R  # as deep as allowed, and the next double
     seen: set[str] = set()
+    deep_stem = 0  # trials with a contact deeper than the bound and the ball not sunk
     for trial in range(500):
         dt = float(rng.choice([0.01, 0.003, 0.007, 0.05 / 11]))
         limit = next(k for k in range(1, 100) if _past(k, dt))  # 6, 17, 8, 12 passes
@@ -842,9 +927,11 @@ def test_the_checks_are_the_per_pass_checks() -> None:
             if not risen:  # at most CONTACT_GAP_M is not risen
                 gap[start + int(rng.integers(0, k))] = checks.CONTACT_GAP_M
         depth[code == 0] = 0.0
+        if rng.random() < 0.3:  # a contact of the stem deeper than the bound: not a sink
+            depth[int(rng.integers(0, P))] = 1.5 * deepest_ok
         kind = rng.integers(0, 3)
         if kind == 0:  # the ball sinks at a pass, or goes exactly as deep as allowed
-            depth[int(rng.integers(0, P))] = rng.choice(
+            gap[int(rng.integers(0, P))] = -rng.choice(
                 [deepest_ok, np.nextafter(deepest_ok, 1.0), 1.05 * deepest_ok])
         elif kind == 1:  # the energy rises
             energy[int(rng.integers(1, n)):] += 0.2
@@ -853,12 +940,14 @@ def test_the_checks_are_the_per_pass_checks() -> None:
             code[:] = 0
         t = np.arange(n) * steps * dt
         w = WindowRecord(*_expected_windows(_passes(code, gap, depth=depth), steps)[:2])
-        expected = _check_oracle(code, gap, depth, energy, steps, dt, R, "FIX", on_table)
+        expected = _check_oracle(code, gap, energy, steps, dt, R, "FIX", on_table)
         got = checks.check_failure(top_model, t, w, steps, dt, energy, "FIX", on_table=on_table)
         assert got == expected, (trial, steps, dt)
         seen.add("ok" if expected[1] is None else expected[1].split(":")[0][:13])
+        deep_stem += on_table and depth.max() > deepest_ok and -gap.min() <= deepest_ok
     # every outcome was exercised: no failure, and each kind of failure
     assert seen == {"ok", "the ball sank", "the energy ro", "contact lost"}
+    assert deep_stem > 50
 
 
 # --- failures ----------------------------------------------------------------------------------
@@ -905,13 +994,18 @@ def test_a_failure_found_afterwards_ends_the_run_at_its_sample() -> None:
     assert "MuJoCo warning mjWARN_BADQVEL (1x): Bad qvel," in res.message
 
     # a failure of the checks: its window was stepped, so the contact bounds cover it: sink
-    # the ball in a window (its depth_max) deeper than any before
+    # the ball in a window (its gap_min, and its contact's depth_max) deeper than any before
     depth = rec.windows.float_column("depth_max")
     deep = 200
     sunk = 0.3 * FIG3_TOP.R_m
     assert 0 < depth[:deep].max() < sunk
+    assert -rec.windows.float_column("gap_min").min() < checks.MAX_PENETRATION_R * FIG3_TOP.R_m
     floats = rec.windows.floats.copy()
-    floats[deep, F["depth_max"]] = sunk
+    floats[deep, F["depth_max"]] = sunk  # another geom's contact this deep: not a sink
+    res = results.result_from_samples(
+        tm, replace(rec, windows=WindowRecord(rec.windows.ints, floats)), plan)
+    assert res.ok and res.max_penetration_m == sunk
+    floats[deep, F["gap_min"]] = -sunk  # the ball's own
     res = results.result_from_samples(
         tm, replace(rec, windows=WindowRecord(rec.windows.ints, floats)), plan)
     assert res.message == (f"diverged by t = {deep * steps * dt:.6g} s (native mode): the "

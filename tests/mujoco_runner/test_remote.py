@@ -100,8 +100,9 @@ def test_a_worker_in_this_python_has_the_in_process_windows(friction: str,
     """Every step's pass in the worker's Python loop and in the compiled loop: the same windows.
 
     0.5 s of the Fig. 3 top (2,500 steps, 501 windows of 5 passes) from the harness's
-    in-process run and from a worker in this very Python; the windows touch, the ball's gap
-    and the forces vary (a run whose windows were all alike could not tell a pass apart).
+    in-process run and from a worker in this very Python; the windows touch, the ball's gaps,
+    the forces and the slip vary (a run whose windows were all alike could not tell a pass
+    apart).
     """
     plan = mujoco_plan("run.t_end_s=0.5", f"mujoco.friction={friction!r}",
                        f"mujoco.integrator={integrator!r}")
@@ -115,9 +116,43 @@ def test_a_worker_in_this_python_has_the_in_process_windows(friction: str,
     w = alone.windows
     assert (w.int_column("passes")[1:] == plan.steps_per_sample).all()
     assert w.int_column("touch_passes").sum() > 0
-    assert np.ptp(w.float_column("n_sum")) > 0.0
-    if friction == "paper":  # the law's columns are the Python callback's as the compiled one's
-        assert np.abs(w.float_column("law_power_sum")).max() > 0.0
+    # the columns vary from window to window, so comparing them (every float column, in
+    # assert_same_windows) tells passes apart: the contact's own friction power in native
+    # mode; in paper mode (a frictionless contact) the law's, the Python callback's there and
+    # the compiled one's here
+    varied = ("n_sum", "gap_max", "gap_min", "slip_nx_sum", "slip_ny_sum") + (
+        ("power_sum",) if friction == "native" else ("law_power_sum",))
+    for name in varied:
+        assert np.ptp(w.float_column(name)) > 0.0, name
+
+
+def test_a_worker_steps_mj_step_whole_as_the_in_process_run(tmp_path: Path) -> None:
+    """Where ``mj_step`` does more after its forward pass (here the forward-inverse
+    comparison, an MJCF's flag), both call it whole and add its pass after it, with the
+    motion before the step and the start's pass once (row 1 one pass short): the same
+    windows, every column (the power and the slip read with the motion after the step
+    would be 1e-3 apart here)."""
+    import mujoco
+
+    from tippetop.mujoco_runner.settings import build_model
+    from tippetop.mujoco_runner.worker.windows import integrator_call
+
+    text = (ROOT / "examples" / "capsule_stem_top.xml").read_text()
+    option = '<option timestep="0.0005"/>'
+    assert text.count(option) == 1
+    path = tmp_path / "fwdinv.xml"
+    path.write_text(text.replace(option, '<option timestep="0.0005"><flag fwdinv="enable"/>'
+                                         '</option>'))
+    plan = mujoco_plan(f"top.mjcf={str(path)!r}", "run.t_end_s=0.3")
+    assert integrator_call(mujoco, build_model(plan).model) is None  # whole mj_step calls
+    alone = simulate_plan(plan)
+    there, _ = remote.simulate_in(sys.executable, plan)
+    assert there.status == alone.status == "ok"
+    assert_same_tables(there, alone)
+    assert_same_windows(there, alone)
+    steps = plan.steps_per_sample
+    assert steps > 1 and list(there.windows.int_column("passes")[:3]) == [1, steps - 1, steps]
+    assert np.abs(there.windows.float_column("slip_ny_sum")).max() > 0.0
 
 
 def alone_version() -> str:
