@@ -18,10 +18,11 @@ the two are checked equal (every metric to 1e-9 relative) so the ratio compares 
 
 Matrices (``--matrices``): ``release`` (``mujoco==3.17.0``: a managed environment, run by
 engine workers: the target is on this one) and ``installed`` (engine ``mujoco``: this process's
-MuJoCo, run in process; printed for reference). Locally the installed MuJoCo's paper-mode runs
-step together in one ``mujoco.batch.Batch`` (measured: 4 runs batched in 0.6x the time of the 4
-alone), which a Dask worker running one run per task does not, so its ratio is lower (1.1x on
-the day this was written); a release's runs go through one engine worker each either way.
+MuJoCo, run in process; printed for reference). Locally the installed MuJoCo's runs step on
+threads of one process (once, in paper mode, in one ``mujoco.batch.Batch``: 4 runs batched in
+0.6x the time of the 4 alone, and this ratio then 1.1x; not measured since the windows, which
+retired the Batch), which a Dask worker running one run per task does not; a release's runs go
+through one engine worker each either way.
 
 Run: ``python benchmarks/bench_cluster.py [--scenes fig3,fig6,fig8a,fig11_n060]
 [--modes native,paper] [--t-end 2.0] [--rounds 2] [--matrices installed,release] [--json]``.

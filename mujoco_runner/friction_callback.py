@@ -5,7 +5,8 @@ ODE's own compiled terms, acts at the contact point P = S - R e_z. :class:`Paper
 one mjData with the law (:func:`userdata_block`, the last :data:`USERDATA_SIZE` entries of its
 ``userdata``) and owns MuJoCo's process-global ``mjcb_passive`` while a context is open; open
 and close contexts from the main thread only. How the callback reaches its state, the normal
-force it uses (the previous evaluation's) and when a batch equals single runs: docs/design.md.
+force it uses (the previous evaluation's) and why runs on threads equal single runs:
+docs/design.md.
 """
 
 from __future__ import annotations
@@ -306,7 +307,8 @@ def userdata_block(top_model: TopModel, friction: FrictionParams, *,
     """The :data:`USERDATA_SIZE` values that arm an mjData of ``top_model.model``.
 
     Write them into the LAST entries of its userdata (``data.userdata[-USERDATA_SIZE:]``, or
-    ``batch.userdata[:, -USERDATA_SIZE:]`` for the rows of a ``mujoco.batch.Batch``); the
+    ``batch.userdata[:, -USERDATA_SIZE:]`` for the rows of a ``mujoco.batch.Batch`` of your
+    own); the
     callback then applies the law to that mjData whenever it is stepped with exactly this
     ``MjModel`` and the callback is installed (:func:`callback_installed`). Zeros disarm.
 
@@ -362,9 +364,11 @@ def callback_installed() -> Iterator[numba.core.ccallback.CFunc]:
     """Install the compiled callback as MuJoCo's ``mjcb_passive`` for the ``with`` block.
 
     Reference counted with every :class:`PaperFriction`: the previous callback is restored
-    when the last context closes. It acts only on mjData armed with :func:`userdata_block`;
-    use this for a ``mujoco.batch.Batch`` (persistent, on the caller's model) whose rows'
-    userdata you armed. Open and close it from the main thread, not while stepping elsewhere.
+    when the last context closes. It acts only on mjData armed with :func:`userdata_block`.
+    The thread pool (:mod:`.batch`) holds it open on the main thread while its threads step
+    their own armed mjData; a ``mujoco.batch.Batch`` of your own (persistent, on the caller's
+    model) whose rows' userdata you armed works too. Open and close it from the main thread,
+    not while stepping elsewhere.
 
     Example:
         >>> batch = mujoco.batch.Batch(tm.model, nsim=8, nthread=2, persistent=True)

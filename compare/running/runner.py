@@ -384,10 +384,10 @@ def _run_mujoco_batched(tasks: list[tuple[str, Task]], plans: dict[str, RunPlan]
                         ) -> Iterable[tuple[str, dict[str, Any]]]:
     """Run MuJoCo tasks in this process, stepped together on ``nthread`` threads.
 
-    :func:`tippetop.mujoco_runner.batch.iter_simulate_plans`: paper-mode runs of one model
-    layout share a persistent ``mujoco.batch.Batch``, native-mode runs step on worker threads
-    in the compiled stepper; each result equals the single run's. Yields what
-    :func:`execute` would give for each task, as each run ends.
+    :func:`tippetop.mujoco_runner.batch.iter_simulate_plans`: each run steps whole on a
+    worker thread in the compiled stepper, every step's pass in its window; each result
+    equals the single run's. Yields what :func:`execute` would give for each task, as each
+    run ends.
     """
     if not tasks:
         return
