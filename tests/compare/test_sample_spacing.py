@@ -17,7 +17,7 @@ spacing, and their values agree within their tolerances:
   against the sample's slip, each sample weighted by its normal force (so a window weighs as
   its steps); within 2 % (mu) and 10 % (Lambda) of the every-step fit, the scatter of a fit
   on 8,000 against 40,000 points of the same run (a Lambda too sharp for any slip the run
-  reaches is not compared).
+  reaches is compared as the law it gives at 1 mm/s).
 
 The property runs over the quick profile's native cases and the fidelity map's small grid with
 each point's own tuned settings (slow); the fast tests hold the point that today's map reported
@@ -32,8 +32,10 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
+from tippetop.compare.measures.friction_realised import law_mu
 from tippetop.compare.measures.series import FLIGHT_RISE_M, HOP_MIN_S, flights
 from tippetop.compare.studies.crossval import compare_scene
 from tippetop.compare.studies.fidelity import point_overrides
@@ -103,12 +105,18 @@ def _assert_same_verdict(rows: dict[float, dict[str, Any]]) -> None:
         if fa and fb and fa.get("mu_fit") is not None and fb.get("mu_fit") is not None:
             assert fb["mu_fit"] == pytest.approx(fa["mu_fit"], rel=0.02), where
             la, lb = fa["Lambda_fit_mps"], fb["Lambda_fit_mps"]
-            # a Lambda under 1 % of the law's (0.1 mm/s against 10 mm/s) is a law as sharp as
-            # Coulomb's at every slip the run reaches (its slowest slipping samples are
-            # ~1 mm/s): how far under is not measured by any sample (the mu = 1 tops' fits end
-            # at 1e-8 to 4e-5 m/s)
-            if max(la, lb) > 0.01 * fa["Lambda_law_mps"]:
+            if max(la, lb) > 0.05 * fa["Lambda_law_mps"]:
                 assert lb == pytest.approx(la, rel=0.1), where
+            else:
+                # a Lambda under 5 % of the law's (0.5 mm/s against 10 mm/s) is a law as
+                # sharp as Coulomb's at every slip the run reaches: the mu = 1 tops' fits end
+                # anywhere from 1e-8 to 1.3e-4 m/s, which no sample tells apart. Compared
+                # where the laws are measured: at 1 mm/s, about the slowest slipping samples'
+                # slip, the two laws are within 2 % of mu
+                v = 1e-3
+                mu_a = law_mu(np.array([v]), fa["mu_fit"], la)[0]
+                mu_b = law_mu(np.array([v]), fb["mu_fit"], lb)[0]
+                assert abs(mu_b - mu_a) <= 0.02 * fa["mu_fit"], where
 
 
 # ------------------------------------------------------------------------- fast
