@@ -7,9 +7,11 @@ from pathlib import Path
 from typing import Any
 
 from tippetop.compare.commands.options import (
+    NO_CACHE_HELP,
     add_force_option,
     add_json_option,
-    add_parallel_options,
+    add_scheduler_option,
+    add_workers_option,
     engine_spec,
     json_text,
     number,
@@ -36,8 +38,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="At every point of a grid of tops (A/C, a/R: the paper's Groups I, II, "
         "III) and friction coefficients mu, fit MuJoCo's native contact to the reference and "
         "verify it from held-out starts, as 'tippetop validate' tunes a file; print one row "
-        "per point (agrees, the fit's residual, and the cause where it does not). Each point "
-        "takes 3-12 minutes on 2 cores (docs/guide/fidelity.md).")
+        "per point (agrees, the fit's residual, and the cause where it does not). The points are "
+        "tuned several at once (--workers), or one task each on a Dask cluster (--scheduler); "
+        "the default grid took 11.6 minutes on 2 cores, two points at once, 7-198 s a point "
+        "(docs/guide/fidelity.md, 'Cost').")
     p.add_argument("--grid", default=DEFAULT_GRID, metavar="NAME",
                    help=f"a named grid of A/C x a/R x mu ({grids}) (default: the one named "
                    f"{DEFAULT_GRID})")
@@ -59,12 +63,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    f"validate's)")
     p.add_argument("--engine", type=engine_spec, default="mujoco", metavar="ENGINE",
                    help="the MuJoCo engine tuned: mujoco, the MuJoCo installed with tippetop "
-                   "(the tuning's fit runs in this process; other engines are not tuned yet) "
+                   "(the tuning fits with its mujoco.sysid; other engines are not tuned yet) "
                    "(default mujoco)")
     p.add_argument("--out", metavar="DIR", help="folder for results.json, fidelity.png and "
                    "report.html, new or empty, or --force (default: none, printed only)")
     add_force_option(p, help="write into a non-empty --out")
-    add_parallel_options(p)
+    add_scheduler_option(p)
+    add_workers_option(p, help="points tuned at once on this machine, each in a process of "
+                       "its own (default: all cores; 1: one point at a time in this process). "
+                       "With --scheduler every point is one task on the cluster, its whole "
+                       "tuning there")
+    p.add_argument("--no-cache", action="store_true", help=NO_CACHE_HELP)
     add_json_option(p, help="print {points: [{A_over_C, a_over_R, mu, group, agrees, "
                     "settings, residual, cause, ...}], grid, agreement, engine, ...} as JSON "
                     "instead of the table")
@@ -94,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     engine = parse_engine(args.engine)
     if engine.spec != "mujoco":
         raise TippetopError(f"--engine: expected mujoco (the MuJoCo installed with tippetop: "
-                            f"the tuning fits in this process), got {args.engine!r}")
+                            f"the tuning fits with its mujoco.sysid), got {args.engine!r}")
     out_dir = None
     if args.out:
         from tippetop.compare.running.io import check_output_dir, hold_output_lock
@@ -143,10 +152,13 @@ def print_fidelity(res: dict[str, Any]) -> None:
     cached = sum(bool(p.get("cached")) for p in res["points"])
     whence = ("" if not cached else " (every point's tuning from the cache)"
               if cached == len(res["points"]) else f" ({cached} points' tuning from the cache)")
+    at_once = res.get("points_at_once")
+    where = (f" on the Dask cluster at {res['scheduler']}" if res.get("scheduler")
+             else f", {at_once} points at once" if at_once and at_once > 1 else "")
     print(f"tippetop fidelity: grid {g['name']}, {g['points']} points; engine "
           f"{res['engine']} (MuJoCo {res['mujoco_version']}), mode {res['mode']}, tuned and "
           f"verified from 4 starts of {res['t_end_s']:g} s; {res['runs']} fit rollouts, "
-          f"{fmt_duration(res['wall_s'])}{whence}")
+          f"{fmt_duration(res['wall_s'])}{where}{whence}")
     for line in table_lines(res):
         print(line)
     for line in summary_lines(res):

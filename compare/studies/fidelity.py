@@ -11,10 +11,13 @@ line made from the checks that departed (:func:`cause_of`; a better explanation 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
+import os
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -36,6 +39,9 @@ ABOVE_THRESHOLD = 1.25
 DEFAULT_T_END_S = 8.0
 #: The JSON's format name.
 FORMAT = "tippetop-fidelity/1"
+#: Threads (and reference workers) each point tuned at once gets, at least (where there are
+#: as many cores): :func:`point_cores`.
+POINT_MIN_CORES = 2
 
 
 # the grids live with the parsers' defaults (importing them costs nothing): re-exported here
@@ -180,37 +186,74 @@ def cause_of(point_result: dict[str, Any]) -> str:
 
 
 # ---------------------------------------------------------------- one point, the map
-def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
-              run_options: dict[str, Any], budget_runs: int | None = None,
-              progress: bool = False,
-              explain: Callable[[dict[str, Any]], str] = cause_of,
-              tune_fn: Callable[..., dict[str, Any]] | None = None) -> dict[str, Any]:
-    """Tune MuJoCo's native contact at one point and verify it, as validate tunes a file.
+def _point_top(A_over_C: float, a_over_R: float, mu: float) -> Any:
+    """The point's top (raises :class:`TippetopError` for a top the scene does not admit)."""
+    return Task(None, point_overrides(A_over_C, a_over_R, mu, START_N0, START_THETA0),
+                "ode").load().top
 
-    Args:
-        A_over_C: The top's A/C.
-        a_over_R: The top's a/R.
-        mu: The friction coefficient (the law's; the fit's mu starts there).
-        t_end_s: Horizon of the verification runs (s).
-        run_options: Keyword arguments of :func:`run_tasks` (scheduler, workers, use_cache).
-        budget_runs: MuJoCo runs the tuning of a point may use (None: the tuning's own).
-        progress: The tuning's progress lines on a terminal.
-        explain: point -> its cause (:func:`cause_of`).
-        tune_fn: The tuning (default :func:`tippetop.compare.studies.tune.tune`).
+
+def _is_the_tuning(tune_fn: Callable[..., Any]) -> bool:
+    """Whether ``tune_fn`` is the real tuning (a stand-in is neither cached nor sent away)."""
+    return getattr(tune_fn, "__module__", None) == "tippetop.compare.studies.tune"
+
+
+def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
+                  run_options: dict[str, Any], budget_runs: int | None = None,
+                  progress: bool = False,
+                  tune_fn: Callable[..., dict[str, Any]] | None = None,
+                  threads: int | None = None,
+                  reference_workers: int | None = None) -> dict[str, Any]:
+    """The whole tuning of one point, from the point alone: the same answer wherever it runs.
+
+    In this process, a point's process or a Dask worker; the point's cache and cause are the
+    caller's. The arguments are :func:`run_point`'s; ``reference_workers``: the reference
+    runs' worker processes (None: ``run_options``'; 1: in this process, which starts none).
 
     Returns:
-        ``A_over_C, a_over_R, mu, group, n0, theta0, agrees, settings, residual, cause``
-        and ``passes``, ``checks``, ``departs``, ``runs`` (the fit's rollouts), ``chosen``,
-        ``error`` (None, or why the tuning stopped), ``wall_s``, ``cached`` and ``tuned``
-        (the tuning's whole answer).
+        ``{"tuned", "error", "wall_s"}``: the tuning's answer (None where it stopped), why it
+        stopped (None, or a :class:`TippetopError`'s one line) and the wall time (s).
+
+    Raises:
+        TippetopError: A top the scene does not admit (the caller has made its row).
     """
     if tune_fn is None:
         from tippetop.compare.studies.tune import tune as tune_fn
     t0 = time.perf_counter()
+    top = _point_top(A_over_C, a_over_R, mu)
+    n0, theta0 = start_spin(top), START_THETA0
+    base = point_overrides(A_over_C, a_over_R, mu, n0, theta0)
+
+    def outcome_at(n: float, th0: float, role: str) -> tuple[float | None, str]:
+        return predicted_outcome(top, float(theory.jellett_from_spin(top, n, th0, 0.0)))
+
+    given = {"budget_runs": budget_runs, "threads": threads,
+             "reference_workers": reference_workers}
+    kwargs: dict[str, Any] = {"run_options": run_options, "progress": progress,
+                              "theory": outcome_at, "A_over_C": top.A_over_C,
+                              **{k: v for k, v in given.items() if v is not None}}
+    tuned: dict[str, Any] | None = None
+    error = None
     try:
-        top = Task(None, point_overrides(A_over_C, a_over_R, mu, START_N0, START_THETA0),
-                   "ode").load().top
-    except TippetopError as exc:  # a top the scene does not admit: a row, not a crash
+        tuned = tune_fn(base, mu, n0, theta0, t_end_s, **kwargs)
+    except (TippetopError, RunFailedError) as exc:
+        error = " ".join(str(exc).split())
+    return {"tuned": tuned, "error": error, "wall_s": time.perf_counter() - t0}
+
+
+def _begin_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
+                 budget_runs: int | None, use_cache: bool,
+                 explain: Callable[[dict[str, Any]], str]) -> dict[str, Any]:
+    """What a point is before its tuning: its top's group and start, and its cached tuning.
+
+    Returns:
+        ``{"point", "path", "tuned", "done", "wall_s"}``: the row so far, where its tuning is
+        kept (None: nowhere), the cached tuning (None: to compute), whether the row is whole
+        (a top the scene does not admit: a row, not a crash) and the time this took (s).
+    """
+    t0 = time.perf_counter()
+    try:
+        top = _point_top(A_over_C, a_over_R, mu)
+    except TippetopError as exc:
         point = {"A_over_C": A_over_C, "a_over_R": a_over_R, "mu": mu, "group": None,
                  "n0": None, "theta0": None, "agrees": False, "settings": None,
                  "residual": None, "passes": None, "checks": None, "departs": [],
@@ -218,42 +261,38 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
                  "cached": False, "tuned": None}
         point["cause"] = explain(point) or None
         point["wall_s"] = time.perf_counter() - t0
-        return point
+        return {"point": point, "path": None, "tuned": None, "done": True,
+                "wall_s": point["wall_s"]}
     n0, theta0 = start_spin(top), START_THETA0
-    base = point_overrides(A_over_C, a_over_R, mu, n0, theta0)
-
-    def outcome_at(n: float, th0: float, role: str) -> tuple[float | None, str]:
-        return predicted_outcome(top, float(theory.jellett_from_spin(top, n, th0, 0.0)))
-
-    kwargs: dict[str, Any] = {"run_options": run_options, "progress": progress,
-                              "theory": outcome_at, "A_over_C": top.A_over_C}
-    if budget_runs is not None:
-        kwargs["budget_runs"] = budget_runs
     point: dict[str, Any] = {"A_over_C": A_over_C, "a_over_R": a_over_R, "mu": mu,
                              "group": theory.group(top), "n0": n0, "theta0": theta0}
-    tuned: dict[str, Any] | None = None
-    error = None
-    path = (_cache_path(base, t_end_s, budget_runs) if run_options.get("use_cache", True)
-            and tune_fn.__module__ == "tippetop.compare.studies.tune" else None)
-    cached = False
+    path = (_cache_path(point_overrides(A_over_C, a_over_R, mu, n0, theta0), t_end_s,
+                        budget_runs) if use_cache else None)
+    tuned = None
     if path is not None and path.is_file():
         try:
             tuned = json.loads(path.read_text("utf-8"))
-            cached = isinstance(tuned, dict) and bool(tuned.get("fit"))
         except (OSError, ValueError):  # a damaged entry is computed again
             tuned = None
-        tuned = tuned if cached else None
-    if tuned is None:
-        try:
-            tuned = tune_fn(base, mu, n0, theta0, t_end_s, **kwargs)
-        except (TippetopError, RunFailedError) as exc:
-            error = " ".join(str(exc).split())
-        if tuned is not None and path is not None:
-            from tippetop.compare.running.io import json_ready, write_atomic
+    tuned = tuned if isinstance(tuned, dict) and bool(tuned.get("fit")) else None
+    return {"point": point, "path": path, "tuned": tuned, "done": False,
+            "wall_s": time.perf_counter() - t0}
 
-            text = json.dumps(json_ready(tuned))
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_atomic(path, lambda tmp: tmp.write_text(text, "utf-8"))
+
+def _keep_tuning(path: Path | None, tuned: dict[str, Any] | None) -> None:
+    """Write a computed tuning into the point's cache entry (atomically)."""
+    if tuned is None or path is None:
+        return
+    from tippetop.compare.running.io import json_ready, write_atomic
+
+    text = json.dumps(json_ready(tuned))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(path, lambda tmp: tmp.write_text(text, "utf-8"))
+
+
+def _finish_point(point: dict[str, Any], tuned: dict[str, Any] | None, error: str | None,
+                  cached: bool, explain: Callable[[dict[str, Any]], str]) -> dict[str, Any]:
+    """The point's row from its tuning (or why it stopped), its cause said."""
     fit = (tuned or {}).get("fit") or {}
     point.update({
         "agrees": bool(tuned and tuned.get("agrees")),
@@ -265,6 +304,53 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
         "error": error, "cached": cached, "tuned": tuned,
     })
     point["cause"] = explain(point) or None
+    return point
+
+
+def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
+              run_options: dict[str, Any], budget_runs: int | None = None,
+              progress: bool = False,
+              explain: Callable[[dict[str, Any]], str] = cause_of,
+              tune_fn: Callable[..., dict[str, Any]] | None = None,
+              threads: int | None = None) -> dict[str, Any]:
+    """Tune MuJoCo's native contact at one point and verify it, as validate tunes a file.
+
+    In this process: its cached tuning, or :func:`compute_point`'s (then kept).
+
+    Args:
+        A_over_C: The top's A/C.
+        a_over_R: The top's a/R.
+        mu: The friction coefficient (the law's; the fit's mu starts there).
+        t_end_s: Horizon of the verification runs (s).
+        run_options: Keyword arguments of :func:`run_tasks` (scheduler, workers, use_cache).
+        budget_runs: MuJoCo runs the tuning of a point may use (None: the tuning's own).
+        progress: The tuning's progress lines on a terminal.
+        explain: point -> its cause (:func:`cause_of`).
+        tune_fn: The tuning (default :func:`tippetop.compare.studies.tune.tune`).
+        threads: Threads of the fit's rollouts (None: every core).
+
+    Returns:
+        ``A_over_C, a_over_R, mu, group, n0, theta0, agrees, settings, residual, cause``
+        and ``passes``, ``checks``, ``departs``, ``runs`` (the fit's rollouts), ``chosen``,
+        ``error`` (None, or why the tuning stopped), ``wall_s``, ``cached`` and ``tuned``
+        (the tuning's whole answer).
+    """
+    if tune_fn is None:
+        from tippetop.compare.studies.tune import tune as tune_fn
+    t0 = time.perf_counter()
+    begun = _begin_point(A_over_C, a_over_R, mu, t_end_s=t_end_s, budget_runs=budget_runs,
+                         use_cache=bool(run_options.get("use_cache", True))
+                         and _is_the_tuning(tune_fn), explain=explain)
+    if begun["done"]:
+        return begun["point"]
+    tuned, error, cached = begun["tuned"], None, begun["tuned"] is not None
+    if tuned is None:
+        out = compute_point(A_over_C, a_over_R, mu, t_end_s=t_end_s, run_options=run_options,
+                            budget_runs=budget_runs, progress=progress, tune_fn=tune_fn,
+                            threads=threads)
+        tuned, error = out["tuned"], out["error"]
+        _keep_tuning(begun["path"], tuned)
+    point = _finish_point(begun["point"], tuned, error, cached, explain)
     point["wall_s"] = time.perf_counter() - t0
     return point
 
@@ -293,68 +379,299 @@ def _say(progress: bool) -> Callable[[str], None] | None:
     return lambda line: print(f"fidelity: {line}", file=sys.stderr, flush=True)
 
 
+# ---------------------------------------------------------------- points at once
+def machine_cores() -> int:
+    """The cores this process may use."""
+    from tippetop.mujoco_runner.batch import default_threads
+
+    return max(1, default_threads())
+
+
+def point_cores(cores: int, at_once: int) -> int:
+    """The threads each of ``at_once`` points gets on ``cores``: its rollouts' and its runs'.
+
+    At least two where there are two cores: a point's own parallel phases (the fit's batched
+    rollouts, its four verification runs) then use both while the other points fill what its
+    serial ones (the fit's trial steps, one rollout each) leave idle.
+    """
+    return max(min(POINT_MIN_CORES, cores), cores // max(1, at_once))
+
+
+class _NotATerminal:
+    """A stream that is no terminal: the points' own bars would draw over each other's."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def isatty(self) -> bool:
+        return False
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _init_point_process(parent: int, pdeathsig: bool) -> None:
+    """A point's process: Ctrl-C is the map's, no bars of its own, and it dies with the map.
+
+    However the map's process ends (SIGKILL too), as the runner's workers do: the kernel is
+    asked to kill it (Linux, ``pdeathsig``: the pool made in the main thread), and a thread
+    looks every half second that the map is still its parent.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.stderr = _NotATerminal(sys.stderr)
+    if pdeathsig and sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # DEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: the thread does
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)  # the map that would read the answer is gone
+
+    threading.Thread(target=watch, name="tippetop-map-watchdog", daemon=True).start()
+
+
+def _map_local(todo: list[tuple[int, float, float, float]], at_once: int,
+               job: dict[str, Any], started: Callable[[int], None],
+               finished: Callable[[int, dict[str, Any]], None]) -> None:
+    """Tune ``todo``'s ``(index, A/C, a/R, mu)``, ``at_once`` at a time, a process each.
+
+    The points start in ``todo``'s order (``started(i)``), the next as one ends
+    (``finished(i, out)``, ``out`` :func:`compute_point`'s with ``job``'s keywords). Ctrl-C,
+    or any error, ends every point's process at once. A point's process starts none of its
+    own (``reference_workers=1``): a pool there would leave its semaphores to the resource
+    tracker's warning when the process is ended, and hang its exit (measured).
+    """
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+    from multiprocessing import get_context
+
+    from tippetop.compare.running.pool import sigint_blocked
+
+    main = threading.current_thread() is threading.main_thread()
+    pool = ProcessPoolExecutor(max_workers=at_once, mp_context=get_context("spawn"),
+                               initializer=_init_point_process,
+                               initargs=(os.getpid(), main))
+    queue = list(todo)
+    going: dict[Any, int] = {}
+    try:
+        while queue or going:
+            while queue and len(going) < at_once:
+                i, r, e, m = queue.pop(0)
+                started(i)
+                with sigint_blocked():  # a process starting now ignores Ctrl-C from birth
+                    going[pool.submit(compute_point, r, e, m, **job)] = i
+            done, _ = wait(list(going), return_when=FIRST_COMPLETED)
+            for fut in sorted(done, key=lambda f: going[f]):
+                i = going.pop(fut)
+                try:
+                    out = fut.result()
+                except BrokenProcessPool:
+                    raise TippetopError(f"fidelity: the process tuning point {i + 1} ended "
+                                        "without an answer (killed, or out of memory)") from None
+                finished(i, out)
+    except BaseException:  # the points' processes ended now, not at their next point
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            proc.terminate()
+        raise
+    pool.shutdown(wait=True)
+
+
+def point_on_worker(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
+                    use_cache: bool, budget_runs: int | None) -> dict[str, Any]:
+    """:func:`compute_point` on a Dask worker: the whole tuning there, its runs local to it.
+
+    The reference's four runs in the worker's own process, one after the other (a Dask worker
+    is a daemon by default: it may not start processes), the fit's rollouts and the
+    verification's runs on :func:`point_cores` threads.
+    """
+    threads_here = 1  # the points this worker tunes at once
+    with contextlib.suppress(ImportError, ValueError):  # ValueError: not on a worker
+        from distributed import get_worker
+
+        threads_here = max(1, int(getattr(get_worker().state, "nthreads", 1) or 1))
+    c = point_cores(machine_cores(), threads_here)
+    before = sys.stderr
+    sys.stderr = _NotATerminal(before)  # no bars on the worker's terminal
+    try:
+        return compute_point(A_over_C, a_over_R, mu, t_end_s=t_end_s,
+                             run_options={"scheduler": None, "workers": c,
+                                          "use_cache": use_cache},
+                             budget_runs=budget_runs, progress=False, threads=c,
+                             reference_workers=1)
+    finally:
+        sys.stderr = before
+
+
+def _map_dask(todo: list[tuple[int, float, float, float]], scheduler: str,
+              job: dict[str, Any], finished: Callable[[int, dict[str, Any]], None]) -> None:
+    """Tune ``todo``'s points on the Dask cluster at ``scheduler``: one task a point.
+
+    The points are sent at once, the grid's first first (Dask's priority); a point whose
+    task was lost (its workers died: ``KilledWorker``) is ``{"error": reason}``.
+
+    Raises:
+        SchedulerError: No scheduler or worker there, or it went away (one line).
+    """
+    import uuid
+
+    from tippetop.compare.running.cluster import DaskCluster
+
+    tag = uuid.uuid4().hex[:8]
+    with DaskCluster.connect(scheduler) as cluster:
+        futures = {cluster.client.submit(point_on_worker, r, e, m, **job, pure=False,
+                                         priority=len(todo) - k,
+                                         key=f"tippetop-fidelity-{tag}-{i}"): i
+                   for k, (i, r, e, m) in enumerate(todo)}
+        for i, out in cluster.results(futures):
+            finished(i, out)
+
+
 def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
                  scheduler: str | None = None, workers: int | None = None,
                  use_cache: bool = True, budget_runs: int | None = None,
                  progress: bool = True,
                  explain: Callable[[dict[str, Any]], str] = cause_of,
-                 tune_fn: Callable[..., dict[str, Any]] | None = None) -> dict[str, Any]:
+                 tune_fn: Callable[..., dict[str, Any]] | None = None,
+                 points_at_once: int | None = None) -> dict[str, Any]:
     """Tune and verify MuJoCo's native contact at every point of ``grid``.
 
     Points are independent: one whose tuning stops (:class:`TippetopError`) is a point that
-    does not agree, its cause said; the map goes on. Each point's runs go through the
-    harness's runner (cache, workers, Dask) inside the tuning.
+    does not agree, its cause said; the map goes on. Several are tuned at once, a process
+    each, or each is one task on the Dask cluster at ``scheduler`` (its whole tuning); the
+    answer is the same as one at a time here (``points_at_once=1``), and the rows and
+    progress lines are in the grid's order. A stand-in ``tune_fn`` (a test's) runs here.
 
     Args:
         grid: The points.
         t_end_s: Horizon of the verification runs (s).
-        scheduler: A Dask scheduler address, or None for local processes.
-        workers: Local worker processes (None: all cores).
+        scheduler: A Dask scheduler address: one task a point there; None: this machine.
+        workers: This machine's cores the map uses (None: all): the points tuned at once
+            unless ``points_at_once`` says; with one point at a time, the runs' workers.
         use_cache: Read and write the run cache (and each point's tuning).
         budget_runs: MuJoCo runs the tuning of a point may use (None: the tuning's own).
         progress: A line per point on a terminal.
         explain: point -> its cause (:func:`cause_of`).
         tune_fn: The tuning (default :func:`tippetop.compare.studies.tune.tune`).
+        points_at_once: Points tuned at once on this machine (None: ``workers``, else every
+            core; 1: one at a time in this process, its runs on ``workers``).
 
     Returns:
         ``format``, ``points`` (:func:`run_point`, ``tuned`` left out), ``grid``,
         ``agreement`` ({agree, points}), ``engine`` (the MuJoCo that ran, read from the
-        module), ``t_end_s``, ``start``, ``budget_runs``, ``runs`` and ``wall_s``.
+        module), ``t_end_s``, ``start``, ``budget_runs``, ``runs``, ``wall_s``,
+        ``points_at_once`` (1: in this process; None: on Dask) and ``scheduler``.
 
     Raises:
-        TippetopError: A bad horizon (before any run).
+        TippetopError: A bad horizon or ``points_at_once`` (before any run); a Dask cluster
+            that is not there or goes away (:class:`SchedulerError`, one line).
     """
     if not (math.isfinite(t_end_s) and 0 < t_end_s <= 600):
         raise TippetopError(f"--t-end-s: expected a number of seconds in (0, 600], got "
                             f"{t_end_s!r}")
+    if points_at_once is not None and points_at_once < 1:
+        raise TippetopError(f"fidelity: expected at least 1 point at once, got "
+                            f"{points_at_once!r}")
     import mujoco
 
+    if tune_fn is None:
+        from tippetop.compare.studies.tune import tune as tune_fn
     say = _say(progress)
-    opts = {"scheduler": scheduler, "workers": workers, "use_cache": use_cache}
     t0 = time.perf_counter()
     pts = grid.points()
-    out = []
-    for i, (r, e, m) in enumerate(pts, start=1):
-        if say:
-            say(f"point {i}/{len(pts)}: A/C = {r:g}, a/R = {e:g}, mu = {m:g} ...")
-        p = run_point(r, e, m, t_end_s=t_end_s, run_options=opts, budget_runs=budget_runs,
-                      progress=progress, explain=explain, tune_fn=tune_fn)
-        if say:
-            say(f"point {i}/{len(pts)}: {'agrees' if p['agrees'] else 'departs'} "
-                f"({number_text(p['wall_s'], 's', 3)}{', cached' if p['cached'] else ''})")
-        out.append(p)
+    n = len(pts)
+    real = _is_the_tuning(tune_fn)
+    cores = machine_cores()
+    at_once = points_at_once or workers or cores
+    if not real or (scheduler is None and at_once <= 1):
+        at_once, scheduler = 1, None  # one point at a time, here
+    out: list[dict[str, Any] | None] = [None] * n
+    said = [0]  # rows said so far, in the grid's order
+
+    def settle(i: int, point: dict[str, Any]) -> None:
+        out[i] = point
+        while said[0] < n and out[said[0]] is not None:
+            p = out[said[0]]
+            said[0] += 1
+            if say and p is not None:
+                say(f"point {said[0]}/{n}: {'agrees' if p['agrees'] else 'departs'} "
+                    f"({number_text(p['wall_s'], 's', 3)}{', cached' if p['cached'] else ''})")
+
+    begun: list[dict[str, Any]] = []
+    todo: list[tuple[int, float, float, float]] = []
+    if at_once > 1 or scheduler is not None:  # the cache read here, the rest sent away
+        begun = [_begin_point(r, e, m, t_end_s=t_end_s, budget_runs=budget_runs,
+                              use_cache=use_cache, explain=explain) for r, e, m in pts]
+        todo = [(i, *pts[i]) for i, b in enumerate(begun) if not b["done"] and
+                b["tuned"] is None]
+        if scheduler is None and len(todo) < 2:  # nothing to tune at once: here
+            begun, todo, at_once = [], [], 1
+    if not begun:  # the points one after the other, here
+        opts = {"scheduler": None, "workers": workers, "use_cache": use_cache}
+        for i, (r, e, m) in enumerate(pts):
+            if say:
+                say(f"point {i + 1}/{n}: A/C = {r:g}, a/R = {e:g}, mu = {m:g} ...")
+            settle(i, run_point(r, e, m, t_end_s=t_end_s, run_options=opts,
+                                budget_runs=budget_runs, progress=progress, explain=explain,
+                                tune_fn=tune_fn))
+    else:
+        def finished(i: int, res: dict[str, Any]) -> None:
+            b = begun[i]
+            tuned = res.get("tuned")
+            _keep_tuning(b["path"], tuned)
+            point = _finish_point(b["point"], tuned, res.get("error"), False, explain)
+            point["wall_s"] = float(res.get("wall_s") or 0.0)
+            settle(i, point)
+
+        for i, b in enumerate(begun):  # a top not admitted, or a tuning from the cache
+            if b["done"] or b["tuned"] is not None:
+                point = b["point"] if b["done"] else _finish_point(b["point"], b["tuned"],
+                                                                   None, True, explain)
+                point["wall_s"] = b["wall_s"]
+                settle(i, point)
+        job = {"t_end_s": t_end_s, "budget_runs": budget_runs}
+        if scheduler is not None:
+            at_once = None
+            if say and todo:
+                say(f"{len(todo)} point(s) sent to the Dask cluster at {scheduler}, one task "
+                    "each")
+            _map_dask(todo, scheduler, {**job, "use_cache": use_cache}, finished)
+        else:
+            at_once = min(at_once, len(todo))
+            c = point_cores(cores, at_once)
+
+            def started(i: int) -> None:
+                if say:
+                    r, e, m = pts[i]
+                    say(f"point {i + 1}/{n}: A/C = {r:g}, a/R = {e:g}, mu = {m:g} ... "
+                        f"({at_once} points at once)")
+
+            _map_local(todo, at_once, {
+                **job, "run_options": {"scheduler": None, "workers": c, "use_cache": use_cache},
+                "progress": False, "threads": c, "reference_workers": 1}, started, finished)
+    done = [p for p in out if p is not None]
     return {
         "format": FORMAT,
-        "points": [{k: v for k, v in p.items() if k != "tuned"} for p in out],
+        "points": [{k: v for k, v in p.items() if k != "tuned"} for p in done],
         "grid": grid.to_json(),
-        "agreement": {"agree": sum(p["agrees"] for p in out), "points": len(out)},
+        "agreement": {"agree": sum(p["agrees"] for p in done), "points": len(done)},
         "engine": "mujoco", "mujoco_version": mujoco.__version__,
         "mode": "native",
         "t_end_s": t_end_s,
         "start": {"n0": START_N0, "theta0": START_THETA0, "above_threshold": ABOVE_THRESHOLD},
         "budget_runs": budget_runs,
-        "runs": sum(p["runs"] or 0 for p in out),
+        "runs": sum(p["runs"] or 0 for p in done),
         "wall_s": time.perf_counter() - t0,
+        "points_at_once": at_once,
+        "scheduler": scheduler,
     }
 
 
@@ -373,6 +690,7 @@ def summary_lines(result: dict[str, Any]) -> list[str]:
     return lines
 
 
-__all__ = ["CAUSE_ORDER", "DEFAULT_T_END_S", "GRIDS", "Grid", "cause_of", "failed_checks",
-           "make_grid", "parse_values", "point_overrides", "run_fidelity", "run_point",
-           "start_spin", "summary_lines"]
+__all__ = ["CAUSE_ORDER", "DEFAULT_T_END_S", "GRIDS", "Grid", "cause_of", "compute_point",
+           "failed_checks", "machine_cores", "make_grid", "parse_values", "point_cores",
+           "point_on_worker", "point_overrides", "run_fidelity", "run_point", "start_spin",
+           "summary_lines"]

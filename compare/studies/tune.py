@@ -195,7 +195,9 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
          max_iters: int = MAX_ITERS, progress: bool = True,
          theory: Callable[[float, float, str], tuple[float | None, str]] | None = None,
          A_over_C: float | None = None,
-         budget_runs: int = DEFAULT_BUDGET_RUNS) -> dict[str, Any]:
+         budget_runs: int = DEFAULT_BUDGET_RUNS,
+         threads: int | None = None,
+         reference_workers: int | None = None) -> dict[str, Any]:
     """Fit the file's contact settings to the reference and verify them.
 
     The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
@@ -222,6 +224,10 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
         budget_runs: MuJoCo runs (rollouts and verification runs) the tuning may use, at
             least :func:`min_budget_runs`.
+        threads: Threads of the fit's rollouts (None: every core this process may use). The
+            answer does not depend on it: each rollout is stepped alone.
+        reference_workers: Local worker processes of the reference's runs (None:
+            ``run_options``' own; 1: in this process, which then starts none).
 
     Returns:
         ``settings``, ``mjcf``, ``fit`` ({starts, residual, runs, budget_runs, ...}),
@@ -242,8 +248,9 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     say = _say(progress)
     t0 = time.perf_counter()
     starts = starts_for(n0, theta0)
+    ref_opts = opts if reference_workers is None else {**opts, "workers": reference_workers}
     refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode",
-                           "paper") for s in starts], label="tune reference", **opts)
+                           "paper") for s in starts], label="tune reference", **ref_opts)
     for s, r in zip(starts, refs, strict=True):
         if r.error or r.table is None:
             raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
@@ -256,7 +263,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     bounds = Bounds.wide(mu, dt) if wide else Bounds.around(mu, dt)
     from tippetop.mujoco_runner.batch import default_threads
 
-    threads = max(1, default_threads())
+    threads = max(1, threads or default_threads())
     stem = (fit_ref.summary or {}).get("t_stem")
     ball_until = [math.inf if stem is None else float(stem)]
     problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,

@@ -249,3 +249,127 @@ def test_the_small_grid_runs_for_real(tmp_path: Path) -> None:
                                    or p["cause"].startswith(("not tuned", "reference not",
                                                              "no held-out")))
     assert (tmp_path / "m" / "fidelity.png").is_file()
+
+
+# ---------------------------------------------------------------- several points at once
+#: Two points (Groups II and III at mu = 0.3, the narrow fit) over 1 s with 30 MuJoCo runs
+#: each: a few seconds a point, and the same tuning as the map's but for its size.
+TINY = ("small", "0.8,1.3", "0.25", "0.3")
+TINY_RUN: dict[str, Any] = {"t_end_s": 1.0, "budget_runs": 30}
+
+
+def _points(res: dict[str, Any]) -> list[dict[str, Any]]:
+    """What each point is, its timing and cache flag aside, in the map's order."""
+    return [{k: v for k, v in p.items() if k not in ("wall_s", "cached")}
+            for p in res["points"]]
+
+
+def _own_cache(folder: Path) -> Path:
+    """An empty run cache whose compiled code is the session's (nothing to compile)."""
+    from tippetop.models.resources import user_cache_dir
+
+    folder.mkdir(parents=True)
+    (user_cache_dir() / "numba").mkdir(parents=True, exist_ok=True)
+    (folder / "numba").symlink_to(user_cache_dir() / "numba", target_is_directory=True)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def one_at_a_time() -> dict[str, Any]:
+    """The tiny map one point at a time in this process (the map's way before issue 41)."""
+    res = fidelity.run_fidelity(make_grid(*TINY), points_at_once=1, use_cache=False,
+                                progress=False, **TINY_RUN)
+    assert res["points_at_once"] == 1 and res["scheduler"] is None
+    return res
+
+
+def test_each_point_at_once_gets_two_cores_or_its_share() -> None:
+    assert fidelity.point_cores(2, 2) == 2  # 2 cores: both to each point, to fill the gaps
+    assert fidelity.point_cores(1, 1) == 1 and fidelity.point_cores(2, 1) == 2
+    assert fidelity.point_cores(16, 4) == 4 and fidelity.point_cores(16, 16) == 2
+
+
+def test_a_stand_in_tuning_runs_here_one_point_at_a_time(fake: None) -> None:
+    res = fidelity.run_fidelity(make_grid("small"), workers=2, progress=False)
+    assert res["points_at_once"] == 1 and len(res["points"]) == 8
+
+
+def test_points_tuned_at_once_are_the_points_tuned_one_at_a_time(
+        one_at_a_time: dict[str, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two points at once, each in a process of its own: the same points, in the grid's
+    order; their tunings kept, so that a second map reads them here."""
+    monkeypatch.setenv("TIPPETOP_CACHE", str(_own_cache(tmp_path / "cache")))
+    grid = make_grid(*TINY)
+    res = fidelity.run_fidelity(grid, points_at_once=2, progress=False, **TINY_RUN)
+    assert res["points_at_once"] == 2 and res["scheduler"] is None
+    assert [(p["A_over_C"], p["a_over_R"], p["mu"]) for p in res["points"]] == grid.points()
+    assert _points(res) == _points(one_at_a_time)
+    assert not any(p["cached"] for p in res["points"])
+    again = fidelity.run_fidelity(grid, points_at_once=2, progress=False, **TINY_RUN)
+    assert all(p["cached"] for p in again["points"])
+    assert _points(again) == _points(one_at_a_time)
+
+
+def test_ctrl_c_while_points_are_tuned_at_once(tmp_path: Path) -> None:
+    """Ctrl-C to the group while two points' processes tune: one line, exit 130, no output
+    folder, no process left (the points' processes end with the map)."""
+    import os
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tippetop.compare.cli", "fidelity", "--grid", "small",
+         "--no-cache", "--t-end-s", "8", "--workers", "2", "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+    def session() -> list[str]:
+        states = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:  # gone while we looked
+                continue
+            if int(fields[3]) == proc.pid:  # fields: state, ppid, pgrp, session, ...
+                states.append(fields[0])
+        return states
+
+    deadline = time.monotonic() + 60.0
+    while len(session()) < 3 and time.monotonic() < deadline:  # the map and two points
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.1)
+    time.sleep(3.0)  # the points' processes imported and tuning
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1] == "tippetop: interrupted", stderr
+    assert "Traceback" not in stderr and stdout == ""
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    deadline = time.monotonic() + 5.0
+    while not all(s == "Z" for s in session()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert all(s == "Z" for s in session()), session()
+
+
+@pytest.mark.slow
+def test_each_point_is_one_task_on_a_dask_cluster(one_at_a_time: dict[str, Any],
+                                                  tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--scheduler``: the whole tuning of each point on a Dask worker (none here), the same
+    points as one at a time here."""
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    def here(*args: Any, **kwargs: Any) -> dict[str, Any]:
+        raise AssertionError("a point was tuned in this process, not on the cluster")
+
+    monkeypatch.setattr(fidelity, "compute_point", here)
+    env = {"TIPPETOP_CACHE": str(_own_cache(tmp_path / "worker-cache")), "MUJOCO_GL": "disable"}
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None, env=env) as lc:
+        res = fidelity.run_fidelity(make_grid(*TINY), scheduler=lc.scheduler_address,
+                                    use_cache=False, progress=False, **TINY_RUN)
+        assert res["scheduler"] == lc.scheduler_address
+    assert res["points_at_once"] is None
+    assert _points(res) == _points(one_at_a_time)
