@@ -236,8 +236,13 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ", *, show_mjcf: bool = 
     if show_mjcf:
         for line in tuned["mjcf"].splitlines():
             print(f"{indent}  {line}")
+    base_t_end = min((v.get("t_end_s") for v in tuned["verified"] if v.get("t_end_s")),
+                     default=None)
     for v in tuned["verified"]:
         where = f"{start_label(v['n0'], v['theta0'])} ({v['role']})"
+        if v.get("t_end_s") and base_t_end and v["t_end_s"] > base_t_end * (1 + 1e-9):
+            where += (f" over {fmt(v['t_end_s'], 's')}, its reference still moving at "
+                      f"{fmt(base_t_end, 's')}")
         if v["passed"] is None:
             state = v.get("note", "not verified")
         elif v["passed"]:

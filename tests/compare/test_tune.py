@@ -250,3 +250,62 @@ def test_the_pair_to_paste_is_mjcf() -> None:
     assert pair is not None and pair.get("solreffriction") == "-1 -2.61"
     assert pair.get("solref") == "-100000 -632" and pair.get("friction").split()[:2] == ["1", "1"]
     assert mjcf_pair({**ran, "solreffriction": None}) is None
+
+
+def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horizon(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # Two runs still rising at their end say nothing of the contact: a start whose reference
+    # is inconclusive at t_end is run again over twice, then four times the horizon, until
+    # its reference settles (here: one settles by 16 s, one never does: it keeps 32 s, the
+    # cap); a settled start and a reference that stopped keep theirs.
+    import numpy as np
+    import pandas as pd
+
+    from tippetop.compare.running.runner import TaskResult
+    from tippetop.compare.studies import tune as tune_module
+
+    def table(t_end: float, settles_by: float | None) -> pd.DataFrame:
+        t = np.linspace(0.0, t_end, 801)
+        rising = 0.1 + 0.3 * t  # still moving at the end
+        if settles_by is None or t_end < settles_by:
+            return pd.DataFrame({"t": t, "theta": rising})
+        # settled: flat from half its settling time on
+        return pd.DataFrame({"t": t, "theta": np.minimum(rising, 0.1 + 0.15 * settles_by)})
+
+    settles = {"a": 10.0, "b": None, "c": 0.0}
+    calls: list[float] = []
+
+    def fake(tasks, **_opts):
+        out = []
+        for task in tasks:
+            t_end = float(next(o for o in task.overrides if o.startswith("run.t_end_s="))
+                          .split("=")[1])
+            calls.append(t_end)
+            key = next(o for o in task.overrides if o.startswith("key=")).split("=")[1]
+            out.append(TaskResult(task, "k", {"status": "ok"}, table(t_end, settles[key]),
+                                  None, False))
+        return out
+
+    class Start:
+        def __init__(self, key: str) -> None:
+            self.key = key
+
+        def overrides(self) -> tuple[str, ...]:
+            return (f"key={self.key}",)
+
+        def label(self) -> str:
+            return self.key
+
+    monkeypatch.setattr(tune_module, "run_tasks", fake)
+    starts = [Start("a"), Start("b"), Start("c"), Start("c")]
+    first = fake([tune_module.Task(None, (*s.overrides(), "run.t_end_s=8.0"), "ode")
+                  for s in starts])
+    stopped = TaskResult(first[3].task, "k", {"status": "contact_lost"}, first[3].table, None,
+                         False)
+    first[3] = stopped
+    calls.clear()
+    horizons, refs = tune_module.settled_references((), starts, first, 8.0, {})
+    assert horizons == [16.0, 32.0, 8.0, 8.0]
+    assert calls == [16.0, 16.0, 32.0]  # a and b doubled together, then b again
+    assert refs[3] is stopped and refs[2] is first[2]
+    assert tune_module.HORIZON_FACTOR_MAX == 4.0
