@@ -69,8 +69,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "report.html, new or empty, or --force (default: none, printed only)")
     add_force_option(p, help="write into a non-empty --out")
     add_scheduler_option(p)
-    add_workers_option(p, help="points tuned at once on this machine, each in a process of "
-                       "its own (default: all cores; 1: one point at a time in this process). "
+    add_workers_option(p, help="points tuned at once on this machine (processes), each in a "
+                       "process of its own (default: all cores; 1: one point at a time in this "
+                       "process). "
                        "With --scheduler every point is one task on the cluster, its whole "
                        "tuning there")
     p.add_argument("--no-cache", action="store_true", help=NO_CACHE_HELP)

@@ -24,6 +24,9 @@ from tippetop.models.numbers import MISSING, number_text
 MIN_SLIP_MPS = 1e-9
 #: A sample creeps when its |F_t| is below the law's value by more than this fraction.
 CREEP_MARGIN = 0.01
+#: A sample is on the law's plateau at this many Lambda of slip: there the law
+#: mu v / sqrt(v^2 + Lambda^2) is 95 % of mu (v / Lambda = 0.95 / sqrt(1 - 0.95^2)).
+PLATEAU_SLIP = 0.95 / math.sqrt(1.0 - 0.95**2)
 #: Fewer usable samples than this: nothing is measured (the keys say None).
 MIN_SAMPLES = 20
 
@@ -97,6 +100,12 @@ def _slip_reaching(slip: np.ndarray, mu_eff: np.ndarray, level: float) -> float 
     return None
 
 
+def _plateau_share(slip: np.ndarray, N: np.ndarray, lam: float) -> float:
+    """The share of the normal force in samples slipping at PLATEAU_SLIP Lambda or more."""
+    total = float(np.sum(N))
+    return float(np.sum(N[slip >= PLATEAU_SLIP * lam]) / total) if total > 0 else 0.0
+
+
 def friction_realised(table: pd.DataFrame, mu: float, lam: float,
                       t_stem: float | None = None) -> dict[str, Any]:
     """``friction_realised`` of a run: the law the engine realised, against the paper's.
@@ -119,8 +128,12 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
         median |F_t| reaches half and 90 % of mu_fit N, measured in log-slip bins),
         ``law_half_mu_slip_mps`` (the paper's law's: Lambda / sqrt(3)), ``angle_rms_rad``
         (between F_t and -v_P), ``creep_fraction`` (samples with |F_t| more than
-        :data:`CREEP_MARGIN` below the law's mu |v| / sqrt(|v|^2 + Lambda^2) N) and
-        ``samples``; every number None when fewer than :data:`MIN_SAMPLES` samples slip.
+        :data:`CREEP_MARGIN` below the law's mu |v| / sqrt(|v|^2 + Lambda^2) N),
+        ``plateau_share`` (the share of the normal force in samples slipping at
+        :data:`PLATEAU_SLIP` Lambda_fit or more, where the fitted law is within 5 % of mu_fit:
+        how much of the run measures mu itself; under a percent or so, only mu / Lambda is
+        measured, and mu_fit and Lambda_fit alone are loose) and ``samples``; every number
+        None when fewer than :data:`MIN_SAMPLES` samples slip.
     """
     if t_stem is not None and table is not None and "t" in table:
         table = table[table["t"] < t_stem]
@@ -129,7 +142,7 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
                            "law_half_mu_slip_mps": lam / math.sqrt(3.0),
                            "before_t_s": t_stem}
     keys = ("mu_fit", "Lambda_fit_mps", "residual", "half_mu_slip_mps",
-            "ninety_mu_slip_mps", "angle_rms_rad", "creep_fraction")
+            "ninety_mu_slip_mps", "angle_rms_rad", "creep_fraction", "plateau_share")
     if len(s) < MIN_SAMPLES:
         return {**out, **dict.fromkeys(keys)}
     slip, mu_eff = s["slip"].to_numpy(), s["mu_eff"].to_numpy()
@@ -145,7 +158,8 @@ def friction_realised(table: pd.DataFrame, mu: float, lam: float,
                half_mu_slip_mps=_slip_reaching(slip, mu_eff, 0.5 * mu_fit),
                ninety_mu_slip_mps=_slip_reaching(slip, mu_eff, 0.9 * mu_fit),
                angle_rms_rad=float(np.sqrt(np.mean(s["angle"].to_numpy() ** 2))),
-               creep_fraction=float(np.mean(mu_eff < (1.0 - CREEP_MARGIN) * law)))
+               creep_fraction=float(np.mean(mu_eff < (1.0 - CREEP_MARGIN) * law)),
+               plateau_share=_plateau_share(slip, s["N"].to_numpy(), lam_fit))
     return out
 
 

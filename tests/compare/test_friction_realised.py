@@ -86,6 +86,24 @@ def test_fit_law_recovers_a_law_it_was_not_started_from() -> None:
     assert res < 1e-12
 
 
+def test_the_plateau_share_is_the_force_slipping_where_the_law_is_within_5_percent_of_mu(
+        ) -> None:
+    # exact law samples, one per slip, each with its own normal force: the law is 95 % of mu
+    # at v = 0.95 / sqrt(1 - 0.95^2) Lambda = 3.042 Lambda, so with Lambda 10 mm/s the samples
+    # at 40 and 100 mm/s (N 1 and 3) are on the plateau, those at 1, 10 and 30 mm/s (N 2, 2,
+    # 2) are not: 4 of 10 N
+    v = np.array([1e-3, 1e-2, 3e-2, 4e-2, 1e-1] * 10)
+    N = np.array([2.0, 2.0, 2.0, 1.0, 3.0] * 10)
+    F = law_mu(v, 0.3, 1e-2) * N
+    t = pd.DataFrame({"t": np.arange(len(v)) * 1e-3, "FX": -F, "FY": 0.0 * F, "vPX": v,
+                      "vPY": 0.0 * v, "N": N})
+    fr = friction_realised(t, 0.3, 1e-2)
+    assert fr["Lambda_fit_mps"] == pytest.approx(1e-2, rel=1e-9)
+    assert fr["plateau_share"] == pytest.approx(0.4, abs=1e-12)
+    # a law 5 % short of mu at 30 mm/s is not yet on it: the threshold's closed form
+    assert law_mu(np.array([3.0424e-2]), 1.0, 1e-2)[0] == pytest.approx(0.95, abs=1e-5)
+
+
 def test_too_few_samples_measure_nothing() -> None:
     t = pd.DataFrame({"FX": [0.0], "FY": [0.0], "vPX": [0.0], "vPY": [0.0], "N": [1.0]})
     fr = friction_realised(t, 0.1, 1e-2)

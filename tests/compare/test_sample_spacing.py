@@ -16,8 +16,9 @@ spacing, and their values agree within their tolerances:
 - the friction law realised (mu and Lambda of the fit): fitted to each window's mean force
   against the sample's slip, each sample weighted by its normal force (so a window weighs as
   its steps); within 2 % (mu) and 10 % (Lambda) of the every-step fit, the scatter of a fit
-  on 8,000 against 40,000 points of the same run (a Lambda too sharp for any slip the run
-  reaches is compared as the law it gives at 1 mm/s).
+  on 8,000 against 40,000 points of the same run, where the run slips on the law's plateau;
+  where it barely does (the creeping mu = 1 tops) or its Lambda is too sharp for any slip
+  the run reaches, the two laws are compared at the slips the run reaches.
 
 The property runs over the quick profile's native cases and the fidelity map's small grid with
 each point's own tuned settings (slow); the fast tests hold the point that today's map reported
@@ -44,6 +45,12 @@ ROOT = Path(__file__).resolve().parents[2]
 #: The stored default fidelity map: each point's tuned settings (the small grid is its subset).
 MAP = ROOT / "docs" / "data" / "fidelity-default.json"
 SMALL = {(0.8, 0.1), (0.8, 0.25), (1.3, 0.1), (1.3, 0.25)}
+#: The tuned settings of A/C 1.0, a/R 0.25, mu 0.1 in the fidelity map of 2026-11-27 (its
+#: results.json, commit c679843), from whose 1-ms samples the ball was said to leave the table.
+SETTINGS_ISSUE_41 = {"mu": 0.101, "cone": "elliptic", "impratio": 0.0591, "solref": [0.0004, 1.0],
+                     "solimp": [0.173, 0.95, 0.001, 0.5, 2.0], "timestep_s": 0.0002,
+                     "integrator": "RK4"}
+N0_ISSUE_41 = 105.24614282102553
 #: What each spacing's row must match exactly (located to the step, or a class).
 EXACT = ("outcome", "t_invert", "t_stem", "t_left_table")
 
@@ -103,20 +110,36 @@ def _assert_same_verdict(rows: dict[float, dict[str, Any]]) -> None:
         fa, fb = every["summary"].get("friction_realised"), other["summary"].get(
             "friction_realised")
         if fa and fb and fa.get("mu_fit") is not None and fb.get("mu_fit") is not None:
-            assert fb["mu_fit"] == pytest.approx(fa["mu_fit"], rel=0.02), where
-            la, lb = fa["Lambda_fit_mps"], fb["Lambda_fit_mps"]
-            if max(la, lb) > 0.05 * fa["Lambda_law_mps"]:
-                assert lb == pytest.approx(la, rel=0.1), where
-            else:
-                # a Lambda under 5 % of the law's (0.5 mm/s against 10 mm/s) is a law as
-                # sharp as Coulomb's at every slip the run reaches: the mu = 1 tops' fits end
-                # anywhere from 1e-8 to 1.3e-4 m/s, which no sample tells apart. Compared
-                # where the laws are measured: at 1 mm/s, about the slowest slipping samples'
-                # slip, the two laws are within 2 % of mu
-                v = 1e-3
-                mu_a = law_mu(np.array([v]), fa["mu_fit"], la)[0]
-                mu_b = law_mu(np.array([v]), fb["mu_fit"], lb)[0]
-                assert abs(mu_b - mu_a) <= 0.02 * fa["mu_fit"], where
+            _assert_same_law(fa, fb, where)
+
+
+def _assert_same_law(fa: dict[str, Any], fb: dict[str, Any], where: str) -> None:
+    """Two fits of the law realised agree where the run measures them.
+
+    mu itself within 2 % where the run slips on the law's plateau (a share of its normal force
+    of 1 % or more at 3 Lambda and beyond, in both): the scatter of a fit on 8,000 against
+    40,000 windows of one run. Where it barely does - the mu = 1 tops creep: at the map's
+    A/C 0.8, a/R 0.25, mu 1.0 99.9 % of the force is at slips under 3 mm/s, and 17 of 40,000
+    steps (2 of 2,666 3-ms windows) on the plateau - only mu / Lambda is measured, and mu and
+    Lambda alone move together (mu 0.643 from every step, 0.625 from 3-ms samples, the laws
+    then 0.2 % apart at 1 mm/s). Then the two laws are compared at the slips the run reaches:
+    1 mm/s, about the slowest slipping samples' slip, and the every-step fit's knee, where it
+    gives half of mu N (Lambda / sqrt(3)), each within 2 % of mu.
+    """
+    la, lb = fa["Lambda_fit_mps"], fb["Lambda_fit_mps"]
+    # a Lambda under 5 % of the law's (0.5 mm/s against 10 mm/s) is a law as sharp as
+    # Coulomb's at every slip the run reaches: the mu = 1 tops' fits end anywhere from 1e-8
+    # to 1.3e-4 m/s, which no sample tells apart; such a law has no knee the run measures
+    sharp = max(la, lb) <= 0.05 * fa["Lambda_law_mps"]
+    if min(fa["plateau_share"], fb["plateau_share"]) >= 0.01:
+        assert fb["mu_fit"] == pytest.approx(fa["mu_fit"], rel=0.02), where
+        if not sharp:
+            assert lb == pytest.approx(la, rel=0.1), where
+            return
+    for v in (1e-3,) if sharp else (1e-3, la / math.sqrt(3.0)):
+        mu_a = law_mu(np.array([v]), fa["mu_fit"], la)[0]
+        mu_b = law_mu(np.array([v]), fb["mu_fit"], lb)[0]
+        assert abs(mu_b - mu_a) <= 0.02 * fa["mu_fit"], (v, where)
 
 
 # ------------------------------------------------------------------------- fast
@@ -126,11 +149,12 @@ def test_the_point_reported_as_leaving_the_table_stays_on_it() -> None:
     # at the sampled steps of a 10-ms stretch. Stepped by hand, the ball's centre stays
     # within a micrometre of its resting height and no stretch without contact lasts over
     # 3.2 ms. At 1-ms samples the harness now says what every step says.
-    p = _point(1.0, 0.25, 0.1)
-    over = (*point_overrides(1.0, 0.25, 0.1, p["n0"], p["theta0"]), "run.t_end_s=8.0")
+    # The settings are that map's, written out: the stored map is measured again as the
+    # tuning changes, and this point's settings with it.
+    over = (*point_overrides(1.0, 0.25, 0.1, N0_ISSUE_41, 0.1), "run.t_end_s=8.0")
     runs = []
     for spacing in (1e-3, 2e-4):
-        res = compare_scene(None, [("mujoco", None, (*_tuned(p["settings"]),
+        res = compare_scene(None, [("mujoco", None, (*_tuned(SETTINGS_ISSUE_41),
                                                       f"run.sample_dt_s={spacing!r}"))],
                             over, use_cache=False, workers=1)
         runs.append(next(r for r in res["runs"] if not r.get("reference")))
