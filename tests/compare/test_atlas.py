@@ -25,6 +25,7 @@ def _private_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("TIPPETOP_CACHE", str(tmp_path / "cache"))
 
 
+@pytest.mark.slow  # about 40 s on 2 cores: the default suite stays near 10 min
 def test_the_reference_reproduces_groups_one_to_three() -> None:
     # a/R = 0.1: Group I below A/C = 0.9, II between 0.9 and 1.1, III above 1.1
     res = run_atlas([0.8, 1.0, 1.3], [0.1], [("ode", "paper", ())], workers=2)
@@ -55,6 +56,7 @@ def _tippetop(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow  # about 40 s on 2 cores: the default suite stays near 10 min
 def test_the_command_writes_csv_png_json_and_refuses_bad_input(tmp_path: Path) -> None:
     args = ("atlas", "--engines", "ode", "--A-over-C", "0.8:1.0:2", "--a-over-R",
             "0.1:0.1:1")

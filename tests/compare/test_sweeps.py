@@ -97,6 +97,7 @@ def test_parse_range() -> None:
             parse_range(bad)
 
 
+@pytest.mark.slow  # about 40 s on 2 cores (a LocalCluster starts): default suite near 10 min
 def test_dask_cluster_gives_the_local_results() -> None:
     """The same tasks on a Dask LocalCluster (2 worker processes) give the local results,
     bit for bit except the wall time."""
