@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import signal
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tippetop.models.options import OdeOptions
@@ -22,6 +23,24 @@ if TYPE_CHECKING:
 # a signal nothing hears (measured: four of them failed that way). Python's own handler here;
 # the processes the tests start get the default disposition on exec, as from a terminal.
 signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def session_processes(sid: int) -> dict[int, tuple[int, str]]:
+    """Every process of session ``sid`` (zombies too), read from /proc: pid -> (ppid, state).
+
+    The Ctrl-C tests start their command with ``start_new_session=True``, so its session id
+    is its pid and every worker it starts is in that session.
+    """
+    found = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # gone while we looked
+            continue
+        # fields: state, ppid, pgrp, session, ...
+        if int(fields[3]) == sid:
+            found[int(stat.parent.name)] = (int(fields[1]), fields[0])
+    return found
 
 
 @functools.cache

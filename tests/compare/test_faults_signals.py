@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import session_processes
 from tippetop.compare.running.leftovers import clean_cache_leftovers, clean_leftovers
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import (
@@ -37,16 +38,7 @@ START_S = 60.0
 
 def _session(sid: int) -> dict[int, tuple[int, str]]:
     """Processes of session ``sid`` that are not zombies: pid -> (ppid, state)."""
-    found = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:  # gone while we looked
-            continue
-        # fields: state, ppid, pgrp, session, ...
-        if int(fields[3]) == sid and fields[0] != "Z":
-            found[int(stat.parent.name)] = (int(fields[1]), fields[0])
-    return found
+    return {pid: ps for pid, ps in session_processes(sid).items() if ps[1] != "Z"}
 
 
 def _start(args: list[str], tmp_path: Path) -> subprocess.Popen[str]:

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from tests.conftest import session_processes
 from tippetop.compare import cli
 from tippetop.compare.studies import fidelity, tune
 from tippetop.compare.studies.fidelity import GRIDS, cause_of, make_grid
@@ -324,15 +325,7 @@ def test_ctrl_c_while_points_are_tuned_at_once(tmp_path: Path) -> None:
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
 
     def session() -> list[str]:
-        states = []
-        for stat in Path("/proc").glob("[0-9]*/stat"):
-            try:
-                fields = stat.read_text().rsplit(")", 1)[1].split()
-            except OSError:  # gone while we looked
-                continue
-            if int(fields[3]) == proc.pid:  # fields: state, ppid, pgrp, session, ...
-                states.append(fields[0])
-        return states
+        return [state for _, state in session_processes(proc.pid).values()]
 
     deadline = time.monotonic() + 60.0
     while len(session()) < 3 and time.monotonic() < deadline:  # the map and two points

@@ -20,6 +20,7 @@ from typing import Any
 
 import pytest
 
+from tests.conftest import session_processes
 from tippetop.compare.studies.validate import (
     EVENT_TOL_S,
     J_TOL,
@@ -375,14 +376,7 @@ def test_ctrl_c_leaves_no_partial_output_and_no_traceback(tmp_path: Path) -> Non
     # main process, and multiprocessing's resource tracker a few ms after it)
     deadline = time.monotonic() + 5.0
     while True:
-        states = []
-        for stat in Path("/proc").glob("[0-9]*/stat"):
-            try:
-                fields = stat.read_text().rsplit(")", 1)[1].split()
-            except OSError:  # gone while we looked
-                continue
-            if int(fields[3]) == proc.pid:  # fields: state, ppid, pgrp, session, ...
-                states.append(fields[0])
+        states = [state for _, state in session_processes(proc.pid).values()]
         if all(state == "Z" for state in states) or time.monotonic() > deadline:
             break
         time.sleep(0.05)
