@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from tippetop.compare.measures import theory
+from tippetop.compare.measures import series, theory
 from tippetop.compare.measures.verdict import predicted_outcome, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.fidelity import (
@@ -399,16 +399,18 @@ def tuned_settings_from(results: dict[str, Any], A_over_C: float, a_over_R: floa
 
 # ---------------------------------------------------------------- judging and scoring
 def theta_rms(ref_table: Any, table: Any) -> float | None:
-    """RMS of theta less the reference's, on the reference's samples both runs cover (rad)."""
-    if ref_table is None or table is None or len(table) < 2 or len(ref_table) < 2:
+    """RMS of theta less the reference's, on the reference's samples both runs cover (rad).
+
+    :func:`tippetop.compare.measures.series.theta_rms`, or None where a run is missing, they
+    share fewer than two samples or a theta is not finite (a run that diverged).
+    """
+    if table is None or ref_table is None or len(table) < 2 or len(ref_table) < 2:
         return None
-    t_ref, t = ref_table["t"].to_numpy(), table["t"].to_numpy()
-    keep = t_ref <= t[-1]
-    if keep.sum() < 2:
+    if np.count_nonzero(ref_table["t"].to_numpy() <= table["t"].iloc[-1]) < 2 or not (
+            np.all(np.isfinite(table["theta"].to_numpy()))
+            and np.all(np.isfinite(ref_table["theta"].to_numpy()))):
         return None
-    th = np.interp(t_ref[keep], t, table["theta"].to_numpy())
-    d = th - ref_table["theta"].to_numpy()[keep]
-    return float(np.sqrt(np.mean(d * d))) if np.all(np.isfinite(d)) else None
+    return series.theta_rms(table, ref_table)
 
 
 def judge_start(start: TuneStart, ref: Any, run: Any, outcome_at: Callable[..., Any],

@@ -518,3 +518,20 @@ def test_a_tiny_two_stage_search_runs_end_to_end() -> None:
     assert lines[0].startswith("contact search at A/C = 1, a/R = 0.1, mu = 0.3")
     assert any(ln.startswith("stage 2 (dense, ") for ln in lines)
     assert f"limit: {res['limit']}" in lines
+
+
+def test_theta_rms_is_the_gap_on_the_samples_both_runs_cover() -> None:
+    # a run 0.01 rad above the reference at every sample, ending at half the reference's
+    # time: the RMS is 0.01 rad over the shared half; a theta that is not finite, or fewer
+    # than two shared samples, is no number
+    import numpy as np
+    import pandas as pd
+
+    from tippetop.compare.studies.contact_search import theta_rms
+
+    t = np.linspace(0.0, 1.0, 101)
+    ref = pd.DataFrame({"t": t, "theta": np.sin(t)})
+    run = pd.DataFrame({"t": t[:51], "theta": np.sin(t[:51]) + 0.01})
+    assert theta_rms(ref, run) == pytest.approx(0.01, rel=1e-9)
+    assert theta_rms(ref, run.assign(theta=np.where(t[:51] > 0.3, np.nan, run["theta"]))) is None
+    assert theta_rms(ref, run.iloc[:1]) is None and theta_rms(None, run) is None
