@@ -108,8 +108,6 @@ class ResultCache:
         A summary of the release before is read as today's (:meth:`RunSummary.from_json`);
         one that is not a summary at all is a miss.
         """
-        import io
-
         js, pq = self._paths(key)
         try:
             entry = json.loads(js.read_text(encoding="utf-8"))
@@ -124,7 +122,7 @@ class ResultCache:
                 or entry.get("table_sha256") != hashlib.sha256(data).hexdigest()):
             return None
         try:
-            return RunSummary.from_json(summary), pd.read_parquet(io.BytesIO(data))
+            return RunSummary.from_json(summary), read_parquet_bytes(data)
         except (ValueError, OSError, TippetopError):  # (cannot happen to bytes that verify)
             return None
 
@@ -145,6 +143,26 @@ class ResultCache:
         text = json.dumps(entry)
         write_atomic(pq, lambda tmp: tmp.write_bytes(data))
         write_atomic(js, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def read_parquet_bytes(data: bytes) -> pd.DataFrame:
+    """A Parquet file's bytes as a table, read by Arrow from memory of its own, on this thread.
+
+    Not ``pd.read_parquet(io.BytesIO(data))``: Arrow then holds the Python buffer, and one of
+    its own threads may release it after the interpreter has begun to exit. Taking the GIL
+    there ends that thread inside C++ and aborts the process ("terminate called without an
+    active exception", exit 134 after a complete result): measured on 2026-11-29, 1 of 11
+    ``tippetop compare`` runs on a loaded machine, the core's abort in
+    ``arrow::py::PyBuffer::~PyBuffer`` on an Arrow thread-pool worker.
+    """
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as papq
+
+    buf = pa.allocate_buffer(len(data))
+    np.frombuffer(buf, dtype=np.uint8)[:] = np.frombuffer(data, dtype=np.uint8)
+    table = papq.read_table(pa.BufferReader(buf), use_threads=False)
+    return table.to_pandas(use_threads=False)
 
 
 class CacheWriter:
@@ -215,4 +233,5 @@ def clean_cache_once(root: str) -> None:
 
 
 __all__ = ["CACHE_LEFTOVER_AGE_S", "MODULES", "PACKAGES", "CacheWriter", "ResultCache",
-           "cacheable", "clean_cache_once", "code_fingerprint", "default_cache_dir", "task_key"]
+           "cacheable", "clean_cache_once", "code_fingerprint", "default_cache_dir",
+           "read_parquet_bytes", "task_key"]
