@@ -26,6 +26,7 @@ from tippetop.compare.report.sections import (
     verdict_section,
 )
 from tippetop.compare.report.trends import trends_section
+from tippetop.compare.running.cache import read_parquet_bytes
 from tippetop.compare.running.io import write_atomic
 from tippetop.models.errors import TippetopError
 
@@ -52,8 +53,8 @@ def _load_tables(results: Mapping[str, Any], base_dir: Path,
         if rec["id"] in out or not rel:
             continue
         p = base_dir / rel
-        if p.is_file():
-            out[rec["id"]] = pd.read_parquet(p)
+        if p.is_file():  # read as the run cache reads (read_parquet_bytes says why)
+            out[rec["id"]] = read_parquet_bytes(p.read_bytes())
     return out
 
 

@@ -257,8 +257,8 @@ def _begin_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
         point = {"A_over_C": A_over_C, "a_over_R": a_over_R, "mu": mu, "group": None,
                  "n0": None, "theta0": None, "agrees": False, "settings": None,
                  "residual": None, "passes": None, "checks": None, "departs": [],
-                 "runs": None, "chosen": None, "error": " ".join(str(exc).split()),
-                 "cached": False, "tuned": None}
+                 "runs": None, "chosen": None, "widened": None,
+                 "error": " ".join(str(exc).split()), "cached": False, "tuned": None}
         point["cause"] = explain(point) or None
         point["wall_s"] = time.perf_counter() - t0
         return {"point": point, "path": None, "tuned": None, "done": True,
@@ -301,6 +301,8 @@ def _finish_point(point: dict[str, Any], tuned: dict[str, Any] | None, error: st
         "passes": (tuned or {}).get("passes"), "checks": (tuned or {}).get("checks"),
         "departs": list((tuned or {}).get("departs") or []),
         "runs": fit.get("runs"), "chosen": fit.get("chosen"),
+        # where the fits departed: each setting the widening verified, with its checks
+        "widened": fit.get("widened"),
         "error": error, "cached": cached, "tuned": tuned,
     })
     point["cause"] = explain(point) or None

@@ -16,10 +16,8 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
-from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.calibrate.identify import (
@@ -39,6 +37,18 @@ from tippetop.compare.studies.calibrate.identify import (
 )
 from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
 from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
+from tippetop.compare.studies.tune_judge import (
+    HELD_OUT,
+    TuneStart,
+    min_budget_runs,
+    start_label,
+    starts_for,
+)
+from tippetop.compare.studies.tune_judge import agrees as _agrees
+from tippetop.compare.studies.tune_judge import departs as _departs
+from tippetop.compare.studies.tune_judge import mjcf_block as _mjcf
+from tippetop.compare.studies.tune_judge import passes as _passes
+from tippetop.compare.studies.tune_widen import WIDEN_ONE_IN, widen, widen_reserve
 from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
@@ -52,11 +62,6 @@ FIT_INTEGRATOR = "RK4"
 #: within this factor of the fit's (plus :data:`KEEP_FLOOR_RAD`).
 KEEP_FACTOR = 1.2
 KEEP_FLOOR_RAD = 0.005
-#: Held-out starts, relative to the file's: (spin factor, tilt factor); a tilt at least
-#: :data:`MIN_TILT_STEP_RAD` above the file's. Near the file's start, where its settings are
-#: meant to hold: a faster spin, a slower one, a larger tilt.
-HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0))
-MIN_TILT_STEP_RAD = 0.05
 #: The fit follows each start until this many times its first event (the stem's contact, or
 #: else the inversion), at least :data:`MIN_FIT_S`: after the stem touches, theta(t) is the
 #: stem's contact's, which the ball's settings do not set.
@@ -74,44 +79,6 @@ SEED_LOW_D0 = 0.3
 #: MuJoCo runs the tuning may use by default (``--budget-runs``): the seeds, the fits'
 #: rollouts, the file's own step tried, every start verified.
 DEFAULT_BUDGET_RUNS = TUNE_BUDGET_RUNS
-
-
-@dataclass(frozen=True)
-class TuneStart:
-    """A start: spin n0 (rad/s) and tilt theta0 (rad), and whether the fit used it."""
-
-    n0: float
-    theta0: float
-    role: str  # "fit" or "held-out"
-
-    def overrides(self) -> tuple[str, ...]:
-        """``--set`` strings of this start.
-
-        None for the file's own (its keyframe as it is); a held-out one's spin and tilt
-        (from rest otherwise: no precession, no slip).
-        """
-        if self.role == "fit":
-            return ()
-        return (f"init.n0={self.n0!r}", f"init.theta0={self.theta0!r}", "init.Omega0=0.0",
-                "init.thetadot0=0.0")
-
-    def label(self) -> str:
-        """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""
-        return start_label(self.n0, self.theta0)
-
-
-def start_label(n0: float, theta0: float) -> str:
-    """A start as every line and report names it: ``n0 = 150 rad/s, theta0 = 0.04 rad``."""
-    return f"n0 = {number_text(n0, 'rad/s')}, theta0 = {number_text(theta0, 'rad')}"
-
-
-def starts_for(n0: float, theta0: float) -> list[TuneStart]:
-    """The file's start (fitted) and the held-out ones (:data:`HELD_OUT`)."""
-    out = [TuneStart(n0, theta0, "fit")]
-    for f, g in HELD_OUT:
-        tilt = theta0 if g == 1.0 else max(g * theta0, theta0 + MIN_TILT_STEP_RAD)
-        out.append(TuneStart(n0 * f, tilt, "held-out"))
-    return out
 
 
 def fit_horizon(summary: dict[str, Any], t_end_s: float) -> float:
@@ -148,11 +115,6 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
                 for cone in ("pyramidal", "elliptic")
                 for imp, tc, d0 in ((1.41, 0.002, 0.05), (1.0, 0.02, 0.9))]
     return out
-
-
-def min_budget_runs() -> int:
-    """The smallest ``--budget-runs``: one seed scored, then every start verified with it."""
-    return 1 + 1 + len(HELD_OUT)
 
 
 #: The lift-free family's name among the fit's cones (:func:`fit_order`).
@@ -202,7 +164,10 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
 
     The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
     batched rollout, a fit from the best, and its result verified from every start; the
-    second cone only if the first one's settings do not agree. The whole tuning stays within
+    second cone only if the first one's settings do not agree. Where the fits and their seeds
+    all depart, the widening (:func:`.tune_widen.widen`) tries the answer with one discrete
+    choice changed at a time (integrator, step, cone), then a fit at the best of those, from
+    runs kept back for it (:func:`.tune_widen.widen_reserve`). The whole tuning stays within
     ``budget_runs`` MuJoCo runs: where they run out, it verifies its best so far and says so
     (``budget_limited``).
 
@@ -248,6 +213,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                             f"{budget_runs}")
     opts = dict(run_options or {})
     say = _say(progress)
+    # the fits and their seeds stay within the budget less the widening's reserve
+    main_budget = budget_runs - widen_reserve(budget_runs)
     t0 = time.perf_counter()
     starts = starts_for(n0, theta0)
     ref_opts = opts if reference_workers is None else {**opts, "workers": reference_workers}
@@ -292,7 +259,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                         Bounds.lift_free(), threads, ball_until, fitted=LIFT_FREE_FITTED)
     problems.append(lift_free)
     for family in fit_order(file_run, wide):
-        room = budget_runs - spent() - n_starts  # a verification kept back
+        room = main_budget - spent() - n_starts  # a verification kept back
         if room < 1:
             budget_limited = True
             break
@@ -311,7 +278,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         budget_limited = budget_limited or found.budget_spent
         settled = _settle(found, fam, fit_start, fam_bounds, threads, ball_until, dt,
                           file_integrator, file_timestep_s, A_over_C, check,
-                          lambda: budget_runs - spent())
+                          lambda: main_budget - spent())
         tried.append({**settled, "what": what})
         if say:
             say(f"{family}: {'agrees' if _agrees(settled['verified']) else 'departs'} from "
@@ -339,7 +306,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         for seed in [*fit_seeds, bounds.clip(starting[0]).rounded()]:
             if seed in done:
                 continue
-            if budget_runs - spent() < n_starts:
+            if main_budget - spent() < n_starts:
                 budget_limited = True
                 break
             done.add(seed)
@@ -353,6 +320,28 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                 verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
                 chosen = f"seed: {seed.label()}"
                 break
+    widened: dict[str, Any] | None = None
+    if not _agrees(verified) and budget_runs - spent() >= 2 * n_starts:
+        # the fits and their seeds depart: the widening, from the runs kept back for it
+        pick_problem = lift_free if best.frictiondamping is not None else problem
+        widened = widen(best, timestep, integrator, pick_problem, fit_start, threads,
+                        ball_until, A_over_C, check, lambda: budget_runs - spent(),
+                        problems, max_iters, say)
+        for w in widened["tried"]:
+            alternatives.append({k: w[k] for k in ("settings", "what", "agrees", "departs",
+                                                   "passes", "checks", "mjcf")}
+                                | {"calibrated": False})
+        if widened["answer"] is not None:
+            a = widened["answer"]
+            verified, mj, best, timestep, integrator = (a["verified"], a["mj"], a["cand"],
+                                                        a["timestep_s"], a["integrator"])
+            chosen = f"widened: {a['what']}"
+            budget_limited = False
+            needs = [*needs, {"integrator": integrator, "timestep_s": timestep,
+                              "rms_rad": None, "kept": True, "why": f"the widening: "
+                              f"{a['what']} agrees from every start"}]
+        elif widened["budget_spent"]:
+            budget_limited = True
     agrees = _agrees(verified)
     departs = _departs(verified)
     ran = run_entry(mj[0])
@@ -381,7 +370,13 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
                           "step 0.01 decade, stopped when two iterations lower the residual "
                           f"by less than {STALL_FRACTION:.0%}) from the best seed of the "
                           "file's cone (elliptic first at mu >= 0.5), then of the other cone "
-                          "if the first departs, then (mu >= 0.5) of the lift-free family",
+                          "if the first departs, then (mu >= 0.5) of the lift-free family; "
+                          "where all depart, the answer with its integrator, step or cone "
+                          "changed, then a fit at the best of those (the widening, from "
+                          f"one in {WIDEN_ONE_IN} of the budget's runs, kept back for it)",
+                "widened": None if widened is None else [
+                    {k: w[k] for k in ("settings", "what", "agrees", "passes", "checks")}
+                    for w in widened["tried"]],
                 "wall_s": time.perf_counter() - t0},
         "verified": verified,
         "agrees": agrees,
@@ -455,19 +450,6 @@ def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bo
             break
     return {"found": found, "best": best, "verified": verified, "mj": mj,
             "timestep": timestep, "integrator": integrator, "needs": needs}
-
-
-def _passes(verified: list[dict[str, Any]]) -> dict[str, int]:
-    """``{passes, checks}``: the checks that pass over every start verified, and all of them."""
-    checks = [c for v in verified for c in v["checks"]]
-    return {"passes": sum(c["passed"] is not False for c in checks), "checks": len(checks)}
-
-
-def _agrees(verified: list[dict[str, Any]]) -> bool:
-    """Every start checked passes, and at least one held-out start was checked."""
-    checked = [v for v in verified if v["passed"] is not None]
-    return (bool(checked) and all(v["passed"] for v in checked)
-            and any(v["role"] == "held-out" for v in checked))
 
 
 def _seed_candidates(found: Any) -> list[Candidate]:
@@ -553,12 +535,6 @@ def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], bes
     return verified, mj
 
 
-def _departs(verified: list[dict[str, Any]]) -> list[str]:
-    return [f"{c['check']} from {TuneStart(v['n0'], v['theta0'], v['role']).label()} "
-            f"({v['role']}): {c['note']}"
-            for v in verified for c in v["checks"] if c["passed"] is False]
-
-
 def _cheaper(integ: str | None, step: float | None,
              dt_fit: float) -> list[tuple[str, float]]:
     """The file's own integrator and step, then RK4 at the file's step.
@@ -588,16 +564,6 @@ def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
             "condim": get("condim", 3),
             # the contact pairs' friction rows' own solref (the lift-free family), else None
             "solreffriction": ran.get("solreffriction", best.solreffriction)}
-
-
-def _mjcf(ran: dict[str, Any]) -> str:
-    """The tuned settings as MJCF attributes to paste (``<option>`` and the contact's)."""
-    if ran.get("timestep_s") is None:
-        return ""
-    option, geom = mjcf_attributes(ran)
-    out = f"{option}\n<geom ... {geom}/>"
-    pair = mjcf_pair(ran)
-    return out if pair is None else f"{out}\n{pair}"
 
 
 def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> str:

@@ -31,6 +31,7 @@ from tippetop.compare.studies.tune import (
     seeds,
     starts_for,
 )
+from tippetop.compare.studies.tune_widen import widen_neighbours, widen_reserve
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
@@ -59,6 +60,41 @@ def test_cheaper_options_are_the_files_own() -> None:
     assert _cheaper("Euler", 5e-4, 2e-4) == [("Euler", 5e-4), (FIT_INTEGRATOR, 5e-4)]
     assert _cheaper("RK4", 2e-4, 2e-4) == []
     assert _cheaper("implicitfast", 1e-4, 1e-4) == [("implicitfast", 1e-4)]
+
+
+def test_the_widening_keeps_the_fits_budget() -> None:
+    """At the default budget the fits keep the 200 runs they had before the widening (so a
+    file they agree on is tuned as then); a budget too small for two neighbours keeps none,
+    and the fits never fall below one seed and one verification."""
+    from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
+
+    assert TUNE_BUDGET_RUNS - widen_reserve(TUNE_BUDGET_RUNS) == 200
+    n_starts = 1 + len(HELD_OUT)
+    for budget in range(min_budget_runs(), 1000):
+        r = widen_reserve(budget)
+        assert r == 0 or r >= 2 * n_starts
+        assert budget - r >= min_budget_runs()
+    assert widen_reserve(6) == 0 and widen_reserve(min_budget_runs()) == 0
+
+
+def test_the_widenings_neighbours_change_one_choice_each() -> None:
+    from tippetop.compare.studies.calibrate.scoring import Candidate
+
+    best = Candidate("elliptic", 0.5, 0.004, 0.3, 1.0, frictiondamping=2.6)
+    iso = widen_neighbours(best, 2e-4, "RK4", 1.0)
+    integs = [(c, dt, i) for _, c, dt, i in iso if c == best and dt == 2e-4]
+    assert sorted(i for _, _, i in integs) == ["Euler", "implicitfast"]
+    assert (best, 1e-4, "RK4") in [(c, dt, i) for _, c, dt, i in iso]
+    flipped = [c for _, c, _, _ in iso if c.cone != best.cone]
+    # MuJoCo takes the friction rows' own solref in an elliptic cone only
+    assert len(flipped) == 1 and flipped[0].cone == "pyramidal"
+    assert flipped[0].frictiondamping is None and flipped[0].mu == best.mu
+    # a top with A != C: a first-order step drifts Jellett's constant, none is tried
+    aniso = widen_neighbours(best, 2e-4, "RK4", 0.8)
+    assert {i for _, _, _, i in aniso} == {"RK4"} and len(aniso) == 2
+    # the answer's own integrator is not a neighbour of itself
+    assert all(i != "Euler" or dt != 2e-4 or c != best
+               for _, c, dt, i in widen_neighbours(best, 2e-4, "Euler", 1.0))
 
 
 def test_seeds_are_at_the_files_mu_in_both_cones() -> None:

@@ -1,0 +1,92 @@
+"""What the tuning verifies and how it judges: its starts, and a verification's verdict.
+
+The starts (the file's own, fitted, and the held-out ones), the smallest run budget that
+verifies them, and the verdict over a verification (every start's checks): shared by the
+tuning (:mod:`.tune`) and its widening (:mod:`.tune_widen`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
+from tippetop.models.numbers import number_text
+
+#: Held-out starts, relative to the file's: (spin factor, tilt factor); a tilt at least
+#: :data:`MIN_TILT_STEP_RAD` above the file's. Near the file's start, where its settings are
+#: meant to hold: a faster spin, a slower one, a larger tilt.
+HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0))
+MIN_TILT_STEP_RAD = 0.05
+
+@dataclass(frozen=True)
+class TuneStart:
+    """A start: spin n0 (rad/s) and tilt theta0 (rad), and whether the fit used it."""
+
+    n0: float
+    theta0: float
+    role: str  # "fit" or "held-out"
+
+    def overrides(self) -> tuple[str, ...]:
+        """``--set`` strings of this start.
+
+        None for the file's own (its keyframe as it is); a held-out one's spin and tilt
+        (from rest otherwise: no precession, no slip).
+        """
+        if self.role == "fit":
+            return ()
+        return (f"init.n0={self.n0!r}", f"init.theta0={self.theta0!r}", "init.Omega0=0.0",
+                "init.thetadot0=0.0")
+
+    def label(self) -> str:
+        """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""
+        return start_label(self.n0, self.theta0)
+
+
+def start_label(n0: float, theta0: float) -> str:
+    """A start as every line and report names it: ``n0 = 150 rad/s, theta0 = 0.04 rad``."""
+    return f"n0 = {number_text(n0, 'rad/s')}, theta0 = {number_text(theta0, 'rad')}"
+
+
+def starts_for(n0: float, theta0: float) -> list[TuneStart]:
+    """The file's start (fitted) and the held-out ones (:data:`HELD_OUT`)."""
+    out = [TuneStart(n0, theta0, "fit")]
+    for f, g in HELD_OUT:
+        tilt = theta0 if g == 1.0 else max(g * theta0, theta0 + MIN_TILT_STEP_RAD)
+        out.append(TuneStart(n0 * f, tilt, "held-out"))
+    return out
+
+def min_budget_runs() -> int:
+    """The smallest ``--budget-runs``: one seed scored, then every start verified with it."""
+    return 1 + 1 + len(HELD_OUT)
+
+def passes(verified: list[dict[str, Any]]) -> dict[str, int]:
+    """``{passes, checks}``: the checks that pass over every start verified, and all of them."""
+    checks = [c for v in verified for c in v["checks"]]
+    return {"passes": sum(c["passed"] is not False for c in checks), "checks": len(checks)}
+
+
+def agrees(verified: list[dict[str, Any]]) -> bool:
+    """Every start checked passes, and at least one held-out start was checked."""
+    checked = [v for v in verified if v["passed"] is not None]
+    return (bool(checked) and all(v["passed"] for v in checked)
+            and any(v["role"] == "held-out" for v in checked))
+
+def departs(verified: list[dict[str, Any]]) -> list[str]:
+    """Each check that departs, over every start: ``CHECK from START (ROLE): NOTE``."""
+    return [f"{c['check']} from {TuneStart(v['n0'], v['theta0'], v['role']).label()} "
+            f"({v['role']}): {c['note']}"
+            for v in verified for c in v["checks"] if c["passed"] is False]
+
+def mjcf_block(ran: dict[str, Any]) -> str:
+    """The tuned settings as MJCF attributes to paste (``<option>`` and the contact's)."""
+    if ran.get("timestep_s") is None:
+        return ""
+    option, geom = mjcf_attributes(ran)
+    out = f"{option}\n<geom ... {geom}/>"
+    pair = mjcf_pair(ran)
+    return out if pair is None else f"{out}\n{pair}"
+
+
+__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "TuneStart", "agrees", "departs", "min_budget_runs",
+           "mjcf_block", "passes", "start_label", "starts_for"]

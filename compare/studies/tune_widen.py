@@ -1,0 +1,147 @@
+"""The tuning's widening: where the fits and their seeds depart, the answer's neighbours.
+
+The answer with one discrete choice changed at a time (integrator, step, cone), each verified
+from every start, then a fit at the best of those (:func:`widen`), from runs kept back for it
+(:func:`widen_reserve`). Measured on the fidelity map before it existed
+(docs/guide/fidelity.md, "Beyond the tuning"): three of the four settings that the tuning
+missed and a search over MuJoCo's whole contact space found were its own answer with the
+integrator changed, or a fit from it at another integrator.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
+from tippetop.compare.studies.calibrate.identify import FitStart, Problem, identify
+from tippetop.compare.studies.calibrate.scoring import Candidate
+from tippetop.compare.studies.tune_judge import (
+    HELD_OUT,
+    agrees,
+    departs,
+    min_budget_runs,
+    mjcf_block,
+    passes,
+)
+
+#: One run in this many of ``--budget-runs`` is kept back for the widening (:func:`widen`):
+#: the fits and their seeds use the rest, so that at the default budget they have the 200
+#: runs they had before there was a widening, and a file they agree on is tuned as then.
+WIDEN_ONE_IN = 3
+#: The widening's integrators (each at the fit's step) and its shorter step (this times the
+#: fit's, at the fit's integrator). Measured on the fidelity map (docs/guide/fidelity.md,
+#: "searches"): at A/C 1, a/R 0.25, mu 1 the fit's settings departed at RK4 and agreed from
+#: every start with Euler; at mu 0.3 a fit at Euler agreed where the fit at RK4 departed.
+WIDEN_INTEGRATORS = ("RK4", "Euler", "implicitfast")
+WIDEN_STEP_FACTOR = 0.5
+
+
+def widen_reserve(budget_runs: int) -> int:
+    """The runs of ``budget_runs`` kept for the widening (one in :data:`WIDEN_ONE_IN`).
+
+    None below a widening's smallest use (two neighbours verified); the fits always keep at
+    least :func:`min_budget_runs`.
+    """
+    n_starts = 1 + len(HELD_OUT)
+    reserve = min(budget_runs // WIDEN_ONE_IN, budget_runs - min_budget_runs())
+    return reserve if reserve >= 2 * n_starts else 0
+
+
+def widen_neighbours(best: Candidate, timestep: float, integrator: str,
+                     A_over_C: float | None) -> list[tuple[str, Candidate, float, str]]:
+    """The answer with one discrete choice changed at a time: ``(what, cand, step, integ)``.
+
+    Each of :data:`WIDEN_INTEGRATORS` at the same step (a first-order one only on a top with
+    A = C: elsewhere it moves Jellett's constant in proportion to dt, docs/design.md), the
+    step times :data:`WIDEN_STEP_FACTOR`, and the other cone (a pyramidal one without the
+    friction rows' own damping, which MuJoCo takes in an elliptic cone only).
+    """
+    isotropic = A_over_C is not None and abs(A_over_C - 1.0) <= 1e-9
+    out = [(f"{integ} in place of {integrator}", best, timestep, integ)
+           for integ in WIDEN_INTEGRATORS
+           if integ != integrator and (isotropic or integ not in FIRST_ORDER)]
+    out.append((f"the step {timestep * WIDEN_STEP_FACTOR:g} s in place of {timestep:g} s",
+                best, timestep * WIDEN_STEP_FACTOR, integrator))
+    other = "elliptic" if best.cone == "pyramidal" else "pyramidal"
+    flipped = replace(best, cone=other,
+                      frictiondamping=None if other == "pyramidal" else best.frictiondamping)
+    out.append((f"the {other} cone in place of the {best.cone}", flipped, timestep,
+                integrator))
+    return out
+
+
+def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
+           fit_start: FitStart, threads: int, ball_until: list[float],
+           A_over_C: float | None,
+           check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
+           left: Callable[[], int], problems: list[Problem], max_iters: int,
+           say: Callable[[str], None] | None) -> dict[str, Any]:
+    """Where the fits and their seeds depart: their answer's discrete neighbours, then a fit.
+
+    First the answer with one discrete choice changed at a time
+    (:func:`widen_neighbours`), each verified from every start; the first that agrees is the
+    answer. Else the contact is fitted again, from the answer, at the integrator, step and
+    cone of the neighbour that passed the most checks (where that is not the answer's own),
+    and verified. All within ``left()`` runs (the budget's reserve, :func:`widen_reserve`).
+
+    Returns:
+        ``{tried: [{settings, what, agrees, departs, passes, checks, mjcf}], answer,
+        budget_spent}``; ``answer`` ``{cand, timestep_s, integrator, what, verified, mj}``
+        or None.
+    """
+    n_starts = 1 + len(HELD_OUT)
+    tried: list[dict[str, Any]] = []
+    spent = False
+
+    def record(what: str, cand: Candidate, step: float, integ: str,
+               v: list[dict[str, Any]], mj: list[Any]) -> dict[str, Any]:
+        row = {"settings": f"{cand.label()} {integ} dt={step:g}", "what": f"widened: {what}",
+               "agrees": agrees(v), "departs": departs(v), **passes(v),
+               "mjcf": mjcf_block(run_entry(mj[0])), "cand": cand, "timestep_s": step,
+               "integrator": integ, "verified": v, "mj": mj}
+        tried.append(row)
+        if say:
+            say(f"widened, {what}: {row['passes']} of {row['checks']} checks pass")
+        return row
+
+    def answer(row: dict[str, Any]) -> dict[str, Any]:
+        return {"tried": tried, "budget_spent": spent,
+                "answer": {"cand": row["cand"], "timestep_s": row["timestep_s"],
+                           "integrator": row["integrator"], "what": row["what"][9:],
+                           "verified": row["verified"], "mj": row["mj"]}}
+
+    for what, cand, step, integ in widen_neighbours(best, timestep, integrator, A_over_C):
+        if left() < n_starts:
+            spent = True
+            break
+        if cand.solref_direct is None and cand.timeconst_s < 2.0 * step:
+            continue  # MuJoCo would stiffen it to two steps: not the same contact
+        row = record(what, cand, step, integ, *check(cand, step, integ))
+        if row["agrees"]:
+            return answer(row)
+    best_row = max(tried, key=lambda r: r["passes"], default=None)
+    if best_row is None:
+        return {"tried": tried, "answer": None, "budget_spent": spent}
+    if left() < 1 + 2 * n_starts:  # a rollout, a fit's few, and its verification
+        return {"tried": tried, "answer": None, "budget_spent": True}
+    # a fit from the answer at the best neighbour's discrete choices
+    step, integ, start_cand = best_row["timestep_s"], best_row["integrator"], best_row["cand"]
+    refit = Problem([fit_start], problem.references, step, integ, problem.bounds, threads,
+                    ball_until, fitted=problem.fitted)
+    problems.append(refit)
+    refit.budget = left() - n_starts
+    found = identify(refit, [start_cand], max_iters=max_iters, say=say)
+    spent = spent or found.budget_spent
+    if found.best == start_cand:
+        return {"tried": tried, "answer": None, "budget_spent": spent}
+    what = f"fitted again at {integ} dt={step:g} s, {found.best.cone} cone"
+    row = record(what, found.best, step, integ, *check(found.best, step, integ))
+    if row["agrees"]:
+        return answer(row)
+    return {"tried": tried, "answer": None, "budget_spent": spent}
+
+
+__all__ = ["WIDEN_INTEGRATORS", "WIDEN_ONE_IN", "WIDEN_STEP_FACTOR", "widen",
+           "widen_neighbours", "widen_reserve"]
