@@ -384,7 +384,8 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         **_passes(verified),
         "budget_limited": budget_limited,
         "note": _note(agrees, departs, verified) + (
-            f" (the fit's own optimum departs from a held-out start; these are its {chosen})"
+            f" (the fit's own optimum departs from a held-out start; these are "
+            f"{_chosen_words(chosen)})"
             if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
             f"depart too" if alternatives and not agrees else "") + budget_note,
     }
@@ -564,6 +565,13 @@ def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
             "condim": get("condim", 3),
             # the contact pairs' friction rows' own solref (the lift-free family), else None
             "solreffriction": ran.get("solreffriction", best.solreffriction)}
+
+
+def _chosen_words(chosen: str) -> str:
+    """The answer other than the fit's own, in words: its seed, or what the widening did."""
+    if chosen.startswith("widened: "):
+        return f"the widening's, {chosen.removeprefix('widened: ')}"
+    return f"its {chosen}"
 
 
 def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> str:

@@ -286,15 +286,21 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
     if tuned and not tuned.get("skipped") and tuned.get("mjcf"):
         n = sum(v["passed"] is not None for v in tuned["verified"])
         chosen = tuned["fit"].get("chosen", "fit")
-        what = (f"the tuned settings (fitted with mujoco.sysid, verified from {n} starts)"
-                if chosen == "fit" else f"the tuning's {chosen} (verified from {n} starts; "
-                "the fit's own optimum departs)")
+        if chosen == "fit":
+            what = f"the tuned settings (fitted with mujoco.sysid, verified from {n} starts)"
+        elif chosen.startswith("widened: "):
+            what = (f"the tuning's widening, {chosen.removeprefix('widened: ')} (verified from "
+                    f"{n} starts; the fit's own optimum departs)")
+        else:
+            what = (f"the tuning's {chosen} (verified from {n} starts; the fit's own optimum "
+                    "departs)")
         checked = [c for v in tuned["verified"] for c in v["checks"]]
         out.append(_candidate("tuned", what, bool(tuned["agrees"]),
                               sum(c["passed"] is not False for c in checked), len(checked),
                               tuned["mjcf"], list(tuned.get("departs") or [])))
         for alt in tuned["fit"].get("alternatives") or []:
-            if not alt.get("mjcf") or alt["settings"] == chosen.removeprefix("seed: "):
+            if (not alt.get("mjcf") or alt["settings"] == chosen.removeprefix("seed: ")
+                    or alt.get("what") == chosen):  # the answer itself, listed above
                 continue
             label = ("the calibrated settings" if alt.get("calibrated") else
                      alt.get("what") or "a seed of the tuning")
