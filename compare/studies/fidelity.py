@@ -359,15 +359,12 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
 
 def _cache_path(base: tuple[str, ...], t_end_s: float, budget_runs: int | None) -> Path:
     """Where a point's tuning is kept: keyed by its plan, horizon, iterations and the code."""
-    from tippetop.compare.measures import verdict as verdict_rule
     from tippetop.compare.running.cache import code_fingerprint
-    from tippetop.compare.studies import tune
-    from tippetop.compare.studies.calibrate import identify, scoring
+    from tippetop.compare.studies.tune import source_digest
     from tippetop.models.resources import user_cache_dir
 
     plan = Task(None, base, "mujoco", "native").plan()
-    own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
-                                  for m in (tune, verdict_rule, identify, scoring))).hexdigest()
+    own = source_digest()
     key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
                                      "tune": own, "t_end_s": t_end_s, "budget_runs": budget_runs,
                                      "what": "fidelity/1"}, sort_keys=True,

@@ -567,6 +567,24 @@ def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
             "solreffriction": ran.get("solreffriction", best.solreffriction)}
 
 
+def source_digest() -> str:
+    """sha256 of the tuning's own code, which the runs' code fingerprint does not hold.
+
+    This module, its starts and verdict, its widening, the verdict's rules, the fit and its
+    scoring: what a cached tuning (validate's, a fidelity point's) was computed with.
+    """
+    import hashlib
+    from pathlib import Path
+
+    from tippetop.compare.measures import verdict as verdict_rule
+    from tippetop.compare.studies import tune_judge, tune_widen
+    from tippetop.compare.studies.calibrate import identify, scoring
+
+    modules = (sys.modules[__name__], tune_judge, tune_widen, verdict_rule, identify, scoring)
+    return hashlib.sha256(b"".join(Path(str(m.__file__)).read_bytes()
+                                   for m in modules)).hexdigest()
+
+
 def _chosen_words(chosen: str) -> str:
     """The answer other than the fit's own, in words: its seed, or what the widening did."""
     if chosen.startswith("widened: "):
@@ -607,4 +625,4 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
 
 __all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "LIFT_FREE", "TuneStart", "cone_order",
            "fit_horizon", "fit_order",
-           "min_budget_runs", "seeds", "starts_for", "tune"]
+           "min_budget_runs", "seeds", "source_digest", "starts_for", "tune"]

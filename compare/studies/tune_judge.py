@@ -19,6 +19,7 @@ from tippetop.models.numbers import number_text
 HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0))
 MIN_TILT_STEP_RAD = 0.05
 
+
 @dataclass(frozen=True)
 class TuneStart:
     """A start: spin n0 (rad/s) and tilt theta0 (rad), and whether the fit used it."""

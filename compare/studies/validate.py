@@ -537,16 +537,13 @@ def _tune_cache_path(over: tuple[str, ...], budget_runs: int = TUNE_BUDGET_RUNS)
     """
     import hashlib
 
-    from tippetop.compare.measures import verdict as verdict_rule
     from tippetop.compare.running.runner import code_fingerprint
-    from tippetop.compare.studies import tune
-    from tippetop.compare.studies.calibrate import identify, scoring
+    from tippetop.compare.studies.tune import source_digest
     from tippetop.models.resources import user_cache_dir
 
     plan = Task(None, over, "mujoco", "file").plan()
     # the runs' code, and the tuning's own (which the runs' fingerprint does not hold)
-    own = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
-                                  for m in (tune, verdict_rule, identify, scoring))).hexdigest()
+    own = source_digest()
     key = hashlib.sha256(json.dumps({"plan": plan.to_json(), "code": code_fingerprint(),
                                      "tune": own, "what": "tune/1",
                                      "budget_runs": budget_runs}, sort_keys=True,

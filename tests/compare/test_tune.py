@@ -345,3 +345,25 @@ def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horiz
     assert calls == [16.0, 16.0, 32.0]  # a and b doubled together, then b again
     assert refs[3] is stopped and refs[2] is first[2]
     assert tune_module.HORIZON_FACTOR_MAX == 4.0
+
+
+def test_a_cached_tuning_is_keyed_by_all_of_the_tunings_code(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """validate's and fidelity's cached tunings are keyed by :func:`source_digest`: a change to
+    the widening or to the verification's judge (modules of their own) is a new key."""
+    from tippetop.compare.studies import tune, tune_judge, tune_widen
+    from tippetop.compare.studies.tune import source_digest
+
+    before = source_digest()
+    for module in (tune, tune_judge, tune_widen):
+        real = Path.read_bytes
+        path = Path(str(module.__file__))
+
+        def edited(self: Path, real=real, path=path) -> bytes:
+            data = real(self)
+            return data + b"\n# edited\n" if self == path else data
+
+        with monkeypatch.context() as m:
+            m.setattr(Path, "read_bytes", edited)
+            assert source_digest() != before, module.__name__
+    assert source_digest() == before
