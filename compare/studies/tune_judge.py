@@ -18,6 +18,8 @@ from tippetop.models.numbers import number_text
 #: meant to hold: a faster spin, a slower one, a larger tilt.
 HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0))
 MIN_TILT_STEP_RAD = 0.05
+#: Starts each verification runs: the file's own and the held-out ones.
+N_STARTS = 1 + len(HELD_OUT)
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,7 @@ def starts_for(n0: float, theta0: float) -> list[TuneStart]:
 
 def min_budget_runs() -> int:
     """The smallest ``--budget-runs``: one seed scored, then every start verified with it."""
-    return 1 + 1 + len(HELD_OUT)
+    return 1 + N_STARTS
 
 def passes(verified: list[dict[str, Any]]) -> dict[str, int]:
     """``{passes, checks}``: the checks that pass over every start verified, and all of them."""
@@ -89,5 +91,5 @@ def mjcf_block(ran: dict[str, Any]) -> str:
     return out if pair is None else f"{out}\n{pair}"
 
 
-__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "TuneStart", "agrees", "departs", "min_budget_runs",
-           "mjcf_block", "passes", "start_label", "starts_for"]
+__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "N_STARTS", "TuneStart", "agrees", "departs",
+           "min_budget_runs", "mjcf_block", "passes", "start_label", "starts_for"]

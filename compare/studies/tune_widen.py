@@ -19,7 +19,7 @@ from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
 from tippetop.compare.studies.calibrate.identify import FitStart, Problem, identify
 from tippetop.compare.studies.calibrate.scoring import Candidate
 from tippetop.compare.studies.tune_judge import (
-    HELD_OUT,
+    N_STARTS,
     agrees,
     departs,
     min_budget_runs,
@@ -45,7 +45,7 @@ def widen_reserve(budget_runs: int) -> int:
     None below a widening's smallest use (two neighbours verified); the fits always keep at
     least :func:`min_budget_runs`.
     """
-    n_starts = 1 + len(HELD_OUT)
+    n_starts = N_STARTS
     reserve = min(budget_runs // WIDEN_ONE_IN, budget_runs - min_budget_runs())
     return reserve if reserve >= 2 * n_starts else 0
 
@@ -74,25 +74,25 @@ def widen_neighbours(best: Candidate, timestep: float, integrator: str,
 
 
 def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
-           fit_start: FitStart, threads: int, ball_until: list[float],
-           A_over_C: float | None,
-           check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
-           left: Callable[[], int], problems: list[Problem], max_iters: int,
-           say: Callable[[str], None] | None) -> dict[str, Any]:
+          fit_start: FitStart, threads: int, ball_until: list[float],
+          A_over_C: float | None,
+          check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
+          left: Callable[[], int], problems: list[Problem], max_iters: int,
+          say: Callable[[str], None] | None) -> dict[str, Any]:
     """Where the fits and their seeds depart: their answer's discrete neighbours, then a fit.
 
     First the answer with one discrete choice changed at a time
     (:func:`widen_neighbours`), each verified from every start; the first that agrees is the
     answer. Else the contact is fitted again, from the answer, at the integrator, step and
-    cone of the neighbour that passed the most checks (where that is not the answer's own),
-    and verified. All within ``left()`` runs (the budget's reserve, :func:`widen_reserve`).
+    cone of the neighbour that passed the most checks, and verified. All within ``left()``
+    runs (the budget's reserve, :func:`widen_reserve`).
 
     Returns:
         ``{tried: [{settings, what, agrees, departs, passes, checks, mjcf}], answer,
         budget_spent}``; ``answer`` ``{cand, timestep_s, integrator, what, verified, mj}``
         or None.
     """
-    n_starts = 1 + len(HELD_OUT)
+    n_starts = N_STARTS
     tried: list[dict[str, Any]] = []
     spent = False
 
@@ -110,7 +110,8 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
     def answer(row: dict[str, Any]) -> dict[str, Any]:
         return {"tried": tried, "budget_spent": spent,
                 "answer": {"cand": row["cand"], "timestep_s": row["timestep_s"],
-                           "integrator": row["integrator"], "what": row["what"][9:],
+                           "integrator": row["integrator"],
+                           "what": row["what"].removeprefix("widened: "),
                            "verified": row["verified"], "mj": row["mj"]}}
 
     for what, cand, step, integ in widen_neighbours(best, timestep, integrator, A_over_C):
