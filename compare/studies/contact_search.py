@@ -23,7 +23,6 @@ depart attributed to the parts of the space (:func:`attribution`).
 
 from __future__ import annotations
 
-import inspect
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -43,6 +42,7 @@ from tippetop.compare.studies.fidelity import (
     point_overrides,
     start_spin,
 )
+from tippetop.compare.studies.sobol import sobol_unit
 from tippetop.compare.studies.tune import TuneStart, settled_references, starts_for
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.errors import RunFailedError, TippetopError
@@ -187,15 +187,6 @@ def space(mu: float) -> dict[str, Any]:
                                    f"{PAIRS_SHARE:.0%} of the elliptic candidates"},
         "mu": {"range": [mu / MU_FACTOR, mu * MU_FACTOR], "scale": "log"},
     }
-
-
-def sobol_unit(n: int, d: int, seed: int) -> np.ndarray:
-    """``n`` points of a scrambled, seeded Sobol sequence in [0, 1)^d (a power-of-2 prefix)."""
-    from scipy.stats import qmc
-
-    key = "rng" if "rng" in inspect.signature(qmc.Sobol).parameters else "seed"
-    sampler = qmc.Sobol(d, scramble=True, **{key: np.random.default_rng(seed)})
-    return sampler.random_base2(max(0, math.ceil(math.log2(max(n, 1)))))[:n]
 
 
 def by_rank(u: np.ndarray, choices: Sequence[Any], weights: Sequence[float] | None = None

@@ -1,7 +1,8 @@
 """The tuning's widening: where the fits and their seeds depart, the answer's neighbours.
 
 The answer with one discrete choice changed at a time (integrator, step, cone), each verified
-from every start, then a fit at the best of those (:func:`widen`), from runs kept back for it
+from every start, then a fit at the best of those, then draws in a small box about the best so
+far (:func:`widen`, :func:`local_candidates`), from runs kept back for it
 (:func:`widen_reserve`). Measured on the fidelity map before it existed
 (docs/guide/fidelity.md, "Beyond the tuning"): of the four settings that the tuning missed
 and a search over MuJoCo's whole contact space found, one was its own answer with Euler in
@@ -11,13 +12,21 @@ it.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
-from tippetop.compare.studies.calibrate.identify import FitStart, Problem, identify
+from tippetop.compare.studies.calibrate.identify import (
+    DAMPRATIO_BOUNDS,
+    Bounds,
+    FitStart,
+    Problem,
+    identify,
+)
 from tippetop.compare.studies.calibrate.scoring import Candidate
+from tippetop.compare.studies.sobol import sobol_unit
 from tippetop.compare.studies.tune_judge import (
     N_STARTS,
     agrees,
@@ -37,6 +46,17 @@ WIDEN_ONE_IN = 3
 #: every start with Euler; at mu 0.3 a fit at Euler agreed where the fit at RK4 departed.
 WIDEN_INTEGRATORS = ("RK4", "Euler", "implicitfast")
 WIDEN_STEP_FACTOR = 0.5
+#: The local draw (:func:`local_candidates`): at most this many candidates, in a box of this
+#: half-width (decades) about the best so far in each fitted setting and the damping ratio,
+#: from a scrambled Sobol sequence with this seed; the refit leaves runs for this many.
+#: Measured on the fidelity map before it existed: at A/C 1, a/R 0.25, mu 0.3, 2 of 16 such
+#: draws about the refit at Euler (19 of 20 checks) agreed from every start, and the search
+#: over MuJoCo's whole contact space found its agreeing settings within 0.15 decade of the
+#: tuning's at A/C 0.8, a/R 0.25, mu 1 (docs/data/contact-searches.json).
+LOCAL_MAX = 16
+LOCAL_HALF_DECADES = 0.1
+LOCAL_SEED = 0
+LOCAL_KEEP = 8
 
 
 def widen_reserve(budget_runs: int) -> int:
@@ -73,19 +93,54 @@ def widen_neighbours(best: Candidate, timestep: float, integrator: str,
     return out
 
 
+def local_candidates(centre: Candidate, fitted: Sequence[str], bounds: Bounds, n: int,
+                     timestep: float, seed: int = LOCAL_SEED,
+                     half_decades: float = LOCAL_HALF_DECADES) -> list[Candidate]:
+    """``n`` candidates in a box about ``centre``: each fitted setting and the damping ratio.
+
+    Each setting of ``fitted`` (and the solref damping ratio where the solref is a time
+    constant and a damping ratio) within ``half_decades`` of the centre's on a log scale,
+    from a scrambled Sobol sequence seeded ``seed``; clipped to ``bounds`` (the damping ratio
+    to the wide fit's), rounded to 3 significant digits, the time constant at least two steps
+    (MuJoCo would stiffen a shorter one to two), the centre and repeats left out.
+    """
+    names = list(fitted)
+    if "dampratio" not in names and centre.solref_direct is None:
+        names.append("dampratio")
+    limits = {**bounds.values, "dampratio": bounds.values.get("dampratio", DAMPRATIO_BOUNDS)}
+    out: list[Candidate] = []
+    if n <= 0:
+        return out
+    for row in sobol_unit(n, len(names), seed):
+        values = {}
+        for k, name in enumerate(names):
+            lo, hi = limits.get(name, (0.0, math.inf))
+            x = getattr(centre, name) * 10.0 ** ((2.0 * float(row[k]) - 1.0) * half_decades)
+            values[name] = min(max(x, lo), hi)
+        if "timeconst_s" in values:
+            values["timeconst_s"] = max(values["timeconst_s"], 2.0 * timestep)
+        cand = replace(centre, **values).rounded()
+        cand = replace(cand, dampratio=float(f"{cand.dampratio:.3g}"))
+        if cand != centre and cand not in out:
+            out.append(cand)
+    return out
+
+
 def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
           fit_start: FitStart, threads: int, ball_until: list[float],
           A_over_C: float | None,
           check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
           left: Callable[[], int], problems: list[Problem], max_iters: int,
           say: Callable[[str], None] | None) -> dict[str, Any]:
-    """Where the fits and their seeds depart: their answer's discrete neighbours, then a fit.
+    """Where the fits and their seeds depart: their answer's discrete neighbours, a fit, draws.
 
     First the answer with one discrete choice changed at a time
     (:func:`widen_neighbours`), each verified from every start; the first that agrees is the
     answer. Else the contact is fitted again, from the answer, at the integrator, step and
-    cone of the neighbour that passed the most checks, and verified. All within ``left()``
-    runs (the budget's reserve, :func:`widen_reserve`).
+    cone of the neighbour that passed the most checks, and verified. Else candidates drawn
+    about the best so far (the most checks passed; the latest of equals) at its integrator
+    and step (:func:`local_candidates`), each verified in turn, the first that agrees the
+    answer. All within ``left()`` runs (the budget's reserve, :func:`widen_reserve`).
 
     Returns:
         ``{tried: [{settings, what, agrees, departs, passes, checks, mjcf}], answer,
@@ -126,24 +181,42 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
     best_row = max(tried, key=lambda r: r["passes"], default=None)
     if best_row is None:
         return {"tried": tried, "answer": None, "budget_spent": spent}
-    if left() < 1 + 2 * n_starts:  # a rollout, a fit's few, and its verification
-        return {"tried": tried, "answer": None, "budget_spent": True}
-    # a fit from the answer at the best neighbour's discrete choices
-    step, integ, start_cand = best_row["timestep_s"], best_row["integrator"], best_row["cand"]
-    refit = Problem([fit_start], problem.references, step, integ, problem.bounds, threads,
-                    ball_until, fitted=problem.fitted)
-    problems.append(refit)
-    refit.budget = left() - n_starts
-    found = identify(refit, [start_cand], max_iters=max_iters, say=say)
-    spent = spent or found.budget_spent
-    if found.best == start_cand:
-        return {"tried": tried, "answer": None, "budget_spent": spent}
-    what = f"fitted again at {integ} dt={step:g} s, {found.best.cone} cone"
-    row = record(what, found.best, step, integ, *check(found.best, step, integ))
-    if row["agrees"]:
-        return answer(row)
+    keep = LOCAL_KEEP * n_starts
+    if left() >= 1 + 2 * n_starts + keep:  # a rollout, a fit's few, its verification, draws
+        # a fit from the answer at the best neighbour's discrete choices
+        step, integ, start_cand = (best_row["timestep_s"], best_row["integrator"],
+                                   best_row["cand"])
+        refit = Problem([fit_start], problem.references, step, integ, problem.bounds,
+                        threads, ball_until, fitted=problem.fitted)
+        problems.append(refit)
+        refit.budget = left() - n_starts - keep
+        found = identify(refit, [start_cand], max_iters=max_iters, say=say)
+        spent = spent or found.budget_spent
+        if found.best != start_cand:
+            what = f"fitted again at {integ} dt={step:g} s, {found.best.cone} cone"
+            row = record(what, found.best, step, integ, *check(found.best, step, integ))
+            if row["agrees"]:
+                return answer(row)
+    # draws about the best so far, at its discrete choices
+    centre = max(reversed(tried), key=lambda r: r["passes"])
+    step, integ = centre["timestep_s"], centre["integrator"]
+    done = {(r["cand"], r["timestep_s"], r["integrator"]) for r in tried}
+    draws = [c for c in local_candidates(centre["cand"], problem.fitted, problem.bounds,
+                                         min(LOCAL_MAX, left() // n_starts), step)
+             if (c, step, integ) not in done]
+    about = centre["what"].removeprefix("widened: ")
+    for k, cand in enumerate(draws, start=1):
+        if left() < n_starts:
+            spent = True
+            break
+        what = (f"drawn ({k} of {len(draws)}) within {LOCAL_HALF_DECADES:g} decade of the "
+                f"best so far ({about})")
+        row = record(what, cand, step, integ, *check(cand, step, integ))
+        if row["agrees"]:
+            return answer(row)
     return {"tried": tried, "answer": None, "budget_spent": spent}
 
 
-__all__ = ["WIDEN_INTEGRATORS", "WIDEN_ONE_IN", "WIDEN_STEP_FACTOR", "widen",
-           "widen_neighbours", "widen_reserve"]
+__all__ = ["LOCAL_HALF_DECADES", "LOCAL_KEEP", "LOCAL_MAX", "LOCAL_SEED", "WIDEN_INTEGRATORS",
+           "WIDEN_ONE_IN", "WIDEN_STEP_FACTOR", "local_candidates", "widen", "widen_neighbours",
+           "widen_reserve"]

@@ -31,7 +31,12 @@ from tippetop.compare.studies.tune import (
     seeds,
     starts_for,
 )
-from tippetop.compare.studies.tune_widen import widen_neighbours, widen_reserve
+from tippetop.compare.studies.tune_widen import (
+    LOCAL_HALF_DECADES,
+    local_candidates,
+    widen_neighbours,
+    widen_reserve,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
@@ -95,6 +100,44 @@ def test_the_widenings_neighbours_change_one_choice_each() -> None:
     # the answer's own integrator is not a neighbour of itself
     assert all(i != "Euler" or dt != 2e-4 or c != best
                for _, c, dt, i in widen_neighbours(best, 2e-4, "Euler", 1.0))
+
+
+def test_the_widenings_draws_fill_a_small_box_about_the_best() -> None:
+    """The draws stay within LOCAL_HALF_DECADES of the centre in each fitted setting and the
+    damping ratio (a 3-digit rounding's 0.5 % beside), inside the bounds, with a time constant
+    of at least two steps; they reach both sides of the centre in each setting (a draw that
+    only shrank one setting would not be a box); the rest of the contact is the centre's."""
+    from tippetop.compare.studies.calibrate.identify import FITTED
+    from tippetop.compare.studies.calibrate.scoring import Candidate
+
+    centre = Candidate("pyramidal", 1.28, 0.000929, 0.0894, 0.35)
+    bounds = Bounds.around(0.3, 2e-4)
+    draws = local_candidates(centre, FITTED, bounds, 16, 2e-4)
+    assert 12 <= len(draws) <= 16 and len(set(draws)) == len(draws) and centre not in draws
+    factor = 10.0 ** LOCAL_HALF_DECADES * 1.005
+    for name in (*FITTED, "dampratio"):
+        ratios = [getattr(c, name) / getattr(centre, name) for c in draws]
+        assert all(1.0 / factor <= r <= factor for r in ratios), name
+        assert min(ratios) < 0.9 and max(ratios) > 1.1, name  # both sides, not only near
+        lo, hi = bounds.values.get(name, (0.0, math.inf))
+        assert all(lo <= getattr(c, name) <= hi for c in draws), name
+    assert all(c.cone == centre.cone and c.solimp_tail == centre.solimp_tail for c in draws)
+    # the same seed draws the same candidates; another seed others
+    assert local_candidates(centre, FITTED, bounds, 16, 2e-4) == draws
+    assert local_candidates(centre, FITTED, bounds, 16, 2e-4, seed=1) != draws
+    assert local_candidates(centre, FITTED, bounds, 0, 2e-4) == []
+    # at a bound and at two steps: clipped, never past them
+    edge = Candidate("pyramidal", 1.0, 4e-4, 0.1, 0.3 * 2.0)
+    near = local_candidates(edge, FITTED, bounds, 16, 2e-4)
+    assert max(c.mu for c in near) <= bounds.values["mu"][1] + 1e-12
+    assert min(c.timeconst_s for c in near) >= 4e-4 - 1e-12
+    # a direct solref has no damping ratio to vary
+    direct = Candidate("elliptic", 300.0, 0.02, 1e-4, 1.0, solref_direct=(-1e5, -632.0),
+                       frictiondamping=2.6)
+    lift = local_candidates(direct, ("impratio", "frictiondamping"), Bounds.lift_free(), 8,
+                            2e-4)
+    assert lift and all(c.dampratio == direct.dampratio and c.solref_direct == (-1e5, -632.0)
+                        for c in lift)
 
 
 def test_seeds_are_at_the_files_mu_in_both_cones() -> None:
