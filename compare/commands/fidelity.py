@@ -40,7 +40,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "verify it from held-out starts, as 'tippetop validate' tunes a file; print one row "
         "per point (agrees, the fit's residual, and the cause where it does not). The points are "
         "tuned several at once (--workers), or one task each on a Dask cluster (--scheduler); "
-        "the default grid took 11.1 minutes on 2 cores, two points at once, 7-220 s a point "
+        "the default grid took 14.4 minutes on 2 cores, two points at once, 7-413 s a point "
         "(docs/guide/fidelity.md, 'Cost').")
     p.add_argument("--grid", default=DEFAULT_GRID, metavar="NAME",
                    help=f"a named grid of A/C x a/R x mu ({grids}) (default: the one named "
