@@ -72,11 +72,29 @@ def _num(v: Any, fmt: str = ".3g") -> str:
     return "-" if v is None else f"{v:{fmt}}"
 
 
+def answer_text(p: Mapping[str, Any]) -> str:
+    """How a point's answer was found and what it runs: ``the fit; pyramidal, RK4 at 0.2 ms``.
+
+    ``chosen`` in words (the fit, one of its seeds, or the widening's step), then the cone,
+    integrator and step of the settings verified; ``-`` for a point not tuned.
+    """
+    s = p.get("settings") or {}
+    chosen = str(p.get("chosen") or "")
+    if not s or not chosen:
+        return "-"
+    how = ("the fit" if chosen == "fit" else
+           f"the widening: {chosen.removeprefix('widened: ')}" if chosen.startswith("widened: ")
+           else f"the fit's {chosen}")
+    dt = s.get("timestep_s")
+    ran = ", ".join(str(v) for v in (s.get("cone"), s.get("integrator")) if v)
+    return f"{how}; {ran}" + (f" at {dt * 1e3:g} ms" if dt else "")
+
+
 def point_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
-    """The table's rows: #, A/C, a/R, mu, group, agrees, residual (rad), cause."""
+    """The table's rows: #, A/C, a/R, mu, group, agrees, residual (rad), answer, cause."""
     return [(i, _num(p["A_over_C"]), _num(p["a_over_R"]), _num(p["mu"]), p["group"] or "-",
              point_state(p) if not p.get("agrees") else "yes",
-             _num(p.get("residual"), ".2g"), p.get("cause") or "-")
+             _num(p.get("residual"), ".2g"), answer_text(p), p.get("cause") or "-")
             for i, p in enumerate(result["points"], start=1)]
 
 
@@ -108,10 +126,13 @@ def report_page(result: Mapping[str, Any]) -> str:
         f"<figure>{png(fidelity_figure(result))}<figcaption>The group diagram (Group I: "
         "A/C &lt; 1 - a/R; II between the lines; III: A/C &gt; 1 + a/R), one panel per mu; "
         "numbers refer to the table.</figcaption></figure>",
-        html_table(["#", "A/C", "a/R", "mu", "group", "agrees", "residual (rad)", "cause"],
-                   cells),
+        html_table(["#", "A/C", "a/R", "mu", "group", "agrees", "residual (rad)",
+                    "answer (how found; what runs)", "cause"], cells),
         f"<p class='note'>What ran: {ran}. The residual is the fit's: "
-        "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1))^2).</p>",
+        "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1))^2); where "
+        "the answer is the widening's, it is the fit's before the widening (a neighbour or a "
+        "draw is verified, not fitted). The settings of each answer are results.json's "
+        "<code>settings</code>.</p>",
     ]
     return page("tippetop fidelity", body)
 
@@ -150,5 +171,5 @@ if __name__ == "__main__":
     raise SystemExit(main())
 
 
-__all__ = ["AGREE_COLOURS", "fidelity_figure", "main", "point_rows", "point_state",
+__all__ = ["AGREE_COLOURS", "answer_text", "fidelity_figure", "main", "point_rows", "point_state",
            "report_page"]

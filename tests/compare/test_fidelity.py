@@ -420,3 +420,23 @@ def test_each_point_is_one_task_on_a_dask_cluster(one_at_a_time: dict[str, Any],
         assert res["scheduler"] == lc.scheduler_address
     assert res["points_at_once"] is None
     assert _points(res) == _points(one_at_a_time)
+
+
+def test_the_report_says_how_each_answer_was_found() -> None:
+    """Each row names its answer's origin (the fit, a seed, the widening's step) and what it
+    runs, read from the stored map's settings; a point not tuned says '-'."""
+    from tippetop.compare.report.fidelity import answer_text, point_rows
+
+    stored = json.loads((Path(__file__).resolve().parents[2] / "docs" / "data"
+                         / "fidelity-default.json").read_text(encoding="utf-8"))
+    rows = point_rows(stored)
+    assert all(len(r) == 9 for r in rows)
+    for p, r in zip(stored["points"], rows, strict=True):
+        s = p["settings"]
+        assert r[7].endswith(f"{s['cone']}, {s['integrator']} at {s['timestep_s'] * 1e3:g} ms")
+        assert r[7].startswith("the fit;" if p["chosen"] == "fit" else "the widening: ")
+    drawn = {"chosen": "widened: drawn (9 of 15) within 0.1 decade of the best so far (x)",
+             "settings": {"cone": "elliptic", "integrator": "RK4", "timestep_s": 1e-4}}
+    assert answer_text(drawn) == ("the widening: drawn (9 of 15) within 0.1 decade of the best "
+                                  "so far (x); elliptic, RK4 at 0.1 ms")
+    assert answer_text({"chosen": None, "settings": None}) == "-"
