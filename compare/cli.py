@@ -40,8 +40,6 @@ from tippetop.models.engines import ENGINE_MEANINGS
 COMMANDS = (theory, simulate, plan, compare, matrix, bisect, threshold, sweep, bench, nightly,
             history, report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
 
-#: The engines, with what each is (``tippetop --help``; :mod:`tippetop.models.engines`).
-ENGINES = ENGINE_MEANINGS
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).
 ENVIRONMENT: dict[str, str] = {
@@ -137,7 +135,7 @@ def top_epilog() -> str:
                   "and render run the paper's eq. 3.10 top from the Fig. 3 start):",
                   scene_catalogue())
     lines += [""] + block("engines (--engine, --engines: what integrates a run):",
-                          list(ENGINES.items()))
+                          list(ENGINE_MEANINGS.items()))
     lines += [""] + block("modes (--mode, --modes: how the contact force is made):",
                           [(name, f"{m.meaning} ({runs_on(name)})")
                            for name, m in MODES.items()])

@@ -27,9 +27,6 @@ from tippetop.models.modes import LAW_MODES
 from tippetop.models.options import OdeOptions, auto_method, method_title, taylor_runs
 from tippetop.models.params import FrictionParams, InitialState, StemParams, TopParams
 
-#: The engine families a plan can be made for: the reference's plan, or MuJoCo's (which every
-#: MuJoCo engine runs: a release, a build, MJX, Warp).
-ENGINES: tuple[str, ...] = ("ode", "mujoco")
 #: The ``format`` of a plan's JSON (2: the engine it runs on and its mode); another is refused.
 PLAN_FORMAT = "tippetop-plan/2"
 #: The formats read: the first one's plans run on the family's own engine, in the mode their
@@ -536,7 +533,7 @@ def from_data(kind: Any, data: Any, where: str) -> Any:
     return data
 
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "ENGINES", "GRID_RTOL",
+__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_SAMPLE_DT_S", "GRID_RTOL",
            "MUJOCO_MAX_STEPS", "NATIVE_LAW", "PLAN_FORMAT", "READ_FORMATS", "SAMPLE_BUDGET_ENV",
            "SAMPLE_BUDGET_GIB", "SAMPLE_COLUMNS", "FileTop", "MujocoPlan", "OdePlan", "RunPlan",
            "check_mujoco_steps", "check_samples", "default_sample_dt", "from_data",

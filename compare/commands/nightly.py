@@ -21,7 +21,7 @@ from tippetop.compare.commands.options import (
     comma_list,
     run_main,
 )
-from tippetop.models.plan import ENGINES
+from tippetop.models.engines import FAMILIES
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -45,12 +45,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", help="output folder (default: a new "
                    "nightly-YYYYMMDD-HHMMSS in the current folder)")
     add_force_option(p, help="write into a non-empty --out")
-    p.add_argument("--engines", default=",".join(ENGINES), metavar="ENGINE,...",
+    p.add_argument("--engines", default=",".join(FAMILIES), metavar="ENGINE,...",
                    help="comma-separated engines: ode (the reference) and the MuJoCo engines "
                    "the catalogue's MuJoCo cases run on: mujoco (the installed one), "
                    "mujoco==X.Y.Z, mujoco@PYTHON, mjx, mjx-f32, warp; each MuJoCo engine keeps "
                    "its own baseline file, <profile>@<engine>.json beside <profile>.json "
-                   f"(default: {','.join(ENGINES)})")
+                   f"(default: {','.join(FAMILIES)})")
     p.add_argument("--modes", metavar="MODE,...", help="only the cases in these comma-"
                    "separated modes, e.g. paper or native,native-condim4 (default: every mode "
                    "of the catalogue)")

@@ -16,6 +16,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import LAW_MODES, run_label
 from tippetop.models.numbers import number_text, solver_text
@@ -64,7 +65,7 @@ class RanField:
     engines: tuple[str, ...] = ("mujoco",)
 
 
-_BOTH = ("ode", "mujoco")
+_BOTH = FAMILIES  # a field of every run, of either family
 
 #: What a run reports it ran with, read back from the engine (the order ``what ran`` lists it).
 RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (

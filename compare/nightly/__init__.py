@@ -17,7 +17,6 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "load_baseline": "baselines",
     "update_baseline": "baselines",
     "CATALOGUE_PATH": "catalogue",
-    "ENGINES": "catalogue",
     "KIND_METRICS": "catalogue",
     "KINDS": "catalogue",
     "PROFILES": "catalogue",
@@ -42,7 +41,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
 })
 
 __all__ = [
-    "BASELINE_DIR", "CATALOGUE_PATH", "ENGINES", "EXIT_OK", "EXIT_REGRESSION", "KINDS",
+    "BASELINE_DIR", "CATALOGUE_PATH", "EXIT_OK", "EXIT_REGRESSION", "KINDS",
     "KIND_METRICS", "PROFILES", "Case", "CaseRun", "Catalogue", "NightlyOptions",
     "baseline_file", "case_record", "case_status", "check_case",
     "environment", "junit_xml", "load_baseline", "load_catalogue", "render_videos", "run_cases",

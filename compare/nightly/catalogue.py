@@ -17,6 +17,7 @@ from typing import Any
 from tippetop.compare.measures.metrics import KINDS, TOLERANCES, kind_metrics
 from tippetop.compare.studies.sweep import parse_range
 from tippetop.compare.studies.threshold import METHODS, WHICH
+from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import MODES, OLD_NAMES, note, run_label
 from tippetop.models.resources import data_path
@@ -24,9 +25,6 @@ from tippetop.models.resources import data_path
 #: The catalogue shipped with the package.
 CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
 PROFILES = ("quick", "full", "stress")
-#: The engine families a catalogue names: ``ode`` (the reference) and ``mujoco`` (the MuJoCo
-#: engines ``--engines`` gives: the installed one by default).
-ENGINES = ("ode", "mujoco")
 
 #: Metrics each kind of case can check: every metric :mod:`.metrics` declares for the kind
 #: with a tolerance against a baseline.
@@ -376,17 +374,17 @@ def _runs(entry: dict[str, Any], modes: list[str],
     families = entry.get("engines")
     if families is not None:
         if not (isinstance(families, list) and families
-                and all(f in ENGINES for f in families)):
-            raise TippetopError(f"{where}.engines: expected a list of {' and '.join(ENGINES)}, "
+                and all(f in FAMILIES for f in families)):
+            raise TippetopError(f"{where}.engines: expected a list of {' and '.join(FAMILIES)}, "
                                 f"got {families!r}")
     out: list[tuple[str, str, tuple[str, ...]]] = []
     old_given = []
     for m in modes:
         if m in MODES:
-            fams = [f for f in (families or ENGINES) if f in MODES[m].families]
+            fams = [f for f in (families or FAMILIES) if f in MODES[m].families]
             if not fams:
                 raise TippetopError(f"{where}.modes: expected modes the engines "
-                                    f"{', '.join(families or ENGINES)} can run, got {m!r}")
+                                    f"{', '.join(families or FAMILIES)} can run, got {m!r}")
             out += [(f, m, ()) for f in fams]
         elif m in OLD_NAMES:
             engine, mode, extra = OLD_NAMES[m]
@@ -510,7 +508,7 @@ def _safe_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]", "_", text) or "model"
 
 
-def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = ENGINES,
+def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = FAMILIES,
                  patterns: Sequence[str] = (), modes: Sequence[str] = (),
                  models: Sequence[str | Path] = ()) -> list[Case]:
     """The cases of ``profile`` on ``engines`` (families) whose id matches one of ``patterns``.

@@ -12,9 +12,10 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.measures.series import classify_outcome, theta_trend
-from tippetop.compare.nightly.catalogue import ENGINES, Case
+from tippetop.compare.nightly.catalogue import Case
 from tippetop.compare.running.runner import SchedulerLost, Task, TaskResult, run_tasks
 from tippetop.compare.studies.threshold import measure_threshold
+from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import Scene, load_scene
 
@@ -131,7 +132,7 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
             raise TippetopError(f"case {c.id}: {exc}") from None
     with tempfile.TemporaryDirectory(prefix="tippetop-nightly-") as tmp:
         cache = cache_dir or Path(tmp)
-        for engine in ENGINES:
+        for engine in FAMILIES:
             jobs: list[tuple[Case, float | None, Task]] = []
             for c in cases:
                 if c.family != engine:

@@ -28,7 +28,7 @@ from tippetop.compare.nightly.baselines import (
     update_baseline,
 )
 from tippetop.compare.nightly.catalogue import (
-    ENGINES,
+    FAMILIES,
     Case,
     Catalogue,
     load_catalogue,
@@ -82,7 +82,7 @@ class NightlyOptions:
     no_baseline: bool = False
     out: str | None = None
     force: bool = False
-    engines: tuple[str, ...] = ENGINES
+    engines: tuple[str, ...] = FAMILIES
     modes: tuple[str, ...] = ()
     cases: tuple[str, ...] = ()
     scheduler: str | None = None
@@ -183,7 +183,7 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
         kinds.append("mujoco")
     if not kinds:
         raise TippetopError(f"--engines: expected a comma-separated list of "
-                            f"{','.join(ENGINES)} or engine specs, got none")
+                            f"{','.join(FAMILIES)} or engine specs, got none")
     return tuple(kinds), specs
 
 

@@ -30,8 +30,8 @@ from __future__ import annotations
 from .mjx_stepper import MjxStepper, window_add
 from .paper_law import PaperLaw, law_force
 from .protocol import (
-    ENGINES,
     PACKAGES,
+    PRECISIONS,
     PROGRESS_S,
     PROTOCOL,
     Refused,
@@ -42,7 +42,7 @@ from .serve import answer, main, run, window_top
 from .warp_stepper import WarpStepper, warp_law_kernel, warp_window_kernels
 from .windows import WindowAccumulator, WindowTop
 
-__all__ = ["ENGINES", "PACKAGES", "PROGRESS_S", "PROTOCOL", "MjxStepper", "PaperLaw", "Refused",
+__all__ = ["PRECISIONS", "PACKAGES", "PROGRESS_S", "PROTOCOL", "MjxStepper", "PaperLaw", "Refused",
            "WarpStepper", "WindowAccumulator", "WindowTop", "answer", "engine_of",
            "keep_stdout_for_replies", "law_force", "main", "run", "warp_law_kernel",
            "warp_window_kernels", "window_add", "window_top"]

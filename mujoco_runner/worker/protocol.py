@@ -19,8 +19,8 @@ import sys
 #: forward pass added to its sample's window, ``windows_int`` and ``windows_float`` in
 #: place of the contacts at the samples and paper mode's forces there).
 PROTOCOL = 5
-#: What can step a plan: implementation -> the precisions it runs in.
-ENGINES = {"mujoco": ("float64",), "mjx": ("float64", "float32"), "warp": ("float32",)}
+#: What the worker can step a plan with: implementation -> the precisions it runs in.
+PRECISIONS = {"mujoco": ("float64",), "mjx": ("float64", "float32"), "warp": ("float32",)}
 #: Where the accelerated engines' PyPI packages are (their version is the reply's).
 PACKAGES = {"mjx": "mujoco-mjx", "warp": "mujoco-warp"}
 #: Wall time between progress lines (s).
@@ -77,7 +77,7 @@ def engine_of(request: dict) -> tuple[str, str]:
     """The request's ``(implementation, precision)``; MuJoCo C in float64 when it names none.
 
     Raises:
-        Refused: Anything but one of :data:`ENGINES` (one line, with what was given).
+        Refused: Anything but one of :data:`PRECISIONS` (one line, with what was given).
     """
     engine = request.get("engine") or {}
     if not isinstance(engine, dict):
@@ -85,14 +85,14 @@ def engine_of(request: dict) -> tuple[str, str]:
                          f"got {engine!r}")
     impl = engine.get("implementation", "mujoco")
     precision = engine.get("precision", "float64")
-    if impl not in ENGINES:
-        raise Refused(f"engine: expected an implementation of {', '.join(ENGINES)}, "
+    if impl not in PRECISIONS:
+        raise Refused(f"engine: expected an implementation of {', '.join(PRECISIONS)}, "
                          f"got {impl!r}")
-    if precision not in ENGINES[impl]:
-        raise Refused(f"engine: expected {impl} in {' or '.join(ENGINES[impl])}, "
+    if precision not in PRECISIONS[impl]:
+        raise Refused(f"engine: expected {impl} in {' or '.join(PRECISIONS[impl])}, "
                          f"got {precision!r}")
     return impl, precision
 
 
-__all__ = ["ENGINES", "PACKAGES", "PROGRESS_S", "PROTOCOL", "Refused", "engine_of",
+__all__ = ["PRECISIONS", "PACKAGES", "PROGRESS_S", "PROTOCOL", "Refused", "engine_of",
            "keep_stdout_for_replies", "package_version", "say", "stdout_to_stderr"]

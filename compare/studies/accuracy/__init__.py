@@ -39,7 +39,6 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "series_summary": "pareto",
     "mujoco_work_precision_figure": "figures",
     "work_precision_figure": "figures",
-    "ENGINES": "study",
     "run_accuracy": "study",
 })
 
@@ -47,7 +46,7 @@ __all__ = [
     "ACCURACY_COLUMNS", "ATOL_PER_RTOL", "DEFAULT_BUDGET_S", "DEFAULT_INTEGRATORS",
     "DEFAULT_METHODS", "PEER_METHODS", "default_methods", "DEFAULT_MODES",
     "DEFAULT_MUJOCO_BUDGET_S", "DEFAULT_THRESHOLDS",
-    "DEFAULT_TIMESTEPS", "DEFAULT_TOLERANCES", "ENGINES", "MUJOCO_NOTES", "REFERENCE_RTOL",
+    "DEFAULT_TIMESTEPS", "DEFAULT_TOLERANCES", "MUJOCO_NOTES", "REFERENCE_RTOL",
     "STATUS_DIVERGED", "STATUS_OK", "STATUS_SKIPPED", "Reference", "mujoco_pareto_markdown",
     "mujoco_work_precision", "mujoco_work_precision_figure", "ode_work_precision",
     "pareto_front", "pareto_markdown", "pareto_table", "reference_run", "run_accuracy",

@@ -44,9 +44,8 @@ from tippetop.compare.studies.accuracy.pareto import (
     pareto_markdown,
     pareto_table,
 )
+from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, expect
-
-ENGINES: tuple[str, ...] = ("ode", "mujoco")
 
 
 def run_accuracy(
@@ -120,7 +119,7 @@ def run_accuracy(
     engines = tuple(dict.fromkeys(engines))
     expect(len(engines) > 0, "--engines", "ode and/or mujoco", list(engines))
     for e in engines:
-        expect(e in ENGINES, "--engines", "a comma-separated list of ode, mujoco", e)
+        expect(e in FAMILIES, "--engines", "a comma-separated list of ode, mujoco", e)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise TippetopError(f"--out: expected a folder, got the file {str(out_dir)!r}")
