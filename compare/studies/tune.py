@@ -570,17 +570,19 @@ def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
 def source_digest() -> str:
     """sha256 of the tuning's own code, which the runs' code fingerprint does not hold.
 
-    This module, its starts and verdict, its widening, the verdict's rules, the fit and its
-    scoring: what a cached tuning (validate's, a fidelity point's) was computed with.
+    This module, its starts and verdict, its widening and the widening's draws, the verdict's
+    rules, the fit and its scoring: what a cached tuning (validate's, a fidelity point's) was
+    computed with.
     """
     import hashlib
     from pathlib import Path
 
     from tippetop.compare.measures import verdict as verdict_rule
-    from tippetop.compare.studies import tune_judge, tune_widen
+    from tippetop.compare.studies import sobol, tune_judge, tune_widen
     from tippetop.compare.studies.calibrate import identify, scoring
 
-    modules = (sys.modules[__name__], tune_judge, tune_widen, verdict_rule, identify, scoring)
+    modules = (sys.modules[__name__], tune_judge, tune_widen, sobol, verdict_rule, identify,
+               scoring)
     return hashlib.sha256(b"".join(Path(str(m.__file__)).read_bytes()
                                    for m in modules)).hexdigest()
 

@@ -393,12 +393,12 @@ def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horiz
 def test_a_cached_tuning_is_keyed_by_all_of_the_tunings_code(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """validate's and fidelity's cached tunings are keyed by :func:`source_digest`: a change to
-    the widening or to the verification's judge (modules of their own) is a new key."""
-    from tippetop.compare.studies import tune, tune_judge, tune_widen
+    the widening, its draws or the verification's judge (modules of their own) is a new key."""
+    from tippetop.compare.studies import sobol, tune, tune_judge, tune_widen
     from tippetop.compare.studies.tune import source_digest
 
     before = source_digest()
-    for module in (tune, tune_judge, tune_widen):
+    for module in (tune, tune_judge, tune_widen, sobol):
         real = Path.read_bytes
         path = Path(str(module.__file__))
 
