@@ -49,8 +49,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--budget-runs", dest="budget_runs", type=int, default=TUNE_BUDGET_RUNS,
                    metavar="N", help="MuJoCo runs the tuning may use (its seeds, its fits' "
                    "rollouts, its verification runs); where they run out it ends with its best "
-                   "so far, verified and labelled budget-limited (at least 5; default "
-                   f"{TUNE_BUDGET_RUNS}: the paper's top takes about 60)")
+                   "so far, verified and labelled budget-limited; one in three is kept for "
+                   "the widening where the fits depart (the answer with one choice changed, a "
+                   "fit again, then draws about the best so far: docs/guide/tuning.md) (at "
+                   f"least 5; default {TUNE_BUDGET_RUNS}: the paper's top takes about 60)")
     add_force_option(p, help="write into a non-empty --out")
     add_parallel_options(p)
     add_json_option(p)
