@@ -10,17 +10,17 @@ pairing that cannot run (the native mode on the reference, a reference law on Mu
 line (:func:`check_pair`). A run is named ``ENGINE/MODE`` (:func:`run_label`).
 
 The compound names of the release before (``mujoco-native``, ``ode-coulomb`` ...) are read
-for one more release by :func:`old_spelling`, which says the new spelling.
+for one more release (:mod:`tippetop.models.spellings`, their home), with the new spelling.
 """
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from tippetop.models.errors import TippetopError, did_you_mean
+from tippetop.models.spellings import GOES, OLD_NAMES, new_spelling, note
 
 if TYPE_CHECKING:
     from tippetop.models.engines import EngineSpec
@@ -94,52 +94,6 @@ LAW_MODES: dict[str, str] = {"modified_coulomb": "paper", "coulomb": "coulomb",
 
 #: The engine families in words, for messages.
 FAMILY_WORDS = {"ode": "the reference ODE", "mujoco": "a MuJoCo engine"}
-
-#: The release before's compound names: name -> (engine, mode or None for the scene's, the
-#: scene keys it also set). Read for one more release, with a note (:func:`old_spelling`).
-OLD_NAMES: dict[str, tuple[str, str | None, tuple[str, ...]]] = {
-    "ode": ("ode", None, ()),
-    "mujoco": ("mujoco", None, ()),
-    "ode-paper-form": ("ode", "paper", ("ode.formulation=paper",)),
-    "ode-coulomb": ("ode", "coulomb", ()),
-    "ode-viscous": ("ode", "viscous", ()),
-    "ode-coulomb_viscous": ("ode", "coulomb_viscous", ()),
-    "mujoco-paper": ("mujoco", "paper", ()),
-    "mujoco-native": ("mujoco", "native", ()),
-    "mujoco-native-pyramidal": ("mujoco", "native-pyramidal", ()),
-    "mujoco-native-elliptic": ("mujoco", "native-elliptic", ()),
-    "mujoco-native-condim4": ("mujoco", "native-condim4", ()),
-    "mujoco-native-condim6": ("mujoco", "native-condim6", ()),
-    "mujoco-file": ("mujoco", "file", ()),
-}
-
-_NOTED: set[str] = set()
-
-
-def note(text: str) -> None:
-    """One line on stderr, once per process: an old spelling and its new one."""
-    if text in _NOTED:
-        return
-    _NOTED.add(text)
-    sys.stderr.write(f"tippetop: note: {text}\n")
-    sys.stderr.flush()
-
-
-def old_spelling(name: str) -> tuple[str, str | None, tuple[str, ...]] | None:
-    """(engine, mode, extra scene keys) of a compound name of the release before, or None."""
-    return OLD_NAMES.get(name.strip())
-
-
-def new_spelling(name: str, engine_option: str = "--engine",
-                 mode_option: str = "--mode") -> str:
-    """How the compound ``name`` is written now (``--engine mujoco --mode native``)."""
-    engine, mode, extra = OLD_NAMES[name]
-    parts = [f"{engine_option} {engine}"]
-    if mode is not None:
-        parts.append(f"{mode_option} {mode}")
-    parts += [f"--set {o}" for o in extra]
-    return " ".join(parts)
-
 
 def _choices() -> str:
     return ", ".join(MODES)
@@ -289,10 +243,10 @@ def read_old_list(items: Iterable[str], option: str) -> list[tuple[str, str | No
     modes = ",".join(dict.fromkeys(m for _, m, _ in runs if m is not None))
     note(f"{option} {','.join(names)} names engines and modes together: now --engines "
          f"{engines}" + (f" --modes {modes}" if modes else "")
-         + " (the old spelling goes in the next release)")
+         + f" {GOES}")
     return runs
 
 
-__all__ = ["FAMILY_WORDS", "LAW_MODES", "MODES", "OLD_NAMES", "REFERENCE_RUN", "Mode", "check_pair",
-           "new_spelling", "note", "old_spelling", "pairs", "parse_mode", "parse_modes",
+__all__ = ["FAMILY_WORDS", "LAW_MODES", "MODES", "REFERENCE_RUN", "Mode", "check_pair",
+           "pairs", "parse_mode", "parse_modes",
            "read_old_list", "run_label", "runs_on", "scene_mode", "split_label"]

@@ -1,4 +1,5 @@
-"""Each meaning of "engine" has one home, under a name that says which meaning it holds.
+"""Each meaning of "engine" has one home, under a name that says which meaning it holds; the
+release before's spellings have one home too.
 
 Issue 42: ``ENGINES`` was declared five times with three meanings (the engine families, the
 worker's implementations and their precisions, the spellings with their descriptions). The
@@ -54,3 +55,26 @@ def test_the_engine_families_are_declared_once() -> None:
 
     # every implementation the worker steps is one an engine spec can name, of the MuJoCo family
     assert set(PRECISIONS) <= set(IMPLEMENTATIONS) - {"ode"} and set(FAMILIES) <= {"ode", "mujoco"}
+
+
+def test_the_old_spellings_have_one_home() -> None:
+    """Issue 42: the release before's spellings were read in 6 modules in 4 folders. Their
+    tables (module-level ``OLD_*``) and the words every note on them ends with are in
+    models/spellings.py alone; the readers elsewhere take them from there."""
+    tables = sorted((str(p.relative_to(ROOT)), name) for p, name, _ in _module_assignments()
+                    if name.lstrip("_").startswith("OLD_"))
+    assert {path for path, _ in tables} == {"models/spellings.py"}, tables
+    said = []
+    for layer in LAYERS:
+        for path in sorted((ROOT / layer).rglob("*.py")):
+            if "goes in the next release" in path.read_text(encoding="utf-8"):
+                said.append(str(path.relative_to(ROOT)))
+    assert said == ["models/spellings.py"]
+    from tippetop.models.spellings import GOES, OLD_NAMES, new_spelling, old_case_id
+
+    # each compound name reads as today's engine and mode
+    assert new_spelling("mujoco-native") == "--engine mujoco --mode native"
+    assert old_case_id("paper/fig3[mujoco-native]@mujoco==3.3.7") == (
+        "paper/fig3", "mujoco==3.3.7", "native", ())
+    assert old_case_id("paper/fig3[mujoco/native]") is None
+    assert GOES.startswith("(") and all(e in ("ode", "mujoco") for e, _, _ in OLD_NAMES.values())

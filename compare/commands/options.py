@@ -269,7 +269,8 @@ def engine_spec(text: str) -> str:
     """
     from tippetop.models.engines import NAMED, parse_engine
     from tippetop.models.errors import closest_name
-    from tippetop.models.modes import MODES, OLD_NAMES, new_spelling, old_spelling
+    from tippetop.models.modes import MODES
+    from tippetop.models.spellings import OLD_NAMES, new_spelling, old_spelling
 
     if old_spelling(text) is not None:
         return text.strip()
@@ -358,7 +359,8 @@ def engine_and_mode(args: argparse.Namespace, default: str = "ode"
             the engine cannot run (one line).
     """
     from tippetop.models.engines import parse_engine
-    from tippetop.models.modes import check_pair, new_spelling, note, old_spelling
+    from tippetop.models.modes import check_pair
+    from tippetop.models.spellings import OLD_OPTIONS, new_spelling, note_old, old_spelling
 
     engine = getattr(args, "engine", None)
     mode = getattr(args, "mode", None)
@@ -370,13 +372,12 @@ def engine_and_mode(args: argparse.Namespace, default: str = "ode"
             raise TippetopError(f"--engine: expected an engine beside --mode {mode}, got "
                                 f"{engine!r}, which names an engine and a mode: "
                                 f"{new_spelling(engine)}")
-        note(f"--engine {engine} is now {new_spelling(engine)} (the old spelling goes in the "
-             "next release)")
+        note_old(f"--engine {engine}", new_spelling(engine))
         engine, mode, extra = old
     if on is not None:
         if old_spelling(on) is not None and on not in ("ode", "mujoco"):
             raise TippetopError(f"--on: expected an engine, got {on!r}")
-        note(f"--on {on} is now --engine {on} (the old spelling goes in the next release)")
+        note_old(f"--on {on}", f"{OLD_OPTIONS['--on']} {on}")
         if engine not in (None, "mujoco"):
             if parse_engine(engine).is_reference:
                 raise TippetopError(f"--on: expected a MuJoCo run to go on {on}, got the "

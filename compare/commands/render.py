@@ -114,15 +114,14 @@ def _engines(args: argparse.Namespace) -> tuple[str, ...]:
     Raises:
         TippetopError: Both options at once (one line).
     """
-    from tippetop.models.modes import note
-
     if args.engine and args.engines:
         raise TippetopError(f"--engines: expected --engine or --engines, got --engine "
                             f"{args.engine} and --engines {args.engines}")
-    if args.engine == "both":
-        note("--engine both is now --engines mujoco,ode (the old spelling goes in the next "
-             "release)")
-        return ("mujoco", "ode")
+    from tippetop.models.spellings import old_engine_words
+
+    both = old_engine_words(args.engine)
+    if both is not None:
+        return both
     if args.engines:
         return tuple(e.strip() for e in args.engines.split(",") if e.strip())
     return (args.engine or "mujoco",)

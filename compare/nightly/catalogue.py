@@ -19,8 +19,9 @@ from tippetop.compare.studies.sweep import parse_range
 from tippetop.compare.studies.threshold import METHODS, WHICH
 from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, did_you_mean
-from tippetop.models.modes import MODES, OLD_NAMES, note, run_label
+from tippetop.models.modes import MODES, run_label
 from tippetop.models.resources import data_path
+from tippetop.models.spellings import GOES, OLD_NAMES, note, note_old, old_case_id
 
 #: The catalogue shipped with the package.
 CATALOGUE_PATH = data_path("tippetop.models", "nightly.toml")
@@ -395,7 +396,7 @@ def _runs(entry: dict[str, Any], modes: list[str],
                                 f"{m!r}{did_you_mean(m, MODES)}")
     if old_given:
         note(f"{where}: modes {', '.join(old_given)} name engines and modes together: now "
-             "engines = [...] and modes = [...] (the old spelling goes in the next release)")
+             f"engines = [...] and modes = [...] {GOES}")
     return out
 
 
@@ -446,10 +447,6 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
     return Catalogue(p, profiles, tuple(cases))
 
 
-#: A case id of the release before: ``HEAD[COMPOUND]`` or ``HEAD[COMPOUND]@ENGINE``.
-_OLD_ID = re.compile(r"^(?P<head>.*)\[(?P<mode>[^\]/]+)\](?:@(?P<engine>.+))?$")
-
-
 def migrate_case_id(case_id: str) -> str:
     """A case id of the release before in today's spelling (today's ids are returned as given).
 
@@ -457,11 +454,11 @@ def migrate_case_id(case_id: str) -> str:
     ``paper/fig3[mujoco-native]@mujoco==3.3.7`` -> ``paper/fig3[mujoco==3.3.7/native]``;
     ``paper/fig3[ode]`` -> ``paper/fig3[ode/paper]``.
     """
-    m = _OLD_ID.match(case_id)
-    if m is None or m["mode"] not in OLD_NAMES:
+    old = old_case_id(case_id)
+    if old is None:
         return case_id
-    family, mode, _extra = OLD_NAMES[m["mode"]]
-    return f"{m['head']}[{run_label(m['engine'] or family, mode or 'paper')}]"
+    head, engine, mode, _extra = old
+    return f"{head}[{run_label(engine, mode or 'paper')}]"
 
 
 def model_cases(models: Sequence[str | Path], profile: str, catalogue: Catalogue,
@@ -534,7 +531,7 @@ def select_cases(catalogue: Catalogue, profile: str, engines: Sequence[str] = FA
         new = [migrate_case_id(p) for p in patterns]
         for old, now in zip(patterns, new, strict=True):
             if old != now:
-                note(f"--cases {old} is now {now} (the old spelling goes in the next release)")
+                note_old(f"--cases {old}", now)
         globs = [_literal_brackets(p) for p in new]
 
         def chosen(cs: list[Case]) -> list[Case]:

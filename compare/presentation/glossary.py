@@ -86,7 +86,7 @@ def records_table() -> str:
 
 def old_names_table() -> str:
     """The compound names of the release before, and how each is written now."""
-    from tippetop.models.modes import OLD_NAMES, new_spelling
+    from tippetop.models.spellings import OLD_NAMES, new_spelling
 
     return _table(("the release before", "now"),
                   ((f"`{k}`", f"`{new_spelling(k)}`") for k in OLD_NAMES))

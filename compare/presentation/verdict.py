@@ -10,8 +10,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from tippetop.compare.measures.verdict import crossval_row, predicted_outcome, run_facts
-from tippetop.models.modes import OLD_NAMES, REFERENCE_RUN, run_label
+from tippetop.models.modes import REFERENCE_RUN, run_label
 from tippetop.models.params import TopParams
+from tippetop.models.spellings import OLD_NAMES
 
 #: The runs (``ENGINE/MODE``) the verdict table shows first, in this order; others follow as
 #: they ran.

@@ -11,6 +11,7 @@ import sys
 
 from tippetop.compare.report.rebuild import rebuild_report
 from tippetop.models.errors import TippetopError
+from tippetop.models.spellings import note_old_command
 
 #: Bad input: one line on stderr, nothing written (``tippetop``'s own status for it).
 EXIT_BAD_INPUT = 2
@@ -28,8 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--force", action="store_true", help="overwrite an existing --out, or a "
                    "report.html beside results.json that tippetop did not write")
     args = p.parse_args(argv)
-    sys.stderr.write("tippetop: note: 'python -m tippetop.compare.report' is now 'tippetop "
-                     "report'; this spelling goes in the next release\n")
+    note_old_command("python -m tippetop.compare.report")
     try:
         out = rebuild_report(args.results, args.out, force=args.force,
                              accuracy_dir=args.accuracy_dir)

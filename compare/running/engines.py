@@ -30,10 +30,11 @@ from tippetop.compare.measures.series import (
 from tippetop.compare.measures.summary import FINISHED_STATUSES, RESULT_KEYS, RunSummary
 from tippetop.models.engines import MUJOCO_SPEC_FORMS, EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import new_spelling, note, old_spelling, run_label
+from tippetop.models.modes import run_label
 from tippetop.models.plan import RunPlan
 from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import Scene
+from tippetop.models.spellings import GOES, new_spelling, note, old_spelling
 
 #: Stand-in for an integration tolerance in MuJoCo's energy check: soft contacts store a
 #: little elastic energy in the penetration that the table's E leaves out (about 1e-5 of E0
@@ -73,7 +74,7 @@ def plan_for(scene: Scene, engine: str | EngineSpec = "ode", mode: str | None = 
         old = old_spelling(engine)
         if old is not None and engine.strip() not in ("ode", "mujoco"):
             note(f"engine {engine.strip()!r} names an engine and a mode: now "
-                 f"{new_spelling(engine.strip())} (the old spelling goes in the next release)")
+                 f"{new_spelling(engine.strip())} {GOES}")
             engine, mode, extra = old
             if extra:
                 scene = scene.with_overrides(list(extra))

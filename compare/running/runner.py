@@ -50,8 +50,9 @@ from tippetop.compare.running.tasks import (
 )
 from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
-from tippetop.models.modes import old_spelling, parse_mode
+from tippetop.models.modes import parse_mode
 from tippetop.models.plan import RunPlan
+from tippetop.models.spellings import old_spelling
 
 
 def _progress(plans: list[RunPlan], label: str, slots: int, cached: int,
