@@ -65,13 +65,11 @@ class RanField:
     engines: tuple[str, ...] = ("mujoco",)
 
 
-_BOTH = FAMILIES  # a field of every run, of either family
-
 #: What a run reports it ran with, read back from the engine (the order ``what ran`` lists it).
 RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
     RanField("friction_law", "", "the friction law applied: the reference's (modified_coulomb, "
              "coulomb, viscous, coulomb_viscous, none), the law paper mode applies in MuJoCo, "
-             f"or {NATIVE_LAW} (MuJoCo's own contact makes the friction)", _BOTH),
+             f"or {NATIVE_LAW} (MuJoCo's own contact makes the friction)", FAMILIES),
     RanField("formulation", "", "the reference's equations: vector (regular at theta = 0 and "
              "pi) or paper (the paper's own variables)", ("ode",)),
     RanField("method", "", "the reference's integration method: dop853 (Dormand-Prince "
@@ -103,7 +101,7 @@ RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
     RanField("iterations", "", "MuJoCo's constraint solver's maximum iterations"),
     RanField("tolerance", "relative", "MuJoCo's constraint solver tolerance"),
     RanField("contacts", "", "whether contacts are on (off: the top falls freely)"),
-    RanField("sample_dt_s", "s", "the spacing of the observables table's rows", _BOTH),
+    RanField("sample_dt_s", "s", "the spacing of the observables table's rows", FAMILIES),
     RanField("keyframe", "", "the keyframe of the file the run starts from (none: a state)"),
     RanField("implementation", "", "what stepped the run: mujoco (MuJoCo C), mjx or warp"),
     RanField("version", "", "the version of what stepped it (MuJoCo C's, mujoco-mjx's, "

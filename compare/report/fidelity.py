@@ -78,12 +78,14 @@ def answer_text(p: Mapping[str, Any]) -> str:
     ``chosen`` in words (the fit, one of its seeds, or the widening's step), then the cone,
     integrator and step of the settings verified; ``-`` for a point not tuned.
     """
+    from tippetop.compare.studies.tune_judge import widening_step
+
     s = p.get("settings") or {}
     chosen = str(p.get("chosen") or "")
     if not s or not chosen:
         return "-"
-    how = ("the fit" if chosen == "fit" else
-           f"the widening: {chosen.removeprefix('widened: ')}" if chosen.startswith("widened: ")
+    step = widening_step(chosen)
+    how = ("the fit" if chosen == "fit" else f"the widening: {step}" if step is not None
            else f"the fit's {chosen}")
     dt = s.get("timestep_s")
     ran = ", ".join(str(v) for v in (s.get("cone"), s.get("integrator")) if v)

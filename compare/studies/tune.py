@@ -39,10 +39,12 @@ from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
 from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
 from tippetop.compare.studies.tune_judge import (
     HELD_OUT,
+    WIDENED,
     TuneStart,
     min_budget_runs,
     start_label,
     starts_for,
+    widening_step,
 )
 from tippetop.compare.studies.tune_judge import agrees as _agrees
 from tippetop.compare.studies.tune_judge import departs as _departs
@@ -335,7 +337,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
             a = widened["answer"]
             verified, mj, best, timestep, integrator = (a["verified"], a["mj"], a["cand"],
                                                         a["timestep_s"], a["integrator"])
-            chosen = f"widened: {a['what']}"
+            chosen = f"{WIDENED}{a['what']}"
             budget_limited = False
             needs = [*needs, {"integrator": integrator, "timestep_s": timestep,
                               "rms_rad": None, "kept": True, "why": f"the widening: "
@@ -589,8 +591,9 @@ def source_digest() -> str:
 
 def _chosen_words(chosen: str) -> str:
     """The answer other than the fit's own, in words: its seed, or what the widening did."""
-    if chosen.startswith("widened: "):
-        return f"the widening's, {chosen.removeprefix('widened: ')}"
+    step = widening_step(chosen)
+    if step is not None:
+        return f"the widening's, {step}"
     return f"its {chosen}"
 
 

@@ -20,6 +20,9 @@ HELD_OUT: tuple[tuple[float, float], ...] = ((1.15, 1.0), (0.9, 1.0), (1.0, 2.0)
 MIN_TILT_STEP_RAD = 0.05
 #: Starts each verification runs: the file's own and the held-out ones.
 N_STARTS = 1 + len(HELD_OUT)
+#: How an answer the widening found is named (a tuning's ``chosen``, a tried row's ``what``):
+#: this, then what the widening did (``widened: Euler in place of RK4``).
+WIDENED = "widened: "
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,11 @@ def min_budget_runs() -> int:
     """The smallest ``--budget-runs``: one seed scored, then every start verified with it."""
     return 1 + N_STARTS
 
+def widening_step(chosen: str) -> str | None:
+    """What the widening did, of an answer it found (``widened: X`` -> ``X``); else None."""
+    return chosen.removeprefix(WIDENED) if chosen.startswith(WIDENED) else None
+
+
 def passes(verified: list[dict[str, Any]]) -> dict[str, int]:
     """``{passes, checks}``: the checks that pass over every start verified, and all of them."""
     checks = [c for v in verified for c in v["checks"]]
@@ -91,5 +99,6 @@ def mjcf_block(ran: dict[str, Any]) -> str:
     return out if pair is None else f"{out}\n{pair}"
 
 
-__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "N_STARTS", "TuneStart", "agrees", "departs",
-           "min_budget_runs", "mjcf_block", "passes", "start_label", "starts_for"]
+__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "N_STARTS", "WIDENED", "TuneStart", "agrees",
+           "departs", "min_budget_runs", "mjcf_block", "passes", "start_label", "starts_for",
+           "widening_step"]

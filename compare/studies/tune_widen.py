@@ -30,11 +30,13 @@ from tippetop.compare.studies.calibrate.scoring import Candidate
 from tippetop.compare.studies.sobol import sobol_unit
 from tippetop.compare.studies.tune_judge import (
     N_STARTS,
+    WIDENED,
     agrees,
     departs,
     min_budget_runs,
     mjcf_block,
     passes,
+    widening_step,
 )
 
 #: One run in this many of ``--budget-runs`` is kept back for the widening (:func:`widen`):
@@ -66,9 +68,8 @@ def widen_reserve(budget_runs: int) -> int:
     None below a widening's smallest use (two neighbours verified); the fits always keep at
     least :func:`min_budget_runs`.
     """
-    n_starts = N_STARTS
     reserve = min(budget_runs // WIDEN_ONE_IN, budget_runs - min_budget_runs())
-    return reserve if reserve >= 2 * n_starts else 0
+    return reserve if reserve >= 2 * N_STARTS else 0
 
 
 def widen_neighbours(best: Candidate, timestep: float, integrator: str,
@@ -154,7 +155,7 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
 
     def record(what: str, cand: Candidate, step: float, integ: str,
                v: list[dict[str, Any]], mj: list[Any]) -> dict[str, Any]:
-        row = {"settings": f"{cand.label()} {integ} dt={step:g}", "what": f"widened: {what}",
+        row = {"settings": f"{cand.label()} {integ} dt={step:g}", "what": f"{WIDENED}{what}",
                "agrees": agrees(v), "departs": departs(v), **passes(v),
                "mjcf": mjcf_block(run_entry(mj[0])), "cand": cand, "timestep_s": step,
                "integrator": integ, "verified": v, "mj": mj}
@@ -167,7 +168,7 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
         return {"tried": tried, "budget_spent": spent,
                 "answer": {"cand": row["cand"], "timestep_s": row["timestep_s"],
                            "integrator": row["integrator"],
-                           "what": row["what"].removeprefix("widened: "),
+                           "what": widening_step(row["what"]),
                            "verified": row["verified"], "mj": row["mj"]}}
 
     for what, cand, step, integ in widen_neighbours(best, timestep, integrator, A_over_C):
@@ -205,7 +206,7 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
     draws = [c for c in local_candidates(centre["cand"], problem.fitted, problem.bounds,
                                          min(LOCAL_MAX, left() // n_starts), step)
              if (c, step, integ) not in done]
-    about = centre["what"].removeprefix("widened: ")
+    about = widening_step(centre["what"])
     for k, cand in enumerate(draws, start=1):
         if left() < n_starts:
             spent = True

@@ -29,6 +29,7 @@ from tippetop.compare.measures.verdict import (
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
 from tippetop.compare.studies.lift import lift as lift_study
+from tippetop.compare.studies.tune_judge import widening_step
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import run_label
@@ -288,9 +289,9 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
         chosen = tuned["fit"].get("chosen", "fit")
         if chosen == "fit":
             what = f"the tuned settings (fitted with mujoco.sysid, verified from {n} starts)"
-        elif chosen.startswith("widened: "):
-            what = (f"the tuning's widening, {chosen.removeprefix('widened: ')} (verified from "
-                    f"{n} starts; the fit's own optimum departs)")
+        elif widening_step(chosen) is not None:
+            what = (f"the tuning's widening, {widening_step(chosen)} (verified from {n} "
+                    "starts; the fit's own optimum departs)")
         else:
             what = (f"the tuning's {chosen} (verified from {n} starts; the fit's own optimum "
                     "departs)")

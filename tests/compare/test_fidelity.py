@@ -254,8 +254,23 @@ def test_the_small_grid_runs_for_real(tmp_path: Path) -> None:
     assert (tmp_path / "m" / "fidelity.png").is_file()
 
 
+def _one_point_agrees(A_over_C: float, a_over_R: float,
+                      mu: float) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``tippetop fidelity`` at one point, uncached, in one process: the map and its point,
+    which passes all 20 checks (4 starts, each judged against the reference and the theory)."""
+    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity",
+                           "--a-over-c", repr(A_over_C), "--a-over-r", repr(a_over_R),
+                           "--mu", repr(mu), "--workers", "1", "--json", "--no-cache"],
+                          capture_output=True, text=True, timeout=3600)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(proc.stdout)
+    (p,) = res["points"]
+    assert p["agrees"] and p["passes"] == p["checks"] == 20, p
+    return res, p
+
+
 @pytest.mark.slow
-def test_the_widening_finds_settings_the_fits_miss(tmp_path: Path) -> None:
+def test_the_widening_finds_settings_the_fits_miss() -> None:
     """A/C 1, a/R 0.25, mu 1 (the default grid's): the fits and their seeds depart from a
     held-out start at RK4; the widening's first neighbour, the fit's contact at Euler, follows
     the reference from all four starts (each of the 20 checks judged against the reference
@@ -265,14 +280,7 @@ def test_the_widening_finds_settings_the_fits_miss(tmp_path: Path) -> None:
     Euler 20 of 20 checks, at RK4 fewer; an Euler step keeps Jellett's constant on this top
     (A = C: no gyroscopic torque, docs/design.md).
     """
-    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity",
-                           "--a-over-c", "1.0", "--a-over-r", "0.25", "--mu", "1.0",
-                           "--workers", "1", "--json", "--no-cache"],
-                          capture_output=True, text=True, timeout=3600)
-    assert proc.returncode == 0, proc.stderr
-    res = json.loads(proc.stdout)
-    (p,) = res["points"]
-    assert p["agrees"] and p["passes"] == p["checks"] == 20, p
+    res, p = _one_point_agrees(1.0, 0.25, 1.0)
     assert p["chosen"].startswith("widened: ") and p["settings"]["integrator"] != "RK4"
     assert p["runs"] <= res["budget_runs"]
 
@@ -290,14 +298,7 @@ def test_the_widenings_draws_find_settings_the_refit_misses() -> None:
     the refit's (docs/data/contact-searches.json). The budget is respected, and every setting
     the widening verified is listed with its checks.
     """
-    proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "fidelity",
-                           "--a-over-c", "1.0", "--a-over-r", "0.25", "--mu", "0.3",
-                           "--workers", "1", "--json", "--no-cache"],
-                          capture_output=True, text=True, timeout=3600)
-    assert proc.returncode == 0, proc.stderr
-    res = json.loads(proc.stdout)
-    (p,) = res["points"]
-    assert p["agrees"] and p["passes"] == p["checks"] == 20, p
+    res, p = _one_point_agrees(1.0, 0.25, 0.3)
     assert p["chosen"].startswith("widened: drawn"), p["chosen"]
     assert p["runs"] <= res["budget_runs"]
     tried = p["widened"]

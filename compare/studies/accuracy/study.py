@@ -119,7 +119,8 @@ def run_accuracy(
     engines = tuple(dict.fromkeys(engines))
     expect(len(engines) > 0, "--engines", "ode and/or mujoco", list(engines))
     for e in engines:
-        expect(e in FAMILIES, "--engines", "a comma-separated list of ode, mujoco", e)
+        expect(e in FAMILIES, "--engines",
+               f"a comma-separated list of {', '.join(FAMILIES)}", e)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise TippetopError(f"--out: expected a folder, got the file {str(out_dir)!r}")
