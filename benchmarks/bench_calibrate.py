@@ -4,8 +4,9 @@ In one run, neither reading nor writing the results cache (nothing reused betwee
 
 * ``compass`` (the baseline): the hand-written grid (24 candidates) and compass search that
   wrote ``models/calibrated_native.toml``, at its budget of 160 runs;
-* ``sysid``: MuJoCo's own identification (``mujoco.sysid``, :mod:`.calibrate.identify`) from
-  the shipped settings and MuJoCo's defaults, at the same ``--budget-runs``.
+* ``sysid``: MuJoCo's own identification (``mujoco.sysid``,
+  :mod:`tippetop.compare.tuning.calibrate.identify`) from the shipped settings and MuJoCo's
+  defaults, at the same ``--budget-runs``.
 
 Both on the shipped calibration set (``fig3:6,fig11_n070:6``) and scored the same way: the
 objective of the best settings on the calibration scenes and on the 8 held-out scenes (the
@@ -30,8 +31,8 @@ from typing import Any
 
 def one(search: str, args: argparse.Namespace, folder: Path) -> dict[str, Any]:
     """One calibration with ``search`` into ``folder``, the results cache left alone."""
-    from tippetop.compare.studies.calibrate.config import CalibrateConfig
-    from tippetop.compare.studies.calibrate.run import calibrate
+    from tippetop.compare.tuning.calibrate.config import CalibrateConfig
+    from tippetop.compare.tuning.calibrate.run import calibrate
 
     config = CalibrateConfig(calibration=args.calibration, holdout=args.holdout,
                              out=folder / f"{search}.toml", budget_runs=args.budget_runs,
@@ -48,7 +49,7 @@ def one(search: str, args: argparse.Namespace, folder: Path) -> dict[str, Any]:
 
 def main() -> int:
     """Run both searches and print the comparison."""
-    from tippetop.compare.studies.calibrate.config import (
+    from tippetop.compare.tuning.calibrate.config import (
         DEFAULT_BUDGET_RUNS,
         DEFAULT_CALIBRATION,
         DEFAULT_HOLDOUT,

@@ -1,6 +1,6 @@
 """Lazy re-exports for a package's ``__init__``: a name's module is imported on first use.
 
-A subpackage such as :mod:`tippetop.compare.studies.calibrate` re-exports its public names,
+A subpackage such as :mod:`tippetop.compare.tuning.calibrate` re-exports its public names,
 but importing the package (as ``tippetop``'s parser does, for a command's defaults) must not
 import what running it needs (pandas, MuJoCo): ``tippetop theory`` starts without them.
 """

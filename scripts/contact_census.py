@@ -46,7 +46,7 @@ def main(argv: list[str]) -> int:
     from tippetop.compare.measures.verdict import run_entry, verdict
     from tippetop.compare.running.runner import Task, run_tasks
     from tippetop.compare.studies.fidelity import point_overrides
-    from tippetop.compare.studies.tune import starts_for
+    from tippetop.compare.tuning.tune import starts_for
     from tippetop.models.modes import REFERENCE_RUN, run_label
 
     p = argparse.ArgumentParser(prog="contact_census.py")

@@ -69,7 +69,7 @@ def test_lazy_exports_do_not_share_a_name_with_a_submodule() -> None:
     exported function of the same name would turn into the module."""
     import importlib
 
-    for pkg in ("tippetop.compare.nightly", "tippetop.compare.studies.calibrate",
+    for pkg in ("tippetop.compare.nightly", "tippetop.compare.tuning.calibrate",
                 "tippetop.compare.studies.accuracy", "tippetop.compare.report"):
         mod = importlib.import_module(pkg)
         folder = Path(mod.__file__).parent

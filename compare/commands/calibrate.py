@@ -13,7 +13,9 @@ from tippetop.compare.commands.options import (
     print_json,
 )
 from tippetop.compare.presentation.terminal import fmt_duration
-from tippetop.compare.studies.calibrate.config import (
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.tuning import TUNE_BUDGET_RUNS
+from tippetop.compare.tuning.calibrate.config import (
     DEFAULT_BUDGET_RUNS,
     DEFAULT_CALIBRATION,
     DEFAULT_HOLDOUT,
@@ -22,7 +24,6 @@ from tippetop.compare.studies.calibrate.config import (
     DEFAULT_TIMESTEP_S,
     CalibrateConfig,
 )
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
 from tippetop.models.numbers import number_text
 
 
@@ -84,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         timestep_s=args.timestep_s, integrator=args.integrator,
         scheduler=args.scheduler, workers=args.workers, use_cache=not args.no_cache,
         progress=not args.json, search=args.search)
-    from tippetop.compare.studies.calibrate.run import calibrate
+    from tippetop.compare.tuning.calibrate.run import calibrate
 
     report = calibrate(config)
     if args.json:
@@ -101,8 +102,8 @@ def run_mjcf(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from tippetop.compare.commands.validate import check_budget_runs, print_tuned
-    from tippetop.compare.studies.tune import start_label
     from tippetop.compare.studies.validate import tune_only
+    from tippetop.compare.tuning.tune import start_label
     from tippetop.models.errors import expect
 
     t_end = DEFAULT_T_END_S if args.t_end_s is None else args.t_end_s

@@ -17,7 +17,7 @@ from tippetop.compare.commands.options import (
     number,
     print_json,
 )
-from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
+from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 
 #: ``--budget-runs``'s default: validate's (the runs one point's tuning may use).
 DEFAULT_BUDGET_RUNS = TUNE_BUDGET_RUNS
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     import math
 
     from tippetop.compare.studies.fidelity import make_grid, run_fidelity
-    from tippetop.compare.studies.tune import min_budget_runs
+    from tippetop.compare.tuning.tune import min_budget_runs
     from tippetop.models.engines import parse_engine
     from tippetop.models.errors import TippetopError
 

@@ -17,7 +17,8 @@ from tippetop.compare.commands.options import (
     finite_float,
     print_json,
 )
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
+from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 
 EXIT_AGREES, EXIT_DEPARTS = 0, 1
 
@@ -61,7 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def check_budget_runs(n: int) -> None:
     """``--budget-runs`` of the tuning: at least one seed scored and every start verified."""
-    from tippetop.compare.studies.tune import min_budget_runs
+    from tippetop.compare.tuning.tune import min_budget_runs
     from tippetop.models.errors import expect
 
     expect(n >= min_budget_runs(), "--budget-runs", f"at least {min_budget_runs()} MuJoCo "
@@ -222,7 +223,7 @@ def print_tuned(tuned: dict[str, Any], indent: str = "  ", *, show_mjcf: bool = 
         print(f"{indent}tuned settings: not run ({tuned['skipped']})")
         return
     from tippetop.compare.presentation.terminal import fmt, fmt_duration
-    from tippetop.compare.studies.tune import start_label
+    from tippetop.compare.tuning.tune import start_label
 
     fit = tuned["fit"]
     start = fit["starts"][0]

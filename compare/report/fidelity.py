@@ -78,7 +78,7 @@ def answer_text(p: Mapping[str, Any]) -> str:
     ``chosen`` in words (the fit, one of its seeds, or the widening's step), then the cone,
     integrator and step of the settings verified; ``-`` for a point not tuned.
     """
-    from tippetop.compare.studies.tune_judge import widening_step
+    from tippetop.compare.tuning.judge import widening_step
 
     s = p.get("settings") or {}
     chosen = str(p.get("chosen") or "")
@@ -103,7 +103,7 @@ def point_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
 def report_page(result: Mapping[str, Any]) -> str:
     """report.html: the figure, the summary, one row per point, and what ran."""
     from tippetop.compare.studies.fidelity import summary_lines
-    from tippetop.compare.studies.tune import HELD_OUT
+    from tippetop.compare.tuning.tune import HELD_OUT
 
     summary = summary_lines(dict(result))
     rows = point_rows(result)

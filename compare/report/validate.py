@@ -136,7 +136,7 @@ def answer_html(res: Mapping[str, Any]) -> str:
 
 def tuned_section(res: Mapping[str, Any]) -> str:
     """The tuned settings: the MJCF to paste, the fit, each start's checks."""
-    from tippetop.compare.studies.tune import start_label
+    from tippetop.compare.tuning.tune import start_label
 
     t = res.get("tuned") or {}
     if not t:

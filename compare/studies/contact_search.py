@@ -12,13 +12,14 @@ cone), noslip iterations, condim, the integrator and the step, and mu within a f
 the law's. The point's tuned settings (where given) and the calibrated settings are always
 among them, and the first of them with each choice changed alone (:func:`neighbours`).
 
-Each candidate is verified exactly as the tuning verifies (:mod:`.tune`): run by the harness
-(cache, local workers or Dask) from the fit's start and the three held-out starts
-(:func:`.tune.starts_for`), each run judged with the verdict against the reference from the
-same start and the theory's outcome for it (:func:`.fidelity.compute_point`'s). A candidate
-*agrees* when every check passes from every start that can be verified, a held-out one among
-them (:class:`PointRuns`). The candidates are ranked (:func:`rank_key`) and the checks that
-depart attributed to the parts of the space (:func:`attribution`).
+Each candidate is verified exactly as the tuning verifies (:mod:`tippetop.compare.tuning.tune`):
+run by the harness (cache, local workers or Dask) from the fit's start and the three held-out
+starts (:func:`tippetop.compare.tuning.tune.starts_for`), each run judged with the verdict
+against the reference from the same start and the theory's outcome for it
+(:func:`.fidelity.compute_point`'s). A candidate *agrees* when every check passes from every
+start that can be verified, a held-out one among them (:class:`PointRuns`). The candidates are
+ranked (:func:`rank_key`) and the checks that depart attributed to the parts of the space
+(:func:`attribution`).
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ from tippetop.compare.studies.fidelity import (
     point_overrides,
     start_spin,
 )
-from tippetop.compare.studies.sobol import sobol_unit
-from tippetop.compare.studies.tune import TuneStart, settled_references, starts_for
+from tippetop.compare.tuning.sobol import sobol_unit
+from tippetop.compare.tuning.tune import TuneStart, settled_references, starts_for
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.errors import RunFailedError, TippetopError
 from tippetop.models.modes import REFERENCE_RUN, run_label
@@ -580,10 +581,11 @@ class PointRuns:
             runs over a longer one, as the tuning verifies it (``horizons``).
         top: The point's top.
         base: ``--set`` strings of the point's top, table and fit start.
-        starts: The fit's start and the held-out ones (:func:`.tune.starts_for`).
+        starts: The fit's start and the held-out ones
+            (:func:`tippetop.compare.tuning.tune.starts_for`).
         refs: The reference's results from them, each over its start's horizon.
         options: Keyword arguments of :func:`run_tasks`.
-        horizons: Each start's horizon (s): :func:`.tune.settled_references`.
+        horizons: Each start's horizon (s): :func:`tippetop.compare.tuning.tune.settled_references`.
         runs: MuJoCo runs made so far (every candidate's starts, cached or not).
         cached: Of those, served by the cache.
     """

@@ -6,7 +6,8 @@ noslip >= 1 stops the inversion and condim 4 and 6 break Jellett's constant (mea
 only about one in twelve of its candidates lands where a candidate can work. Stage 2 reads
 stage 1's evidence to rule categorical cells out (:func:`rule_cells`), and searches the cells
 it keeps densely: a Sobol draw over the continuous settings' whole ranges spread evenly over
-the kept cells (:func:`dense_draw`); the tuning's own sysid fit (:mod:`.calibrate.identify`)
+the kept cells (:func:`dense_draw`); the tuning's own sysid fit
+(:mod:`tippetop.compare.tuning.calibrate.identify`)
 from the best candidate of each of the :data:`FIT_CELLS` best kept cells, its result verified;
 then :data:`ROUNDS` rounds of a local draw around the best candidates so far, in a box in the
 unit (log) space that halves each round (:func:`local_draw`), ranked by :func:`.rank_key`.
@@ -41,7 +42,9 @@ from dataclasses import replace
 from typing import Any
 
 from tippetop.compare.studies import contact_search as cs
-from tippetop.compare.studies.calibrate.identify import (
+from tippetop.compare.studies.contact_search import ContactCandidate, PointRuns, rank_key
+from tippetop.compare.studies.fidelity import CAUSE_ORDER, START_THETA0
+from tippetop.compare.tuning.calibrate.identify import (
     MAX_ITERS,
     Bounds,
     FitStart,
@@ -49,10 +52,8 @@ from tippetop.compare.studies.calibrate.identify import (
     identify,
     reference_theta,
 )
-from tippetop.compare.studies.calibrate.scoring import Candidate
-from tippetop.compare.studies.contact_search import ContactCandidate, PointRuns, rank_key
-from tippetop.compare.studies.fidelity import CAUSE_ORDER, START_THETA0
-from tippetop.compare.studies.tune import HELD_OUT, fit_horizon
+from tippetop.compare.tuning.calibrate.scoring import Candidate
+from tippetop.compare.tuning.tune import HELD_OUT, fit_horizon
 from tippetop.models.errors import TippetopError
 
 #: MuJoCo runs a search may use by default (``--budget-runs``): about 10 min on 2 cores at

@@ -14,13 +14,6 @@ DEFAULT_MODES_TEXT = "paper,native"
 
 #: ``tippetop validate``: simulated seconds of every run unless --t-end-s says otherwise.
 DEFAULT_T_END_S = 8.0
-#: ``tippetop validate`` and ``calibrate --mjcf``: MuJoCo runs the tuning may use
-#: (``--budget-runs``): its seeds, its fits' rollouts and its verification runs. The paper's
-#: top takes about 60. One in three is kept for the widening where the fits depart
-#: (:func:`tippetop.compare.studies.tune_widen.widen_reserve`); at this many the tuning ends with
-#: its best so far, verified.
-TUNE_BUDGET_RUNS = 300
-
 
 #: ``tippetop fidelity``: its grids (:mod:`tippetop.compare.studies.fidelity`).
 @dataclass(frozen=True)

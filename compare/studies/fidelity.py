@@ -3,7 +3,7 @@
 ``tippetop fidelity``. At every point of a grid of tops (A/C, a/R: the paper's Groups I, II
 and III) and friction coefficients mu, MuJoCo's native contact is fitted to the reference and
 verified from held-out starts, exactly as ``tippetop validate`` tunes a file
-(:func:`tippetop.compare.studies.tune.tune`); a point *agrees* when the tuned settings pass
+(:func:`tippetop.compare.tuning.tune.tune`); a point *agrees* when the tuned settings pass
 every check of the verdict from every start. A point that does not agree gets a cause, one
 line made from the checks that departed (:func:`cause_of`; a better explanation plugs in as
 ``run_fidelity(..., explain=...)``).
@@ -194,7 +194,7 @@ def _point_top(A_over_C: float, a_over_R: float, mu: float) -> Any:
 
 def _is_the_tuning(tune_fn: Callable[..., Any]) -> bool:
     """Whether ``tune_fn`` is the real tuning (a stand-in is neither cached nor sent away)."""
-    return getattr(tune_fn, "__module__", None) == "tippetop.compare.studies.tune"
+    return getattr(tune_fn, "__module__", None) == "tippetop.compare.tuning.tune"
 
 
 def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
@@ -217,7 +217,7 @@ def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float
         TippetopError: A top the scene does not admit (the caller has made its row).
     """
     if tune_fn is None:
-        from tippetop.compare.studies.tune import tune as tune_fn
+        from tippetop.compare.tuning.tune import tune as tune_fn
     t0 = time.perf_counter()
     top = _point_top(A_over_C, a_over_R, mu)
     n0, theta0 = start_spin(top), START_THETA0
@@ -328,7 +328,7 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
         budget_runs: MuJoCo runs the tuning of a point may use (None: the tuning's own).
         progress: The tuning's progress lines on a terminal.
         explain: point -> its cause (:func:`cause_of`).
-        tune_fn: The tuning (default :func:`tippetop.compare.studies.tune.tune`).
+        tune_fn: The tuning (default :func:`tippetop.compare.tuning.tune.tune`).
         threads: Threads of the fit's rollouts (None: every core).
 
     Returns:
@@ -338,7 +338,7 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
         (the tuning's whole answer).
     """
     if tune_fn is None:
-        from tippetop.compare.studies.tune import tune as tune_fn
+        from tippetop.compare.tuning.tune import tune as tune_fn
     t0 = time.perf_counter()
     begun = _begin_point(A_over_C, a_over_R, mu, t_end_s=t_end_s, budget_runs=budget_runs,
                          use_cache=bool(run_options.get("use_cache", True))
@@ -360,7 +360,7 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
 def _cache_path(base: tuple[str, ...], t_end_s: float, budget_runs: int | None) -> Path:
     """Where a point's tuning is kept: keyed by its plan, horizon, iterations and the code."""
     from tippetop.compare.running.cache import code_fingerprint
-    from tippetop.compare.studies.tune import source_digest
+    from tippetop.compare.tuning.tune import source_digest
     from tippetop.models.resources import user_cache_dir
 
     plan = Task(None, base, "mujoco", "native").plan()
@@ -559,7 +559,7 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
         budget_runs: MuJoCo runs the tuning of a point may use (None: the tuning's own).
         progress: A line per point on a terminal.
         explain: point -> its cause (:func:`cause_of`).
-        tune_fn: The tuning (default :func:`tippetop.compare.studies.tune.tune`).
+        tune_fn: The tuning (default :func:`tippetop.compare.tuning.tune.tune`).
         points_at_once: Points tuned at once on this machine (None: ``workers``, else every
             core; 1: one at a time in this process, its runs on ``workers``).
 
@@ -582,7 +582,7 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
     import mujoco
 
     if tune_fn is None:
-        from tippetop.compare.studies.tune import tune as tune_fn
+        from tippetop.compare.tuning.tune import tune as tune_fn
     say = _say(progress)
     t0 = time.perf_counter()
     pts = grid.points()

@@ -27,9 +27,10 @@ from tippetop.compare.measures.verdict import (
     verdict,
 )
 from tippetop.compare.running.runner import Task, run_tasks
-from tippetop.compare.studies.defaults import DEFAULT_T_END_S, TUNE_BUDGET_RUNS
+from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.compare.studies.lift import lift as lift_study
-from tippetop.compare.studies.tune_judge import widening_step
+from tippetop.compare.tuning import TUNE_BUDGET_RUNS
+from tippetop.compare.tuning.judge import widening_step
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import run_label
@@ -59,7 +60,7 @@ class ValidateConfig:
         engines: The engines the MuJoCo runs run on (:mod:`tippetop.models.engines`); each
             names its runs (``mujoco==3.3.7/file``).
         tune: Fit the file's contact settings to the reference and verify them
-            (:mod:`tippetop.compare.studies.tune`; ``--no-tune`` skips it).
+            (:mod:`tippetop.compare.tuning.tune`; ``--no-tune`` skips it).
         progress: Progress lines of the tuning on a terminal.
         budget_runs: MuJoCo runs the tuning may use (``--budget-runs``).
     """
@@ -486,10 +487,10 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
               plan: Any, runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """``tuned``: the file's contact settings fitted and verified, or what stopped it.
 
-    See :func:`tippetop.compare.studies.tune.tune`: fitted to the reference at the file's
+    See :func:`tippetop.compare.tuning.tune.tune`: fitted to the reference at the file's
     start, verified from held-out starts.
     """
-    from tippetop.compare.studies.tune import tune
+    from tippetop.compare.tuning.tune import tune
 
     if (runs.get(REFERENCE_RUN) or {}).get("status") != "ok":
         return {"skipped": "the reference run from the file's start did not complete",
@@ -539,7 +540,7 @@ def _tune_cache_path(over: tuple[str, ...], budget_runs: int = TUNE_BUDGET_RUNS)
     import hashlib
 
     from tippetop.compare.running.runner import code_fingerprint
-    from tippetop.compare.studies.tune import source_digest
+    from tippetop.compare.tuning.tune import source_digest
     from tippetop.models.resources import user_cache_dir
 
     plan = Task(None, over, "mujoco", "file").plan()

@@ -22,7 +22,7 @@ from tests.conftest import run_scene_ode
 from tippetop.compare.commands.calibrate import add_parser as add_calibrate_parser
 from tippetop.compare.running.engines import run_engine
 from tippetop.compare.running.runner import TaskResult
-from tippetop.compare.studies.calibrate import (
+from tippetop.compare.tuning.calibrate import (
     W_T,
     Candidate,
     Evaluator,
@@ -36,7 +36,7 @@ from tippetop.compare.studies.calibrate import (
     residual,
     timestep_check,
 )
-from tippetop.compare.studies.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
+from tippetop.compare.tuning.calibrate.fit import INITIAL_STEPS_DECADES, objective_of_defaults
 from tippetop.models.calibrated import (
     CALIBRATION_FILE,
     CALIBRATION_MU,
@@ -224,8 +224,8 @@ def test_mujoco_defaults_are_what_mujoco_says() -> None:
 
 
 def test_the_old_name_is_read_from_mujoco_too() -> None:
-    import tippetop.compare.studies.calibrate as cal
-    from tippetop.compare.studies.calibrate import scoring
+    import tippetop.compare.tuning.calibrate as cal
+    from tippetop.compare.tuning.calibrate import scoring
 
     assert cal.MUJOCO_DEFAULTS == scoring.MUJOCO_DEFAULTS == mujoco_defaults()
 

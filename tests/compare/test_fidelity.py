@@ -19,8 +19,9 @@ import pytest
 
 from tests.conftest import session_processes
 from tippetop.compare import cli
-from tippetop.compare.studies import fidelity, tune
+from tippetop.compare.studies import fidelity
 from tippetop.compare.studies.fidelity import GRIDS, cause_of, make_grid
+from tippetop.compare.tuning import tune
 from tippetop.models.errors import TippetopError
 
 POINT_KEYS = {"A_over_C", "a_over_R", "mu", "group", "agrees", "settings", "residual",
@@ -217,7 +218,7 @@ def test_help_names_the_command_and_its_defaults() -> None:
     assert proc.returncode == 0
     assert "--grid" in proc.stdout and "'small' is A/C 0.8,1.3 x a/R 0.1,0.25 x mu 0.1,1" in \
         " ".join(proc.stdout.split())
-    from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
+    from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 
     assert f"default {TUNE_BUDGET_RUNS}" in proc.stdout and "default 8" in proc.stdout
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare.running.engines import run_engine
-from tippetop.compare.studies.tune import starts_for
+from tippetop.compare.tuning.tune import starts_for
 from tippetop.models.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from tippetop.compare.studies.calibrate.identify import Bounds
-from tippetop.compare.studies.tune import (
+from tippetop.compare.tuning.calibrate.identify import Bounds
+from tippetop.compare.tuning.tune import (
     FIT_INTEGRATOR,
     HELD_OUT,
     LIFT_FREE,
@@ -31,7 +31,7 @@ from tippetop.compare.studies.tune import (
     seeds,
     starts_for,
 )
-from tippetop.compare.studies.tune_widen import (
+from tippetop.compare.tuning.widen import (
     LOCAL_HALF_DECADES,
     local_candidates,
     widen_neighbours,
@@ -71,7 +71,7 @@ def test_the_widening_keeps_the_fits_budget() -> None:
     """At the default budget the fits keep the 200 runs they had before the widening (so a
     file they agree on is tuned as then); a budget too small for two neighbours keeps none,
     and the fits never fall below one seed and one verification."""
-    from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
+    from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 
     assert TUNE_BUDGET_RUNS - widen_reserve(TUNE_BUDGET_RUNS) == 200
     n_starts = 1 + len(HELD_OUT)
@@ -83,7 +83,7 @@ def test_the_widening_keeps_the_fits_budget() -> None:
 
 
 def test_the_widenings_neighbours_change_one_choice_each() -> None:
-    from tippetop.compare.studies.calibrate.scoring import Candidate
+    from tippetop.compare.tuning.calibrate.scoring import Candidate
 
     best = Candidate("elliptic", 0.5, 0.004, 0.3, 1.0, frictiondamping=2.6)
     iso = widen_neighbours(best, 2e-4, "RK4", 1.0)
@@ -107,8 +107,8 @@ def test_the_widenings_draws_fill_a_small_box_about_the_best() -> None:
     damping ratio (a 3-digit rounding's 0.5 % beside), inside the bounds, with a time constant
     of at least two steps; they reach both sides of the centre in each setting (a draw that
     only shrank one setting would not be a box); the rest of the contact is the centre's."""
-    from tippetop.compare.studies.calibrate.identify import FITTED
-    from tippetop.compare.studies.calibrate.scoring import Candidate
+    from tippetop.compare.tuning.calibrate.identify import FITTED
+    from tippetop.compare.tuning.calibrate.scoring import Candidate
 
     centre = Candidate("pyramidal", 1.28, 0.000929, 0.0894, 0.35)
     bounds = Bounds.around(0.3, 2e-4)
@@ -206,7 +206,7 @@ def test_a_lift_free_seed_is_a_plan_with_pairs() -> None:
     the constant minimal impedance, the direct solref, and solreffriction on a pair for the
     ball and one for the stem (the Group II file's two geoms that touch the table)."""
     from tests.conftest import mujoco_plan
-    from tippetop.compare.studies.calibrate.identify import (
+    from tippetop.compare.tuning.calibrate.identify import (
         LIFT_FREE_SOLREF,
         Bounds,
         lift_free_seeds,
@@ -341,7 +341,7 @@ def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horiz
     import pandas as pd
 
     from tippetop.compare.running.runner import TaskResult
-    from tippetop.compare.studies import tune as tune_module
+    from tippetop.compare.tuning import tune as tune_module
 
     def table(t_end: float, settles_by: float | None) -> pd.DataFrame:
         t = np.linspace(0.0, t_end, 801)
@@ -394,11 +394,11 @@ def test_a_cached_tuning_is_keyed_by_all_of_the_tunings_code(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """validate's and fidelity's cached tunings are keyed by :func:`source_digest`: a change to
     the widening, its draws or the verification's judge (modules of their own) is a new key."""
-    from tippetop.compare.studies import sobol, tune, tune_judge, tune_widen
-    from tippetop.compare.studies.tune import source_digest
+    from tippetop.compare.tuning import judge, sobol, tune, widen
+    from tippetop.compare.tuning.tune import source_digest
 
     before = source_digest()
-    for module in (tune, tune_judge, tune_widen, sobol):
+    for module in (tune, judge, widen, sobol):
         real = Path.read_bytes
         path = Path(str(module.__file__))
 

@@ -19,16 +19,15 @@ from dataclasses import replace
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
-from tippetop.compare.studies.calibrate.identify import (
+from tippetop.compare.tuning.calibrate.identify import (
     DAMPRATIO_BOUNDS,
     Bounds,
     FitStart,
     Problem,
     identify,
 )
-from tippetop.compare.studies.calibrate.scoring import Candidate
-from tippetop.compare.studies.sobol import sobol_unit
-from tippetop.compare.studies.tune_judge import (
+from tippetop.compare.tuning.calibrate.scoring import Candidate
+from tippetop.compare.tuning.judge import (
     N_STARTS,
     WIDENED,
     agrees,
@@ -38,6 +37,7 @@ from tippetop.compare.studies.tune_judge import (
     passes,
     widening_step,
 )
+from tippetop.compare.tuning.sobol import sobol_unit
 
 #: One run in this many of ``--budget-runs`` is kept back for the widening (:func:`widen`):
 #: the fits and their seeds use the rest, so that at the default budget they have the 200

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
-from tippetop.compare.studies.calibrate.scoring import (
+from tippetop.compare.tuning.calibrate.scoring import (
     Candidate,
     Residual,
     SceneSpec,

@@ -14,12 +14,12 @@ from typing import Any
 
 from tippetop.compare.running.io import check_output_path, write_atomic
 from tippetop.compare.running.runner import code_fingerprint
-from tippetop.compare.studies.calibrate.config import (
+from tippetop.compare.tuning.calibrate.config import (
     DEFAULT_OUT,
     DEFAULT_OUT_SHOWN,
     CalibrateConfig,
 )
-from tippetop.compare.studies.calibrate.fit import (
+from tippetop.compare.tuning.calibrate.fit import (
     CONTINUOUS,
     GRID,
     INITIAL_STEPS_DECADES,
@@ -32,15 +32,15 @@ from tippetop.compare.studies.calibrate.fit import (
     setting_bounds,
     timestep_check,
 )
-from tippetop.compare.studies.calibrate.identify import Identified
-from tippetop.compare.studies.calibrate.output import (
+from tippetop.compare.tuning.calibrate.identify import Identified
+from tippetop.compare.tuning.calibrate.output import (
     findings,
     path_text,
     render_toml,
     residual_dict,
     settings_table,
 )
-from tippetop.compare.studies.calibrate.scoring import (
+from tippetop.compare.tuning.calibrate.scoring import (
     DAMPRATIO,
     GRID_DT_S,
     J_MAX,
@@ -96,7 +96,7 @@ def sysid_search(ev: Evaluator, config: CalibrateConfig) -> tuple[SearchResult, 
     """
     import sys
 
-    from tippetop.compare.studies.calibrate.identify import (
+    from tippetop.compare.tuning.calibrate.identify import (
         Bounds,
         FitStart,
         Problem,
@@ -159,7 +159,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
     if config.integrator not in MUJOCO_INTEGRATORS:
         raise TippetopError(f"--integrator: expected one of {'|'.join(MUJOCO_INTEGRATORS)}, "
                             f"got {config.integrator!r}")
-    from tippetop.compare.studies.calibrate.config import SEARCHES
+    from tippetop.compare.tuning.calibrate.config import SEARCHES
 
     if config.search not in SEARCHES:
         raise TippetopError(f"--search: expected one of {'|'.join(SEARCHES)}, got "

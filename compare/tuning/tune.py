@@ -20,7 +20,8 @@ from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
 from tippetop.compare.running.runner import Task, run_tasks
-from tippetop.compare.studies.calibrate.identify import (
+from tippetop.compare.tuning import TUNE_BUDGET_RUNS
+from tippetop.compare.tuning.calibrate.identify import (
     FITTED,
     FITTED_WIDE,
     LIFT_FREE_FITTED,
@@ -35,9 +36,8 @@ from tippetop.compare.studies.calibrate.identify import (
     lift_free_seeds,
     reference_theta,
 )
-from tippetop.compare.studies.calibrate.scoring import Candidate, standard_seeds
-from tippetop.compare.studies.defaults import TUNE_BUDGET_RUNS
-from tippetop.compare.studies.tune_judge import (
+from tippetop.compare.tuning.calibrate.scoring import Candidate, standard_seeds
+from tippetop.compare.tuning.judge import (
     HELD_OUT,
     WIDENED,
     TuneStart,
@@ -46,11 +46,11 @@ from tippetop.compare.studies.tune_judge import (
     starts_for,
     widening_step,
 )
-from tippetop.compare.studies.tune_judge import agrees as _agrees
-from tippetop.compare.studies.tune_judge import departs as _departs
-from tippetop.compare.studies.tune_judge import mjcf_block as _mjcf
-from tippetop.compare.studies.tune_judge import passes as _passes
-from tippetop.compare.studies.tune_widen import WIDEN_ONE_IN, widen, widen_reserve
+from tippetop.compare.tuning.judge import agrees as _agrees
+from tippetop.compare.tuning.judge import departs as _departs
+from tippetop.compare.tuning.judge import mjcf_block as _mjcf
+from tippetop.compare.tuning.judge import passes as _passes
+from tippetop.compare.tuning.widen import WIDEN_ONE_IN, widen, widen_reserve
 from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
@@ -167,9 +167,9 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
     batched rollout, a fit from the best, and its result verified from every start; the
     second cone only if the first one's settings do not agree. Where the fits and their seeds
-    all depart, the widening (:func:`.tune_widen.widen`) tries the answer with one discrete
+    all depart, the widening (:func:`.widen.widen`) tries the answer with one discrete
     choice changed at a time (integrator, step, cone), then a fit at the best of those, from
-    runs kept back for it (:func:`.tune_widen.widen_reserve`). The whole tuning stays within
+    runs kept back for it (:func:`.widen.widen_reserve`). The whole tuning stays within
     ``budget_runs`` MuJoCo runs: where they run out, it verifies its best so far and says so
     (``budget_limited``).
 
@@ -580,10 +580,10 @@ def source_digest() -> str:
     from pathlib import Path
 
     from tippetop.compare.measures import verdict as verdict_rule
-    from tippetop.compare.studies import sobol, tune_judge, tune_widen
-    from tippetop.compare.studies.calibrate import identify, scoring
+    from tippetop.compare.tuning import judge, sobol, widen
+    from tippetop.compare.tuning.calibrate import identify, scoring
 
-    modules = (sys.modules[__name__], tune_judge, tune_widen, sobol, verdict_rule, identify,
+    modules = (sys.modules[__name__], judge, widen, sobol, verdict_rule, identify,
                scoring)
     return hashlib.sha256(b"".join(Path(str(m.__file__)).read_bytes()
                                    for m in modules)).hexdigest()

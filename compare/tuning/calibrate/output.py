@@ -7,7 +7,7 @@ import math
 from dataclasses import asdict
 from typing import Any
 
-from tippetop.compare.studies.calibrate.scoring import J_MAX, Candidate, Residual
+from tippetop.compare.tuning.calibrate.scoring import J_MAX, Candidate, Residual
 from tippetop.models.numbers import number_text, signed_text
 
 #: Held-out theta_asymp error that counts as "not reproduced" (rad); the same margin as the

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from tippetop.compare.studies.calibrate.scoring import GRID_DT_S, Candidate
+from tippetop.compare.tuning.calibrate.scoring import GRID_DT_S, Candidate
 from tippetop.models.errors import TippetopError
 from tippetop.models.numbers import number_text
 
@@ -141,7 +141,7 @@ class Bounds:
 
         The others are :data:`.fit.BOUNDS`, the time constant at least two timesteps.
         """
-        from tippetop.compare.studies.calibrate.fit import BOUNDS
+        from tippetop.compare.tuning.calibrate.fit import BOUNDS
 
         out = dict(BOUNDS)
         out["mu"] = (mu / MU_FACTOR, mu * MU_FACTOR)

@@ -2,7 +2,7 @@
 
 The starts (the file's own, fitted, and the held-out ones), the smallest run budget that
 verifies them, and the verdict over a verification (every start's checks): shared by the
-tuning (:mod:`.tune`) and its widening (:mod:`.tune_widen`).
+tuning (:mod:`.tune`) and its widening (:mod:`.widen`).
 """
 
 from __future__ import annotations
