@@ -12,6 +12,7 @@ import hashlib
 import json
 import sys
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -150,15 +151,10 @@ class Scene:
         section, name = key.split(".", 1)
         return name in self.raw.get(section, {})
 
-    def with_overrides(self, overrides: list[str] | tuple[str, ...]) -> Scene:
-        """This scene with more ``section.key=value`` overrides, validated as at load time."""
+    def with_overrides(self, overrides: Sequence[str | Override]) -> Scene:
+        """This scene with more overrides (values or ``--set`` text), validated as at load."""
         data = {k: dict(v) for k, v in self.raw.items()}
-        keys = list(self.set_keys)
-        for item in overrides:
-            section, name, value = parse_override(item)
-            data.setdefault(section, {})[name] = _check_type(f"{section}.{name}",
-                                                             SCHEMA[section][name], value)
-            keys.append(f"{section}.{name}")
+        keys = [*self.set_keys, *_apply(data, overrides)]
         return scene_from_dict(data, path=self.path, set_keys=tuple(dict.fromkeys(keys)))
 
 
@@ -258,6 +254,86 @@ def parse_override(item: str) -> tuple[str, str, Any]:
     return section, name, value
 
 
+def _toml_text(value: Any) -> str:
+    """A value as TOML text that reads back to the same value."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_text(v) for v in value) + "]"
+    return repr(value)
+
+
+@dataclass(frozen=True)
+class Override:
+    """One scene setting as a value: ``section.key`` and what it is set to.
+
+    Studies build overrides from numbers (``Override.of("top.A_over_C", 1.2)``) and pass them
+    down; ``--set`` text is parsed once, at the command line, into the same value
+    (:meth:`parse`). :meth:`text` is the ``--set`` form, for commands a user can paste. A list
+    value is held as a tuple (the override is hashable, as a :class:`Task` is).
+
+    Attributes:
+        section: The scene file's section (``top``, ``init``, ``mujoco``, ...).
+        key: The key within it.
+        value: The value, not yet type-checked (:func:`load_scene` checks it).
+    """
+
+    section: str
+    key: str
+    value: Any
+
+    def __post_init__(self) -> None:
+        """Check the key against :data:`SCHEMA`; hold a list as a tuple."""
+        if self.section not in SCHEMA or self.key not in SCHEMA[self.section]:
+            raise unknown_key_error("override", f"{self.section}.{self.key}")
+        if isinstance(self.value, list):
+            object.__setattr__(self, "value", tuple(self.value))
+
+    @classmethod
+    def of(cls, name: str, value: Any) -> Override:
+        """The override of ``section.key`` to ``value``."""
+        section, _, key = name.partition(".")
+        return cls(section, key, value)
+
+    @classmethod
+    def parse(cls, item: str) -> Override:
+        """``section.key=value`` text (``--set``), read as :func:`parse_override` reads it."""
+        return cls(*parse_override(item))
+
+    @property
+    def name(self) -> str:
+        """``section.key``."""
+        return f"{self.section}.{self.key}"
+
+    def text(self) -> str:
+        """The ``--set`` text that gives this override."""
+        return f"{self.name}={_toml_text(self.value)}"
+
+
+def as_override(item: str | Override) -> Override:
+    """An override given as a value or as ``--set`` text, as a value."""
+    return item if isinstance(item, Override) else Override.parse(item)
+
+
+def override_texts(items: Sequence[str | Override]) -> list[str]:
+    """Overrides as ``--set`` text, for a command a user can paste or a JSON file."""
+    return [i.text() if isinstance(i, Override) else i for i in items]
+
+
+def _apply(data: dict[str, dict[str, Any]], overrides: Sequence[str | Override]) -> list[str]:
+    """Apply overrides to a scene's sections, type-checked; the keys they set, in order."""
+    keys = []
+    for item in overrides:
+        o = as_override(item)
+        value = list(o.value) if isinstance(o.value, tuple) else o.value
+        data.setdefault(o.section, {})[o.key] = _check_type(o.name, SCHEMA[o.section][o.key],
+                                                            value)
+        keys.append(o.name)
+    return keys
+
+
 def read_scene_file(path: str | Path) -> dict[str, Any]:
     """Read a scene TOML file into a dictionary (no validation)."""
     p = Path(path)
@@ -296,12 +372,14 @@ def catalogue_names() -> list[str]:
     return sorted(p.stem for p in SCENES_DIR.glob("*.toml"))
 
 
-def load_scene(path: str | Path | None = None, overrides: list[str] | None = None) -> Scene:
+def load_scene(path: str | Path | None = None,
+               overrides: Sequence[str | Override] | None = None) -> Scene:
     """Load and validate a scene file (or the default scene), with ``--set`` overrides.
 
     Args:
         path: A scene file, a catalogue name, or None for the paper's default top and start.
-        overrides: ``section.key=value`` strings applied before validation.
+        overrides: Overrides (values, or ``section.key=value`` text) applied before
+            validation.
     """
     if path is None:
         raw: dict[str, Any] = {}
@@ -312,12 +390,7 @@ def load_scene(path: str | Path | None = None, overrides: list[str] | None = Non
         raw = read_scene_file(file_path)
         origin = f"scene {file_path.name}"
     data = _validate_raw(raw, origin)
-    keys = []
-    for item in overrides or []:
-        section, name, value = parse_override(item)
-        data.setdefault(section, {})[name] = _check_type(f"{section}.{name}",
-                                                         SCHEMA[section][name], value)
-        keys.append(f"{section}.{name}")
+    keys = _apply(data, overrides or [])
     return scene_from_dict(data, path=file_path, set_keys=tuple(dict.fromkeys(keys)))
 
 

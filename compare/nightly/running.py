@@ -17,7 +17,7 @@ from tippetop.compare.running.runner import SchedulerLost, Task, TaskResult, run
 from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError
-from tippetop.models.scene import Scene, load_scene
+from tippetop.models.scene import Override, Scene, load_scene
 
 
 @dataclass
@@ -140,7 +140,7 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 if c.kind == "run":
                     jobs.append((c, None, Task(c.scene_arg, c.overrides, c.engine, c.mode)))
                 elif c.kind == "sweep":
-                    jobs += [(c, n0, Task(c.scene_arg, (*c.overrides, f"init.n0={n0!r}"),
+                    jobs += [(c, n0, Task(c.scene_arg, (*c.overrides, Override.of("init.n0", n0)),
                                           c.engine, c.mode)) for n0 in c.n0]
             if not jobs:
                 continue

@@ -14,13 +14,15 @@ from typing import Any
 from tippetop.compare.nightly.catalogue import Case
 from tippetop.compare.nightly.outputs import slug
 from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Override
 
 #: Nightly videos: small, side by side (MuJoCo | reference), at most this many frames each.
 VIDEO_SIZE = (320, 240)
 VIDEO_FPS = 15.0
 VIDEO_MAX_FRAMES = 240
 VIDEO_MIN_SPEED = 0.25  # (simulated s per s of video): never slower than quarter speed
-VIDEO_OVERRIDES = ("mujoco.timestep_s=1e-4",)  # paper mode is within 3e-4 rad of 1.25e-5 s
+# paper mode is within 3e-4 rad of 1.25e-5 s
+VIDEO_OVERRIDES = (Override.of("mujoco.timestep_s", 1e-4),)
 
 
 def video_speed(t_end_s: float) -> float:

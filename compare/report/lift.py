@@ -60,9 +60,11 @@ def reference_slips(root: Path) -> dict[str, float]:
     """The largest slip each top's reference reaches while the ball alone touches (m/s)."""
     from tippetop.compare.running.runner import Task, run_tasks
     from tippetop.compare.studies.lift import reference_slip
+    from tippetop.models.scene import Override
 
     names = list(TOPS)
-    tasks = [Task(None, (f"top.mjcf={root / TOPS[n]}", "run.t_end_s=3"), "ode", "paper")
+    tasks = [Task(None, (Override.of("top.mjcf", str(root / TOPS[n])),
+                         Override.of("run.t_end_s", 3)), "ode", "paper")
              for n in names]
     out = {}
     for name, res in zip(names, run_tasks(tasks, label="lift figure"), strict=True):

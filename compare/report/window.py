@@ -16,7 +16,6 @@ at others; each window touched.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -39,20 +38,20 @@ def steps_of() -> dict[str, Any]:
     """Each step's pass (a run sampled at every step) over :data:`SPAN_S`, and 1-ms windows."""
     from tippetop.compare.studies.fidelity import point_overrides
     from tippetop.models.resolve import resolve_plan
-    from tippetop.models.scene import load_scene
+    from tippetop.models.scene import Override, load_scene
     from tippetop.mujoco_runner.results import window_means
     from tippetop.mujoco_runner.run import simulate_plan
 
     s = SETTINGS
-    over = [*point_overrides(*POINT, N0, THETA0), f"run.t_end_s={SPAN_S[1]!r}",
-            "mujoco.friction=native", f"mujoco.cone={s['cone']}",
-            f"mujoco.impratio={s['impratio']!r}", f"mujoco.mu={s['mu']!r}",
-            f"mujoco.solref={json.dumps(s['solref'])}",
-            f"mujoco.solimp={json.dumps(s['solimp'])}",
-            f"mujoco.timestep_s={s['timestep_s']!r}", f"mujoco.integrator={s['integrator']}"]
+    over = [*point_overrides(*POINT, N0, THETA0), Override.of("run.t_end_s", SPAN_S[1]),
+            Override.of("mujoco.friction", "native"), Override.of("mujoco.cone", s["cone"]),
+            Override.of("mujoco.impratio", s["impratio"]), Override.of("mujoco.mu", s["mu"]),
+            Override.of("mujoco.solref", s["solref"]), Override.of("mujoco.solimp", s["solimp"]),
+            Override.of("mujoco.timestep_s", s["timestep_s"]),
+            Override.of("mujoco.integrator", s["integrator"])]
     out: dict[str, Any] = {}
     for key, spacing in (("step", s["timestep_s"]), ("sample", SAMPLE_DT_S)):
-        plan = resolve_plan(load_scene(None, [*over, f"run.sample_dt_s={spacing!r}"]),
+        plan = resolve_plan(load_scene(None, [*over, Override.of("run.sample_dt_s", spacing)]),
                             "mujoco").mujoco
         res = simulate_plan(plan)
         t = res.table["t"].to_numpy()

@@ -18,7 +18,7 @@ from tippetop.compare.measures.summary import RunSummary
 from tippetop.compare.running.engines import plan_for, run_plan
 from tippetop.models.errors import TippetopError
 from tippetop.models.plan import RunPlan
-from tippetop.models.scene import Scene, load_scene
+from tippetop.models.scene import Override, Scene, load_scene
 
 #: Rows kept of each run's observables table in the cache (for figures and reports).
 CACHED_TABLE_ROWS = 4000
@@ -44,13 +44,16 @@ class SchedulerLost(SchedulerError):
 class Task:
     """One run: a scene, its overrides, the engine it runs on and the mode it runs in.
 
+    ``overrides``: :class:`tippetop.models.scene.Override` values (a study's), or ``--set``
+    text (a user's, as typed).
+
     ``engine``: ``ode``, ``mujoco``, ``mujoco==X.Y.Z``, ``mujoco@PYTHON``, ``mjx``,
     ``mjx-f32`` or ``warp`` (:mod:`tippetop.models.engines`); ``mode``: how the contact force
     is made (:mod:`tippetop.models.modes`), None for what the scene says.
     """
 
     scene: str | None
-    overrides: tuple[str, ...] = ()
+    overrides: tuple[Override | str, ...] = ()
     engine: str = "ode"
     mode: str | None = None
     label: str = field(default="", compare=False)

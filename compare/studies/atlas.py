@@ -32,6 +32,7 @@ from tippetop.compare.studies.sweep import Run
 from tippetop.models.engines import parse_engine
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
+from tippetop.models.scene import Override
 
 #: The top every grid point starts from (R, M, mu, Lambda of the paper's eq. 3.10).
 ATLAS_SCENE = "fig11_n060"
@@ -103,7 +104,7 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
     cells: list[tuple[float, float, str, Search, Search, Any]] = []
     for r in A_over_C:
         for e in a_over_R:
-            over = (f"top.A_over_C={r!r}", f"top.a_over_R={e!r}", *overrides)
+            over = (Override.of("top.A_over_C", r), Override.of("top.a_over_R", e), *overrides)
             top = Task(ATLAS_SCENE, over, "ode").load().top
             for (engine, mode, extra), label in zip(runs, labels, strict=True):
                 more = (*over, *extra)

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from tippetop.models.plan import MujocoPlan
+from tippetop.models.scene import Override
 
 #: The solver of "solver tighter": this many times the iterations, this tolerance.
 SOLVER_ITERATIONS_FACTOR = 10
@@ -37,7 +38,7 @@ class Change:
     """
 
     name: str
-    overrides: tuple[str, ...] | None
+    overrides: tuple[Override, ...] | None
     why_not: str = ""
 
 
@@ -48,17 +49,20 @@ def changes_for(plan: MujocoPlan) -> list[Change]:
     (native mode: paper mode's contact has no friction rows); a tighter solver; a quarter of
     the timestep.
     """
-    out = [Change(f"integrator {name}", (f"mujoco.integrator={name}",))
+    out = [Change(f"integrator {name}", (Override.of("mujoco.integrator", name),))
            for name in ("Euler", "implicitfast", "RK4") if name != plan.integrator]
-    out.append(Change("contacts off", ("mujoco.contacts=false",)))
-    out.append(Change("friction off", ("effects.sliding=false",)))
+    out.append(Change("contacts off", (Override.of("mujoco.contacts", False),)))
+    out.append(Change("friction off", (Override.of("effects.sliding", False),)))
     other = "pyramidal" if plan.cone == "elliptic" else "elliptic"
-    out.append(Change(f"cone {other}", (f"mujoco.cone={other}",)) if plan.friction == "native"
+    out.append(Change(f"cone {other}", (Override.of("mujoco.cone", other),))
+               if plan.friction == "native"
                else Change(f"cone {other}", None, "paper mode's contact has no friction rows"))
     it = max(SOLVER_ITERATIONS_FACTOR * plan.iterations, 1000)
     out.append(Change(f"solver {it} iterations, tolerance {SOLVER_TOLERANCE:g}",
-                      (f"mujoco.iterations={it}", f"mujoco.tolerance={SOLVER_TOLERANCE!r}")))
-    out.append(Change("quarter timestep", (f"mujoco.timestep_s={plan.timestep_s / 4!r}",)))
+                      (Override.of("mujoco.iterations", it),
+                       Override.of("mujoco.tolerance", SOLVER_TOLERANCE))))
+    out.append(Change("quarter timestep",
+                      (Override.of("mujoco.timestep_s", plan.timestep_s / 4),)))
     return out
 
 

@@ -48,6 +48,7 @@ from tippetop.compare.tuning.tune import TuneStart, settled_references, starts_f
 from tippetop.models.calibrated import CALIBRATION_MU, calibrated_native_settings
 from tippetop.models.errors import RunFailedError, TippetopError
 from tippetop.models.modes import REFERENCE_RUN, run_label
+from tippetop.models.scene import Override
 
 #: The JSON's format name.
 FORMAT = "tippetop-contact-search/1"
@@ -120,18 +121,18 @@ class ContactCandidate:
     solreffriction: tuple[float, float] | None = None
     origin: str = "drawn"
 
-    def overrides(self) -> tuple[str, ...]:
-        """``--set`` strings that select exactly these settings (nothing left to defaults)."""
-        out = ("mujoco.friction=native", f"mujoco.cone={self.cone}",
-               f"mujoco.impratio={self.impratio!r}", f"mujoco.mu={self.mu!r}",
-               f"mujoco.solref=[{self.solref[0]!r}, {self.solref[1]!r}]",
-               "mujoco.solimp=[" + ", ".join(repr(v) for v in self.solimp) + "]",
-               f"mujoco.timestep_s={self.timestep_s!r}", f"mujoco.integrator={self.integrator}",
-               f"mujoco.condim={self.condim}",
-               f"mujoco.noslip_iterations={self.noslip_iterations}")
+    def overrides(self) -> tuple[Override, ...]:
+        """The overrides that select exactly these settings (nothing left to defaults)."""
+        out = (Override.of("mujoco.friction", "native"), Override.of("mujoco.cone", self.cone),
+               Override.of("mujoco.impratio", self.impratio), Override.of("mujoco.mu", self.mu),
+               Override.of("mujoco.solref", self.solref[:2]),
+               Override.of("mujoco.solimp", self.solimp),
+               Override.of("mujoco.timestep_s", self.timestep_s),
+               Override.of("mujoco.integrator", self.integrator),
+               Override.of("mujoco.condim", self.condim),
+               Override.of("mujoco.noslip_iterations", self.noslip_iterations))
         if self.solreffriction is not None:
-            a, b = self.solreffriction
-            out += (f"mujoco.solreffriction=[{a!r}, {b!r}]",)
+            out += (Override.of("mujoco.solreffriction", self.solreffriction[:2]),)
         return out
 
     def label(self) -> str:
@@ -616,7 +617,7 @@ class PointRuns:
             part = cands[k:k + batch]
             if say:
                 say(f"{label}: candidates {k + 1}-{k + len(part)} of {len(cands)} ...")
-            tasks = [Task(None, (*self.base, *s.overrides(), f"run.t_end_s={t_end!r}",
+            tasks = [Task(None, (*self.base, *s.overrides(), Override.of("run.t_end_s", t_end),
                                  *c.overrides()), "mujoco")
                      for c in part for s, t_end in zip(self.starts, horizons, strict=True)]
             got = run_tasks(tasks, label=f"{label} {k + 1}-{k + len(part)}/{len(cands)}",
@@ -662,7 +663,7 @@ def prepare_point(A_over_C: float, a_over_R: float, mu: float, *, n0: float | No
     if say:
         say(f"A/C = {A_over_C:g}, a/R = {a_over_R:g}, mu = {mu:g}: the reference from "
             f"{len(starts)} starts ...")
-    horizon = f"run.t_end_s={float(t_end_s)!r}"
+    horizon = Override.of("run.t_end_s", float(t_end_s))
     refs = run_tasks([Task(None, (*base, *s.overrides(), horizon), "ode", "paper")
                       for s in starts], label="search reference", **opts)
     for s, r in zip(starts, refs, strict=True):

@@ -55,6 +55,7 @@ from tippetop.compare.tuning.calibrate.identify import (
 from tippetop.compare.tuning.calibrate.scoring import Candidate
 from tippetop.compare.tuning.tune import HELD_OUT, fit_horizon
 from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Override
 
 #: MuJoCo runs a search may use by default (``--budget-runs``): about 10 min on 2 cores at
 #: 8-s runs (1199 runs took 795 s at a load of 4 to 5 from other work, 666 runs 300 s at 2
@@ -366,9 +367,9 @@ def run_fit(pr: PointRuns, seed: ContactCandidate, rollouts: int, max_iters: int
     start = pr.starts[0]
     t_fit = fit_horizon(ref.summary or {}, pr.t_end_s)
     fs = FitStart(start.label(), None,
-                  (*pr.base, *start.overrides(), f"run.t_end_s={t_fit!r}",
-                   f"mujoco.condim={seed.condim}",
-                   f"mujoco.noslip_iterations={seed.noslip_iterations}"), t_fit)
+                  (*pr.base, *start.overrides(), Override.of("run.t_end_s", t_fit),
+                   Override.of("mujoco.condim", seed.condim),
+                   Override.of("mujoco.noslip_iterations", seed.noslip_iterations)), t_fit)
     cand, fitted, bounds = fit_candidate(seed, pr.point["mu"])
     stem = (ref.summary or {}).get("t_stem")
     problem = Problem([fs], [reference_theta(ref.table, t_fit)], seed.timestep_s,

@@ -19,6 +19,7 @@ from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import TopParams
+from tippetop.models.scene import Override
 
 WHICH = ("n1", "n4", "nc")
 #: Initial tilt from the steady state (rad): linear, yet well above MuJoCo's contact jitter.
@@ -103,11 +104,13 @@ def growth_fit(table: pd.DataFrame, skip_s: float = SKIP_S,
     }
 
 
-def state_overrides(state: str, n: float, run_s: float = RUN_S) -> tuple[str, ...]:
+def state_overrides(state: str, n: float, run_s: float = RUN_S) -> tuple[Override, ...]:
     """Scene overrides for a run started ``TILT_RAD`` from the upright or inverted state."""
     theta0 = TILT_RAD if state == "upright" else math.pi - TILT_RAD
-    return (f"init.theta0={theta0!r}", "init.thetadot0=0.0", "init.Omega0=0.0",
-            f"init.n0={n!r}", "init.uOX=0.0", "init.uOY=0.0", f"run.t_end_s={run_s!r}")
+    return (Override.of("init.theta0", theta0), Override.of("init.thetadot0", 0.0),
+            Override.of("init.Omega0", 0.0), Override.of("init.n0", n),
+            Override.of("init.uOX", 0.0), Override.of("init.uOY", 0.0),
+            Override.of("run.t_end_s", run_s))
 
 
 def jellett_pi_to_zero(top: TopParams, n_pi: float) -> float:

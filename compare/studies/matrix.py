@@ -23,7 +23,7 @@ from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import check_pair, run_label
-from tippetop.models.scene import catalogue_names
+from tippetop.models.scene import Override, catalogue_names
 
 #: The format of ``results.json`` (2: a run's ``engine`` and ``mode`` apart, ``engines`` by
 #: ``engine``).
@@ -57,12 +57,12 @@ def profile_scenes(profile: str) -> tuple[str, ...]:
     return PROFILES[profile]
 
 
-def _scene_task_args(scene: str) -> tuple[str | None, tuple[str, ...], bool]:
+def _scene_task_args(scene: str) -> tuple[str | None, tuple[Override, ...], bool]:
     """(scene for Task, overrides, is an MJCF top) of a scene name, scene file or MJCF file."""
     if scene.lower().endswith(".xml"):
         if not os.path.isfile(scene):
             raise TippetopError(f"SCENE: expected a scene or an MJCF file, got {scene!r}")
-        return None, (f"top.mjcf={os.path.abspath(scene)!r}",), True
+        return None, (Override.of("top.mjcf", os.path.abspath(scene)),), True
     return scene, (), False
 
 
@@ -137,7 +137,8 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
         scene_modes[scene] = tuple(modes) if modes else (
             DEFAULT_FILE_MODES if is_file else DEFAULT_MODES)
         for mode, spec in itertools.product(scene_modes[scene], engines):
-            fit = ("mujoco.fit_paper_timestep=true",) if is_file and mode == "paper" else ()
+            fit = ((Override.of("mujoco.fit_paper_timestep", True),) if is_file and mode == "paper"
+                   else ())
             jobs.append((scene, mode, Task(name, (*over, *fit), spec.spec, mode,
                                            label=f"{scene} [{run_label(spec.spec, mode)}]")))
     results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,

@@ -21,6 +21,7 @@ from tippetop.compare.measures.friction_realised import not_refit
 from tippetop.compare.measures.series import first_inversion_time, theta_asymp
 from tippetop.compare.measures.tolerances import TOLERANCES
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 #: The nightly's tolerances the refit's events are held to: t_invert and t_stem within
 #: ``TOLERANCES["t_invert"]`` (0.1 s), theta_asymp within ``TOLERANCES["theta_asymp"]``.
@@ -33,8 +34,8 @@ def refit_overrides(fr: dict[str, Any]) -> tuple[str, ...] | None:
     mu, lam = fr.get("mu_fit"), fr.get("Lambda_fit_mps")
     if mu is None or lam is None or not (mu > 0 and lam > 0):
         return None
-    return ("friction.law='modified_coulomb'", f"friction.mu={mu!r}",
-            f"friction.Lambda_mps={lam!r}")
+    return (Override.of("friction.law", "modified_coulomb"), Override.of("friction.mu", mu),
+            Override.of("friction.Lambda_mps", lam))
 
 
 def events(summary: dict[str, Any], table: pd.DataFrame | None) -> dict[str, float | None]:

@@ -17,6 +17,7 @@ from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
+from tippetop.models.scene import Override
 
 #: A run of a study: (engine, mode or None for the scene's, more scene keys).
 Run = tuple[str, str | None, tuple[str, ...]]
@@ -60,7 +61,8 @@ def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
     tasks = []
     for engine, mode, extra in runs:
         for n0 in n0_values:
-            tasks.append(Task(scene, (*overrides, *extra, f"init.n0={n0!r}"), engine, mode))
+            tasks.append(Task(scene, (*overrides, *extra, Override.of("init.n0", n0)), engine,
+                              mode))
     results = run_tasks(tasks, scheduler=scheduler, workers=workers, use_cache=use_cache,
                         label="sweep")
     rows = []

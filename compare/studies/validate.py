@@ -35,6 +35,7 @@ from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text, solver_text
+from tippetop.models.scene import Override
 
 #: The runs of a validation (engine family, mode), in report order: the file as it says first,
 #: the reference, the paper's law in MuJoCo, the calibrated settings.
@@ -82,10 +83,10 @@ def run_key(engine: str, mode: str) -> str:
     return run_label(engine, mode)
 
 
-def _overrides(config: ValidateConfig) -> tuple[str, ...]:
-    over = [f"top.mjcf={str(config.model)!r}", f"run.t_end_s={config.t_end_s!r}"]
+def _overrides(config: ValidateConfig) -> tuple[Override, ...]:
+    over = [Override.of("top.mjcf", str(config.model)), Override.of("run.t_end_s", config.t_end_s)]
     if config.keyframe is not None:
-        over.append(f"init.keyframe={config.keyframe!r}")
+        over.append(Override.of("init.keyframe", config.keyframe))
     return tuple(over)
 
 
@@ -405,7 +406,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     loaded = plan_file_info(over)
     # the paper's law runs at a step it can follow: the file's, or the largest 1-2-5 step
     # below the law's limit, which the plan chooses and says (mujoco.fit_paper_timestep)
-    paper = (*over, "mujoco.fit_paper_timestep=true")
+    paper = (*over, Override.of("mujoco.fit_paper_timestep", True))
     jobs = [(run_key(engine, mode), Task(None, paper if (family, mode) == ("mujoco", "paper")
                                          else over, engine, mode))
             for family, mode in RUNS
@@ -503,7 +504,7 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
         return predicted_outcome(top, float(theory.jellett_from_spin(top, n0, theta0,
                                                                      Omega0)))
 
-    base = tuple(o for o in over if not o.startswith("run.t_end_s="))
+    base = tuple(o for o in over if o.name != "run.t_end_s")
     path = _tune_cache_path(over, config.budget_runs) if config.use_cache else None
     if path is not None and path.is_file():
         try:

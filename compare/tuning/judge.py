@@ -12,6 +12,7 @@ from typing import Any
 
 from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 #: Held-out starts, relative to the file's: (spin factor, tilt factor); a tilt at least
 #: :data:`MIN_TILT_STEP_RAD` above the file's. Near the file's start, where its settings are
@@ -33,16 +34,16 @@ class TuneStart:
     theta0: float
     role: str  # "fit" or "held-out"
 
-    def overrides(self) -> tuple[str, ...]:
-        """``--set`` strings of this start.
+    def overrides(self) -> tuple[Override, ...]:
+        """The overrides of this start.
 
         None for the file's own (its keyframe as it is); a held-out one's spin and tilt
         (from rest otherwise: no precession, no slip).
         """
         if self.role == "fit":
             return ()
-        return (f"init.n0={self.n0!r}", f"init.theta0={self.theta0!r}", "init.Omega0=0.0",
-                "init.thetadot0=0.0")
+        return (Override.of("init.n0", self.n0), Override.of("init.theta0", self.theta0),
+                Override.of("init.Omega0", 0.0), Override.of("init.thetadot0", 0.0))
 
     def label(self) -> str:
         """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""

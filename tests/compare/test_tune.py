@@ -51,7 +51,7 @@ def test_held_out_starts_differ_from_the_fit() -> None:
     # a faster and a slower spin, a larger tilt (at least 0.05 rad more)
     assert max(s.n0 for s in held) > 150.0 > min(s.n0 for s in held)
     assert max(s.theta0 for s in held) >= 0.04 + 0.05
-    assert "init.n0=" in held[0].overrides()[0]
+    assert held[0].overrides()[0].name == "init.n0"
 
 
 def test_the_fit_follows_the_ball_phase() -> None:

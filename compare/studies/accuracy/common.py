@@ -12,7 +12,7 @@ from tippetop.compare.measures.series import jellett_drift
 from tippetop.compare.running.engines import plan_for
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.plan import OdePlan
-from tippetop.models.scene import Scene, load_scene
+from tippetop.models.scene import Override, Scene, load_scene
 from tippetop.reference_ode.solve import simulate_ode
 
 #: Columns of the work-precision table, shared by both engines. Errors are against the
@@ -90,7 +90,7 @@ def cut_scene(scene: Scene | str, t_end_s: float | None = None) -> Scene:
     if t_end_s is not None:
         expect(math.isfinite(t_end_s) and t_end_s > 0, "t_end_s", "a finite number > 0",
                t_end_s)
-        s = s.with_overrides([f"run.t_end_s={float(t_end_s)!r}"])
+        s = s.with_overrides([Override.of("run.t_end_s", float(t_end_s))])
     return s
 
 

@@ -30,7 +30,7 @@ from tippetop.compare.studies.accuracy.common import (
     score,
 )
 from tippetop.models.errors import TippetopError, expect
-from tippetop.models.scene import Scene
+from tippetop.models.scene import Override, Scene
 from tippetop.reference_ode.solve import sample_times
 
 #: MuJoCo integrators, timesteps (s) and friction modes of the default study.
@@ -65,9 +65,11 @@ def _mujoco_point_scene(s: Scene, integrator: str, mode: str, dt: float,
     They are the scene's own settings then, so native mode takes them rather than the
     calibrated defaults (which include a 2e-4 s RK4 timestep).
     """
-    return s.with_overrides([f"mujoco.friction={mode}", f"mujoco.integrator={integrator}",
-                             f"mujoco.timestep_s={dt!r}", f"run.t_end_s={s.run.t_end_s!r}",
-                             f"run.sample_dt_s={sample_dt_s!r}"])
+    return s.with_overrides([Override.of("mujoco.friction", mode),
+                             Override.of("mujoco.integrator", integrator),
+                             Override.of("mujoco.timestep_s", dt),
+                             Override.of("run.t_end_s", s.run.t_end_s),
+                             Override.of("run.sample_dt_s", sample_dt_s)])
 
 
 def _run_mujoco_point(s: Scene, ref: Reference, hard_limit_s: float) -> dict[str, Any]:

@@ -30,7 +30,7 @@ from tippetop.compare.studies.accuracy.common import (
     score,
 )
 from tippetop.models.errors import TippetopError, expect
-from tippetop.models.scene import Scene
+from tippetop.models.scene import Override, Scene
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.peers import numbalsoda_missing, numbalsoda_solve
 from tippetop.reference_ode.solve import (
@@ -281,7 +281,8 @@ def ode_work_precision(
 def stiff_scene(scene: Scene | str = STIFF_SCENE, Lambda_mps: float = STIFF_LAMBDA_MPS,
                 t_end_s: float | None = None) -> Scene:
     """``scene`` with the law's Lambda set (and its run cut), named ``<scene>_Lambda<L>``."""
-    s = cut_scene(scene, t_end_s).with_overrides([f"friction.Lambda_mps={float(Lambda_mps)!r}"])
+    s = cut_scene(scene, t_end_s).with_overrides([Override.of("friction.Lambda_mps",
+                                                               float(Lambda_mps))])
     return replace(s, name=f"{s.name}_Lambda{Lambda_mps:g}")
 
 

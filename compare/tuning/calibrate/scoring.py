@@ -5,7 +5,6 @@ The objective and its weights are explained in docs/design.md.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -18,7 +17,7 @@ from tippetop.compare.measures.series import classify_outcome, theta_asymp
 from tippetop.compare.running.runner import TaskResult
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError
-from tippetop.models.scene import load_scene
+from tippetop.models.scene import Override, load_scene
 
 #: Objective weights (see the module docstring).
 W_T = 0.2  # rad per second of inversion-time error
@@ -91,15 +90,16 @@ class Candidate:
         """MuJoCo solimp (d0, dmax, width m, midpoint, power)."""
         return [self.d0, *self.solimp_tail]
 
-    def overrides(self, timestep_s: float, integrator: str) -> tuple[str, ...]:
-        """``--set`` strings that select exactly these settings (nothing left to defaults)."""
-        out = ("mujoco.friction=native", f"mujoco.cone={self.cone}",
-               f"mujoco.impratio={self.impratio!r}", f"mujoco.mu={self.mu!r}",
-               f"mujoco.solref={json.dumps(self.solref)}",
-               f"mujoco.solimp={json.dumps(self.solimp)}",
-               f"mujoco.timestep_s={timestep_s!r}", f"mujoco.integrator={integrator}")
+    def overrides(self, timestep_s: float, integrator: str) -> tuple[Override, ...]:
+        """The overrides that select exactly these settings (nothing left to defaults)."""
+        out = (Override.of("mujoco.friction", "native"), Override.of("mujoco.cone", self.cone),
+               Override.of("mujoco.impratio", self.impratio), Override.of("mujoco.mu", self.mu),
+               Override.of("mujoco.solref", self.solref),
+               Override.of("mujoco.solimp", self.solimp),
+               Override.of("mujoco.timestep_s", timestep_s),
+               Override.of("mujoco.integrator", integrator))
         if self.solreffriction is not None:
-            out += (f"mujoco.solreffriction={json.dumps(self.solreffriction)}",)
+            out += (Override.of("mujoco.solreffriction", self.solreffriction),)
         return out
 
     def label(self) -> str:
@@ -192,9 +192,9 @@ class SceneSpec:
     name: str
     t_end_s: float
 
-    def overrides(self) -> tuple[str, ...]:
+    def overrides(self) -> tuple[Override, ...]:
         """The horizon override."""
-        return (f"run.t_end_s={self.t_end_s!r}",)
+        return (Override.of("run.t_end_s", self.t_end_s),)
 
     def text(self) -> str:
         """``NAME:T_END_S``."""
