@@ -43,6 +43,100 @@ ROW_U = 12
 STATE = ("x", "y", "vx", "vy", "qw", "qx", "qy", "qz", "wx", "wy", "wz")
 
 
+class _Ops:
+    """The operations of a jet system, appended in order."""
+
+    def __init__(self) -> None:
+        self.ops: list = []
+
+    def mul(self, n: str, a: str, b: str) -> None:
+        """Append n = a * b."""
+        self.ops.append((n, "mul", (a, b)))
+
+    def sq(self, n: str, a: str) -> None:
+        """Append n = a^2."""
+        self.ops.append((n, "sq", (a,)))
+
+    def lin(self, n: str, terms: list, c0: str | None = None) -> None:
+        """Append n = sum(coef * u) (+ c0)."""
+        self.ops.append((n, "lin", (terms, c0)))
+
+
+def _spin_and_slip(o: _Ops) -> None:
+    """The spin about the axis, kd = w x k, the slip and the friction direction phi."""
+    # the spin about the axis and kd = w x k (the axis' rate)
+    o.mul("a1", "wx", "kx")
+    o.mul("a2", "wy", "ky")
+    o.mul("a3", "wz", "kz")
+    o.lin("n", [("1.0", "a1"), ("1.0", "a2"), ("1.0", "a3")])
+    o.mul("b1", "wy", "kz")
+    o.mul("b2", "wz", "ky")
+    o.lin("kdx", [("1.0", "b1"), ("-1.0", "b2")])
+    o.mul("b3", "wz", "kx")
+    o.mul("b4", "wx", "kz")
+    o.lin("kdy", [("1.0", "b3"), ("-1.0", "b4")])
+    o.mul("b5", "wx", "ky")
+    o.mul("b6", "wy", "kx")
+    o.lin("kdz", [("1.0", "b5"), ("-1.0", "b6")])
+    # the slip v_P = v + w x (a k - R e_z) = v + a kd - R (w_y, -w_x)
+    o.lin("vpx", [("1.0", "vx"), ("a", "kdx"), ("-R", "wy")])
+    o.lin("vpy", [("1.0", "vy"), ("a", "kdy"), ("R", "wx")])
+    o.sq("vpx2", "vpx")
+    o.sq("vpy2", "vpy")
+    o.lin("u", [("1.0", "vpx2"), ("1.0", "vpy2")], "lam2")
+    o.ops.append(("s", "powm", ("u", -0.5, "mu")))  # mu / sqrt(|v_P|^2 + Lambda^2)
+    o.mul("c1", "s", "vpx")
+    o.mul("c2", "s", "vpy")
+    o.lin("phx", [("-1.0", "c1")])
+    o.lin("phy", [("-1.0", "c2")])
+
+
+def _contact_torque(o: _Ops, symmetric: bool) -> tuple[str, str, str, str]:
+    """t1 = X_P x (phi, 1) and the angular acceleration per unit N: its names and scale."""
+    # t1 = X_P x (phi_x, phi_y, 1), X_P = (a kx, a ky, a kz - R)
+    o.mul("d1", "kz", "phy")
+    o.lin("t1x", [("a", "ky"), ("-a", "d1"), ("R", "phy")])
+    o.mul("d2", "kz", "phx")
+    o.lin("t1y", [("a", "d2"), ("-R", "phx"), ("-a", "kx")])
+    o.mul("d3", "kx", "phy")
+    o.mul("d4", "ky", "phx")
+    o.lin("t1z", [("a", "d3"), ("-a", "d4")])
+    if symmetric:
+        return "t1x", "t1y", "t1z", "iA"
+    # k . t1 = R (kx phy - ky phx); alpha = t1 / A + (1/C - 1/A) (k . t1) k
+    o.lin("k1", [("dC*R", "d3"), ("-dC*R", "d4")])
+    o.mul("e1", "k1", "kx")
+    o.lin("ax", [("iA", "t1x"), ("1.0", "e1")])
+    o.mul("e2", "k1", "ky")
+    o.lin("ay", [("iA", "t1y"), ("1.0", "e2")])
+    o.mul("e3", "k1", "kz")
+    o.lin("az", [("iA", "t1z"), ("1.0", "e3")])
+    return "ax", "ay", "az", "1.0"
+
+
+def _normal_force(o: _Ops, symmetric: bool) -> None:
+    """N = M (g - a ((b x k)_z + (w x kd)_z)) / (1 + M a (alpha x k)_z)."""
+    # denominator 1 + M a (alpha x k)_z = 1 + M a (t1x ky - t1y kx) / A
+    o.mul("f1", "t1x", "ky")
+    o.mul("f2", "t1y", "kx")
+    o.lin("den", [("M*a*iA", "f1"), ("-M*a*iA", "f2")], "1.0")
+    # N = M (g - a ((b x k)_z + (w x kd)_z)) / den, b = -(C - A) n kd / A
+    o.sq("w1", "wx")
+    o.sq("w2", "wy")
+    o.sq("w3", "wz")
+    o.lin("ww", [("1.0", "w1"), ("1.0", "w2"), ("1.0", "w3")])
+    o.mul("g3", "n", "wz")
+    o.mul("g4", "kz", "ww")
+    num = [("-M*a", "g3"), ("M*a", "g4")]
+    if not symmetric:
+        o.mul("g1", "n", "kz")
+        o.lin("t0", [("1.0", "g1"), ("-1.0", "wz")])
+        o.mul("g2", "n", "t0")
+        num.append(("M*a*iA*(C-A)", "g2"))
+    o.lin("num", num, "M*g")
+    o.ops.append(("N", "div", ("num", "den")))
+
+
 def jet_system(symmetric: bool) -> tuple[list, dict]:
     """The operations, in order, and each state variable's rate as a linear combination.
 
@@ -50,92 +144,19 @@ def jet_system(symmetric: bool) -> tuple[list, dict]:
     constant added to the 0th coefficient or None), ``powm`` (u, alpha, factor): factor u^alpha,
     ``div`` (u, v). Coefficients are source text in the parameters' names (see :func:`jet_source`).
     """
-    ops: list = []
-
-    def mul(n: str, a: str, b: str) -> None:
-        ops.append((n, "mul", (a, b)))
-
-    def sq(n: str, a: str) -> None:
-        ops.append((n, "sq", (a,)))
-
-    def lin(n: str, terms: list, c0: str | None = None) -> None:
-        ops.append((n, "lin", (terms, c0)))
-
-    # the spin about the axis and kd = w x k (the axis' rate)
-    mul("a1", "wx", "kx")
-    mul("a2", "wy", "ky")
-    mul("a3", "wz", "kz")
-    lin("n", [("1.0", "a1"), ("1.0", "a2"), ("1.0", "a3")])
-    mul("b1", "wy", "kz")
-    mul("b2", "wz", "ky")
-    lin("kdx", [("1.0", "b1"), ("-1.0", "b2")])
-    mul("b3", "wz", "kx")
-    mul("b4", "wx", "kz")
-    lin("kdy", [("1.0", "b3"), ("-1.0", "b4")])
-    mul("b5", "wx", "ky")
-    mul("b6", "wy", "kx")
-    lin("kdz", [("1.0", "b5"), ("-1.0", "b6")])
-    # the slip v_P = v + w x (a k - R e_z) = v + a kd - R (w_y, -w_x)
-    lin("vpx", [("1.0", "vx"), ("a", "kdx"), ("-R", "wy")])
-    lin("vpy", [("1.0", "vy"), ("a", "kdy"), ("R", "wx")])
-    sq("vpx2", "vpx")
-    sq("vpy2", "vpy")
-    lin("u", [("1.0", "vpx2"), ("1.0", "vpy2")], "lam2")
-    ops.append(("s", "powm", ("u", -0.5, "mu")))  # mu / sqrt(|v_P|^2 + Lambda^2)
-    mul("c1", "s", "vpx")
-    mul("c2", "s", "vpy")
-    lin("phx", [("-1.0", "c1")])
-    lin("phy", [("-1.0", "c2")])
-    # t1 = X_P x (phi_x, phi_y, 1), X_P = (a kx, a ky, a kz - R)
-    mul("d1", "kz", "phy")
-    lin("t1x", [("a", "ky"), ("-a", "d1"), ("R", "phy")])
-    mul("d2", "kz", "phx")
-    lin("t1y", [("a", "d2"), ("-R", "phx"), ("-a", "kx")])
-    mul("d3", "kx", "phy")
-    mul("d4", "ky", "phx")
-    lin("t1z", [("a", "d3"), ("-a", "d4")])
-    if symmetric:
-        ax, ay, az = "t1x", "t1y", "t1z"
-        a_coef = "iA"
-    else:
-        # k . t1 = R (kx phy - ky phx); alpha = t1 / A + (1/C - 1/A) (k . t1) k
-        lin("k1", [("dC*R", "d3"), ("-dC*R", "d4")])
-        mul("e1", "k1", "kx")
-        lin("ax", [("iA", "t1x"), ("1.0", "e1")])
-        mul("e2", "k1", "ky")
-        lin("ay", [("iA", "t1y"), ("1.0", "e2")])
-        mul("e3", "k1", "kz")
-        lin("az", [("iA", "t1z"), ("1.0", "e3")])
-        ax, ay, az = "ax", "ay", "az"
-        a_coef = "1.0"
-    # denominator 1 + M a (alpha x k)_z = 1 + M a (t1x ky - t1y kx) / A
-    mul("f1", "t1x", "ky")
-    mul("f2", "t1y", "kx")
-    lin("den", [("M*a*iA", "f1"), ("-M*a*iA", "f2")], "1.0")
-    # N = M (g - a ((b x k)_z + (w x kd)_z)) / den, b = -(C - A) n kd / A
-    sq("w1", "wx")
-    sq("w2", "wy")
-    sq("w3", "wz")
-    lin("ww", [("1.0", "w1"), ("1.0", "w2"), ("1.0", "w3")])
-    mul("g3", "n", "wz")
-    mul("g4", "kz", "ww")
-    num = [("-M*a", "g3"), ("M*a", "g4")]
-    if not symmetric:
-        mul("g1", "n", "kz")
-        lin("t0", [("1.0", "g1"), ("-1.0", "wz")])
-        mul("g2", "n", "t0")
-        num.append(("M*a*iA*(C-A)", "g2"))
-    lin("num", num, "M*g")
-    ops.append(("N", "div", ("num", "den")))
-    mul("F1", "N", "phx")
-    mul("F2", "N", "phy")
+    o = _Ops()
+    _spin_and_slip(o)
+    ax, ay, az, a_coef = _contact_torque(o, symmetric)
+    _normal_force(o, symmetric)
+    o.mul("F1", "N", "phx")
+    o.mul("F2", "N", "phy")
     pairs = [("wx", "qx"), ("wy", "qy"), ("wz", "qz"), ("qw", "wx"), ("wy", "qz"), ("wz", "qy"),
              ("qw", "wy"), ("wz", "qx"), ("wx", "qz"), ("qw", "wz"), ("wx", "qy"), ("wy", "qx")]
     for i, (u, v) in enumerate(pairs):
-        mul(f"h{i}", u, v)
-    mul("j1", "N", ax)
-    mul("j2", "N", ay)
-    mul("j3", "N", az)
+        o.mul(f"h{i}", u, v)
+    o.mul("j1", "N", ax)
+    o.mul("j2", "N", ay)
+    o.mul("j3", "N", az)
     rate = {
         "x": [("1.0", "vx")], "y": [("1.0", "vy")],
         "vx": [("1.0/M", "F1")], "vy": [("1.0/M", "F2")],
@@ -148,13 +169,13 @@ def jet_system(symmetric: bool) -> tuple[list, dict]:
     }
     if not symmetric:
         g0 = "(-iA*(C-A))"
-        mul("l1", "n", "kdx")
-        mul("l2", "n", "kdy")
-        mul("l3", "n", "kdz")
+        o.mul("l1", "n", "kdx")
+        o.mul("l2", "n", "kdy")
+        o.mul("l3", "n", "kdz")
         rate["wx"].append((g0, "l1"))
         rate["wy"].append((g0, "l2"))
         rate["wz"].append((g0, "l3"))
-    return ops, rate
+    return o.ops, rate
 
 
 class Constants:

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
-from typing import Any
 
 from tippetop.compare.commands.options import (
     ENGINE_HELP,
@@ -16,7 +14,7 @@ from tippetop.compare.commands.options import (
     add_set_option,
     print_json,
 )
-from tippetop.compare.presentation.terminal import MISSING, fmt, fmt_value, labelled, table
+from tippetop.compare.presentation.crossval import print_compare
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -59,166 +57,3 @@ def run(args: argparse.Namespace) -> int:
                          f"failed ({', '.join(failed)}); the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0
-
-
-def _unit(metric: str) -> str:
-    """A metric's declared unit (:mod:`tippetop.compare.measures.metrics`)."""
-    from tippetop.compare.measures.metrics import METRICS
-
-    m = METRICS.get(metric)
-    return m.unit if m is not None and m.unit != "fraction" else ""
-
-
-def _tolerance_why(metric: str, d: dict[str, Any]) -> str:
-    """Why a tolerance is what it is: the difference's own ``why``, else crossval's table."""
-    why = d.get("why")
-    if not why:
-        try:
-            from tippetop.compare.measures.verdict import TOLERANCES
-
-            why = TOLERANCES.get(metric, (None, ""))[1]
-        except ImportError:  # pragma: no cover - crossval is part of the package
-            why = ""
-    # the table's reasons start with the unit ("s; 1 ms sampling ..."): the unit is shown
-    head, sep, tail = str(why or "").partition("; ")
-    return tail if sep and len(head) <= 12 else str(why or "")
-
-
-def difference_text(d: dict[str, Any]) -> str:
-    """One difference from the reference in words, naming the tolerance it broke.
-
-    Example: ``t_invert 2.496 s against the reference's 2.329 s: 0.167 s apart, over the
-    t_invert tolerance of 0.1 s (1 ms sampling plus ...)``.
-    """
-    metric = str(d.get("metric", "?"))
-    unit = _unit(metric)
-    value, ref, tol = d.get("value"), d.get("reference"), d.get("tolerance")
-    if metric == "status":
-        note = d.get("note") or value
-        return f"the run failed ({note}); the reference's status is {fmt(ref)}"
-    if metric == "outcome":
-        return f"ends {fmt(value)} where the reference ends {fmt(ref)} (a different outcome)"
-    if metric == "t_left_table":
-        if value is None:
-            return f"the ball stays on the table; the reference's leaves it at {fmt(ref, 's')}"
-        return f"the ball leaves the table at {fmt(value, 's')}; the reference's stays on"
-    if metric == "t_invert" and (value is None) != (ref is None):
-        if value is None:
-            return f"never turns over; the reference does at {fmt(ref, 's')}"
-        return f"turns over at {fmt(value, 's')}; the reference never does"
-    text = f"{metric} {fmt(value, unit)}"
-    if metric == "theta_rms":
-        text = f"theta(t) departs from the reference's by {fmt(value, 'rad')} RMS"
-    elif ref is not None:
-        text += f" against the reference's {fmt(ref, unit)}"
-    if tol is None:
-        return text
-    if isinstance(value, (int, float)) and isinstance(ref, (int, float)) and metric not in (
-            "J_rel_drift", "theta_rms"):
-        text += f": {fmt(abs(value - ref), unit)} apart"
-    why = _tolerance_why(metric, d)
-    limit = "limit" if metric == "J_rel_drift" else "tolerance"
-    return f"{text}, over the {metric} {limit} of {fmt(tol, unit)}" + (
-        f" ({why})" if why else "")
-
-
-def print_compare(res: dict[str, Any]) -> None:
-    """``tippetop compare`` for a person: the theory, one line per run, what differs and why.
-
-    Robust to the keys a result has: a missing value is ``-``.
-    """
-    th = res.get("theory") or {}
-    theta_s = th.get("theta_s")
-    tol_s = th.get("theta_s_tol")
-    head = f"{res.get('scene', '?')} (Group {res.get('group', '?')}): "
-    if "outcome" in th and th["outcome"] is None:  # needs a run's Jellett constant at t = 0
-        print(head + "no prediction from the theory: every run failed")
-    else:
-        print(head + f"the theory predicts {th.get('outcome', '?')}, theta_s = "
-              f"{fmt(theta_s, 'rad')}")
-    runs = {str(s.get("run")): s for s in res.get("runs") or []}
-    rows = []
-    for m, s in runs.items():
-        matches = s.get("agrees", s.get("matches_theory"))
-        if s.get("outcome") == "failed":
-            rows.append((m, "failed", "DIFFERS" if matches is False else MISSING,
-                         *[MISSING] * 5))
-            continue
-        word = {True: "agrees", False: "DIFFERS", None: MISSING}.get(matches, fmt(matches))
-        if s.get("against") == "reference" and matches is not None:
-            word += " (vs ref)"
-        rows.append((
-            m + (" (reference)" if s.get("reference") else ""),
-            fmt(s.get("outcome")),
-            word,
-            fmt_value("t_invert", s.get("t_invert")).split(" (")[0],
-            fmt(s.get("theta_asymp"), "rad"),
-            fmt(s.get("J_rel_drift"), "relative"),
-            fmt(s.get("energy_dissipated_J"), "J"),
-            MISSING if s.get("reference") else fmt(s.get("theta_rms_vs_ref"), "rad"),
-        ))
-    if rows:
-        print()
-        print(table(("run", "outcome", "verdict", "t_invert", "theta_asymp", "J drift",
-                     "energy lost", "theta RMS vs ref"), rows))
-    agree_rule = (f"agrees: every check passes: the theory's outcome, theta_asymp within "
-                  f"{fmt(tol_s, 'rad')} of theta_s (vs ref: a top that reaches its stem, "
-                  "judged against the reference), the reference's event times, the ball on "
-                  "the table, Jellett's constant kept, no energy gained")
-    print(f"  (run: engine/mode; {agree_rule}; J drift: Jellett's constant while the ball "
-          "alone touches, relative)")
-    against = [(str(r.get("run")), r.get("reasons") or []) for r in res.get("crossval") or []
-               if not r.get("agrees", True)]
-    if against:
-        print("\nwhy not:")
-        width = max(len(m) for m, _ in against)
-        for m, reasons in against:
-            print(labelled(m, "; ".join(reasons) if reasons else "does not agree", width))
-    diffs = res.get("differences") or []
-    print()
-    if not diffs:
-        print("differences from the reference beyond their tolerances: none")
-    else:
-        print(f"differences from the reference ({res.get('reference', 'ode')}) beyond their "
-              "tolerances:")
-        width = max(len(str(d.get("run", ""))) for d in diffs)
-        for d in diffs:
-            print(labelled(str(d.get("run", "?")), difference_text(d), width))
-    realised = [(m, s["friction_realised"]) for m, s in runs.items()
-                if s.get("engine") != "ode"
-                and (s.get("friction_realised") or {}).get("samples")]
-    if realised:
-        from tippetop.compare.measures.friction_realised import realised_sentence
-
-        print("\nthe friction law as each run realises it (the ball's phase):")
-        width = max(len(m) for m, _ in realised)
-        for m, fr in realised:
-            print(labelled(m, realised_sentence(m, fr).split(": ", 1)[1], width))
-            if (fr.get("refit") or {}).get("sentence"):
-                print(labelled("", f"refit: {fr['refit']['sentence']}", width))
-                if fr["refit"].get("remains"):
-                    print(labelled("", "what else differs: " + ", ".join(fr["refit"]["remains"]),
-                                   width))
-    ran = []
-    for m, s in runs.items():
-        if "engine" not in s:
-            continue
-        try:
-            from tippetop.compare.measures.summary import describe_ran
-
-            text = describe_ran(s)
-        except (KeyError, TypeError, ValueError):
-            text = MISSING
-        ran.append((m, re.sub(r"\b(None|nan)\b", MISSING, text)))
-    if ran:
-        print("\nwhat ran:")
-        width = max(len(m) for m, _ in ran)
-        for m, text in ran:
-            print(labelled(m, text, width))
-    notes = [(m, str(s.get("note"))) for m, s in runs.items()
-             if s.get("note") and not s.get("reference")]
-    if notes:
-        print("\nwhy a run may depart from the paper's law:")
-        width = max(len(m) for m, _ in notes)
-        for m, note in notes:
-            print(labelled(m, note, width))

@@ -20,10 +20,10 @@ from tippetop.compare.commands.options import (
     print_json,
 )
 from tippetop.compare.presentation.terminal import (
-    NONE_MEANS,
     RAN_KEYS,
     fmt_stiff,
     fmt_value,
+    none_means,
     ran_lines,
 )
 from tippetop.models.errors import TippetopError
@@ -154,7 +154,7 @@ def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) 
         # what ran for stiff friction, beside the rolling phases the run did (or did not) enter
         if k == "stiff":
             return fmt_stiff(v, summary.get("rolling_phases"))
-        if v is None and not finished and k in NONE_MEANS:
+        if v is None and not finished and none_means(k) is not None:
             # "never" only of a run that finished: this one stopped before it could tell
             return f"- (the run stopped: {summary.get('status')}, see its message)"
         return fmt_value(k, v)

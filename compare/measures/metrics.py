@@ -69,6 +69,41 @@ class Tolerance:
                 "text": self.describe(), "why": self.why}
 
 
+#: How a metric's agreement bound is found for one run (:meth:`Metric.agreement_bound`):
+#: ``fixed`` (the declared bound), ``event`` (max(the floor, the fraction x the reference's
+#: time)) or ``per_family`` (:data:`J_TOL`, the reference's or an engine's).
+AGREEMENT_RULES: tuple[str, ...] = ("fixed", "event", "per_family")
+
+
+@dataclass(frozen=True)
+class Wording:
+    """How a run's difference from the reference is said (``compare``'s list of differences).
+
+    The templates take ``{value}`` and ``{ref}`` (each as text, with the metric's unit) and
+    ``{note}`` (the run's own note, else its value). Unset, a difference reads ``NAME VALUE
+    against the reference's REF: GAP apart, over the NAME tolerance of TOL (WHY)``.
+
+    Attributes:
+        whole: The whole sentence (a failed run, a different outcome).
+        run_none: The sentence where the run has no value and the reference has one.
+        ref_none: The sentence where the reference has no value and the run has one.
+        value: The run's value in words, in place of ``NAME VALUE against the reference's``.
+        gap: Whether ``: GAP apart`` is said (not of a bound on the run's own value, an RMS).
+        bound: What the bound is called: ``tolerance``, or ``limit`` (a bound on the run's own
+            value).
+        by_run: The run's value alone picks ``run_none`` or ``ref_none`` (a metric the
+            reference never has a value of where the run's differs: the ball leaving the table).
+    """
+
+    whole: str = ""
+    run_none: str = ""
+    ref_none: str = ""
+    value: str = ""
+    gap: bool = True
+    bound: str = "tolerance"
+    by_run: bool = False
+
+
 @dataclass(frozen=True)
 class Metric:
     """One metric, declared once.
@@ -88,6 +123,10 @@ class Metric:
             bound on the run's own value) or ``""``.
         style: How its value is printed (:data:`STYLES`).
         label: A short heading for tables.
+        none_means: What None means in a finished run's output, where ``-`` would hide it
+            (``never (does not turn over)``); empty: None is ``-``.
+        wording: How a difference from the reference is said (:class:`Wording`).
+        agreement_rule: How ``agreement`` gives one run's bound (:data:`AGREEMENT_RULES`).
     """
 
     name: str
@@ -99,6 +138,27 @@ class Metric:
     against: str = ""
     style: str = "number"
     label: str = ""
+    none_means: str = ""
+    wording: Wording = Wording()
+    agreement_rule: str = "fixed"
+
+    def agreement_bound(self, family: str = "mujoco", ref: float | None = None) -> float:
+        """How far one run's value may be from the reference's or the theory's.
+
+        Args:
+            family: The run's engine family (``ode``: the reference; ``mujoco``: any other).
+            ref: The reference's value (an event's time), for the ``event`` rule.
+
+        Raises:
+            KeyError: The metric is not part of the verdict (no ``agreement``).
+        """
+        if self.agreement_rule == "event":
+            return event_tolerance(ref)
+        if self.agreement_rule == "per_family":
+            return J_TOL["ode" if family == "ode" else "mujoco"]
+        if self.agreement is None:
+            raise KeyError(f"{self.name}: not part of the verdict")
+        return self.agreement.floor if self.agreement.kind == "rel" else self.agreement.value
 
     @property
     def table_unit(self) -> str:
@@ -161,6 +221,12 @@ EVENT_RTOL = 0.1
 #: run's (a soft contact's sink moves the contact point; first-order integrators move J by
 #: O(dt) on an A != C top).
 J_TOL = {"ode": 1e-6, "mujoco": 1e-3}
+
+
+def event_tolerance(ref: float | None) -> float:
+    """How far an event time may be from the reference's ``ref`` (s): max(0.1 s, 10 %)."""
+    return max(EVENT_TOL_S, EVENT_RTOL * ref) if ref is not None else EVENT_TOL_S
+
 #: theta_asymp against the theory's theta_s (rad): a run's theta_asymp is a mean over its last
 #: 10 %: the nutation left there after a start at theta0 = 0.1 or 0.01 moves it by under
 #: 0.03 rad in the reference (Figs. 6-8, 11), and the paper prints Fig. 11's to 0.01 rad.
@@ -181,7 +247,9 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
                                     "inconclusive is the paper's claim"),
            agreement=_tol("exact", why="the theory's outcome class for the run's Jellett "
                           "constant (the reference's outcome when the top reaches its stem)"),
-           against="theory", style="class"),
+           against="theory", style="class",
+           wording=Wording(whole="ends {value} where the reference ends {ref} (a different "
+                           "outcome)")),
     Metric("matches_expect", "", "whether the outcome is the scene file's [expect] outcome "
            "(none when the scene expects nothing or the case changes its physics)",
            tolerance=_tol("exact", why="agreement with the scene's [expect] outcome must not "
@@ -199,12 +267,16 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
            "over (none: it never does within the run); MuJoCo's located to the step",
            tolerance=_tol("abs", 0.1, "s", "~3 % of the Fig. 3 inversion time; the ODE locates "
                           "it to 1e-6 s and a MuJoCo timestep change moves it by milliseconds"),
-           agreement=_EVENT, against="reference"),
+           agreement=_EVENT, against="reference", agreement_rule="event",
+           none_means="never (does not turn over)",
+           wording=Wording(run_none="never turns over; the reference does at {ref}",
+                           ref_none="turns over at {value}; the reference never does")),
     Metric("t_stem", "s", "the first time the stem touches the table (none: no stem, or it "
            "never does); MuJoCo's located to the step",
            tolerance=_tol("abs", 0.1, "s", "as t_invert: ~3 % of the Fig. 3 "
                                               "inversion time"),
-           agreement=_EVENT, against="reference"),
+           agreement=_EVENT, against="reference", agreement_rule="event",
+           none_means="never (no stem contact)"),
     Metric("J_rel_drift", "relative", "the largest change of Jellett's constant J = R L_z - "
            "a C n while the ball alone touches the table (until the stem lands or the ball "
            "first leaves the table: J is conserved only while the force acts at the ball's "
@@ -216,7 +288,8 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
                           "through the contact point (eq. 2.10): 1e-3 for MuJoCo (a soft "
                           "contact's sink, first-order integrators), 1e-6 for the reference "
                           "(its integration tolerance)"),
-           against="itself", style="relative", label="J drift"),
+           against="itself", style="relative", label="J drift", agreement_rule="per_family",
+           wording=Wording(gap=False, bound="limit")),
     Metric("energy_monotone", "", "whether the energy E never rises by more than the "
            "integration's own error (dE/dt = F . v_P <= 0 under every law)",
            tolerance=_tol("exact", why="dE/dt = F . v_P <= 0 under every law: a rise is a "
@@ -248,21 +321,29 @@ METRICS: dict[str, Metric] = {m.name: m for m in (
            agreement=_tol("exact", why="a ball that leaves the table where the reference's "
                           "stays on departs: J is not kept in flight, and the paper's model "
                           "has the ball on the table"),
-           against="reference", label="left the table"),
+           against="reference", label="left the table",
+           none_means="never (the ball stays on the table)",
+           wording=Wording(run_none="the ball stays on the table; the reference's leaves it "
+                           "at {ref}",
+                           ref_none="the ball leaves the table at {value}; the reference's "
+                           "stays on", by_run=True)),
     Metric("flights", "", "a MuJoCo run's stretches of steps without contact before the stem "
            "lands, measured at every step: how many, the longest and all of them together "
            "(s), the first's start and the highest's rise (m); and how many are flights "
            "(hops: 10 ms or more and risen 10 um or more, the ball leaving the table), the "
            "first's start, the longest and the highest",
-           style="class"),
+           style="class", none_means="none (the ball never leaves the table)"),
     Metric("status", "", "how the run ended: ok, contact_lost or hop (the physics ended it), "
            "or why it failed (diverged, max_steps, step_too_small, singular ...)",
            tolerance=_tol("exact", why="ok / contact_lost / max_steps / singular must stay "
-                          "what it was"), style="class"),
+                          "what it was"), style="class",
+           wording=Wording(whole="the run failed ({note}); the reference's status is {ref}")),
     Metric("theta_rms", "rad", "the RMS of theta(t) - theta_ref(t) over the run, against the "
            "reference's theta(t)",
            agreement=_tol("abs", 0.05, "rad", "RMS of theta(t) - theta_ref(t) over the run"),
-           against="reference", label="theta RMS vs ref"),
+           against="reference", label="theta RMS vs ref",
+           wording=Wording(value="theta(t) departs from the reference's by {value} RMS",
+                           gap=False)),
     Metric("theta_rms_vs_ref", "rad", "theta_rms of a run (compare's key)"),
     Metric("theta_s", "rad", "the theory's asymptotic angle for the run's Jellett constant: "
            "0 below n1 (upright), pi above n4 (inverted), the intermediate branch between (the "
@@ -391,7 +472,6 @@ TOLERANCES: dict[str, Tolerance] = {n: m.tolerance for n, m in METRICS.items()
                                     if m.tolerance is not None}
 
 
-__all__ = ["EVENT_RTOL", "EVENT_TOL_S", "GROWTH_MEASURED", "J_TOL", "KINDS", "METRICS",
-           "RECORD_KEYS",
-           "STYLES", "THETA_S_TOL", "TOLERANCES", "Metric", "Tolerance", "kind_metrics",
-           "metric"]
+__all__ = ["AGREEMENT_RULES", "EVENT_RTOL", "EVENT_TOL_S", "GROWTH_MEASURED", "J_TOL", "KINDS",
+           "METRICS", "RECORD_KEYS", "STYLES", "THETA_S_TOL", "TOLERANCES", "Metric", "Tolerance",
+           "Wording", "event_tolerance", "kind_metrics", "metric"]

@@ -27,6 +27,7 @@ from tippetop.compare.measures.metrics import (
     J_TOL,
     METRICS,
     THETA_S_TOL,
+    event_tolerance,
 )
 from tippetop.compare.measures.series import (
     FLIGHT_RISE_M,
@@ -151,11 +152,6 @@ def _check(check: str, run: str, passed: bool | None, value: Any, tolerance: str
     engine, mode = split_label(run)
     return {"check": check, "run": run, "engine": engine, "mode": mode, "passed": passed,
             "value": value, "tolerance": tolerance, "note": note, "against": against}
-
-
-def event_tolerance(ref: float | None) -> float:
-    """How far an event time may be from the reference's ``ref`` (s): max(0.1 s, 10 %)."""
-    return max(EVENT_TOL_S, EVENT_RTOL * ref) if ref is not None else EVENT_TOL_S
 
 
 def _event_check(name: str, run: str, mine: float | None, ref: float | None,
@@ -521,18 +517,18 @@ def crossval_row(scene: str, label: str, run: Mapping[str, Any],
 #: agree, as :mod:`.metrics` declares it (``compare``'s list of differences); the tolerance of
 #: a run on an engine, at the reference's event time, is :func:`tolerance_of`'s.
 TOLERANCES: dict[str, tuple[float, str]] = {
-    name: (METRICS[name].agreement.floor if METRICS[name].agreement.kind == "rel"  # type: ignore[union-attr]
-           else METRICS[name].agreement.value, METRICS[name].agreement.why)  # type: ignore[union-attr]
+    name: (METRICS[name].agreement_bound(), METRICS[name].agreement.why)  # type: ignore[union-attr]
     for name in ("theta_asymp", "t_invert", "theta_rms", "J_rel_drift")}
 
 
 def tolerance_of(metric: str, engine: str = "mujoco", ref: float | None = None) -> float:
-    """The agreement tolerance of ``metric`` for a run on ``engine`` (an event's at ``ref``)."""
-    if metric in ("t_invert", "t_stem"):
-        return event_tolerance(ref)
-    if metric == "J_rel_drift":
-        return J_TOL["ode" if engine == REFERENCE_ENGINE else "mujoco"]
-    return TOLERANCES[metric][0]
+    """The agreement tolerance of ``metric`` for a run on ``engine`` (an event's at ``ref``).
+
+    The declaration's rule (:meth:`~.metrics.Metric.agreement_bound`): an event's bound
+    grows with the reference's time, Jellett's drift is the reference's or an engine's.
+    """
+    family = REFERENCE_ENGINE if engine == REFERENCE_ENGINE else "mujoco"
+    return METRICS[metric].agreement_bound(family, ref)
 
 
 #: A pyramidal friction cone bounds the force along each pyramid edge (the table's axes) by mu N,

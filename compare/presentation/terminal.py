@@ -18,11 +18,11 @@ from tippetop.models.modes import REFERENCE_RUN
 from tippetop.models.numbers import MISSING, NAN_TEXT, float_text, solver_text
 
 # ---------------------------------------------------------------- values
-#: Units of keys whose names do not carry one.
+#: Units of keys that are neither a declared metric nor a setting of what ran, and whose names
+#: do not carry one (a metric's unit is its declaration's: :func:`_declared_unit`).
 _KEY_UNITS: dict[str, str] = {
     "n0": "rad/s", "n1": "rad/s", "n2": "rad/s", "n3": "rad/s", "n4": "rad/s", "nc": "rad/s",
-    "measured": "rad/s", "theory": "rad/s", "t_invert": "s", "t_stem": "s",
-    "theta_rms": "rad", "A": "kg m^2", "C": "kg m^2", "mu": "", "law_mu": "",
+    "theory": "rad/s", "A": "kg m^2", "C": "kg m^2", "mu": "", "law_mu": "",
     # MuJoCo's solver tolerance (a relative improvement of its cost), the ODE's rtol
     "tolerance": "relative", "rtol": "relative",
 }
@@ -203,10 +203,18 @@ def _phases(value: Any) -> str | None:
     return text
 
 
-#: What None means for keys where "-" would hide it (of a run that finished).
-NONE_MEANS = {"t_invert": "never (does not turn over)", "t_stem": "never (no stem contact)",
-               "t_left_table": "never (the ball stays on the table)",
-               "flights": "none (the ball never leaves the table)"}
+def none_means(key: str) -> str | None:
+    """What None means for a metric of a run that finished, where ``-`` would hide it.
+
+    The metric's declaration says it (``t_invert``: ``never (does not turn over)``); None
+    for a key whose None is ``-``.
+    """
+    from tippetop.compare.measures.metrics import METRICS
+
+    m = METRICS.get(key)
+    return m.none_means or None if m is not None else None
+
+
 #: What None means among the settings that ran (:func:`ran_lines`): a coefficient MuJoCo's
 #: contact has no row for, or a start that is not a keyframe.
 _RAN_NONE_MEANS = {
@@ -371,8 +379,8 @@ def fmt_value(key: str, value: Any) -> str:
     ``phases`` list reads ``ball 0-2.5 s, stem 2.5-8 s``; an empty ``unused`` list ``none``;
     a relative quantity says so (``1.3e-9 (relative)``, an energy's ``0 of E0``).
     """
-    if value is None and key in NONE_MEANS:
-        return NONE_MEANS[key]
+    if value is None and (meaning := none_means(key)) is not None:
+        return meaning
     if key == "wall_s" and isinstance(value, (int, float)) and not isinstance(value, bool):
         return fmt_duration(float(value))
     if key == "phases":

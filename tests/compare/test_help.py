@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.cli import build_parser
-from tippetop.compare.commands.compare import print_compare
+from tippetop.compare.presentation.crossval import print_compare
 from tippetop.compare.commands.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERRUPTED,

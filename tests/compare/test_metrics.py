@@ -119,3 +119,44 @@ def test_the_terminal_prints_each_number_with_its_declared_unit() -> None:
         assert unit_of(m.name) == m.unit, m.name
         text = fmt_value(m.name, 0.5)
         assert text.endswith(m.unit) or m.unit in text, (m.name, text)
+
+
+def test_a_metric_is_added_in_one_place(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A metric declared in METRICS alone is read by every place that handles a metric: its
+    unit and its None (the terminal), its agreement bound (the verdict), how a difference is
+    worded (compare) and its listing (``tippetop metrics``). Nothing else is edited here."""
+    from tippetop.compare.commands.metrics import selected
+    from tippetop.compare.measures.metrics import EVENT_RTOL, Metric, Tolerance, Wording
+    from tippetop.compare.measures.verdict import tolerance_of
+    from tippetop.compare.presentation.crossval import difference_text
+
+    new = Metric("t_spin_down", "s", "the first time the spin n falls below 1 rad/s",
+                 agreement=Tolerance("rel", EVENT_RTOL, 0.1, "s", "an event time"),
+                 against="reference", agreement_rule="event",
+                 none_means="never (keeps spinning)",
+                 wording=Wording(run_none="keeps spinning; the reference stops at {ref}"))
+    monkeypatch.setitem(METRICS, new.name, new)
+    assert unit_of("t_spin_down") == "s"
+    assert fmt_value("t_spin_down", None) == "never (keeps spinning)"
+    assert fmt_value("t_spin_down", 2.5) == "2.5 s"
+    # an event's bound grows with the reference's time: 10 % of 5 s, 0.1 s at least
+    assert tolerance_of("t_spin_down", "mujoco", 5.0) == pytest.approx(0.5)
+    assert tolerance_of("t_spin_down", "mujoco", 0.2) == pytest.approx(0.1)
+    assert difference_text({"metric": "t_spin_down", "value": None, "reference": 3.0,
+                            "tolerance": 0.3}) == "keeps spinning; the reference stops at 3 s"
+    assert difference_text({"metric": "t_spin_down", "value": 3.5, "reference": 3.0,
+                            "tolerance": 0.3, "why": "an event time"}) == (
+        "t_spin_down 3.5 s against the reference's 3 s: 0.5 s apart, over the t_spin_down "
+        "tolerance of 0.3 s (an event time)")
+    assert [m.name for m in selected(["t_spin_down"], None)] == ["t_spin_down"]
+
+
+def test_agreement_rules_are_declared() -> None:
+    from tippetop.compare.measures.metrics import AGREEMENT_RULES, J_TOL
+
+    assert {m.agreement_rule for m in METRICS.values()} <= set(AGREEMENT_RULES)
+    # the rule says whose bound: the reference's Jellett drift is its integration tolerance
+    assert METRICS["J_rel_drift"].agreement_bound("ode") == J_TOL["ode"]
+    assert METRICS["J_rel_drift"].agreement_bound("mujoco") == J_TOL["mujoco"]
+    with pytest.raises(KeyError):
+        METRICS["theta_final"].agreement_bound()

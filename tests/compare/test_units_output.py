@@ -299,7 +299,7 @@ def test_compare_says_the_realised_law_and_its_refit_in_four_digits_and_units(
         capsys: pytest.CaptureFixture[str]) -> None:
     """``tippetop compare``'s friction block said "5.52 mm/s", "Lambda 10.2 mm/s", a bare
     "residual 0.0053", "turns over at 2.45 s" and "Jellett's drift (1.4e-06:"."""
-    from tippetop.compare.commands.compare import print_compare
+    from tippetop.compare.presentation.crossval import print_compare
 
     print_compare({"scene": "fig3", "group": "II",
                    "theory": {"outcome": "inverted", "theta_s": 3.14159},
