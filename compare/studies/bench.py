@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -12,15 +15,21 @@ from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.compare.studies.peer_runs import theta_of_states
 from tippetop.models.options import OdeOptions, taylor_runs
 from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.reference_ode.methods import get_method
+from tippetop.reference_ode.methods import Method, get_method
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.peers import (
     NUMBALSODA_METHODS,
+    PeerRun,
     numbalsoda_missing,
     run_numbalsoda,
     run_reference_kernel,
 )
-from tippetop.reference_ode.solve import initial_state_vector, scipy_rhs, simulate_ode
+from tippetop.reference_ode.solve import (
+    OdeResult,
+    initial_state_vector,
+    scipy_rhs,
+    simulate_ode,
+)
 from tippetop.reference_ode.taylor_peer import HEYOKA, TaylorPeer, heyoka_missing, unsupported
 
 #: The issue's target: the compiled integrator at least this many times faster than scipy.
@@ -85,6 +94,253 @@ def _heyoka_solver(p: np.ndarray, y0: np.ndarray, t_end_s: float, rtol: float, r
             "ratio_at_equal_error": None if t_eq is None else t_eq / t_kernel}
 
 
+@dataclass(frozen=True)
+class _Problem:
+    """The benchmarked run: the Fig. 11 top, its state, and the tolerances each solver uses."""
+
+    top: TopParams
+    fr: FrictionParams
+    init: InitialState
+    opts: OdeOptions
+    y0: np.ndarray
+    p: np.ndarray
+    n0: float
+    t_end_s: float
+    rtol: float
+    atol: float
+    method: Method
+    k_rtol: float
+    k_atol: float
+    ours: str
+
+
+@dataclass(frozen=True)
+class _Baselines:
+    """The best runs of the reference's kernel, of simulate_ode and of scipy, compared."""
+
+    kernel: PeerRun
+    res: OdeResult
+    sol: Any
+    t_kernel: float
+    t_ours: float
+    t_scipy: float
+    theta_kernel: float
+    theta_ours: float
+    theta_scipy: float
+    ratio: float
+    dtheta: float
+
+
+def _problem(n0: float, t_end_s: float, rtol: float, atol: float) -> _Problem:
+    """The benchmarked run, with the default (auto) method resolved at ``rtol``."""
+    top = TopParams.from_ratios(1.0, 0.15)
+    fr = FrictionParams()
+    init = InitialState(theta0=0.01, n0=n0)
+    # the default (auto) at this rtol: the method it runs and the tolerances it runs it at
+    method, factor = get_method("auto", rtol, taylor_runs("vector", fr.law, stem=False))
+    k_rtol, k_atol = rtol * factor, atol * factor
+    ours = f"tippetop {method.name}"
+    opts = OdeOptions(rtol=rtol, atol=atol)
+    y0 = initial_state_vector(top, init)
+    p = pack_params(top, fr)
+    return _Problem(top=top, fr=fr, init=init, opts=opts, y0=y0, p=p, n0=n0, t_end_s=t_end_s,
+                    rtol=rtol, atol=atol, method=method, k_rtol=k_rtol, k_atol=k_atol,
+                    ours=ours)
+
+
+def _warm_up(pb: _Problem, peer_names: list[str]) -> Callable:
+    """Scipy's right-hand side, once every solver is loaded (compiled) off the clock."""
+    # compile / load everything first (scipy_rhs compiles its rhs before returning)
+    warm = min(pb.t_end_s, 0.01)
+    simulate_ode(pb.top, pb.fr, pb.init, t_end_s=warm, options=pb.opts)
+    run_reference_kernel(pb.y0, pb.p, warm, pb.k_rtol, pb.k_atol, method=pb.method.name)
+    for name in peer_names:
+        run_numbalsoda(name, pb.y0, pb.p, warm, pb.rtol, pb.atol)
+    return scipy_rhs(pb.top, pb.fr, "vector")
+
+
+def _run_rounds(pb: _Problem, peer_names: list[str], fun: Callable, rounds: int,
+                scipy_rounds: int) -> tuple[dict[str, float], dict[str, Any]]:
+    """Each solver's best CPU time over the rounds, and the run that made it."""
+    best: dict[str, float] = {}
+    runs: dict[str, Any] = {}
+
+    def keep(name: str, s: float, run: object) -> None:
+        if s < best.get(name, math.inf):
+            best[name] = s
+            runs[name] = run
+
+    y0, p, t_end_s, rtol, atol = pb.y0, pb.p, pb.t_end_s, pb.rtol, pb.atol
+    for r in range(rounds):
+        order = [pb.ours, "simulate", *peer_names]
+        shift = r % len(order)  # alternate who goes first
+        for name in order[shift:] + order[:shift]:
+            if name == pb.ours:
+                run = run_reference_kernel(y0, p, t_end_s, pb.k_rtol, pb.k_atol,
+                                           method=pb.method.name)
+                keep(name, run.s, run)
+            elif name == "simulate":
+                t0 = time.process_time()
+                res = simulate_ode(pb.top, pb.fr, pb.init, t_end_s=t_end_s, sample_dt_s=t_end_s,
+                                   options=pb.opts)
+                keep(name, time.process_time() - t0, res)
+            else:
+                run = run_numbalsoda(name, y0, p, t_end_s, rtol, atol)
+                keep(name, run.s, run)
+        if r < scipy_rounds:
+            s, sol = _scipy_run(fun, y0, t_end_s, rtol, atol)
+            keep(SCIPY, s, sol)
+    return best, runs
+
+
+def _baselines(ours: str, best: dict[str, float], runs: dict[str, Any]) -> _Baselines:
+    """The kernel's, simulate_ode's and scipy's best runs, their times and final thetas."""
+    kernel = runs[ours]
+    res = runs["simulate"]
+    sol = runs[SCIPY]
+    t_kernel = best[ours]
+    t_ours = best["simulate"]
+    t_scipy = best[SCIPY]
+    theta_kernel = _theta_of_vector_state(kernel.y_final)
+    theta_ours = float(res.table["theta"].iloc[-1])
+    theta_scipy = _theta_of_vector_state(sol.y[:, -1])
+    ratio = t_scipy / t_ours
+    dtheta = abs(theta_ours - theta_scipy)
+    return _Baselines(kernel=kernel, res=res, sol=sol, t_kernel=t_kernel, t_ours=t_ours,
+                      t_scipy=t_scipy, theta_kernel=theta_kernel, theta_ours=theta_ours,
+                      theta_scipy=theta_scipy, ratio=ratio, dtheta=dtheta)
+
+
+def _peer_at_rtol(run: PeerRun, s: float, base: _Baselines) -> dict:
+    """A numbalsoda peer's entry at the shared rtol: its time, count and final theta."""
+    theta = _theta_of_vector_state(run.y_final)
+    diff = abs(theta - base.theta_kernel)
+    return {
+        "s": s, "n_rhs": run.n_rhs, "theta_final": theta,
+        "theta_abs_diff": diff, "success": run.success,
+        "equal_accuracy": bool(run.success and diff <= EQUAL_ACCURACY_RAD),
+        "ratio": s / base.t_kernel,
+    }
+
+
+def _peer_frontier(pb: _Problem, name: str, rounds: int, theta_truth: float, our_err: float,
+                   t_kernel: float) -> dict:
+    """A numbalsoda peer's frontier over :data:`PEER_SWEEP_RTOLS`, and its time at our error."""
+    pts = []
+    for r_ in PEER_SWEEP_RTOLS:
+        runs_ = [run_numbalsoda(name, pb.y0, pb.p, pb.t_end_s, r_, ATOL_PER_RTOL * r_)
+                 for _ in range(rounds)]
+        if all(x.success for x in runs_):
+            err = abs(_theta_of_vector_state(runs_[0].y_final) - theta_truth)
+            pts.append({"rtol": r_, "s": min(x.s for x in runs_), "theta_err": err})
+    t_eq = time_at_error([(q["theta_err"], q["s"]) for q in pts], our_err)
+    return {"sweep": pts, "s_at_equal_error": t_eq, "equal_accuracy": t_eq is not None,
+            "ratio_at_equal_error": None if t_eq is None else t_eq / t_kernel}
+
+
+def _compare_peers(pb: _Problem, peer_names: list[str], best: dict[str, float],
+                   runs: dict[str, Any], base: _Baselines, rounds: int) -> dict:
+    """The peers' entry of the result: each peer at the shared rtol and at our error."""
+    t_kernel, theta_kernel = base.t_kernel, base.theta_kernel
+    solvers = {name: _peer_at_rtol(runs[name], best[name], base) for name in peer_names}
+    # equal achieved error: each peer's time at our error, on its own frontier
+    truth = run_reference_kernel(pb.y0, pb.p, pb.t_end_s, TRUTH_RTOL,
+                                 ATOL_PER_RTOL * TRUTH_RTOL)
+    theta_truth = _theta_of_vector_state(truth.y_final)
+    our_err = max(abs(theta_kernel - theta_truth), ERROR_FLOOR)
+    for name in peer_names:
+        solvers[name].update(_peer_frontier(pb, name, rounds, theta_truth, our_err, t_kernel))
+    names = list(peer_names)
+    if heyoka_missing() is None and unsupported(pb.p) is None:
+        # heyoka's Taylor method: the same equations in its own expressions (taylor_peer)
+        solvers[HEYOKA] = _heyoka_solver(pb.p, pb.y0, pb.t_end_s, pb.rtol, rounds, theta_kernel,
+                                         theta_truth, our_err, t_kernel)
+        names.append(HEYOKA)
+    equal = [n for n in names if solvers[n]["equal_accuracy"]]
+    best_peer = min(equal, key=lambda n: solvers[n]["s_at_equal_error"]) if equal else None
+    return {
+        "solvers": solvers, "equal_accuracy_rad": EQUAL_ACCURACY_RAD,
+        "best_equal_accuracy": best_peer,
+        "not_equal_accuracy": [n for n in names if not solvers[n]["equal_accuracy"]],
+        "theta_truth": theta_truth, "truth_rtol": TRUTH_RTOL,
+        "ours_theta_err": our_err,
+        "equal_error": "each peer's time at the reference's achieved |theta(t_end) - truth|,"
+                       " log-log interpolated on its frontier over a sweep of rtol "
+                       f"{PEER_SWEEP_RTOLS[0]:g}..{PEER_SWEEP_RTOLS[-1]:g}",
+    }
+
+
+def _row(base: _Baselines, name: str, s: float, n_rhs: int, theta: float | None,
+         note: str = "") -> str:
+    """A solver's line of the report, its ratio and |dtheta| against the kernel's."""
+    d = "" if theta is None else f"{abs(theta - base.theta_kernel):9.1e}"
+    ratio = s / base.t_kernel
+    return f"  {name:<24s} {s:9.4f} {n_rhs:>9,d} {ratio:8.2f}  {d:>9s}  {note}".rstrip()
+
+
+def _peer_lines(base: _Baselines, missing: str | None, peers: dict) -> list[str]:
+    """The report's lines of the peers, or the one saying why they did not run."""
+    if missing is not None:
+        return [f"  numbalsoda peers: not run ({missing})"]
+    lines = []
+    for name, sv in peers["solvers"].items():
+        note = (f"{sv['s_at_equal_error']:.4f} s at our error" if sv["equal_accuracy"]
+                else "does not reach our error at any rtol of its sweep")
+        lines.append(_row(base, name, sv["s"], sv["n_rhs"], sv["theta_final"], note))
+    return lines
+
+
+def _vs_peer_line(missing: str | None, peers: dict, best_peer: str | None,
+                  vs_peer: float | None) -> str:
+    """The report's line of the speed-up against the fastest peer at our error."""
+    if missing is not None:
+        return "  speed-up vs the best peer: not measured (numbalsoda is not installed)"
+    if best_peer is None:
+        return ("  speed-up vs the best peer: no peer reaches our error "
+                f"({peers['ours_theta_err']:.1e} rad against the truth)")
+    return (f"  speed-up vs the fastest peer at equal achieved error ({best_peer}, at our "
+            f"{peers['ours_theta_err']:.1e} rad): {vs_peer:.2f} x "
+            f"(peer time / tippetop's; target >= {TARGET_VS_PEER:g} x: "
+            f"{'met' if vs_peer >= TARGET_VS_PEER else 'NOT met'}; moonshot "
+            f"{MOONSHOT_VS_PEER:g} x: {'met' if vs_peer >= MOONSHOT_VS_PEER else 'not met'})")
+
+
+def _scipy_lines(pb: _Problem, base: _Baselines) -> list[str]:
+    """The report's closing lines: simulate_ode against scipy, and the cost of an evaluation."""
+    ratio, dtheta = base.ratio, base.dtheta
+    per = "jet (a Taylor step)" if pb.method.name == "taylor" else "rhs evaluation"
+    lines = [
+        f"  tippetop simulate_ode     {base.t_ours:9.4f} s (the whole call, observables table "
+        f"included), n_rhs = {base.res.n_rhs:,d}",
+        f"  speed-up vs scipy         {ratio:9.1f} x   (scipy / simulate_ode; target >= "
+        f"{TARGET_SPEEDUP:g} x: {'met' if ratio >= TARGET_SPEEDUP else 'NOT met'})",
+        f"  final theta               {base.theta_ours:.10f} vs {base.theta_scipy:.10f} rad, "
+        f"|diff| = {dtheta:.2e} (target <= {TARGET_THETA_AGREEMENT:g}: "
+        f"{'met' if dtheta <= TARGET_THETA_AGREEMENT else 'NOT met'})",
+        f"  per {per:<22s}{1e9 * base.t_kernel / base.kernel.n_rhs:9.1f} ns (kernel) vs "
+        f"{1e9 * base.t_scipy / base.sol.nfev:.1f} ns per rhs evaluation (scipy) "
+        "(whole run / n_rhs)",
+    ]
+    if pb.method.name == "taylor":
+        lines.append("  (the Taylor method's n_rhs counts its jets, one a step: a jet is the "
+                     "whole series of the step, not one evaluation)")
+    return lines
+
+
+def _header_lines(pb: _Problem, base: _Baselines, rounds: int, scipy_rounds: int) -> list[str]:
+    """The report's title, its column heads and the kernel's (baseline) row."""
+    return [
+        f"reference ODE benchmark: Fig. 11 top (A/C = 1, a/R = 0.15), n0 = {pb.n0:g} rad/s, "
+        f"{pb.t_end_s:g} s simulated, rtol = {pb.rtol:g}, atol = {pb.atol:g}; one compiled "
+        f"right-hand side; CPU time, best of {rounds} round(s) (solvers alternated; scipy: "
+        f"{scipy_rounds}); the reference's default (ode.method = auto) at this rtol runs "
+        f"{pb.method.name} at rtol {pb.k_rtol:g}, atol {pb.k_atol:g}",
+        f"  {'solver':<24s} {'s':>9s} {'n_rhs':>9s} {'ratio':>8s}  {'|dtheta|':>9s}",
+        _row(base, pb.ours, base.t_kernel, base.kernel.n_rhs, None,
+             "(baseline: one kernel call)"),
+    ]
+
+
 def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
               atol: float = 1e-12, rounds: int = 5, scipy_rounds: int = 1) -> dict:
     """Fig. 11 top: the reference's default method against its peers and scipy, at equal error.
@@ -113,181 +369,47 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     """
     rounds = max(1, int(rounds))
     scipy_rounds = min(max(1, int(scipy_rounds)), rounds)
-    top = TopParams.from_ratios(1.0, 0.15)
-    fr = FrictionParams()
-    init = InitialState(theta0=0.01, n0=n0)
-    # the default (auto) at this rtol: the method it runs and the tolerances it runs it at
-    method, factor = get_method("auto", rtol, taylor_runs("vector", fr.law, stem=False))
-    k_rtol, k_atol = rtol * factor, atol * factor
-    ours = f"tippetop {method.name}"
-    opts = OdeOptions(rtol=rtol, atol=atol)
-    y0 = initial_state_vector(top, init)
-    p = pack_params(top, fr)
+    pb = _problem(n0, t_end_s, rtol, atol)
     missing = numbalsoda_missing()
     peer_names = list(NUMBALSODA_METHODS) if missing is None else []
-    # compile / load everything first (scipy_rhs compiles its rhs before returning)
-    warm = min(t_end_s, 0.01)
-    simulate_ode(top, fr, init, t_end_s=warm, options=opts)
-    run_reference_kernel(y0, p, warm, k_rtol, k_atol, method=method.name)
-    for name in peer_names:
-        run_numbalsoda(name, y0, p, warm, rtol, atol)
-    fun = scipy_rhs(top, fr, "vector")
-
-    best: dict[str, float] = {}
-    runs: dict[str, object] = {}
-
-    def keep(name: str, s: float, run: object) -> None:
-        if s < best.get(name, math.inf):
-            best[name] = s
-            runs[name] = run
-
-    for r in range(rounds):
-        order = [ours, "simulate", *peer_names]
-        shift = r % len(order)  # alternate who goes first
-        for name in order[shift:] + order[:shift]:
-            if name == ours:
-                run = run_reference_kernel(y0, p, t_end_s, k_rtol, k_atol, method=method.name)
-                keep(name, run.s, run)
-            elif name == "simulate":
-                t0 = time.process_time()
-                res = simulate_ode(top, fr, init, t_end_s=t_end_s, sample_dt_s=t_end_s,
-                                   options=opts)
-                keep(name, time.process_time() - t0, res)
-            else:
-                run = run_numbalsoda(name, y0, p, t_end_s, rtol, atol)
-                keep(name, run.s, run)
-        if r < scipy_rounds:
-            s, sol = _scipy_run(fun, y0, t_end_s, rtol, atol)
-            keep(SCIPY, s, sol)
-
-    kernel = runs[ours]
-    res = runs["simulate"]
-    sol = runs[SCIPY]
-    t_kernel = best[ours]
-    t_ours = best["simulate"]
-    t_scipy = best[SCIPY]
-    theta_kernel = _theta_of_vector_state(kernel.y_final)
-    theta_ours = float(res.table["theta"].iloc[-1])
-    theta_scipy = _theta_of_vector_state(sol.y[:, -1])
-    ratio = t_scipy / t_ours
-    dtheta = abs(theta_ours - theta_scipy)
+    fun = _warm_up(pb, peer_names)
+    best, runs = _run_rounds(pb, peer_names, fun, rounds, scipy_rounds)
+    base = _baselines(pb.ours, best, runs)
+    t_kernel, t_ours, t_scipy = base.t_kernel, base.t_ours, base.t_scipy
+    kernel, res, sol = base.kernel, base.res, base.sol
 
     peers: dict = {"available": missing is None}
     best_peer = None
     if missing is not None:
         peers["reason"] = missing
     else:
-        solvers = {}
-        for name in peer_names:
-            run = runs[name]
-            theta = _theta_of_vector_state(run.y_final)
-            diff = abs(theta - theta_kernel)
-            solvers[name] = {
-                "s": best[name], "n_rhs": run.n_rhs, "theta_final": theta,
-                "theta_abs_diff": diff, "success": run.success,
-                "equal_accuracy": bool(run.success and diff <= EQUAL_ACCURACY_RAD),
-                "ratio": best[name] / t_kernel,
-            }
-        # equal achieved error: each peer's time at our error, on its own frontier
-        truth = run_reference_kernel(y0, p, t_end_s, TRUTH_RTOL, ATOL_PER_RTOL * TRUTH_RTOL)
-        theta_truth = _theta_of_vector_state(truth.y_final)
-        our_err = max(abs(theta_kernel - theta_truth), ERROR_FLOOR)
-        for name in peer_names:
-            pts = []
-            for r_ in PEER_SWEEP_RTOLS:
-                runs_ = [run_numbalsoda(name, y0, p, t_end_s, r_, ATOL_PER_RTOL * r_)
-                         for _ in range(rounds)]
-                if all(x.success for x in runs_):
-                    err = abs(_theta_of_vector_state(runs_[0].y_final) - theta_truth)
-                    pts.append({"rtol": r_, "s": min(x.s for x in runs_), "theta_err": err})
-            t_eq = time_at_error([(q["theta_err"], q["s"]) for q in pts], our_err)
-            solvers[name].update({
-                "sweep": pts, "s_at_equal_error": t_eq, "equal_accuracy": t_eq is not None,
-                "ratio_at_equal_error": None if t_eq is None else t_eq / t_kernel})
-        if heyoka_missing() is None and unsupported(p) is None:
-            # heyoka's Taylor method: the same equations in its own expressions (taylor_peer)
-            solvers[HEYOKA] = _heyoka_solver(p, y0, t_end_s, rtol, rounds, theta_kernel,
-                                             theta_truth, our_err, t_kernel)
-            peer_names.append(HEYOKA)
-        equal = [n for n in peer_names if solvers[n]["equal_accuracy"]]
-        best_peer = min(equal, key=lambda n: solvers[n]["s_at_equal_error"]) if equal else None
-        peers.update({
-            "solvers": solvers, "equal_accuracy_rad": EQUAL_ACCURACY_RAD,
-            "best_equal_accuracy": best_peer,
-            "not_equal_accuracy": [n for n in peer_names if not solvers[n]["equal_accuracy"]],
-            "theta_truth": theta_truth, "truth_rtol": TRUTH_RTOL,
-            "ours_theta_err": our_err,
-            "equal_error": "each peer's time at the reference's achieved |theta(t_end) - truth|,"
-                           " log-log interpolated on its frontier over a sweep of rtol "
-                           f"{PEER_SWEEP_RTOLS[0]:g}..{PEER_SWEEP_RTOLS[-1]:g}",
-        })
+        peers.update(_compare_peers(pb, peer_names, best, runs, base, rounds))
+        best_peer = peers["best_equal_accuracy"]
     vs_peer = (peers["solvers"][best_peer]["s_at_equal_error"] / t_kernel if best_peer
                else None)
-
-    def row(name: str, s: float, n_rhs: int, theta: float | None, note: str = "") -> str:
-        d = "" if theta is None else f"{abs(theta - theta_kernel):9.1e}"
-        return f"  {name:<24s} {s:9.4f} {n_rhs:>9,d} {s / t_kernel:8.2f}  {d:>9s}  {note}".rstrip()
-
     lines = [
-        f"reference ODE benchmark: Fig. 11 top (A/C = 1, a/R = 0.15), n0 = {n0:g} rad/s, "
-        f"{t_end_s:g} s simulated, rtol = {rtol:g}, atol = {atol:g}; one compiled right-hand "
-        f"side; CPU time, best of {rounds} round(s) (solvers alternated; scipy: "
-        f"{scipy_rounds}); the reference's default (ode.method = auto) at this rtol runs "
-        f"{method.name} at rtol {k_rtol:g}, atol {k_atol:g}",
-        f"  {'solver':<24s} {'s':>9s} {'n_rhs':>9s} {'ratio':>8s}  {'|dtheta|':>9s}",
-        row(ours, t_kernel, kernel.n_rhs, None, "(baseline: one kernel call)"),
+        *_header_lines(pb, base, rounds, scipy_rounds),
+        *_peer_lines(base, missing, peers),
+        _row(base, SCIPY, t_scipy, int(sol.nfev), base.theta_scipy),
+        _vs_peer_line(missing, peers, best_peer, vs_peer),
+        *_scipy_lines(pb, base),
     ]
-    if missing is not None:
-        lines.append(f"  numbalsoda peers: not run ({missing})")
-    else:
-        for name in peer_names:
-            sv = peers["solvers"][name]
-            note = (f"{sv['s_at_equal_error']:.4f} s at our error" if sv["equal_accuracy"]
-                    else "does not reach our error at any rtol of its sweep")
-            lines.append(row(name, sv["s"], sv["n_rhs"], sv["theta_final"], note))
-    lines.append(row(SCIPY, t_scipy, int(sol.nfev), theta_scipy))
-    if missing is not None:
-        lines.append("  speed-up vs the best peer: not measured (numbalsoda is not installed)")
-    elif best_peer is None:
-        lines.append("  speed-up vs the best peer: no peer reaches our error "
-                     f"({peers['ours_theta_err']:.1e} rad against the truth)")
-    else:
-        lines.append(
-            f"  speed-up vs the fastest peer at equal achieved error ({best_peer}, at our "
-            f"{peers['ours_theta_err']:.1e} rad): {vs_peer:.2f} x "
-            f"(peer time / tippetop's; target >= {TARGET_VS_PEER:g} x: "
-            f"{'met' if vs_peer >= TARGET_VS_PEER else 'NOT met'}; moonshot "
-            f"{MOONSHOT_VS_PEER:g} x: {'met' if vs_peer >= MOONSHOT_VS_PEER else 'not met'})")
-    per = "jet (a Taylor step)" if method.name == "taylor" else "rhs evaluation"
-    lines += [
-        f"  tippetop simulate_ode     {t_ours:9.4f} s (the whole call, observables table "
-        f"included), n_rhs = {res.n_rhs:,d}",
-        f"  speed-up vs scipy         {ratio:9.1f} x   (scipy / simulate_ode; target >= "
-        f"{TARGET_SPEEDUP:g} x: {'met' if ratio >= TARGET_SPEEDUP else 'NOT met'})",
-        f"  final theta               {theta_ours:.10f} vs {theta_scipy:.10f} rad, "
-        f"|diff| = {dtheta:.2e} (target <= {TARGET_THETA_AGREEMENT:g}: "
-        f"{'met' if dtheta <= TARGET_THETA_AGREEMENT else 'NOT met'})",
-        f"  per {per:<22s}{1e9 * t_kernel / kernel.n_rhs:9.1f} ns (kernel) vs "
-        f"{1e9 * t_scipy / sol.nfev:.1f} ns per rhs evaluation (scipy) (whole run / n_rhs)",
-    ]
-    if method.name == "taylor":
-        lines.append("  (the Taylor method's n_rhs counts its jets, one a step: a jet is the "
-                     "whole series of the step, not one evaluation)")
     return {
         "n0": n0, "t_end_s": t_end_s, "rtol": rtol, "atol": atol,
-        "method": method.name, "method_rtol": k_rtol, "method_atol": k_atol,
+        "method": pb.method.name, "method_rtol": pb.k_rtol, "method_atol": pb.k_atol,
         "timing": "CPU time (time.process_time), best of the rounds",
         "rounds": rounds, "scipy_rounds": scipy_rounds,
         "ours_s": t_ours, "ours_n_rhs": res.n_rhs,
         "ours_kernel_s": t_kernel, "ours_kernel_n_rhs": kernel.n_rhs,
-        "theta_final_kernel": theta_kernel,
+        "theta_final_kernel": base.theta_kernel,
         "scipy_s": t_scipy, "scipy_n_rhs": int(sol.nfev),
-        "speedup": ratio, "theta_final_ours": theta_ours, "theta_final_scipy": theta_scipy,
-        "theta_final_abs_diff": dtheta,
+        "speedup": base.ratio, "theta_final_ours": base.theta_ours,
+        "theta_final_scipy": base.theta_scipy,
+        "theta_final_abs_diff": base.dtheta,
         "ours_ns_per_rhs": 1e9 * t_ours / res.n_rhs,
         "scipy_ns_per_rhs": 1e9 * t_scipy / sol.nfev,
-        "target_speedup_met": ratio >= TARGET_SPEEDUP,
-        "target_theta_met": dtheta <= TARGET_THETA_AGREEMENT,
+        "target_speedup_met": base.ratio >= TARGET_SPEEDUP,
+        "target_theta_met": base.dtheta <= TARGET_THETA_AGREEMENT,
         "peers": peers,
         "speedup_vs_best_peer": vs_peer,
         "best_peer": best_peer,

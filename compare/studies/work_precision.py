@@ -228,6 +228,145 @@ def _errors(run: PeerPoint, truth: dict) -> dict:
             "J_drift": run.J_drift if run.status == "ok" else math.nan}
 
 
+@dataclass(frozen=True)
+class _Sweep:
+    """One top's sweep under way: its solvers, tolerances and rounds, and the points made."""
+
+    top: Top
+    truth: dict
+    tols: list[float]
+    names: list[str]
+    solvers: dict[str, dict]
+    rounds: int
+    slow_rounds: int
+    budget_s: float | None
+
+
+def _solver_names(peers: Sequence[str] | None, methods: Sequence[str] | None
+                  ) -> tuple[list[str], list[str], dict[str, str]]:
+    """The reference's methods and the peers to run, and why the others are skipped."""
+    ref_names, skipped = reference_methods()
+    if methods is not None:
+        ref_names = [m for m in methods if m in ref_names or m == "auto"]
+    elif "auto" not in ref_names:
+        ref_names = [*ref_names, "auto"]
+    peer_names = list(available_peers() if peers is None else peers)
+    missing = {n: PEERS[n].missing() for n in PEERS if n not in peer_names}
+    skipped.update({n: why for n, why in missing.items() if why})
+    return ref_names, peer_names, skipped
+
+
+def _warm_up(top: Top, ref_names: Sequence[str], peer_names: Sequence[str],
+             tols: Sequence[float]) -> None:
+    """Runs every solver once (compiling it) off the clock."""
+    for m in ref_names:  # the loosest tolerance: cheap, and it visits the rolling phases
+        run_reference(top, m, tols[0])
+    for n in peer_names:
+        PEERS[n].warm(top)
+
+
+def _run_one(sw: _Sweep, name: str, rtol: float, first: bool) -> PeerPoint:
+    """One run of a solver at ``rtol`` (the first at it locates the inversion, if any)."""
+    if name.startswith(REF_PREFIX):
+        return run_reference(sw.top, name[len(REF_PREFIX):], rtol)
+    locate = first and sw.truth["t_invert"] is not None
+    return PEERS[name].run(sw.top, rtol, locate_invert=locate)
+
+
+def _rounds_of(sw: _Sweep, n: str, rtol: float) -> int:
+    """The rounds a solver's point runs: more for a short one, fewer for a slow peer."""
+    if n in PEERS and PEERS[n].slow:
+        return sw.slow_rounds
+    first = sw.solvers[n]["points"].get(rtol)
+    short = first is not None and first["s"] < SHORT_S
+    return sw.rounds * SHORT_ROUNDS if short else sw.rounds
+
+
+def _planned(sw: _Sweep) -> int:
+    """The number of runs of the first round."""
+    return sum(len(PEERS[n].tolerances(sw.tols)) if n in PEERS else len(sw.tols)
+               for n in sw.names)
+
+
+def _replanned(sw: _Sweep, planned: int) -> int:
+    """The number of runs more (or fewer) than planned, once the first round is done."""
+    made = sum(len(sv["points"]) for sv in sw.solvers.values())
+    later = sum(_rounds_of(sw, n, q["rtol"]) - 1 for n, sv in sw.solvers.items()
+                for q in sv["points"].values() if q["status"] == "ok")
+    return later - (planned - made)
+
+
+def _skips(sw: _Sweep, n: str, rtol: float, r: int) -> bool:
+    """Whether solver ``n`` sits out round ``r`` at ``rtol``."""
+    sv = sw.solvers[n]
+    slow = n in PEERS and PEERS[n].slow
+    if (r >= _rounds_of(sw, n, rtol)
+            or (slow and rtol not in PEERS[n].tolerances(sw.tols))
+            or (sv["stopped"] and rtol < sv["stopped"])):
+        return True
+    return r > 0 and (rtol not in sv["points"] or sv["points"][rtol]["status"] != "ok")
+
+
+def _record(sw: _Sweep, n: str, rtol: float, run: PeerPoint) -> None:
+    """Records a solver's first run at ``rtol``; a failed or over-budget one ends its sweep."""
+    sv = sw.solvers[n]
+    slow = n in PEERS and PEERS[n].slow
+    sv["points"][rtol] = {"rtol": rtol, "atol": ATOL_PER_RTOL * rtol,
+                          "s": run.s, "n_rhs": run.n_rhs,
+                          "status": run.status, **_errors(run, sw.truth),
+                          "method": run.method,
+                          "t_invert_locate_err": run.locate_err,
+                          "printed": run.printed}
+    limit = PEERS[n].budget_s if n in PEERS else None
+    limit = sw.budget_s if (sw.budget_s is not None and slow) else limit
+    if run.status != "ok" or (limit is not None and run.s > limit):
+        sv["stopped"] = rtol
+
+
+def _run_rounds(sw: _Sweep, tick: Callable[[], None] | None,
+                expect: Callable[[int], None] | None) -> None:
+    """Runs the rounds, the solvers taking turns, each point keeping its best CPU time."""
+    planned = _planned(sw)
+    if expect is not None:
+        expect(planned)
+    names = sw.names
+    for r in range(max(sw.rounds * SHORT_ROUNDS, sw.slow_rounds)):
+        if r == 1 and expect is not None:  # the first round told which points run again
+            expect(_replanned(sw, planned))
+        for k, rtol in enumerate(sw.tols):
+            order = names[(r + k) % len(names):] + names[:(r + k) % len(names)]
+            for n in order:
+                if _skips(sw, n, rtol, r):
+                    continue
+                run = _run_one(sw, n, rtol, r == 0)
+                if tick is not None:
+                    tick()
+                if r == 0:
+                    _record(sw, n, rtol, run)
+                else:
+                    p = sw.solvers[n]["points"][rtol]
+                    p["s"] = min(p["s"], run.s)
+
+
+def _level(metric: str, key: str, solvers: dict[str, dict], refs: list[str],
+           auto: str | None, peer_names: list[str]) -> dict:
+    """One metric's equal-error rows, on every point and without the cancellations."""
+    by_rtol = {n: [(p["rtol"], p[key], p["s"]) for p in sv["points"]
+                   if p["status"] == "ok" and p[key] is not None]
+               for n, sv in solvers.items()}
+    pts = {n: [(e, t) for _, e, t in ps] for n, ps in by_rtol.items()}
+    rows = compare_at_levels(pts, refs, auto, peer_names, LEVELS[metric])
+    # the same levels with every solver's cancellations set aside (frontier.cancellations)
+    steady = compare_at_levels({n: without_cancellations(ps) for n, ps in by_rtol.items()},
+                               refs, auto, peer_names, LEVELS[metric])
+    for row, st in zip(rows, steady, strict=True):
+        row.update(ratio_steady=st["ratio"], ratio_auto_steady=st["ratio_auto"],
+                   met_steady=st["met"], best_peer_steady=st["best_peer"])
+    cancelled = {n: c for n, ps in by_rtol.items() if (c := cancellations(ps))}
+    return {"unit": UNITS[metric], "levels": list(LEVELS[metric]),
+            "rows": rows, "cancellations": cancelled}
+
+
 def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
               tolerances: Sequence[float] = TOLERANCES, peers: Sequence[str] | None = None,
               methods: Sequence[str] | None = None, budget_s: float | None = None,
@@ -249,76 +388,17 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
         expect: Called with the number of runs planned (before the first round), then with
             the number more or fewer (after it: the rounds of each point it leaves).
     """
-    ref_names, skipped = reference_methods()
-    if methods is not None:
-        ref_names = [m for m in methods if m in ref_names or m == "auto"]
-    elif "auto" not in ref_names:
-        ref_names = [*ref_names, "auto"]
-    peer_names = list(available_peers() if peers is None else peers)
-    missing = {n: PEERS[n].missing() for n in PEERS if n not in peer_names}
-    skipped.update({n: why for n, why in missing.items() if why})
+    ref_names, peer_names, skipped = _solver_names(peers, methods)
     truth = compute_truth(top)
     tols = sorted({float(t) for t in tolerances}, reverse=True)
-    solvers: dict[str, dict] = {}
-
-    def run_one(name: str, rtol: float, first: bool) -> PeerPoint:
-        if name.startswith(REF_PREFIX):
-            return run_reference(top, name[len(REF_PREFIX):], rtol)
-        return PEERS[name].run(top, rtol, locate_invert=first and truth["t_invert"] is not None)
-
-    # warm up (compile) everything off the clock
-    for m in ref_names:  # the loosest tolerance: cheap, and it visits the rolling phases
-        run_reference(top, m, tols[0])
-    for n in peer_names:
-        PEERS[n].warm(top)
+    _warm_up(top, ref_names, peer_names, tols)
     names = [REF_PREFIX + m for m in ref_names] + peer_names
+    solvers: dict[str, dict] = {}
     for n in names:
         solvers[n] = {"kind": "reference" if n.startswith(REF_PREFIX) else "peer",
                       "points": {}, "stopped": None}
-    def rounds_of(n: str, rtol: float) -> int:
-        if n in PEERS and PEERS[n].slow:
-            return slow_rounds
-        first = solvers[n]["points"].get(rtol)
-        short = first is not None and first["s"] < SHORT_S
-        return rounds * SHORT_ROUNDS if short else rounds
-
-    planned = sum(len(PEERS[n].tolerances(tols)) if n in PEERS else len(tols) for n in names)
-    if expect is not None:
-        expect(planned)
-    for r in range(max(rounds * SHORT_ROUNDS, slow_rounds)):
-        if r == 1 and expect is not None:  # the first round told which points run again
-            made = sum(len(sv["points"]) for sv in solvers.values())
-            later = sum(rounds_of(n, q["rtol"]) - 1 for n, sv in solvers.items()
-                        for q in sv["points"].values() if q["status"] == "ok")
-            expect(later - (planned - made))
-        for k, rtol in enumerate(tols):
-            order = names[(r + k) % len(names):] + names[:(r + k) % len(names)]
-            for n in order:
-                sv = solvers[n]
-                slow = n in PEERS and PEERS[n].slow
-                if (r >= rounds_of(n, rtol)
-                        or (slow and rtol not in PEERS[n].tolerances(tols))
-                        or (sv["stopped"] and rtol < sv["stopped"])):
-                    continue
-                if r > 0 and (rtol not in sv["points"] or sv["points"][rtol]["status"] != "ok"):
-                    continue
-                run = run_one(n, rtol, r == 0)
-                if tick is not None:
-                    tick()
-                if r == 0:
-                    sv["points"][rtol] = {"rtol": rtol, "atol": ATOL_PER_RTOL * rtol,
-                                          "s": run.s, "n_rhs": run.n_rhs,
-                                          "status": run.status, **_errors(run, truth),
-                                          "method": run.method,
-                                          "t_invert_locate_err": run.locate_err,
-                                          "printed": run.printed}
-                    limit = PEERS[n].budget_s if n in PEERS else None
-                    limit = budget_s if (budget_s is not None and slow) else limit
-                    if run.status != "ok" or (limit is not None and run.s > limit):
-                        sv["stopped"] = rtol
-                else:
-                    p = sv["points"][rtol]
-                    p["s"] = min(p["s"], run.s)
+    _run_rounds(_Sweep(top=top, truth=truth, tols=tols, names=names, solvers=solvers,
+                       rounds=rounds, slow_rounds=slow_rounds, budget_s=budget_s), tick, expect)
     for sv in solvers.values():
         sv["points"] = list(sv["points"].values())
     refs = [REF_PREFIX + m for m in ref_names if m != "auto"]
@@ -328,20 +408,7 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
                         ("J_drift", "J_drift")):
         if metric == "t_invert" and truth["t_invert"] is None:
             continue
-        by_rtol = {n: [(p["rtol"], p[key], p["s"]) for p in sv["points"]
-                       if p["status"] == "ok" and p[key] is not None]
-                   for n, sv in solvers.items()}
-        pts = {n: [(e, t) for _, e, t in ps] for n, ps in by_rtol.items()}
-        rows = compare_at_levels(pts, refs, auto, peer_names, LEVELS[metric])
-        # the same levels with every solver's cancellations set aside (frontier.cancellations)
-        steady = compare_at_levels({n: without_cancellations(ps) for n, ps in by_rtol.items()},
-                                   refs, auto, peer_names, LEVELS[metric])
-        for row, st in zip(rows, steady, strict=True):
-            row.update(ratio_steady=st["ratio"], ratio_auto_steady=st["ratio_auto"],
-                       met_steady=st["met"], best_peer_steady=st["best_peer"])
-        cancelled = {n: c for n, ps in by_rtol.items() if (c := cancellations(ps))}
-        levels[metric] = {"unit": UNITS[metric], "levels": list(LEVELS[metric]),
-                          "rows": rows, "cancellations": cancelled}
+        levels[metric] = _level(metric, key, solvers, refs, auto, peer_names)
     return {"name": top.name, "title": top.title, "t_end_s": top.t_end_s,
             "stiff": top.stiff, "truth": truth, "solvers": solvers, "skipped": skipped,
             "references": refs, "auto": auto, "peers": peer_names, "levels": levels}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +47,113 @@ from tippetop.compare.studies.accuracy.pareto import (
 )
 from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, expect
+from tippetop.models.scene import Scene
+
+
+@dataclass(frozen=True)
+class _Gathered:
+    """What the engines' studies wrote and found, gathered as each engine finishes."""
+
+    references: dict[str, dict] = field(default_factory=dict)
+    per_engine: dict[str, dict[str, Any]] = field(default_factory=dict)
+    entries: list[dict[str, Any]] = field(default_factory=list)
+    report: list[str] = field(default_factory=list)
+    frames: list[pd.DataFrame] = field(default_factory=list)
+
+
+def _check_engines(engines: Sequence[str] | str) -> tuple[str, ...]:
+    """The engines asked for, each once, in order; a TippetopError for an unknown one."""
+    if isinstance(engines, str):
+        engines = tuple(e.strip() for e in engines.split(","))
+    engines = tuple(dict.fromkeys(engines))
+    expect(len(engines) > 0, "--engines", "ode and/or mujoco", list(engines))
+    for e in engines:
+        expect(e in FAMILIES, "--engines",
+               f"a comma-separated list of {', '.join(FAMILIES)}", e)
+    return engines
+
+
+def _output_files(out: Path, engines: tuple[str, ...], scenes: list[Scene], stiff: bool,
+                  t_end_s: float | None) -> dict[str, tuple[Path, Path, list[Path]]]:
+    """Each engine's CSV, Pareto table and figures in ``out`` (the stiff case's too)."""
+    files = {e: (out / f"accuracy_{e}.csv", out / f"pareto_{e}.md",
+                 [out / f"accuracy_{e}_{s.name}.png" for s in scenes]) for e in engines}
+    if stiff and "ode" in engines:
+        hard = stiff_scene(STIFF_SCENE, STIFF_LAMBDA_MPS, t_end_s)
+        files["stiff"] = (out / "accuracy_ode_stiff.csv", out / "pareto_ode_stiff.md",
+                          [out / f"accuracy_ode_{hard.name}.png"])
+    return files
+
+
+def _claim_output(out: Path, files: dict[str, tuple[Path, Path, list[Path]]],
+                  force: bool) -> None:
+    """Checks that the outputs may be written, then locks and creates the folder ``out``."""
+    for csv_p, md_p, figs in files.values():
+        for p in [csv_p, md_p, *figs]:
+            if p.exists() and not force:
+                raise TippetopError(f"--out: expected a folder without {p.name} (or --force to "
+                                    f"overwrite), got existing {str(p)!r}")
+    base = out if out.is_dir() else out.parent
+    if not base.is_dir():
+        raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
+    check_writable(base)  # before the runs, not after them
+    hold_output_lock(out)  # a second study into it is refused now
+    out.mkdir(parents=True, exist_ok=True)
+
+
+def _engine_counts(all_df: pd.DataFrame) -> dict[str, int]:
+    """An engine's points by outcome: all, ok, skipped, diverged and failed."""
+    status = all_df["status"]
+    n_ok = int((status == STATUS_OK).sum())
+    n_skipped = int((status == STATUS_SKIPPED).sum())
+    n_div = int(status.str.startswith(STATUS_DIVERGED).sum())
+    return {"n_points": len(all_df), "n_ok": n_ok, "n_skipped": n_skipped,
+            "n_diverged": n_div, "n_failed": len(all_df) - n_ok - n_skipped - n_div}
+
+
+def _finish(done: _Gathered, engine: str, dfs: list[pd.DataFrame],
+            paths: tuple[Path, Path, list[Path]], thresholds: Sequence[float]) -> None:
+    """Writes one engine's figures, CSV and Pareto table, and gathers its results."""
+    csv_path, md_path, fig_paths = paths
+    references = done.references
+    for df, fig_path in zip(dfs, fig_paths, strict=True):
+        references[str(df["scene"].iloc[0])] = df.attrs["reference"]
+        if engine in ("ode", "stiff"):
+            work_precision_figure(df, fig_path)
+        else:
+            mujoco_work_precision_figure(df, fig_path)
+    all_df = pd.concat(dfs, ignore_index=True)
+    all_df.attrs = {}
+    entries = pareto_table(all_df, thresholds)
+    write_atomic(csv_path, lambda tmp: all_df.to_csv(tmp, index=False, float_format="%.6g"))
+    md = (pareto_markdown(entries, references) if engine in ("ode", "stiff")
+          else mujoco_pareto_markdown(entries, references, all_df))
+    write_atomic(md_path, lambda tmp: tmp.write_text(md + "\n"))
+    done.per_engine[engine] = {
+        "csv": str(csv_path), "figures": [str(p) for p in fig_paths],
+        "pareto_md": str(md_path), **_engine_counts(all_df)}
+    done.entries.extend(entries)
+    done.frames.append(all_df)
+    done.report.append(f"wrote {csv_path}, {md_path} and {len(fig_paths)} figure(s)")
+    tag = "" if engine in ("ode", "stiff") else f" [{engine}]"
+    done.report.extend(f"{e['scene']}{tag}: {e['text']}" for e in entries)
+
+
+def _summary(done: _Gathered, engines: tuple[str, ...]) -> dict[str, Any]:
+    """The study's result: the first engine's files, every engine's figures, the totals."""
+    first = done.per_engine[engines[0]]
+    status = pd.concat(done.frames, ignore_index=True)["status"]
+    n_ok = int((status == STATUS_OK).sum())
+    n_skipped = int((status == STATUS_SKIPPED).sum())
+    return {
+        "csv": first["csv"],
+        "figures": [f for e in engines for f in done.per_engine[e]["figures"]],
+        "pareto_md": first["pareto_md"], "references": done.references,
+        "pareto": done.entries,
+        "n_points": len(status), "n_ok": n_ok, "n_skipped": n_skipped,
+        "n_failed": len(status) - n_ok - n_skipped, "engines": done.per_engine,
+        "report": "\n".join(done.report),
+    }
 
 
 def run_accuracy(
@@ -114,13 +222,7 @@ def run_accuracy(
     """
     if isinstance(scene_names, str):
         scene_names = (scene_names,)
-    if isinstance(engines, str):
-        engines = tuple(e.strip() for e in engines.split(","))
-    engines = tuple(dict.fromkeys(engines))
-    expect(len(engines) > 0, "--engines", "ode and/or mujoco", list(engines))
-    for e in engines:
-        expect(e in FAMILIES, "--engines",
-               f"a comma-separated list of {', '.join(FAMILIES)}", e)
+    engines = _check_engines(engines)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise TippetopError(f"--out: expected a folder, got the file {str(out_dir)!r}")
@@ -128,80 +230,23 @@ def run_accuracy(
     expect(len(scenes) > 0, "scene", "at least one scene", list(scene_names))
     if "mujoco" in engines:
         dts = check_mujoco_args(integrators, modes, timesteps, mujoco_budget_s)
-    files = {e: (out / f"accuracy_{e}.csv", out / f"pareto_{e}.md",
-                 [out / f"accuracy_{e}_{s.name}.png" for s in scenes]) for e in engines}
-    if stiff and "ode" in engines:
-        hard = stiff_scene(STIFF_SCENE, STIFF_LAMBDA_MPS, t_end_s)
-        files["stiff"] = (out / "accuracy_ode_stiff.csv", out / "pareto_ode_stiff.md",
-                          [out / f"accuracy_ode_{hard.name}.png"])
-    for csv_p, md_p, figs in files.values():
-        for p in [csv_p, md_p, *figs]:
-            if p.exists() and not force:
-                raise TippetopError(f"--out: expected a folder without {p.name} (or --force to "
-                                    f"overwrite), got existing {str(p)!r}")
-    base = out if out.is_dir() else out.parent
-    if not base.is_dir():
-        raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
-    check_writable(base)  # before the runs, not after them
-    hold_output_lock(out)  # a second study into it is refused now
-    out.mkdir(parents=True, exist_ok=True)
+    files = _output_files(out, engines, scenes, stiff, t_end_s)
+    _claim_output(out, files, force)
     refs = [reference_run(s) for s in scenes]
-    references: dict[str, dict] = {}
-    per_engine: dict[str, dict[str, Any]] = {}
-    all_entries: list[dict[str, Any]] = []
-    report: list[str] = []
-    frames: list[pd.DataFrame] = []
-
-    def finish(engine: str, dfs: list[pd.DataFrame]) -> None:
-        csv_path, md_path, fig_paths = files[engine]
-        for df, fig_path in zip(dfs, fig_paths, strict=True):
-            references[str(df["scene"].iloc[0])] = df.attrs["reference"]
-            if engine in ("ode", "stiff"):
-                work_precision_figure(df, fig_path)
-            else:
-                mujoco_work_precision_figure(df, fig_path)
-        all_df = pd.concat(dfs, ignore_index=True)
-        all_df.attrs = {}
-        entries = pareto_table(all_df, thresholds)
-        write_atomic(csv_path, lambda tmp: all_df.to_csv(tmp, index=False, float_format="%.6g"))
-        md = (pareto_markdown(entries, references) if engine in ("ode", "stiff")
-              else mujoco_pareto_markdown(entries, references, all_df))
-        write_atomic(md_path, lambda tmp: tmp.write_text(md + "\n"))
-        status = all_df["status"]
-        n_ok = int((status == STATUS_OK).sum())
-        n_skipped = int((status == STATUS_SKIPPED).sum())
-        n_div = int(status.str.startswith(STATUS_DIVERGED).sum())
-        per_engine[engine] = {
-            "csv": str(csv_path), "figures": [str(p) for p in fig_paths],
-            "pareto_md": str(md_path), "n_points": len(all_df), "n_ok": n_ok,
-            "n_skipped": n_skipped, "n_diverged": n_div,
-            "n_failed": len(all_df) - n_ok - n_skipped - n_div}
-        all_entries.extend(entries)
-        frames.append(all_df)
-        report.append(f"wrote {csv_path}, {md_path} and {len(fig_paths)} figure(s)")
-        tag = "" if engine in ("ode", "stiff") else f" [{engine}]"
-        report.extend(f"{e['scene']}{tag}: {e['text']}" for e in entries)
-
+    done = _Gathered()
     if "ode" in engines:
-        finish("ode", [ode_work_precision(s, tolerances=tolerances, methods=methods,
-                                          budget_s=budget_s, reference=ref, log=log)
-                       for s, ref in zip(scenes, refs, strict=True)])
+        _finish(done, "ode", [ode_work_precision(s, tolerances=tolerances, methods=methods,
+                                                 budget_s=budget_s, reference=ref, log=log)
+                              for s, ref in zip(scenes, refs, strict=True)],
+                files["ode"], thresholds)
     if "stiff" in files:
-        finish("stiff", [stiff_work_precision(STIFF_SCENE, Lambda_mps=STIFF_LAMBDA_MPS,
-                                              t_end_s=t_end_s, tolerances=tolerances,
-                                              budget_s=budget_s, log=log)])
+        _finish(done, "stiff", [stiff_work_precision(STIFF_SCENE, Lambda_mps=STIFF_LAMBDA_MPS,
+                                                     t_end_s=t_end_s, tolerances=tolerances,
+                                                     budget_s=budget_s, log=log)],
+                files["stiff"], thresholds)
     if "mujoco" in engines:
         rows = mujoco_rows(list(zip(scenes, refs, strict=True)), integrators, modes, dts,
-                            mujoco_budget_s, workers, log)
-        finish("mujoco", [mujoco_frame(r, ref) for r, ref in zip(rows, refs, strict=True)])
-    first = per_engine[engines[0]]
-    status = pd.concat(frames, ignore_index=True)["status"]
-    n_ok = int((status == STATUS_OK).sum())
-    n_skipped = int((status == STATUS_SKIPPED).sum())
-    return {
-        "csv": first["csv"], "figures": [f for e in engines for f in per_engine[e]["figures"]],
-        "pareto_md": first["pareto_md"], "references": references, "pareto": all_entries,
-        "n_points": len(status), "n_ok": n_ok, "n_skipped": n_skipped,
-        "n_failed": len(status) - n_ok - n_skipped, "engines": per_engine,
-        "report": "\n".join(report),
-    }
+                           mujoco_budget_s, workers, log)
+        _finish(done, "mujoco", [mujoco_frame(r, ref) for r, ref in zip(rows, refs, strict=True)],
+                files["mujoco"], thresholds)
+    return _summary(done, engines)
