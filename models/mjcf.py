@@ -112,6 +112,45 @@ def _validate(
     return condim
 
 
+def _contact_attributes(friction_mode: str, condim: int, mu: float, torsional: float,
+                        rolling: float, solref: Sequence[float], solimp: Sequence[float]) -> str:
+    """The contact as MJCF attributes: condim, friction (zero in paper mode), solref, solimp."""
+    if friction_mode == "paper":
+        friction = (0.0, 0.0, 0.0)
+    else:
+        friction = (mu, torsional, rolling)
+    return (
+        f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(solref)}" '
+        f'solimp="{_nums(solimp)}"'
+    )
+
+
+def _top_body(top: TopParams, contact: str, stem: StemParams | None) -> str:
+    """The body ``top`` as MJCF text: its inertia, the ball, the stem and the spin marker."""
+    R, a = top.R_m, top.a_m
+    stem_from, stem_to, stem_r = _STEM_FROM_R * R, _STEM_TO_R * R, _STEM_RADIUS_R * R
+    if stem is None:
+        stem_geom = (f'type="cylinder" fromto="0 0 {_num(stem_from)} 0 0 {_num(stem_to)}" '
+                     f'size="{_num(stem_r)}" mass="0" contype="0" conaffinity="0" group="1"')
+    else:
+        stem_to, stem_r = stem.offset_m, stem.radius_m
+        stem_geom = (f'type="{"capsule" if stem.kind == "sphere" else "cylinder"}" '
+                     f'fromto="0 0 0 0 0 {_num(stem_to)}" size="{_num(stem_r)}" mass="0" '
+                     f'{contact}')
+    marker_pos = (_MARKER_HALF_R[0] * R + stem_r, 0.0, stem_to - _MARKER_HALF_R[2] * R)
+    marker_size = tuple(h * R for h in _MARKER_HALF_R)
+    return f"""    <body name="{TOP_BODY}" pos="0 0 {_num(R)}">
+      <freejoint name="{FREE_JOINT}"/>
+      <inertial pos="0 0 {_num(-a)}" mass="{_num(top.M_kg)}"
+                diaginertia="{_nums((top.A_kgm2, top.A_kgm2, top.C_kgm2))}"/>
+      <geom name="{BALL_GEOM}" type="sphere" size="{_num(R)}" mass="0" material="ball_mat"
+            {contact}/>
+      <geom name="{STEM_GEOM}" {stem_geom} material="stem_mat"/>
+      <geom name="{MARKER_GEOM}" type="box" pos="{_nums(marker_pos)}" size="{_nums(marker_size)}"
+            mass="0" contype="0" conaffinity="0" group="1" material="marker_mat"/>
+    </body>"""
+
+
 def make_mjcf(
     top: TopParams,
     *,
@@ -172,26 +211,9 @@ def make_mjcf(
     expect(isinstance(noslip_iterations, int) and not isinstance(noslip_iterations, bool)
            and noslip_iterations >= 0, "noslip_iterations", "an integer >= 0",
            noslip_iterations)
-    R, a = top.R_m, top.a_m
-    if friction_mode == "paper":
-        friction = (0.0, 0.0, 0.0)
-    else:
-        friction = (mu, torsional, rolling)
-    contact = (
-        f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(solref)}" '
-        f'solimp="{_nums(solimp)}"'
-    )
-    stem_from, stem_to, stem_r = _STEM_FROM_R * R, _STEM_TO_R * R, _STEM_RADIUS_R * R
-    if stem is None:
-        stem_geom = (f'type="cylinder" fromto="0 0 {_num(stem_from)} 0 0 {_num(stem_to)}" '
-                     f'size="{_num(stem_r)}" mass="0" contype="0" conaffinity="0" group="1"')
-    else:
-        stem_to, stem_r = stem.offset_m, stem.radius_m
-        stem_geom = (f'type="{"capsule" if stem.kind == "sphere" else "cylinder"}" '
-                     f'fromto="0 0 0 0 0 {_num(stem_to)}" size="{_num(stem_r)}" mass="0" '
-                     f'{contact}')
-    marker_pos = (_MARKER_HALF_R[0] * R + stem_r, 0.0, stem_to - _MARKER_HALF_R[2] * R)
-    marker_size = tuple(h * R for h in _MARKER_HALF_R)
+    R = top.R_m
+    contact = _contact_attributes(friction_mode, condim, mu, torsional, rolling, solref, solimp)
+    body = _top_body(top, contact, stem)
     cam_dist = 12 * R
     return f"""<mujoco model="tippetop">
   <compiler angle="radian" inertiafromgeom="false"/>
@@ -218,16 +240,7 @@ def make_mjcf(
     <light name="key_light" pos="0 -0.3 0.6" dir="0 0.45 -1" directional="false"/>
     <camera name="side" pos="0 {_num(-cam_dist)} {_num(2 * R)}" xyaxes="1 0 0 0 0 1"/>
     <geom name="{TABLE_GEOM}" type="plane" size="0.5 0.5 0.01" material="table_mat" {contact}/>
-    <body name="{TOP_BODY}" pos="0 0 {_num(R)}">
-      <freejoint name="{FREE_JOINT}"/>
-      <inertial pos="0 0 {_num(-a)}" mass="{_num(top.M_kg)}"
-                diaginertia="{_nums((top.A_kgm2, top.A_kgm2, top.C_kgm2))}"/>
-      <geom name="{BALL_GEOM}" type="sphere" size="{_num(R)}" mass="0" material="ball_mat"
-            {contact}/>
-      <geom name="{STEM_GEOM}" {stem_geom} material="stem_mat"/>
-      <geom name="{MARKER_GEOM}" type="box" pos="{_nums(marker_pos)}" size="{_nums(marker_size)}"
-            mass="0" contype="0" conaffinity="0" group="1" material="marker_mat"/>
-    </body>
+{body}
   </worldbody>
 </mujoco>
 """

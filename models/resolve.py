@@ -302,6 +302,26 @@ def _fitted_timestep(law: FrictionParams, limit: float | None, dt: float, scene:
                     "which a longer step cannot follow")
 
 
+def _run_options(mj: MujocoOptions, w: dict[str, Any], top: TopParams,
+                 file_top: FileTop | None) -> dict[str, Any]:
+    """The options: the scene's, else the file's, else (a generated top) the scene's defaults."""
+    noslip = mj.noslip_iterations
+    if file_top is None:
+        return {"timestep_s": w["timestep_s"], "integrator": w["integrator"],
+                "cone": w["cone"], "impratio": w["impratio"],
+                "noslip_iterations": GENERATED_NOSLIP_ITERATIONS if noslip is None else noslip,
+                "gravity_mps2": (0.0, 0.0, -top.g_mps2),
+                "iterations": 100 if mj.iterations is None else mj.iterations,
+                "tolerance": 1e-8 if mj.tolerance is None else mj.tolerance}
+    options = {key: (w[key] if w[key] is not None else getattr(file_top, key))
+               for key in ("timestep_s", "integrator", "cone", "impratio")}
+    options["noslip_iterations"] = file_top.noslip_iterations if noslip is None else noslip
+    options["gravity_mps2"] = file_top.gravity_mps2
+    options["iterations"] = file_top.iterations if mj.iterations is None else mj.iterations
+    options["tolerance"] = file_top.tolerance if mj.tolerance is None else mj.tolerance
+    return options
+
+
 def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int | None,
                  friction: FrictionParams, stem: StemParams | None,
                  file_top: FileTop | None) -> tuple[MujocoPlan, set[str]]:
@@ -320,27 +340,14 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     # a solimp of three numbers: a generated top's midpoint and power are the defaults (as
     # MuJoCo's), a loaded file keeps its own
     solimp = None if w["solimp"] is None else tuple(float(x) for x in w["solimp"])
-    noslip = mj.noslip_iterations
-    # the options: the scene's, else the file's, else (a generated top) the scene's defaults
+    options = _run_options(mj, w, top, file_top)
     if file_top is None:
-        options = {"timestep_s": w["timestep_s"], "integrator": w["integrator"],
-                   "cone": w["cone"], "impratio": w["impratio"],
-                   "noslip_iterations": GENERATED_NOSLIP_ITERATIONS if noslip is None else noslip,
-                   "gravity_mps2": (0.0, 0.0, -top.g_mps2),
-                   "iterations": 100 if mj.iterations is None else mj.iterations,
-                   "tolerance": 1e-8 if mj.tolerance is None else mj.tolerance}
         solimp = _full_solimp(solimp)
         coefficients = ((w["mu"], w["torsional"], w["rolling"]) if friction_by == "native"
                         else (0.0, 0.0, 0.0))
         contacts = _generated_contacts(top, stem, w["condim"], coefficients, solref, solimp)
         reach = generated_contact_reach_m(top, stem)
     else:
-        options = {key: (w[key] if w[key] is not None else getattr(file_top, key))
-                   for key in ("timestep_s", "integrator", "cone", "impratio")}
-        options["noslip_iterations"] = file_top.noslip_iterations if noslip is None else noslip
-        options["gravity_mps2"] = file_top.gravity_mps2
-        options["iterations"] = file_top.iterations if mj.iterations is None else mj.iterations
-        options["tolerance"] = file_top.tolerance if mj.tolerance is None else mj.tolerance
         stem_off = scene.effects.stem is False
         contacts = tuple(
             replace(c.with_values(condim=w["condim"], mu=w["mu"], torsional=w["torsional"],

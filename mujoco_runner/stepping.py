@@ -209,6 +209,19 @@ def step_compiled(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_inte
     return record, None, wall_s
 
 
+def _law_output(data: mujoco.MjData, law_index: int | None
+                ) -> Callable[[], tuple[float, float, float]] | None:
+    """A reader of the law's last (Fx, Fy, power) in ``data``'s userdata; None: no law."""
+    if law_index is None:
+        return None
+    u = data.userdata
+
+    def law_output() -> tuple[float, float, float]:
+        return float(u[law_index]), float(u[law_index + 1]), float(u[law_index + 3])
+
+    return law_output
+
+
 def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_intervals: int,
                  progress: Callable[[float], None] | None, *, top: WindowTop,
                  law_index: int | None = None) -> tuple[SampleRecord, str | None, float]:
@@ -233,14 +246,7 @@ def step_python(model: mujoco.MjModel, data: mujoco.MjData, steps: int, n_interv
     counts = data.warning.number  # a live view of the counters
     warn = np.zeros((n_rows, counts.size), dtype=counts.dtype)
     ints, floats = new_windows(np, n_rows)
-    law_output = None
-    if law_index is not None:
-        u = data.userdata
-
-        def law_output() -> tuple[float, float, float]:
-            return float(u[law_index]), float(u[law_index + 1]), float(u[law_index + 3])
-
-    acc = WindowAccumulator(mujoco, np, model, data, top, law_output)
+    acc = WindowAccumulator(mujoco, np, model, data, top, _law_output(data, law_index))
     qa, va = top.qpos_adr, top.dof_adr
     nq, nv = model.nq, model.nv
     data_con = data.qfrc_constraint

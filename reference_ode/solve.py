@@ -32,7 +32,7 @@ from tippetop.reference_ode.contacts import (
     stem_contact,
 )
 from tippetop.reference_ode.friction import COULOMB_EXACT
-from tippetop.reference_ode.methods import METHODS, get_method
+from tippetop.reference_ode.methods import METHODS, Method, get_method
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
     P_GAP_TOL,
@@ -51,22 +51,10 @@ from tippetop.reference_ode.rolling import (
     rolling_params,
     rolling_state,
 )
+from tippetop.reference_ode.statuses import kernel_status_name, status_message
 from tippetop.reference_ode.top import FORMULATIONS, TWO_CONTACT, Formulation, two_contact_forces
 
 assert tuple(FORMULATIONS) == _FORMULATION_NAMES
-
-#: The kernel's statuses under the tippe top's names: the guard is the normal force (contact
-#: lost), the monitor the paper formulation's sin theta (its singularity).
-STATUS_NAMES = {
-    _d.STATUS_OK: "ok",
-    _d.STATUS_GUARD: "contact_lost",
-    _d.STATUS_MONITOR: "singular",
-    _d.STATUS_MAX_STEPS: "max_steps",
-    _d.STATUS_STEP_TOO_SMALL: "step_too_small",
-}
-#: A step-size underflow of the paper formulation with |sin theta| below this is reported as
-#: its singularity (``singular``), not as ``step_too_small``.
-SINGULAR_UNDERFLOW_SIN = 1e-3
 
 #: Rows of the observables table when the caller gives no sample interval.
 DEFAULT_MAX_SAMPLES = 20_000
@@ -185,32 +173,6 @@ def sample_times(t_end_s: float, sample_dt_s: float | None) -> np.ndarray:
     return t
 
 
-def _message(status: str, t: float, min_sin: float, form: str) -> str:
-    if status == "ok":
-        return "completed"
-    if status == "hop":
-        return (f"at t = {t:.6g} s the stem's end struck the table and the top left it (a "
-                "hop: the point that took the impact carries no load after it); the model "
-                "does not follow a flight, so the run stopped there")
-    if status == "chatter":
-        return (f"by t = {t:.6g} s the contact had switched between the ball and the stem's "
-                "end too often (a chatter of ever shorter bounces): the run stopped there")
-    if status == "flat_end":
-        return (f"at t = {t:.6g} s the stem's flat end came to lie face down on the table "
-                f"(|sin theta| = {min_sin:.2e}): its rim contact degenerates there, so the run "
-                "stopped")
-    if status == "contact_lost":
-        return (f"contact lost at t = {t:.6g} s (the normal force reached 0): the model assumes "
-                "the sphere stays on the table, so the run stopped there")
-    if status == "singular":
-        return (f"the paper formulation reached its singularity at theta = 0 or pi "
-                f"(|sin theta| = {min_sin:.2e}) at t = {t:.6g} s; use ode.formulation=vector")
-    if status == "max_steps":
-        return f"stopped at t = {t:.6g} s after the maximum number of steps (ode.max_steps)"
-    return (f"step size underflow at t = {t:.6g} s ({form} formulation): the problem is too "
-            "stiff or singular for this tolerance")
-
-
 def simulate_ode(
     top: TopParams,
     friction: FrictionParams,
@@ -255,6 +217,76 @@ def simulate_ode(
     form_name = options.formulation
     form = FORMULATIONS[form_name]
     p = pack_params(top, friction, options.singular_sin)
+    start = _start(top, friction, init, options, p, stem, t_end_s, sample_dt_s)
+    wall0 = time.perf_counter()
+    cpu0 = time.process_time()
+    phases = _Phases(top, p, stem, form, start.y)
+    stiff_ran = _stiff_mode(stiff, form, friction, stem)
+    if stiff_ran == "rolling":
+        phases.arm(start.stats)
+    stop = _integrate(start, phases, t_end_s, options, progress)
+    wall = time.perf_counter() - wall0 - phases.compile_s
+    cpu = time.process_time() - cpu0 - phases.compile_cpu_s
+    return _result(start, stop, phases, friction, form_name, stiff_ran, wall, cpu)
+
+
+@dataclass(frozen=True)
+class _Start:
+    """Where a run starts: its state, samples and counters, and the method it starts with."""
+
+    y: np.ndarray
+    monitor_floor: float
+    t_out: np.ndarray
+    Y: np.ndarray
+    method: Method
+    rtol: float
+    atol: float
+    max_steps: int
+    stats: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Stop:
+    """Where a run stopped: its status, time and samples reached, its last method's counters."""
+
+    status: int
+    status_name: str
+    t: float
+    i_out: int
+    stats: np.ndarray
+    rtol: float
+    atol: float
+    handed_over: float | None
+
+
+def _start(top: TopParams, friction: FrictionParams, init: InitialState, options: OdeOptions,
+           p: np.ndarray, stem: StemParams | None, t_end_s: float,
+           sample_dt_s: float | None) -> _Start:
+    """The run's start, its method loaded (or compiled) by a call that takes no step."""
+    form = FORMULATIONS[options.formulation]
+    y, monitor_floor = _initial_state(top, friction, init, options, p, stem)
+    t_out = sample_times(t_end_s, sample_dt_s)
+    Y = np.full((t_out.size, y.size), np.nan)
+    taylor_reason = taylor_unsupported(options.formulation, friction.law, stem is not None)
+    if options.method == "taylor" and taylor_reason is not None:
+        raise TippetopError(f"ode.method: expected auto or one of dop853, vern9, adams for this "
+                            f"scene ({taylor_reason}), got 'taylor'")
+    method, factor = get_method(options.method, float(options.rtol), taylor_reason is None)
+    rtol = float(options.rtol) * factor  # auto: the tolerances the chosen method runs at
+    atol = float(options.atol) * factor
+    max_steps = int(options.max_steps)
+    stats = method.new_stats(y.size)
+    # load (or compile) the integrator before the clock starts: a call that takes no step
+    method.run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
+               monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
+    return _Start(y, monitor_floor, t_out, Y, method, rtol, atol, max_steps, stats)
+
+
+def _initial_state(top: TopParams, friction: FrictionParams, init: InitialState,
+                   options: OdeOptions, p: np.ndarray,
+                   stem: StemParams | None) -> tuple[np.ndarray, float]:
+    """The formulation's initial state, checked to be finite, and its monitor floor."""
+    form = FORMULATIONS[options.formulation]
     if stem is not None and form.singular:
         raise TippetopError("ode.formulation: expected vector with a stem (effects.stem; the "
                             "paper's equations have the ball only), got 'paper'")
@@ -271,7 +303,7 @@ def simulate_ode(
         monitor_floor = -math.inf
     dy0 = np.empty_like(y)
     N0 = form.rhs(y, p, dy0)
-    row0 = observables_table(form_name, friction, p, np.zeros(1), y[None, :]).iloc[0]
+    row0 = observables_table(options.formulation, friction, p, np.zeros(1), y[None, :]).iloc[0]
     if not (np.all(np.isfinite(dy0)) and math.isfinite(N0) and math.isfinite(row0["E"])
             and math.isfinite(row0["J"])):
         raise TippetopError(
@@ -279,30 +311,17 @@ def simulate_ode(
             f"t = 0 (n0 = {init.n0!r}, theta_dot0 = {init.thetadot0!r}, "
             f"uOX = {init.uOX!r}, uOY = {init.uOY!r}, mu = {friction.mu!r}, "
             f"g = {top.g_mps2!r}): the values are too large for double precision")
-    t_out = sample_times(t_end_s, sample_dt_s)
-    Y = np.full((t_out.size, y.size), np.nan)
-    t = 0.0
-    i_out = 0
-    taylor_reason = taylor_unsupported(form_name, friction.law, stem is not None)
-    if options.method == "taylor" and taylor_reason is not None:
-        raise TippetopError(f"ode.method: expected auto or one of dop853, vern9, adams for this "
-                            f"scene ({taylor_reason}), got 'taylor'")
-    method, factor = get_method(options.method, float(options.rtol), taylor_reason is None)
-    rtol = float(options.rtol) * factor  # auto: the tolerances the chosen method runs at
-    atol = float(options.atol) * factor
-    max_steps = int(options.max_steps)
-    ran_method, ran_rtol = method_title(method.name, rtol), rtol
+    return y, monitor_floor
+
+
+def _integrate(start: _Start, phases: _Phases, t_end_s: float, options: OdeOptions,
+               progress: Callable[[float], None] | None) -> _Stop:
+    """Where the run stopped, integrated piece by piece with ``start.y`` advanced in place."""
+    y, t_out, Y, stats = start.y, start.t_out, start.Y, start.stats
+    method, rtol, atol, max_steps = start.method, start.rtol, start.atol, start.max_steps
+    monitor_floor = start.monitor_floor
+    t, i_out = 0.0, 0
     handed_over: float | None = None
-    stats = method.new_stats(y.size)
-    # load (or compile) the integrator before the clock starts: a call that takes no step
-    method.run(form.rhs, form.watch, y.copy(), 0.0, 0.0, t_end_s, p, rtol, atol, 1,
-               monitor_floor, t_out[:0], Y[:0], 0, stats.copy())
-    wall0 = time.perf_counter()
-    cpu0 = time.process_time()
-    phases = _Phases(top, p, stem, form, y)
-    stiff_ran = _stiff_mode(stiff, form, friction, stem)
-    if stiff_ran == "rolling":
-        phases.arm(stats)
     status = _d.STATUS_RUNNING
     status_name = ""
     n_chunks = N_CHUNKS if progress is not None else 1
@@ -341,11 +360,16 @@ def simulate_ode(
             progress(t)
         if status != _d.STATUS_RUNNING or status_name:
             break
-    wall = time.perf_counter() - wall0 - phases.compile_s
-    cpu = time.process_time() - cpu0 - phases.compile_cpu_s
-    if not status_name:
-        status_name = phases.status_name(phases.form, status, y)
-    if status != _d.STATUS_OK or status_name != "ok":
+    return _Stop(status, status_name, t, i_out, stats, rtol, atol, handed_over)
+
+
+def _result(start: _Start, stop: _Stop, phases: _Phases, friction: FrictionParams,
+            form_name: str, stiff_ran: str, wall: float, cpu: float) -> OdeResult:
+    """The finished run; one that stopped early keeps the samples it reached and its end."""
+    y, t_out, Y = start.y, start.t_out, start.Y
+    t, i_out, stats, rtol, handed_over = stop.t, stop.i_out, stop.stats, stop.rtol, stop.handed_over
+    status_name = stop.status_name or phases.status_name(phases.form, stop.status, y)
+    if stop.status != _d.STATUS_OK or status_name != "ok":
         # keep the samples reached and add the final state at the stopping time
         t_out = np.append(t_out[:i_out], t)
         Y = np.vstack([Y[:i_out], y[None, :]])
@@ -354,10 +378,11 @@ def simulate_ode(
     # the paper form's monitor is the signed sin theta: < 0 means the last step jumped across
     # theta = 0 (or pi), i.e. |sin theta| passed through 0
     min_sin = max(float(stats[_d.S_MONITOR_MIN]), 0.0)
+    ran_method, ran_rtol = method_title(start.method.name, start.rtol), start.rtol
     return OdeResult(
         table=table,
         status=status_name,
-        message=_message(status_name, t, min_sin, form_name),
+        message=status_message(status_name, t, min_sin, form_name),
         t_final=float(t),
         t_invert=None if math.isnan(t_inv) else float(t_inv),
         n_rhs=int(stats[_d.S_NRHS]),
@@ -367,7 +392,7 @@ def simulate_ode(
         cpu_s=cpu,
         min_sin_theta=min_sin,
         rtol=rtol,
-        atol=atol,
+        atol=stop.atol,
         states=Y,
         stiff_steps=int(stats[_d.S_NSTIFF]),
         h_lambda_max=float(stats[_d.S_HLAMBDA_MAX]),
@@ -590,7 +615,7 @@ class _Phases:
         """The run's status name (a rim's monitor stop is ``flat_end``)."""
         if status == _d.STATUS_MONITOR and not form.singular:
             return "flat_end"
-        return _status_name(form, status, y)
+        return kernel_status_name(form, status, y)
 
     def table(self, friction: FrictionParams, t: np.ndarray, Y: np.ndarray,
               t_final: float) -> pd.DataFrame:
@@ -611,14 +636,6 @@ class _Phases:
             rec["J_rel_drift"] = (float(np.max(np.abs(J - J[0])) / abs(J[0]))
                                   if conserved and len(J) and J[0] != 0 else None)
         return table
-
-
-def _status_name(form: Formulation, status: int, y: np.ndarray) -> str:
-    """The tippe top's name of a kernel status; ``y`` is the state where the run stopped."""
-    if (status == _d.STATUS_STEP_TOO_SMALL and form.singular
-            and abs(math.sin(y[0])) < SINGULAR_UNDERFLOW_SIN):
-        return "singular"
-    return STATUS_NAMES[status]
 
 
 def scipy_rhs(top: TopParams, friction: FrictionParams,

@@ -147,6 +147,43 @@ def table_pass(xp: Any, geom_body: Any, top: WindowTop, dist: Any, includemargin
     return code, depth, forces, gap, (vx, vy), kz
 
 
+def _import_jax(precision: str, cache_dir: str | None) -> tuple[Any, Any, Any]:
+    """JAX (set to ``precision``, with its compilation cache in ``cache_dir``), jnp and MJX."""
+    try:
+        with stdout_to_stderr():
+            import jax
+            jax.config.update("jax_enable_x64", precision == "float64")
+            if cache_dir:  # a later run of the same model loads its compiled loop
+                jax.config.update("jax_compilation_cache_dir", cache_dir)
+            import jax.numpy as jnp
+            from mujoco import mjx
+    except ImportError as exc:
+        raise Refused(f"engine mjx: expected mujoco-mjx and jax in {sys.executable}, "
+                      f"got ImportError: {exc}") from None
+    return jax, jnp, mjx
+
+
+def _put_model(mujoco: Any, mjx: Any, model: Any) -> tuple[Any, str | None]:
+    """MJX's copy of ``model`` on the device, and a note where its cone is not the model's."""
+    note = None
+    cone = int(model.opt.cone)
+    colliding = (model.geom_contype | model.geom_conaffinity) != 0
+    if (cone == int(mujoco.mjtCone.mjCONE_ELLIPTIC) and model.npair == 0
+            and (model.geom_condim[colliding] == 1).all()):
+        # MJX (3.17) fails tracing an elliptic cone whose contacts are all condim 1 (an
+        # empty float index in its solver); a frictionless contact is the same one row
+        # with either cone, so MJX gets the pyramidal one
+        model.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+        note = ("cone pyramidal on the device: every contact is condim 1 "
+                "(frictionless, the cone changes nothing) and MJX fails on an "
+                "elliptic cone of condim-1 contacts")
+    try:
+        m = mjx.put_model(model, impl="jax")
+    finally:
+        model.opt.cone = cone
+    return m, note
+
+
 class MjxStepper:
     """A plan's sample intervals stepped by MuJoCo MJX (JAX) on JAX's default device.
 
@@ -170,37 +207,12 @@ class MjxStepper:
 
     def __init__(self, mujoco, model, data, steps: int, precision: str,
                  law: dict | None, top: WindowTop, cache_dir: str | None = None) -> None:
-        try:
-            with stdout_to_stderr():
-                import jax
-                jax.config.update("jax_enable_x64", precision == "float64")
-                if cache_dir:  # a later run of the same model loads its compiled loop
-                    jax.config.update("jax_compilation_cache_dir", cache_dir)
-                import jax.numpy as jnp
-                from mujoco import mjx
-        except ImportError as exc:
-            raise Refused(f"engine mjx: expected mujoco-mjx and jax in {sys.executable}, "
-                          f"got ImportError: {exc}") from None
+        jax, jnp, mjx = _import_jax(precision, cache_dir)
         import numpy as np
 
         self.jax = jax
-        self.note = None
         qa, va = top.qpos_adr, top.dof_adr
-        cone = int(model.opt.cone)
-        colliding = (model.geom_contype | model.geom_conaffinity) != 0
-        if (cone == int(mujoco.mjtCone.mjCONE_ELLIPTIC) and model.npair == 0
-                and (model.geom_condim[colliding] == 1).all()):
-            # MJX (3.17) fails tracing an elliptic cone whose contacts are all condim 1 (an
-            # empty float index in its solver); a frictionless contact is the same one row
-            # with either cone, so MJX gets the pyramidal one
-            model.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
-            self.note = ("cone pyramidal on the device: every contact is condim 1 "
-                         "(frictionless, the cone changes nothing) and MJX fails on an "
-                         "elliptic cone of condim-1 contacts")
-        try:
-            m = mjx.put_model(model, impl="jax")
-        finally:
-            model.opt.cone = cone
+        m, self.note = _put_model(mujoco, mjx, model)
         d = mjx.put_data(model, data, impl="jax")
         kind = int(model.opt.integrator)
         integrators = {int(mujoco.mjtIntegrator.mjINT_EULER): mjx.euler,
