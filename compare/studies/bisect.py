@@ -575,41 +575,9 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
                   f"{c[q].name}")
     # the first departure from A's value the further runs saw (a move there and back)
     firsts = {m: s.first_move(m, a, b) for m in metrics}
-    by_metric = {}
-    for m in metrics:
-        segs = s.segments(m)
-        first = firsts[m]
-        moves = sorted(set(segs) | ({first} if first else set()))
-        more = len(moves) > 1
-        entry: dict[str, Any] = {
-            "moved": first is not None,
-            "pair": {"last_like_a": c[first[0]].name, "first_like_b": c[first[1]].name}
-            if first else None,
-            "values": [s.value(first[0], m), s.value(first[1], m)] if first else None,
-            "a_value": s.value(a, m), "b_value": s.value(b, m),
-            "tolerance": TOLERANCES[m].to_json(),
-            "moves_more_than_once": more,
-            "moves": [_move(s, m, p, q) for p, q in moves],
-            "attribution": None, "closer": None}
-        entry["summary"] = _summary(s, m, first, moves, a, b)
-        by_metric[m] = entry
+    by_metric = _by_metric(s, metrics, firsts, a, b)
     if attribution:
-        pairs: dict[tuple[int, int], list[str]] = {}
-        for m in metrics:
-            if firsts[m]:
-                pairs.setdefault(firsts[m], []).append(m)
-        for (p, q), ms in pairs.items():
-            tell(f"bisect: attributing {', '.join(ms)} at {c[p].name} -> {c[q].name}")
-            res = runner.attribute(c[p].engine, c[q].engine)
-            for m in ms:
-                d = next((d for d in res.get("differences", []) if d["metric"] == m), None)
-                if d is None:
-                    by_metric[m]["attribution_note"] = (
-                        "the matrix finds no difference of this metric at the pair (each step "
-                        "within the tolerance: the move is a drift)")
-                    continue
-                by_metric[m]["attribution"] = d.get("attribution")
-                by_metric[m]["closer"] = d.get("closer")
+        _attribute(s, metrics, firsts, by_metric)
     tested = []
     for i in sorted(s.rows):
         r = s.rows[i]
@@ -632,6 +600,53 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
             "skipped": [{"release": c[k].name, "engine": c[k].engine, "reason": r}
                         for k, r in sorted(s.skipped.items())],
             "metrics": list(metrics), "by_metric": by_metric, "notes": notes}
+
+
+def _by_metric(s: _Search, metrics: Sequence[str], firsts: dict[str, tuple[int, int] | None],
+               a: int, b: int) -> dict[str, dict[str, Any]]:
+    """Each metric's finding: its first move from ``a``'s value, every move seen, a sentence."""
+    c = s.cands
+    by_metric = {}
+    for m in metrics:
+        segs = s.segments(m)
+        first = firsts[m]
+        moves = sorted(set(segs) | ({first} if first else set()))
+        more = len(moves) > 1
+        entry: dict[str, Any] = {
+            "moved": first is not None,
+            "pair": {"last_like_a": c[first[0]].name, "first_like_b": c[first[1]].name}
+            if first else None,
+            "values": [s.value(first[0], m), s.value(first[1], m)] if first else None,
+            "a_value": s.value(a, m), "b_value": s.value(b, m),
+            "tolerance": TOLERANCES[m].to_json(),
+            "moves_more_than_once": more,
+            "moves": [_move(s, m, p, q) for p, q in moves],
+            "attribution": None, "closer": None}
+        entry["summary"] = _summary(s, m, first, moves, a, b)
+        by_metric[m] = entry
+    return by_metric
+
+
+def _attribute(s: _Search, metrics: Sequence[str], firsts: dict[str, tuple[int, int] | None],
+               by_metric: dict[str, dict[str, Any]]) -> None:
+    """The matrix's attribution at each metric's first move, put in its entry of ``by_metric``."""
+    c = s.cands
+    pairs: dict[tuple[int, int], list[str]] = {}
+    for m in metrics:
+        if firsts[m]:
+            pairs.setdefault(firsts[m], []).append(m)
+    for (p, q), ms in pairs.items():
+        s.say(f"bisect: attributing {', '.join(ms)} at {c[p].name} -> {c[q].name}")
+        res = s.runner.attribute(c[p].engine, c[q].engine)
+        for m in ms:
+            d = next((d for d in res.get("differences", []) if d["metric"] == m), None)
+            if d is None:
+                by_metric[m]["attribution_note"] = (
+                    "the matrix finds no difference of this metric at the pair (each step "
+                    "within the tolerance: the move is a drift)")
+                continue
+            by_metric[m]["attribution"] = d.get("attribution")
+            by_metric[m]["closer"] = d.get("closer")
 
 
 def _summary(s: _Search, m: str, first: tuple[int, int] | None,

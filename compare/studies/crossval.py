@@ -57,13 +57,8 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
         ``crossval`` (one :func:`crossval_row` per run), ``differences`` (engine, mode, run,
         metric, value, reference, tolerance, why), ``tolerances``.
     """
-    tasks = [Task(scene, overrides, "ode")]  # the reference: the scene's own law
-    tasks += [Task(scene, (*overrides, *extra), engine, mode) for engine, mode, extra in runs]
-    results: list[TaskResult] = run_tasks(tasks, scheduler=scheduler, workers=workers,
-                                          use_cache=use_cache, label="compare")
-    for task, r in zip(tasks, results, strict=True):
-        if r.error:
-            raise TippetopError(f"{run_label(task.engine, task.mode or 'scene')}: {r.error}")
+    options = {"scheduler": scheduler, "workers": workers, "use_cache": use_cache}
+    tasks, results = _run_all(scene, runs, overrides, options)
     sc = tasks[0].load()
     top = tasks[0].plan(sc).top  # for an MJCF top, the parameters read from its file
     ref = results[0]
@@ -108,46 +103,8 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
         per_run[label] = s
         if is_ref or ref_failed:  # nothing to compare with a failed reference
             continue
-        ref_s = ref.summary
-        ref_out = ref_facts["outcome"]
-        if s["outcome"] != ref_out:
-            diffs.append({**who, "metric": "outcome", "value": s["outcome"],
-                          "reference": ref_out, "tolerance": None})
-        if (s.get("t_left_table") is None) != (ref_s.get("t_left_table") is None):
-            diffs.append({**who, "metric": "t_left_table", "value": s.get("t_left_table"),
-                          "reference": ref_s.get("t_left_table"), "tolerance": None,
-                          "why": METRICS["t_left_table"].meaning})
-        checks = {
-            "theta_asymp": (s["theta_asymp"], ref_s["theta_asymp"]),
-            "theta_rms": (s["theta_rms_vs_ref"], 0.0),
-        }
-        if (s["t_invert"] is None) != (ref_s["t_invert"] is None):
-            diffs.append({**who, "metric": "t_invert", "value": s["t_invert"],
-                          "reference": ref_s["t_invert"], "tolerance": None})
-        elif s["t_invert"] is not None:
-            checks["t_invert"] = (s["t_invert"], ref_s["t_invert"])
-        for metric, (v, rv) in checks.items():
-            tol = tolerance_of(metric, s["engine"], rv)
-            why = TOLERANCES[metric][1]
-            if not math.isfinite(v) or abs(v - rv) > tol:
-                diffs.append({**who, "metric": metric, "value": v, "reference": rv,
-                              "tolerance": tol, "why": why})
-        tol = tolerance_of("J_rel_drift", s["engine"])
-        if s["J_rel_drift"] is not None and s["J_rel_drift"] > tol:
-            diffs.append({**who, "metric": "J_rel_drift", "value": s["J_rel_drift"],
-                          "reference": ref_s["J_rel_drift"], "tolerance": tol,
-                          "why": TOLERANCES["J_rel_drift"][1]})
-    # each MuJoCo run's realised law, rerun in the reference: does it explain the run?
-    mj = {k: v for k, v in per_run.items() if v["engine"] != "ode"
-          and (v.get("friction_realised") or {}).get("samples")}
-    if mj:
-        from tippetop.compare.studies.refit import attach_refits
-
-        ref_key = "reference"
-        mj_tables = {k: mine[k].table for k in mj}
-        attach_refits({ref_key: dict(ref.summary), **mj}, {ref_key: ref.table, **mj_tables},
-                      ref_key, lambda ov: Task(scene, (*overrides, *ov), "ode"),
-                      {"scheduler": scheduler, "workers": workers, "use_cache": use_cache})
+        diffs += _differences(who, s, ref.summary, ref_facts["outcome"])
+    _attach_refits(per_run, mine, ref, scene, overrides, options)
     return {
         "scene": sc.name,
         "group": theory.group(top),
@@ -159,6 +116,67 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
         "differences": diffs,
         "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL},
     }
+
+
+def _run_all(scene: str | None, runs: list[Run], overrides: tuple[str, ...],
+             options: dict[str, Any]) -> tuple[list[Task], list[TaskResult]]:
+    """The tasks, the reference's first, and their results (raises for a run that errored)."""
+    tasks = [Task(scene, overrides, "ode")]  # the reference: the scene's own law
+    tasks += [Task(scene, (*overrides, *extra), engine, mode) for engine, mode, extra in runs]
+    results: list[TaskResult] = run_tasks(tasks, **options, label="compare")
+    for task, r in zip(tasks, results, strict=True):
+        if r.error:
+            raise TippetopError(f"{run_label(task.engine, task.mode or 'scene')}: {r.error}")
+    return tasks, results
+
+
+def _differences(who: dict[str, Any], s: dict[str, Any], ref_s: dict[str, Any],
+                 ref_out: str) -> list[dict[str, Any]]:
+    """The differences (one per metric) where a run's summary ``s`` departs from the reference."""
+    diffs: list[dict[str, Any]] = []
+    if s["outcome"] != ref_out:
+        diffs.append({**who, "metric": "outcome", "value": s["outcome"],
+                      "reference": ref_out, "tolerance": None})
+    if (s.get("t_left_table") is None) != (ref_s.get("t_left_table") is None):
+        diffs.append({**who, "metric": "t_left_table", "value": s.get("t_left_table"),
+                      "reference": ref_s.get("t_left_table"), "tolerance": None,
+                      "why": METRICS["t_left_table"].meaning})
+    checks = {
+        "theta_asymp": (s["theta_asymp"], ref_s["theta_asymp"]),
+        "theta_rms": (s["theta_rms_vs_ref"], 0.0),
+    }
+    if (s["t_invert"] is None) != (ref_s["t_invert"] is None):
+        diffs.append({**who, "metric": "t_invert", "value": s["t_invert"],
+                      "reference": ref_s["t_invert"], "tolerance": None})
+    elif s["t_invert"] is not None:
+        checks["t_invert"] = (s["t_invert"], ref_s["t_invert"])
+    for metric, (v, rv) in checks.items():
+        tol = tolerance_of(metric, s["engine"], rv)
+        why = TOLERANCES[metric][1]
+        if not math.isfinite(v) or abs(v - rv) > tol:
+            diffs.append({**who, "metric": metric, "value": v, "reference": rv,
+                          "tolerance": tol, "why": why})
+    tol = tolerance_of("J_rel_drift", s["engine"])
+    if s["J_rel_drift"] is not None and s["J_rel_drift"] > tol:
+        diffs.append({**who, "metric": "J_rel_drift", "value": s["J_rel_drift"],
+                      "reference": ref_s["J_rel_drift"], "tolerance": tol,
+                      "why": TOLERANCES["J_rel_drift"][1]})
+    return diffs
+
+
+def _attach_refits(per_run: dict[str, Any], mine: dict[str, TaskResult], ref: TaskResult,
+                   scene: str | None, overrides: tuple[str, ...],
+                   options: dict[str, Any]) -> None:
+    """Each MuJoCo run's realised law rerun in the reference, put in its entry of ``per_run``."""
+    mj = {k: v for k, v in per_run.items() if v["engine"] != "ode"
+          and (v.get("friction_realised") or {}).get("samples")}
+    if mj:
+        from tippetop.compare.studies.refit import attach_refits
+
+        ref_key = "reference"
+        mj_tables = {k: mine[k].table for k in mj}
+        attach_refits({ref_key: dict(ref.summary), **mj}, {ref_key: ref.table, **mj_tables},
+                      ref_key, lambda ov: Task(scene, (*overrides, *ov), "ode"), options)
 
 
 #: The friction-law runs: the reference in each of its laws, MuJoCo in each of its modes.

@@ -20,12 +20,19 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.verdict import predicted_outcome
 from tippetop.compare.running.runner import Task
+from tippetop.compare.studies.fidelity_processes import (
+    NotATerminal,
+    init_point_process,
+    machine_cores,
+    point_cores,
+)
 from tippetop.models.errors import RunFailedError, TippetopError
 from tippetop.models.numbers import number_text
 
@@ -39,9 +46,6 @@ ABOVE_THRESHOLD = 1.25
 DEFAULT_T_END_S = 8.0
 #: The JSON's format name.
 FORMAT = "tippetop-fidelity/1"
-#: Threads (and reference workers) each point tuned at once gets, at least (where there are
-#: as many cores): :func:`point_cores`.
-POINT_MIN_CORES = 2
 
 
 # the grids live with the parsers' defaults (importing them costs nothing): re-exported here
@@ -379,63 +383,6 @@ def _say(progress: bool) -> Callable[[str], None] | None:
 
 
 # ---------------------------------------------------------------- points at once
-def machine_cores() -> int:
-    """The cores this process may use."""
-    from tippetop.mujoco_runner.batch import default_threads
-
-    return max(1, default_threads())
-
-
-def point_cores(cores: int, at_once: int) -> int:
-    """The threads each of ``at_once`` points gets on ``cores``: its rollouts' and its runs'.
-
-    At least two where there are two cores: a point's own parallel phases (the fit's batched
-    rollouts, its four verification runs) then use both while the other points fill what its
-    serial ones (the fit's trial steps, one rollout each) leave idle.
-    """
-    return max(min(POINT_MIN_CORES, cores), cores // max(1, at_once))
-
-
-class _NotATerminal:
-    """A stream that is no terminal: the points' own bars would draw over each other's."""
-
-    def __init__(self, stream: Any) -> None:
-        self._stream = stream
-
-    def isatty(self) -> bool:
-        return False
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._stream, name)
-
-
-def _init_point_process(parent: int, pdeathsig: bool) -> None:
-    """A point's process: Ctrl-C is the map's, no bars of its own, and it dies with the map.
-
-    However the map's process ends (SIGKILL too), as the runner's workers do: the kernel is
-    asked to kill it (Linux, ``pdeathsig``: the pool made in the main thread), and a thread
-    looks every half second that the map is still its parent.
-    """
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    sys.stderr = _NotATerminal(sys.stderr)
-    if pdeathsig and sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # DEATHSIG
-        except (OSError, AttributeError):  # pragma: no cover - no prctl: the thread does
-            pass
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(0.5)
-        os._exit(1)  # the map that would read the answer is gone
-
-    threading.Thread(target=watch, name="tippetop-map-watchdog", daemon=True).start()
-
-
 def _map_local(todo: list[tuple[int, float, float, float]], at_once: int,
                job: dict[str, Any], started: Callable[[int], None],
                finished: Callable[[int, dict[str, Any]], None]) -> None:
@@ -455,7 +402,7 @@ def _map_local(todo: list[tuple[int, float, float, float]], at_once: int,
 
     main = threading.current_thread() is threading.main_thread()
     pool = ProcessPoolExecutor(max_workers=at_once, mp_context=get_context("spawn"),
-                               initializer=_init_point_process,
+                               initializer=init_point_process,
                                initargs=(os.getpid(), main))
     queue = list(todo)
     going: dict[Any, int] = {}
@@ -499,7 +446,7 @@ def point_on_worker(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: flo
         threads_here = max(1, int(getattr(get_worker().state, "nthreads", 1) or 1))
     c = point_cores(machine_cores(), threads_here)
     before = sys.stderr
-    sys.stderr = _NotATerminal(before)  # no bars on the worker's terminal
+    sys.stderr = NotATerminal(before)  # no bars on the worker's terminal
     try:
         return compute_point(A_over_C, a_over_R, mu, t_end_s=t_end_s,
                              run_options={"scheduler": None, "workers": c,
@@ -532,6 +479,94 @@ def _map_dask(todo: list[tuple[int, float, float, float]], scheduler: str,
                    for k, (i, r, e, m) in enumerate(todo)}
         for i, out in cluster.results(futures):
             finished(i, out)
+
+
+@dataclass(frozen=True)
+class _MapJob:
+    """What every point of a map is tuned with, and where its progress lines go."""
+
+    pts: list[tuple[float, float, float]]
+    t_end_s: float
+    budget_runs: int | None
+    use_cache: bool
+    explain: Callable[[dict[str, Any]], str]
+    say: Callable[[str], None] | None
+
+
+def _settler(n: int, say: Callable[[str], None] | None
+             ) -> tuple[list[dict[str, Any] | None], Callable[[int, dict[str, Any]], None]]:
+    """The ``n`` rows (None until settled) and ``settle(i, point)``, said in the grid's order."""
+    out: list[dict[str, Any] | None] = [None] * n
+    said = [0]  # rows said so far, in the grid's order
+
+    def settle(i: int, point: dict[str, Any]) -> None:
+        out[i] = point
+        while said[0] < n and out[said[0]] is not None:
+            p = out[said[0]]
+            said[0] += 1
+            if say and p is not None:
+                say(f"point {said[0]}/{n}: {'agrees' if p['agrees'] else 'departs'} "
+                    f"({number_text(p['wall_s'], 's', 3)}{', cached' if p['cached'] else ''})")
+
+    return out, settle
+
+
+def _begin_points(job: _MapJob, at_once: int, scheduler: str | None
+                  ) -> tuple[list[dict[str, Any]], list[tuple[int, float, float, float]], int]:
+    """The points begun here, those left to tune away and how many at once (none: one by one)."""
+    begun: list[dict[str, Any]] = []
+    todo: list[tuple[int, float, float, float]] = []
+    if at_once > 1 or scheduler is not None:  # the cache read here, the rest sent away
+        begun = [_begin_point(r, e, m, t_end_s=job.t_end_s, budget_runs=job.budget_runs,
+                              use_cache=job.use_cache, explain=job.explain)
+                 for r, e, m in job.pts]
+        todo = [(i, *job.pts[i]) for i, b in enumerate(begun) if not b["done"] and
+                b["tuned"] is None]
+        if scheduler is None and len(todo) < 2:  # nothing to tune at once: here
+            begun, todo, at_once = [], [], 1
+    return begun, todo, at_once
+
+
+def _tune_begun(job: _MapJob, begun: list[dict[str, Any]],
+                todo: list[tuple[int, float, float, float]],
+                settle: Callable[[int, dict[str, Any]], None], scheduler: str | None,
+                at_once: int, cores: int) -> int | None:
+    """The points tuned at once (None: on Dask), once every begun point is settled."""
+    say, pts, n = job.say, job.pts, len(job.pts)
+
+    def finished(i: int, res: dict[str, Any]) -> None:
+        b = begun[i]
+        tuned = res.get("tuned")
+        _keep_tuning(b["path"], tuned)
+        point = _finish_point(b["point"], tuned, res.get("error"), False, job.explain)
+        point["wall_s"] = float(res.get("wall_s") or 0.0)
+        settle(i, point)
+
+    for i, b in enumerate(begun):  # a top not admitted, or a tuning from the cache
+        if b["done"] or b["tuned"] is not None:
+            point = b["point"] if b["done"] else _finish_point(b["point"], b["tuned"],
+                                                               None, True, job.explain)
+            point["wall_s"] = b["wall_s"]
+            settle(i, point)
+    kw = {"t_end_s": job.t_end_s, "budget_runs": job.budget_runs}
+    if scheduler is not None:
+        if say and todo:
+            say(f"{len(todo)} point(s) sent to the Dask cluster at {scheduler}, one task each")
+        _map_dask(todo, scheduler, {**kw, "use_cache": job.use_cache}, finished)
+        return None
+    at_once = min(at_once, len(todo))
+    c = point_cores(cores, at_once)
+
+    def started(i: int) -> None:
+        if say:
+            r, e, m = pts[i]
+            say(f"point {i + 1}/{n}: A/C = {r:g}, a/R = {e:g}, mu = {m:g} ... "
+                f"({at_once} points at once)")
+
+    _map_local(todo, at_once, {
+        **kw, "run_options": {"scheduler": None, "workers": c, "use_cache": job.use_cache},
+        "progress": False, "threads": c, "reference_workers": 1}, started, finished)
+    return at_once
 
 
 def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
@@ -592,27 +627,9 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
     at_once = points_at_once or workers or cores
     if not real or (scheduler is None and at_once <= 1):
         at_once, scheduler = 1, None  # one point at a time, here
-    out: list[dict[str, Any] | None] = [None] * n
-    said = [0]  # rows said so far, in the grid's order
-
-    def settle(i: int, point: dict[str, Any]) -> None:
-        out[i] = point
-        while said[0] < n and out[said[0]] is not None:
-            p = out[said[0]]
-            said[0] += 1
-            if say and p is not None:
-                say(f"point {said[0]}/{n}: {'agrees' if p['agrees'] else 'departs'} "
-                    f"({number_text(p['wall_s'], 's', 3)}{', cached' if p['cached'] else ''})")
-
-    begun: list[dict[str, Any]] = []
-    todo: list[tuple[int, float, float, float]] = []
-    if at_once > 1 or scheduler is not None:  # the cache read here, the rest sent away
-        begun = [_begin_point(r, e, m, t_end_s=t_end_s, budget_runs=budget_runs,
-                              use_cache=use_cache, explain=explain) for r, e, m in pts]
-        todo = [(i, *pts[i]) for i, b in enumerate(begun) if not b["done"] and
-                b["tuned"] is None]
-        if scheduler is None and len(todo) < 2:  # nothing to tune at once: here
-            begun, todo, at_once = [], [], 1
+    out, settle = _settler(n, say)
+    job = _MapJob(pts, t_end_s, budget_runs, use_cache, explain, say)
+    begun, todo, at_once = _begin_points(job, at_once, scheduler)
     if not begun:  # the points one after the other, here
         opts = {"scheduler": None, "workers": workers, "use_cache": use_cache}
         for i, (r, e, m) in enumerate(pts):
@@ -622,40 +639,7 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
                                 budget_runs=budget_runs, progress=progress, explain=explain,
                                 tune_fn=tune_fn))
     else:
-        def finished(i: int, res: dict[str, Any]) -> None:
-            b = begun[i]
-            tuned = res.get("tuned")
-            _keep_tuning(b["path"], tuned)
-            point = _finish_point(b["point"], tuned, res.get("error"), False, explain)
-            point["wall_s"] = float(res.get("wall_s") or 0.0)
-            settle(i, point)
-
-        for i, b in enumerate(begun):  # a top not admitted, or a tuning from the cache
-            if b["done"] or b["tuned"] is not None:
-                point = b["point"] if b["done"] else _finish_point(b["point"], b["tuned"],
-                                                                   None, True, explain)
-                point["wall_s"] = b["wall_s"]
-                settle(i, point)
-        job = {"t_end_s": t_end_s, "budget_runs": budget_runs}
-        if scheduler is not None:
-            at_once = None
-            if say and todo:
-                say(f"{len(todo)} point(s) sent to the Dask cluster at {scheduler}, one task "
-                    "each")
-            _map_dask(todo, scheduler, {**job, "use_cache": use_cache}, finished)
-        else:
-            at_once = min(at_once, len(todo))
-            c = point_cores(cores, at_once)
-
-            def started(i: int) -> None:
-                if say:
-                    r, e, m = pts[i]
-                    say(f"point {i + 1}/{n}: A/C = {r:g}, a/R = {e:g}, mu = {m:g} ... "
-                        f"({at_once} points at once)")
-
-            _map_local(todo, at_once, {
-                **job, "run_options": {"scheduler": None, "workers": c, "use_cache": use_cache},
-                "progress": False, "threads": c, "reference_workers": 1}, started, finished)
+        at_once = _tune_begun(job, begun, todo, settle, scheduler, at_once, cores)
     done = [p for p in out if p is not None]
     return {
         "format": FORMAT,

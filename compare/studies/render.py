@@ -33,7 +33,11 @@ from tippetop.models.numbers import number_text
 from tippetop.mujoco_runner.gl import use_gl_backend
 
 if TYPE_CHECKING:
+    import pandas as pd
+
+    from tippetop.models.plan import RunPlan
     from tippetop.models.scene import Scene
+    from tippetop.mujoco_runner.poses import Track
 
 #: The engines in the progress lines.
 _ENGINE_NAMES = {"mujoco": "MuJoCo", "ode": "the reference ODE"}
@@ -133,46 +137,25 @@ def render_scene(
     """
     from tippetop.compare.running.io import check_output_path
 
-    engines = tuple(engines)
-    for engine in engines:
-        expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES)
-               + " (the MuJoCo installed here, and the reference replayed)", engine)
-    expect(0 < len(engines) == len(set(engines)), "--engines",
-           "mujoco, ode or mujoco,ode (each once)", ",".join(engines))
+    engines = _checked_engines(engines)
     width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
     n_frames = check_timing(scene.run.t_end_s, fps, speed, max_frames)
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
     backend = use_gl_backend()  # before anything below imports mujoco
 
-    from tippetop.compare.running.engines import plan_for, run_plan
+    from tippetop.compare.running.engines import plan_for
 
     # bad input fails before runs
     plans = {name: plan_for(scene, name, mode if name != "ode" else None) for name in engines}
     tell = say or (lambda _line: None)
-    tables = {}
-    for name in engines:
-        tell(f"simulating {scene.name} in {_ENGINE_NAMES[name]} "
-             f"({plans[name].t_end_s:g} s simulated)...")
-        run = run_plan(plans[name], progress=progress)
-        if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
-            raise RunFailed(f"{name}: {run.message}")
-        tables[name] = run.table
+    tables = _simulate(scene, plans, tell, progress)
 
     from tippetop.compare.running.io import write_atomic
     from tippetop.mujoco_runner import video
-    from tippetop.mujoco_runner.drawn_model import render_model
-    from tippetop.mujoco_runner.poses import Track
 
-    first = plans[engines[0]]
-    top_model = render_model(first.top, scene.top_mjcf, width, height)
-    tracks = [Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
-                               paper_frame=name == "ode") for name in engines]
+    tracks = _tracks(scene, plans, tables, engines, width, height)
     times = video.frame_times(n_frames, fps, speed)
-    runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
-                        for name in engines)
-    tell(f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
-         f"{height}, {number_text(n_frames / fps, 's')} of video at speed {number_text(speed)} "
-         f"({backend})...")
+    tell(_replay_line(engines, n_frames, width, height, fps, speed, backend))
     stats: list[video.VideoStats] = []
 
     def write_checked(tmp: Path) -> None:
@@ -196,19 +179,72 @@ def render_scene(
                         say) as tick:
             write_atomic(path, write_checked)
     except (OSError, video.VideoCheckFailed) as exc:
-        kept = "left as it was" if path.exists() else "not written"
-        full = exc if is_full(exc) else disk_full(exc, path.parent)
-        if full is not None:
-            raise VideoWriteFailed(f"could not write {path}: {full_text(full, path)}; {path} "
-                                   f"{kept}") from exc
-        what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
-            else str(exc)
-        raise VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}") \
-            from exc
+        raise _write_failure(exc, path) from exc
     s = stats[0]
     return RenderResult(path=path, engines=engines, backend=backend, n_frames=s.n_frames,
                         width=s.width, height=s.height, fps=float(fps), speed=float(speed),
                         video_s=n_frames / fps, render_wall_s=s.wall_s)
+
+
+def _checked_engines(engines: tuple[str, ...]) -> tuple[str, ...]:
+    """The engines as a tuple, each a render engine and given once (else TippetopError)."""
+    engines = tuple(engines)
+    for engine in engines:
+        expect(engine in RENDER_ENGINES, "--engine", "one of " + "|".join(RENDER_ENGINES)
+               + " (the MuJoCo installed here, and the reference replayed)", engine)
+    expect(0 < len(engines) == len(set(engines)), "--engines",
+           "mujoco, ode or mujoco,ode (each once)", ",".join(engines))
+    return engines
+
+
+def _simulate(scene: Scene, plans: dict[str, RunPlan], tell: Callable[[str], None],
+              progress: bool) -> dict[str, pd.DataFrame]:
+    """Each engine's table of its run of ``plans`` (RunFailed for a run cut short)."""
+    from tippetop.compare.running.engines import run_plan
+
+    tables = {}
+    for name, plan in plans.items():
+        tell(f"simulating {scene.name} in {_ENGINE_NAMES[name]} "
+             f"({plan.t_end_s:g} s simulated)...")
+        run = run_plan(plan, progress=progress)
+        if run.status not in ("ok", "contact_lost", "hop") or len(run.table) == 0:
+            raise RunFailed(f"{name}: {run.message}")
+        tables[name] = run.table
+    return tables
+
+
+def _tracks(scene: Scene, plans: dict[str, RunPlan], tables: dict[str, pd.DataFrame],
+            engines: tuple[str, ...], width: int, height: int) -> list[Track]:
+    """The engines' poses to replay, left to right, in the model drawn from the first plan."""
+    from tippetop.mujoco_runner.drawn_model import render_model
+    from tippetop.mujoco_runner.poses import Track
+
+    first = plans[engines[0]]
+    top_model = render_model(first.top, scene.top_mjcf, width, height)
+    return [Track.from_table(tables[name], top_model, label=ENGINE_LABELS[name],
+                             paper_frame=name == "ode") for name in engines]
+
+
+def _replay_line(engines: tuple[str, ...], n_frames: int, width: int, height: int,
+                 fps: float, speed: float, backend: str) -> str:
+    """The progress line said before the frames are drawn."""
+    runs = " and ".join(("MuJoCo's run" if name == "mujoco" else "the reference's")
+                        for name in engines)
+    return (f"replaying {runs} in the MJCF: {n_frames} frames of {width * len(engines)}x"
+            f"{height}, {number_text(n_frames / fps, 's')} of video at speed "
+            f"{number_text(speed)} ({backend})...")
+
+
+def _write_failure(exc: Exception, path: Path) -> VideoWriteFailed:
+    """The error for a video not written to ``path``: a full disk said as one, else ``exc``."""
+    kept = "left as it was" if path.exists() else "not written"
+    full = exc if is_full(exc) else disk_full(exc, path.parent)
+    if full is not None:
+        return VideoWriteFailed(f"could not write {path}: {full_text(full, path)}; {path} "
+                                f"{kept}")
+    what = (exc.strerror or " ".join(str(exc).split())) if isinstance(exc, OSError) \
+        else str(exc)
+    return VideoWriteFailed(f"could not write {path}: {what[:300]}; {path} {kept}")
 
 
 __all__ = ["RenderResult", "RunFailed", "VideoWriteFailed", "render_scene"]

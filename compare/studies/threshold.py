@@ -6,7 +6,7 @@ How a run "crosses" in the bisection is in docs/design.md.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -16,6 +16,9 @@ from tippetop.compare.measures.series import OUTCOME_MARGIN, classify_outcome, t
 from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
+
+if TYPE_CHECKING:
+    from tippetop.models.scene import Scene
 
 WHICH = ("n1", "n4", "nc")
 #: A bisection run for n_c that is still moving at its end is continued over twice, then four
@@ -178,16 +181,7 @@ def bisect_threshold(
             return list(out)
 
         results = dict(zip(n0s, batch(n0s, extra), strict=True))
-        failed = [(n0, r) for n0, r in results.items() if run_failed(r.summary)]
-        if failed:
-            for n0, r in results.items():
-                ok = not run_failed(r.summary)
-                runs.append({"n0": n0, "crossed": crossed(which, r.table) if ok else None,
-                             "status": r.summary.get("status", "ok"),
-                             **({} if ok else {"failed": r.summary.get("message")})})
-            raise _Failed([{"n0": n0, "message": f"the run at n0 = {n0:.6g} rad/s failed: "
-                                                 f"{r.summary.get('message')}"}
-                           for n0, r in failed])
+        _stop_if_failed(which, results, runs)
         horizon_here = next((float(x.split("=", 1)[1]) for x in reversed(extra)
                              if x.startswith("run.t_end_s=")), base.run.t_end_s)
         # n_c: a run whose final state is still moving is continued (the horizon doubled, at
@@ -220,15 +214,7 @@ def bisect_threshold(
                           horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
                           unsettled=unsettled), "mode": mode}
     except _Failed as exc:  # every run so far is kept; no threshold is claimed
-        return {"which": which, "engine": engine, "mode": mode, "scene": base.name,
-                "measured": None,
-                "theory": n_th, "rel_diff": None, "bracket": [],
-                "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),
-                "horizon_s": base.run.t_end_s, "converged": False, "method": "bisect",
-                "rates": [], "settled": False, "unsettled_n0": sorted(unsettled),
-                "failed_runs": exc.runs,
-                "warning": "; ".join(r["message"] for r in exc.runs)
-                + " (the runs before it are kept)"}
+        return _failed_answer(exc, which, engine, mode, base, n_th, runs, unsettled)
 
 
 class _Failed(Exception):
@@ -237,6 +223,35 @@ class _Failed(Exception):
     def __init__(self, runs: list[dict[str, Any]]) -> None:
         super().__init__(runs[0]["message"])
         self.runs = runs
+
+
+def _stop_if_failed(which: str, results: dict[float, Any], runs: list[dict[str, Any]]) -> None:
+    """None if every run of ``results`` completed; else raises _Failed, each kept in ``runs``."""
+    failed = [(n0, r) for n0, r in results.items() if run_failed(r.summary)]
+    if failed:
+        for n0, r in results.items():
+            ok = not run_failed(r.summary)
+            runs.append({"n0": n0, "crossed": crossed(which, r.table) if ok else None,
+                         "status": r.summary.get("status", "ok"),
+                         **({} if ok else {"failed": r.summary.get("message")})})
+        raise _Failed([{"n0": n0, "message": f"the run at n0 = {n0:.6g} rad/s failed: "
+                                             f"{r.summary.get('message')}"}
+                       for n0, r in failed])
+
+
+def _failed_answer(exc: _Failed, which: str, engine: str, mode: str | None, base: Scene,
+                   n_th: float, runs: list[dict[str, Any]],
+                   unsettled: list[float]) -> dict[str, Any]:
+    """The result of a bisection stopped by a failed run: its runs so far, no threshold."""
+    return {"which": which, "engine": engine, "mode": mode, "scene": base.name,
+            "measured": None,
+            "theory": n_th, "rel_diff": None, "bracket": [],
+            "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),
+            "horizon_s": base.run.t_end_s, "converged": False, "method": "bisect",
+            "rates": [], "settled": False, "unsettled_n0": sorted(unsettled),
+            "failed_runs": exc.runs,
+            "warning": "; ".join(r["message"] for r in exc.runs)
+            + " (the runs before it are kept)"}
 
 
 def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str, engine: str,
