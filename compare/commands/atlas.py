@@ -14,6 +14,7 @@ from tippetop.compare.commands.options import (
     engines_and_modes,
     json_text,
     print_json,
+    set_overrides,
 )
 from tippetop.compare.studies.defaults import (
     DEFAULT_A_OVER_C,
@@ -75,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
         out_dir = check_output_dir(args.out, force=args.force)  # before any run
         hold_output_lock(out_dir)
-    res = run_atlas(ac, ar, runs, tuple(args.set or []), scheduler=args.scheduler,
+    res = run_atlas(ac, ar, runs, set_overrides(args), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     files = write_atlas(res, out_dir) if out_dir is not None else []
     if args.json:

@@ -21,6 +21,7 @@ from tippetop.compare.commands.options import (
     add_workers_option,
     json_text,
     print_json,
+    set_overrides,
 )
 
 DESCRIPTION = (
@@ -98,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.studies import bisect as bs
     from tippetop.models.errors import TippetopError
 
-    overrides = tuple(args.set or [])
+    overrides = set_overrides(args)
     metrics = bs.check_metrics(args.metric)
     if args.budget is not None and args.budget < 2:
         raise TippetopError(f"--budget: expected an integer >= 2 (runs), got {args.budget}")
@@ -132,8 +133,8 @@ def run(args: argparse.Namespace) -> int:
                              use_cache=not args.no_cache, scheduler=args.scheduler, say=say)
     found = bs.bisect(cands, metrics, runner, budget=args.budget,
                       attribution=not args.no_attribution, say=say, tty=sys.stderr.isatty())
-    res = {"format": bs.FORMAT, "scene": args.scene, "mode": mode, "overrides": list(overrides),
-           "source": source, "started": started, **found}
+    res = {"format": bs.FORMAT, "scene": args.scene, "mode": mode,
+           "overrides": list(args.set or []), "source": source, "started": started, **found}
     if not args.no_history:  # a failed append is said in one line; the results are kept
         from tippetop.compare.commands.history import record_command
 

@@ -13,6 +13,7 @@ from tippetop.compare.commands.options import (
     add_parallel_options,
     add_set_option,
     print_json,
+    set_overrides,
 )
 from tippetop.compare.presentation.crossval import print_compare
 
@@ -44,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.studies.crossval import compare_scene
 
     runs = engines_and_modes(args, engines="ode,mujoco", modes="paper,native")
-    res = compare_scene(args.scene, runs, tuple(args.set or []), scheduler=args.scheduler,
+    res = compare_scene(args.scene, runs, set_overrides(args), scheduler=args.scheduler,
                         workers=args.workers, use_cache=not args.no_cache)
     if args.json:
         print_json(res)

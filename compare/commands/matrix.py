@@ -19,6 +19,7 @@ from tippetop.compare.commands.options import (
     add_workers_option,
     json_text,
     print_json,
+    set_overrides,
 )
 
 DESCRIPTION = (
@@ -90,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         out_dir = check_output_dir(args.out, force=args.force)
         hold_output_lock(out_dir)
     tables: dict[str, Any] = {}
-    res = run_matrix(scenes, engines, modes, tuple(args.set or []), workers=args.workers,
+    res = run_matrix(scenes, engines, modes, set_overrides(args), workers=args.workers,
                      use_cache=not args.no_cache, attribution=not args.no_attribution,
                      tables=tables, scheduler=args.scheduler)
     res.setdefault("started", started)

@@ -446,15 +446,28 @@ def load_scene(args: argparse.Namespace) -> Any:
     Returns:
         The validated :class:`tippetop.models.scene.Scene`.
     """
+    from tippetop.models.scene import Override
     from tippetop.models.scene import load_scene as load
 
-    overrides = list(args.set or [])
+    overrides = list(set_overrides(args))
     if getattr(args, "mjcf", None):
         # relative to the working folder, not to the scene file
-        overrides.append(f"top.mjcf={json.dumps(os.path.abspath(args.mjcf))}")
+        overrides.append(Override.of("top.mjcf", os.path.abspath(args.mjcf)))
     if getattr(args, "keyframe", None):
-        overrides.append(f"init.keyframe={json.dumps(args.keyframe)}")
+        overrides.append(Override.of("init.keyframe", args.keyframe))
     return load(args.scene, overrides)
+
+
+def set_overrides(args: argparse.Namespace) -> tuple[Any, ...]:
+    """``--set`` text, parsed once, here, into values.
+
+    Returns:
+        The :class:`tippetop.models.scene.Override` of each ``--set``, in order: what the
+        studies pass down.
+    """
+    from tippetop.models.scene import Override
+
+    return tuple(Override.parse(item) for item in (args.set or []))
 
 
 # ---------------------------------------------------------------- output

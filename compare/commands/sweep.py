@@ -16,6 +16,7 @@ from tippetop.compare.commands.options import (
     add_parallel_options,
     add_set_option,
     print_json,
+    set_overrides,
 )
 from tippetop.compare.presentation.terminal import cache_line, fmt, fmt_value, table
 from tippetop.models.errors import TippetopError
@@ -72,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
             raise TippetopError(f"--out: expected an existing parent folder, got {str(base)!r}")
         check_writable(base)  # before the runs, not after them
         hold_output_lock(out_dir)  # a second sweep into it is refused now
-    res = run_sweep(args.scene, n0s, runs, tuple(args.set or []), scheduler=args.scheduler,
+    res = run_sweep(args.scene, n0s, runs, set_overrides(args), scheduler=args.scheduler,
                     workers=args.workers, use_cache=not args.no_cache)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -18,6 +18,7 @@ from tippetop.compare.commands.options import (
     finite_float,
     json_text,
     print_json,
+    set_overrides,
 )
 from tippetop.compare.presentation.terminal import cache_line, fmt, fmt_percent, table
 
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         hold_output_lock(out_dir)  # a second run into it is refused now, not mixed in later
     method = {"method": args.method} if getattr(args, "method", None) else {}
     spec, mode, extra = engine_and_mode(args)
-    res = measure_threshold(args.scene, spec.spec, args.which, (*extra, *(args.set or [])),
+    res = measure_threshold(args.scene, spec.spec, args.which, (*extra, *set_overrides(args)),
                             rel_tol=args.rel_tol, scheduler=args.scheduler,
                             workers=args.workers, use_cache=not args.no_cache, mode=mode,
                             **method)
