@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
-from typing import Any
 
 from tippetop.compare.commands.options import (
     ENGINE_HELP,
@@ -18,7 +16,8 @@ from tippetop.compare.commands.options import (
     print_json,
     set_overrides,
 )
-from tippetop.compare.presentation.terminal import cache_line, fmt, fmt_value, table
+from tippetop.compare.presentation.sweep import print_sweep
+from tippetop.compare.presentation.terminal import cache_line
 from tippetop.models.errors import TippetopError
 
 
@@ -77,49 +76,23 @@ def run(args: argparse.Namespace) -> int:
                     workers=args.workers, use_cache=not args.no_cache)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
-        write_atomic(files[0], lambda tmp: res["table"].to_csv(tmp, index=False))
-        write_atomic(files[1], lambda tmp: res["theory"].to_csv(tmp, index=False))
+        write_atomic(files[0], lambda tmp: res.table.to_csv(tmp, index=False))
+        write_atomic(files[1], lambda tmp: res.theory.to_csv(tmp, index=False))
         sweep_figure(res, files[2])
     if args.json:
-        print_json({"scene": res["scene"], "computed": res["computed"], "cached": res["cached"],
-                    "rows": res["table"].to_dict(orient="records")})
+        print_json(res.to_json())
     else:
         print_sweep(res)
-        print(cache_line(res.get("computed"), res.get("cached"), not args.no_cache))
+        print(cache_line(res.computed, res.cached, not args.no_cache))
         if out_dir is not None:
             print("wrote " + ", ".join(str(f) for f in files))
         else:
             print("not written: --out DIR writes sweep.csv, theory.csv and sweep.png")
     # a failed run is a row with its status (the others kept), and the command exits 1
-    table = res["table"]
-    failed = table[table["outcome"] == "failed"] if len(table) else table
+    failed = res.failed()
     if len(failed):
-        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(table)} runs failed "
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res.table)} runs failed "
                          f"({', '.join(sorted(set(failed['status'])))}); each is a row with "
                          "its status\n")
         return EXIT_RUN_FAILED
     return 0
-
-
-def print_sweep(res: dict[str, Any]) -> None:
-    """A sweep for a person: per run and n0, theta_asymp against the theory's theta_s(n0)."""
-    import numpy as np
-
-    rows_in = res["table"].to_dict(orient="records")
-    th = res.get("theory")
-    print(f"{res.get('scene', '?')}: theta_asymp against n0, with the theory's theta_s(n0)")
-    rows = []
-    for r in rows_in:
-        t_inv = r.get("t_invert")
-        if isinstance(t_inv, float) and math.isnan(t_inv):
-            r["t_invert"] = None  # pandas holds "never turned over" as NaN
-        theta_s = None
-        if th is not None and len(th):
-            theta_s = float(np.interp(r["n0"], th["n0"], th["theta_s"]))
-        rows.append((r.get("run"), fmt(r.get("n0"), "rad/s"), fmt(r.get("theta_asymp"), "rad"),
-                     fmt(theta_s, "rad"), fmt(r.get("outcome")),
-                     fmt_value("t_invert", r.get("t_invert")).split(" (")[0],
-                     fmt(r.get("J_rel_drift"), "relative"), fmt(r.get("status")),
-                     "cache" if r.get("cached") else "run"))
-    print(table(("run", "n0", "theta_asymp", "theta_s", "outcome", "t_invert", "J drift",
-                 "status", "from"), rows))

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from tippetop.compare.measures import theory
+from tippetop.compare.results.sweep import SweepResult
 from tippetop.compare.running.io import write_atomic
 
 
@@ -22,15 +23,15 @@ def pyplot():
     return plt
 
 
-def sweep_figure(result: dict[str, Any], path: Path) -> None:
+def sweep_figure(result: SweepResult, path: Path) -> None:
     """theta_asymp against n0 per run, with theta_s(n0) and the critical spins (PNG/SVG)."""
     plt = pyplot()
-    top = result["top"]
+    top = result.top
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
-    th = result["theory"]
+    th = result.theory
     ax.plot(th["n0"], th["theta_s"], "k-", lw=1, label=r"theory $\theta_s(n_0)$")
     markers = iter("os^vD<>p*")
-    for run, grp in result["table"].groupby("run", sort=False):
+    for run, grp in result.table.groupby("run", sort=False):
         ax.plot(grp["n0"], grp["theta_asymp"], next(markers), mfc="none", label=run)
     for name, val in (("n1", theory.n1(top)), ("n4", theory.n4(top))):
         if val is not None and th["n0"].min() <= val <= th["n0"].max():
@@ -39,7 +40,7 @@ def sweep_figure(result: dict[str, Any], path: Path) -> None:
     ax.set_xlabel(r"$n_0$ (rad/s)")
     ax.set_ylabel(r"$\theta_{asymp}$ (rad)")
     ax.set_ylim(-0.1, math.pi + 0.15)
-    ax.set_title(f"{result['scene']}: A/C = {top.A_over_C:.3g}, a/R = {top.a_over_R:.3g} "
+    ax.set_title(f"{result.scene}: A/C = {top.A_over_C:.3g}, a/R = {top.a_over_R:.3g} "
                  f"(Group {theory.group(top)})", fontsize=10)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()

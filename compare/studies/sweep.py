@@ -6,14 +6,12 @@ This is the paper's Figs. 9 and 10, measured in any engine.
 from __future__ import annotations
 
 import math
-from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from tippetop.compare.measures import theory
 from tippetop.compare.measures.series import classify_outcome
 from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.results.sweep import SweepResult, theory_curve
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
@@ -41,7 +39,7 @@ def parse_range(text: str) -> list[float]:
 
 def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
               overrides: tuple[str, ...] = (), *, scheduler: str | None = None,
-              workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
+              workers: int | None = None, use_cache: bool = True) -> SweepResult:
     """Run every (engine, mode, n0) and return the table, the theory curve and the cache hits.
 
     Args:
@@ -54,9 +52,7 @@ def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
         use_cache: Read and write the run cache.
 
     Returns:
-        ``table`` (a row per run: ``engine``, ``mode``, ``run`` (``ENGINE/MODE``), ``n0``,
-        ``theta_asymp``, ``outcome``, ``t_invert``, ``J_rel_drift``, ``status``, ``cached``),
-        ``theory`` (theta_s(n0)), ``top``, ``scene``, ``computed`` and ``cached``.
+        The rows, the theory's curve and the cache's share (:class:`SweepResult`).
     """
     tasks = []
     for engine, mode, extra in runs:
@@ -80,13 +76,7 @@ def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
                      "J_rel_drift": s["J_rel_drift"], "status": s.get("status", "ok"),
                      "cached": res.cached})
     top = tasks[0].plan().top
-    lo, hi = min(n0_values), max(n0_values)
-    grid = np.linspace(lo, hi, 400)
-    return {
-        "table": pd.DataFrame(rows),
-        "theory": pd.DataFrame({"n0": grid, "theta_s": theory.theta_s_curve(top, grid)}),
-        "top": top,
-        "scene": tasks[0].load().name,
-        "computed": sum(not r.cached for r in results),
-        "cached": sum(r.cached for r in results),
-    }
+    return SweepResult(table=pd.DataFrame(rows), theory=theory_curve(top, n0_values), top=top,
+                       scene=tasks[0].load().name,
+                       computed=sum(not r.cached for r in results),
+                       cached=sum(r.cached for r in results))

@@ -16,7 +16,6 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.cli import build_parser
-from tippetop.compare.presentation.crossval import print_compare
 from tippetop.compare.commands.options import (
     EXIT_BAD_INPUT,
     EXIT_INTERRUPTED,
@@ -24,10 +23,12 @@ from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
     EXIT_STATUSES,
 )
-from tippetop.compare.commands.sweep import print_sweep
 from tippetop.compare.commands.threshold import print_threshold
+from tippetop.compare.presentation.crossval import print_compare
+from tippetop.compare.presentation.sweep import print_sweep
+from tippetop.compare.results.sweep import SweepResult
 from tippetop.models.modes import MODES
-from tippetop.models.scene import catalogue_names
+from tippetop.models.scene import catalogue_names, load_scene
 
 
 def tippetop(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -251,7 +252,7 @@ def test_sweep_prints_theta_s_beside_each_point(capsys: pytest.CaptureFixture) -
                           "t_invert": [None, 3.2], "J_rel_drift": [1e-9, math.nan],
                           "status": ["ok", "ok"], "cached": [True, False]})
     theory = pd.DataFrame({"n0": [40.0, 60.0], "theta_s": [0.0, 1.5]})
-    print_sweep({"scene": "s", "table": table, "theory": theory})
+    print_sweep(SweepResult(table, theory, load_scene("fig3").top, "s", 1, 1))
     out = capsys.readouterr().out
     assert "None" not in out and not _LONG_FLOAT.search(out)
     assert re.search(r"ode/paper\s+60 rad/s\s+1\.453 rad\s+1\.5 rad", out)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import pytest
 
 from tippetop.compare.measures import theory
+from tippetop.compare.results.sweep import SweepResult
 from tippetop.compare.running.runner import Task, run_tasks, strip_timing
 from tippetop.compare.studies.sweep import parse_range, run_sweep
 from tippetop.compare.studies.threshold import measure_threshold
@@ -71,7 +73,7 @@ def test_fig9a_sweep_on_the_theory_curve() -> None:
     n1, n4 = theory.n1(top), theory.n4(top)
     res = run_sweep("fig11_n060", parse_range("25:85:5"), [("ode", "paper", ())])
     checked = 0
-    for row in res["table"].itertuples():
+    for row in res.table.itertuples():
         if min(abs(row.n0 / n1 - 1), abs(row.n0 / n4 - 1)) < 0.10:
             continue
         assert row.theta_asymp == pytest.approx(theory.theta_s(top, row.n0), abs=0.01), row.n0
@@ -82,12 +84,17 @@ def test_fig9a_sweep_on_the_theory_curve() -> None:
 def test_second_identical_sweep_computes_nothing() -> None:
     first = run_sweep("fig7b", [20.0, 30.0], [("ode", None, ())], ("run.t_end_s=1",))
     second = run_sweep("fig7b", [20.0, 30.0], [("ode", None, ())], ("run.t_end_s=1",))
-    assert first["computed"] == 2 and first["cached"] == 0
-    assert second["computed"] == 0 and second["cached"] == 2
-    assert second["table"]["theta_asymp"].tolist() == first["table"]["theta_asymp"].tolist()
+    assert first.computed == 2 and first.cached == 0
+    assert second.computed == 0 and second.cached == 2
+    assert second.table["theta_asymp"].tolist() == first.table["theta_asymp"].tolist()
     # a changed scene is computed again, the unchanged point is not
     third = run_sweep("fig7b", [20.0, 31.0], [("ode", None, ())], ("run.t_end_s=1",))
-    assert third["computed"] == 1 and third["cached"] == 1
+    assert third.computed == 1 and third.cached == 1
+    # the result says itself as the command's JSON and reads itself back, the theory's curve
+    # recomputed from its top over the same n0 range
+    back = SweepResult.from_json(json.loads(json.dumps(third.to_json())), third.top)
+    assert back.to_json() == third.to_json() and back.scene == third.scene
+    assert back.theory["theta_s"].tolist() == third.theory["theta_s"].tolist()
 
 
 def test_parse_range() -> None:
