@@ -23,7 +23,6 @@ _TEXT_ALLOWED = ("compare/commands/", "models/")
 #: shrink.
 OVERRIDE_TEXT_TODO = frozenset({
     "compare/nightly/catalogue.py",
-    "compare/studies/fidelity.py",
     "compare/studies/threshold.py",
     "compare/tuning/tune.py",
 })

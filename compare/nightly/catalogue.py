@@ -265,18 +265,7 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
                                 f"{', '.join(sorted(allowed))})")
     name = _req(entry, "name", str, where)
     category = _req(entry, "category", str, where)
-    model = model_sha256 = ""
-    if "model" in entry:
-        if "scene" in entry:
-            raise TippetopError(f"{where}: expected a 'scene' or a 'model' key, got both")
-        if kind != "run":
-            raise TippetopError(f"{where}.model: expected kind = 'run' (a model file runs as "
-                                f"one top), got kind = {kind!r}")
-        scene = _req(entry, "model", str, where)
-        model, model_sha256 = check_model(scene, base or Path.cwd(),
-                                          f"{where}.model" if origin == "catalogue" else where)
-    else:
-        scene = _req(entry, "scene", str, where)
+    scene, model, model_sha256 = _entry_scene(entry, kind, where, base, origin)
     modes = (_req(entry, "modes", list, where) if "modes" in entry or not model
              else list(MODEL_MODES))
     profs = _req(entry, "profiles", list, where)
@@ -302,36 +291,50 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
                                 f"{did_you_mean(m, KIND_METRICS[kind])}")
     if not (runs and profs and metrics):
         raise TippetopError(f"{where}: expected non-empty modes, profiles and metrics")
-    extra: dict[str, Any] = {}
+    extra = _kind_extra(entry, kind, runs, where)
+    departs_by_mode = extra.pop("departs_by_mode", {})
+    return [Case(id=f"{category}/{name}[{run_label(engine, mode)}]", name=name,
+                 category=category, kind=kind, scene=scene, engine=engine, mode=mode,
+                 metrics=tuple(metrics), profiles=tuple(profs), set=tuple(over),
+                 description=entry.get("description", ""),
+                 departs=departs_by_mode.get(mode, ""), extra=more,  # run cases only
+                 model=model, model_sha256=model_sha256,
+                 model_origin=origin if model else "", **extra)
+            for engine, mode, more in runs]
+
+
+def _entry_scene(entry: dict[str, Any], kind: str, where: str, base: Path | None,
+                 origin: str) -> tuple[str, str, str]:
+    """The entry's scene as written, and its model file's absolute path and hash (else "")."""
+    model = model_sha256 = ""
+    if "model" in entry:
+        if "scene" in entry:
+            raise TippetopError(f"{where}: expected a 'scene' or a 'model' key, got both")
+        if kind != "run":
+            raise TippetopError(f"{where}.model: expected kind = 'run' (a model file runs as "
+                                f"one top), got kind = {kind!r}")
+        scene = _req(entry, "model", str, where)
+        model, model_sha256 = check_model(scene, base or Path.cwd(),
+                                          f"{where}.model" if origin == "catalogue" else where)
+    else:
+        scene = _req(entry, "scene", str, where)
+    return scene, model, model_sha256
+
+
+def _kind_extra(entry: dict[str, Any], kind: str,
+                runs: list[tuple[str, str, tuple[str, ...]]], where: str) -> dict[str, Any]:
+    """The keys of the entry's own kind, checked, as :class:`Case` fields (run: its departs)."""
     if kind == "threshold":
-        which = _req(entry, "which", str, where)
-        if which not in WHICH:
-            raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}"
-                                f"{did_you_mean(which, WHICH)}")
-        # a case that sets bisection's own keys is a bisection unless it says otherwise
-        method = entry.get("method") or ("bisect" if {"max_rounds", "points_per_round"}
-                                         & set(entry) else "growth")
-        if method not in METHODS:
-            raise TippetopError(f"{where}.method: expected {'|'.join(METHODS)}, got "
-                                f"{method!r}{did_you_mean(method, METHODS)}")
-        extra = {"which": which, "method": method,
-                 "rel_tol": (float(_req(entry, "rel_tol", float, where))
-                             if method == "bisect" or "rel_tol" in entry else None),
-                 "max_rounds": entry.get("max_rounds", 10),
-                 "points_per_round": entry.get("points_per_round", 2)}
-        for key in ("max_rounds", "points_per_round"):
-            if key in entry:
-                if method != "bisect":
-                    raise TippetopError(f"{where}.{key}: applies to method = 'bisect' only")
-                _req(entry, key, int, where)
-    elif kind == "atlas":
+        return _threshold_extra(entry, where)
+    if kind == "atlas":
         from tippetop.compare.studies.atlas import parse_grid
 
         extra = {"A_over_C": _req(entry, "A_over_C", str, where),
                  "a_over_R": _req(entry, "a_over_R", str, where)}
         parse_grid(extra["A_over_C"], f"{where}.A_over_C")
         parse_grid(extra["a_over_R"], f"{where}.a_over_R")
-    elif kind == "run" and "departs" in entry:
+        return extra
+    if kind == "run" and "departs" in entry:
         departs = entry["departs"]
         names = {m for _e, m, _x in runs}
         ok = isinstance(departs, dict) and bool(departs)
@@ -343,19 +346,36 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
             raise TippetopError(f"{where}.departs: expected a table of the case's modes "
                                 f"({', '.join(sorted(names))}) = 'why it departs from the "
                                 f"theory', got {entry['departs']!r}")
-        extra = {"departs_by_mode": departs}
-    elif kind == "sweep":
-        extra = {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
-                 "figure": entry.get("figure", ""), "label": entry.get("label", "")}
-    departs_by_mode = extra.pop("departs_by_mode", {})
-    return [Case(id=f"{category}/{name}[{run_label(engine, mode)}]", name=name,
-                 category=category, kind=kind, scene=scene, engine=engine, mode=mode,
-                 metrics=tuple(metrics), profiles=tuple(profs), set=tuple(over),
-                 description=entry.get("description", ""),
-                 departs=departs_by_mode.get(mode, ""), extra=more,  # run cases only
-                 model=model, model_sha256=model_sha256,
-                 model_origin=origin if model else "", **extra)
-            for engine, mode, more in runs]
+        return {"departs_by_mode": departs}
+    if kind == "sweep":
+        return {"n0": tuple(parse_range(_req(entry, "n0", str, where))),
+                "figure": entry.get("figure", ""), "label": entry.get("label", "")}
+    return {}
+
+
+def _threshold_extra(entry: dict[str, Any], where: str) -> dict[str, Any]:
+    """A threshold case's own keys, checked: which, method and bisection's settings."""
+    which = _req(entry, "which", str, where)
+    if which not in WHICH:
+        raise TippetopError(f"{where}.which: expected {'|'.join(WHICH)}, got {which!r}"
+                            f"{did_you_mean(which, WHICH)}")
+    # a case that sets bisection's own keys is a bisection unless it says otherwise
+    method = entry.get("method") or ("bisect" if {"max_rounds", "points_per_round"}
+                                     & set(entry) else "growth")
+    if method not in METHODS:
+        raise TippetopError(f"{where}.method: expected {'|'.join(METHODS)}, got "
+                            f"{method!r}{did_you_mean(method, METHODS)}")
+    extra = {"which": which, "method": method,
+             "rel_tol": (float(_req(entry, "rel_tol", float, where))
+                         if method == "bisect" or "rel_tol" in entry else None),
+             "max_rounds": entry.get("max_rounds", 10),
+             "points_per_round": entry.get("points_per_round", 2)}
+    for key in ("max_rounds", "points_per_round"):
+        if key in entry:
+            if method != "bisect":
+                raise TippetopError(f"{where}.{key}: applies to method = 'bisect' only")
+            _req(entry, key, int, where)
+    return extra
 
 
 def _mode_name(name: str) -> str:

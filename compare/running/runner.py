@@ -109,37 +109,11 @@ def run_tasks(
         clean_cache_once(str(cache.root))  # what a killed run left (SIGKILL)
     for t in tasks:  # validate everything before any work
         _check_task(t)
-    # a scene that does not load stops everything; a plan refused for its settings (a step the
-    # paper's law cannot follow, effects an engine cannot run) is that task's own row
-    scenes = [t.load() for t in tasks]
-    plans: list[RunPlan | None] = []
-    results: list[TaskResult | None] = [None] * len(tasks)
-    for i, (task, scene) in enumerate(zip(tasks, scenes, strict=True)):
-        try:
-            plans.append(task.plan(scene))
-        except TippetopError as exc:
-            plans.append(None)
-            results[i] = TaskResult(task, "", None, None, str(exc), False)
+    plans, results = _plan_tasks(tasks)
     # managed environments made now, before any run, not midway (on Dask: by each worker)
     pythons = _engine_pythons([p for p in plans if p is not None], scheduler)
     keys = [task_key(t, p) if p is not None else "" for t, p in zip(tasks, plans, strict=True)]
-
-    def own(i: int, res_summary: RunSummary | None) -> RunSummary | None:
-        """A task's own copy of a (shared or cached) summary, with its own unused keys."""
-        plan = plans[i]
-        if res_summary is None or plan is None:
-            return None
-        return res_summary.replace(unused=tuple(plan.unused))
-
-    todo: dict[str, list[int]] = {}
-    for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
-        if plans[i] is None:
-            continue
-        hit = cache.get(key) if cache and cacheable(task) else None
-        if hit is not None:
-            results[i] = TaskResult(task, key, own(i, hit[0]), hit[1], None, True)
-        else:
-            todo.setdefault(key, []).append(i)
+    todo = _serve_cached(tasks, plans, keys, cache, results)
     # longest first: the last runs to start are short, so the cores finish together
     unique = sorted(((key, tasks[idx[0]]) for key, idx in todo.items()),
                     key=lambda kt: -expected_cost_s(plans[todo[kt[0]][0]]))
@@ -171,12 +145,11 @@ def run_tasks(
                     writer.put(key, res_summary, table)
                     kept += 1
             for i in todo[key]:
-                results[i] = TaskResult(tasks[i], key, own(i, res_summary), table, err, False)
+                results[i] = TaskResult(tasks[i], key, _own(plans[i], res_summary), table, err,
+                                        False)
         finished = True
         if scheduler is None:  # what a step of each engine cost, for the next estimate
-            computed = {r.key: r.summary for r in results if r is not None and not r.cached}
-            for engine in dict.fromkeys(engines):
-                record_mujoco_runs(measured_steps(computed.values(), engine), engine)
+            _record_step_costs(results, engines)
     except lost as exc:  # the scheduler went: every run finished before it is kept
         if bar is not None:
             bar.close()
@@ -193,6 +166,54 @@ def run_tasks(
         if cluster is not None:
             cluster.close()
     return [r for r in results if r is not None]
+
+
+def _plan_tasks(tasks: Sequence[Task]) -> tuple[list[RunPlan | None], list[TaskResult | None]]:
+    """Each task's plan (None where refused), and the refused tasks' results (else None).
+
+    A scene that does not load stops everything; a plan refused for its settings (a step the
+    paper's law cannot follow, effects an engine cannot run) is that task's own row.
+    """
+    scenes = [t.load() for t in tasks]
+    plans: list[RunPlan | None] = []
+    results: list[TaskResult | None] = [None] * len(tasks)
+    for i, (task, scene) in enumerate(zip(tasks, scenes, strict=True)):
+        try:
+            plans.append(task.plan(scene))
+        except TippetopError as exc:
+            plans.append(None)
+            results[i] = TaskResult(task, "", None, None, str(exc), False)
+    return plans, results
+
+
+def _own(plan: RunPlan | None, res_summary: RunSummary | None) -> RunSummary | None:
+    """A task's own copy of a (shared or cached) summary, with its own unused keys."""
+    if res_summary is None or plan is None:
+        return None
+    return res_summary.replace(unused=tuple(plan.unused))
+
+
+def _serve_cached(tasks: Sequence[Task], plans: list[RunPlan | None], keys: list[str],
+                  cache: ResultCache | None,
+                  results: list[TaskResult | None]) -> dict[str, list[int]]:
+    """The tasks to run, by key (a task's twins share it); the cache's hits go into ``results``."""
+    todo: dict[str, list[int]] = {}
+    for i, (task, key) in enumerate(zip(tasks, keys, strict=True)):
+        if plans[i] is None:
+            continue
+        hit = cache.get(key) if cache and cacheable(task) else None
+        if hit is not None:
+            results[i] = TaskResult(task, key, _own(plans[i], hit[0]), hit[1], None, True)
+        else:
+            todo.setdefault(key, []).append(i)
+    return todo
+
+
+def _record_step_costs(results: list[TaskResult | None], engines: list[str]) -> None:
+    """Record what a step of each engine cost in the runs just computed, for the next estimate."""
+    computed = {r.key: r.summary for r in results if r is not None and not r.cached}
+    for engine in dict.fromkeys(engines):
+        record_mujoco_runs(measured_steps(computed.values(), engine), engine)
 
 
 def _connect_cluster(scheduler: str, plans: dict[str, RunPlan]) -> Any:
@@ -292,12 +313,7 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
 
     plans = plans or {key: task.plan() for key, task in unique}
     if scheduler:
-        from tippetop.compare.running.cluster import dispatch_dask
-
-        for key, out in dispatch_dask(unique, plans, scheduler,
-                                      bar.tick if bar is not None else None):
-            yield key, out
-            done(key)
+        yield from _dispatch_dask(unique, plans, scheduler, bar, done)
         return
     n = workers or os.cpu_count() or 1
     pythons = pythons or {}
@@ -309,21 +325,9 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
     pool = queue = threads = None
     futures: dict[Any, str] = {}
     if pooled:
-        pool, queue = local_pool(n)
-        with sigint_blocked():  # the workers start with Ctrl-C blocked (see there)
-            futures = {pool.submit(execute_plan, plans[key].to_json(),
-                                   key if bar is not None else None): key
-                       for key, _task in ode_tasks}
+        pool, queue, futures = _submit_pooled(ode_tasks, plans, n, bar)
     if remote_tasks:  # other engines' workers: a process each, waited for on threads
-        threads = ThreadPoolExecutor(max_workers=n, thread_name_prefix="tippetop-engine")
-        for key, task in remote_tasks:
-            plan = plans[key]
-
-            def tick(t: float, key: str = key, t_end: float = plan.t_end_s) -> None:
-                report(key, t / t_end)
-
-            futures[threads.submit(_execute_remote, task, plan, pythons[plan.engine],
-                                   tick if bar is not None else None)] = key
+        threads = _submit_remote(remote_tasks, plans, pythons, n, bar, report, futures)
     waiting = set(futures)
     try:
         if not pooled:
@@ -368,16 +372,61 @@ def _dispatch(unique: list[tuple[str, Task]], scheduler: str | None, workers: in
             yield k, o
             done(k)
     except BaseException:
-        if pool is not None:
-            stop_pool(pool)  # Ctrl-C or an error: do not wait for the runs still going
-        if threads is not None:
-            from tippetop.mujoco_runner.remote import stop_workers
-
-            threads.shutdown(wait=False, cancel_futures=True)
-            stop_workers()
+        _abandon(pool, threads)  # Ctrl-C or an error: do not wait for the runs still going
         raise
     if threads is not None:
         threads.shutdown(wait=True)
+
+
+def _dispatch_dask(unique: list[tuple[str, Task]], plans: dict[str, RunPlan], scheduler: str,
+                   bar: WorkProgress | None,
+                   done: Callable[[str], None]) -> Iterable[tuple[str, dict[str, Any]]]:
+    """Run the unique tasks on the Dask scheduler at ``scheduler``; yield ``(key, out)``."""
+    from tippetop.compare.running.cluster import dispatch_dask
+
+    for key, out in dispatch_dask(unique, plans, scheduler,
+                                  bar.tick if bar is not None else None):
+        yield key, out
+        done(key)
+
+
+def _submit_pooled(ode_tasks: list[tuple[str, Task]], plans: dict[str, RunPlan], n: int,
+                   bar: WorkProgress | None) -> tuple[Any, Any, dict[Any, str]]:
+    """The local worker pool, its progress queue, and the reference's runs' futures (to keys)."""
+    pool, queue = local_pool(n)
+    with sigint_blocked():  # the workers start with Ctrl-C blocked (see there)
+        futures = {pool.submit(execute_plan, plans[key].to_json(),
+                               key if bar is not None else None): key
+                   for key, _task in ode_tasks}
+    return pool, queue, futures
+
+
+def _submit_remote(remote_tasks: list[tuple[str, Task]], plans: dict[str, RunPlan],
+                   pythons: dict[str, str], n: int, bar: WorkProgress | None,
+                   report: Callable[[str, float], None],
+                   futures: dict[Any, str]) -> ThreadPoolExecutor:
+    """The threads that wait for other engines' workers; each run's future goes in ``futures``."""
+    threads = ThreadPoolExecutor(max_workers=n, thread_name_prefix="tippetop-engine")
+    for key, task in remote_tasks:
+        plan = plans[key]
+
+        def tick(t: float, key: str = key, t_end: float = plan.t_end_s) -> None:
+            report(key, t / t_end)
+
+        futures[threads.submit(_execute_remote, task, plan, pythons[plan.engine],
+                               tick if bar is not None else None)] = key
+    return threads
+
+
+def _abandon(pool: Any, threads: ThreadPoolExecutor | None) -> None:
+    """Stop the local pool and the other engines' workers without waiting for their runs."""
+    if pool is not None:
+        stop_pool(pool)
+    if threads is not None:
+        from tippetop.mujoco_runner.remote import stop_workers
+
+        threads.shutdown(wait=False, cancel_futures=True)
+        stop_workers()
 
 
 def _run_mujoco_batched(tasks: list[tuple[str, Task]], plans: dict[str, RunPlan], nthread: int,

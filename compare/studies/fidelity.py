@@ -35,6 +35,7 @@ from tippetop.compare.studies.fidelity_processes import (
 )
 from tippetop.models.errors import RunFailedError, TippetopError
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 #: Every point starts as the paper's Fig. 3 top does: spin n0 (rad/s) at tilt theta0 (rad),
 #: from rest otherwise; the spin is raised to :data:`ABOVE_THRESHOLD` x the top's highest
@@ -110,11 +111,12 @@ def make_grid(name: str | None, A_over_C: str | None = None, a_over_R: str | Non
 
 
 def point_overrides(A_over_C: float, a_over_R: float, mu: float, n0: float,
-                    theta0: float) -> tuple[str, ...]:
-    """``--set`` strings of a grid point's top, table and start (the paper's top otherwise)."""
-    return (f"top.A_over_C={A_over_C!r}", f"top.a_over_R={a_over_R!r}", f"friction.mu={mu!r}",
-            f"init.n0={n0!r}", f"init.theta0={theta0!r}", "init.Omega0=0.0",
-            "init.thetadot0=0.0")
+                    theta0: float) -> tuple[Override, ...]:
+    """The overrides of a grid point's top, table and start (the paper's top otherwise)."""
+    return (Override.of("top.A_over_C", A_over_C), Override.of("top.a_over_R", a_over_R),
+            Override.of("friction.mu", mu), Override.of("init.n0", n0),
+            Override.of("init.theta0", theta0), Override.of("init.Omega0", 0.0),
+            Override.of("init.thetadot0", 0.0))
 
 
 def start_spin(top: Any) -> float:
@@ -361,7 +363,7 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
     return point
 
 
-def _cache_path(base: tuple[str, ...], t_end_s: float, budget_runs: int | None) -> Path:
+def _cache_path(base: tuple[Override, ...], t_end_s: float, budget_runs: int | None) -> Path:
     """Where a point's tuning is kept: keyed by its plan, horizon, iterations and the code."""
     from tippetop.compare.running.cache import code_fingerprint
     from tippetop.compare.tuning.tune import source_digest

@@ -16,6 +16,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
@@ -225,12 +226,53 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     for s, r in zip(starts, refs, strict=True):
         if r.error or r.table is None:
             raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
-    fit_ref = refs[0]
     # each start verified over a horizon its reference settles in (the fit keeps t_end_s)
     horizons, verify_refs = settled_references(base, starts, refs, t_end_s, ref_opts)
+    fit = _fit_setup(base, starts[0], refs[0], mu, t_end_s, file_run, file_timestep_s, threads)
+    runs = _Runs(base, starts, verify_refs, horizons, opts, theory, A_over_C,
+                 [fit.problem, fit.lift_free])  # every fit's rollouts count
+    # each cone: its seeds, one fit, its verification (the second cone only if needed)
+    tried = _fit_families(fit, runs, fit_order(file_run, fit.wide), mu, main_budget, max_iters,
+                          say, file_integrator, file_timestep_s)
+    # the answer: the cone whose settings agree, else the fit with the smallest residual
+    pick = next((t for t in tried if _agrees(t["verified"])),
+                min(tried, key=lambda t: t["found"].rms_rad))
+    answer = {**pick, "chosen": "fit"}
+    runs.alternatives += [_tried_alternative(t) for t in tried if t is not pick]
+    if not _agrees(answer["verified"]):
+        # the fit is local and holds at the file's start: where it departs elsewhere, the
+        # seeds it started from are verified too (the best of each cone, as scored, and the
+        # calibrated settings), and one that passes from every start is the answer, said so
+        answer = _verify_seeds(fit, runs, tried, answer, main_budget)
+    widened: dict[str, Any] | None = None
+    if not _agrees(answer["verified"]) and budget_runs - runs.spent() >= 2 * len(starts):
+        # the fits and their seeds depart: the widening, from the runs kept back for it
+        answer, widened = _widen(fit, runs, answer, budget_runs, max_iters, say)
+    return _report(fit, runs, answer, tried, pick["found"], widened, budget_runs, t0)
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """What every fit of one tuning shares: its start, step, bounds, problems and seeds."""
+
+    start: FitStart
+    dt: float
+    wide: bool
+    bounds: Bounds
+    threads: int
+    ball_until: list[float]
+    problem: Problem
+    lift_free: Problem
+    seeds: list[Candidate]
+
+
+def _fit_setup(base: tuple[str, ...], start: TuneStart, fit_ref: Any, mu: float,
+               t_end_s: float, file_run: dict[str, Any] | None, file_timestep_s: float | None,
+               threads: int | None) -> _Fit:
+    """The fit at the file's start: its horizon, step, bounds, problems and seeds."""
     t_fit = fit_horizon(fit_ref.summary or {}, t_end_s)
-    fit_start = FitStart(starts[0].label(), None,
-                         (*base, *starts[0].overrides(), f"run.t_end_s={t_fit!r}"), t_fit)
+    fit_start = FitStart(start.label(), None,
+                         (*base, *start.overrides(), f"run.t_end_s={t_fit!r}"), t_fit)
     dt = min(file_timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
     wide = mu >= WIDE_MU
     bounds = Bounds.wide(mu, dt) if wide else Bounds.around(mu, dt)
@@ -242,131 +284,187 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,
                       bounds, threads, ball_until, fitted=FITTED_WIDE if wide else FITTED)
     starting = seeds(mu, file_run, dt)
-    verify_runs = [0]
-    n_starts = len(starts)
-    problems = [problem]  # every fit's rollouts count
-
-    def spent() -> int:
-        return sum(p.rollouts for p in problems) + verify_runs[0]
-
-    def check(cand: Candidate, step: float, integ: str) -> tuple[list[dict[str, Any]], list[Any]]:
-        verify_runs[0] += n_starts
-        return _verify(base, starts, verify_refs, cand, step, integ, horizons, opts, theory,
-                       A_over_C)
-
-    # each cone: its seeds, one fit, its verification (the second cone only if needed)
-    tried: list[dict[str, Any]] = []
-    budget_limited = False
     lift_free = Problem([fit_start], problem.references, dt, FIT_INTEGRATOR,
                         Bounds.lift_free(), threads, ball_until, fitted=LIFT_FREE_FITTED)
-    problems.append(lift_free)
-    for family in fit_order(file_run, wide):
-        room = main_budget - spent() - n_starts  # a verification kept back
+    return _Fit(fit_start, dt, wide, bounds, threads, ball_until, problem, lift_free, starting)
+
+
+@dataclass
+class _Runs:
+    """A tuning's verification from every start, and its record: runs spent, alternatives."""
+
+    base: tuple[str, ...]
+    starts: list[TuneStart]
+    refs: list[Any]
+    horizons: list[float]
+    opts: dict[str, Any]
+    theory: Callable[[float, float, str], tuple[float | None, str]] | None
+    A_over_C: float | None
+    problems: list[Problem]
+    verify_runs: int = 0
+    alternatives: list[dict[str, Any]] = field(default_factory=list)
+    budget_limited: bool = False
+
+    def spent(self) -> int:
+        """MuJoCo runs spent so far: every fit's rollouts and every verification's runs."""
+        return sum(p.rollouts for p in self.problems) + self.verify_runs
+
+    def check(self, best: Candidate, timestep: float,
+              integrator: str) -> tuple[list[dict[str, Any]], list[Any]]:
+        """Every start run by the harness with ``best``, checked with validate's verdict.
+
+        Each start over its own horizon (:func:`settled_references`), as its reference ran.
+        """
+        self.verify_runs += len(self.starts)
+        tasks = [Task(None, (*self.base, *s.overrides(), f"run.t_end_s={t_end!r}",
+                             *best.overrides(timestep, integrator)), "mujoco")
+                 for s, t_end in zip(self.starts, self.horizons, strict=True)]
+        mj = run_tasks(tasks, label="tune verify", **self.opts)
+        verified: list[dict[str, Any]] = []
+        for s, ref, run, t_end in zip(self.starts, self.refs, mj, self.horizons, strict=True):
+            # the tuned settings run in MuJoCo's own contact: the mode the run read back
+            tuned = run_label("mujoco", (run.summary or {}).get("mode") or "file")
+            runs = {REFERENCE_RUN: run_entry(ref), tuned: run_entry(run)}
+            if runs[REFERENCE_RUN].get("status") != "ok":  # the reference's model does not hold
+                verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role,
+                                 "t_end_s": t_end, "theory_outcome": None, "checks": [],
+                                 "passed": None, "note": f"not verifiable: the reference stops "
+                                 f"({runs[REFERENCE_RUN].get('message')})"})
+                continue
+            theta_s, outcome = (self.theory(s.n0, s.theta0, s.role) if self.theory
+                                else (None, runs[REFERENCE_RUN]["outcome"]))
+            checks = [c for c in verdict(runs, outcome, self.A_over_C, theta_s=theta_s)
+                      if c["run"] == tuned]
+            verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role, "t_end_s": t_end,
+                             "theory_outcome": outcome, "checks": checks,
+                             "passed": all(c["passed"] is not False for c in checks),
+                             "friction_realised": runs[tuned].get("friction_realised"),
+                             "left_table_s": (run.summary or {}).get("t_left_table")})
+        return verified, mj
+
+
+def _fit_families(fit: _Fit, runs: _Runs, order: list[str], mu: float, main_budget: int,
+                  max_iters: int, say: Callable[[str], None] | None,
+                  file_integrator: str | None,
+                  file_timestep_s: float | None) -> list[dict[str, Any]]:
+    """Each family's fit, settled and verified, in ``order`` up to the first that agrees."""
+    tried: list[dict[str, Any]] = []
+    n_starts = len(runs.starts)
+    for family in order:
+        room = main_budget - runs.spent() - n_starts  # a verification kept back
         if room < 1:
-            budget_limited = True
+            runs.budget_limited = True
             break
         if family == LIFT_FREE:
             # MuJoCo's contact lifts a fast-sliding ball unless its normal row is far softer
             # than its friction rows: the family that separates them (identify.py)
-            fam, fam_bounds, fam_seeds = lift_free, lift_free.bounds, lift_free_seeds(mu)
+            fam, fam_bounds, fam_seeds = fit.lift_free, fit.lift_free.bounds, lift_free_seeds(mu)
             what = ("the lift-free fit (elliptic cone, constant minimal impedance, "
                     "solreffriction on contact pairs)")
         else:
-            fam, fam_bounds = problem, bounds
-            fam_seeds = [c for c in starting if c.cone == family]
+            fam, fam_bounds = fit.problem, fit.bounds
+            fam_seeds = [c for c in fit.seeds if c.cone == family]
             what = f"the fit in the {family} cone"
         fam.budget = fam.rollouts + room
         found = identify(fam, fam_seeds, max_iters=max_iters, say=say)
-        budget_limited = budget_limited or found.budget_spent
-        settled = _settle(found, fam, fit_start, fam_bounds, threads, ball_until, dt,
-                          file_integrator, file_timestep_s, A_over_C, check,
-                          lambda: main_budget - spent())
+        runs.budget_limited = runs.budget_limited or found.budget_spent
+        settled = _settle(found, fam, fit.start, fam_bounds, fit.threads, fit.ball_until, fit.dt,
+                          file_integrator, file_timestep_s, runs.A_over_C, runs.check,
+                          lambda: main_budget - runs.spent())
         tried.append({**settled, "what": what})
         if say:
             say(f"{family}: {'agrees' if _agrees(settled['verified']) else 'departs'} from "
-                f"{n_starts} starts ({spent()} MuJoCo runs so far)")
-        if _agrees(settled["verified"]) or budget_limited:
+                f"{n_starts} starts ({runs.spent()} MuJoCo runs so far)")
+        if _agrees(settled["verified"]) or runs.budget_limited:
             break
-    # the answer: the cone whose settings agree, else the fit with the smallest residual
-    pick = next((t for t in tried if _agrees(t["verified"])),
-                min(tried, key=lambda t: t["found"].rms_rad))
-    found, verified, mj = pick["found"], pick["verified"], pick["mj"]
-    best, timestep, integrator, needs = (pick["best"], pick["timestep"], pick["integrator"],
-                                         pick["needs"])
-    chosen = "fit"
-    alternatives: list[dict[str, Any]] = [
-        {"settings": t["best"].label(), "what": t["what"],
-         "agrees": _agrees(t["verified"]), "departs": _departs(t["verified"]),
-         **_passes(t["verified"]), "mjcf": _mjcf(run_entry(t["mj"][0])), "calibrated": False}
-        for t in tried if t is not pick]
-    if not _agrees(verified):
-        # the fit is local and holds at the file's start: where it departs elsewhere, the
-        # seeds it started from are verified too (the best of each cone, as scored, and the
-        # calibrated settings), and one that passes from every start is the answer, said so
-        done = {t["best"] for t in tried}
-        fit_seeds = [s for t in tried for s in _seed_candidates(t["found"])]
-        for seed in [*fit_seeds, bounds.clip(starting[0]).rounded()]:
-            if seed in done:
-                continue
-            if main_budget - spent() < n_starts:
-                budget_limited = True
-                break
-            done.add(seed)
-            v2, mj2 = check(seed, dt, FIT_INTEGRATOR)
-            alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
-                                 "departs": _departs(v2), **_passes(v2),
-                                 "mjcf": _mjcf(run_entry(mj2[0])),
-                                 "calibrated": seed == bounds.clip(starting[0]).rounded()
-                                 and bool(calibrated_native_settings())})
-            if _agrees(v2):
-                verified, mj, best, timestep, integrator = v2, mj2, seed, dt, FIT_INTEGRATOR
-                chosen = f"seed: {seed.label()}"
-                break
-    widened: dict[str, Any] | None = None
-    if not _agrees(verified) and budget_runs - spent() >= 2 * n_starts:
-        # the fits and their seeds depart: the widening, from the runs kept back for it
-        pick_problem = lift_free if best.frictiondamping is not None else problem
-        widened = widen(best, timestep, integrator, pick_problem, fit_start, threads,
-                        ball_until, A_over_C, check, lambda: budget_runs - spent(),
-                        problems, max_iters, say)
-        for w in widened["tried"]:
-            alternatives.append({k: w[k] for k in ("settings", "what", "agrees", "departs",
-                                                   "passes", "checks", "mjcf")}
-                                | {"calibrated": False})
-        if widened["answer"] is not None:
-            a = widened["answer"]
-            verified, mj, best, timestep, integrator = (a["verified"], a["mj"], a["cand"],
-                                                        a["timestep_s"], a["integrator"])
-            chosen = f"{WIDENED}{a['what']}"
-            budget_limited = False
-            needs = [*needs, {"integrator": integrator, "timestep_s": timestep,
-                              "rms_rad": None, "kept": True, "why": f"the widening: "
-                              f"{a['what']} agrees from every start"}]
-        elif widened["budget_spent"]:
-            budget_limited = True
+    return tried
+
+
+def _tried_alternative(t: dict[str, Any]) -> dict[str, Any]:
+    """A fit other than the answer, as an alternative: its settings, verdict and MJCF."""
+    return {"settings": t["best"].label(), "what": t["what"],
+            "agrees": _agrees(t["verified"]), "departs": _departs(t["verified"]),
+            **_passes(t["verified"]), "mjcf": _mjcf(run_entry(t["mj"][0])), "calibrated": False}
+
+
+def _verify_seeds(fit: _Fit, runs: _Runs, tried: list[dict[str, Any]],
+                  answer: dict[str, Any], main_budget: int) -> dict[str, Any]:
+    """The first of the fits' seeds that agrees from every start, else ``answer``."""
+    done = {t["best"] for t in tried}
+    fit_seeds = [s for t in tried for s in _seed_candidates(t["found"])]
+    for seed in [*fit_seeds, fit.bounds.clip(fit.seeds[0]).rounded()]:
+        if seed in done:
+            continue
+        if main_budget - runs.spent() < len(runs.starts):
+            runs.budget_limited = True
+            break
+        done.add(seed)
+        v2, mj2 = runs.check(seed, fit.dt, FIT_INTEGRATOR)
+        runs.alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
+                                  "departs": _departs(v2), **_passes(v2),
+                                  "mjcf": _mjcf(run_entry(mj2[0])),
+                                  "calibrated": seed == fit.bounds.clip(fit.seeds[0]).rounded()
+                                  and bool(calibrated_native_settings())})
+        if _agrees(v2):
+            return {**answer, "verified": v2, "mj": mj2, "best": seed, "timestep": fit.dt,
+                    "integrator": FIT_INTEGRATOR, "chosen": f"seed: {seed.label()}"}
+    return answer
+
+
+def _widen(fit: _Fit, runs: _Runs, answer: dict[str, Any], budget_runs: int, max_iters: int,
+           say: Callable[[str], None] | None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The widening's answer where one agrees (else ``answer``), and the widening's record."""
+    best = answer["best"]
+    problem = fit.lift_free if best.frictiondamping is not None else fit.problem
+    widened = widen(best, answer["timestep"], answer["integrator"], problem, fit.start,
+                    fit.threads, fit.ball_until, runs.A_over_C, runs.check,
+                    lambda: budget_runs - runs.spent(), runs.problems, max_iters, say)
+    for w in widened["tried"]:
+        runs.alternatives.append({k: w[k] for k in ("settings", "what", "agrees", "departs",
+                                                    "passes", "checks", "mjcf")}
+                                 | {"calibrated": False})
+    if widened["answer"] is not None:
+        a = widened["answer"]
+        runs.budget_limited = False
+        needs = [*answer["needs"], {"integrator": a["integrator"], "timestep_s": a["timestep_s"],
+                                    "rms_rad": None, "kept": True, "why": f"the widening: "
+                                    f"{a['what']} agrees from every start"}]
+        answer = {**answer, "verified": a["verified"], "mj": a["mj"], "best": a["cand"],
+                  "timestep": a["timestep_s"], "integrator": a["integrator"], "needs": needs,
+                  "chosen": f"{WIDENED}{a['what']}"}
+    elif widened["budget_spent"]:
+        runs.budget_limited = True
+    return answer, widened
+
+
+def _report(fit: _Fit, runs: _Runs, answer: dict[str, Any], tried: list[dict[str, Any]],
+            found: Identified, widened: dict[str, Any] | None, budget_runs: int,
+            t0: float) -> dict[str, Any]:
+    """The tuning's result: the answer's settings and MJCF, the fit's record, the verdict."""
+    verified, chosen, alternatives = answer["verified"], answer["chosen"], runs.alternatives
     agrees = _agrees(verified)
     departs = _departs(verified)
-    ran = run_entry(mj[0])
-    seeds_scored = [s for t in tried for s in t["found"].seeds]
-    fits = [f for t in tried for f in t["found"].fits]
-    budget_note = (f"; budget-limited: the tuning stopped at {spent()} of --budget-runs "
-                   f"{budget_runs} MuJoCo runs with its best so far" if budget_limited else "")
+    ran = run_entry(answer["mj"][0])
+    budget_note = (f"; budget-limited: the tuning stopped at {runs.spent()} of --budget-runs "
+                   f"{budget_runs} MuJoCo runs with its best so far"
+                   if runs.budget_limited else "")
     return {
-        "settings": _settings(ran, best, timestep, integrator),
+        "settings": _settings(ran, answer["best"], answer["timestep"], answer["integrator"]),
         "mjcf": _mjcf(ran),
-        "fit": {"starts": [{"n0": starts[0].n0, "theta0": starts[0].theta0,
-                            "t_end_s": t_fit}],
+        "fit": {"starts": [{"n0": runs.starts[0].n0, "theta0": runs.starts[0].theta0,
+                            "t_end_s": fit.start.t_end_s}],
                 "residual": found.rms_rad, "residual_definition": (
                     "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
                     "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
-                "runs": spent(), "rollouts": sum(p.rollouts for p in problems),
-                "verify_runs": verify_runs[0],
-                "budget_runs": budget_runs, "seeds": seeds_scored, "fits": fits,
+                "runs": runs.spent(), "rollouts": sum(p.rollouts for p in runs.problems),
+                "verify_runs": runs.verify_runs, "budget_runs": budget_runs,
+                "seeds": [s for t in tried for s in t["found"].seeds],
+                "fits": [f for t in tried for f in t["found"].fits],
                 "cones": [t["found"].best.cone for t in tried],
                 "tried": [t["what"] for t in tried],
-                "timestep_s": dt, "integrator": FIT_INTEGRATOR, "needs": needs,
+                "timestep_s": fit.dt, "integrator": FIT_INTEGRATOR, "needs": answer["needs"],
                 "chosen": chosen, "alternatives": alternatives,
-                "bounds": {k: list(v) for k, v in bounds.values.items()},
+                "bounds": {k: list(v) for k, v in fit.bounds.values.items()},
                 "method": "mujoco.sysid's residual and MuJoCo's bounded Levenberg-Marquardt "
                           "(mujoco.minimize.least_squares, log10 settings, finite-difference "
                           "step 0.01 decade, stopped when two iterations lower the residual "
@@ -384,7 +482,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
         "agrees": agrees,
         "departs": departs,
         **_passes(verified),
-        "budget_limited": budget_limited,
+        "budget_limited": runs.budget_limited,
         "note": _note(agrees, departs, verified) + (
             f" (the fit's own optimum departs from a held-out start; these are "
             f"{_chosen_words(chosen)})"
@@ -501,41 +599,6 @@ def settled_references(base: tuple[str, ...], starts: list[TuneStart], refs: lis
         todo = [i for i in todo if unsettled(out[i])
                 and horizons[i] < HORIZON_FACTOR_MAX * t_end_s * (1 - 1e-9)]
     return horizons, out
-
-
-def _verify(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any], best: Candidate,
-            timestep: float, integrator: str, horizons: list[float], opts: dict[str, Any],
-            theory: Callable[[float, float, str], tuple[float | None, str]] | None,
-            A_over_C: float | None) -> tuple[list[dict[str, Any]], list[Any]]:
-    """Every start run by the harness with ``best``, checked with validate's verdict.
-
-    Each start over its own horizon (:func:`settled_references`), as its reference ran.
-    """
-    tasks = [Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end!r}",
-                         *best.overrides(timestep, integrator)), "mujoco")
-             for s, t_end in zip(starts, horizons, strict=True)]
-    mj = run_tasks(tasks, label="tune verify", **opts)
-    verified: list[dict[str, Any]] = []
-    for s, ref, run, t_end in zip(starts, refs, mj, horizons, strict=True):
-        # the tuned settings run in MuJoCo's own contact: the mode the run read back
-        tuned = run_label("mujoco", (run.summary or {}).get("mode") or "file")
-        runs = {REFERENCE_RUN: run_entry(ref), tuned: run_entry(run)}
-        if runs[REFERENCE_RUN].get("status") != "ok":  # the reference's model does not hold
-            verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role, "t_end_s": t_end,
-                             "theory_outcome": None, "checks": [], "passed": None,
-                             "note": f"not verifiable: the reference stops "
-                                     f"({runs[REFERENCE_RUN].get('message')})"})
-            continue
-        theta_s, outcome = (theory(s.n0, s.theta0, s.role) if theory
-                            else (None, runs[REFERENCE_RUN]["outcome"]))
-        checks = [c for c in verdict(runs, outcome, A_over_C, theta_s=theta_s)
-                  if c["run"] == tuned]
-        verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role, "t_end_s": t_end,
-                         "theory_outcome": outcome, "checks": checks,
-                         "passed": all(c["passed"] is not False for c in checks),
-                         "friction_realised": runs[tuned].get("friction_realised"),
-                         "left_table_s": (run.summary or {}).get("t_left_table")})
-    return verified, mj
 
 
 def _cheaper(integ: str | None, step: float | None,

@@ -24,6 +24,7 @@ from tippetop.compare.tuning.calibrate.fit import (
     GRID,
     INITIAL_STEPS_DECADES,
     MIN_STEP_DECADES,
+    Evaluation,
     Evaluator,
     SearchResult,
     grid_candidates,
@@ -47,6 +48,7 @@ from tippetop.compare.tuning.calibrate.scoring import (
     SOLIMP_TAIL,
     W_J,
     W_T,
+    SceneSpec,
     mujoco_defaults,
     mujoco_defaults_label,
     parse_scene_list,
@@ -144,26 +146,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
     out = check_output_path(config.out, force=config.force, suffixes=(".toml",))
     calib = parse_scene_list(config.calibration, "--calibration")
     hold = parse_scene_list(config.holdout, "--holdout")
-    overlap = sorted({s.name for s in calib} & {s.name for s in hold})
-    if overlap:
-        raise TippetopError(f"--holdout: expected scenes not in --calibration, got "
-                            f"{', '.join(overlap)} in both")
-    if not (isinstance(config.budget_runs, int) and config.budget_runs >= len(calib)):
-        raise TippetopError(f"--budget-runs: expected an integer >= {len(calib)} (one "
-                            f"candidate on every calibration scene), got {config.budget_runs!r}")
-    if not (math.isfinite(config.timestep_s) and 0 < config.timestep_s <= 1e-3):
-        raise TippetopError(f"--timestep-s: expected a number in (0, 1e-3] s, got "
-                            f"{config.timestep_s!r}")
-    from tippetop.models.options import MUJOCO_INTEGRATORS
-
-    if config.integrator not in MUJOCO_INTEGRATORS:
-        raise TippetopError(f"--integrator: expected one of {'|'.join(MUJOCO_INTEGRATORS)}, "
-                            f"got {config.integrator!r}")
-    from tippetop.compare.tuning.calibrate.config import SEARCHES
-
-    if config.search not in SEARCHES:
-        raise TippetopError(f"--search: expected one of {'|'.join(SEARCHES)}, got "
-                            f"{config.search!r}")
+    _check_config(config, calib, hold)
     run_options: dict[str, Any] = {"workers": config.workers, "use_cache": config.use_cache,
                                    "scheduler": config.scheduler}
     ev = Evaluator(calib, config.timestep_s, config.integrator, config.budget_runs, run_options)
@@ -181,11 +164,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
     ev.cached_runs += hold_ev.cached_runs
     wall = time.perf_counter() - t0
 
-    per_cone = {}
-    for e in ev.memo.values():
-        cone = e.candidate.cone
-        if cone not in per_cone or e.objective < per_cone[cone].objective:
-            per_cone[cone] = e
+    per_cone = _best_per_cone(ev)
     calib_default = objective_of_defaults(ev)
     import mujoco
 
@@ -230,13 +209,7 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
         "findings": findings(hold_best.residuals, hold_default.residuals),
     }
     if identified is not None:
-        provenance["sysid"] = {
-            "residual": identified.rms_rad, "rollouts": identified.rollouts,
-            "seeds": identified.seeds, "fits": identified.fits, "wall_s": identified.wall_s,
-            "max_iters": sysid_iterations(config.budget_runs, len(calib)),
-            "residual_definition": (
-                "sqrt(mean over scenes of RMS(theta_mujoco - theta_ode)^2 + (100 rad x "
-                "RMS(J/J0 - 1) before the stem)^2) on a 0.01 s grid (rad)")}
+        provenance["sysid"] = _sysid_provenance(identified, config, len(calib))
     residuals = [residual_dict(r, "holdout", d)
                  for r, d in zip(hold_best.residuals, hold_default.residuals, strict=True)]
     residuals += [residual_dict(r, "calibration", None) for r in best.residuals]
@@ -246,3 +219,50 @@ def calibrate(config: CalibrateConfig) -> dict[str, Any]:
     write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     report["out"] = str(out)
     return report
+
+
+def _check_config(config: CalibrateConfig, calib: list[SceneSpec],
+                  hold: list[SceneSpec]) -> None:
+    """Refuse overlapping scene sets, a budget, timestep, integrator or search out of range."""
+    overlap = sorted({s.name for s in calib} & {s.name for s in hold})
+    if overlap:
+        raise TippetopError(f"--holdout: expected scenes not in --calibration, got "
+                            f"{', '.join(overlap)} in both")
+    if not (isinstance(config.budget_runs, int) and config.budget_runs >= len(calib)):
+        raise TippetopError(f"--budget-runs: expected an integer >= {len(calib)} (one "
+                            f"candidate on every calibration scene), got {config.budget_runs!r}")
+    if not (math.isfinite(config.timestep_s) and 0 < config.timestep_s <= 1e-3):
+        raise TippetopError(f"--timestep-s: expected a number in (0, 1e-3] s, got "
+                            f"{config.timestep_s!r}")
+    from tippetop.models.options import MUJOCO_INTEGRATORS
+
+    if config.integrator not in MUJOCO_INTEGRATORS:
+        raise TippetopError(f"--integrator: expected one of {'|'.join(MUJOCO_INTEGRATORS)}, "
+                            f"got {config.integrator!r}")
+    from tippetop.compare.tuning.calibrate.config import SEARCHES
+
+    if config.search not in SEARCHES:
+        raise TippetopError(f"--search: expected one of {'|'.join(SEARCHES)}, got "
+                            f"{config.search!r}")
+
+
+def _best_per_cone(ev: Evaluator) -> dict[str, Evaluation]:
+    """The best evaluated candidate of each cone (the first of equals), by cone."""
+    per_cone: dict[str, Evaluation] = {}
+    for e in ev.memo.values():
+        cone = e.candidate.cone
+        if cone not in per_cone or e.objective < per_cone[cone].objective:
+            per_cone[cone] = e
+    return per_cone
+
+
+def _sysid_provenance(identified: Identified, config: CalibrateConfig,
+                      n_scenes: int) -> dict[str, Any]:
+    """The sysid search's own provenance: its residual, rollouts, seeds, fits and limits."""
+    return {
+        "residual": identified.rms_rad, "rollouts": identified.rollouts,
+        "seeds": identified.seeds, "fits": identified.fits, "wall_s": identified.wall_s,
+        "max_iters": sysid_iterations(config.budget_runs, n_scenes),
+        "residual_definition": (
+            "sqrt(mean over scenes of RMS(theta_mujoco - theta_ode)^2 + (100 rad x "
+            "RMS(J/J0 - 1) before the stem)^2) on a 0.01 s grid (rad)")}
