@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import fnmatch
 import hashlib
-import json
 import os
 import re
 import sys
@@ -21,6 +20,7 @@ from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import MODES, run_label
 from tippetop.models.resources import data_path
+from tippetop.models.scene import Override
 from tippetop.models.spellings import GOES, OLD_NAMES, note, note_old, old_case_id
 
 #: The catalogue shipped with the package.
@@ -113,9 +113,9 @@ class Case:
         """
         if not self.model:
             return (*self.set, *self.extra)
-        fit = (("mujoco.fit_paper_timestep=true",)
+        fit = ((Override.of("mujoco.fit_paper_timestep", True),)
                if self.family == "mujoco" and self.mode == "paper" else ())
-        return (f"top.mjcf={json.dumps(self.model)}", *self.set, *self.extra, *fit)
+        return (Override.of("top.mjcf", self.model), *self.set, *self.extra, *fit)
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from tippetop.compare.nightly.catalogue import Case
 from tippetop.compare.nightly.running import CaseRun, error_text, expectation
 from tippetop.compare.running.engines import plan_for
 from tippetop.models.plan import NATIVE_LAW, RunPlan
-from tippetop.models.scene import Scene, load_scene
+from tippetop.models.scene import Scene, load_scene, override_texts
 
 
 def tolerance_for(metric: str, case: Case) -> Tolerance:
@@ -111,7 +111,7 @@ def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
         "id": c.id, "name": c.name, "category": c.category, "kind": c.kind,
         "engine": c.engine, "mode": c.mode, "run": c.run,
         "scene": c.scene, "scene_name": scene.name, "set": list(c.set),
-        "overrides": list(c.overrides), "description": c.description or scene.description,
+        "overrides": override_texts(c.overrides), "description": c.description or scene.description,
         "metrics": list(c.metrics), "status": case_status(checks), "error": cr.error,
         "expected_departure": c.departs or None,
         "wall_s": cr.wall_s, "params": params, "theory": th, "expect": expectation(c, scene),

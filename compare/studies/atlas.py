@@ -68,7 +68,7 @@ def group_of(n1: float | None, n4: float | None) -> str:
 
 
 def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
-              runs: Sequence[Run] = DEFAULT_RUNS, overrides: tuple[str, ...] = (), *,
+              runs: Sequence[Run] = DEFAULT_RUNS, overrides: tuple[Override, ...] = (), *,
               rel_tol: float = ATLAS_REL_TOL, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
     """Measure n1 and n4 at every grid point on every engine and mode, against the theory.

@@ -31,6 +31,7 @@ from typing import Any, Protocol
 from tippetop.compare.measures.metrics import TOLERANCES
 from tippetop.compare.studies.matrix import COMPARED, differs
 from tippetop.models.errors import RunFailedError, TippetopError, did_you_mean
+from tippetop.models.scene import Override
 
 #: The format of the result (``--json``, ``results.json``).
 FORMAT = "tippetop-bisect/1"
@@ -338,7 +339,7 @@ class MatrixRunner:
 
     scene: str
     mode: str
-    overrides: tuple[str, ...] = ()
+    overrides: tuple[Override, ...] = ()
     workers: int | None = None
     use_cache: bool = True
     scheduler: str | None = None

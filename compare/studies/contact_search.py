@@ -581,7 +581,7 @@ class PointRuns:
         t_end_s: Horizon of the runs (s); a start whose reference is still moving at its end
             runs over a longer one, as the tuning verifies it (``horizons``).
         top: The point's top.
-        base: ``--set`` strings of the point's top, table and fit start.
+        base: The overrides of the point's top, table and fit start.
         starts: The fit's start and the held-out ones
             (:func:`tippetop.compare.tuning.tune.starts_for`).
         refs: The reference's results from them, each over its start's horizon.
@@ -594,7 +594,7 @@ class PointRuns:
     point: dict[str, Any]
     t_end_s: float
     top: Any
-    base: tuple[str, ...]
+    base: tuple[Override, ...]
     starts: list[TuneStart]
     refs: list[Any]
     options: dict[str, Any]

@@ -30,9 +30,10 @@ from tippetop.compare.studies.sweep import Run
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 
-def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...] = (), *,
+def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[Override, ...] = (), *,
                   scheduler: str | None = None, workers: int | None = None,
                   use_cache: bool = True) -> dict[str, Any]:
     """Run ``scene`` on every (engine, mode) of ``runs`` and the reference, and compare them.
@@ -118,7 +119,7 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[str, ...]
     }
 
 
-def _run_all(scene: str | None, runs: list[Run], overrides: tuple[str, ...],
+def _run_all(scene: str | None, runs: list[Run], overrides: tuple[Override, ...],
              options: dict[str, Any]) -> tuple[list[Task], list[TaskResult]]:
     """The tasks, the reference's first, and their results (raises for a run that errored)."""
     tasks = [Task(scene, overrides, "ode")]  # the reference: the scene's own law
@@ -165,7 +166,7 @@ def _differences(who: dict[str, Any], s: dict[str, Any], ref_s: dict[str, Any],
 
 
 def _attach_refits(per_run: dict[str, Any], mine: dict[str, TaskResult], ref: TaskResult,
-                   scene: str | None, overrides: tuple[str, ...],
+                   scene: str | None, overrides: tuple[Override, ...],
                    options: dict[str, Any]) -> None:
     """Each MuJoCo run's realised law rerun in the reference, put in its entry of ``per_run``."""
     mj = {k: v for k, v in per_run.items() if v["engine"] != "ode"

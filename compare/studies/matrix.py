@@ -93,7 +93,7 @@ def differs(metric: str, a: Any, b: Any) -> bool:
 
 
 def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
-               modes: Sequence[str] | None = None, overrides: tuple[str, ...] = (), *,
+               modes: Sequence[str] | None = None, overrides: tuple[Override, ...] = (), *,
                workers: int | None = None, use_cache: bool = True, attribution: bool = True,
                tables: dict[str, Any] | None = None,
                scheduler: str | None = None) -> dict[str, Any]:

@@ -29,8 +29,8 @@ T_TOL_S = TOLERANCES["t_invert"].value
 THETA_TOL_RAD = TOLERANCES["theta_asymp"].value
 
 
-def refit_overrides(fr: dict[str, Any]) -> tuple[str, ...] | None:
-    """``--set`` strings that run the reference with the fitted law; None without a fit."""
+def refit_overrides(fr: dict[str, Any]) -> tuple[Override, ...] | None:
+    """The overrides that run the reference with the fitted law; None without a fit."""
     mu, lam = fr.get("mu_fit"), fr.get("Lambda_fit_mps")
     if mu is None or lam is None or not (mu > 0 and lam > 0):
         return None
@@ -144,7 +144,7 @@ def attach_refits(runs: dict[str, dict[str, Any]], tables: dict[str, pd.DataFram
         runs: Run key -> summary (with ``friction_realised``); the reference among them.
         tables: Run key -> observables.
         ref_key: The reference's key.
-        task_for: The reference's task with these ``--set`` strings added (the fitted law).
+        task_for: The reference's task with these overrides added (the fitted law).
         run_options: Keyword arguments of :func:`run_tasks` (the refits run together, cached
             as every run).
 

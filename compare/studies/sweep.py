@@ -38,7 +38,7 @@ def parse_range(text: str) -> list[float]:
 
 
 def run_sweep(scene: str | None, n0_values: list[float], runs: list[Run],
-              overrides: tuple[str, ...] = (), *, scheduler: str | None = None,
+              overrides: tuple[Override, ...] = (), *, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True) -> SweepResult:
     """Run every (engine, mode, n0) and return the table, the theory curve and the cache hits.
 

@@ -473,7 +473,7 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     }
 
 
-def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[str, ...],
+def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[Override, ...],
           config: ValidateConfig) -> None:
     """Each MuJoCo run's ``friction_realised.refit`` (:func:`.refit.attach_refits`)."""
     from tippetop.compare.studies.refit import attach_refits
@@ -484,7 +484,7 @@ def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[s
                    "use_cache": config.use_cache})
 
 
-def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, Any],
+def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[str, Any],
               plan: Any, runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """``tuned``: the file's contact settings fitted and verified, or what stopped it.
 
@@ -532,7 +532,7 @@ def tune_file(config: ValidateConfig, over: tuple[str, ...], loaded: dict[str, A
     return {**out, "cached": False}
 
 
-def _tune_cache_path(over: tuple[str, ...], budget_runs: int = TUNE_BUDGET_RUNS) -> Path:
+def _tune_cache_path(over: tuple[Override, ...], budget_runs: int = TUNE_BUDGET_RUNS) -> Path:
     """Where a tuning is kept in the cache.
 
     Keyed by the file's run plan (its MJCF text, start and horizon), the run budget and the
@@ -581,7 +581,7 @@ def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
             "tuned": tune_file(config, over, loaded, plan, runs)}
 
 
-def plan_file_info(overrides: tuple[str, ...]) -> dict[str, Any]:
+def plan_file_info(overrides: tuple[Override, ...]) -> dict[str, Any]:
     """The file's mu, keyframe and stem as the plan reads them."""
     from tippetop.models.scene import load_scene
     from tippetop.mujoco_runner.state import file_top

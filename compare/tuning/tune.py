@@ -56,6 +56,7 @@ from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 #: The fit's step and integrator: RK4 (a first-order step drifts J on a top with A != C,
 #: docs/design.md) at the file's step or the calibration's 2e-4 s, whichever is shorter.
@@ -154,7 +155,7 @@ def _say(progress: bool) -> Callable[[str], None] | None:
     return lambda line: print(f"tune: {line}", file=sys.stderr, flush=True)
 
 
-def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: float, *,
+def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_s: float, *,
          file_run: dict[str, Any] | None = None, file_timestep_s: float | None = None,
          file_integrator: str | None = None, run_options: dict[str, Any] | None = None,
          max_iters: int = MAX_ITERS, progress: bool = True,
@@ -175,7 +176,7 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     (``budget_limited``).
 
     Args:
-        base: ``--set`` strings of the top (``top.mjcf=...``, a keyframe); the starts add
+        base: The overrides of the top (``top.mjcf``, a keyframe); the starts add
             theirs.
         mu: The file's friction coefficient.
         n0: The file's spin (rad/s).
@@ -221,8 +222,9 @@ def tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: fl
     t0 = time.perf_counter()
     starts = starts_for(n0, theta0)
     ref_opts = opts if reference_workers is None else {**opts, "workers": reference_workers}
-    refs = run_tasks([Task(None, (*base, *s.overrides(), f"run.t_end_s={t_end_s!r}"), "ode",
-                           "paper") for s in starts], label="tune reference", **ref_opts)
+    horizon = Override.of("run.t_end_s", t_end_s)
+    refs = run_tasks([Task(None, (*base, *s.overrides(), horizon), "ode", "paper")
+                      for s in starts], label="tune reference", **ref_opts)
     for s, r in zip(starts, refs, strict=True):
         if r.error or r.table is None:
             raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
@@ -266,13 +268,13 @@ class _Fit:
     seeds: list[Candidate]
 
 
-def _fit_setup(base: tuple[str, ...], start: TuneStart, fit_ref: Any, mu: float,
+def _fit_setup(base: tuple[Override, ...], start: TuneStart, fit_ref: Any, mu: float,
                t_end_s: float, file_run: dict[str, Any] | None, file_timestep_s: float | None,
                threads: int | None) -> _Fit:
     """The fit at the file's start: its horizon, step, bounds, problems and seeds."""
     t_fit = fit_horizon(fit_ref.summary or {}, t_end_s)
     fit_start = FitStart(start.label(), None,
-                         (*base, *start.overrides(), f"run.t_end_s={t_fit!r}"), t_fit)
+                         (*base, *start.overrides(), Override.of("run.t_end_s", t_fit)), t_fit)
     dt = min(file_timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
     wide = mu >= WIDE_MU
     bounds = Bounds.wide(mu, dt) if wide else Bounds.around(mu, dt)
@@ -293,7 +295,7 @@ def _fit_setup(base: tuple[str, ...], start: TuneStart, fit_ref: Any, mu: float,
 class _Runs:
     """A tuning's verification from every start, and its record: runs spent, alternatives."""
 
-    base: tuple[str, ...]
+    base: tuple[Override, ...]
     starts: list[TuneStart]
     refs: list[Any]
     horizons: list[float]
@@ -316,7 +318,7 @@ class _Runs:
         Each start over its own horizon (:func:`settled_references`), as its reference ran.
         """
         self.verify_runs += len(self.starts)
-        tasks = [Task(None, (*self.base, *s.overrides(), f"run.t_end_s={t_end!r}",
+        tasks = [Task(None, (*self.base, *s.overrides(), Override.of("run.t_end_s", t_end),
                              *best.overrides(timestep, integrator)), "mujoco")
                  for s, t_end in zip(self.starts, self.horizons, strict=True)]
         mj = run_tasks(tasks, label="tune verify", **self.opts)
@@ -567,7 +569,7 @@ def _seed_candidates(found: Any) -> list[Candidate]:
 HORIZON_FACTOR_MAX = 4.0
 
 
-def settled_references(base: tuple[str, ...], starts: list[TuneStart], refs: list[Any],
+def settled_references(base: tuple[Override, ...], starts: list[TuneStart], refs: list[Any],
                        t_end_s: float, opts: dict[str, Any]) -> tuple[list[float], list[Any]]:
     """Each start's verification horizon and its reference run over it.
 
@@ -589,7 +591,7 @@ def settled_references(base: tuple[str, ...], starts: list[TuneStart], refs: lis
         for i in todo:
             horizons[i] = min(2.0 * horizons[i], HORIZON_FACTOR_MAX * t_end_s)
         again = run_tasks([Task(None, (*base, *starts[i].overrides(),
-                                       f"run.t_end_s={horizons[i]!r}"), "ode", "paper")
+                                       Override.of("run.t_end_s", horizons[i])), "ode", "paper")
                            for i in todo], label="tune reference", **opts)
         for i, r in zip(todo, again, strict=True):
             if r.error or r.table is None:

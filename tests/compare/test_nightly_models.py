@@ -25,6 +25,7 @@ from tippetop.compare.nightly.catalogue import (
     select_cases,
 )
 from tippetop.models.errors import TippetopError
+from tippetop.models.scene import override_texts
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "nightly_models"
@@ -79,15 +80,16 @@ def test_a_model_case_runs_its_file_as_matrix_runs_an_mjcf_top() -> None:
     assert set(cases) == IDS  # file in MuJoCo only; paper in MuJoCo and the reference
     top = f"top.mjcf={json.dumps(str(DATA / 'mytop.xml'))}"
     for c in cases.values():
+        texts = override_texts(c.overrides)
         assert c.model == str(DATA / "mytop.xml") and c.scene == "mytop.xml"
-        assert c.scene_arg is None and c.overrides[0] == top
-        assert "run.t_end_s=0.5" in c.overrides
+        assert c.scene_arg is None and texts[0] == top
+        assert "run.t_end_s=0.5" in texts
         assert c.metrics == MODEL_METRICS and "matches_expect" not in c.metrics
     # the paper's law in MuJoCo at the largest timestep it fits, as 'tippetop matrix' runs it
-    assert cases["models/mytop[mujoco/paper]"].overrides[-1] == \
+    assert override_texts(cases["models/mytop[mujoco/paper]"].overrides)[-1] == \
         "mujoco.fit_paper_timestep=true"
-    assert not any("fit_paper" in o for o in cases["models/mytop[mujoco/file]"].overrides)
-    assert not any("fit_paper" in o for o in cases["models/mytop[ode/paper]"].overrides)
+    for other in ("models/mytop[mujoco/file]", "models/mytop[ode/paper]"):
+        assert not any("fit_paper" in o for o in override_texts(cases[other].overrides))
 
 
 def test_the_model_hash_follows_the_content_not_the_folder(tmp_path: Path) -> None:

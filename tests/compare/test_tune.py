@@ -37,6 +37,7 @@ from tippetop.compare.tuning.widen import (
     widen_neighbours,
     widen_reserve,
 )
+from tippetop.models.scene import as_override
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "paper_loaded_sphere.xml"
@@ -357,10 +358,11 @@ def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horiz
     def fake(tasks, **_opts):
         out = []
         for task in tasks:
-            t_end = float(next(o for o in task.overrides if o.startswith("run.t_end_s="))
-                          .split("=")[1])
+            t_end = float(next(as_override(o).value for o in task.overrides
+                               if not str(o).startswith("key=")
+                               and as_override(o).name == "run.t_end_s"))
             calls.append(t_end)
-            key = next(o for o in task.overrides if o.startswith("key=")).split("=")[1]
+            key = next(o for o in task.overrides if str(o).startswith("key=")).split("=")[1]
             out.append(TaskResult(task, "k", {"status": "ok"}, table(t_end, settles[key]),
                                   None, False))
         return out

@@ -30,6 +30,7 @@ import numpy as np
 from tippetop.compare.tuning.calibrate.scoring import GRID_DT_S, Candidate
 from tippetop.models.errors import TippetopError
 from tippetop.models.numbers import number_text
+from tippetop.models.scene import Override
 
 #: The fitted settings, in the order of the parameter vector.
 FITTED = ("mu", "timeconst_s", "impratio", "d0")
@@ -120,7 +121,7 @@ class FitStart:
 
     label: str
     scene: str | None
-    overrides: tuple[str, ...]
+    overrides: tuple[Override, ...]
     t_end_s: float
 
 
