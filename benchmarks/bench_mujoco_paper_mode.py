@@ -28,7 +28,7 @@ import time
 import mujoco
 from numba.core import registry
 
-from tippetop.models.mjcf import make_mjcf
+from tippetop.models.mjcf import MjcfOption, make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.models.resolve import resolve_plan
 from tippetop.models.scene import load_scene
@@ -93,7 +93,8 @@ def main() -> None:
     args = parser.parse_args()
 
     top, init, friction = TopParams.from_ratios(1.0, 0.1), InitialState(), FrictionParams()
-    tm = load_top(make_mjcf(top, timestep_s=args.dt, integrator=args.integrator))
+    tm = load_top(make_mjcf(top, option=MjcfOption(timestep_s=args.dt,
+                                                   integrator=args.integrator)))
     registry.cpu_target.target_context.refresh()  # numba's start-up, paid by any jit use
     compile_start = time.perf_counter()
     callback = compiled_callback()

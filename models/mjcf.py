@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 from tippetop.models.errors import expect
 from tippetop.models.options import GENERATED_NOSLIP_ITERATIONS, MujocoOptions
@@ -71,20 +72,72 @@ def _finite_seq(what: str, values: Sequence[float], lengths: tuple[int, ...]) ->
     return tuple(float(v) for v in values)
 
 
-def _validate(
-    friction_mode: str,
-    condim: int | None,
-    mu: float,
-    timestep_s: float,
-    integrator: str,
-    cone: str,
-    impratio: float,
-    solref: Sequence[float],
-    solimp: Sequence[float],
-    torsional: float,
-    rolling: float,
-) -> int:
+@dataclass(frozen=True)
+class MjcfContact:
+    """The contact every colliding geom carries (the table, the ball, a colliding stem).
+
+    Checked by :func:`make_mjcf` (one-line errors that name the field), not here.
+
+    Attributes:
+        friction_mode: ``"paper"``: frictionless contact (condim 1); the harness applies the
+            paper's law (see :mod:`mujoco_runner.friction_callback`). ``"native"``: MuJoCo's
+            own contact friction.
+        condim: Contact dimensionality; ``None`` means 1 in paper mode and 3 in native mode.
+            Native mode takes 1 (frictionless), 3 (sliding), 4 (adds torsional) or 6 (adds
+            rolling).
+        mu: Sliding friction coefficient, native mode only (the paper mode writes 0).
+        torsional: Torsional friction coefficient (m), used when condim >= 4. Zero by default:
+            pass :data:`MUJOCO_DEFAULT_TORSIONAL` for MuJoCo's own default.
+        rolling: Rolling friction coefficient (m), used when condim == 6. Zero by default:
+            pass :data:`MUJOCO_DEFAULT_ROLLING` for MuJoCo's own default.
+        solref: Contact ``solref`` (timeconst in s, dampratio), or (-stiffness, -damping).
+        solimp: Contact ``solimp`` (dmin, dmax, width in m[, midpoint, power]).
+    """
+
+    friction_mode: str = "paper"
+    condim: int | None = None
+    mu: float = 0.1
+    torsional: float = 0.0
+    rolling: float = 0.0
+    solref: Sequence[float] = _DEFAULT.solref
+    solimp: Sequence[float] = _DEFAULT.solimp
+
+
+@dataclass(frozen=True)
+class MjcfOption:
+    """The model's ``<option>`` element: the integration, the solver and the contact flag.
+
+    Checked by :func:`make_mjcf` (one-line errors that name the field), not here.
+
+    Attributes:
+        timestep_s: Integration step (s).
+        integrator: One of :data:`INTEGRATORS`.
+        cone: Friction cone, ``"pyramidal"`` or ``"elliptic"``.
+        impratio: Ratio of frictional to normal constraint impedance.
+        noslip_iterations: MuJoCo's noslip solver iterations (0: none).
+        iterations: The constraint solver's maximum iterations (MuJoCo's default 100).
+        tolerance: The solver's tolerance (MuJoCo's default 1e-8).
+        contacts_on: False disables contacts (``<flag contact="disable"/>``).
+    """
+
+    timestep_s: float = _DEFAULT.timestep_s
+    integrator: str = _DEFAULT.integrator
+    cone: str = _DEFAULT.cone
+    impratio: float = _DEFAULT.impratio
+    noslip_iterations: int = GENERATED_NOSLIP_ITERATIONS
+    iterations: int = 100
+    tolerance: float = 1e-8
+    contacts_on: bool = True
+
+
+#: :func:`make_mjcf`'s defaults: the paper mode's frictionless contact, the scene's options.
+DEFAULT_CONTACT = MjcfContact()
+DEFAULT_OPTION = MjcfOption()
+
+
+def _validate(contact: MjcfContact, option: MjcfOption) -> int:
     """Check the arguments of :func:`make_mjcf`; return the effective condim."""
+    friction_mode, condim = contact.friction_mode, contact.condim
     expect(friction_mode in FRICTION_MODES, "friction_mode", "one of " + "|".join(FRICTION_MODES),
            friction_mode, FRICTION_MODES)
     if condim is None:
@@ -93,35 +146,39 @@ def _validate(
            "one of " + "|".join(map(str, CONDIMS)), condim)
     expect(friction_mode != "paper" or condim == 1, "condim",
            "1 in paper mode (the harness applies the friction itself)", condim)
-    for name, value in (("mu", mu), ("torsional", torsional), ("rolling", rolling)):
+    for name in ("mu", "torsional", "rolling"):
+        value = getattr(contact, name)
         expect(isinstance(value, (int, float)) and math.isfinite(value) and value >= 0, name,
                "a finite number >= 0", value)
+    timestep_s, impratio = option.timestep_s, option.impratio
     expect(isinstance(timestep_s, (int, float)) and math.isfinite(timestep_s) and timestep_s > 0,
            "timestep_s", "a finite number > 0 (seconds)", timestep_s)
-    expect(integrator in INTEGRATORS, "integrator", "one of " + "|".join(INTEGRATORS), integrator,
-           INTEGRATORS)
-    expect(cone in CONES, "cone", "one of " + "|".join(CONES), cone, CONES)
+    expect(option.integrator in INTEGRATORS, "integrator", "one of " + "|".join(INTEGRATORS),
+           option.integrator, INTEGRATORS)
+    expect(option.cone in CONES, "cone", "one of " + "|".join(CONES), option.cone, CONES)
     expect(isinstance(impratio, (int, float)) and math.isfinite(impratio) and impratio > 0,
            "impratio", "a finite number > 0", impratio)
-    ref = _finite_seq("solref", solref, (2,))
+    ref = _finite_seq("solref", contact.solref, (2,))
     expect(ref[0] != 0, "solref", "(timeconst > 0, dampratio > 0) or (-stiffness, -damping)",
-           solref)
-    imp = _finite_seq("solimp", solimp, (3, 5))
+           contact.solref)
+    imp = _finite_seq("solimp", contact.solimp, (3, 5))
     expect(0 < imp[0] < 1 and 0 < imp[1] < 1 and imp[2] > 0, "solimp",
-           "(dmin, dmax, width, ...) with 0 < dmin, dmax < 1 and width > 0 (m)", solimp)
+           "(dmin, dmax, width, ...) with 0 < dmin, dmax < 1 and width > 0 (m)", contact.solimp)
+    noslip = option.noslip_iterations
+    expect(isinstance(noslip, int) and not isinstance(noslip, bool) and noslip >= 0,
+           "noslip_iterations", "an integer >= 0", noslip)
     return condim
 
 
-def _contact_attributes(friction_mode: str, condim: int, mu: float, torsional: float,
-                        rolling: float, solref: Sequence[float], solimp: Sequence[float]) -> str:
+def _contact_attributes(contact: MjcfContact, condim: int) -> str:
     """The contact as MJCF attributes: condim, friction (zero in paper mode), solref, solimp."""
-    if friction_mode == "paper":
+    if contact.friction_mode == "paper":
         friction = (0.0, 0.0, 0.0)
     else:
-        friction = (mu, torsional, rolling)
+        friction = (contact.mu, contact.torsional, contact.rolling)
     return (
-        f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(solref)}" '
-        f'solimp="{_nums(solimp)}"'
+        f'condim="{condim}" friction="{_nums(friction)}" solref="{_nums(contact.solref)}" '
+        f'solimp="{_nums(contact.solimp)}"'
     )
 
 
@@ -154,75 +211,45 @@ def _top_body(top: TopParams, contact: str, stem: StemParams | None) -> str:
 def make_mjcf(
     top: TopParams,
     *,
-    friction_mode: str = "paper",
-    condim: int | None = None,
-    mu: float = 0.1,
-    timestep_s: float = _DEFAULT.timestep_s,
-    integrator: str = _DEFAULT.integrator,
-    cone: str = _DEFAULT.cone,
-    impratio: float = _DEFAULT.impratio,
-    solref: Sequence[float] = _DEFAULT.solref,
-    solimp: Sequence[float] = _DEFAULT.solimp,
-    torsional: float = 0.0,
-    rolling: float = 0.0,
+    contact: MjcfContact = DEFAULT_CONTACT,
+    option: MjcfOption = DEFAULT_OPTION,
     stem: StemParams | None = None,
-    noslip_iterations: int = GENERATED_NOSLIP_ITERATIONS,
-    iterations: int = 100,
-    tolerance: float = 1e-8,
-    contacts_on: bool = True,
 ) -> str:
     """MJCF text of the loaded sphere on a table.
 
     Args:
         top: The loaded sphere (SI).
-        friction_mode: ``"paper"``: frictionless contact (condim 1); the harness applies the
-            paper's law (see :mod:`mujoco_runner.friction_callback`). ``"native"``: MuJoCo's
-            own contact friction.
-        condim: Contact dimensionality; ``None`` means 1 in paper mode and 3 in native mode.
-            Native mode takes 1 (frictionless), 3 (sliding), 4 (adds torsional) or 6 (adds
-            rolling).
-        mu: Sliding friction coefficient, native mode only (the paper mode writes 0).
-        timestep_s: Integration step (s).
-        integrator: One of :data:`INTEGRATORS`.
-        cone: Friction cone, ``"pyramidal"`` or ``"elliptic"``.
-        impratio: Ratio of frictional to normal constraint impedance.
-        solref: Contact ``solref`` (timeconst in s, dampratio), or (-stiffness, -damping).
-        solimp: Contact ``solimp`` (dmin, dmax, width in m[, midpoint, power]).
-        torsional: Torsional friction coefficient (m), used when condim >= 4. Zero by default:
-            pass :data:`MUJOCO_DEFAULT_TORSIONAL` for MuJoCo's own default.
-        rolling: Rolling friction coefficient (m), used when condim == 6. Zero by default:
-            pass :data:`MUJOCO_DEFAULT_ROLLING` for MuJoCo's own default.
+        contact: The contact of the table, the ball and a colliding stem (:class:`MjcfContact`:
+            friction mode, condim, coefficients, solref, solimp).
+        option: The ``<option>`` element (:class:`MjcfOption`: timestep, integrator, cone,
+            impratio, noslip and solver iterations, tolerance, contacts on or off).
         stem: A colliding stem with this end (a capsule for a rounded end, a cylinder for a
             flat one, from the ball's centre to the end, massless, with the ball's contact
             settings). None: the stem is visual only (the paper's loaded sphere).
-        noslip_iterations: MuJoCo's noslip solver iterations (0: none).
-        iterations: The constraint solver's maximum iterations (MuJoCo's default 100).
-        tolerance: The solver's tolerance (MuJoCo's default 1e-8).
-        contacts_on: False disables contacts (``<flag contact="disable"/>``).
 
     Returns:
         The MJCF document as text.
 
     Raises:
-        TippetopError: If an argument is out of range (one line: what, expected, got).
+        TippetopError: If a setting is out of range (one line: what, expected, got), checked
+            in the order of :class:`MjcfContact`'s friction mode, condim and coefficients, then
+            :class:`MjcfOption`'s timestep, integrator, cone and impratio, then the solref, the
+            solimp and the noslip iterations.
     """
-    condim = _validate(friction_mode, condim, mu, timestep_s, integrator, cone, impratio,
-                       solref, solimp, torsional, rolling)
-    expect(isinstance(noslip_iterations, int) and not isinstance(noslip_iterations, bool)
-           and noslip_iterations >= 0, "noslip_iterations", "an integer >= 0",
-           noslip_iterations)
+    condim = _validate(contact, option)
     R = top.R_m
-    contact = _contact_attributes(friction_mode, condim, mu, torsional, rolling, solref, solimp)
-    body = _top_body(top, contact, stem)
+    attributes = _contact_attributes(contact, condim)
+    body = _top_body(top, attributes, stem)
     cam_dist = 12 * R
+    o = option
     return f"""<mujoco model="tippetop">
   <compiler angle="radian" inertiafromgeom="false"/>
   <size nuserdata="{HARNESS_USERDATA}"/>
-  <option timestep="{_num(timestep_s)}" integrator="{integrator}" cone="{cone}"
-          impratio="{_num(impratio)}" noslip_iterations="{int(noslip_iterations)}"
-          iterations="{int(iterations)}" tolerance="{_num(tolerance)}"
+  <option timestep="{_num(o.timestep_s)}" integrator="{o.integrator}" cone="{o.cone}"
+          impratio="{_num(o.impratio)}" noslip_iterations="{int(o.noslip_iterations)}"
+          iterations="{int(o.iterations)}" tolerance="{_num(o.tolerance)}"
           gravity="0 0 {_num(-top.g_mps2)}">
-    <flag contact="{'enable' if contacts_on else 'disable'}"/>
+    <flag contact="{'enable' if o.contacts_on else 'disable'}"/>
   </option>
   <visual>
     <global offwidth="1280" offheight="720"/>
@@ -239,7 +266,7 @@ def make_mjcf(
   <worldbody>
     <light name="key_light" pos="0 -0.3 0.6" dir="0 0.45 -1" directional="false"/>
     <camera name="side" pos="0 {_num(-cam_dist)} {_num(2 * R)}" xyaxes="1 0 0 0 0 1"/>
-    <geom name="{TABLE_GEOM}" type="plane" size="0.5 0.5 0.01" material="table_mat" {contact}/>
+    <geom name="{TABLE_GEOM}" type="plane" size="0.5 0.5 0.01" material="table_mat" {attributes}/>
 {body}
   </worldbody>
 </mujoco>
@@ -250,6 +277,8 @@ __all__ = [
     "BALL_GEOM",
     "CONDIMS",
     "CONES",
+    "DEFAULT_CONTACT",
+    "DEFAULT_OPTION",
     "FREE_JOINT",
     "FRICTION_MODES",
     "HARNESS_USERDATA",
@@ -257,6 +286,8 @@ __all__ = [
     "MARKER_GEOM",
     "MUJOCO_DEFAULT_ROLLING",
     "MUJOCO_DEFAULT_TORSIONAL",
+    "MjcfContact",
+    "MjcfOption",
     "STEM_GEOM",
     "TABLE_GEOM",
     "TOP_BODY",

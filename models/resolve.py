@@ -26,6 +26,8 @@ from tippetop.models.mjcf import (
     MUJOCO_DEFAULT_TORSIONAL,
     STEM_GEOM,
     TABLE_GEOM,
+    MjcfContact,
+    MjcfOption,
     make_mjcf,
 )
 from tippetop.models.modes import MODES, check_pair, scene_mode
@@ -376,16 +378,17 @@ def _mujoco_plan(scene: Scene, top: TopParams, init: InitialState, keyframe: int
     check_mujoco_steps(scene.run.t_end_s, dt)
     sample_dt, steps, n_intervals = sample_grid(scene.run.t_end_s, scene.run.sample_dt_s, dt)
     if file_top is None:
-        mjcf = make_mjcf(top, friction_mode=friction_by, condim=w["condim"],
-                         mu=float(w["mu"] or 0.0) if friction_by == "native" else 0.0,
-                         timestep_s=dt, integrator=options["integrator"], cone=options["cone"],
-                         impratio=options["impratio"], solref=solref, solimp=solimp,
-                         torsional=float(w["torsional"] or 0.0),
-                         rolling=float(w["rolling"] or 0.0), stem=stem,
-                         noslip_iterations=options["noslip_iterations"],
-                         iterations=int(options["iterations"]),
-                         tolerance=float(options["tolerance"]),
-                         contacts_on=bool(options["contacts_on"]))
+        contact = MjcfContact(
+            friction_mode=friction_by, condim=w["condim"],
+            mu=float(w["mu"] or 0.0) if friction_by == "native" else 0.0,
+            torsional=float(w["torsional"] or 0.0), rolling=float(w["rolling"] or 0.0),
+            solref=solref, solimp=solimp)
+        option = MjcfOption(
+            timestep_s=dt, integrator=options["integrator"], cone=options["cone"],
+            impratio=options["impratio"], noslip_iterations=options["noslip_iterations"],
+            iterations=int(options["iterations"]), tolerance=float(options["tolerance"]),
+            contacts_on=bool(options["contacts_on"]))
+        mjcf = make_mjcf(top, contact=contact, option=option, stem=stem)
         if srf is not None:
             root = mjcf_document.parse(mjcf)
             _add_new_pairs(root, contacts, 0)

@@ -254,14 +254,18 @@ def main(argv: list[str] | None = None) -> int:
         if args.out is not None and not args.out.parent.is_dir():
             raise BadInput(f"--out: expected a file in an existing folder, got {args.out}")
         tuned, tuned_from = _tuned(args.tuned, args.point)
-        from tippetop.compare.studies.contact_search_refine import search_two_stage
+        from tippetop.compare.studies.contact_search_refine import (
+            SearchOptions,
+            search_two_stage,
+        )
 
+        options = SearchOptions(candidates=args.candidates, seed=args.seed,
+                                with_neighbours=not args.no_neighbours,
+                                budget_runs=args.budget_runs, stages=args.stages,
+                                fit=not args.no_fit)
         result = search_two_stage(*args.point, n0=args.n0, theta0=args.theta0,
-                                  t_end_s=args.t_end_s, candidates=args.candidates,
-                                  seed=args.seed, tuned=tuned, progress=True,
-                                  with_neighbours=not args.no_neighbours,
-                                  budget_runs=args.budget_runs, stages=args.stages,
-                                  fit=not args.no_fit,
+                                  t_end_s=args.t_end_s, tuned=tuned, options=options,
+                                  progress=True,
                                   run_options={"scheduler": args.scheduler,
                                                "workers": args.workers,
                                                "use_cache": not args.no_cache})

@@ -98,6 +98,31 @@ class NightlyOptions:
     argv: tuple[str, ...] = ()
 
 
+@dataclass(frozen=True)
+class _Checked:
+    """What :func:`run_nightly` read and checked before it locked the output folder.
+
+    Attributes:
+        started: When the nightly started (:func:`~.outputs.timestamp`).
+        t0: ``time.perf_counter()`` then.
+        catalogue: The catalogue the cases come from.
+        cases: The cases to run, each on its engine.
+        skipped: The cases that cannot run on an engine asked for, said.
+        files: Each engine's baseline file.
+        baseline: The baseline's records by case id (empty with ``no_baseline``).
+        out_dir: The output folder (locked).
+    """
+
+    started: str
+    t0: float
+    catalogue: Catalogue
+    cases: list[Case]
+    skipped: list[str]
+    files: dict[str, Path]
+    baseline: dict[str, dict[str, Any]]
+    out_dir: Path
+
+
 def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
                 log: Callable[[str], None] | None = None,
                 echo: Callable[[str], None] = print) -> int:
@@ -148,8 +173,8 @@ def run_nightly(opts: NightlyOptions, *, write_report: ReportWriter,
         check_history(opts.history)
     with locked_output_dir(out_dir):
         check_output_dir(out_dir, force=opts.force)  # again, now that no other run writes
-        return _run_locked(opts, write_report, log, echo, started, t0, catalogue, cases, files,
-                           baseline, out_dir, skipped)
+        checked = _Checked(started, t0, catalogue, cases, skipped, files, baseline, out_dir)
+        return _run_locked(opts, checked, write_report, log, echo)
 
 
 def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
@@ -247,11 +272,12 @@ def _update_baselines(files: dict[str, Path], profile: str, catalogue: Catalogue
     return total
 
 
-def _run_locked(opts: NightlyOptions, write_report: ReportWriter, log: Callable[[str], None],
-                echo: Callable[[str], None], started: str, t0: float, catalogue: Catalogue,
-                cases: list[Case], files: dict[str, Path], baseline: dict[str, dict[str, Any]],
-                out_dir: Path, skipped: list[str]) -> int:
+def _run_locked(opts: NightlyOptions, checked: _Checked, write_report: ReportWriter,
+                log: Callable[[str], None], echo: Callable[[str], None]) -> int:
     """The run itself, its inputs checked and its output folder locked; the exit status."""
+    started, t0, catalogue = checked.started, checked.t0, checked.catalogue
+    cases, skipped, files = checked.cases, checked.skipped, checked.files
+    baseline, out_dir = checked.baseline, checked.out_dir
     shown = ", ".join(f"{f}{'' if f.is_file() else ' (missing: every case is new)'}"
                       for f in files.values())
     log(f"nightly: profile {opts.profile}, {len(cases)} cases, baseline "

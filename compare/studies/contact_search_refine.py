@@ -38,7 +38,7 @@ import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 from tippetop.compare.studies import contact_search as cs
@@ -386,31 +386,16 @@ def run_fit(pr: PointRuns, seed: ContactCandidate, rollouts: int, max_iters: int
 
 
 # ---------------------------------------------------------------- the search
-def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float | None = None,
-                     theta0: float = START_THETA0, t_end_s: float = cs.DEFAULT_T_END_S,
-                     candidates: int = cs.DEFAULT_CANDIDATES, seed: int = 0,
-                     tuned: dict[str, Any] | None = None,
-                     run_options: dict[str, Any] | None = None, progress: bool = False,
-                     batch: int = cs.BATCH, with_neighbours: bool = True,
-                     budget_runs: int = DEFAULT_BUDGET_RUNS, stages: int = 2,
-                     fit: bool = True, fit_rollouts: int = FIT_ROLLOUTS,
-                     fit_iters: int = MAX_ITERS, stop_on_agree: bool = True
-                     ) -> dict[str, Any]:
-    """Search MuJoCo's whole contact space at one point: the even draw, then the dense stage.
+@dataclass(frozen=True)
+class SearchOptions:
+    """How :func:`search_two_stage` searches: its draw, its budget, its stages and fits.
 
-    Args:
-        A_over_C: The top's A/C.
-        a_over_R: The top's a/R.
-        mu: The law's friction coefficient.
-        n0: The fit's start spin (rad/s; None: the fidelity map's).
-        theta0: The fit's start tilt (rad).
-        t_end_s: Horizon of every run (s).
+    Checked by :func:`search_two_stage` (one line naming the script's option), not here.
+
+    Attributes:
         candidates: Candidates stage 1 draws besides the baselines (fewer where its share
             of the budget, :data:`STAGE1_SHARE`, is smaller).
         seed: The draws' seed (stage 2's Sobol draw takes ``seed + 1``).
-        tuned: The point's tuned settings (a fidelity map's ``settings``): a baseline.
-        run_options: Keyword arguments of :func:`.run_tasks` (scheduler, workers, use_cache).
-        progress: A line per batch on a terminal.
         batch: Candidates verified per call of the runner.
         with_neighbours: Also the first baseline's neighbours (each choice changed alone).
         budget_runs: MuJoCo runs the whole search may use: four per candidate (cached or
@@ -421,6 +406,42 @@ def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float |
         fit_iters: Levenberg-Marquardt iterations per fit at most.
         stop_on_agree: End the search after the part (of stage 1 or 2) in which a candidate
             agrees.
+    """
+
+    candidates: int = cs.DEFAULT_CANDIDATES
+    seed: int = 0
+    batch: int = cs.BATCH
+    with_neighbours: bool = True
+    budget_runs: int = DEFAULT_BUDGET_RUNS
+    stages: int = 2
+    fit: bool = True
+    fit_rollouts: int = FIT_ROLLOUTS
+    fit_iters: int = MAX_ITERS
+    stop_on_agree: bool = True
+
+
+DEFAULT_SEARCH = SearchOptions()
+
+
+def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float | None = None,
+                     theta0: float = START_THETA0, t_end_s: float = cs.DEFAULT_T_END_S,
+                     tuned: dict[str, Any] | None = None,
+                     options: SearchOptions = DEFAULT_SEARCH,
+                     run_options: dict[str, Any] | None = None, progress: bool = False
+                     ) -> dict[str, Any]:
+    """Search MuJoCo's whole contact space at one point: the even draw, then the dense stage.
+
+    Args:
+        A_over_C: The top's A/C.
+        a_over_R: The top's a/R.
+        mu: The law's friction coefficient.
+        n0: The fit's start spin (rad/s; None: the fidelity map's).
+        theta0: The fit's start tilt (rad).
+        t_end_s: Horizon of every run (s).
+        tuned: The point's tuned settings (a fidelity map's ``settings``): a baseline.
+        options: The draw, the budget, the stages and the fits (:class:`SearchOptions`).
+        run_options: Keyword arguments of :func:`.run_tasks` (scheduler, workers, use_cache).
+        progress: A line per batch on a terminal.
 
     Returns:
         :func:`assemble`'s keys, and ``stages`` (each with its candidates, runs, wall time,
@@ -430,6 +451,8 @@ def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float |
         TippetopError: Bad input (one line), before any run.
         RunFailedError: A reference run that failed.
     """
+    budget_runs, stages, batch = options.budget_runs, options.stages, options.batch
+    candidates, seed = options.candidates, options.seed
     n_starts = 1 + len(HELD_OUT)  # the fit's start and the held-out ones (.tune.starts_for)
     if not isinstance(budget_runs, int) or budget_runs < n_starts:
         raise TippetopError(f"--budget-runs: expected at least {n_starts} (one candidate "
@@ -443,7 +466,7 @@ def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float |
     cs.draw_candidates(0, mu, seed)  # checks mu
     cap = budget_runs // n_starts
     cap1 = cap if stages == 1 else max(1, int(STAGE1_SHARE * cap))
-    base = cs.baselines(tuned, mu, with_neighbours)[:cap1]
+    base = cs.baselines(tuned, mu, options.with_neighbours)[:cap1]
     drawn = cs.draw_candidates(min(candidates, cap1 - len(base)), mu, seed)
     say = cs.say_to_terminal(progress)
     t0 = time.perf_counter()
@@ -476,8 +499,7 @@ def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float |
                        "why": "the whole space: the draw takes every choice by rank"},
              "best": brief(min(rows, key=rank_key)) if rows else None}
     fit_runs = [0]
-    second = (_stage_two(pr, rows, verify, base, budget_runs, n_starts, fit, fit_rollouts,
-                         fit_iters, seed, fit_runs, say, stop_on_agree)
+    second = (_stage_two(pr, rows, verify, base, options, n_starts, fit_runs, say)
               if stages == 2 else None)
     out = assemble(pr, rows, drawn=len(drawn), seed=seed, wall_s=time.perf_counter() - t0)
     out["runs"].update(mujoco=pr.runs + fit_runs[0], candidate_runs=pr.runs,
@@ -490,10 +512,11 @@ def search_two_stage(A_over_C: float, a_over_R: float, mu: float, *, n0: float |
 
 def _stage_two(pr: PointRuns, rows: list[dict[str, Any]],
                verify: Callable[[list[ContactCandidate], int, str], list[dict[str, Any]]],
-               base: list[ContactCandidate], budget_runs: int, n_starts: int, fit: bool,
-               fit_rollouts: int, fit_iters: int, seed: int, fit_runs: list[int],
-               say: Callable[[str], None] | None, stop_on_agree: bool) -> dict[str, Any]:
+               base: list[ContactCandidate], options: SearchOptions, n_starts: int,
+               fit_runs: list[int], say: Callable[[str], None] | None) -> dict[str, Any]:
     """Stage 2 (module docstring): the rule, the dense draw, the fits, the local rounds."""
+    budget_runs, seed, stop_on_agree = options.budget_runs, options.seed, options.stop_on_agree
+    fit, fit_rollouts, fit_iters = options.fit, options.fit_rollouts, options.fit_iters
     t0 = time.perf_counter()
     runs0 = pr.runs
     n1 = len(rows)
@@ -665,8 +688,8 @@ def limit_line(result: dict[str, Any]) -> str:
 
 
 __all__ = ["BEST_CELLS", "BOX", "CELL_DIMENSIONS", "CHOICES", "DEFAULT_BUDGET_RUNS",
-           "DENSE_SHARE", "ELITES", "FIT_CELLS", "FIT_ROLLOUTS", "FIT_SHARE", "MIN_CLEAN",
-           "MIN_EVIDENCE", "REASONS", "ROUNDS", "RULE", "STAGE1_SHARE", "assemble",
-           "brief", "cell_json", "cell_of", "dense_draw",
+           "DEFAULT_SEARCH", "DENSE_SHARE", "ELITES", "FIT_CELLS", "FIT_ROLLOUTS", "FIT_SHARE",
+           "MIN_CLEAN", "MIN_EVIDENCE", "REASONS", "ROUNDS", "RULE", "STAGE1_SHARE",
+           "SearchOptions", "assemble", "brief", "cell_json", "cell_of", "dense_draw",
            "departing", "elites_of", "fit_candidate", "from_fit", "json_key", "limit_line",
            "local_draw", "ran", "reasons", "rule_cells", "run_fit", "search_two_stage"]

@@ -154,13 +154,14 @@ def test_theory_and_simulate_for_an_mjcf_top(tmp_path: Path) -> None:
       (1.9e-5 at 2e-5 s): the callback's one-evaluation lag of N, first order in dt. With the
       file's contact as soft as MuJoCo's default (solref 20 ms) the gap is 2.5e-3 rad.
     """
-    from tippetop.models.mjcf import make_mjcf
+    from tippetop.models.mjcf import MjcfContact, make_mjcf
     from tippetop.models.params import FrictionParams, InitialState, TopParams
     from tippetop.models.resolve import PAPER_SOLREF
 
     top = TopParams.from_ratios(1.25, 0.15, 0.8)
     f = tmp_path / "top.xml"
-    f.write_text(make_mjcf(top, friction_mode="native", mu=0.1, solref=PAPER_SOLREF))
+    f.write_text(make_mjcf(top, contact=MjcfContact(friction_mode="native", mu=0.1,
+                                                    solref=PAPER_SOLREF)))
     d = json.loads(tippetop("theory", "--mjcf", str(f), "--json").stdout)
     assert THEORY_KEYS | {"R_m", "a_m", "A", "C", "M_kg", "A_over_C", "a_over_R"} <= set(d)
     assert d["group"] == "III" and d["A_over_C"] == pytest.approx(1.25, rel=1e-9)

@@ -442,7 +442,8 @@ def test_the_budget_caps_every_run_of_the_search(budget: int,
     monkeypatch.setattr(cs, "prepare_point", lambda *a, **k: _FakePoint())
     monkeypatch.setattr(rf, "run_fit", fake_fit)
     monkeypatch.setattr(rf, "assemble", fake_assemble)
-    res = rf.search_two_stage(1.0, 0.1, 0.3, tuned=None, budget_runs=budget)
+    res = rf.search_two_stage(1.0, 0.1, 0.3, tuned=None,
+                              options=rf.SearchOptions(budget_runs=budget))
     one, *two = res["stages"]
     assert res["runs"]["mujoco"] == res["runs"]["candidate_runs"] + sum(fits) <= budget
     assert one["runs"] <= max(4, budget // 2)
@@ -488,10 +489,11 @@ def test_the_limit_line_says_what_agrees_or_how_close_the_closest_comes() -> Non
 # ---------------------------------------------------------------- one tiny real search
 def test_a_tiny_two_stage_search_runs_end_to_end() -> None:
     budget = 64
-    res = rf.search_two_stage(1.0, 0.1, 0.3, t_end_s=0.5, candidates=3, seed=0,
-                              run_options={"use_cache": False, "workers": 2},
-                              with_neighbours=False, budget_runs=budget, fit_rollouts=4,
-                              fit_iters=2, stop_on_agree=False)
+    options = rf.SearchOptions(candidates=3, seed=0, with_neighbours=False,
+                               budget_runs=budget, fit_rollouts=4, fit_iters=2,
+                               stop_on_agree=False)
+    res = rf.search_two_stage(1.0, 0.1, 0.3, t_end_s=0.5, options=options,
+                              run_options={"use_cache": False, "workers": 2})
     assert res["format"] == cs.FORMAT and res["budget_runs"] == budget
     one, two = res["stages"]
     assert one["candidates"] == 4 and one["baselines"] == {"calibrated": 1}

@@ -15,7 +15,7 @@ import pytest
 
 from tests.conftest import run_mujoco
 from tippetop.compare.running.engines import plan_for, run_engine, run_plan
-from tippetop.models.mjcf import make_mjcf
+from tippetop.models.mjcf import MjcfContact, MjcfOption, make_mjcf
 from tippetop.models.params import TopParams
 from tippetop.models.scene import load_scene
 
@@ -52,8 +52,8 @@ def test_paper_mode_without_sliding_applies_no_friction() -> None:
 @pytest.fixture(scope="module")
 def mjcf_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A top written as a file with options that no scene default has."""
-    xml = make_mjcf(TopParams.from_ratios(1.0, 0.1), friction_mode="paper", timestep_s=5e-5,
-                    integrator="implicitfast")
+    xml = make_mjcf(TopParams.from_ratios(1.0, 0.1), contact=MjcfContact(friction_mode="paper"),
+                    option=MjcfOption(timestep_s=5e-5, integrator="implicitfast"))
     path = tmp_path_factory.mktemp("mjcf") / "top.xml"
     path.write_text(xml)
     return path

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tippetop.models.errors import TippetopError
-from tippetop.models.mjcf import HARNESS_USERDATA, make_mjcf
+from tippetop.models.mjcf import HARNESS_USERDATA, MjcfContact, MjcfOption, make_mjcf
 from tippetop.models.params import FrictionParams, InitialState, TopParams
 from tippetop.models.resolve import PAPER_SOLREF
 from tippetop.mujoco_runner import friction_callback
@@ -117,7 +117,7 @@ def test_compiled_callback_matches_mj_applyFT_reference(xml: str) -> None:
 
 @pytest.mark.parametrize(("integrator", "calls_per_step"), [("RK4", 4), ("Euler", 1)])
 def test_calls_per_step(integrator: str, calls_per_step: int) -> None:
-    tm = load_top(make_mjcf(TOP, integrator=integrator))
+    tm = load_top(make_mjcf(TOP, option=MjcfOption(integrator=integrator)))
     data = _start(tm)
     with PaperFriction(tm, data, FRICTION) as friction:
         mujoco.mj_step(tm.model, data, 100)
@@ -158,7 +158,8 @@ def test_normal_force_is_the_previous_evaluation_constraint_force() -> None:
     # top is not in static balance). Measured: 7.7e-6 of M g apart (the ball's 0.27-um sink,
     # delta / R ~ 2e-5, and the callback's N one evaluation late); bound 1e-4 of M g. With
     # MuJoCo's default contact (solref 20 ms) still ringing at 10 ms, 3 % apart.
-    tm = load_top(make_mjcf(TOP, integrator="Euler", solref=PAPER_SOLREF))
+    tm = load_top(make_mjcf(TOP, contact=MjcfContact(solref=PAPER_SOLREF),
+                            option=MjcfOption(integrator="Euler")))
     data = _start(tm)
     with PaperFriction(tm, data, FRICTION) as friction:
         mujoco.mj_step(tm.model, data, 499)

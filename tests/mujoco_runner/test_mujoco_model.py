@@ -18,6 +18,8 @@ from tippetop.models.mjcf import (
     STEM_GEOM,
     TABLE_GEOM,
     TOP_BODY,
+    MjcfContact,
+    MjcfOption,
     make_mjcf,
 )
 from tippetop.models.params import InitialState, StemParams, TopParams
@@ -84,16 +86,17 @@ def test_inertia_comes_from_inertial_element_only() -> None:
     ],
 )
 def test_contact_parameters(kwargs: dict, condim: int, friction: list[float]) -> None:
-    model = load_model(make_mjcf(TOPS[0], **kwargs))
+    model = load_model(make_mjcf(TOPS[0], contact=MjcfContact(**kwargs)))
     for geom in (BALL_GEOM, TABLE_GEOM):
         assert model.geom(geom).condim[0] == condim
         np.testing.assert_allclose(model.geom(geom).friction, friction)
 
 
 def test_options_from_arguments() -> None:
-    model = load_model(make_mjcf(TOPS[0], timestep_s=1e-4, integrator="implicitfast",
-                                 cone="pyramidal", impratio=0.3, solref=(0.01, 0.8),
-                                 solimp=(0.8, 0.9, 0.002)))
+    model = load_model(make_mjcf(
+        TOPS[0], contact=MjcfContact(solref=(0.01, 0.8), solimp=(0.8, 0.9, 0.002)),
+        option=MjcfOption(timestep_s=1e-4, integrator="implicitfast", cone="pyramidal",
+                          impratio=0.3)))
     assert model.opt.timestep == 1e-4
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     assert model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
@@ -103,24 +106,27 @@ def test_options_from_arguments() -> None:
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "what"),
+    ("settings", "what"),
     [
-        ({"friction_mode": "coulomb"}, "friction_mode"),
-        ({"condim": 3}, "condim"),  # paper mode is condim 1
-        ({"friction_mode": "native", "condim": 2}, "condim"),
-        ({"mu": -0.1}, "mu"),
-        ({"timestep_s": 0.0}, "timestep_s"),
-        ({"integrator": "rk4"}, "integrator"),
-        ({"cone": "round"}, "cone"),
-        ({"impratio": math.nan}, "impratio"),
-        ({"solref": (0.02,)}, "solref"),
-        ({"solimp": (0.9, 1.5, 0.001)}, "solimp"),
-        ({"torsional": -1.0}, "torsional"),
+        (MjcfContact(friction_mode="coulomb"), "friction_mode"),
+        (MjcfContact(condim=3), "condim"),  # paper mode is condim 1
+        (MjcfContact(friction_mode="native", condim=2), "condim"),
+        (MjcfContact(mu=-0.1), "mu"),
+        (MjcfOption(timestep_s=0.0), "timestep_s"),
+        (MjcfOption(integrator="rk4"), "integrator"),
+        (MjcfOption(cone="round"), "cone"),
+        (MjcfOption(impratio=math.nan), "impratio"),
+        (MjcfContact(solref=(0.02,)), "solref"),
+        (MjcfContact(solimp=(0.9, 1.5, 0.001)), "solimp"),
+        (MjcfContact(torsional=-1.0), "torsional"),
+        (MjcfOption(noslip_iterations=-1), "noslip_iterations"),
     ],
 )
-def test_bad_arguments_are_one_line_errors(kwargs: dict, what: str) -> None:
+def test_bad_arguments_are_one_line_errors(settings: MjcfContact | MjcfOption,
+                                           what: str) -> None:
+    kind = "contact" if isinstance(settings, MjcfContact) else "option"
     with pytest.raises(TippetopError) as err:
-        make_mjcf(TOPS[0], **kwargs)
+        make_mjcf(TOPS[0], **{kind: settings})
     message = str(err.value)
     assert message.startswith(f"{what}: expected ") and ", got " in message
     assert "\n" not in message
