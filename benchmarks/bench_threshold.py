@@ -21,8 +21,9 @@ from __future__ import annotations
 import argparse
 import time
 
+from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies.growth import measure_growth
-from tippetop.compare.studies.threshold import bisect_threshold
+from tippetop.compare.studies.threshold import BisectOptions, bisect_threshold
 
 
 def main() -> None:
@@ -37,11 +38,12 @@ def main() -> None:
     over = ("mujoco.friction=paper", f"mujoco.timestep_s={args.timestep_s!r}")
     rows = []
     t0 = time.perf_counter()
-    g = measure_growth(None, "mujoco", "n1", over, workers=args.workers, use_cache=False)
+    run = RunOptions(workers=args.workers, use_cache=False)
+    g = measure_growth(None, "mujoco", "n1", over, run=run)
     rows.append(("growth", g, time.perf_counter() - t0, g["n_runs"] * g["horizon_s"]))
     t0 = time.perf_counter()
     b = bisect_threshold(None, "mujoco", "n1", (*over, f"run.t_end_s={args.horizon_s!r}"),
-                         rel_tol=0.005, workers=args.workers, use_cache=False)
+                         search=BisectOptions(rel_tol=0.005), run=run)
     extra = 2 * 2 * args.horizon_s  # the horizon check: two runs over twice the horizon
     rows.append(("bisect", b, time.perf_counter() - t0, b["n_runs"] * args.horizon_s + extra))
     print(f"n1 of the Fig. 9 (a) top in MuJoCo paper mode, dt = {args.timestep_s:g} s "

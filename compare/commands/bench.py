@@ -70,9 +70,12 @@ def run(args: argparse.Namespace) -> int:
     if args.what == "accuracy" and args.sweep:
         raise TippetopError("--sweep: expected with 'bench ode', got 'bench accuracy'")
     if args.what == "accuracy":
+        from tippetop.compare.running.options import RunOptions
         from tippetop.compare.studies.accuracy import (
             DEFAULT_BUDGET_S,
             DEFAULT_MUJOCO_BUDGET_S,
+            MujocoGrid,
+            OdeGrid,
             run_accuracy,
         )
 
@@ -81,9 +84,10 @@ def run(args: argparse.Namespace) -> int:
             raise TippetopError(f"--budget-s: expected a number > 0, got {args.budget_s}")
         res = run_accuracy([args.scene] if args.scene else ["fig3", "fig11_n060"],
                            args.out or "accuracy", force=args.force, engines=engines,
-                           budget_s=args.budget_s or DEFAULT_BUDGET_S,
-                           mujoco_budget_s=args.budget_s or DEFAULT_MUJOCO_BUDGET_S,
-                           workers=args.workers,
+                           ode=OdeGrid(budget_s=args.budget_s or DEFAULT_BUDGET_S),
+                           mujoco=MujocoGrid(
+                               budget_s=args.budget_s or DEFAULT_MUJOCO_BUDGET_S),
+                           run=RunOptions(workers=args.workers),
                            log=None if args.json else (lambda m: print(m, file=sys.stderr)))
         if args.json:
             print_json({k: v for k, v in res.items() if k != "report"})

@@ -67,16 +67,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop render``: simulate and write the video; exit 0, or 1 for a failed run."""
-    from tippetop.compare.studies.render import RunFailed, VideoWriteFailed, render_scene
+    from tippetop.compare.studies.render import (
+        RunFailed,
+        VideoOptions,
+        VideoWriteFailed,
+        render_scene,
+    )
 
     engines = _engines(args)
     scene = load_scene(args)
     out = args.out if args.out else f"{scene.name}.mp4"
     try:
-        res = render_scene(scene, out, engines=engines, mode=args.mode, fps=args.fps,
-                           speed=args.speed,
-                           size=args.size, max_frames=args.max_frames, force=args.force,
-                           say=_say)
+        res = render_scene(scene, out, engines=engines, mode=args.mode,
+                           video=VideoOptions(fps=args.fps, speed=args.speed, size=args.size,
+                                              max_frames=args.max_frames),
+                           force=args.force, say=_say)
     except RunFailed as exc:
         sys.stderr.write(f"tippetop: run failed: {exc}\n")
         return 1

@@ -78,7 +78,8 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
         path relative to out_dir}, "failed": {scene: one-line reason}}``.
     """
     from tippetop.compare.presentation.video import frame_count
-    from tippetop.compare.studies.render import render_scene
+    from tippetop.compare.running.options import RunOptions
+    from tippetop.compare.studies.render import VideoOptions, render_scene
     from tippetop.models.scene import load_scene
 
     scenes = video_scenes(cases)
@@ -97,10 +98,10 @@ def render_videos(cases: Sequence[Case], out_dir: Path,
             speed = video_speed(scene.run.t_end_s)
             n_frames = frame_count(scene.run.t_end_s, VIDEO_FPS, speed)
             say(f"{n_frames} frames at {VIDEO_FPS:g} fps, speed {speed:.3g}")
-            res = render_scene(scene, path, engines=("mujoco", "ode"), fps=VIDEO_FPS,
-                               speed=speed,
-                               size=VIDEO_SIZE, max_frames=VIDEO_MAX_FRAMES, force=True,
-                               progress=False, say=say)
+            res = render_scene(scene, path, engines=("mujoco", "ode"),
+                               video=VideoOptions(fps=VIDEO_FPS, speed=speed, size=VIDEO_SIZE,
+                                                  max_frames=VIDEO_MAX_FRAMES),
+                               force=True, run=RunOptions(progress=False), say=say)
             if res.n_frames != n_frames or not path.is_file() or path.stat().st_size == 0:
                 raise RuntimeError(f"expected {n_frames} frames in {rel}, got "
                                    f"{res.n_frames} frames and "

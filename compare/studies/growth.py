@@ -16,6 +16,7 @@ import pandas as pd
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 from tippetop.models.params import TopParams
@@ -270,15 +271,33 @@ def state_start(top: TopParams, state: str) -> tuple[float, float] | None:
     return (0.9 * guess, 1.1 * guess) if guess else None
 
 
+@dataclass(frozen=True)
+class GrowthOptions:
+    """How finely :func:`measure_growth` searches; the defaults are ``tippetop threshold``'s.
+
+    Attributes:
+        rel_tol: Relative tolerance of the false-position steps on the spin.
+        run_s: Length of each growth-rate run (s).
+        max_runs: False-position steps at most, per steady state.
+    """
+
+    rel_tol: float = REL_TOL
+    run_s: float = RUN_S
+    max_runs: int = 12
+
+
 def measure_growth(scene: str | None, engine: str, which: str,
-                   overrides: tuple[str, ...] = (), *, rel_tol: float = REL_TOL,
-                   run_s: float = RUN_S, max_runs: int = 12, scheduler: str | None = None,
-                   workers: int | None = None, use_cache: bool = True,
+                   overrides: tuple[str, ...] = (), *,
+                   search: GrowthOptions = GrowthOptions(),
+                   run: RunOptions = DEFAULT_RUN,
                    label: str = "growth rates", mode: str | None = None) -> dict[str, Any]:
     """Measure ``n1``, ``n4`` or ``nc`` of a scene's top on ``engine`` from growth rates.
 
     ``engine``: :mod:`tippetop.models.engines`; ``mode``: :mod:`tippetop.models.modes` (None:
-    the scene's).
+    the scene's). ``search``: the tolerance, run length and step cap (:class:`GrowthOptions`);
+    ``run``: where the runs run (``scheduler``, ``workers``, ``use_cache`` of
+    :class:`~tippetop.compare.running.options.RunOptions`; the runner's bar shows on a
+    terminal); ``label``: the progress bar's.
 
     Returns:
         The threshold keys of :func:`tippetop.compare.studies.threshold.measure_threshold`
@@ -298,14 +317,15 @@ def measure_growth(scene: str | None, engine: str, which: str,
         raise TippetopError(f"--which: nc exists for Group II tops only, got a Group "
                             f"{theory.group(top)} top")
 
-    def run(tasks: list[Task]) -> list[Any]:
-        return list(run_tasks(tasks, scheduler=scheduler, workers=workers,
-                              use_cache=use_cache, label=label))
+    def run_batch(tasks: list[Task]) -> list[Any]:
+        return list(run_tasks(tasks, scheduler=run.scheduler, workers=run.workers,
+                              use_cache=run.use_cache, label=label))
 
     states = {"n1": ("upright",), "n4": ("inverted",), "nc": ("upright", "inverted")}[which]
     searches = {state: Search(task.scene, engine, overrides, state, state_start(top, state),
-                              rel_tol, max_runs, run_s, mode) for state in states}
-    run_searches(list(searches.values()), run)
+                              search.rel_tol, search.max_runs, search.run_s, mode)
+                for state in states}
+    run_searches(list(searches.values()), run_batch)
     found = {state: s.root for state, s in searches.items()}
     brackets = {state: s.bracket for state, s in searches.items()}
     n1 = found.get("upright")
@@ -336,7 +356,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
         "rates": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"]}
                   for p in points],
         "n_runs": len(points),
-        "horizon_s": run_s,
+        "horizon_s": search.run_s,
         "settled": settled(points, [n1, n3]),
         "converged": measured is not None and settled(points, [n1, n3]),
         "n1": n1, "n3": n3, "n4": n4,

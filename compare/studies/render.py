@@ -28,6 +28,7 @@ from tippetop.compare.presentation.video import (
     is_full,
     parse_size,
 )
+from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.models.errors import expect
 from tippetop.models.numbers import number_text
 from tippetop.mujoco_runner.gl import use_gl_backend
@@ -52,6 +53,23 @@ class VideoWriteFailed(RuntimeError):
 
     A full disk or an encoder error; the output file, if there was one, is as it was.
     """
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """How a video is made; the defaults are ``tippetop render``'s.
+
+    Attributes:
+        fps: Frames per second of the video.
+        speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
+        size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
+        max_frames: Refuse to make more frames than this.
+    """
+
+    fps: float = DEFAULT_FPS
+    speed: float = DEFAULT_SPEED
+    size: str | tuple[int, int] = DEFAULT_SIZE
+    max_frames: int = DEFAULT_MAX_FRAMES
 
 
 @dataclass(frozen=True)
@@ -95,12 +113,9 @@ def render_scene(
     *,
     engines: tuple[str, ...] = ("mujoco",),
     mode: str | None = None,
-    fps: float = DEFAULT_FPS,
-    speed: float = DEFAULT_SPEED,
-    size: str | tuple[int, int] = DEFAULT_SIZE,
-    max_frames: int = DEFAULT_MAX_FRAMES,
+    video: VideoOptions = VideoOptions(),
     force: bool = False,
-    progress: bool = True,
+    run: RunOptions = DEFAULT_RUN,
     say: Callable[[str], None] | None = None,
 ) -> RenderResult:
     """Simulate ``scene`` in the engine(s) and write an MP4 of the run.
@@ -114,12 +129,10 @@ def render_scene(
             installed here) and/or ``ode`` (the reference replayed in the same MJCF).
         mode: MuJoCo's mode (:mod:`tippetop.models.modes`); None: the scene's. The reference
             runs the scene's own law.
-        fps: Frames per second of the video.
-        speed: Simulated seconds per second of video (0.25: quarter-speed slow motion).
-        size: One panel, ``"WIDTHxHEIGHT"`` or (width, height) in px; rounded down to even.
-        max_frames: Refuse to make more frames than this.
+        video: The frame rate, speed, panel size and frame cap (:class:`VideoOptions`).
         force: Overwrite an existing ``out``.
-        progress: Show progress bars on stderr when it is a terminal.
+        run: Its ``progress``: show progress bars on stderr when it is a terminal. The runs
+            are the scene's own, in this process and uncached: the other fields are not read.
         say: Called with one line before each step (each engine's run, the frames) and, when
             stderr is not a terminal, every 15 s of drawing; None says nothing.
 
@@ -137,9 +150,10 @@ def render_scene(
     """
     from tippetop.compare.running.io import check_output_path
 
+    fps, speed, size = video.fps, video.speed, video.size
     engines = _checked_engines(engines)
     width, height = parse_size(size if isinstance(size, str) else "x".join(map(str, size)))
-    n_frames = check_timing(scene.run.t_end_s, fps, speed, max_frames)
+    n_frames = check_timing(scene.run.t_end_s, fps, speed, video.max_frames)
     path = check_output_path(out, force=force, suffixes=VIDEO_SUFFIXES)
     backend = use_gl_backend()  # before anything below imports mujoco
 
@@ -148,15 +162,15 @@ def render_scene(
     # bad input fails before runs
     plans = {name: plan_for(scene, name, mode if name != "ode" else None) for name in engines}
     tell = say or (lambda _line: None)
-    tables = _simulate(scene, plans, tell, progress)
+    tables = _simulate(scene, plans, tell, run.progress)
 
     from tippetop.compare.running.io import write_atomic
-    from tippetop.mujoco_runner import video
+    from tippetop.mujoco_runner import video as mj_video
 
     tracks = _tracks(scene, plans, tables, engines, width, height)
-    times = video.frame_times(n_frames, fps, speed)
+    times = mj_video.frame_times(n_frames, fps, speed)
     tell(_replay_line(engines, n_frames, width, height, fps, speed, backend))
-    stats: list[video.VideoStats] = []
+    stats: list[mj_video.VideoStats] = []
 
     def write_checked(tmp: Path) -> None:
         """Encode into ``tmp``, then decode it: only a complete video replaces ``path``.
@@ -165,20 +179,20 @@ def render_scene(
         the decoder made of it: the free space is read while ``tmp`` still holds its bytes.
         """
         try:
-            stats.append(video.write_video(tmp, tracks, times, fps=fps, width=width,
-                                           height=height, backend=backend, on_frame=tick))
-            video.verify_video(tmp, n_frames, width * len(engines), height)
-        except (OSError, video.VideoCheckFailed) as exc:
+            stats.append(mj_video.write_video(tmp, tracks, times, fps=fps, width=width,
+                                              height=height, backend=backend, on_frame=tick))
+            mj_video.verify_video(tmp, n_frames, width * len(engines), height)
+        except (OSError, mj_video.VideoCheckFailed) as exc:
             full = disk_full(exc, tmp.parent)
             if full is not None:
                 raise full from exc
             raise
 
     try:
-        with frame_bar(n_frames if progress else 0, f"{scene.name} [{','.join(engines)}] video",
+        with frame_bar(n_frames if run.progress else 0, f"{scene.name} [{','.join(engines)}] video",
                         say) as tick:
             write_atomic(path, write_checked)
-    except (OSError, video.VideoCheckFailed) as exc:
+    except (OSError, mj_video.VideoCheckFailed) as exc:
         raise _write_failure(exc, path) from exc
     s = stats[0]
     return RenderResult(path=path, engines=engines, backend=backend, n_frames=s.n_frames,

@@ -6,6 +6,7 @@ How a run "crosses" in the bisection is in docs/design.md.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -14,6 +15,7 @@ import pandas as pd
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.series import OUTCOME_MARGIN, classify_outcome, theta_asymp
 from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
 
@@ -29,6 +31,23 @@ SETTLE_DOUBLINGS = 2
 METHODS = ("growth", "bisect")
 #: Default scene: the Fig. 9 (a) / Fig. 11 top from theta0 = 0.01 with a 60-s horizon.
 DEFAULT_SCENE = "fig11_n060"
+
+
+@dataclass(frozen=True)
+class BisectOptions:
+    """How :func:`bisect_threshold` bisects; the defaults are ``--method bisect``'s.
+
+    Attributes:
+        rel_tol: Stop when the bracket is this narrow, relative to its midpoint.
+        max_rounds: Bisection rounds at most.
+        points_per_round: Spins run in each round (None: the workers, at least 2).
+        horizon_check: Run the final bracket's ends again over twice the scene's horizon.
+    """
+
+    rel_tol: float = 0.005
+    max_rounds: int = 10
+    points_per_round: int | None = None
+    horizon_check: bool = True
 
 
 def left_vertical(table: pd.DataFrame) -> bool:
@@ -102,30 +121,29 @@ def measure_threshold(
         moving and the answer
         does not depend on the horizon), and each method's own keys.
     """
-    from tippetop.compare.studies.growth import measure_growth
+    from tippetop.compare.studies.growth import GrowthOptions, measure_growth
 
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
     method = method or "growth"
     if method not in METHODS:
         raise TippetopError(f"--method: expected one of {', '.join(METHODS)}, got {method!r}")
+    run = RunOptions(scheduler=scheduler, workers=workers, use_cache=use_cache)
     if method == "growth":
         if bisect_options:
             raise TippetopError(f"--method growth: {', '.join(bisect_options)} apply to "
                                 f"--method bisect only")
-        res = measure_growth(scene, engine, which, overrides,
-                             **({"rel_tol": rel_tol} if rel_tol else {}),
-                             scheduler=scheduler, workers=workers, use_cache=use_cache,
-                             mode=mode)
+        search = GrowthOptions(rel_tol=rel_tol) if rel_tol else GrowthOptions()
+        res = measure_growth(scene, engine, which, overrides, search=search, run=run, mode=mode)
         if res["measured"] is None and not res.get("failed_runs"):
             raise TippetopError(f"threshold: {res['warning']}")
         return res  # with failed_runs: the caller reports them (exit 1), the others kept
     if which == "n4":
         raise TippetopError("--method bisect: expected --which n1 or nc (n4 is measured from "
                             "growth rates), got n4")
-    return bisect_threshold(scene, engine, which, overrides, rel_tol=rel_tol or 0.005,
-                            scheduler=scheduler, workers=workers, use_cache=use_cache,
-                            mode=mode, **bisect_options)
+    return bisect_threshold(scene, engine, which, overrides,
+                            search=BisectOptions(rel_tol=rel_tol or 0.005, **bisect_options),
+                            run=run, mode=mode)
 
 
 def bisect_threshold(
@@ -134,20 +152,19 @@ def bisect_threshold(
     which: str,
     overrides: tuple[str, ...] = (),
     *,
-    rel_tol: float = 0.005,
-    max_rounds: int = 10,
-    points_per_round: int | None = None,
-    scheduler: str | None = None,
-    workers: int | None = None,
-    use_cache: bool = True,
-    horizon_check: bool = True,
+    search: BisectOptions = BisectOptions(),
+    run: RunOptions = DEFAULT_RUN,
     mode: str | None = None,
 ) -> dict[str, Any]:
     """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) on ``engine``.
 
-    With ``horizon_check``, the two ends of the final bracket are run again over twice the
-    scene's horizon; if either changes side, the answer depends on the run length: it is
-    reported with ``depends_on_horizon`` true, a ``warning``, and ``converged`` false.
+    ``search``: the tolerance, rounds, spins per round and horizon check
+    (:class:`BisectOptions`); ``run``: where the runs run (``scheduler``, ``workers``,
+    ``use_cache`` of :class:`~tippetop.compare.running.options.RunOptions`; the runner's bar
+    shows on a terminal). With ``search.horizon_check``, the two ends of the final bracket are
+    run again over twice the scene's horizon; if either changes side, the answer depends on
+    the run length: it is reported with ``depends_on_horizon`` true, a ``warning``, and
+    ``converged`` false.
 
     Returns:
         ``measured`` (bracket midpoint, rad/s), ``theory``, ``rel_diff`` (measured / theory - 1),
@@ -164,7 +181,7 @@ def bisect_threshold(
     plan = task.plan(base)  # the engine and mode are checked here, before any run
     engine, mode = plan.engine, plan.mode
     n_th = theory_value(which, plan.top)
-    k = points_per_round or max(2, workers or 2)
+    k = search.points_per_round or max(2, run.workers or 2)
     runs: list[dict[str, Any]] = []
     unsettled: list[float] = []
 
@@ -173,8 +190,8 @@ def bisect_threshold(
         def batch(spins: list[float], more: tuple[str, ...]) -> list[Any]:
             tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine, mode)
                      for n0 in spins]
-            out = run_tasks(tasks, scheduler=scheduler, workers=workers,
-                            use_cache=use_cache, label=f"{which} bisection")
+            out = run_tasks(tasks, scheduler=run.scheduler, workers=run.workers,
+                            use_cache=run.use_cache, label=f"{which} bisection")
             for res in out:
                 if res.error:
                     raise TippetopError(res.error)
@@ -210,8 +227,7 @@ def bisect_threshold(
 
     try:
         return {**_bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
-                          rel_tol=rel_tol, max_rounds=max_rounds, k=k,
-                          horizon=base.run.t_end_s, horizon_check=horizon_check, runs=runs,
+                          search=search, k=k, horizon=base.run.t_end_s, runs=runs,
                           unsettled=unsettled), "mode": mode}
     except _Failed as exc:  # every run so far is kept; no threshold is claimed
         return _failed_answer(exc, which, engine, mode, base, n_th, runs, unsettled)
@@ -255,10 +271,12 @@ def _failed_answer(exc: _Failed, which: str, engine: str, mode: str | None, base
 
 
 def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str, engine: str,
-            n_th: float, rel_tol: float, max_rounds: int, k: int, horizon: float,
-            horizon_check: bool, runs: list[dict[str, Any]],
-            unsettled: list[float]) -> dict[str, Any]:
-    """The bisection itself, on ``evaluate`` (True where a run is above the threshold)."""
+            n_th: float, search: BisectOptions, k: int, horizon: float,
+            runs: list[dict[str, Any]], unsettled: list[float]) -> dict[str, Any]:
+    """The bisection itself, on ``evaluate`` (True where a run is above the threshold).
+
+    ``search``'s ``rel_tol``, ``max_rounds`` and ``horizon_check`` apply; ``k`` spins a round.
+    """
     lo, hi = 0.8 * n_th, 1.25 * n_th
     for _ in range(4):  # widen the bracket until its ends disagree
         f_lo, f_hi = evaluate([lo, hi])
@@ -272,7 +290,7 @@ def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str,
         raise TippetopError(f"threshold: expected the outcome to change between n0 = {lo:.4g} "
                             f"and {hi:.4g} rad/s, got the same outcome at both ends")
     rounds = 0
-    while (hi - lo) / (0.5 * (hi + lo)) > rel_tol and rounds < max_rounds:
+    while (hi - lo) / (0.5 * (hi + lo)) > search.rel_tol and rounds < search.max_rounds:
         pts = [float(x) for x in np.linspace(lo, hi, k + 2)[1:-1]]
         flags = evaluate(pts)
         grid = [lo, *pts, hi]
@@ -282,10 +300,10 @@ def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str,
         lo, hi = grid[j - 1], grid[j]
         rounds += 1
     measured = 0.5 * (lo + hi)
-    bracket_ok = (hi - lo) / measured <= rel_tol
+    bracket_ok = (hi - lo) / measured <= search.rel_tol
     # Near a threshold the approach slows without bound: the ends of the final bracket run
     # again over twice the horizon must keep their sides, or the answer is the horizon's
-    if horizon_check:
+    if search.horizon_check:
         again = evaluate([lo, hi], (f"run.t_end_s={2.0 * horizon!r}",), record=False)
         depends = again != [False, True]
         check = {"horizon_s": 2.0 * horizon, "low_crossed": again[0],

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies import accuracy as acc
 from tippetop.compare.studies.accuracy.mujoco_study import predict_steps_wall
 from tippetop.models.errors import TippetopError
@@ -136,9 +137,11 @@ def test_pareto_picks_the_cheapest_qualifying_point() -> None:
 
 def test_run_accuracy_writes_csv_figure_and_table(tmp_path: Path) -> None:
     out = tmp_path / "acc"
-    summary = acc.run_accuracy(("fig3",), out, tolerances=(1e-6, 1e-8),
-                               methods=("dop853-compiled/vector", "dop853-compiled/paper"),
-                               t_end_s=0.5, stiff=False)
+    summary = acc.run_accuracy(("fig3",), out, t_end_s=0.5,
+                               ode=acc.OdeGrid(tolerances=(1e-6, 1e-8),
+                                               methods=("dop853-compiled/vector",
+                                                        "dop853-compiled/paper"),
+                                               stiff=False))
     csv = pd.read_csv(out / "accuracy_ode.csv")
     assert list(csv.columns) == list(acc.ACCURACY_COLUMNS)
     assert len(csv) == 4 and summary["n_points"] == 4 and summary["n_ok"] == 4
@@ -151,8 +154,8 @@ def test_run_accuracy_writes_csv_figure_and_table(tmp_path: Path) -> None:
     assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporary files
     before = csv.to_csv()
     with pytest.raises(TippetopError, match="--force"):
-        acc.run_accuracy(("fig3",), out, tolerances=(1e-6,),
-                         methods=("dop853-compiled/vector",), t_end_s=0.5)
+        acc.run_accuracy(("fig3",), out, t_end_s=0.5,
+                         ode=acc.OdeGrid(tolerances=(1e-6,), methods=("dop853-compiled/vector",)))
     assert pd.read_csv(out / "accuracy_ode.csv").to_csv() == before
 
 
@@ -160,8 +163,9 @@ def test_run_accuracy_puts_the_stiff_case_on_its_own_frontier(tmp_path: Path) ->
     """With the ODE, the study also writes Fig. 3 at Lambda = 1e-6 m/s: the reference with its
     rolling phases against the law throughout, both scored against the law at rtol 1e-11."""
     out = tmp_path / "acc"
-    res = acc.run_accuracy(("fig3",), out, tolerances=(1e-6,),
-                           methods=("dop853-compiled/vector",), t_end_s=0.3)
+    res = acc.run_accuracy(("fig3",), out, t_end_s=0.3,
+                           ode=acc.OdeGrid(tolerances=(1e-6,),
+                                           methods=("dop853-compiled/vector",)))
     assert res["engines"]["stiff"]["n_ok"] == 2  # one point per method: rolling and the law
     stiff = pd.read_csv(out / "accuracy_ode_stiff.csv")
     assert set(stiff["scene"]) == {"fig3_Lambda1e-06"}
@@ -330,11 +334,13 @@ def test_run_accuracy_both_engines(tmp_path: Path) -> None:
     before, plus accuracy_mujoco.csv (the same columns), a MuJoCo figure per scene and
     pareto_mujoco.md, which names the friction-model floor of native mode."""
     out = tmp_path / "acc"
-    res = acc.run_accuracy(("fig3",), out, tolerances=(1e-6,),
-                           methods=("dop853-compiled/vector",), t_end_s=0.3,
-                           engines=("ode", "mujoco"), integrators=("RK4", "Euler"),
-                           modes=("paper", "native"), timesteps=(1e-3, 5e-4), workers=2,
-                           stiff=False)
+    res = acc.run_accuracy(("fig3",), out, t_end_s=0.3, engines=("ode", "mujoco"),
+                           ode=acc.OdeGrid(tolerances=(1e-6,),
+                                           methods=("dop853-compiled/vector",), stiff=False),
+                           mujoco=acc.MujocoGrid(integrators=("RK4", "Euler"),
+                                                 modes=("paper", "native"),
+                                                 timesteps=(1e-3, 5e-4)),
+                           run=RunOptions(workers=2))
     ode = pd.read_csv(out / "accuracy_ode.csv")
     mj = pd.read_csv(out / "accuracy_mujoco.csv")
     assert list(ode.columns) == list(mj.columns) == list(acc.ACCURACY_COLUMNS)

@@ -19,10 +19,14 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.measures import theory
+from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies.growth import growth_fit, jellett_pi_to_zero, measure_growth
 from tippetop.compare.studies.threshold import measure_threshold
 from tippetop.models.errors import TippetopError
 from tippetop.models.scene import load_scene
+
+#: The growth-rate runs on one local worker (cached in the test's own folder).
+ONE_WORKER = RunOptions(workers=1)
 
 
 @pytest.fixture(autouse=True)
@@ -62,7 +66,7 @@ def test_n1_in_the_reference_on_other_tops(A_over_C: float, a_over_R: float,
                                            C_factor: float) -> None:
     over = (f"top.A_over_C={A_over_C}", f"top.a_over_R={a_over_R}", f"top.C_factor={C_factor}")
     top = load_scene("fig11_n060", list(over)).top
-    res = measure_growth("fig11_n060", "ode", "n1", over, workers=1)
+    res = measure_growth("fig11_n060", "ode", "n1", over, run=ONE_WORKER)
     assert res["settled"] and res["converged"] and res["method"] == "growth"
     assert abs(res["measured"] / theory.n1(top) - 1) <= 1e-3
     # the rate changes sign across the answer: decaying below, growing above
@@ -88,7 +92,7 @@ def test_nc_below_r_c_is_n1() -> None:
     # Fig. 9 (d) (A/C = 0.95 < r_c = 0.96): n4 = 44.4 < n1 = 51.4, so n_c = n1
     over = ("top.A_over_C=0.95", "top.a_over_R=0.1")
     top = load_scene("fig11_n060", list(over)).top
-    res = measure_growth("fig11_n060", "ode", "nc", over, workers=1)
+    res = measure_growth("fig11_n060", "ode", "nc", over, run=ONE_WORKER)
     assert res["measured"] == pytest.approx(res["n1"]) and res["n1"] > res["n4"]
     assert abs(res["measured"] / theory.n_c(top) - 1) <= 1e-3
 
@@ -96,7 +100,7 @@ def test_nc_below_r_c_is_n1() -> None:
 def test_a_group_one_top_has_no_n1() -> None:
     # A/C = 0.8 < 1 - a/R: the upright state decays at every spin scanned, so no n1 exists
     over = ("top.A_over_C=0.8", "top.a_over_R=0.1")
-    res = measure_growth("fig11_n060", "ode", "n1", over, workers=1)
+    res = measure_growth("fig11_n060", "ode", "n1", over, run=ONE_WORKER)
     assert res["measured"] is None and "stable at every spin" in res["warning"]
     assert all(r["rate_per_s"] < 0 for r in res["rates"])
     with pytest.raises(TippetopError, match="no sign change"):

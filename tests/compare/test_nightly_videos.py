@@ -88,7 +88,7 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
     def fake_render_scene(scene: Scene, out: Path, **kw: Any) -> render.RenderResult:
         calls[scene.name] = (scene.run.t_end_s, kw)
         out = Path(out)
-        n = video.frame_count(scene.run.t_end_s, kw["fps"], kw["speed"])
+        n = video.frame_count(scene.run.t_end_s, kw["video"].fps, kw["video"].speed)
         if scene.name == "fig3":  # a crash half-way through writing
             out.write_bytes(b"partial")
             (out.parent / f".{out.name}.x1y2.tmp").write_bytes(b"partial")
@@ -104,7 +104,8 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
             out.write_bytes(b"a video")
         return render.RenderResult(path=out, engines=("mujoco", "ode"), backend="egl",
                                    n_frames=n,
-                                   width=640, height=240, fps=kw["fps"], speed=kw["speed"],
+                                   width=640, height=240, fps=kw["video"].fps,
+                                   speed=kw["video"].speed,
                                    video_s=1.0, render_wall_s=0.5)
 
     monkeypatch.setattr(render, "render_scene", fake_render_scene)
@@ -132,10 +133,11 @@ def test_every_failure_is_listed_on_one_line_and_leaves_no_file(
     # the arguments: side by side, within the cap, said as it goes
     assert sorted(calls) == ["fig3", "fig4", "fig6", "fig8a", "fig8b"]
     for t_end, kw in calls.values():
-        assert kw["engines"] == ("mujoco", "ode") and kw["max_frames"] == videos.VIDEO_MAX_FRAMES
-        assert kw["speed"] == videos.video_speed(t_end)
-        assert video.frame_count(t_end, kw["fps"], kw["speed"]) <= videos.VIDEO_MAX_FRAMES
-        assert callable(kw["say"]) and kw["progress"] is False
+        shot = kw["video"]
+        assert kw["engines"] == ("mujoco", "ode") and shot.max_frames == videos.VIDEO_MAX_FRAMES
+        assert shot.speed == videos.video_speed(t_end)
+        assert video.frame_count(t_end, shot.fps, shot.speed) <= videos.VIDEO_MAX_FRAMES
+        assert callable(kw["say"]) and kw["run"].progress is False
 
 
 def test_real_short_videos_are_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -28,6 +28,7 @@ from tippetop.compare import cli
 from tippetop.compare.commands import render as render_command
 from tippetop.compare.presentation import video as pvideo
 from tippetop.compare.running.engines import run_engine
+from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies import render
 from tippetop.models.errors import TippetopError
 from tippetop.models.frames import quat_to_mat
@@ -65,8 +66,10 @@ def videos(tmp_path_factory: pytest.TempPathFactory, backend: str) -> dict[str, 
         mp.setenv("MUJOCO_GL", backend)  # restored afterwards; render_scene writes it
         for engine in ("mujoco", "both"):
             engines = ("mujoco", "ode") if engine == "both" else (engine,)
-            res = render.render_scene(scene, folder / f"{engine}.mp4", engines=engines, fps=FPS,
-                                      speed=SPEED, size=(W, H), progress=False)
+            res = render.render_scene(scene, folder / f"{engine}.mp4", engines=engines,
+                                      video=render.VideoOptions(fps=FPS, speed=SPEED,
+                                                                size=(W, H)),
+                                      run=RunOptions(progress=False))
             assert res.n_frames == N_FRAMES and res.backend == backend
             out[engine] = res.path
     return out

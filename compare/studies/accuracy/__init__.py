@@ -2,8 +2,8 @@
 
 :mod:`.common` (the columns, the reference run, scoring), :mod:`.ode_study`,
 :mod:`.mujoco_study`, :mod:`.pareto` (the cheapest point per accuracy), :mod:`.figures` and
-:mod:`.study` (:func:`run_accuracy`, ``tippetop bench accuracy``). The study is described in
-docs/design.md.
+:mod:`.study` (:func:`run_accuracy`, with its :class:`OdeGrid` and :class:`MujocoGrid`,
+``tippetop bench accuracy``). The study is described in docs/design.md.
 """
 
 from __future__ import annotations
@@ -39,6 +39,8 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "series_summary": "pareto",
     "mujoco_work_precision_figure": "figures",
     "work_precision_figure": "figures",
+    "MujocoGrid": "study",
+    "OdeGrid": "study",
     "run_accuracy": "study",
 })
 
@@ -46,7 +48,8 @@ __all__ = [
     "ACCURACY_COLUMNS", "ATOL_PER_RTOL", "DEFAULT_BUDGET_S", "DEFAULT_INTEGRATORS",
     "DEFAULT_METHODS", "PEER_METHODS", "default_methods", "DEFAULT_MODES",
     "DEFAULT_MUJOCO_BUDGET_S", "DEFAULT_THRESHOLDS",
-    "DEFAULT_TIMESTEPS", "DEFAULT_TOLERANCES", "MUJOCO_NOTES", "REFERENCE_RTOL",
+    "DEFAULT_TIMESTEPS", "DEFAULT_TOLERANCES", "MUJOCO_NOTES", "MujocoGrid", "OdeGrid",
+    "REFERENCE_RTOL",
     "STATUS_DIVERGED", "STATUS_OK", "STATUS_SKIPPED", "Reference", "mujoco_pareto_markdown",
     "mujoco_work_precision", "mujoco_work_precision_figure", "ode_work_precision",
     "pareto_front", "pareto_markdown", "pareto_table", "reference_run", "run_accuracy",

@@ -10,6 +10,7 @@ from typing import Any
 import pandas as pd
 
 from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
+from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.studies.accuracy.common import (
     DEFAULT_THRESHOLDS,
     STATUS_DIVERGED,
@@ -48,6 +49,45 @@ from tippetop.compare.studies.accuracy.pareto import (
 from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.scene import Scene
+
+
+@dataclass(frozen=True)
+class OdeGrid:
+    """The reference ODE's points of the study; the defaults are ``tippetop bench accuracy``'s.
+
+    Attributes:
+        tolerances: The rtol ladder.
+        methods: The methods run (None: ``default_methods()``, with numbalsoda's DOP853 and
+            LSODA when it is installed).
+        budget_s: Per-point wall-time budget (s).
+        stiff: Also the stiff case on its own frontier: Fig. 3 at Lambda = 1e-6 m/s
+            (:func:`stiff_work_precision`: the reference with its rolling phases and the law
+            throughout, scored against the law at rtol 1e-11), written as
+            ``accuracy_ode_stiff.csv``, ``accuracy_ode_<scene>_Lambda1e-06.png`` and
+            ``pareto_ode_stiff.md`` (``stiff`` in the returned ``engines``).
+    """
+
+    tolerances: Sequence[float] = DEFAULT_TOLERANCES
+    methods: Sequence[str] | None = None
+    budget_s: float = DEFAULT_BUDGET_S
+    stiff: bool = True
+
+
+@dataclass(frozen=True)
+class MujocoGrid:
+    """MuJoCo's points of the study; the defaults are ``tippetop bench accuracy``'s.
+
+    Attributes:
+        integrators: The integrators.
+        timesteps: The timesteps (s).
+        modes: The friction modes.
+        budget_s: Per-point wall-time budget (s).
+    """
+
+    integrators: Sequence[str] = DEFAULT_INTEGRATORS
+    timesteps: Sequence[float] = DEFAULT_TIMESTEPS
+    modes: Sequence[str] = DEFAULT_MODES
+    budget_s: float = DEFAULT_MUJOCO_BUDGET_S
 
 
 @dataclass(frozen=True)
@@ -160,20 +200,14 @@ def run_accuracy(
     scene_names: Sequence[str] = ("fig3", "fig11_n060"),
     out_dir: str | Path = ".",
     *,
-    tolerances: Sequence[float] = DEFAULT_TOLERANCES,
-    methods: Sequence[str] | None = None,
-    budget_s: float = DEFAULT_BUDGET_S,
+    engines: Sequence[str] = ("ode",),
+    ode: OdeGrid = OdeGrid(),
+    mujoco: MujocoGrid = MujocoGrid(),
     thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
     t_end_s: float | None = None,
     force: bool = False,
+    run: RunOptions = DEFAULT_RUN,
     log: Callable[[str], None] | None = None,
-    engines: Sequence[str] = ("ode",),
-    integrators: Sequence[str] = DEFAULT_INTEGRATORS,
-    timesteps: Sequence[float] = DEFAULT_TIMESTEPS,
-    modes: Sequence[str] = DEFAULT_MODES,
-    mujoco_budget_s: float = DEFAULT_MUJOCO_BUDGET_S,
-    workers: int | None = None,
-    stiff: bool = True,
 ) -> dict[str, Any]:
     """Work-precision study; writes the CSV, the figures and the table of each engine.
 
@@ -182,31 +216,22 @@ def run_accuracy(
     ``pareto_ode.md``; MuJoCo ``accuracy_mujoco.csv``, ``accuracy_mujoco_<scene>.png`` and
     ``pareto_mujoco.md``. Both engines are scored against one :func:`reference_run` per scene.
     The ODE points run in this process, one at a time (their timings are sub-second); then the
-    MuJoCo series run on ``workers`` processes.
+    MuJoCo series run on ``run.workers`` processes.
 
     Args:
         scene_names: Scene files or catalogue names.
         out_dir: An existing folder (created if missing).
-        tolerances: ODE rtol ladder.
-        methods: ODE methods to run (None: ``default_methods()``, with numbalsoda's DOP853
-            and LSODA when it is installed).
-        budget_s: Per-point wall-time budget of the ODE (s).
+        engines: ``ode`` and/or ``mujoco`` (default: the ODE only, as before the MuJoCo half;
+            the command line runs both).
+        ode: The ODE's rtol ladder, methods, budget and stiff case (:class:`OdeGrid`).
+        mujoco: MuJoCo's integrators, timesteps, modes and budget (:class:`MujocoGrid`).
         thresholds: Pareto thresholds on max |theta error| (rad).
         t_end_s: Cut every scene's run to this time (s); None keeps each scene's.
         force: Overwrite existing output files.
+        run: Its ``workers``: processes for the MuJoCo series (None: all cores). The points
+            are timed, so they run on this machine and are never cached: the other fields are
+            not read.
         log: Called with one line per finished point.
-        engines: ``ode`` and/or ``mujoco`` (default: the ODE only, as before the MuJoCo half;
-            the command line runs both).
-        integrators: MuJoCo integrators.
-        timesteps: MuJoCo timesteps (s).
-        modes: MuJoCo friction modes.
-        mujoco_budget_s: Per-point wall-time budget of MuJoCo (s).
-        workers: Processes for the MuJoCo series (None: all cores).
-        stiff: With the ODE, also the stiff case on its own frontier: Fig. 3 at Lambda =
-            1e-6 m/s (:func:`stiff_work_precision`: the reference with its rolling phases and
-            the law throughout, scored against the law at rtol 1e-11), written as
-            ``accuracy_ode_stiff.csv``, ``accuracy_ode_<scene>_Lambda1e-06.png`` and
-            ``pareto_ode_stiff.md`` (``stiff`` in the returned ``engines``).
 
     Returns:
         ``csv``, ``pareto_md`` (the ODE's when it ran, else MuJoCo's), ``figures`` (all),
@@ -229,24 +254,27 @@ def run_accuracy(
     scenes = [cut_scene(name, t_end_s) for name in scene_names]
     expect(len(scenes) > 0, "scene", "at least one scene", list(scene_names))
     if "mujoco" in engines:
-        dts = check_mujoco_args(integrators, modes, timesteps, mujoco_budget_s)
-    files = _output_files(out, engines, scenes, stiff, t_end_s)
+        dts = check_mujoco_args(mujoco.integrators, mujoco.modes, mujoco.timesteps,
+                                mujoco.budget_s)
+    files = _output_files(out, engines, scenes, ode.stiff, t_end_s)
     _claim_output(out, files, force)
     refs = [reference_run(s) for s in scenes]
     done = _Gathered()
     if "ode" in engines:
-        _finish(done, "ode", [ode_work_precision(s, tolerances=tolerances, methods=methods,
-                                                 budget_s=budget_s, reference=ref, log=log)
+        _finish(done, "ode", [ode_work_precision(s, tolerances=ode.tolerances,
+                                                 methods=ode.methods, budget_s=ode.budget_s,
+                                                 reference=ref, log=log)
                               for s, ref in zip(scenes, refs, strict=True)],
                 files["ode"], thresholds)
     if "stiff" in files:
         _finish(done, "stiff", [stiff_work_precision(STIFF_SCENE, Lambda_mps=STIFF_LAMBDA_MPS,
-                                                     t_end_s=t_end_s, tolerances=tolerances,
-                                                     budget_s=budget_s, log=log)],
+                                                     t_end_s=t_end_s,
+                                                     tolerances=ode.tolerances,
+                                                     budget_s=ode.budget_s, log=log)],
                 files["stiff"], thresholds)
     if "mujoco" in engines:
-        rows = mujoco_rows(list(zip(scenes, refs, strict=True)), integrators, modes, dts,
-                           mujoco_budget_s, workers, log)
+        rows = mujoco_rows(list(zip(scenes, refs, strict=True)), mujoco.integrators,
+                           mujoco.modes, dts, mujoco.budget_s, run.workers, log)
         _finish(done, "mujoco", [mujoco_frame(r, ref) for r, ref in zip(rows, refs, strict=True)],
                 files["mujoco"], thresholds)
     return _summary(done, engines)
