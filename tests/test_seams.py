@@ -19,11 +19,8 @@ _OVERRIDE_TEXT = re.compile(r"^(scene|top|friction|stem|effects|init|run|ode|muj
 #: Where override text belongs: the command line (``--set`` parsed once) and models/ (the
 #: scene files' own language: the modes' settings, the parser).
 _TEXT_ALLOWED = ("compare/commands/", "models/")
-#: Modules of compare that still spell overrides as text (issue 42, item 1). The list may only
-#: shrink.
-OVERRIDE_TEXT_TODO = frozenset({
-    "compare/studies/threshold.py",
-})
+#: Modules of compare that still spell overrides as text (issue 42, item 1): none.
+OVERRIDE_TEXT_TODO: frozenset[str] = frozenset()
 
 
 def _override_texts(path: Path) -> list[int]:

@@ -191,7 +191,7 @@ class Search:
 
     scene: str | None
     engine: str
-    overrides: tuple[str, ...]
+    overrides: tuple[Override | str, ...]
     state: str
     start: tuple[float, float] | None
     rel_tol: float = REL_TOL
@@ -287,7 +287,7 @@ class GrowthOptions:
 
 
 def measure_growth(scene: str | None, engine: str, which: str,
-                   overrides: tuple[str, ...] = (), *,
+                   overrides: tuple[Override | str, ...] = (), *,
                    search: GrowthOptions = GrowthOptions(),
                    run: RunOptions = DEFAULT_RUN,
                    label: str = "growth rates", mode: str | None = None) -> dict[str, Any]:

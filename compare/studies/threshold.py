@@ -18,6 +18,7 @@ from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Override
 
 if TYPE_CHECKING:
     from tippetop.models.scene import Scene
@@ -81,7 +82,7 @@ def measure_threshold(
     scene: str | None,
     engine: str,
     which: str,
-    overrides: tuple[str, ...] = (),
+    overrides: tuple[Override | str, ...] = (),
     *,
     method: str | None = None,
     rel_tol: float | None = None,
@@ -150,7 +151,7 @@ def bisect_threshold(
     scene: str | None,
     engine: str,
     which: str,
-    overrides: tuple[str, ...] = (),
+    overrides: tuple[Override | str, ...] = (),
     *,
     search: BisectOptions = BisectOptions(),
     run: RunOptions = DEFAULT_RUN,
@@ -185,10 +186,10 @@ def bisect_threshold(
     runs: list[dict[str, Any]] = []
     unsettled: list[float] = []
 
-    def evaluate(n0s: list[float], extra: tuple[str, ...] = (),
+    def evaluate(n0s: list[float], extra: tuple[Override, ...] = (),
                  record: bool = True) -> list[bool]:
-        def batch(spins: list[float], more: tuple[str, ...]) -> list[Any]:
-            tasks = [Task(scene, (*overrides, *more, f"init.n0={n0!r}"), engine, mode)
+        def batch(spins: list[float], more: tuple[Override, ...]) -> list[Any]:
+            tasks = [Task(scene, (*overrides, *more, Override.of("init.n0", n0)), engine, mode)
                      for n0 in spins]
             out = run_tasks(tasks, scheduler=run.scheduler, workers=run.workers,
                             use_cache=run.use_cache, label=f"{which} bisection")
@@ -199,8 +200,8 @@ def bisect_threshold(
 
         results = dict(zip(n0s, batch(n0s, extra), strict=True))
         _stop_if_failed(which, results, runs)
-        horizon_here = next((float(x.split("=", 1)[1]) for x in reversed(extra)
-                             if x.startswith("run.t_end_s=")), base.run.t_end_s)
+        horizon_here = next((float(x.value) for x in reversed(extra)
+                             if x.name == "run.t_end_s"), base.run.t_end_s)
         # n_c: a run whose final state is still moving is continued (the horizon doubled, at
         # most SETTLE_DOUBLINGS times) until it settles; one that never does stays unsettled
         for k in range(1, SETTLE_DOUBLINGS + 1 if which == "nc" else 1):
@@ -208,7 +209,7 @@ def bisect_threshold(
                       if classify_outcome(r.table) == "inconclusive"]
             if not moving:
                 break
-            longer = (*extra, f"run.t_end_s={horizon_here * 2**k!r}")
+            longer = (*extra, Override.of("run.t_end_s", horizon_here * 2**k))
             results.update(zip(moving, batch(moving, longer), strict=True))
         flags = []
         for n0 in n0s:
@@ -304,7 +305,7 @@ def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str,
     # Near a threshold the approach slows without bound: the ends of the final bracket run
     # again over twice the horizon must keep their sides, or the answer is the horizon's
     if search.horizon_check:
-        again = evaluate([lo, hi], (f"run.t_end_s={2.0 * horizon!r}",), record=False)
+        again = evaluate([lo, hi], (Override.of("run.t_end_s", 2.0 * horizon),), record=False)
         depends = again != [False, True]
         check = {"horizon_s": 2.0 * horizon, "low_crossed": again[0],
                  "high_crossed": again[1], "depends_on_horizon": depends}
