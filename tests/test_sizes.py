@@ -32,9 +32,6 @@ COMPILED_BY_CALL = frozenset({
 #: objects in their place). The list may only shrink: a function that leaves it must leave it
 #: here too, and no function may join it.
 OVER_PARAMETERS_TODO = frozenset({
-    ("compare/tuning/tune.py", "_settle"),
-    ("compare/tuning/tune.py", "tune"),
-    ("compare/tuning/widen.py", "widen"),
     ("mujoco_runner/worker/mjx_stepper.py", "table_pass"),
     ("mujoco_runner/worker/mjx_stepper.py", "window_add"),
     ("reference_ode/adams.py", "run"),

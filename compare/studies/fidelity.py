@@ -222,6 +222,9 @@ def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float
     Raises:
         TippetopError: A top the scene does not admit (the caller has made its row).
     """
+    from tippetop.compare.running.options import RunOptions
+    from tippetop.compare.tuning.judge import TuneEffort, TuneFile
+
     if tune_fn is None:
         from tippetop.compare.tuning.tune import tune as tune_fn
     t0 = time.perf_counter()
@@ -232,11 +235,11 @@ def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float
     def outcome_at(n: float, th0: float, role: str) -> tuple[float | None, str]:
         return predicted_outcome(top, float(theory.jellett_from_spin(top, n, th0, 0.0)))
 
-    given = {"budget_runs": budget_runs, "threads": threads,
-             "reference_workers": reference_workers}
-    kwargs: dict[str, Any] = {"run_options": run_options, "progress": progress,
-                              "theory": outcome_at, "A_over_C": top.A_over_C,
-                              **{k: v for k, v in given.items() if v is not None}}
+    kwargs: dict[str, Any] = {
+        "file": TuneFile(A_over_C=top.A_over_C, theory=outcome_at),
+        "run": RunOptions(**run_options, progress=progress),
+        "effort": TuneEffort(threads=threads, reference_workers=reference_workers),
+        **({} if budget_runs is None else {"budget_runs": budget_runs})}
     tuned: dict[str, Any] | None = None
     error = None
     try:

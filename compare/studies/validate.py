@@ -491,7 +491,8 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
     See :func:`tippetop.compare.tuning.tune.tune`: fitted to the reference at the file's
     start, verified from held-out starts.
     """
-    from tippetop.compare.tuning.tune import tune
+    from tippetop.compare.running.options import RunOptions
+    from tippetop.compare.tuning.tune import TuneFile, tune
 
     if (runs.get(REFERENCE_RUN) or {}).get("status") != "ok":
         return {"skipped": "the reference run from the file's start did not complete",
@@ -515,12 +516,12 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
             pass
     try:
         out = tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
-                    file_run=file_run, file_timestep_s=file_run.get("timestep_s"),
-                    file_integrator=file_run.get("integrator"),
-                    run_options={"scheduler": config.scheduler, "workers": config.workers,
-                                 "use_cache": config.use_cache},
-                    progress=config.progress, theory=outcome_at, A_over_C=top.A_over_C,
-                    budget_runs=config.budget_runs)
+                   file=TuneFile(run=file_run, timestep_s=file_run.get("timestep_s"),
+                                 integrator=file_run.get("integrator"),
+                                 A_over_C=top.A_over_C, theory=outcome_at),
+                   run=RunOptions(scheduler=config.scheduler, workers=config.workers,
+                                  use_cache=config.use_cache, progress=config.progress),
+                   budget_runs=config.budget_runs)
     except TippetopError as exc:
         return {"skipped": str(exc), "agrees": False}
     if path is not None:

@@ -7,10 +7,12 @@ tuning (:mod:`.tune`) and its widening (:mod:`.widen`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
+from tippetop.compare.tuning.calibrate.identify import MAX_ITERS
 from tippetop.models.numbers import number_text
 from tippetop.models.scene import Override
 
@@ -48,6 +50,54 @@ class TuneStart:
     def label(self) -> str:
         """``n0 = 150 rad/s, theta0 = 0.04 rad`` (:func:`start_label`)."""
         return start_label(self.n0, self.theta0)
+
+
+@dataclass(frozen=True)
+class TuneFile:
+    """What the tuning knows of the file besides its start: its own run, its top, the theory.
+
+    Attributes:
+        run: The file's own run as validate has it (its settings seed the fit).
+        timestep_s: The file's timestep (s).
+        integrator: The file's integrator.
+        A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
+        theory: (n0, theta0, role) -> the theory's theta_s and outcome at that start
+            (``fit``: the file's own start, with its precession); None: the reference's
+            outcome, no theta_s.
+    """
+
+    run: dict[str, Any] | None = None
+    timestep_s: float | None = None
+    integrator: str | None = None
+    A_over_C: float | None = None
+    theory: Callable[[float, float, str], tuple[float | None, str]] | None = None
+
+
+#: A file the tuning knows nothing of besides its start (every field None).
+NO_FILE = TuneFile()
+
+
+@dataclass(frozen=True)
+class TuneEffort:
+    """How far the tuning's fits go and what its runs run on.
+
+    Only ``max_iters`` can change the answer: the threads and processes do not.
+
+    Attributes:
+        max_iters: Levenberg-Marquardt iterations per fit at most.
+        threads: Threads of the fit's rollouts (None: every core this process may use); each
+            rollout is stepped alone.
+        reference_workers: Local worker processes of the reference's runs (None: the run
+            options' own; 1: in this process, which then starts none).
+    """
+
+    max_iters: int = MAX_ITERS
+    threads: int | None = None
+    reference_workers: int | None = None
+
+
+#: The tuning's own effort: :data:`MAX_ITERS` iterations, every core, the runs' processes.
+DEFAULT_EFFORT = TuneEffort()
 
 
 def start_label(n0: float, theta0: float) -> str:
@@ -100,6 +150,6 @@ def mjcf_block(ran: dict[str, Any]) -> str:
     return out if pair is None else f"{out}\n{pair}"
 
 
-__all__ = ["HELD_OUT", "MIN_TILT_STEP_RAD", "N_STARTS", "WIDENED", "TuneStart", "agrees",
-           "departs", "min_budget_runs", "mjcf_block", "passes", "start_label", "starts_for",
-           "widening_step"]
+__all__ = ["DEFAULT_EFFORT", "HELD_OUT", "MIN_TILT_STEP_RAD", "NO_FILE", "N_STARTS", "WIDENED",
+           "TuneEffort", "TuneFile", "TuneStart", "agrees", "departs", "min_budget_runs",
+           "mjcf_block", "passes", "start_label", "starts_for", "widening_step"]

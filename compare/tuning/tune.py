@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
+from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 from tippetop.compare.tuning.calibrate.identify import (
     FITTED,
     FITTED_WIDE,
     LIFT_FREE_FITTED,
-    MAX_ITERS,
     STALL_FRACTION,
     WIDE_MU,
     Bounds,
@@ -39,8 +39,12 @@ from tippetop.compare.tuning.calibrate.identify import (
 )
 from tippetop.compare.tuning.calibrate.scoring import Candidate, standard_seeds
 from tippetop.compare.tuning.judge import (
+    DEFAULT_EFFORT,
     HELD_OUT,
+    NO_FILE,
     WIDENED,
+    TuneEffort,
+    TuneFile,
     TuneStart,
     min_budget_runs,
     start_label,
@@ -51,7 +55,7 @@ from tippetop.compare.tuning.judge import agrees as _agrees
 from tippetop.compare.tuning.judge import departs as _departs
 from tippetop.compare.tuning.judge import mjcf_block as _mjcf
 from tippetop.compare.tuning.judge import passes as _passes
-from tippetop.compare.tuning.widen import WIDEN_ONE_IN, widen, widen_reserve
+from tippetop.compare.tuning.widen import WIDEN_ONE_IN, Refit, WidenRuns, widen, widen_reserve
 from tippetop.models.calibrated import calibrated_native_settings
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import run_label
@@ -156,14 +160,9 @@ def _say(progress: bool) -> Callable[[str], None] | None:
 
 
 def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_s: float, *,
-         file_run: dict[str, Any] | None = None, file_timestep_s: float | None = None,
-         file_integrator: str | None = None, run_options: dict[str, Any] | None = None,
-         max_iters: int = MAX_ITERS, progress: bool = True,
-         theory: Callable[[float, float, str], tuple[float | None, str]] | None = None,
-         A_over_C: float | None = None,
+         file: TuneFile = NO_FILE, run: RunOptions = DEFAULT_RUN,
          budget_runs: int = DEFAULT_BUDGET_RUNS,
-         threads: int | None = None,
-         reference_workers: int | None = None) -> dict[str, Any]:
+         effort: TuneEffort = DEFAULT_EFFORT) -> dict[str, Any]:
     """Fit the file's contact settings to the reference and verify them.
 
     The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
@@ -184,21 +183,13 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
         t_end_s: Horizon of the verification runs (s); a start whose reference is still
             moving at its end is verified over a longer one, up to
             :data:`HORIZON_FACTOR_MAX` times it (:func:`settled_references`).
-        file_run: The file's own run as validate has it (its settings seed the fit).
-        file_timestep_s: The file's timestep (s).
-        file_integrator: The file's integrator.
-        run_options: Keyword arguments of :func:`run_tasks`.
-        max_iters: Levenberg-Marquardt iterations per fit at most.
-        progress: Progress lines on a terminal.
-        theory: (n0, theta0, role) -> the theory's theta_s and outcome at that start
-            (``fit``: the file's own start, with its precession).
-        A_over_C: The top's A/C (names a first-order integrator's Jellett drift).
+        file: The file's own run, step and integrator (its settings seed the fit), its top's
+            A/C and the theory at a start.
+        run: How the runs run: ``scheduler``, ``workers`` and ``use_cache`` reach
+            :func:`run_tasks`; ``progress``: progress lines on a terminal.
         budget_runs: MuJoCo runs (rollouts and verification runs) the tuning may use, at
             least :func:`min_budget_runs`.
-        threads: Threads of the fit's rollouts (None: every core this process may use). The
-            answer does not depend on it: each rollout is stepped alone.
-        reference_workers: Local worker processes of the reference's runs (None:
-            ``run_options``' own; 1: in this process, which then starts none).
+        effort: The fits' iterations and threads, the reference's worker processes.
 
     Returns:
         ``settings``, ``mjcf``, ``fit`` ({starts, residual, runs, budget_runs, ...}),
@@ -215,13 +206,14 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
         raise TippetopError(f"--budget-runs: expected at least {min_budget_runs()} (one seed "
                             f"scored and its {min_budget_runs() - 1} starts verified), got "
                             f"{budget_runs}")
-    opts = dict(run_options or {})
-    say = _say(progress)
+    opts = {"scheduler": run.scheduler, "workers": run.workers, "use_cache": run.use_cache}
+    say = _say(run.progress)
     # the fits and their seeds stay within the budget less the widening's reserve
     main_budget = budget_runs - widen_reserve(budget_runs)
     t0 = time.perf_counter()
     starts = starts_for(n0, theta0)
-    ref_opts = opts if reference_workers is None else {**opts, "workers": reference_workers}
+    workers = effort.reference_workers
+    ref_opts = opts if workers is None else {**opts, "workers": workers}
     horizon = Override.of("run.t_end_s", t_end_s)
     refs = run_tasks([Task(None, (*base, *s.overrides(), horizon), "ode", "paper")
                       for s in starts], label="tune reference", **ref_opts)
@@ -230,12 +222,12 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
             raise TippetopError(f"tune: the reference run from {s.label()} failed: {r.error}")
     # each start verified over a horizon its reference settles in (the fit keeps t_end_s)
     horizons, verify_refs = settled_references(base, starts, refs, t_end_s, ref_opts)
-    fit = _fit_setup(base, starts[0], refs[0], mu, t_end_s, file_run, file_timestep_s, threads)
-    runs = _Runs(base, starts, verify_refs, horizons, opts, theory, A_over_C,
+    fit = _fit_setup(base, starts[0], refs[0], mu, t_end_s, file, effort.threads)
+    runs = _Runs(base, starts, verify_refs, horizons, opts, file,
                  [fit.problem, fit.lift_free])  # every fit's rollouts count
     # each cone: its seeds, one fit, its verification (the second cone only if needed)
-    tried = _fit_families(fit, runs, fit_order(file_run, fit.wide), mu, main_budget, max_iters,
-                          say, file_integrator, file_timestep_s)
+    tried = _fit_families(fit, runs, fit_order(file.run, fit.wide), mu, main_budget,
+                          effort.max_iters, say)
     # the answer: the cone whose settings agree, else the fit with the smallest residual
     pick = next((t for t in tried if _agrees(t["verified"])),
                 min(tried, key=lambda t: t["found"].rms_rad))
@@ -249,7 +241,7 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
     widened: dict[str, Any] | None = None
     if not _agrees(answer["verified"]) and budget_runs - runs.spent() >= 2 * len(starts):
         # the fits and their seeds depart: the widening, from the runs kept back for it
-        answer, widened = _widen(fit, runs, answer, budget_runs, max_iters, say)
+        answer, widened = _widen(fit, runs, answer, budget_runs, effort.max_iters, say)
     return _report(fit, runs, answer, tried, pick["found"], widened, budget_runs, t0)
 
 
@@ -269,13 +261,12 @@ class _Fit:
 
 
 def _fit_setup(base: tuple[Override, ...], start: TuneStart, fit_ref: Any, mu: float,
-               t_end_s: float, file_run: dict[str, Any] | None, file_timestep_s: float | None,
-               threads: int | None) -> _Fit:
+               t_end_s: float, file: TuneFile, threads: int | None) -> _Fit:
     """The fit at the file's start: its horizon, step, bounds, problems and seeds."""
     t_fit = fit_horizon(fit_ref.summary or {}, t_end_s)
     fit_start = FitStart(start.label(), None,
                          (*base, *start.overrides(), Override.of("run.t_end_s", t_fit)), t_fit)
-    dt = min(file_timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
+    dt = min(file.timestep_s or FIT_TIMESTEP_S, FIT_TIMESTEP_S)
     wide = mu >= WIDE_MU
     bounds = Bounds.wide(mu, dt) if wide else Bounds.around(mu, dt)
     from tippetop.mujoco_runner.batch import default_threads
@@ -285,7 +276,7 @@ def _fit_setup(base: tuple[Override, ...], start: TuneStart, fit_ref: Any, mu: f
     ball_until = [math.inf if stem is None else float(stem)]
     problem = Problem([fit_start], [reference_theta(fit_ref.table, t_fit)], dt, FIT_INTEGRATOR,
                       bounds, threads, ball_until, fitted=FITTED_WIDE if wide else FITTED)
-    starting = seeds(mu, file_run, dt)
+    starting = seeds(mu, file.run, dt)
     lift_free = Problem([fit_start], problem.references, dt, FIT_INTEGRATOR,
                         Bounds.lift_free(), threads, ball_until, fitted=LIFT_FREE_FITTED)
     return _Fit(fit_start, dt, wide, bounds, threads, ball_until, problem, lift_free, starting)
@@ -300,8 +291,7 @@ class _Runs:
     refs: list[Any]
     horizons: list[float]
     opts: dict[str, Any]
-    theory: Callable[[float, float, str], tuple[float | None, str]] | None
-    A_over_C: float | None
+    file: TuneFile
     problems: list[Problem]
     verify_runs: int = 0
     alternatives: list[dict[str, Any]] = field(default_factory=list)
@@ -333,9 +323,10 @@ class _Runs:
                                  "passed": None, "note": f"not verifiable: the reference stops "
                                  f"({runs[REFERENCE_RUN].get('message')})"})
                 continue
-            theta_s, outcome = (self.theory(s.n0, s.theta0, s.role) if self.theory
+            theory = self.file.theory
+            theta_s, outcome = (theory(s.n0, s.theta0, s.role) if theory
                                 else (None, runs[REFERENCE_RUN]["outcome"]))
-            checks = [c for c in verdict(runs, outcome, self.A_over_C, theta_s=theta_s)
+            checks = [c for c in verdict(runs, outcome, self.file.A_over_C, theta_s=theta_s)
                       if c["run"] == tuned]
             verified.append({"n0": s.n0, "theta0": s.theta0, "role": s.role, "t_end_s": t_end,
                              "theory_outcome": outcome, "checks": checks,
@@ -346,9 +337,7 @@ class _Runs:
 
 
 def _fit_families(fit: _Fit, runs: _Runs, order: list[str], mu: float, main_budget: int,
-                  max_iters: int, say: Callable[[str], None] | None,
-                  file_integrator: str | None,
-                  file_timestep_s: float | None) -> list[dict[str, Any]]:
+                  max_iters: int, say: Callable[[str], None] | None) -> list[dict[str, Any]]:
     """Each family's fit, settled and verified, in ``order`` up to the first that agrees."""
     tried: list[dict[str, Any]] = []
     n_starts = len(runs.starts)
@@ -360,18 +349,17 @@ def _fit_families(fit: _Fit, runs: _Runs, order: list[str], mu: float, main_budg
         if family == LIFT_FREE:
             # MuJoCo's contact lifts a fast-sliding ball unless its normal row is far softer
             # than its friction rows: the family that separates them (identify.py)
-            fam, fam_bounds, fam_seeds = fit.lift_free, fit.lift_free.bounds, lift_free_seeds(mu)
+            fam, fam_seeds = fit.lift_free, lift_free_seeds(mu)
             what = ("the lift-free fit (elliptic cone, constant minimal impedance, "
                     "solreffriction on contact pairs)")
         else:
-            fam, fam_bounds = fit.problem, fit.bounds
+            fam = fit.problem
             fam_seeds = [c for c in fit.seeds if c.cone == family]
             what = f"the fit in the {family} cone"
         fam.budget = fam.rollouts + room
         found = identify(fam, fam_seeds, max_iters=max_iters, say=say)
         runs.budget_limited = runs.budget_limited or found.budget_spent
-        settled = _settle(found, fam, fit.start, fam_bounds, fit.threads, fit.ball_until, fit.dt,
-                          file_integrator, file_timestep_s, runs.A_over_C, runs.check,
+        settled = _settle(found, fam, fit, runs.file, runs.check,
                           lambda: main_budget - runs.spent())
         tried.append({**settled, "what": what})
         if say:
@@ -418,9 +406,9 @@ def _widen(fit: _Fit, runs: _Runs, answer: dict[str, Any], budget_runs: int, max
     """The widening's answer where one agrees (else ``answer``), and the widening's record."""
     best = answer["best"]
     problem = fit.lift_free if best.frictiondamping is not None else fit.problem
-    widened = widen(best, answer["timestep"], answer["integrator"], problem, fit.start,
-                    fit.threads, fit.ball_until, runs.A_over_C, runs.check,
-                    lambda: budget_runs - runs.spent(), runs.problems, max_iters, say)
+    widened = widen(best, answer["timestep"], answer["integrator"], problem,
+                    runs.file.A_over_C, Refit(fit.start, fit.threads, fit.ball_until, max_iters),
+                    WidenRuns(runs.check, lambda: budget_runs - runs.spent(), runs.problems, say))
     for w in widened["tried"]:
         runs.alternatives.append({k: w[k] for k in ("settings", "what", "agrees", "departs",
                                                     "passes", "checks", "mjcf")}
@@ -493,21 +481,20 @@ def _report(fit: _Fit, runs: _Runs, answer: dict[str, Any], tried: list[dict[str
     }
 
 
-def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bounds,
-            threads: int, ball_until: list[float], dt: float, file_integrator: str | None,
-            file_timestep_s: float | None, A_over_C: float | None,
+def _settle(found: Identified, problem: Problem, fit: _Fit, file: TuneFile,
             check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
             left: Callable[[], int]) -> dict[str, Any]:
     """A fit's settings verified: at the file's own step and integrator where they follow.
 
     The cheapest step and integrator whose runs all pass is kept (what the file *needs*);
     the file's own are tried only while the budget (``left()``) keeps a verification back.
+    ``problem`` is the family fitted (its bounds), ``fit`` what every fit shares.
     """
-    best = found.best
+    best, dt, A_over_C = found.best, fit.dt, file.A_over_C
     n_starts = len(problem.starts) + len(HELD_OUT)
     options: list[tuple[str, float]] = []
     needs: list[dict[str, Any]] = []
-    for integ, step in _cheaper(file_integrator, file_timestep_s, dt):
+    for integ, step in _cheaper(file.integrator, file.timestep_s, dt):
         if integ in FIRST_ORDER and A_over_C is not None and abs(A_over_C - 1.0) > 1e-9:
             needs.append({"integrator": integ, "timestep_s": step, "rms_rad": None,
                           "kept": False, "why": f"{integ} is first order: it moves Jellett's "
@@ -524,8 +511,8 @@ def _settle(found: Identified, problem: Problem, fit_start: FitStart, bounds: Bo
                           "kept": False, "why": "not tried: the run budget (--budget-runs) "
                           "was spent"})
             continue
-        other = Problem([fit_start], problem.references, step, integ, bounds, threads,
-                        ball_until, fitted=problem.fitted)
+        other = Problem([fit.start], problem.references, step, integ, problem.bounds,
+                        fit.threads, fit.ball_until, fitted=problem.fitted)
         rms = other.rms(best)[0]
         problem.rollouts += other.rollouts
         near = rms <= KEEP_FACTOR * found.rms_rad + KEEP_FLOOR_RAD
@@ -693,6 +680,6 @@ def _note(agrees: bool, departs: list[str], verified: list[dict[str, Any]]) -> s
             f"{'; ...' if len(departs) > 3 else ''})" + (f"; why: {why[0]}" if why else ""))
 
 
-__all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "LIFT_FREE", "TuneStart", "cone_order",
-           "fit_horizon", "fit_order",
-           "min_budget_runs", "seeds", "source_digest", "starts_for", "tune"]
+__all__ = ["DEFAULT_BUDGET_RUNS", "HELD_OUT", "LIFT_FREE", "TuneEffort", "TuneFile",
+           "TuneStart", "cone_order", "fit_horizon", "fit_order", "min_budget_runs", "seeds",
+           "source_digest", "starts_for", "tune"]

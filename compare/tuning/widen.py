@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
@@ -128,12 +128,42 @@ def local_candidates(centre: Candidate, fitted: Sequence[str], bounds: Bounds, n
     return out
 
 
+@dataclass(frozen=True)
+class Refit:
+    """What the widening's fit shares with the tuning's: its start, threads and iterations.
+
+    Attributes:
+        start: The file's start as the tuning's fit follows it.
+        threads: Threads of the fit's rollouts.
+        ball_until: Per start, when the stem touches (s; inf: never): the ball alone before.
+        max_iters: Levenberg-Marquardt iterations at most.
+    """
+
+    start: FitStart
+    threads: int
+    ball_until: list[float]
+    max_iters: int
+
+
+@dataclass(frozen=True)
+class WidenRuns:
+    """How the widening verifies, counts its runs and says what it does.
+
+    Attributes:
+        check: (candidate, step, integrator) -> every start's verification and its runs.
+        left: The runs left to it (the budget's reserve, :func:`widen_reserve`).
+        problems: Every fit's problem, whose rollouts count: its own fit joins them.
+        say: Progress lines, or None.
+    """
+
+    check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]]
+    left: Callable[[], int]
+    problems: list[Problem]
+    say: Callable[[str], None] | None
+
+
 def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
-          fit_start: FitStart, threads: int, ball_until: list[float],
-          A_over_C: float | None,
-          check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]],
-          left: Callable[[], int], problems: list[Problem], max_iters: int,
-          say: Callable[[str], None] | None) -> dict[str, Any]:
+          A_over_C: float | None, refit_at: Refit, runs: WidenRuns) -> dict[str, Any]:
     """Where the fits and their seeds depart: their answer's discrete neighbours, a fit, draws.
 
     First the answer with one discrete choice changed at a time
@@ -142,7 +172,16 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
     cone of the neighbour that passed the most checks, and verified. Else candidates drawn
     about the best so far (the most checks passed; the latest of equals) at its integrator
     and step (:func:`local_candidates`), each verified in turn, the first that agrees the
-    answer. All within ``left()`` runs (the budget's reserve, :func:`widen_reserve`).
+    answer. All within ``runs.left()`` runs (the budget's reserve, :func:`widen_reserve`).
+
+    Args:
+        best: The answer so far.
+        timestep: Its step (s).
+        integrator: Its integrator.
+        problem: The fit it came from (its references, bounds and fitted settings).
+        A_over_C: The top's A/C (a first-order integrator is tried only at 1).
+        refit_at: What the widening's own fit shares with the tuning's.
+        runs: Its verification, its runs left, the fits that count, its progress lines.
 
     Returns:
         ``{tried: [{settings, what, agrees, departs, passes, checks, mjcf}], answer,
@@ -150,6 +189,7 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
         or None.
     """
     n_starts = N_STARTS
+    check, left, say = runs.check, runs.left, runs.say
     tried: list[dict[str, Any]] = []
     spent = False
 
@@ -188,11 +228,11 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
         # a fit from the answer at the best neighbour's discrete choices
         step, integ, start_cand = (best_row["timestep_s"], best_row["integrator"],
                                    best_row["cand"])
-        refit = Problem([fit_start], problem.references, step, integ, problem.bounds,
-                        threads, ball_until, fitted=problem.fitted)
-        problems.append(refit)
+        refit = Problem([refit_at.start], problem.references, step, integ, problem.bounds,
+                        refit_at.threads, refit_at.ball_until, fitted=problem.fitted)
+        runs.problems.append(refit)
         refit.budget = left() - n_starts - keep
-        found = identify(refit, [start_cand], max_iters=max_iters, say=say)
+        found = identify(refit, [start_cand], max_iters=refit_at.max_iters, say=say)
         spent = spent or found.budget_spent
         if found.best != start_cand:
             what = f"fitted again at {integ} dt={step:g} s, {found.best.cone} cone"
@@ -220,5 +260,5 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
 
 
 __all__ = ["LOCAL_HALF_DECADES", "LOCAL_KEEP", "LOCAL_MAX", "LOCAL_SEED", "WIDEN_INTEGRATORS",
-           "WIDEN_ONE_IN", "WIDEN_STEP_FACTOR", "local_candidates", "widen", "widen_neighbours",
-           "widen_reserve"]
+           "WIDEN_ONE_IN", "WIDEN_STEP_FACTOR", "Refit", "WidenRuns", "local_candidates", "widen",
+           "widen_neighbours", "widen_reserve"]

@@ -19,10 +19,13 @@ import pytest
 
 from tests.conftest import session_processes
 from tippetop.compare import cli
+from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies import fidelity
 from tippetop.compare.studies.fidelity import GRIDS, cause_of, make_grid
 from tippetop.compare.tuning import tune
+from tippetop.compare.tuning.judge import TuneEffort, TuneFile
 from tippetop.models.errors import TippetopError
+from tippetop.models.scene import Override
 
 POINT_KEYS = {"A_over_C", "a_over_R", "mu", "group", "agrees", "settings", "residual",
               "cause"}
@@ -38,13 +41,14 @@ def _start(role: str, checks: list[dict[str, Any]], n0: float = 100.0) -> dict[s
             "passed": all(c["passed"] is not False for c in checks)}
 
 
-def fake_tune(base: tuple[str, ...], mu: float, n0: float, theta0: float, t_end_s: float,
+def fake_tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_s: float,
               **kwargs: Any) -> dict[str, Any]:
     """A tuning's answer made up from the point: its shape is the real one's."""
-    over = dict(s.split("=", 1) for s in base)
+    over = {o.name: o.value for o in base}
     r, e = float(over["top.A_over_C"]), float(over["top.a_over_R"])
     assert float(over["friction.mu"]) == mu and float(over["init.n0"]) == n0
-    assert kwargs["theory"] is not None and kwargs["A_over_C"] == r
+    assert kwargs["file"].theory is not None and kwargs["file"].A_over_C == r
+    assert isinstance(kwargs["run"], RunOptions) and isinstance(kwargs["effort"], TuneEffort)
     if r > 1.2 and e > 0.2:
         raise TippetopError("tune: the reference run from n0 = 100 rad/s failed: boom")
     ok = [_check("outcome", True, "upright"), _check("jellett_before_stem", True, 1e-5)]
@@ -108,7 +112,8 @@ def test_a_point_starts_above_its_thresholds() -> None:
 def test_the_cause_is_the_first_failed_check_with_its_number() -> None:
     p = {"agrees": False, "error": None, "tuned": fake_tune(
         fidelity.point_overrides(1.0, 0.1, 1.0, 100.0, 0.1), 1.0, 100.0, 0.1, 8.0,
-        theory=lambda *a: (None, "upright"), A_over_C=1.0)}
+        file=TuneFile(A_over_C=1.0, theory=lambda *a: (None, "upright")),
+        run=RunOptions(progress=False), effort=TuneEffort())}
     c = cause_of(p)
     assert c.startswith("the ball leaves the table at 1.18 s (stays_on_table) from n0 = "
                         "115 rad/s"), c
