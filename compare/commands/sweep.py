@@ -16,7 +16,6 @@ from tippetop.compare.commands.options import (
     print_json,
     set_overrides,
 )
-from tippetop.compare.presentation.sweep import print_sweep
 from tippetop.compare.presentation.terminal import cache_line
 from tippetop.models.errors import TippetopError
 
@@ -53,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
     from tippetop.compare.commands.options import engines_and_modes
     from tippetop.compare.presentation.figures import sweep_figure
+    from tippetop.compare.presentation.sweep import print_sweep
     from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
     from tippetop.compare.studies.sweep import parse_range, run_sweep
 
