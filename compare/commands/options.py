@@ -197,7 +197,11 @@ _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 def run_main(args: argparse.Namespace) -> int:
     """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
-    from tippetop.compare.running.interrupt import install_sigterm_handler, outputs_complete
+    from tippetop.compare.running.interrupt import (
+        exit_at_next_signal,
+        install_sigterm_handler,
+        outputs_complete,
+    )
 
     install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
     try:
@@ -205,6 +209,8 @@ def run_main(args: argparse.Namespace) -> int:
         outputs_complete()  # the work is done: no interrupt in the interpreter's exit
         return status
     except KeyboardInterrupt:
+        # the runs are stopped: a signal from here on ends the process with 130 at once
+        exit_at_next_signal(EXIT_INTERRUPTED)
         sys.stderr.write("tippetop: interrupted\n")
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # e.g. piped into head

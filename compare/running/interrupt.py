@@ -6,7 +6,9 @@ staged outputs removed, one line ``tippetop: interrupted``, exit status 130.
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
 import threading
 from typing import Any
 
@@ -58,4 +60,28 @@ def outputs_complete() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
-__all__ = ["Terminated", "install_sigterm_handler", "outputs_complete", "own_process"]
+def exit_at_next_signal(status: int) -> None:
+    """From now on Ctrl-C and SIGTERM end the process at once, with ``status``.
+
+    Called when a command has been interrupted and its runs stopped: what is left is one line
+    and the interpreter's exit (the process pools' threads joined). A second signal there
+    (a pending Ctrl-C delivered late, or the user's again) ends the process with the same
+    status, where it would otherwise raise out of the exit (a traceback, and death by SIGINT in
+    place of 130) or interrupt nothing. Outside the main thread it does nothing, and so it
+    does unless :func:`own_process` was called.
+    """
+    if not _owns_process or threading.current_thread() is not threading.main_thread():
+        return
+
+    def leave(signum: int, frame: Any) -> None:
+        try:
+            sys.stderr.flush()
+        finally:
+            os._exit(status)
+
+    signal.signal(signal.SIGINT, leave)
+    signal.signal(signal.SIGTERM, leave)
+
+
+__all__ = ["Terminated", "exit_at_next_signal", "install_sigterm_handler", "outputs_complete",
+           "own_process"]

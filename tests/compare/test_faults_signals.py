@@ -307,3 +307,23 @@ def test_ctrl_c_as_a_nightly_finishes_is_no_traceback_and_an_honest_status(
     assert proc.returncode == 0, stderr
     assert (out / "results.json").exists() and (out / "report.html").exists()
     assert "result: OK" in stdout
+
+
+def test_a_signal_after_the_interrupt_line_still_exits_130() -> None:
+    """Once a command has been interrupted and its runs stopped, a second signal (a Ctrl-C
+    delivered late, or the user's again) ends the process at once with 130: not by death from
+    SIGINT (-2) out of the interpreter's exit, and not waiting on what the exit joins."""
+    code = ("import os, signal, sys, time\n"
+            "from tippetop.compare.running import interrupt\n"
+            "interrupt.own_process()\n"
+            "interrupt.exit_at_next_signal(130)\n"
+            "sys.stderr.write('tippetop: interrupted\\n')\n"
+            "os.kill(os.getpid(), signal.SIGINT)\n"
+            "time.sleep(30)\n"
+            "sys.exit(0)\n")
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 130, proc.stderr
+    assert time.monotonic() - t0 < 20  # at once, not after the 30-s sleep
+    assert proc.stderr == "tippetop: interrupted\n"
