@@ -18,9 +18,12 @@ import os
 import sys
 import warnings
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from tippetop.models.errors import RunFailedError, TippetopError, did_you_mean
+
+if TYPE_CHECKING:
+    from tippetop.models.scene import Override
 
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
@@ -464,7 +467,7 @@ def load_scene(args: argparse.Namespace) -> Any:
     return load(args.scene, overrides)
 
 
-def set_overrides(args: argparse.Namespace) -> tuple[Any, ...]:
+def set_overrides(args: argparse.Namespace) -> tuple[Override, ...]:
     """``--set`` text, parsed once, here, into values.
 
     Returns:

@@ -347,7 +347,7 @@ def _table_check(label: str, r: Mapping[str, Any], ref: Mapping[str, Any]) -> di
 def _jellett_check(label: str, r: Mapping[str, Any],
                    A_over_C: float | None) -> dict[str, Any]:
     j = _finite(r.get("J_rel_drift"))
-    tol = J_TOL["ode" if engine_of(label) == REFERENCE_ENGINE else "mujoco"]
+    tol = tolerance_of("J_rel_drift", engine_of(label))
     note = ("relative drift of Jellett's constant while the ball alone touches the table "
             "(before the stem lands and before any flight: J is not kept in flight)")
     cause = gyroscopic_drift(r, A_over_C) if j is not None and j > tol else None

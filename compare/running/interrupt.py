@@ -54,10 +54,7 @@ def outputs_complete() -> None:
     complete result into exit 130, or into a 0 that says nothing. Outside the main thread it
     does nothing, and so it does unless :func:`own_process` was called.
     """
-    if not _owns_process or threading.current_thread() is not threading.main_thread():
-        return
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _on_interrupts(signal.SIG_IGN)
 
 
 def exit_at_next_signal(status: int) -> None:
@@ -70,17 +67,25 @@ def exit_at_next_signal(status: int) -> None:
     place of 130) or interrupt nothing. Outside the main thread it does nothing, and so it
     does unless :func:`own_process` was called.
     """
-    if not _owns_process or threading.current_thread() is not threading.main_thread():
-        return
-
     def leave(signum: int, frame: Any) -> None:
         try:
             sys.stderr.flush()
         finally:
             os._exit(status)
 
-    signal.signal(signal.SIGINT, leave)
-    signal.signal(signal.SIGTERM, leave)
+    _on_interrupts(leave)
+
+
+def _on_interrupts(handler: Any) -> None:
+    """Ctrl-C and SIGTERM handled by ``handler`` from now on.
+
+    Only in a process of tippetop's own (:func:`own_process`), on its main thread; elsewhere
+    nothing changes.
+    """
+    if not _owns_process or threading.current_thread() is not threading.main_thread():
+        return
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
 
 
 __all__ = ["Terminated", "exit_at_next_signal", "install_sigterm_handler", "outputs_complete",
