@@ -39,11 +39,13 @@ this flag calls stiff over to DOP853, whose detector decides (``Method.hands_ove
 
 from __future__ import annotations
 
-import math
+from functools import cache
+from types import ModuleType
 
 import numba as nb
 import numpy as np
 
+from tippetop.reference_ode import driver
 from tippetop.reference_ode.dop853 import (  # noqa: F401 (the contract's names, re-exported)
     N_STATS,
     RHS_TYPE,
@@ -66,11 +68,9 @@ from tippetop.reference_ode.dop853 import (  # noqa: F401 (the contract's names,
     WATCH_TYPE,
 )
 from tippetop.reference_ode.dop853 import new_stats as _dop_stats
+from tippetop.reference_ode.driver import Parts
 
 MAX_ORDER = 12
-BISECTION_ITERS = 60  # event location on the dense output: 2^-60 of a step
-GUARD_SCAN = 32  # a guard seen <= 0 at the step's evaluations is looked for at 32 points
-MIN_STEP_ULPS = 10.0  # a step below this many ulp of t is an underflow (as dop853)
 LANES = 4  # the difference rows are padded to a multiple of 4 float64 (as dop853)
 
 #: STEP's gstr: |gamma*_k|-like factors of the error estimates at orders k-2..k+1.
@@ -165,360 +165,308 @@ def interp(phi, psi, y, kold, hi, work, out):
         out[l] = y[l] + hi * out[l]
 
 
-@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _I8, _V, _V, _V, _V, _F8,
-             _F8, _F8), **_OPTS)
-def locate(rhs, watch, use_guard, phi, psi, y, kold, p, work, ytmp, dy, h, lo, hi):
-    """Where in the last step (fraction of ``h``, ending at ``y``) an event falls to <= 0.
+# ---------------------------------------------------------------- the kernel's parts
+# The driver (reference_ode/driver.py) writes the kernel from them. The dense output is
+# INTRP on the last step's polynomial, read relative to the step's end.
+#: The buffers and the history's views.
+_SETUP = """
+m = (n + LANES - 1) // LANES * LANES
+phi = stats[A_PHI:A_PHI + _NPHI * m].reshape((_NPHI, m))
+psi = stats[A_PSI:A_PSI + _NV]
+alpha = stats[A_ALPHA:A_ALPHA + _NV]
+beta = stats[A_BETA:A_BETA + _NV]
+sig = stats[A_SIG:A_SIG + _NV]
+v = stats[A_V:A_V + _NV]
+w = stats[A_W:A_W + _NV]
+g = stats[A_G:A_G + _NV]
+yc = np.zeros(m)  # the state at t
+pr = np.zeros(m)  # the prediction
+fp = np.zeros(m)  # f(prediction)
+fc = np.zeros(m)  # f(correction)
+wt = np.zeros(m)  # 1 / (atol + rtol |y|), 0 in the padding
+yt = np.zeros(m)
+dy_pad = np.zeros(m)
+work = np.zeros(42)
+yc_v = yc[:n]
+pr_v = pr[:n]
+fp_v = fp[:n]
+fc_v = fc[:n]
+yt_v = yt[:n]
+dy = dy_pad[:n]
+"""
 
-    The guard ``rhs`` if ``use_guard``, else the mark ``watch()[0]``, on the dense output; the
-    caller has checked it is > 0 at the fraction ``lo`` and <= 0 at ``hi``. Bisection.
-    """
-    for _ in range(BISECTION_ITERS):
-        mid = 0.5 * (lo + hi)
-        interp(phi, psi, y, kold, (mid - 1.0) * h, work, ytmp)
-        if use_guard:
-            v = rhs(ytmp, p, dy)
-        else:
-            v = watch(ytmp, p)[0]
-        if v > 0.0:
-            lo = mid
-        else:
-            hi = mid
-    return hi
-
-
-# ---------------------------------------------------------------- the kernel
-@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, _F8,
-                                          _I8, _F8, _V, _M, _I8, _V), **_OPTS)
-def _kernel(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
-            t_out, Y_out, i_out, stats):
-    """:func:`run` (the step written out here: see dop853._kernel on helpers' cost)."""
-    n = y.size
-    m = (n + LANES - 1) // LANES * LANES
-    phi = stats[A_PHI:A_PHI + _NPHI * m].reshape((_NPHI, m))
-    psi = stats[A_PSI:A_PSI + _NV]
-    alpha = stats[A_ALPHA:A_ALPHA + _NV]
-    beta = stats[A_BETA:A_BETA + _NV]
-    sig = stats[A_SIG:A_SIG + _NV]
-    v = stats[A_V:A_V + _NV]
-    w = stats[A_W:A_W + _NV]
-    g = stats[A_G:A_G + _NV]
-    yc = np.zeros(m)  # the state at t
-    pr = np.zeros(m)  # the prediction
-    fp = np.zeros(m)  # f(prediction)
-    fc = np.zeros(m)  # f(correction)
-    wt = np.zeros(m)  # 1 / (atol + rtol |y|), 0 in the padding
-    yt = np.zeros(m)
-    dy = np.zeros(m)
-    work = np.zeros(42)
-    yc_v = yc[:n]
-    pr_v = pr[:n]
-    fp_v = fp[:n]
-    fc_v = fc[:n]
-    yt_v = yt[:n]
-    dy_v = dy[:n]
+#: The start: afresh (STEP's block 0: order 1, a step from |f|) or the history carried.
+_START = """
+h = stats[S_H]
+if not h > 0.0:
+    # start afresh (STEP's block 0): order 1, phi(1) = f, a step from |f|
+    for r in range(_NPHI):
+        for i in range(m):
+            phi[r, i] = 0.0
+    s = 0.0
     for i in range(n):
-        yc[i] = y[i]
-    g0 = rhs(yc_v, p, dy_v)
-    stats[S_NRHS] += 1
-    if not g0 > 0.0:
-        return STATUS_GUARD, t, i_out
-    h = stats[S_H]
-    if not h > 0.0:
-        # start afresh (STEP's block 0): order 1, phi(1) = f, a step from |f|
-        for r in range(_NPHI):
-            for i in range(m):
-                phi[r, i] = 0.0
-        s = 0.0
-        for i in range(n):
-            phi[1, i] = dy[i]
-            s += (dy[i] / (atol + rtol * abs(yc[i]))) ** 2
-        s = math.sqrt(s / n)
-        h = t_end - t
-        if 1.0 < 16.0 * s * h * h:
-            h = 0.25 * math.sqrt(1.0 / s)
-        h = max(h, 4.0 * abs(np.nextafter(t, np.inf) - t))
-        k = 1
-        kold = 0
+        phi[1, i] = dy[i]
+        s += (dy[i] / (atol + rtol * abs(yc[i]))) ** 2
+    s = math.sqrt(s / n)
+    h = t_end - t
+    if 1.0 < 16.0 * s * h * h:
+        h = 0.25 * math.sqrt(1.0 / s)
+    h = max(h, 4.0 * abs(np.nextafter(t, np.inf) - t))
+    k = 1
+    kold = 0
+    ns = 0
+    hold = 0.0
+    phase1 = True
+else:
+    k = int(stats[A_K])
+    kold = int(stats[A_KOLD])
+    ns = int(stats[A_NS])
+    hold = stats[A_HOLD]
+    phase1 = stats[A_PHASE1] > 0.0
+g[1] = 1.0
+g[2] = 0.5
+sig[1] = 1.0
+"""
+
+#: STEP's blocks 1-4: the attempts until one is accepted, then the correction, the
+#: stiffness flag and the next step's order and size.
+_STEP = """
+for i in range(n):
+    wt[i] = 1.0 / (atol + rtol * abs(yc[i]))
+if t + h > t_end:  # never beyond t_end (a changed step: STEP's ns restarts)
+    h = t_end - t
+ifail = 0
+knew = k
+erk = 0.0
+erkm1 = 0.0
+while True:
+    if not h >= min_step:  # also a NaN step
+        status = STATUS_STEP_TOO_SMALL
+        break
+    # --- block 1: the coefficients (those that change with h)
+    kp1 = k + 1
+    kp2 = k + 2
+    km1 = k - 1
+    km2 = k - 2
+    if h != hold:
         ns = 0
-        hold = 0.0
-        phase1 = True
-    else:
-        k = int(stats[A_K])
-        kold = int(stats[A_KOLD])
-        ns = int(stats[A_NS])
-        hold = stats[A_HOLD]
-        phase1 = stats[A_PHASE1] > 0.0
-    g[1] = 1.0
-    g[2] = 0.5
-    sig[1] = 1.0
-    mark_old = watch(yc_v, p)[0]
-    n_out = t_out.size
-    while i_out < n_out and t_out[i_out] <= t:
-        Y_out[i_out, :] = yc_v
-        i_out += 1
-    status = STATUS_RUNNING
-    while t < t_stop:
-        if stats[S_NSTEPS] >= max_steps:
-            status = STATUS_MAX_STEPS
-            break
-        min_step = MIN_STEP_ULPS * abs(np.nextafter(t, np.inf) - t)
-        for i in range(n):
-            wt[i] = 1.0 / (atol + rtol * abs(yc[i]))
-        if t + h > t_end:  # never beyond t_end (a changed step: STEP's ns restarts)
-            h = t_end - t
-        ifail = 0
-        knew = k
-        erk = 0.0
-        erkm1 = 0.0
-        while True:
-            if not h >= min_step:  # also a NaN step
-                status = STATUS_STEP_TOO_SMALL
-                break
-            # --- block 1: the coefficients (those that change with h)
-            kp1 = k + 1
-            kp2 = k + 2
-            km1 = k - 1
-            km2 = k - 2
-            if h != hold:
-                ns = 0
-            if ns <= kold:
-                ns += 1
-            nsp1 = ns + 1
-            if k >= ns:
-                beta[ns] = 1.0
-                alpha[ns] = 1.0 / ns
-                temp1 = h * ns
-                sig[nsp1] = 1.0
-                for i in range(nsp1, k + 1):
-                    temp2 = psi[i - 1]
-                    psi[i - 1] = temp1
-                    beta[i] = beta[i - 1] * psi[i - 1] / temp2
-                    temp1 = temp2 + h
-                    alpha[i] = h / temp1
-                    sig[i + 1] = i * alpha[i] * sig[i]
-                psi[k] = temp1
-                if ns <= 1:
-                    for iq in range(1, k + 1):
-                        v[iq] = 1.0 / (iq * (iq + 1))
-                        w[iq] = v[iq]
-                else:
-                    if k > kold:
-                        v[k] = 1.0 / (k * kp1)
-                        for j in range(1, ns - 1):
-                            i = k - j
-                            v[i] = v[i] - alpha[j + 1] * v[i + 1]
-                    temp5 = alpha[ns]
-                    for iq in range(1, kp1 - ns + 1):
-                        v[iq] = v[iq] - temp5 * v[iq + 1]
-                        w[iq] = v[iq]
-                    g[nsp1] = w[1]
-                for i in range(ns + 2, kp1 + 1):
-                    temp6 = alpha[i - 1]
-                    for iq in range(1, kp2 - i + 1):
-                        w[iq] = w[iq] - temp6 * w[iq + 1]
-                    g[i] = w[1]
-            # --- block 2: predict (phi to phi*, the prediction, the predicted differences)
-            for r in range(nsp1, k + 1):
-                b = beta[r]
-                for i in range(m):
-                    phi[r, i] = b * phi[r, i]
-            for i in range(m):
-                phi[kp2, i] = phi[kp1, i]
-                phi[kp1, i] = 0.0
-                yt[i] = 0.0
-            for j in range(1, k + 1):
-                r = kp1 - j
-                gr = g[r]
-                for i in range(m):
-                    yt[i] += gr * phi[r, i]
-                    phi[r, i] += phi[r + 1, i]
-            for i in range(m):
-                tau = h * yt[i] - phi[15, i]
-                pr[i] = yc[i] + tau
-                phi[16, i] = (pr[i] - yc[i]) - tau
-            g_p = rhs(pr_v, p, fp_v)
-            stats[S_NRHS] += 1
-            # the error estimates at orders k, k-1, k-2 (as if the steps were equal)
-            sk = 0.0
-            skm1 = 0.0
-            skm2 = 0.0
-            # (rows k and k-1 exist for every k >= 1: row 0 is zeros; unused sums are dropped)
-            for i in range(m):
-                d = (fp[i] - phi[1, i]) * wt[i]
-                e1 = phi[k, i] * wt[i] + d
-                e2 = phi[km1, i] * wt[i] + d
-                sk += d * d
-                skm1 += e1 * e1
-                skm2 += e2 * e2
-            absh = abs(h)
-            erkm2 = 0.0
-            if km2 > 0:
-                erkm2 = absh * sig[km1] * GSTR[km2] * math.sqrt(skm2 / n)
-            if km2 >= 0:
-                erkm1 = absh * sig[k] * GSTR[km1] * math.sqrt(skm1 / n)
-            temp5 = absh * math.sqrt(sk / n)
-            err = temp5 * (g[k] - g[kp1])
-            erk = temp5 * sig[kp1] * GSTR[k]
-            knew = k
-            if km2 > 0:
-                if max(erkm1, erkm2) <= erk:
-                    knew = km1
-            elif km2 == 0:
-                if erkm1 <= 0.5 * erk:
-                    knew = km1
-            if err <= 1.0:
-                break
-            # --- block 3: rejected; restore phi and psi, halve (order 1 from the 3rd failure)
-            stats[S_NREJECT] += 1
-            phase1 = False
-            for r in range(1, k + 1):
-                b = 1.0 / beta[r]
-                for i in range(m):
-                    phi[r, i] = b * (phi[r, i] - phi[r + 1, i])
-            for r in range(2, k + 1):
-                psi[r - 1] = psi[r] - h
-            ifail += 1
-            temp2 = 0.5
-            if ifail > 3:
-                if 0.5 < 0.25 * erk:
-                    temp2 = math.sqrt(0.5 / erk)
-            if ifail >= 3:
-                knew = 1
-            h = temp2 * h
-            k = knew
-        if status == STATUS_STEP_TOO_SMALL:
-            break
-        # --- block 4: accepted; correct, evaluate, update the differences
-        kold = k
-        hold = h
-        temp1 = h * g[kp1]
+    if ns <= kold:
+        ns += 1
+    nsp1 = ns + 1
+    if k >= ns:
+        beta[ns] = 1.0
+        alpha[ns] = 1.0 / ns
+        temp1 = h * ns
+        sig[nsp1] = 1.0
+        for i in range(nsp1, k + 1):
+            temp2 = psi[i - 1]
+            psi[i - 1] = temp1
+            beta[i] = beta[i - 1] * psi[i - 1] / temp2
+            temp1 = temp2 + h
+            alpha[i] = h / temp1
+            sig[i + 1] = i * alpha[i] * sig[i]
+        psi[k] = temp1
+        if ns <= 1:
+            for iq in range(1, k + 1):
+                v[iq] = 1.0 / (iq * (iq + 1))
+                w[iq] = v[iq]
+        else:
+            if k > kold:
+                v[k] = 1.0 / (k * kp1)
+                for j in range(1, ns - 1):
+                    i = k - j
+                    v[i] = v[i] - alpha[j + 1] * v[i + 1]
+            temp5 = alpha[ns]
+            for iq in range(1, kp1 - ns + 1):
+                v[iq] = v[iq] - temp5 * v[iq + 1]
+                w[iq] = v[iq]
+            g[nsp1] = w[1]
+        for i in range(ns + 2, kp1 + 1):
+            temp6 = alpha[i - 1]
+            for iq in range(1, kp2 - i + 1):
+                w[iq] = w[iq] - temp6 * w[iq + 1]
+            g[i] = w[1]
+    # --- block 2: predict (phi to phi*, the prediction, the predicted differences)
+    for r in range(nsp1, k + 1):
+        b = beta[r]
         for i in range(m):
-            rho = temp1 * (fp[i] - phi[1, i]) - phi[16, i]
-            yt[i] = pr[i] + rho  # the corrected state
-            phi[15, i] = (yt[i] - pr[i]) - rho
-        g_c = rhs(yt_v, p, fc_v)
-        stats[S_NRHS] += 1
-        stats[S_NSTEPS] += 1
-        t_new = t + h
-        # stiffness: h |f(y_c) - f(y_p)| / |y_c - y_p|
-        st_num = 0.0
-        st_den = 0.0
-        for i in range(n):
-            df = fc[i] - fp[i]
-            dd = yt[i] - pr[i]
-            st_num += df * df
-            st_den += dd * dd
-        if st_den > 0.0:
-            h_lambda = absh * math.sqrt(st_num / st_den)
-            if h_lambda > stats[S_HLAMBDA_MAX]:
-                stats[S_HLAMBDA_MAX] = h_lambda
-            if k <= STIFF_MAX_ORDER and h_lambda > STIFF_FRACTION * STAB_BOUNDARY[k]:
-                stats[S_NSTIFF] += 1
+            phi[r, i] = b * phi[r, i]
+    for i in range(m):
+        phi[kp2, i] = phi[kp1, i]
+        phi[kp1, i] = 0.0
+        yt[i] = 0.0
+    for j in range(1, k + 1):
+        r = kp1 - j
+        gr = g[r]
         for i in range(m):
-            phi[kp1, i] = fc[i] - phi[1, i]
-            phi[kp2, i] = phi[kp1, i] - phi[kp2, i]
-        for r in range(1, k + 1):
-            for i in range(m):
-                phi[r, i] += phi[kp1, i]
+            yt[i] += gr * phi[r, i]
+            phi[r, i] += phi[r + 1, i]
+    for i in range(m):
+        tau = h * yt[i] - phi[15, i]
+        pr[i] = yc[i] + tau
+        phi[16, i] = (pr[i] - yc[i]) - tau
+    g_p = rhs(pr_v, p, fp_v)
+    stats[S_NRHS] += 1
+    # the error estimates at orders k, k-1, k-2 (as if the steps were equal)
+    sk = 0.0
+    skm1 = 0.0
+    skm2 = 0.0
+    # (rows k and k-1 exist for every k >= 1: row 0 is zeros; unused sums are dropped)
+    for i in range(m):
+        d = (fp[i] - phi[1, i]) * wt[i]
+        e1 = phi[k, i] * wt[i] + d
+        e2 = phi[km1, i] * wt[i] + d
+        sk += d * d
+        skm1 += e1 * e1
+        skm2 += e2 * e2
+    absh = abs(h)
+    erkm2 = 0.0
+    if km2 > 0:
+        erkm2 = absh * sig[km1] * GSTR[km2] * math.sqrt(skm2 / n)
+    if km2 >= 0:
+        erkm1 = absh * sig[k] * GSTR[km1] * math.sqrt(skm1 / n)
+    temp5 = absh * math.sqrt(sk / n)
+    err = temp5 * (g[k] - g[kp1])
+    erk = temp5 * sig[kp1] * GSTR[k]
+    knew = k
+    if km2 > 0:
+        if max(erkm1, erkm2) <= erk:
+            knew = km1
+    elif km2 == 0:
+        if erkm1 <= 0.5 * erk:
+            knew = km1
+    if err <= 1.0:
+        break
+    # --- block 3: rejected; restore phi and psi, halve (order 1 from the 3rd failure)
+    stats[S_NREJECT] += 1
+    phase1 = False
+    for r in range(1, k + 1):
+        b = 1.0 / beta[r]
         for i in range(m):
-            yc[i] = yt[i]
-        # the order and the step for the next step
-        erkp1 = 0.0
-        if knew == km1 or k == MAX_ORDER:
-            phase1 = False
-        raise_k = False
-        lower_k = False
-        if phase1:
-            raise_k = True
-        elif knew == km1:
-            lower_k = True
-        elif kp1 <= ns:
-            s = 0.0
-            for i in range(n):
-                e = phi[kp2, i] * wt[i]
-                s += e * e
-            erkp1 = absh * GSTR[kp1] * math.sqrt(s / n)
-            if k <= 1:
-                if erkp1 < 0.5 * erk:
-                    raise_k = True
-            elif erkm1 <= min(erk, erkp1):
-                lower_k = True
-            elif not (erkp1 >= erk or k == MAX_ORDER):
-                raise_k = True
-        if raise_k:
-            k = kp1
-            erk = erkp1
-        elif lower_k:
-            k = km1
-            erk = erkm1
-        hnew = h + h
-        if not phase1 and not (0.5 >= erk * TWO[k + 1]):
-            hnew = h
-            if not (0.5 >= erk):
-                r = (0.5 / erk) ** (1.0 / (k + 1))
-                hnew = max(absh * max(0.5, min(0.9, r)), 4.0 * abs(np.nextafter(t, np.inf) - t))
-        h = hnew
-        # --- events and samples on the dense output
-        mark_new, monitor = watch(yc_v, p)
-        if monitor < stats[S_MONITOR_MIN]:
-            stats[S_MONITOR_MIN] = monitor
-        guard_dip = not (min(g_p, g_c) > 0.0)
-        mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
-        if guard_dip or mark_hit or (i_out < n_out and t_out[i_out] <= t_new):
-            hs = t_new - t
-            t_final = t_new
-            guard_hit = False
-            if guard_dip:
-                lo = 0.0
-                for j in range(1, GUARD_SCAN + 1):
-                    x = j / GUARD_SCAN
-                    interp(phi, psi, yc_v, kold, (x - 1.0) * hs, work, yt_v)
-                    stats[S_NRHS] += 1
-                    if not (rhs(yt_v, p, dy_v) > 0.0):
-                        guard_hit = True
-                        t_final = t + hs * locate(rhs, watch, True, phi, psi, yc_v, kold, p, work,
-                                                  yt_v, dy_v, hs, lo, x)
-                        stats[S_NRHS] += BISECTION_ITERS
-                        break
-                    lo = x
-            if mark_hit:
-                t_mark = t + hs * locate(rhs, watch, False, phi, psi, yc_v, kold, p, work, yt_v,
-                                         dy_v, hs, 0.0, 1.0)
-                if t_mark <= t_final:
-                    stats[S_T_MARK] = t_mark
-            while i_out < n_out and t_out[i_out] <= t_final:
-                if t_out[i_out] == t_new:
-                    Y_out[i_out, :] = yc_v
-                else:
-                    interp(phi, psi, yc_v, kold, t_out[i_out] - t_new, work, yt_v)
-                    Y_out[i_out, :] = yt_v
-                i_out += 1
-            if guard_hit:
-                interp(phi, psi, yc_v, kold, t_final - t_new, work, yt_v)
-                for i in range(n):
-                    y[i] = yt[i]
-                stats[S_H] = 0.0  # the history ends inside a step: a caller resumes afresh
-                return STATUS_GUARD, t_final, i_out
-        t = t_new
-        mark_old = mark_new
-        if monitor < monitor_floor:
-            status = STATUS_MONITOR
-            break
-        if stats[S_NSTIFF] >= stats[S_STIFF_STOP]:
-            status = STATUS_STIFF
-            break
-    stats[S_H] = h
-    stats[A_K] = k
-    stats[A_KOLD] = kold
-    stats[A_NS] = ns
-    stats[A_HOLD] = hold
-    stats[A_PHASE1] = 1.0 if phase1 else 0.0
+            phi[r, i] = b * (phi[r, i] - phi[r + 1, i])
+    for r in range(2, k + 1):
+        psi[r - 1] = psi[r] - h
+    ifail += 1
+    temp2 = 0.5
+    if ifail > 3:
+        if 0.5 < 0.25 * erk:
+            temp2 = math.sqrt(0.5 / erk)
+    if ifail >= 3:
+        knew = 1
+    h = temp2 * h
+    k = knew
+if status == STATUS_STEP_TOO_SMALL:
+    break
+# --- block 4: accepted; correct, evaluate, update the differences
+kold = k
+hold = h
+temp1 = h * g[kp1]
+for i in range(m):
+    rho = temp1 * (fp[i] - phi[1, i]) - phi[16, i]
+    yt[i] = pr[i] + rho  # the corrected state
+    phi[15, i] = (yt[i] - pr[i]) - rho
+g_c = rhs(yt_v, p, fc_v)
+stats[S_NRHS] += 1
+stats[S_NSTEPS] += 1
+t_new = t + h
+# stiffness: h |f(y_c) - f(y_p)| / |y_c - y_p|
+st_num = 0.0
+st_den = 0.0
+for i in range(n):
+    df = fc[i] - fp[i]
+    dd = yt[i] - pr[i]
+    st_num += df * df
+    st_den += dd * dd
+if st_den > 0.0:
+    h_lambda = absh * math.sqrt(st_num / st_den)
+    if h_lambda > stats[S_HLAMBDA_MAX]:
+        stats[S_HLAMBDA_MAX] = h_lambda
+    if k <= STIFF_MAX_ORDER and h_lambda > STIFF_FRACTION * STAB_BOUNDARY[k]:
+        stats[S_NSTIFF] += 1
+for i in range(m):
+    phi[kp1, i] = fc[i] - phi[1, i]
+    phi[kp2, i] = phi[kp1, i] - phi[kp2, i]
+for r in range(1, k + 1):
+    for i in range(m):
+        phi[r, i] += phi[kp1, i]
+for i in range(m):
+    yc[i] = yt[i]
+# the order and the step for the next step
+erkp1 = 0.0
+if knew == km1 or k == MAX_ORDER:
+    phase1 = False
+raise_k = False
+lower_k = False
+if phase1:
+    raise_k = True
+elif knew == km1:
+    lower_k = True
+elif kp1 <= ns:
+    s = 0.0
     for i in range(n):
-        y[i] = yc[i]
-    if status == STATUS_RUNNING and t >= t_end:
-        status = STATUS_OK
-    return status, t, i_out
+        e = phi[kp2, i] * wt[i]
+        s += e * e
+    erkp1 = absh * GSTR[kp1] * math.sqrt(s / n)
+    if k <= 1:
+        if erkp1 < 0.5 * erk:
+            raise_k = True
+    elif erkm1 <= min(erk, erkp1):
+        lower_k = True
+    elif not (erkp1 >= erk or k == MAX_ORDER):
+        raise_k = True
+if raise_k:
+    k = kp1
+    erk = erkp1
+elif lower_k:
+    k = km1
+    erk = erkm1
+hnew = h + h
+if not phase1 and not (0.5 >= erk * TWO[k + 1]):
+    hnew = h
+    if not (0.5 >= erk):
+        r = (0.5 / erk) ** (1.0 / (k + 1))
+        hnew = max(absh * max(0.5, min(0.9, r)), 4.0 * abs(np.nextafter(t, np.inf) - t))
+h = hnew
+hs = t_new - t
+"""
+
+#: What the next chunk resumes from.
+_FINISH = """
+stats[S_H] = h
+stats[A_K] = k
+stats[A_KOLD] = kold
+stats[A_NS] = ns
+stats[A_HOLD] = hold
+stats[A_PHASE1] = 1.0 if phase1 else 0.0
+"""
+
+#: The kernel's parameters (the method contract's).
+_PARAMS = ("rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, "
+           "Y_out, i_out, stats")
+_SIGNATURE = ("nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, "
+              "_F8, _I8, _F8, _V, _M, _I8, _V)")
+_HEADER = """
+from tippetop.reference_ode.adams import (
+    A_ALPHA, A_BETA, A_G, A_HOLD, A_K, A_KOLD, A_NS, A_PHASE1, A_PHI, A_PSI, A_SIG, A_V, A_W,
+    GSTR, LANES, MAX_ORDER, STAB_BOUNDARY, STIFF_FRACTION, STIFF_MAX_ORDER, TWO, _NPHI, _NV,
+    interp)
+"""
+
+#: The parts of the Adams kernel (:class:`reference_ode.driver.Parts`).
+PARTS = Parts(
+    name="adams", header=_HEADER, params=_PARAMS, signature=_SIGNATURE, setup=_SETUP, f0="dy",
+    start=_START, step=_STEP, y_new="yc_v", h="hs", guard_dip="not (min(g_p, g_c) > 0.0)",
+    dense_prepare="", at_fraction="interp(phi, psi, yc_v, kold, ({x} - 1.0) * hs, work, {out})",
+    at_time="interp(phi, psi, yc_v, kold, {t} - t_new, work, {out})",
+    guard_stop="stats[S_H] = 0.0  # the history ends inside a step: a caller resumes afresh",
+    advance="", finish=_FINISH, locate_params="phi, psi, yc_v, kold, work, hs",
+    locate_signature="_M, _V, _V, _I8, _V, _F8")
+
+
+@cache
+def kernel() -> ModuleType:
+    """The compiled kernel's module (:mod:`reference_ode.driver`): ``run`` and ``locate``."""
+    return driver.load("adams", driver.kernel_source(PARTS))
 
 
 def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.ndarray,
@@ -530,6 +478,6 @@ def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.
     ``stats[S_H] = 0`` starts afresh. After a guard stop the history ends inside a step, so
     ``S_H`` is left 0 (a caller that continues from there restarts at order 1).
     """
-    return _kernel(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
-                   t_out, Y_out, i_out, stats)
+    return kernel().run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+                        monitor_floor, t_out, Y_out, i_out, stats)
 

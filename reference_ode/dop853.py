@@ -11,11 +11,16 @@ kernel takes function pointers, what a step costs and the stiffness detector: do
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from functools import cache
+from types import ModuleType
 
 import numba as nb
 import numpy as np
 
 from tippetop.reference_ode import dop853_tableau as _coef
+from tippetop.reference_ode import driver, explicit_rk
+from tippetop.reference_ode.explicit_rk import Pair
 
 STATUS_OK = 0  # reached t_end
 STATUS_GUARD = 1  # the guard returned by rhs fell to <= 0 (located on the dense output)
@@ -42,10 +47,7 @@ SAFETY = 0.9  # step-size safety factor
 MIN_FACTOR = 0.2  # largest allowed decrease of the step in one go
 MAX_FACTOR = 10.0  # largest allowed increase of the step in one go
 ERROR_EXPONENT = -1.0 / 8.0  # -1 / (error estimator order + 1)
-BISECTION_ITERS = 60  # event location on the dense output: 2^-60 of a step
-GUARD_SCAN = 32  # a guard that dipped at a stage is looked for at 32 points of the step
 STIFF_HLAMBDA = 6.1  # h lambda above this flags a step as stiff (Hairer's DOP853 threshold)
-MIN_STEP_ULPS = 10.0  # a step below this many ulp of t is an underflow (as scipy)
 
 # ---------------------------------------------------------------- compiled signatures
 _V = nb.types.float64[::1]  # a C-contiguous float64 vector
@@ -135,33 +137,6 @@ def dense_eval(F, y_old, x, out):
         out[i] = v + y_old[i]
 
 
-@nb.njit(_F8(RHS_TYPE, WATCH_TYPE, nb.types.boolean, _M, _V, _V, _V, _V, _F8, _F8), **_OPTS)
-def locate(rhs, watch, use_guard, F, y_old, p, ytmp, dy, lo, hi):
-    """Where in the step an event function falls from > 0 to <= 0, by bisection.
-
-    The event function is the guard ``rhs(y, p, dy)`` if ``use_guard``, else the mark
-    ``watch(y, p)[0]``, evaluated on the dense output ``F`` of the step from ``y_old``. The
-    caller has checked that it is > 0 at the fraction ``lo`` of the step and <= 0 at ``hi``.
-
-    Returns:
-        The fraction x in (lo, hi] of the step (within 2^-BISECTION_ITERS of the step) at which
-        the event function is found <= 0.
-    """
-    for _ in range(BISECTION_ITERS):
-        mid = 0.5 * (lo + hi)
-        dense_eval(F, y_old, mid, ytmp)
-        if use_guard:
-            v = rhs(ytmp, p, dy)
-        else:
-            v = watch(ytmp, p)[0]
-        if v > 0.0:
-            lo = mid
-        else:
-            hi = mid
-    return hi
-
-
-# ---------------------------------------------------------------- the adaptive driver
 @nb.njit(_F8(RHS_TYPE, _F8, _V, _V, _F8, _V, _F8, _F8), **_OPTS)
 def initial_step(rhs, t0, y0, f0, t_end, p, rtol, atol):
     """Hairer's starting step (as ``scipy.integrate._ivp.common.select_initial_step``).
@@ -207,249 +182,48 @@ def padded(n):
     return (n + LANES - 1) // LANES * LANES
 
 
-@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(RHS_TYPE, WATCH_TYPE, _V, _F8, _F8, _F8, _V, _F8, _F8,
-                                          _I8, _F8, _V, _M, _I8, _V, _F8, _M), **_OPTS)
-def _kernel(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
-            t_out, Y_out, i_out, stats, h_fixed, K_out):
-    """:func:`dop853_run`; with ``h_fixed`` > 0, steps of that size with no error control.
+def _error(wsum: Callable[[str], str]) -> str:
+    """The error norm, as scipy's DOP853 (< 1: accept; NaN or inf: overflow).
 
-    (Every step accepted: for tests of the method's order and dense output; a ``K_out`` of
-    shape (16, n) then receives each step's stage buffer, rows 0-12.)
+    |h| e5 / sqrt(e5^2 + 0.01 e3^2), e5 and e3 the RMS of the 5th- and 3rd-order estimates
+    scaled by atol + max(|y|, |y_new|) rtol.
     """
-    n = y.size
-    m = padded(n)
-    # The stage buffer K and the states, padded to m with zeros (rhs writes the first n
-    # entries, so the padding stays 0); rhs and watch see views of the first n entries,
-    # made once here. The step is written out below, not in helper functions: an array
-    # handed to a function numba inlines costs two atomic reference-count updates per call,
-    # and a view made per call as many.
-    K = np.zeros((N_K, m))
-    yc = np.zeros(m)  # the state at t
-    y_new = np.zeros(m)
-    yt = np.zeros(m)  # a stage's point; after a step the last one (c = 1)
-    e5 = np.zeros(m)
-    e3 = np.zeros(m)
-    yc_v = yc[:n]
-    y_new_v = y_new[:n]
-    yt_v = yt[:n]
-    f = K[0][:n]  # f(y) at t
-    k1 = K[1][:n]
-    k2 = K[2][:n]
-    k3 = K[3][:n]
-    k4 = K[4][:n]
-    k5 = K[5][:n]
-    k6 = K[6][:n]
-    k7 = K[7][:n]
-    k8 = K[8][:n]
-    k9 = K[9][:n]
-    k10 = K[10][:n]
-    k11 = K[11][:n]
-    f_new = K[N_STAGES][:n]  # f(y_new)
-    F = np.empty((7, n))
-    dy = np.empty(n)
-    for i in range(n):
-        yc[i] = y[i]
-    g0 = rhs(yc_v, p, f)
-    stats[S_NRHS] += 1
-    if not g0 > 0.0:
-        return STATUS_GUARD, t, i_out
-    h_abs = stats[S_H]
-    if h_fixed > 0.0:
-        h_abs = h_fixed
-    elif not h_abs > 0.0:
-        h_abs = initial_step(rhs, t, yc_v, f, t_end, p, rtol, atol)
-        stats[S_NRHS] += 1
-    mark_old = watch(yc_v, p)[0]
-    n_out = t_out.size
-    while i_out < n_out and t_out[i_out] <= t:
-        Y_out[i_out, :] = yc_v
-        i_out += 1
-    status = STATUS_RUNNING
-    while t < t_stop:
-        if stats[S_NSTEPS] >= max_steps:
-            status = STATUS_MAX_STEPS
-            break
-        min_step = MIN_STEP_ULPS * abs(np.nextafter(t, np.inf) - t)
-        rejected = False
-        while True:
-            if not h_abs >= min_step:  # also catches a NaN step size
-                status = STATUS_STEP_TOO_SMALL
-                break
-            t_new = t + h_abs
-            if t_new > t_end:
-                t_new = t_end
-            h = t_new - t
-            # --- the 12 stages (derivatives into K[1:12]), y_new and f(y_new) (K[12]); the
-            # terms of each sum in the tableau's order, its zero entries skipped
-            g_min = np.inf
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[1, 0] * K[0, i])
-            g_min = min(g_min, rhs(yt_v, p, k1))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[2, 0] * K[0, i] + A[2, 1] * K[1, i])
-            g_min = min(g_min, rhs(yt_v, p, k2))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[3, 0] * K[0, i] + A[3, 2] * K[2, i])
-            g_min = min(g_min, rhs(yt_v, p, k3))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[4, 0] * K[0, i] + A[4, 2] * K[2, i] + A[4, 3] * K[3, i])
-            g_min = min(g_min, rhs(yt_v, p, k4))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[5, 0] * K[0, i] + A[5, 3] * K[3, i] + A[5, 4] * K[4, i])
-            g_min = min(g_min, rhs(yt_v, p, k5))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[6, 0] * K[0, i] + A[6, 3] * K[3, i] + A[6, 4] * K[4, i]
-                                     + A[6, 5] * K[5, i])
-            g_min = min(g_min, rhs(yt_v, p, k6))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[7, 0] * K[0, i] + A[7, 3] * K[3, i] + A[7, 4] * K[4, i]
-                                     + A[7, 5] * K[5, i] + A[7, 6] * K[6, i])
-            g_min = min(g_min, rhs(yt_v, p, k7))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[8, 0] * K[0, i] + A[8, 3] * K[3, i] + A[8, 4] * K[4, i]
-                                     + A[8, 5] * K[5, i] + A[8, 6] * K[6, i] + A[8, 7] * K[7, i])
-            g_min = min(g_min, rhs(yt_v, p, k8))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[9, 0] * K[0, i] + A[9, 3] * K[3, i] + A[9, 4] * K[4, i]
-                                     + A[9, 5] * K[5, i] + A[9, 6] * K[6, i] + A[9, 7] * K[7, i]
-                                     + A[9, 8] * K[8, i])
-            g_min = min(g_min, rhs(yt_v, p, k9))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[10, 0] * K[0, i] + A[10, 3] * K[3, i] + A[10, 4] * K[4, i]
-                                     + A[10, 5] * K[5, i] + A[10, 6] * K[6, i] + A[10, 7] * K[7, i]
-                                     + A[10, 8] * K[8, i] + A[10, 9] * K[9, i])
-            g_min = min(g_min, rhs(yt_v, p, k10))
-            for i in range(m):
-                yt[i] = yc[i] + h * (A[11, 0] * K[0, i] + A[11, 3] * K[3, i] + A[11, 4] * K[4, i]
-                                     + A[11, 5] * K[5, i] + A[11, 6] * K[6, i] + A[11, 7] * K[7, i]
-                                     + A[11, 8] * K[8, i] + A[11, 9] * K[9, i]
-                                     + A[11, 10] * K[10, i])
-            g_min = min(g_min, rhs(yt_v, p, k11))
-            for i in range(m):
-                y_new[i] = yc[i] + h * (B[0] * K[0, i] + B[5] * K[5, i] + B[6] * K[6, i]
-                                        + B[7] * K[7, i] + B[8] * K[8, i] + B[9] * K[9, i]
-                                        + B[10] * K[10, i] + B[11] * K[11, i])
-            g_new = rhs(y_new_v, p, f_new)
-            g_min = min(g_min, g_new)
-            stats[S_NRHS] += N_STAGES
-            if h_fixed > 0.0:
-                if K_out.shape[0] > 0:
-                    for r in range(N_STAGES + 1):
-                        for i in range(n):
-                            K_out[r, i] = K[r, i]
-                break
-            # --- the error norm, as scipy's DOP853 (< 1: accept; NaN or inf: overflow):
-            # |h| e5 / sqrt(e5^2 + 0.01 e3^2), e5 and e3 the RMS of the 5th- and 3rd-order
-            # estimates scaled by atol + max(|y|, |y_new|) rtol
-            for i in range(m):
-                sc = atol + max(abs(yc[i]), abs(y_new[i])) * rtol
-                e5[i] = (E5[0] * K[0, i] + E5[5] * K[5, i] + E5[6] * K[6, i] + E5[7] * K[7, i]
-                         + E5[8] * K[8, i] + E5[9] * K[9, i] + E5[10] * K[10, i]
-                         + E5[11] * K[11, i]) / sc
-                e3[i] = (E3[0] * K[0, i] + E3[5] * K[5, i] + E3[6] * K[6, i] + E3[7] * K[7, i]
-                         + E3[8] * K[8, i] + E3[9] * K[9, i] + E3[10] * K[10, i]
-                         + E3[11] * K[11, i]) / sc
-            s5 = 0.0
-            s3 = 0.0
-            for i in range(n):
-                s5 += e5[i] * e5[i]
-                s3 += e3[i] * e3[i]
-            if s5 == 0.0 and s3 == 0.0:
-                err = 0.0
-            else:
-                err = abs(h) * s5 / math.sqrt((s5 + 0.01 * s3) * n)
-            if err < 1.0:
-                if err == 0.0:
-                    factor = MAX_FACTOR
-                else:
-                    factor = min(MAX_FACTOR, SAFETY * err ** ERROR_EXPONENT)
-                if rejected:
-                    factor = min(1.0, factor)
-                h_abs *= factor
-                break
-            # rejected (a non-finite error estimate also lands here and shrinks the step)
-            if math.isfinite(err):
-                h_abs *= max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT)
-            else:
-                h_abs *= MIN_FACTOR
-            rejected = True
-            stats[S_NREJECT] += 1
-        if status == STATUS_STEP_TOO_SMALL:
-            break
-        stats[S_NSTEPS] += 1
-        # --- stiffness detection: yt holds the last stage's point (c_12 = 1, t + h)
-        st_num = 0.0
-        st_den = 0.0
-        for i in range(n):
-            dk = K[N_STAGES, i] - K[N_STAGES - 1, i]
-            dyv = y_new[i] - yt[i]
-            st_num += dk * dk
-            st_den += dyv * dyv
-        if st_den > 0.0:
-            h_lambda = h * math.sqrt(st_num / st_den)
-            if h_lambda > stats[S_HLAMBDA_MAX]:
-                stats[S_HLAMBDA_MAX] = h_lambda
-            if h_lambda > STIFF_HLAMBDA:
-                stats[S_NSTIFF] += 1
-        # --- events and samples on the dense output (its coefficients only for a step that
-        # holds a sample or an event)
-        mark_new, monitor = watch(y_new_v, p)
-        if monitor < stats[S_MONITOR_MIN]:
-            stats[S_MONITOR_MIN] = monitor
-        # the guard may have dipped inside the step even if it is > 0 at its end: whenever a
-        # stage saw it <= 0, the dense output is scanned for the first point where it is
-        guard_dip = not (g_min > 0.0)
-        mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
-        need_dense = guard_dip or mark_hit or (i_out < n_out and t_out[i_out] <= t_new)
-        if need_dense:
-            dense_coeffs(rhs, yc_v, y_new_v, f_new, h, p, K, F, yt_v)
-            stats[S_NRHS] += 3
-            t_final = t_new
-            guard_hit = False
-            if guard_dip:
-                lo = 0.0
-                for k in range(1, GUARD_SCAN + 1):
-                    x = k / GUARD_SCAN
-                    dense_eval(F, yc_v, x, yt_v)
-                    stats[S_NRHS] += 1
-                    if not (rhs(yt_v, p, dy) > 0.0):
-                        guard_hit = True
-                        t_final = t + h * locate(rhs, watch, True, F, yc_v, p, yt_v, dy, lo, x)
-                        stats[S_NRHS] += BISECTION_ITERS
-                        break
-                    lo = x
-            if mark_hit:
-                t_mark = t + h * locate(rhs, watch, False, F, yc_v, p, yt_v, dy, 0.0, 1.0)
-                if t_mark <= t_final:
-                    stats[S_T_MARK] = t_mark
-            while i_out < n_out and t_out[i_out] <= t_final:
-                if t_out[i_out] == t_new:
-                    Y_out[i_out, :] = y_new_v
-                else:
-                    dense_eval(F, yc_v, (t_out[i_out] - t) / h, yt_v)
-                    Y_out[i_out, :] = yt_v
-                i_out += 1
-            if guard_hit:
-                dense_eval(F, yc_v, (t_final - t) / h, y)
-                stats[S_H] = h_abs
-                return STATUS_GUARD, t_final, i_out
-        t = t_new
-        for i in range(m):
-            yc[i] = y_new[i]
-            K[0, i] = K[N_STAGES, i]
-        mark_old = mark_new
-        if monitor < monitor_floor:
-            status = STATUS_MONITOR
-            break
-        if stats[S_NSTIFF] >= stats[S_STIFF_STOP]:  # the hook of solve.py's rolling phases
-            status = STATUS_STIFF
-            break
-    stats[S_H] = h_abs
-    for i in range(n):
-        y[i] = yc[i]
-    if status == STATUS_RUNNING and t >= t_end:
-        status = STATUS_OK
-    return status, t, i_out
+    return f"""
+for i in range(m):
+    sc = atol + max(abs(yc[i]), abs(y_new[i])) * rtol
+    e5[i] = ({wsum("E5")}) / sc
+    e3[i] = ({wsum("E3")}) / sc
+s5 = 0.0
+s3 = 0.0
+for i in range(n):
+    s5 += e5[i] * e5[i]
+    s3 += e3[i] * e3[i]
+if s5 == 0.0 and s3 == 0.0:
+    err = 0.0
+else:
+    err = abs(h) * s5 / math.sqrt((s5 + 0.01 * s3) * n)
+"""
+
+
+#: The pair, as the driver writes its kernel (:mod:`reference_ode.explicit_rk`): 12 stages and
+#: f(y_new) in every attempt (FSAL), the interpolant's 3 extra stages for a step read densely.
+PAIR = Pair(name="dop853", module=__name__, a=A, b=B, n_stages=N_STAGES, fsal=True,
+            error=_error, buffers="e5 = np.zeros(m)\ne3 = np.zeros(m)", imports=("E3", "E5"),
+            dense_prepare="dense_coeffs(rhs, yc_v, y_new_v, f_new, h, p, K, F, yt_v)",
+            dense_stages="3", interp_rows="7")
+
+
+@cache
+def kernel() -> ModuleType:
+    """The compiled kernel's module (:mod:`reference_ode.driver`): ``run`` and ``locate``.
+
+    ``run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out,
+    Y_out, i_out, stats, h_fixed, K_out)`` is :func:`dop853_run` with, for ``h_fixed`` > 0,
+    steps of that size and no error control (every step accepted: for tests of the method's
+    order and dense output; a ``K_out`` of shape (16, n) then receives each step's stage
+    buffer, rows 0-12).
+    """
+    return driver.load("dop853", driver.kernel_source(explicit_rk.parts(PAIR)))
 
 
 def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.ndarray,
@@ -485,8 +259,8 @@ def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
         (status, t, i_out): one of the ``STATUS_*`` codes, the time reached (at a guard stop:
         the located crossing, with ``y`` on the dense output there) and the next sample.
     """
-    return _kernel(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor,
-                   t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
+    return kernel().run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+                        monitor_floor, t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
 
 
 _NO_K_OUT = np.empty((0, 0))
@@ -507,8 +281,8 @@ def fixed_steps(rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int
     Y = np.full((t_out.size, y.size), np.nan)
     K = np.zeros((N_K, y.size))
     t_end = float(h * n_steps)
-    _kernel(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float), 1.0, 1.0,
-            n_steps, -np.inf, t_out, Y, 0, new_stats(), float(h), K)
+    kernel().run(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float), 1.0,
+                 1.0, n_steps, -np.inf, t_out, Y, 0, new_stats(), float(h), K)
     return y, Y, K
 
 

@@ -44,16 +44,14 @@ the events' evaluations of the right-hand side as one each.
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import os
-import sys
 from functools import cache
-from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 from tippetop.models.options import taylor_order
+from tippetop.reference_ode import driver
+from tippetop.reference_ode.driver import Parts
 from tippetop.reference_ode.friction import COULOMB_MODIFIED
 from tippetop.reference_ode.params_array import (
     P_COULOMB_KIND,
@@ -89,16 +87,7 @@ def unsupported(rhs, p: np.ndarray) -> str | None:
     return None
 
 
-_KERNEL = '''
-import math
-
-import numba as nb
-import numpy as np
-
-from tippetop.reference_ode.dop853 import (
-    S_H, S_MONITOR_MIN, S_NRHS, S_NSTEPS, S_NSTIFF,
-    S_STIFF_STOP, S_T_MARK, STATUS_GUARD, STATUS_MAX_STEPS, STATUS_MONITOR, STATUS_OK,
-    STATUS_RUNNING, STATUS_STEP_TOO_SMALL, STATUS_STIFF)
+_HEADER = '''
 from tippetop.reference_ode.params_array import (
     P_A_OFF, P_G, P_IA, P_IC, P_LAM, P_M, P_MU, P_R)
 from tippetop.reference_ode.top import vector_rhs as rhs
@@ -110,13 +99,6 @@ ROW_N = {row_n}
 ROW_U = {row_u}
 SAFETY = {safety!r}
 STIFF_SEPARATION = {stiff!r}
-BISECTION_ITERS = 60
-GUARD_SCAN = 32
-MIN_STEP_ULPS = 10.0
-_V = nb.types.float64[::1]
-_M = nb.types.float64[:, ::1]
-_F8 = nb.types.float64
-_I8 = nb.types.int64
 
 
 @nb.njit(nb.types.none(_V, _V, _M), cache=True, error_model="numpy", fastmath={{"contract"}})
@@ -124,152 +106,73 @@ _I8 = nb.types.int64
 
 @nb.njit(nb.types.none(_M, _F8, _V), cache=True, error_model="numpy", fastmath={{"contract"}})
 {dense}
-
-@nb.njit(_F8(nb.types.boolean, _M, _V, _V, _V, _F8, _F8, _F8), cache=True, error_model="numpy")
-def locate(use_guard, T, p, ytmp, dy, h, lo, hi):
-    """Where in the step (a fraction in (lo, hi]) the guard or the mark falls to <= 0."""
-    for _ in range(BISECTION_ITERS):
-        mid = 0.5 * (lo + hi)
-        dense_eval(T, mid * h, ytmp)
-        if use_guard:
-            v = rhs(ytmp, p, dy)
-        else:
-            v = watch(ytmp, p)[0]
-        if v > 0.0:
-            lo = mid
-        else:
-            hi = mid
-    return hi
-
-
-@nb.njit(nb.types.Tuple((_I8, _F8, _I8))(_V, _F8, _F8, _F8, _V, _F8, _F8, _I8, _F8, _V, _M, _I8,
-                                          _V),
-         cache=True, error_model="numpy")
-def run(y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out, i_out,
-        stats):
-    """The kernel: vector_rhs and vector_watch called directly (no function arguments, whose
-    dispatch cost ~0.1 ms a call)."""
-    n = y.size
-    T = np.zeros((N_ROWS, ORDER + 1))
-    yc = np.empty(n)
-    y_new = np.empty(n)
-    f1 = np.empty(n)
-    ytmp = np.empty(n)
-    dy = np.empty(n)
-    for i in range(n):
-        yc[i] = y[i]
-    g0 = rhs(yc, p, f1)
-    stats[S_NRHS] += 1
-    if not g0 > 0.0:
-        return STATUS_GUARD, t, i_out
-    mark_old = watch(yc, p)[0]
-    n_out = t_out.size
-    while i_out < n_out and t_out[i_out] <= t:
-        Y_out[i_out, :] = yc
-        i_out += 1
-    mu_g2 = (p[P_MU] * p[P_G]) ** 2
-    sep2 = STIFF_SEPARATION * STIFF_SEPARATION
-    inv_p = 1.0 / ORDER
-    inv_pm1 = 1.0 / (ORDER - 1)
-    status = STATUS_RUNNING
-    h = 0.0
-    while t < t_stop:
-        if stats[S_NSTEPS] >= max_steps:
-            status = STATUS_MAX_STEPS
-            break
-        jet(yc, p, T)
-        stats[S_NRHS] += 1
-        r1 = 0.0
-        r2 = 0.0
-        for i in range(n):
-            inv_sc = 1.0 / (atol + rtol * abs(yc[i]))
-            a1 = abs(T[i, ORDER]) * inv_sc
-            a2 = abs(T[i, ORDER - 1]) * inv_sc
-            if a1 > r1:
-                r1 = a1
-            if a2 > r2:
-                r2 = a2
-        h_abs = math.inf
-        if r1 > 0.0:
-            h_abs = r1 ** -inv_p
-        if r2 > 0.0:
-            h_abs = min(h_abs, r2 ** -inv_pm1)
-        h_abs *= SAFETY
-        min_step = MIN_STEP_ULPS * abs(np.nextafter(t, np.inf) - t)
-        t_new = t + h_abs if h_abs < t_end - t else t_end
-        h = t_new - t
-        if not h >= min_step:  # also a NaN jet
-            status = STATUS_STEP_TOO_SMALL
-            break
-        dense_eval(T, h, y_new)
-        finite = True
-        for i in range(n):
-            finite = finite and math.isfinite(y_new[i])
-        if not finite:  # an overflowing series: as DOP853's steps shrinking to nothing
-            status = STATUS_STEP_TOO_SMALL
-            break
-        stats[S_NSTEPS] += 1
-        # stiff: the law relaxes the slip STIFF_SEPARATION times faster than the top turns,
-        # mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|
-        w2 = yc[8] * yc[8] + yc[9] * yc[9] + yc[10] * yc[10]
-        if mu_g2 > sep2 * w2 * T[ROW_U, 0]:
-            stats[S_NSTIFF] += 1
-        mark_new, monitor = watch(y_new, p)
-        if monitor < stats[S_MONITOR_MIN]:
-            stats[S_MONITOR_MIN] = monitor
-        # the guard N on its series: at the step's end and middle
-        g_end = T[ROW_N, ORDER]
-        g_mid = T[ROW_N, ORDER]
-        for k in range(ORDER - 1, -1, -1):
-            g_end = g_end * h + T[ROW_N, k]
-            g_mid = g_mid * (0.5 * h) + T[ROW_N, k]
-        guard_dip = not (g_end > 0.0) or not (g_mid > 0.0)
-        mark_hit = math.isnan(stats[S_T_MARK]) and mark_old > 0.0 and mark_new <= 0.0
-        t_final = t_new
-        guard_hit = False
-        if guard_dip:
-            lo = 0.0
-            for k in range(1, GUARD_SCAN + 1):
-                x = k / GUARD_SCAN
-                dense_eval(T, x * h, ytmp)
-                stats[S_NRHS] += 1
-                if not (rhs(ytmp, p, dy) > 0.0):
-                    guard_hit = True
-                    t_final = t + h * locate(True, T, p, ytmp, dy, h, lo, x)
-                    stats[S_NRHS] += BISECTION_ITERS
-                    break
-                lo = x
-        if mark_hit:
-            t_mark = t + h * locate(False, T, p, ytmp, dy, h, 0.0, 1.0)
-            if t_mark <= t_final:
-                stats[S_T_MARK] = t_mark
-        while i_out < n_out and t_out[i_out] <= t_final:
-            if t_out[i_out] == t_new:
-                Y_out[i_out, :] = y_new
-            else:
-                dense_eval(T, t_out[i_out] - t, Y_out[i_out])
-            i_out += 1
-        if guard_hit:
-            dense_eval(T, t_final - t, y)
-            stats[S_H] = h
-            return STATUS_GUARD, t_final, i_out
-        t = t_new
-        for i in range(n):
-            yc[i] = y_new[i]
-        mark_old = mark_new
-        if monitor < monitor_floor:
-            status = STATUS_MONITOR
-            break
-        if stats[S_NSTIFF] >= stats[S_STIFF_STOP]:
-            status = STATUS_STIFF
-            break
-    stats[S_H] = h
-    for i in range(n):
-        y[i] = yc[i]
-    if status == STATUS_RUNNING and t >= t_end:
-        status = STATUS_OK
-    return status, t, i_out
 '''
+
+#: Buffers; the driver's names (``yc_v``, ``yt_v``) for the state and the scratch.
+_SETUP = """
+T = np.zeros((N_ROWS, ORDER + 1))
+yc = np.empty(n)
+y_new = np.empty(n)
+f1 = np.empty(n)
+ytmp = np.empty(n)
+dy = np.empty(n)
+yc_v = yc
+yt_v = ytmp
+"""
+
+_START = """
+mu_g2 = (p[P_MU] * p[P_G]) ** 2
+sep2 = STIFF_SEPARATION * STIFF_SEPARATION
+inv_p = 1.0 / ORDER
+inv_pm1 = 1.0 / (ORDER - 1)
+h = 0.0
+"""
+
+#: A step: the jet, the step from its last two coefficients, the sum, the stiffness flag and
+#: the guard N on its series at the step's end and middle.
+_STEP = """
+jet(yc, p, T)
+stats[S_NRHS] += 1
+r1 = 0.0
+r2 = 0.0
+for i in range(n):
+    inv_sc = 1.0 / (atol + rtol * abs(yc[i]))
+    a1 = abs(T[i, ORDER]) * inv_sc
+    a2 = abs(T[i, ORDER - 1]) * inv_sc
+    if a1 > r1:
+        r1 = a1
+    if a2 > r2:
+        r2 = a2
+h_abs = math.inf
+if r1 > 0.0:
+    h_abs = r1 ** -inv_p
+if r2 > 0.0:
+    h_abs = min(h_abs, r2 ** -inv_pm1)
+h_abs *= SAFETY
+t_new = t + h_abs if h_abs < t_end - t else t_end
+h = t_new - t
+if not h >= min_step:  # also a NaN jet
+    status = STATUS_STEP_TOO_SMALL
+    break
+dense_eval(T, h, y_new)
+finite = True
+for i in range(n):
+    finite = finite and math.isfinite(y_new[i])
+if not finite:  # an overflowing series: as DOP853's steps shrinking to nothing
+    status = STATUS_STEP_TOO_SMALL
+    break
+stats[S_NSTEPS] += 1
+# stiff: the law relaxes the slip STIFF_SEPARATION times faster than the top turns,
+# mu g / sqrt(|v_P|^2 + Lambda^2) > STIFF_SEPARATION |w|
+w2 = yc[8] * yc[8] + yc[9] * yc[9] + yc[10] * yc[10]
+if mu_g2 > sep2 * w2 * T[ROW_U, 0]:
+    stats[S_NSTIFF] += 1
+g_end = T[ROW_N, ORDER]
+g_mid = T[ROW_N, ORDER]
+for k in range(ORDER - 1, -1, -1):
+    g_end = g_end * h + T[ROW_N, k]
+    g_mid = g_mid * (0.5 * h) + T[ROW_N, k]
+"""
 
 
 def dense_source(order: int, n: int = 11) -> str:
@@ -295,44 +198,39 @@ def dense_source(order: int, n: int = 11) -> str:
     return "\n".join(lines) + "\n"
 
 
+def parts(order: int, symmetric: bool) -> Parts:
+    """The driver's parts of the kernel of one order (:mod:`reference_ode.driver`).
+
+    The right-hand side and the watch are the vector formulation's, called directly (no
+    function arguments: the kernel runs that problem only).
+    """
+    header = _HEADER.format(order=order, n_rows=N_ROWS, row_n=ROW_N, row_u=ROW_U,
+                            safety=SAFETY, stiff=STIFF_SEPARATION,
+                            jet=jet_source(order, symmetric), dense=dense_source(order))
+    return Parts(
+        name=f"taylor_p{order}_{'sym' if symmetric else 'gen'}", header=header,
+        params=("y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out, Y_out, "
+                "i_out, stats"),
+        signature=("nb.types.Tuple((_I8, _F8, _I8))(_V, _F8, _F8, _F8, _V, _F8, _F8, _I8, _F8, "
+                   "_V, _M, _I8, _V)"),
+        setup=_SETUP, f0="f1", start=_START, step=_STEP, y_new="y_new", h="h",
+        guard_dip="not (g_end > 0.0) or not (g_mid > 0.0)", dense_prepare="",
+        at_fraction="dense_eval(T, {x} * h, {out})", at_time="dense_eval(T, {t} - t, {out})",
+        guard_stop="stats[S_H] = h", advance="for i in range(n):\n    yc[i] = y_new[i]",
+        finish="stats[S_H] = h", locate_params="T, h", locate_signature="_M, _F8",
+        callables="globals")
+
+
 def kernel_source(order: int, symmetric: bool) -> str:
     """The source of the compiled module of one order (jet, dense output, events, driver)."""
-    jet = jet_source(order, symmetric)
-    head = (f'"""The Taylor method of order {order} ({"A = C" if symmetric else "A != C"}), '
-            'written by tippetop.reference_ode.taylor (do not edit)."""\n')
-    return head + _KERNEL.format(order=order, n_rows=N_ROWS, row_n=ROW_N, row_u=ROW_U,
-                                 safety=SAFETY, stiff=STIFF_SEPARATION, jet=jet,
-                                 dense=dense_source(order))
-
-
-def _source_dir() -> Path:
-    from tippetop.models.resources import user_cache_dir
-    from tippetop.reference_ode import NUMBA_CACHE_DIR
-
-    env = os.environ.get("NUMBA_CACHE_DIR")
-    base = Path(env) if env and NUMBA_CACHE_DIR is None else (
-        NUMBA_CACHE_DIR or user_cache_dir() / "numba")
-    return Path(base) / "taylor_src"
+    return driver.kernel_source(parts(order, symmetric))
 
 
 @cache
-def kernel(order: int, symmetric: bool):
+def kernel(order: int, symmetric: bool) -> ModuleType:
     """The compiled module of one order: written to the cache and imported (compiled once)."""
-    src = kernel_source(order, symmetric)
-    key = hashlib.sha256(src.encode()).hexdigest()[:12]
-    name = f"taylor_p{order}_{'sym' if symmetric else 'gen'}_{key}"
-    folder = _source_dir()
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}.py"
-    if not path.exists() or path.read_text() != src:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(src)
-        tmp.replace(path)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    p = parts(order, symmetric)
+    return driver.load(p.name, driver.kernel_source(p))
 
 
 def is_symmetric(p: np.ndarray) -> bool:
