@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.results.matrix import MatrixResult
 from tippetop.compare.studies.bisect import (
     Candidate,
     MatrixRunner,
@@ -56,8 +57,8 @@ class _Fake:
             out[e] = {"version": e, "status": "ok", "message": None, "values": values}
         return out
 
-    def attribute(self, a: str, b: str) -> dict[str, Any]:
-        return {"differences": []}
+    def attribute(self, a: str, b: str) -> MatrixResult:
+        return MatrixResult((), (), (), True, {}, (), (), {})
 
 
 def _search(n_max: int) -> None:
@@ -66,7 +67,7 @@ def _search(n_max: int) -> None:
     worst_over = 0
     for n in range(3, n_max + 1):
         cands = [Candidate(f"1.{i}.0", f"mujoco==1.{i}.0") for i in range(n)]
-        most = max(bisect(cands, ["t_invert"], _Fake(at), attribution=False)["runs"]
+        most = max(bisect(cands, ["t_invert"], _Fake(at), attribution=False).runs
                    for at in range(1, n))
         bound = math.ceil(math.log2(n - 1)) + 2
         worst_over = max(worst_over, most - bound)
@@ -85,14 +86,14 @@ def _real(workers: int | None) -> None:
     res = bisect(cands, ["t_invert"], runner, say=lines.append)
     wall = time.perf_counter() - t0
     n = len(cands)
-    e = res["by_metric"]["t_invert"]
+    e = res.by_metric["t_invert"]
     bound = math.ceil(math.log2(n - 1)) + 2
     print(f"real: {MODEL.name} in mode file at 1 ms, t_invert, {n} releases from "
           f"{cands[0].name} to {cands[-1].name}")
-    print(f"  ran {', '.join(t['release'] for t in res['tested'])}")
-    print(f"  pair: {e['pair']}, values {e['values']} s")
-    print(f"  environments {res['environments_made']} ({res['environments_new']} made now) "
-          f"for {n} releases: ratio {res['environments_made'] / n:.3f} "
+    print(f"  ran {', '.join(t.release for t in res.tested)}")
+    print(f"  pair: {e.pair and e.pair.to_json()}, values {e.values and list(e.values)} s")
+    print(f"  environments {res.environments_made} ({res.environments_new} made now) "
+          f"for {n} releases: ratio {res.environments_made / n:.3f} "
           f"(target <= {bound}/{n} = {bound / n:.3f}); wall {wall:.0f} s")
 
 

@@ -122,11 +122,11 @@ def main(argv: list[str] | None = None) -> int:
 
             def local() -> dict[str, Any]:
                 return run_matrix(scenes, engines, modes, over, workers=1, use_cache=False,  # noqa: B023
-                                  attribution=False)
+                                  attribution=False).to_json()
 
             def on_dask() -> dict[str, Any]:
                 return run_matrix(scenes, engines, modes, over, use_cache=False,  # noqa: B023
-                                  attribution=False, scheduler=address)
+                                  attribution=False, scheduler=address).to_json()
 
             t0 = time.perf_counter()
             local()

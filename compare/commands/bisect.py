@@ -7,10 +7,8 @@ interpreters): :mod:`tippetop.compare.studies.bisect` does the work.
 from __future__ import annotations
 
 import argparse
-import html
 import os
 import sys
-from typing import Any
 
 from tippetop.compare.commands.history import add_history_options
 from tippetop.compare.commands.options import (
@@ -95,6 +93,9 @@ def _check_scene(scene: str, mode: str | None, overrides: tuple[str, ...]) -> st
 
 def run(args: argparse.Namespace) -> int:
     """``tippetop bisect``."""
+    import dataclasses
+
+    from tippetop.compare.results.bisect import BisectContext
     from tippetop.compare.running.io import check_output_dir, hold_output_lock
     from tippetop.compare.studies import bisect as bs
     from tippetop.models.errors import TippetopError
@@ -133,116 +134,29 @@ def run(args: argparse.Namespace) -> int:
                              use_cache=not args.no_cache, scheduler=args.scheduler, say=say)
     found = bs.bisect(cands, metrics, runner, budget=args.budget,
                       attribution=not args.no_attribution, say=say, tty=sys.stderr.isatty())
-    res = {"format": bs.FORMAT, "scene": args.scene, "mode": mode,
-           "overrides": list(args.set or []), "source": source, "started": started, **found}
+    res = dataclasses.replace(found, context=BisectContext(
+        args.scene, mode, tuple(args.set or []), source, started))
     if not args.no_history:  # a failed append is said in one line; the results are kept
         from tippetop.compare.commands.history import record_command
 
-        res["history"] = record_command("bisect", res, args)
+        res = dataclasses.replace(res, history=record_command("bisect", res.to_json(), args))
     if out_dir is not None:
+        from tippetop.compare.presentation.bisect import render_html
         from tippetop.compare.running.io import staged_output_dir
 
         with staged_output_dir(out_dir) as stage:  # all files or none, even on Ctrl-C
-            (stage / "results.json").write_text(json_text(res, indent=1) + "\n", "utf-8")
+            (stage / "results.json").write_text(json_text(res.to_json(), indent=1) + "\n",
+                                                "utf-8")
             (stage / "report.html").write_text(render_html(res), "utf-8")
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
+        from tippetop.compare.presentation.bisect import print_bisect
+
         print_bisect(res)
         if out_dir is not None:
             print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
-        if res.get("history") and res["history"]["run"] is not None:
-            print(f"history: appended to {res['history']['file']} (run "
-                  f"{res['history']['run']}; 'tippetop history' shows what moved)")
+        if res.history and res.history["run"] is not None:
+            print(f"history: appended to {res.history['file']} (run "
+                  f"{res.history['run']}; 'tippetop history' shows what moved)")
     return 0
-
-
-def _unit(metric: str) -> str:
-    """The unit printed after a metric's value (:attr:`Metric.table_unit`, declared once)."""
-    from tippetop.compare.measures.metrics import metric as declared
-
-    return declared(metric).table_unit
-
-
-def print_bisect(res: dict[str, Any]) -> None:
-    """The search for a person: what ran, then each metric's move."""
-    from tippetop.compare.presentation.terminal import fmt, labelled, table, wrapped
-
-    n = len(res["releases"])
-    print(f"bisect: {res['scene']} in mode {res['mode']}, {n} {res['kind']} from "
-          f"{res['between'][0]} to {res['between'][1]} ({res['source']})")
-    envs = res["environments_made"]
-    print(f"\nran {res['runs']} of {n} ({envs} managed environment{'s' if envs != 1 else ''}, "
-          f"{res['environments_new']} made now; the versions read back from the runs):")
-    ms = res["metrics"]
-    own = all(t["engine"] == f"mujoco@{t['release']}" for t in res["tested"])
-    cols = ["interpreter" if own else "release", *(() if own else ("engine",)), "version",
-            *(() if "status" in ms else ("status",)), *ms]
-    rows = [(t["release"], *(() if own else (t["engine"],)), fmt(t["version"]),
-             *(() if "status" in ms else (str(t["status"]),)),
-             *(fmt(t["values"].get(m), _unit(m)) for m in ms)) for t in res["tested"]]
-    print(table(cols, rows, indent="  "))
-    for sk in res["skipped"]:
-        print(f"  skipped {sk['release']}: {sk['reason']}")
-    width = max(len(m) for m in ms)
-    print("\nwhat moved (beyond the nightly's tolerances):")
-    still = [m for m in ms if not res["by_metric"][m]["moved"]
-             and not res["by_metric"][m]["moves"]]
-    if still:
-        a, b = res["searched"]
-        print(wrapped(f"no move of {', '.join(still)}: {b} is like {a} (a move and a move "
-                      "back between two runs would not be seen)", indent="  "))
-    for m in ms:
-        e = res["by_metric"][m]
-        u = _unit(m)
-        if m in still:
-            continue
-        if not e["moved"]:
-            print(labelled(m, f"{e['summary']}", width))
-            continue
-        (va, vb), pair = e["values"], e["pair"]
-        print(labelled(m, f"{fmt(va, u)} ({pair['last_like_a']}, like "
-                       f"{res['searched'][0]}) -> {fmt(vb, u)} ({pair['first_like_b']}), "
-                       f"over {e['tolerance']['text']}", width))
-        print(labelled("", e["summary"], width))
-        att = e.get("attribution")
-        if att:
-            print(labelled("", f"follows: {att.get('follows')}", width))
-        if e.get("closer"):
-            from tippetop.compare.commands.matrix import closer_text
-
-            print(labelled("", f"closer: {closer_text({'metric': m}, e['closer'])}", width))
-        if not att and e.get("attribution_note"):
-            print(labelled("", e["attribution_note"], width))
-    for note in res["notes"]:
-        print(f"note: {note}")
-
-
-def render_html(res: dict[str, Any]) -> str:
-    """A small page: the runs and each metric's move."""
-    from tippetop.compare.presentation.terminal import fmt
-
-    esc = html.escape
-    ms = res["metrics"]
-    head = "".join(f"<th>{esc(h)}</th>" for h in ("release", "engine", "version", "status",
-                                                  *ms))
-    body = "".join(
-        "<tr>" + "".join(f"<td>{esc(str(x))}</td>" for x in (
-            t["release"], t["engine"], fmt(t["version"]), t["status"],
-            *(fmt(t["values"].get(m), _unit(m)) for m in ms))) + "</tr>"
-        for t in res["tested"])
-    moves = "".join(
-        f"<li><b>{esc(m)}</b>: {esc(e['summary'])}"
-        + (f"; follows: {esc(str(e['attribution'].get('follows')))}"
-           if e.get("attribution") else "") + "</li>"
-        for m, e in res["by_metric"].items())
-    skipped = "".join(f"<li>{esc(s['release'])}: {esc(s['reason'])}</li>"
-                      for s in res["skipped"]) or "<li>none</li>"
-    return (f"<!doctype html><meta charset='utf-8'><title>tippetop bisect</title>"
-            f"<style>body{{font-family:sans-serif}}td,th{{padding:2px 8px;text-align:right}}"
-            f"</style><h1>bisect: {esc(res['scene'])} ({esc(res['mode'])})</h1>"
-            f"<p>{len(res['releases'])} {res['kind']} from {esc(res['between'][0])} to "
-            f"{esc(res['between'][1])}; {res['runs']} run, {res['environments_made']} "
-            f"managed environments.</p><h2>What moved</h2><ul>{moves}</ul>"
-            f"<h2>Runs</h2><table><tr>{head}</tr>{body}</table>"
-            f"<h2>Skipped</h2><ul>{skipped}</ul>\n")

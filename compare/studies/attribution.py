@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tippetop.compare.results.matrix import Attribution, Closer, Evidence
 from tippetop.models.plan import MujocoPlan
 from tippetop.models.scene import Override
 
@@ -94,9 +95,9 @@ def value_gap(a: Any, b: Any) -> float | None:
 
 def attribute(metric: str, a_spec: str, b_spec: str,
               base_gap: float | None,
-              evidence: list[dict[str, Any]],
+              evidence: list[Evidence],
               ran_integrator: str | None = None,
-              precisions: tuple[str, str] | None = None) -> dict[str, Any]:
+              precisions: tuple[str, str] | None = None) -> Attribution:
     """``attribution`` of one difference: what it follows, and the evidence.
 
     Args:
@@ -104,29 +105,29 @@ def attribute(metric: str, a_spec: str, b_spec: str,
         a_spec: Engine A.
         b_spec: Engine B.
         base_gap: The largest theta(t) gap of the runs as they ran (rad).
-        evidence: Per change: {change, a, b, difference, theta_gap_rad, agree} (or
-            {change, applies: False, why}).
+        evidence: Per change, as both engines ran with it (or why it does not apply).
         ran_integrator: The integrator the runs as they ran used (they differ with it).
         precisions: A's and B's precision (``float64``, ``float32``): a difference no change
             removes between two precisions is said to be theirs.
 
     Returns:
-        {follows (a sentence with the numbers), evidence, removed_by, kept_by}.
+        What it follows (a sentence with the numbers), the evidence, the changes that remove
+        it and those that keep it; ``theta_gap_rad`` is ``base_gap``.
     """
-    ran = [e for e in evidence if e.get("applies", True) and e.get("failed") is None]
-    removed = [e["change"] for e in ran if e["agree"]]
-    kept = [e["change"] for e in ran if not e["agree"]]
-    failed = [e for e in evidence if e.get("failed")]
+    ran = [e for e in evidence if e.applies and e.failed is None]
+    removed = [e.change for e in ran if e.agree]
+    kept = [e.change for e in ran if not e.agree]
+    failed = [e for e in evidence if e.failed]
 
     def gap_text(names: list[str]) -> str:
-        gaps = [e["theta_gap_rad"] for e in ran if e["change"] in names
-                and e["theta_gap_rad"] is not None]
+        gaps = [e.theta_gap_rad for e in ran if e.change in names
+                and e.theta_gap_rad is not None]
         return f"{max(gaps):.2g} rad" if gaps else "n/a"
 
-    integrators = [e for e in ran if e["change"].startswith("integrator ")]
+    integrators = [e for e in ran if e.change.startswith("integrator ")]
     if not ran:
         follows = "not attributed: no change could be run" + (
-            f" ({failed[0]['change']}: {failed[0]['failed']})" if failed else "")
+            f" ({failed[0].change}: {failed[0].failed})" if failed else "")
     elif not removed and precisions is not None and precisions[0] != precisions[1]:
         follows = (f"persists with every change ({len(kept)} tried): the two run in "
                    f"{precisions[0]} and {precisions[1]}, which no option changes")
@@ -151,35 +152,35 @@ def attribute(metric: str, a_spec: str, b_spec: str,
                    + (f"; stays with {', '.join(kept)}" if kept else "; and with every other "
                       "change too"))
     # the change that brings the two trajectories closest, against the runs as they ran
-    gaps = [e for e in ran if e["theta_gap_rad"] is not None
-            and e["change"] != "contacts off"]
+    gaps = [(e.theta_gap_rad, e.change) for e in ran if e.theta_gap_rad is not None
+            and e.change != "contacts off"]
     if gaps and base_gap is not None and base_gap > 0:
-        best = min(gaps, key=lambda e: e["theta_gap_rad"])
-        if best["theta_gap_rad"] < 0.1 * base_gap:
-            follows += (f"; theta(t) closest with {best['change']}: {best['theta_gap_rad']:.2g}"
+        best_gap, best = min(gaps, key=lambda g: g[0])
+        if best_gap < 0.1 * base_gap:
+            follows += (f"; theta(t) closest with {best}: {best_gap:.2g}"
                         f" rad apart, against {base_gap:.2g} rad as run")
         else:
             follows += (f"; no single change brings theta(t) within a tenth of its "
                         f"{base_gap:.2g} rad gap as run")
-    return {"follows": follows, "evidence": evidence, "removed_by": removed, "kept_by": kept,
-            "metric": metric, "engines": [a_spec, b_spec]}
+    return Attribution(follows, tuple(evidence), tuple(removed), tuple(kept), metric,
+                       (a_spec, b_spec), base_gap)
 
 
-def integrator_split(integrators: list[dict[str, Any]],
+def integrator_split(integrators: list[Evidence],
                      ran_integrator: str | None) -> tuple[list[str], list[str]] | None:
     """(integrators the pair differs with, integrators it agrees with), when both are some.
 
     The integrator the runs used as they ran counts among those it differs with.
     """
-    agrees = [e["change"].removeprefix("integrator ") for e in integrators if e["agree"]]
-    differs = [e["change"].removeprefix("integrator ") for e in integrators if not e["agree"]]
+    agrees = [e.change.removeprefix("integrator ") for e in integrators if e.agree]
+    differs = [e.change.removeprefix("integrator ") for e in integrators if not e.agree]
     if ran_integrator is not None and ran_integrator not in differs + agrees:
         differs.insert(0, ran_integrator)
     return (differs, agrees) if differs and agrees else None
 
 
 def closer(metric: str, values: tuple[Any, Any], reference: Any,
-           converged: tuple[Any, Any], specs: tuple[str, str]) -> dict[str, Any]:
+           converged: tuple[Any, Any], specs: tuple[str, str]) -> Closer:
     """Which of two engines is nearer the reference ODE, and nearer its own converged answer.
 
     Args:
@@ -190,9 +191,9 @@ def closer(metric: str, values: tuple[Any, Any], reference: Any,
         specs: A's and B's specs.
 
     Returns:
-        {reference: spec, "tie" or None, reference_distance: [da, db], converged:
-        {spec: distance}, converged_nearer: spec or None} (a distance of an exact metric: 0
-        when it matches, 1 when not).
+        The engine nearer the reference (a spec, ``tie`` or None), both distances to it, each
+        engine's distance to its converged answer and the one nearer it (a distance of an
+        exact metric: 0 when it matches, 1 when not).
     """
     def dist(x: Any, y: Any) -> float | None:
         if x is None and y is None:
@@ -211,9 +212,8 @@ def closer(metric: str, values: tuple[Any, Any], reference: Any,
     da, db = dist(values[0], reference), dist(values[1], reference)
     ca, cb = ((None, None) if converged == (None, None)  # not run
               else (dist(values[0], converged[0]), dist(values[1], converged[1])))
-    return {"reference": nearer(da, db), "reference_value": reference,
-            "reference_distance": [da, db], "converged": {specs[0]: ca, specs[1]: cb},
-            "converged_nearer": nearer(ca, cb)}
+    return Closer(nearer(da, db), reference, (da, db), {specs[0]: ca, specs[1]: cb},
+                  nearer(ca, cb))
 
 
 __all__ = ["SOLVER_ITERATIONS_FACTOR", "SOLVER_TOLERANCE", "Change",

@@ -15,6 +15,7 @@ inject a fake one, and a fake release list (:func:`registry_releases`' ``fetch``
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -29,12 +30,20 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from tippetop.compare.measures.metrics import TOLERANCES
+from tippetop.compare.results.bisect import (
+    FORMAT,
+    BisectResult,
+    MetricFinding,
+    Move,
+    MovePair,
+    SkippedRelease,
+    TestedRelease,
+)
+from tippetop.compare.results.matrix import MatrixResult
 from tippetop.compare.studies.matrix import COMPARED, differs
 from tippetop.models.errors import RunFailedError, TippetopError, did_you_mean
 from tippetop.models.scene import Override
 
-#: The format of the result (``--json``, ``results.json``).
-FORMAT = "tippetop-bisect/1"
 #: Where the registry's list of a package's releases is read.
 REGISTRY_URL = "https://pypi.org/pypi/{package}/json"
 #: How long a fetched list of releases is kept in the cache (s).
@@ -329,7 +338,7 @@ class Runner(Protocol):
     def measure(self, engines: Sequence[str]) -> dict[str, dict[str, Any]]:
         """Each engine's run: ``{version, status, message, values: {metric: value}}``."""
 
-    def attribute(self, a: str, b: str) -> dict[str, Any]:
+    def attribute(self, a: str, b: str) -> MatrixResult:
         """The matrix of the two engines, attributed (``run_matrix``'s result)."""
 
 
@@ -345,7 +354,7 @@ class MatrixRunner:
     scheduler: str | None = None
     say: Callable[[str], None] | None = None
 
-    def _matrix(self, engines: Sequence[str], attribution: bool) -> dict[str, Any]:
+    def _matrix(self, engines: Sequence[str], attribution: bool) -> MatrixResult:
         from tippetop.compare.studies.matrix import run_matrix
         from tippetop.models.engines import parse_engine
 
@@ -374,17 +383,17 @@ class MatrixRunner:
     def measure(self, engines: Sequence[str]) -> dict[str, dict[str, Any]]:
         """Run the engines (one batch: the matrix without attribution)."""
         res = self._matrix(engines, attribution=False)
-        versions = {e["engine"]: e["version"] for e in res["engines"]}
+        versions = {e.engine: e.version for e in res.engines}
         out = {}
-        for row in res["runs"]:
-            out[row["engine"]] = {
-                "version": row.get("version") or (None if row["status"] == "failed"
-                                                  else versions.get(row["engine"])),
-                "status": row["status"], "message": row.get("message"),
-                "values": {m: row.get(m) for m in COMPARED}}
+        for row in res.runs:
+            out[row.engine] = {
+                "version": row.version or (None if row.status == "failed"
+                                           else versions.get(row.engine)),
+                "status": row.status, "message": row.message,
+                "values": {m: row.value(m) for m in COMPARED}}
         return out
 
-    def attribute(self, a: str, b: str) -> dict[str, Any]:
+    def attribute(self, a: str, b: str) -> MatrixResult:
         """The matrix of the pair, with its attribution."""
         return self._matrix([a, b], attribution=True)
 
@@ -510,17 +519,16 @@ class _Search:
                 if not self.like(metric, p, q)]
 
 
-def _move(s: _Search, metric: str, p: int, q: int) -> dict[str, Any]:
+def _move(s: _Search, metric: str, p: int, q: int) -> Move:
     c = s.cands
-    return {"last_like_before": c[p].name, "first_like_after": c[q].name,
-            "values": [s.value(p, metric), s.value(q, metric)],
-            "resolved": not [k for k in range(p + 1, q) if k not in s.skipped],
-            "untested_between": [c[k].name for k in range(p + 1, q)]}
+    return Move(c[p].name, c[q].name, (s.value(p, metric), s.value(q, metric)),
+                not [k for k in range(p + 1, q) if k not in s.skipped],
+                tuple(c[k].name for k in range(p + 1, q)))
 
 
 def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *,
            budget: int | None = None, attribution: bool = True,
-           say: Callable[[str], None] | None = None, tty: bool = False) -> dict[str, Any]:
+           say: Callable[[str], None] | None = None, tty: bool = False) -> BisectResult:
     """Find each metric's move over the range, and every further move within ``budget`` runs.
 
     Args:
@@ -534,8 +542,8 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
         tty: Say each step too (a terminal).
 
     Returns:
-        The result without ``scene`` and ``mode`` (see :mod:`tippetop.compare.commands.bisect`):
-        ``releases``, ``tested``, ``environments_made``, ``skipped``, ``by_metric`` ...
+        The search, without its context (the command adds the scene, the mode ...): the
+        range, every release that ran or was skipped, and each metric's finding.
 
     Raises:
         RunFailedError: No release at one end of the range, nor any inside, could run.
@@ -578,60 +586,50 @@ def bisect(cands: Sequence[Candidate], metrics: Sequence[str], runner: Runner, *
     firsts = {m: s.first_move(m, a, b) for m in metrics}
     by_metric = _by_metric(s, metrics, firsts, a, b)
     if attribution:
-        _attribute(s, metrics, firsts, by_metric)
+        by_metric = _attribute(s, metrics, firsts, by_metric)
     tested = []
     for i in sorted(s.rows):
         r = s.rows[i]
-        tested.append({"release": c[i].name, "engine": c[i].engine, "version": r["version"],
-                       "status": r["status"], "message": r.get("message"),
-                       "environment": r["environment"], "step": r["step"],
-                       "values": r["values"]})
+        tested.append(TestedRelease(c[i].name, c[i].engine, r["version"], r["status"],
+                                    r.get("message"), r["environment"], r["step"],
+                                    r["values"]))
         if r["version"] and not c[i].engine.startswith("mujoco@") and \
                 r["version"] != c[i].name:
             notes.append(f"{c[i].engine} read back version {r['version']}, not {c[i].name}")
-    return {"releases": [x.name for x in c], "between": [c[0].name, c[-1].name],
-            "kind": noun,
-            "searched": [c[a].name, c[b].name],
-            "tested": tested,
-            "runs": len(s.rows),
-            "environments_made": sum(1 for i in s.rows if s.rows[i]["environment"]
-                                     in ("made", "found", "workers")),
-            "environments_new": sum(1 for i in s.rows if s.rows[i]["environment"] == "made"),
-            "steps": s.steps, "budget": limit,
-            "skipped": [{"release": c[k].name, "engine": c[k].engine, "reason": r}
-                        for k, r in sorted(s.skipped.items())],
-            "metrics": list(metrics), "by_metric": by_metric, "notes": notes}
+    return BisectResult(
+        tuple(x.name for x in c), (c[0].name, c[-1].name), noun, (c[a].name, c[b].name),
+        tuple(tested), len(s.rows),
+        sum(1 for i in s.rows if s.rows[i]["environment"] in ("made", "found", "workers")),
+        sum(1 for i in s.rows if s.rows[i]["environment"] == "made"), s.steps, limit,
+        tuple(SkippedRelease(c[k].name, c[k].engine, r) for k, r in sorted(s.skipped.items())),
+        tuple(metrics), by_metric, tuple(notes))
 
 
 def _by_metric(s: _Search, metrics: Sequence[str], firsts: dict[str, tuple[int, int] | None],
-               a: int, b: int) -> dict[str, dict[str, Any]]:
+               a: int, b: int) -> dict[str, MetricFinding]:
     """Each metric's finding: its first move from ``a``'s value, every move seen, a sentence."""
     c = s.cands
-    by_metric = {}
+    by_metric: dict[str, MetricFinding] = {}
     for m in metrics:
         segs = s.segments(m)
         first = firsts[m]
         moves = sorted(set(segs) | ({first} if first else set()))
         more = len(moves) > 1
-        entry: dict[str, Any] = {
-            "moved": first is not None,
-            "pair": {"last_like_a": c[first[0]].name, "first_like_b": c[first[1]].name}
-            if first else None,
-            "values": [s.value(first[0], m), s.value(first[1], m)] if first else None,
-            "a_value": s.value(a, m), "b_value": s.value(b, m),
-            "tolerance": TOLERANCES[m].to_json(),
-            "moves_more_than_once": more,
-            "moves": [_move(s, m, p, q) for p, q in moves],
-            "attribution": None, "closer": None}
-        entry["summary"] = _summary(s, m, first, moves, a, b)
-        by_metric[m] = entry
+        by_metric[m] = MetricFinding(
+            first is not None,
+            MovePair(c[first[0]].name, c[first[1]].name) if first else None,
+            (s.value(first[0], m), s.value(first[1], m)) if first else None,
+            s.value(a, m), s.value(b, m), TOLERANCES[m].to_json(), more,
+            tuple(_move(s, m, p, q) for p, q in moves), None, None,
+            _summary(s, m, first, moves, a, b))
     return by_metric
 
 
 def _attribute(s: _Search, metrics: Sequence[str], firsts: dict[str, tuple[int, int] | None],
-               by_metric: dict[str, dict[str, Any]]) -> None:
-    """The matrix's attribution at each metric's first move, put in its entry of ``by_metric``."""
+               by_metric: dict[str, MetricFinding]) -> dict[str, MetricFinding]:
+    """``by_metric`` with the matrix's attribution at each metric's first move."""
     c = s.cands
+    out = dict(by_metric)
     pairs: dict[tuple[int, int], list[str]] = {}
     for m in metrics:
         if firsts[m]:
@@ -640,14 +638,14 @@ def _attribute(s: _Search, metrics: Sequence[str], firsts: dict[str, tuple[int, 
         s.say(f"bisect: attributing {', '.join(ms)} at {c[p].name} -> {c[q].name}")
         res = s.runner.attribute(c[p].engine, c[q].engine)
         for m in ms:
-            d = next((d for d in res.get("differences", []) if d["metric"] == m), None)
+            d = next((d for d in res.differences if d.metric == m), None)
             if d is None:
-                by_metric[m]["attribution_note"] = (
+                out[m] = dataclasses.replace(out[m], attribution_note=(
                     "the matrix finds no difference of this metric at the pair (each step "
-                    "within the tolerance: the move is a drift)")
+                    "within the tolerance: the move is a drift)"))
                 continue
-            by_metric[m]["attribution"] = d.get("attribution")
-            by_metric[m]["closer"] = d.get("closer")
+            out[m] = dataclasses.replace(out[m], attribution=d.attribution, closer=d.closer)
+    return out
 
 
 def _summary(s: _Search, m: str, first: tuple[int, int] | None,

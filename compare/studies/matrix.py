@@ -10,6 +10,7 @@ differ beyond the nightly's tolerance for it.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import os
@@ -19,15 +20,20 @@ from typing import Any
 from tippetop.compare.measures.metrics import TOLERANCES as METRIC_TOLERANCES
 from tippetop.compare.measures.summary import run_failed
 from tippetop.compare.measures.verdict import crossval_row, predicted_outcome, run_facts
+from tippetop.compare.results.matrix import (
+    FORMAT,
+    Evidence,
+    MatrixDifference,
+    MatrixEngine,
+    MatrixResult,
+    MatrixRun,
+)
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.models.engines import EngineSpec, parse_engine
 from tippetop.models.errors import TippetopError, did_you_mean
 from tippetop.models.modes import check_pair, run_label
 from tippetop.models.scene import Override, catalogue_names
 
-#: The format of ``results.json`` (2: a run's ``engine`` and ``mode`` apart, ``engines`` by
-#: ``engine``).
-FORMAT = "tippetop-matrix/2"
 #: The modes run when ``--modes`` is not given: the scene's own contact (the calibrated
 #: settings of a catalogue scene, ``native``; an MJCF top's own, ``file``), then the paper's law.
 DEFAULT_MODES = ("native", "paper")
@@ -96,7 +102,7 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
                modes: Sequence[str] | None = None, overrides: tuple[Override, ...] = (), *,
                workers: int | None = None, use_cache: bool = True, attribution: bool = True,
                tables: dict[str, Any] | None = None,
-               scheduler: str | None = None) -> dict[str, Any]:
+               scheduler: str | None = None) -> MatrixResult:
     """Every scene on every MuJoCo engine in every mode, the reference once per scene.
 
     Args:
@@ -113,13 +119,9 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
             reruns too), or None for local processes.
 
     Returns:
-        ``format``, ``engines`` ({engine, implementation, version, precision, device}, the
-        version read back from the runs), ``runs`` ({scene, engine, mode, run, status, message,
-        t_invert, t_stem, theta_final, theta_asymp, J_rel_drift, agrees} and ``theta_s``,
-        ``outcome``, ``theory_outcome``, ``path``), ``differences`` ({scene, mode, engines: [A,
-        B], metric, values: [a, b], tolerance, why, attribution, closer}: see
-        :mod:`.attribution`; None for both with ``attribution`` False) and ``reference`` (the
-        ODE's per scene). ``tables``, when given, receives each run's table under
+        The engines (the version read back from the runs), the runs, the differences (each
+        attributed, see :mod:`.attribution`; not with ``attribution`` False) and the
+        reference's run per scene. ``tables``, when given, receives each run's table under
         :func:`table_key` (the reference's: mode and engine ``ode``).
     """
     for spec in engines:
@@ -143,7 +145,8 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
                                            label=f"{scene} [{run_label(spec.spec, mode)}]")))
     results = run_tasks([t for _, _, t in jobs], workers=workers, use_cache=use_cache,
                         label="matrix", scheduler=scheduler)
-    runs, reference = [], {}
+    runs: list[MatrixRun] = []
+    reference: dict[str, MatrixRun] = {}
     done: dict[tuple[str, str, str], tuple[Task, TaskResult]] = {}
     predictions: dict[str, tuple[float | None, str | None]] = {}
     for scene in scenes:
@@ -168,30 +171,27 @@ def run_matrix(scenes: Sequence[str], engines: Sequence[EngineSpec],
                 tables[table_key(scene, str(mode), task.engine)] = res.table
     differences = _differences(runs, engines, scene_modes, scenes)
     if attribution:
-        _attribute(differences, done, reference, predictions, workers=workers,
-                   use_cache=use_cache, scheduler=scheduler)
-    else:
-        for d in differences:
-            d["attribution"] = d["closer"] = None
-    return {"format": FORMAT, "engines": _engines(engines, runs), "runs": runs,
-            "differences": differences, "attribution": attribution,
-            "reference": reference,
-            "modes": list(dict.fromkeys(m for ms in scene_modes.values() for m in ms)),
-            "scenes": list(scenes),
-            "tolerances": {k: METRIC_TOLERANCES[k].to_json() for k in COMPARED}}
+        differences = _attribute(differences, done, reference, predictions, workers=workers,
+                                 use_cache=use_cache, scheduler=scheduler)
+    return MatrixResult(tuple(_engines(engines, runs)), tuple(runs), tuple(differences),
+                        attribution, reference,
+                        tuple(dict.fromkeys(m for ms in scene_modes.values() for m in ms)),
+                        tuple(scenes),
+                        {k: METRIC_TOLERANCES[k].to_json() for k in COMPARED})
 
 
-def _attribute(differences: list[dict[str, Any]],
+def _attribute(differences: list[MatrixDifference],
                done: dict[tuple[str, str, str], tuple[Task, TaskResult]],
-               reference: dict[str, dict[str, Any]],
+               reference: dict[str, MatrixRun],
                predictions: dict[str, tuple[float | None, str | None]], *,
-               workers: int | None, use_cache: bool, scheduler: str | None = None) -> None:
-    """Fill each difference's ``attribution`` and ``closer`` (one batch of reruns)."""
+               workers: int | None, use_cache: bool,
+               scheduler: str | None = None) -> list[MatrixDifference]:
+    """The differences with their ``attribution`` and ``closer`` (one batch of reruns)."""
     from tippetop.compare.studies import attribution as attr
 
     groups: dict[tuple[str, str], set[str]] = {}
     for d in differences:
-        groups.setdefault((d["scene"], d["mode"]), set()).update(d["engines"])
+        groups.setdefault((d.scene, d.mode), set()).update(d.engines)
     jobs: list[tuple[str, str, str, attr.Change, Task]] = []
     changes: dict[tuple[str, str], list[attr.Change]] = {}
     integrators: dict[tuple[str, str], str] = {}
@@ -226,45 +226,42 @@ def _attribute(differences: list[dict[str, Any]],
         sys.stderr.flush()
     results = run_tasks([j[4] for j in jobs], workers=workers, use_cache=use_cache,
                         label="attribution", scheduler=scheduler) if jobs else []
-    rerun: dict[tuple[str, str, str, str], dict[str, Any]] = {}
+    rerun: dict[tuple[str, str, str, str], MatrixRun] = {}
     tables: dict[tuple[str, str, str, str], Any] = {}
     for (scene, mode, spec, ch, _t), res in zip(jobs, results, strict=True):
         th_s, th_out = predictions[scene]
         rerun[scene, mode, spec, ch.name] = _run_row(scene, spec, mode, res, th_s, th_out,
                                                      None, None)
         tables[scene, mode, spec, ch.name] = res.table if res.error is None else None
+    out = []
     for d in differences:
-        scene, mode, metric = d["scene"], d["mode"], d["metric"]
-        a, b = d["engines"]
+        scene, mode, metric = d.scene, d.mode, d.metric
+        a, b = d.engines
         ta, tb = done[scene, mode, a][1].table, done[scene, mode, b][1].table
         base_gap = attr.theta_gap(ta, tb)
-        evidence: list[dict[str, Any]] = []
+        evidence: list[Evidence] = []
         for ch in changes[scene, mode]:
             if ch.overrides is None:
-                evidence.append({"change": ch.name, "applies": False, "why": ch.why_not})
+                evidence.append(Evidence(ch.name, applies=False, why=ch.why_not))
                 continue
             ra, rb = rerun[scene, mode, a, ch.name], rerun[scene, mode, b, ch.name]
-            bad = [r for r in (ra, rb) if r["status"] == "failed"]
-            row: dict[str, Any] = {"change": ch.name, "a": ra[metric], "b": rb[metric],
-                                   "difference": attr.value_gap(ra[metric], rb[metric]),
-                                   "theta_gap_rad": attr.theta_gap(
-                                       tables[scene, mode, a, ch.name],
-                                       tables[scene, mode, b, ch.name]),
-                                   "agree": not _differ(metric, ra[metric], rb[metric])}
-            if bad:
-                row["failed"] = bad[0]["message"]
-            evidence.append(row)
-        d["attribution"] = attr.attribute(metric, a, b, base_gap, evidence,
-                                          ran_integrator=integrators.get((scene, mode)),
-                                          precisions=(parse_engine(a).precision,
-                                                      parse_engine(b).precision))
-        d["attribution"]["theta_gap_rad"] = base_gap
+            va, vb = ra.value(metric), rb.value(metric)
+            bad = [r for r in (ra, rb) if r.status == "failed"]
+            evidence.append(Evidence(
+                ch.name, a=va, b=vb, difference=attr.value_gap(va, vb),
+                theta_gap_rad=attr.theta_gap(tables[scene, mode, a, ch.name],
+                                             tables[scene, mode, b, ch.name]),
+                agree=not _differ(metric, va, vb), failed=bad[0].message if bad else None))
+        att = attr.attribute(metric, a, b, base_gap, evidence,
+                             ran_integrator=integrators.get((scene, mode)),
+                             precisions=(parse_engine(a).precision, parse_engine(b).precision))
         quarter = next((c.name for c in changes[scene, mode] if c.name == "quarter timestep"),
                        None)
-        conv = ((rerun[scene, mode, a, quarter][metric], rerun[scene, mode, b, quarter][metric])
-                if quarter else (None, None))
-        d["closer"] = attr.closer(metric, tuple(d["values"]), reference[scene].get(metric),
-                                  conv, (a, b))
+        conv = ((rerun[scene, mode, a, quarter].value(metric),
+                 rerun[scene, mode, b, quarter].value(metric)) if quarter else (None, None))
+        near = attr.closer(metric, d.values, reference[scene].value(metric), conv, (a, b))
+        out.append(dataclasses.replace(d, attribution=att, closer=near))
+    return out
 
 
 def _prediction(task: Task, results: list[TaskResult]) -> tuple[float | None, str | None]:
@@ -280,7 +277,7 @@ def _prediction(task: Task, results: list[TaskResult]) -> tuple[float | None, st
 
 def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float | None,
              theory_outcome: str | None, ref: dict[str, Any] | None,
-             A_over_C: float | None) -> dict[str, Any]:
+             A_over_C: float | None) -> MatrixRun:
     """One run's row: what it measured, and its verdict.
 
     The verdict is :func:`crossval_row`'s, the rule every command judges a run by (against
@@ -293,45 +290,43 @@ def _run_row(scene: str, engine: str, mode: str, res: TaskResult, theta_s: float
     row = crossval_row(scene, label, facts, ref, theta_s=theta_s,
                        theory_outcome=theory_outcome, A_over_C=A_over_C,
                        is_reference=ref is None)
-    return {"scene": scene, "engine": engine, "mode": mode, "run": label,
-            "status": "failed" if res.error else s.get("status"),
-            "message": res.error or s.get("message"), "t_invert": s.get("t_invert"),
-            "t_stem": s.get("t_stem"), "t_left_table": s.get("t_left_table"),
-            "theta_final": s.get("theta_final"),
-            "theta_asymp": None if failed else s.get("theta_asymp"),
-            "J_rel_drift": s.get("J_rel_drift"),
-            "agrees": row["agrees"], "against": row["against"], "outcome": row["outcome"],
-            "theta_s": theta_s, "theory_outcome": theory_outcome, "reasons": row["reasons"],
-            "checks": row["checks"], "version": s.get("version"), "path": s.get("path"),
-            "friction_realised": s.get("friction_realised")}
+    return MatrixRun(
+        scene, engine, mode, label, "failed" if res.error else s.get("status"),
+        message=res.error or s.get("message"), t_invert=s.get("t_invert"),
+        t_stem=s.get("t_stem"), t_left_table=s.get("t_left_table"),
+        theta_final=s.get("theta_final"),
+        theta_asymp=None if failed else s.get("theta_asymp"), J_rel_drift=s.get("J_rel_drift"),
+        agrees=row["agrees"], against=row["against"], outcome=row["outcome"],
+        theta_s=theta_s, theory_outcome=theory_outcome, reasons=tuple(row["reasons"]),
+        checks=tuple(row["checks"]), version=s.get("version"), path=s.get("path"),
+        friction_realised=s.get("friction_realised"))
 
 
-def _engines(engines: Sequence[EngineSpec], runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _engines(engines: Sequence[EngineSpec], runs: list[MatrixRun]) -> list[MatrixEngine]:
     out = []
     for spec in engines:
-        ran = [r for r in runs if r["engine"] == spec.spec and r.get("version")]
-        out.append({"engine": spec.spec, "implementation": spec.implementation,
-                    "version": ran[0]["version"] if ran else spec.version,
-                    "precision": spec.precision, "device": "cpu"})
+        ran = [r for r in runs if r.engine == spec.spec and r.version]
+        out.append(MatrixEngine(spec.spec, spec.implementation,
+                                ran[0].version if ran else spec.version, spec.precision, "cpu"))
     return out
 
 
-def _differences(runs: list[dict[str, Any]], engines: Sequence[EngineSpec],
+def _differences(runs: list[MatrixRun], engines: Sequence[EngineSpec],
                  scene_modes: dict[str, tuple[str, ...]],
-                 scenes: Sequence[str]) -> list[dict[str, Any]]:
-    by = {(r["scene"], r["mode"], r["engine"]): r for r in runs}
+                 scenes: Sequence[str]) -> list[MatrixDifference]:
+    by = {(r.scene, r.mode, r.engine): r for r in runs}
     out = []
     for scene, mode in ((sc, m) for sc in scenes for m in scene_modes[sc]):
         for a, b in itertools.combinations([e.spec for e in engines], 2):
             ra, rb = by[scene, mode, a], by[scene, mode, b]
-            metrics = COMPARED if ra["status"] == rb["status"] == "ok" else ("status",)
+            metrics = COMPARED if ra.status == rb.status == "ok" else ("status",)
             for metric in metrics:
-                if _differ(metric, ra.get(metric), rb.get(metric)):
+                va, vb = ra.value(metric), rb.value(metric)
+                if _differ(metric, va, vb):
                     tol = METRIC_TOLERANCES[metric]
-                    out.append({"scene": scene, "mode": mode, "engines": [a, b],
-                                "metric": metric, "values": [ra.get(metric), rb.get(metric)],
-                                "tolerance": None if tol.kind == "exact" else tol.value,
-                                "why": tol.why})
+                    out.append(MatrixDifference(
+                        scene, mode, (a, b), metric, (va, vb),
+                        None if tol.kind == "exact" else tol.value, tol.why))
     return out
 
 

@@ -8,6 +8,7 @@ One real bisect over three releases (slow).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -20,6 +21,13 @@ from typing import Any
 
 import pytest
 
+from tippetop.compare.results.bisect import (
+    BisectContext,
+    BisectResult,
+    MovePair,
+    SkippedRelease,
+)
+from tippetop.compare.results.matrix import Attribution, MatrixDifference, MatrixResult
 from tippetop.compare.studies.bisect import (
     FORMAT,
     Candidate,
@@ -87,10 +95,12 @@ class FakeRunner:
                       "values": values}
         return out
 
-    def attribute(self, a: str, b: str) -> dict[str, Any]:
+    def attribute(self, a: str, b: str) -> MatrixResult:
         self.attributed.append((a, b))
-        return {"differences": [{"metric": "t_invert", "engines": [a, b],
-                                 "attribution": {"follows": "the solver"}, "closer": None}]}
+        att = Attribution("the solver", (), (), (), "t_invert", (a, b), None)
+        diff = MatrixDifference("fig3", "native", (a, b), "t_invert", (None, None), 0.1, "",
+                                attribution=att)
+        return MatrixResult((), (), (diff,), True, {}, ("native",), ("fig3",), {})
 
 
 def _cands(n: int) -> list[Candidate]:
@@ -158,13 +168,12 @@ def test_the_runs_are_a_binary_search_not_one_per_release(n: int) -> None:
     for at in range(1, n):
         runner = FakeRunner(_names(n), _step(at))
         res = bisect(_cands(n), ["t_invert"], runner)
-        e = res["by_metric"]["t_invert"]
-        assert e["moved"] and e["pair"] == {"last_like_a": _names(n)[at - 1],
-                                            "first_like_b": _names(n)[at]}, at
-        assert e["values"] == [1.206, 1.042] and not e["moves_more_than_once"]
-        assert len(runner.measured) == len(set(runner.measured)) == res["runs"] <= bound, at
-        assert res["environments_made"] == res["runs"]
-        assert e["attribution"] == {"follows": "the solver"}
+        e = res.by_metric["t_invert"]
+        assert e.moved and e.pair == MovePair(_names(n)[at - 1], _names(n)[at]), at
+        assert e.values == (1.206, 1.042) and not e.moves_more_than_once
+        assert len(runner.measured) == len(set(runner.measured)) == res.runs <= bound, at
+        assert res.environments_made == res.runs
+        assert e.attribution is not None and e.attribution.follows == "the solver"
         assert runner.attributed == [(f"mujoco=={_names(n)[at - 1]}",
                                       f"mujoco=={_names(n)[at]}")]
 
@@ -172,8 +181,8 @@ def test_the_runs_are_a_binary_search_not_one_per_release(n: int) -> None:
 def test_no_move_runs_the_ends_only() -> None:
     runner = FakeRunner(_names(16), lambda i: {"t_invert": 1.2 + 1e-4 * i})
     res = bisect(_cands(16), ["t_invert"], runner)
-    e = res["by_metric"]["t_invert"]
-    assert not e["moved"] and e["pair"] is None and res["runs"] == 2
+    e = res.by_metric["t_invert"]
+    assert not e.moved and e.pair is None and res.runs == 2
     assert runner.attributed == []
 
 
@@ -187,14 +196,14 @@ def test_a_range_that_moves_twice_says_so_and_names_both_moves() -> None:
 
     runner = FakeRunner(_names(n), value)
     res = bisect(_cands(n), ["t_invert"], runner)
-    e = res["by_metric"]["t_invert"]
-    assert e["moves_more_than_once"]
-    assert e["pair"] == {"last_like_a": "3.4.0", "first_like_b": "3.5.0"}
-    moves = [(m["last_like_before"], m["first_like_after"]) for m in e["moves"]]
+    e = res.by_metric["t_invert"]
+    assert e.moves_more_than_once
+    assert e.pair == MovePair("3.4.0", "3.5.0")
+    moves = [(m.last_like_before, m.first_like_after) for m in e.moves]
     assert moves == [("3.4.0", "3.5.0"), ("3.10.0", "3.11.0")]
-    assert all(m["resolved"] for m in e["moves"])
-    assert "more than once" in e["summary"] and "3.10.0 -> 3.11.0" in e["summary"]
-    assert res["runs"] <= res["budget"]
+    assert all(m.resolved for m in e.moves)
+    assert "more than once" in e.summary and "3.10.0 -> 3.11.0" in e.summary
+    assert res.runs <= res.budget
 
 
 def test_a_move_away_and_back_seen_by_another_metric_is_said() -> None:
@@ -207,10 +216,10 @@ def test_a_move_away_and_back_seen_by_another_metric_is_said() -> None:
                 "theta_asymp": 3.0 if 6 <= i <= 9 else 2.9}  # 0.1 rad: 5x its tolerance
 
     res = bisect(_cands(n), ["t_invert", "theta_asymp"], FakeRunner(_names(n), value))
-    e = res["by_metric"]["theta_asymp"]
-    assert e["moved"] and len(e["moves"]) == 2 and e["moves_more_than_once"]
-    assert e["pair"] == {"last_like_a": "3.5.0", "first_like_b": "3.6.0"}
-    assert [(m["last_like_before"], m["first_like_after"]) for m in e["moves"]] == [
+    e = res.by_metric["theta_asymp"]
+    assert e.moved and len(e.moves) == 2 and e.moves_more_than_once
+    assert e.pair == MovePair("3.5.0", "3.6.0")
+    assert [(m.last_like_before, m.first_like_after) for m in e.moves] == [
         ("3.5.0", "3.6.0"), ("3.9.0", "3.10.0")]
 
 
@@ -221,17 +230,16 @@ def test_the_budget_bounds_the_search_for_further_moves() -> None:
         return {"t_invert": 5.0 - 0.25 * (i // 5)}  # a move every 5 releases
 
     res = bisect(_cands(n), ["t_invert"], FakeRunner(_names(n), value), budget=10)
-    e = res["by_metric"]["t_invert"]
-    assert res["runs"] <= 10 and e["moves_more_than_once"]
-    assert e["pair"] == {"last_like_a": "3.4.0", "first_like_b": "3.5.0"}
-    assert any(not m["resolved"] for m in e["moves"])  # a further move narrowed, not named
+    e = res.by_metric["t_invert"]
+    assert res.runs <= 10 and e.moves_more_than_once
+    assert e.pair == MovePair("3.4.0", "3.5.0")
+    assert any(not m.resolved for m in e.moves)  # a further move narrowed, not named
 
 
 def test_the_first_move_is_found_whatever_the_budget() -> None:
     n = 16
     res = bisect(_cands(n), ["t_invert"], FakeRunner(_names(n), _step(11)), budget=2)
-    assert res["by_metric"]["t_invert"]["pair"] == {"last_like_a": "3.10.0",
-                                                    "first_like_b": "3.11.0"}
+    assert res.by_metric["t_invert"].pair == MovePair("3.10.0", "3.11.0")
 
 
 def test_a_release_that_fails_to_install_is_skipped_and_named() -> None:
@@ -243,10 +251,10 @@ def test_a_release_that_fails_to_install_is_skipped_and_named() -> None:
     runner = FakeRunner(names, _step(6), broken=[broken])
     lines: list[str] = []
     res = bisect(_cands(n), ["t_invert"], runner, say=lines.append)
-    e = res["by_metric"]["t_invert"]
-    assert e["pair"] == {"last_like_a": "3.5.0", "first_like_b": "3.6.0"}
-    assert res["skipped"] == [{"release": broken.removeprefix("mujoco=="), "engine": broken,
-                               "reason": runner_reason(broken)}]
+    e = res.by_metric["t_invert"]
+    assert e.pair == MovePair("3.5.0", "3.6.0")
+    assert res.skipped == (SkippedRelease(broken.removeprefix("mujoco=="), broken,
+                                          runner_reason(broken)),)
     assert broken not in runner.measured
     assert any(line.startswith(f"bisect: skipped {broken.removeprefix('mujoco==')}")
                for line in lines)
@@ -273,23 +281,24 @@ def test_a_pair_around_a_release_that_cannot_run_names_it() -> None:
     n = 8
     runner = FakeRunner(_names(n), _step(4), broken=["mujoco==3.3.0", "mujoco==3.4.0"])
     res = bisect(_cands(n), ["t_invert"], runner)
-    e = res["by_metric"]["t_invert"]
-    assert e["pair"] == {"last_like_a": "3.2.0", "first_like_b": "3.5.0"}
-    assert e["moves"][0]["untested_between"] == ["3.3.0", "3.4.0"]
-    assert "could not run" in e["summary"]
+    e = res.by_metric["t_invert"]
+    assert e.pair == MovePair("3.2.0", "3.5.0")
+    assert e.moves[0].untested_between == ("3.3.0", "3.4.0")
+    assert "could not run" in e.summary
 
 
 def test_an_end_that_cannot_run_is_replaced_by_its_neighbour() -> None:
     n = 8
     res = bisect(_cands(n), ["t_invert"],
                  FakeRunner(_names(n), _step(5), broken=["mujoco==3.0.0"]))
-    assert res["searched"] == ["3.1.0", "3.7.0"] and res["notes"]
-    assert res["by_metric"]["t_invert"]["pair"]["first_like_b"] == "3.5.0"
+    assert res.searched == ("3.1.0", "3.7.0") and res.notes
+    pair = res.by_metric["t_invert"].pair
+    assert pair is not None and pair.first_like_b == "3.5.0"
 
 
 def test_the_result_keeps_every_run_for_the_history() -> None:
     n = 10
-    res = bisect(_cands(n), ["t_invert"], FakeRunner(_names(n), _step(3)))
+    res = bisect(_cands(n), ["t_invert"], FakeRunner(_names(n), _step(3))).to_json()
     for t in res["tested"]:
         assert {"release", "engine", "version", "status", "values", "environment"} <= set(t)
         assert set(t["values"]) == set(COMPARED)
@@ -300,6 +309,32 @@ def test_the_result_keeps_every_run_for_the_history() -> None:
             "moves"} <= set(e)
     # the pair's values differ by the matrix's rule, and each end is like its own side
     assert differs("t_invert", *e["values"])
+
+
+def test_the_result_is_rebuilt_from_its_json() -> None:
+    """from_json(to_json(r)) is r: the search alone, and with the command's context and
+    history (a move attributed, one noted as a drift, a release skipped)."""
+    n = 16
+
+    def value(i: int) -> dict[str, Any]:
+        return {"t_invert": 1.5 if i < 5 else 1.3 if i < 11 else 1.0,
+                "theta_asymp": 3.0 if i < 9 else 2.9}
+
+    res = bisect(_cands(n), ["t_invert", "theta_asymp"],
+                 FakeRunner(_names(n), value, broken=["mujoco==3.7.0"]))
+    assert res.skipped and res.by_metric["theta_asymp"].attribution_note
+    assert res.by_metric["t_invert"].attribution is not None
+    assert BisectResult.from_json(res.to_json()) == res
+    assert "format" not in res.to_json()  # the search alone, as the study returned it
+    full = dataclasses.replace(
+        res, context=BisectContext("fig3", "native", ("run.t_end_s=1",), "given",
+                                   "2026-01-01T00:00:00+00:00"),
+        history={"file": "h.sqlite", "run": 1, "error": None})
+    data = full.to_json()
+    assert list(data)[:6] == ["format", "scene", "mode", "overrides", "source", "started"]
+    assert data["format"] == FORMAT and list(data)[-1] == "history"
+    assert BisectResult.from_json(data) == full
+    assert BisectResult.from_json(json.loads(json.dumps(data))).to_json() == data
 
 
 def test_pythons_file_reads_in_order_with_comments(tmp_path: Path) -> None:

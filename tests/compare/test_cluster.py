@@ -357,7 +357,7 @@ def test_a_matrix_with_a_managed_release_on_dask_equals_the_local_one(
                                                                loopback.envs)))
     engines = parse_engines(f"mujoco,{RELEASE}")
     local = run_matrix(["fig3"], engines, None, SHORT, workers=1, attribution=False,
-                       use_cache=False)
+                       use_cache=False).to_json()
     import tippetop.mujoco_runner.envs as envs_mod
 
     def refuse(*_a: Any, **_k: Any) -> Path:
@@ -365,7 +365,7 @@ def test_a_matrix_with_a_managed_release_on_dask_equals_the_local_one(
 
     monkeypatch.setattr(envs_mod, "package_env_python", refuse)
     on_dask = run_matrix(["fig3"], engines, None, SHORT, attribution=False,
-                         scheduler=loopback.scheduler_address)
+                         scheduler=loopback.scheduler_address).to_json()
     assert len(local["runs"]) == len(on_dask["runs"]) == 4  # 2 engines x 2 modes
     mine, theirs = _metrics(local), _metrics(on_dask)
     assert mine.keys() == theirs.keys()

@@ -14,6 +14,12 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare import cli
+from tippetop.compare.results.matrix import (
+    Evidence,
+    MatrixDifference,
+    MatrixResult,
+    MatrixRun,
+)
 from tippetop.compare.studies import matrix
 from tippetop.models.engines import parse_engines
 
@@ -34,6 +40,8 @@ def test_the_same_mujoco_here_and_in_a_worker_is_the_same_matrix(tmp_path: Path,
     assert code == 0
     res = json.loads(printed)
     assert json.loads((out / "results.json").read_text()) == res
+    # the result read back from its JSON gives the same JSON
+    assert MatrixResult.from_json(res).to_json() == res
     assert [e["engine"] for e in res["engines"]] == ["mujoco", HERE]
     import mujoco
 
@@ -64,30 +72,31 @@ def test_the_same_mujoco_here_and_in_a_worker_is_the_same_matrix(tmp_path: Path,
 def test_differences_are_named_metric_by_metric() -> None:
     engines = parse_engines("mujoco,mujoco==3.3.7")
 
-    def run(engine: str, **kw) -> dict:
-        base = {"scene": "fig3", "mode": "native", "engine": engine, "status": "ok",
-                "outcome": "inverted", "theta_asymp": 3.10, "t_invert": 2.33, "t_stem": None,
-                "J_rel_drift": 1e-9}
-        return {**base, **kw}
+    def run(engine: str, **kw) -> MatrixRun:
+        base = {"status": "ok", "outcome": "inverted", "theta_asymp": 3.10, "t_invert": 2.33,
+                "t_stem": None, "J_rel_drift": 1e-9}
+        return MatrixRun(**{"scene": "fig3", "mode": "native", "engine": engine,
+                            "run": f"{engine}/native", **base, **kw})
 
     runs = [run("mujoco"), run("mujoco==3.3.7", theta_asymp=3.125, t_invert=2.50,
                                 J_rel_drift=5e-9)]
     diffs = matrix._differences(runs, engines, {"fig3": ("native",)}, ["fig3"])
     # theta_asymp 0.025 rad apart (over 0.02), t_invert 0.17 s (over 0.1); J 5e-9 and 1e-9
     # are both under the 1e-8 floor: no difference
-    assert [(d["metric"], d["values"], d["tolerance"]) for d in diffs] == [
-        ("theta_asymp", [3.10, 3.125], 0.02), ("t_invert", [2.33, 2.50], 0.1)]
-    assert all(DIFF_KEYS <= set(d) and d["engines"] == ["mujoco", "mujoco==3.3.7"]
+    assert [(d.metric, d.values, d.tolerance) for d in diffs] == [
+        ("theta_asymp", (3.10, 3.125), 0.02), ("t_invert", (2.33, 2.50), 0.1)]
+    assert all(DIFF_KEYS <= set(d.to_json()) and d.engines == ("mujoco", "mujoco==3.3.7")
                for d in diffs)
+    assert [MatrixDifference.from_json(d.to_json()) for d in diffs] == diffs
     # a failed run: only its status is compared
     runs[1] = run("mujoco==3.3.7", status="diverged", theta_asymp=None)
     native = {"fig3": ("native",)}
-    assert [d["metric"] for d in matrix._differences(runs, engines, native, ["fig3"])] == [
+    assert [d.metric for d in matrix._differences(runs, engines, native, ["fig3"])] == [
         "status"]
     # a drift 10x and over the floor is one
     runs[1] = run("mujoco==3.3.7", J_rel_drift=2e-7)
     runs[0] = run("mujoco", J_rel_drift=1e-8)
-    assert [d["metric"] for d in matrix._differences(runs, engines, native, ["fig3"])] == [
+    assert [d.metric for d in matrix._differences(runs, engines, native, ["fig3"])] == [
         "J_rel_drift"]
 
 
@@ -125,18 +134,20 @@ def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
     def injected(runs, engines, scene_modes, scenes):
         out = real(runs, engines, scene_modes, scenes)
         assert out == []
-        r = {x["engine"]: x for x in runs}
-        return [{"scene": "fig3", "mode": "native", "engines": ["mujoco", HERE],
-                 "metric": "theta_asymp", "values": [r["mujoco"]["theta_asymp"],
-                                                     r[HERE]["theta_asymp"]],
-                 "tolerance": 0.02, "why": "injected"}]
+        r = {x.engine: x for x in runs}
+        return [MatrixDifference("fig3", "native", ("mujoco", HERE), "theta_asymp",
+                                 (r["mujoco"].theta_asymp, r[HERE].theta_asymp), 0.02,
+                                 "injected")]
 
     monkeypatch.setattr(matrix, "_differences", injected)
     res = matrix.run_matrix(["fig3"], parse_engines(f"mujoco,{HERE}"), ["native"],
                             ("run.t_end_s=0.3",))
-    (d,) = res["differences"]
-    att = d["attribution"]
-    changes = [e["change"] for e in att["evidence"]]
+    # the result, attribution and all, is rebuilt from its JSON
+    assert MatrixResult.from_json(res.to_json()) == res
+    (d,) = res.differences
+    att = d.attribution
+    assert att is not None
+    changes = [e.change for e in att.evidence]
     # the native plan's own integrator and cone are not changes: the other two integrators,
     # the other cone, and the rest
     from tippetop.compare.running.runner import Task
@@ -147,21 +158,22 @@ def test_attribution_reruns_each_change_and_says_what_the_difference_follows(
                          if i != plan.integrator), "contacts off", "friction off",
                        f"cone {other}", "solver 1000 iterations, tolerance 1e-12",
                        "quarter timestep"]
-    for e in att["evidence"]:
-        assert e["agree"] and e["difference"] == 0.0 and e["theta_gap_rad"] == 0.0, e
-    assert att["removed_by"] == changes and att["kept_by"] == []
-    assert all(c.removeprefix("integrator ") in att["follows"] for c in changes), att["follows"]
+    for e in att.evidence:
+        assert e.agree and e.difference == 0.0 and e.theta_gap_rad == 0.0, e
+    assert list(att.removed_by) == changes and att.kept_by == ()
+    assert all(c.removeprefix("integrator ") in att.follows for c in changes), att.follows
     # the contacts-off rerun is a free top: no torque about its centre, so theta stays at
     # theta0 = 0.1 rad (to round-off over 1500 RK4 steps)
-    off = next(e for e in att["evidence"] if e["change"] == "contacts off")
-    assert off["a"] == pytest.approx(0.1, abs=1e-9)
-    near = d["closer"]
-    ref = res["reference"]["fig3"]["theta_asymp"]
-    assert near["reference_value"] == ref
-    assert near["reference_distance"] == [abs(d["values"][0] - ref)] * 2
-    assert near["reference"] == "tie" and near["converged_nearer"] == "tie"
-    q = next(e for e in att["evidence"] if e["change"] == "quarter timestep")
-    assert near["converged"]["mujoco"] == abs(d["values"][0] - q["a"])
+    off = next(e for e in att.evidence if e.change == "contacts off")
+    assert off.a == pytest.approx(0.1, abs=1e-9)
+    near = d.closer
+    assert near is not None
+    ref = res.reference["fig3"].theta_asymp
+    assert near.reference_value == ref
+    assert near.reference_distance == (abs(d.values[0] - ref),) * 2
+    assert near.reference == "tie" and near.converged_nearer == "tie"
+    q = next(e for e in att.evidence if e.change == "quarter timestep")
+    assert near.converged["mujoco"] == abs(d.values[0] - q.a)
 
 
 def test_attribution_changes_read_back(tmp_path: Path, monkeypatch) -> None:
@@ -190,42 +202,47 @@ def test_attribution_changes_read_back(tmp_path: Path, monkeypatch) -> None:
 def test_follows_names_the_subsystem() -> None:
     from tippetop.compare.studies.attribution import attribute
 
-    def ev(change: str, agree: bool, gap: float) -> dict:
-        return {"change": change, "a": 1.0, "b": 1.0 + gap, "difference": gap,
-                "theta_gap_rad": gap, "agree": agree}
+    def ev(change: str, agree: bool, gap: float) -> Evidence:
+        return Evidence(change, a=1.0, b=1.0 + gap, difference=gap, theta_gap_rad=gap,
+                        agree=agree)
 
     only_rk4 = [ev("integrator Euler", True, 1e-12), ev("integrator implicitfast", True, 2e-12),
                 ev("integrator RK4", False, 0.1), ev("quarter timestep", False, 0.1)]
     att = attribute("theta_asymp", "a", "b", 0.1, only_rk4,
                     ran_integrator="implicit")
-    assert att["follows"].startswith("differs with implicit and RK4 (as run: implicit): with "
+    assert att.follows.startswith("differs with implicit and RK4 (as run: implicit): with "
                                      "Euler and implicitfast the two agree on theta_asymp "
                                      "(theta(t) then within 2e-12 rad)")
     att = attribute("theta_asymp", "a", "b", 0.1, only_rk4[:2],
                     ran_integrator="RK4")
-    assert att["follows"].startswith("differs only with RK4: with Euler and implicitfast the "
-                                     "two agree on theta_asymp (theta(t) then within 2e-12 rad)")
-    assert att["removed_by"] == ["integrator Euler", "integrator implicitfast"]
+    assert att.follows.startswith("differs only with RK4: with Euler and implicitfast the "
+                                  "two agree on theta_asymp (theta(t) then within 2e-12 rad)")
+    assert att.removed_by == ("integrator Euler", "integrator implicitfast")
     stays = [ev("friction off", False, 0.09), ev("quarter timestep", False, 0.08)]
     att = attribute("theta_asymp", "a", "b", 0.1, stays)
-    assert att["follows"].startswith("persists with every change (2 tried)")
-    assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att["follows"]
+    assert att.follows.startswith("persists with every change (2 tried)")
+    assert "no single change brings theta(t) within a tenth of its 0.1 rad gap" in att.follows
     att = attribute("J_rel_drift", "mjx", "mjx-f32", 0.1, stays,
                     precisions=("float64", "float32"))
-    assert att["follows"].startswith("persists with every change (2 tried): the two run in "
-                                     "float64 and float32, which no option changes")
+    assert att.follows.startswith("persists with every change (2 tried): the two run in "
+                                  "float64 and float32, which no option changes")
     friction = [ev("friction off", True, 1e-6), ev("quarter timestep", False, 0.1)]
     att = attribute("theta_asymp", "a", "b", 0.1, friction)
-    assert att["follows"].startswith("goes away with friction off: the two agree on "
-                                     "theta_asymp (theta(t) then within 1e-06 rad); stays with "
-                                     "quarter timestep")
+    assert att.follows.startswith("goes away with friction off: the two agree on "
+                                  "theta_asymp (theta(t) then within 1e-06 rad); stays with "
+                                  "quarter timestep")
+    # the JSON of an attribution: the keys the matrix's results.json has always had
+    assert list(att.to_json()) == ["follows", "evidence", "removed_by", "kept_by", "metric",
+                                   "engines", "theta_gap_rad"]
+    assert type(att).from_json(att.to_json()) == att
 
 
 def test_closer_is_the_nearer_to_the_reference_and_to_its_own_dt4_answer() -> None:
     from tippetop.compare.studies.attribution import closer
 
     c = closer("t_invert", (2.40, 2.30), 2.33, (2.39, 2.20), ("a", "b"))
-    assert c["reference"] == "b" and c["reference_distance"] == pytest.approx([0.07, 0.03])
-    assert c["converged_nearer"] == "a"
+    assert c.reference == "b" and c.reference_distance == pytest.approx((0.07, 0.03))
+    assert c.converged_nearer == "a"
+    assert type(c).from_json(c.to_json()) == c
     c = closer("outcome", ("inverted", "intermediate"), "inverted", (None, None), ("a", "b"))
-    assert c["reference"] == "a" and c["converged_nearer"] is None
+    assert c.reference == "a" and c.converged_nearer is None

@@ -300,13 +300,14 @@ def test_compare_says_the_realised_law_and_its_refit_in_four_digits_and_units(
     """``tippetop compare``'s friction block said "5.52 mm/s", "Lambda 10.2 mm/s", a bare
     "residual 0.0053", "turns over at 2.45 s" and "Jellett's drift (1.4e-06:"."""
     from tippetop.compare.presentation.crossval import print_compare
+    from tippetop.compare.results.crossval import CompareResult
 
-    print_compare({"scene": "fig3", "group": "II",
-                   "theory": {"outcome": "inverted", "theta_s": 3.14159},
-                   "runs": [{"run": "ode/paper", "engine": "ode", "reference": True,
-                             "outcome": "inverted", "t_invert": 2.32912},
-                            {"run": "mujoco/native", "engine": "mujoco", "outcome": "inverted",
-                             "t_invert": 2.39612, "friction_realised": _refit_fr()}]})
+    print_compare(CompareResult.from_json({
+        "scene": "fig3", "group": "II", "theory": {"outcome": "inverted", "theta_s": 3.14159},
+        "runs": [{"run": "ode/paper", "engine": "ode", "reference": True,
+                  "outcome": "inverted", "t_invert": 2.32912},
+                 {"run": "mujoco/native", "engine": "mujoco", "outcome": "inverted",
+                  "t_invert": 2.39612, "friction_realised": _refit_fr()}]}))
     block = _block(capsys.readouterr().out, "the friction law as each run realises it")
     assert block.startswith("mujoco/native the contact reaches half of mu N at a slip of "
                             "5.523 mm/s, the paper's law at 5.774 mm/s (fit: mu 0.09446, "
@@ -319,13 +320,13 @@ def test_compare_says_the_realised_law_and_its_refit_in_four_digits_and_units(
 
 def test_matrix_says_the_realised_law_in_four_digits_and_units(
         capsys: pytest.CaptureFixture[str]) -> None:
-    from tippetop.compare.commands.matrix import print_matrix
+    from tippetop.compare.presentation.matrix import print_matrix
+    from tippetop.compare.results.matrix import MatrixEngine, MatrixResult, MatrixRun
 
-    run = {"scene": "fig3", "mode": "native", "engine": "mujoco", "agrees": True,
-           "status": "ok", "reasons": [], "friction_realised": _FR}
-    print_matrix({"scenes": ["fig3"], "modes": ["native"], "runs": [run], "differences": [],
-                  "engines": [{"engine": "mujoco", "implementation": "mujoco",
-                               "version": "4.0.0", "precision": "float64", "device": "cpu"}]})
+    run = MatrixRun("fig3", "mujoco", "native", "mujoco/native", "ok", agrees=True,
+                    friction_realised=_FR)
+    print_matrix(MatrixResult((MatrixEngine("mujoco", "mujoco", "4.0.0", "float64", "cpu"),),
+                              (run,), (), False, {}, ("native",), ("fig3",), {}))
     block = _block(capsys.readouterr().out, "the friction law as each engine realises it")
     assert block.startswith("fig3 native mujoco: the contact reaches half of mu N at a slip "
                             "of 5.523 mm/s"), block
