@@ -34,7 +34,10 @@ import resource
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from tippetop.compare.results.fidelity import FidelityPoint, FidelityResult
 
 #: Issue 41: the default map within 20 minutes on 2 cores.
 TARGET_S = 20 * 60.0
@@ -100,7 +103,7 @@ def cpu_s() -> float:
     return total
 
 
-def timed(fn: Any, **kwargs: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+def timed(fn: Any, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
     """``fn(**kwargs)`` and ``{wall_s, cpu_s, load}`` of it."""
     cpu0 = cpu_s()
     with LoadSampler() as load:
@@ -111,11 +114,11 @@ def timed(fn: Any, **kwargs: Any) -> tuple[dict[str, Any], dict[str, Any]]:
                  "load_text": load.text()}
 
 
-def same_points(a: dict[str, Any], b: dict[str, Any]) -> bool:
+def same_points(a: list[FidelityPoint], b: list[FidelityPoint]) -> bool:
     """Whether two maps' points are the same but for their timing and cache flags."""
-    def strip(res: dict[str, Any]) -> str:
-        return json.dumps([{k: v for k, v in p.items() if k not in SAME_KEYS_SKIPPED}
-                           for p in res["points"]], sort_keys=True, default=str)
+    def strip(points: list[FidelityPoint]) -> str:
+        return json.dumps([{k: v for k, v in p.to_json().items() if k not in SAME_KEYS_SKIPPED}
+                           for p in points], sort_keys=True, default=str)
     return strip(a) == strip(b)
 
 
@@ -132,11 +135,8 @@ def main() -> int:
     """Run the baseline and the map; print the times, the ratio and the target."""
     from pathlib import Path
 
-    from tippetop.compare.commands.fidelity import (
-        DEFAULT_BUDGET_RUNS,
-        table_lines,
-        write_fidelity,
-    )
+    from tippetop.compare.commands.fidelity import DEFAULT_BUDGET_RUNS, write_fidelity
+    from tippetop.compare.presentation.fidelity import table_lines
     from tippetop.compare.running.io import check_output_dir
     from tippetop.compare.studies.defaults import Grid
     from tippetop.compare.studies.fidelity import (
@@ -182,11 +182,11 @@ def main() -> int:
             + " (A/C, a/R, mu)", flush=True)
         sub_grids = [Grid("custom", (r,), (e,), (m,)) for r, e, m in pts]
 
-        def one_at_a_time() -> dict[str, Any]:
+        def one_at_a_time() -> list[FidelityPoint]:
             parts = [run_fidelity(g, points_at_once=1, **common) for g in sub_grids]
-            return {"points": [p for part in parts for p in part["points"]]}
+            return [p for part in parts for p in part.points]
 
-        def at_once() -> dict[str, Any]:
+        def at_once() -> FidelityResult:
             # the subset as one grid would hold other points: the map's own path on these
             return _run_points(run_fidelity, pts, workers=args.workers, **common)
 
@@ -194,48 +194,48 @@ def main() -> int:
         say(f"  one at a time: {serial_t['wall_s']:.0f} s ({serial_t['load_text']}, CPU "
             f"{serial_t['cpu_s']:.0f} s)", flush=True)
         paral, paral_t = timed(at_once)
-        say(f"  at once ({paral['points_at_once']} points at once): "
+        say(f"  at once ({paral.points_at_once} points at once): "
             f"{paral_t['wall_s']:.0f} s ({paral_t['load_text']}, CPU {paral_t['cpu_s']:.0f} s)",
             flush=True)
-        same = same_points(serial, paral)
+        same = same_points(serial, list(paral.points))
         ratio = serial_t["wall_s"] / paral_t["wall_s"]
         say(f"  ratio one at a time / at once: {ratio:.2f}x; the same points: "
             f"{'yes' if same else 'NO'}", flush=True)
         base = {"points": [list(p) for p in pts], "one_at_a_time": serial_t,
-                "at_once": {**paral_t, "points_at_once": paral["points_at_once"]},
+                "at_once": {**paral_t, "points_at_once": paral.points_at_once},
                 "ratio": ratio, "same_points": same,
-                "per_point_one_at_a_time_s": [p["wall_s"] for p in serial["points"]]}
+                "per_point_one_at_a_time_s": [p.wall_s for p in serial]}
 
     # 2. the map, once
     res, map_t = timed(run_fidelity, grid=grid, workers=args.workers, **common)
-    res["budget_runs"] = args.budget_runs
     if out_dir is not None:
         write_fidelity(res, Path(out_dir))
-    pts_res = res["points"]
+    pts_res = res.points
     wall = map_t["wall_s"]
     applies = grid.name == DEFAULT_GRID and args.t_end_s == DEFAULT_T_END_S and \
         args.budget_runs == DEFAULT_BUDGET_RUNS
     met = wall <= TARGET_S
     estimate = wall * base["ratio"] if base else None
-    out = {"grid": res["grid"], "cores": cores, "t_end_s": args.t_end_s,
-           "budget_runs": args.budget_runs, "points_at_once": res.get("points_at_once"),
+    out = {"grid": res.grid.to_json(), "cores": cores, "t_end_s": args.t_end_s,
+           "budget_runs": args.budget_runs, "points_at_once": res.points_at_once,
            "wall_s": wall, "cpu_s": map_t["cpu_s"], "load": map_t["load"],
            "target_s": TARGET_S, "target_applies": applies, "target_met": met,
            "one_at_a_time_estimate_s": estimate, "baseline": base,
-           "points": [{k: p[k] for k in ("A_over_C", "a_over_R", "mu", "group", "agrees",
-                                         "residual", "runs", "wall_s", "cause")}
+           "points": [{k: getattr(p, k) for k in ("A_over_C", "a_over_R", "mu", "group",
+                                                   "agrees", "residual", "runs", "wall_s",
+                                                   "cause")}
                       for p in pts_res]}
     if args.json:
         print(json.dumps(out, indent=1, default=str))
         return 0
-    print(f"the map: {len(pts_res)} points, {res.get('points_at_once')} at once")
+    print(f"the map: {len(pts_res)} points, {res.points_at_once} at once")
     print(f"{'A/C':>5} {'a/R':>5} {'mu':>4} {'group':>5} {'agrees':>6} {'runs':>5} "
           f"{'own s':>6}")
     for p in pts_res:
-        print(f"{p['A_over_C']:>5.3g} {p['a_over_R']:>5.3g} {p['mu']:>4.3g} "
-              f"{p['group'] or '-':>5} {'yes' if p['agrees'] else 'no':>6} {p['runs'] or 0:>5} "
-              f"{p['wall_s']:>6.0f}")
-    own = [p["wall_s"] for p in pts_res]
+        print(f"{p.A_over_C:>5.3g} {p.a_over_R:>5.3g} {p.mu:>4.3g} "
+              f"{p.group or '-':>5} {'yes' if p.agrees else 'no':>6} {p.runs or 0:>5} "
+              f"{p.wall_s:>6.0f}")
+    own = [p.wall_s for p in pts_res]
     print(f"points' own times: {min(own):.0f}-{max(own):.0f} s, sum {sum(own):.0f} s "
           f"(they overlap)")
     print("the command's table (tippetop fidelity --grid " + grid.name + "):")
@@ -257,7 +257,7 @@ def main() -> int:
 
 
 def _run_points(run_fidelity: Any, pts: list[tuple[float, float, float]],
-                **kwargs: Any) -> dict[str, Any]:
+                **kwargs: Any) -> FidelityResult:
     """The map's path on the given points only (a grid of their lists holds others)."""
     class Points:
         """A grid made of given points (what :func:`run_fidelity` reads of a grid)."""

@@ -74,6 +74,10 @@ STUDY_ENTRIES = frozenset({
 #: only grow.
 RESULTS_WITH_FIELDS = frozenset({
     ("compare/studies/sweep.py", "run_sweep"),
+    ("compare/studies/matrix.py", "run_matrix"),
+    ("compare/studies/bisect.py", "bisect"),
+    ("compare/studies/fidelity.py", "run_fidelity"),
+    ("compare/studies/accuracy/study.py", "run_accuracy"),
 })
 DICT_RESULT_TODO = STUDY_ENTRIES - RESULTS_WITH_FIELDS
 

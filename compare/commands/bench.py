@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     if args.what == "accuracy" and args.sweep:
         raise TippetopError("--sweep: expected with 'bench ode', got 'bench accuracy'")
     if args.what == "accuracy":
+        from tippetop.compare.presentation.accuracy import accuracy_json, print_accuracy
         from tippetop.compare.running.options import RunOptions
         from tippetop.compare.studies.accuracy import (
             DEFAULT_BUDGET_S,
@@ -90,9 +91,9 @@ def run(args: argparse.Namespace) -> int:
                            run=RunOptions(workers=args.workers),
                            log=None if args.json else (lambda m: print(m, file=sys.stderr)))
         if args.json:
-            print_json({k: v for k, v in res.items() if k != "report"})
+            print_json(accuracy_json(res))
         else:
-            print(res["report"])
+            print_accuracy(res)
         return 0
     if args.what != "ode":
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")

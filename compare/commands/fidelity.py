@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tippetop.compare.commands.options import (
     NO_CACHE_HELP,
@@ -18,6 +18,9 @@ from tippetop.compare.commands.options import (
     print_json,
 )
 from tippetop.compare.tuning import TUNE_BUDGET_RUNS
+
+if TYPE_CHECKING:
+    from tippetop.compare.results.fidelity import FidelityResult
 
 #: ``--budget-runs``'s default: validate's (the runs one point's tuning may use).
 DEFAULT_BUDGET_RUNS = TUNE_BUDGET_RUNS
@@ -88,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
     """
     import math
 
+    from tippetop.compare.presentation.fidelity import print_fidelity
     from tippetop.compare.studies.fidelity import make_grid, run_fidelity
     from tippetop.compare.tuning.tune import min_budget_runs
     from tippetop.models.engines import parse_engine
@@ -115,10 +119,9 @@ def run(args: argparse.Namespace) -> int:
                        workers=args.workers, use_cache=not args.no_cache,
                        budget_runs=args.budget_runs,
                        progress=not args.json)
-    res["budget_runs"] = args.budget_runs
     files = write_fidelity(res, out_dir) if out_dir is not None else []
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
         print_fidelity(res)
         if files:
@@ -126,47 +129,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cell(v: Any, fmt: str) -> str:
-    return "-" if v is None else f"{v:{fmt}}"
-
-
-def table_lines(res: dict[str, Any]) -> list[str]:
-    """The terminal table: one row per point (A/C, a/R, mu, group, agrees, residual, cause)."""
-    head = f"{'A/C':>5} {'a/R':>5} {'mu':>4} {'group':>5} {'agrees':>6} {'residual':>11}  cause"
-    lines = [head]
-    for p in res["points"]:
-        agrees = "yes" if p["agrees"] else "no"
-        resid = "-" if p["residual"] is None else f"{p['residual']:.2g} rad"
-        group = p["group"] or "-"
-        lines.append(f"{_cell(p['A_over_C'], '5.3g')} {_cell(p['a_over_R'], '5.3g')} "
-                     f"{_cell(p['mu'], '4.3g')} {group:>5} {agrees:>6} {resid:>11}  "
-                     f"{p['cause'] or '-'}")
-    return lines
-
-
-def print_fidelity(res: dict[str, Any]) -> None:
-    """The header (grid, what ran), the table and the summary."""
-    from tippetop.compare.presentation.terminal import fmt_duration
-    from tippetop.compare.studies.fidelity import summary_lines
-
-    g = res["grid"]
-    cached = sum(bool(p.get("cached")) for p in res["points"])
-    whence = ("" if not cached else " (every point's tuning from the cache)"
-              if cached == len(res["points"]) else f" ({cached} points' tuning from the cache)")
-    at_once = res.get("points_at_once")
-    where = (f" on the Dask cluster at {res['scheduler']}" if res.get("scheduler")
-             else f", {at_once} points at once" if at_once and at_once > 1 else "")
-    print(f"tippetop fidelity: grid {g['name']}, {g['points']} points; engine "
-          f"{res['engine']} (MuJoCo {res['mujoco_version']}), mode {res['mode']}, tuned and "
-          f"verified from 4 starts of {res['t_end_s']:g} s; {res['runs']} fit rollouts, "
-          f"{fmt_duration(res['wall_s'])}{where}{whence}")
-    for line in table_lines(res):
-        print(line)
-    for line in summary_lines(res):
-        print(line)
-
-
-def write_fidelity(res: dict[str, Any], out_dir: Path) -> list[Path]:
+def write_fidelity(res: FidelityResult, out_dir: Path) -> list[Path]:
     """Write results.json, fidelity.png and report.html into ``out_dir``, all or nothing.
 
     The folder is checked (new, empty or ``--force``) by the caller before the work.
@@ -175,10 +138,11 @@ def write_fidelity(res: dict[str, Any], out_dir: Path) -> list[Path]:
     from tippetop.compare.report.fidelity import fidelity_figure, report_page
     from tippetop.compare.running.io import staged_output_dir
 
+    data = res.to_json()  # the page and the figure read the map's JSON
     with staged_output_dir(Path(out_dir)) as tmp:
-        (tmp / "results.json").write_text(json_text(res, indent=1), encoding="utf-8")
-        fig = fidelity_figure(res)
+        (tmp / "results.json").write_text(json_text(data, indent=1), encoding="utf-8")
+        fig = fidelity_figure(data)
         fig.savefig(tmp / "fidelity.png", dpi=110)
         pyplot().close(fig)
-        (tmp / "report.html").write_text(report_page(res), encoding="utf-8")
+        (tmp / "report.html").write_text(report_page(data), encoding="utf-8")
     return [Path(out_dir) / n for n in OUT_FILES]

@@ -19,13 +19,14 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.verdict import predicted_outcome
+from tippetop.compare.results.fidelity import FidelityPoint, FidelityResult, MapGrid, MapStart
 from tippetop.compare.running.runner import Task
 from tippetop.compare.studies.fidelity_processes import (
     NotATerminal,
@@ -206,7 +207,7 @@ def _is_the_tuning(tune_fn: Callable[..., Any]) -> bool:
 def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
                   run_options: dict[str, Any], budget_runs: int | None = None,
                   progress: bool = False,
-                  tune_fn: Callable[..., dict[str, Any]] | None = None,
+                  tune_fn: Callable[..., Any] | None = None,
                   threads: int | None = None,
                   reference_workers: int | None = None) -> dict[str, Any]:
     """The whole tuning of one point, from the point alone: the same answer wherever it runs.
@@ -243,7 +244,8 @@ def compute_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float
     tuned: dict[str, Any] | None = None
     error = None
     try:
-        tuned = tune_fn(base, mu, n0, theta0, t_end_s, **kwargs)
+        out = tune_fn(base, mu, n0, theta0, t_end_s, **kwargs)
+        tuned = out.to_json() if hasattr(out, "to_json") else out  # a TuneResult, or a dict
     except (TippetopError, RunFailedError) as exc:
         error = " ".join(str(exc).split())
     return {"tuned": tuned, "error": error, "wall_s": time.perf_counter() - t0}
@@ -322,7 +324,7 @@ def run_point(A_over_C: float, a_over_R: float, mu: float, *, t_end_s: float,
               run_options: dict[str, Any], budget_runs: int | None = None,
               progress: bool = False,
               explain: Callable[[dict[str, Any]], str] = cause_of,
-              tune_fn: Callable[..., dict[str, Any]] | None = None,
+              tune_fn: Callable[..., Any] | None = None,
               threads: int | None = None) -> dict[str, Any]:
     """Tune MuJoCo's native contact at one point and verify it, as validate tunes a file.
 
@@ -579,8 +581,8 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
                  use_cache: bool = True, budget_runs: int | None = None,
                  progress: bool = True,
                  explain: Callable[[dict[str, Any]], str] = cause_of,
-                 tune_fn: Callable[..., dict[str, Any]] | None = None,
-                 points_at_once: int | None = None) -> dict[str, Any]:
+                 tune_fn: Callable[..., Any] | None = None,
+                 points_at_once: int | None = None) -> FidelityResult:
     """Tune and verify MuJoCo's native contact at every point of ``grid``.
 
     Points are independent: one whose tuning stops (:class:`TippetopError`) is a point that
@@ -604,9 +606,9 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
             core; 1: one at a time in this process, its runs on ``workers``).
 
     Returns:
-        ``format``, ``points`` (:func:`run_point`, ``tuned`` left out), ``grid``,
-        ``agreement`` ({agree, points}), ``engine`` (the MuJoCo that ran, read from the
-        module), ``t_end_s``, ``start``, ``budget_runs``, ``runs``, ``wall_s``,
+        The map (:class:`FidelityResult`): its ``points`` (:func:`run_point`'s, ``tuned``
+        left out), ``grid``, ``engine`` and ``mujoco_version`` (the MuJoCo that ran, read
+        from the module), ``t_end_s``, ``start``, ``budget_runs``, ``wall_s``,
         ``points_at_once`` (1: in this process; None: on Dask) and ``scheduler``.
 
     Raises:
@@ -646,39 +648,31 @@ def run_fidelity(grid: Grid, *, t_end_s: float = DEFAULT_T_END_S,
     else:
         at_once = _tune_begun(job, begun, todo, settle, scheduler, at_once, cores)
     done = [p for p in out if p is not None]
-    return {
-        "format": FORMAT,
-        "points": [{k: v for k, v in p.items() if k != "tuned"} for p in done],
-        "grid": grid.to_json(),
-        "agreement": {"agree": sum(p["agrees"] for p in done), "points": len(done)},
-        "engine": "mujoco", "mujoco_version": mujoco.__version__,
-        "mode": "native",
-        "t_end_s": t_end_s,
-        "start": {"n0": START_N0, "theta0": START_THETA0, "above_threshold": ABOVE_THRESHOLD},
-        "budget_runs": budget_runs,
-        "runs": sum(p["runs"] or 0 for p in done),
-        "wall_s": time.perf_counter() - t0,
-        "points_at_once": at_once,
-        "scheduler": scheduler,
-    }
+    return FidelityResult(
+        format=FORMAT,
+        points=tuple(FidelityPoint.from_json({k: v for k, v in p.items() if k != "tuned"})
+                     for p in done),
+        grid=MapGrid.from_json(grid.to_json()),
+        engine="mujoco", mujoco_version=mujoco.__version__, mode="native",
+        t_end_s=t_end_s,
+        start=MapStart(START_N0, START_THETA0, ABOVE_THRESHOLD),
+        budget_runs=budget_runs,
+        wall_s=time.perf_counter() - t0,
+        points_at_once=at_once,
+        scheduler=scheduler,
+    )
 
 
-def summary_lines(result: dict[str, Any]) -> list[str]:
-    """Sentences: how many points agree, per mu and per group."""
-    pts = result["points"]
-    lines = [f"MuJoCo's native contact, tuned, follows the paper's law at "
-             f"{sum(p['agrees'] for p in pts)} of {len(pts)} points"]
-    for key, label in (("mu", "mu"), ("group", "Group")):
-        parts = []
-        for v in dict.fromkeys(p[key] for p in pts):
-            mine = [p for p in pts if p[key] == v]
-            name = f"{v:g}" if isinstance(v, float) else v or "-"
-            parts.append(f"{label} {name}: {sum(p['agrees'] for p in mine)}/{len(mine)}")
-        lines.append("; ".join(parts))
-    return lines
+def summary_lines(result: FidelityResult | Mapping[str, Any]) -> list[str]:
+    """Sentences: how many points agree, per mu and per group (a map, or its JSON)."""
+    from tippetop.compare.presentation.fidelity import summary_lines as lines_of
+
+    if not isinstance(result, FidelityResult):
+        result = FidelityResult.from_json(result)
+    return lines_of(result)
 
 
-__all__ = ["CAUSE_ORDER", "DEFAULT_T_END_S", "GRIDS", "Grid", "cause_of", "compute_point",
-           "failed_checks", "machine_cores", "make_grid", "parse_values", "point_cores",
-           "point_on_worker", "point_overrides", "run_fidelity", "run_point", "start_spin",
-           "summary_lines"]
+__all__ = ["CAUSE_ORDER", "DEFAULT_T_END_S", "GRIDS", "FidelityResult", "Grid", "cause_of",
+           "compute_point", "failed_checks", "machine_cores", "make_grid", "parse_values",
+           "point_cores", "point_on_worker", "point_overrides", "run_fidelity", "run_point",
+           "start_spin", "summary_lines"]

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tippetop.compare.results.accuracy import AccuracyResult
 from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies import accuracy as acc
 from tippetop.compare.studies.accuracy.mujoco_study import predict_steps_wall
@@ -144,13 +145,25 @@ def test_run_accuracy_writes_csv_figure_and_table(tmp_path: Path) -> None:
                                                stiff=False))
     csv = pd.read_csv(out / "accuracy_ode.csv")
     assert list(csv.columns) == list(acc.ACCURACY_COLUMNS)
-    assert len(csv) == 4 and summary["n_points"] == 4 and summary["n_ok"] == 4
+    assert len(csv) == 4 and summary.n_points == 4 and summary.n_ok == 4
     png = out / "accuracy_ode_fig3.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     md = (out / "pareto_ode.md").read_text()
     assert "to get theta right to 0.0001 rad, use dop853-compiled/" in md
     assert "rtol 1e-14" in md
-    assert [e["threshold"] for e in summary["pareto"]] == [1e-2, 1e-4, 1e-6]
+    assert [e.threshold for e in summary.pareto] == [1e-2, 1e-4, 1e-6]
+    # the result reads back from its JSON, which keeps the dictionary's keys
+    data = summary.to_json()
+    assert AccuracyResult.from_json(data) == summary
+    assert list(data) == ["csv", "figures", "pareto_md", "references", "pareto", "n_points",
+                          "n_ok", "n_skipped", "n_failed", "engines", "report"]
+    assert data["engines"]["ode"]["figures"] == [str(png)] and data["csv"] == str(
+        out / "accuracy_ode.csv")
+    assert list(data["pareto"][0]) == ["engine", "scene", "threshold", "method", "setting",
+                                       "rtol", "timestep_s", "wall_s", "wall_per_sim_s",
+                                       "n_rhs_per_sim_s", "n_steps_per_sim_s",
+                                       "theta_max_err", "text", "best_theta_max_err",
+                                       "best_method", "best_setting"]
     assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporary files
     before = csv.to_csv()
     with pytest.raises(TippetopError, match="--force"):
@@ -166,7 +179,7 @@ def test_run_accuracy_puts_the_stiff_case_on_its_own_frontier(tmp_path: Path) ->
     res = acc.run_accuracy(("fig3",), out, t_end_s=0.3,
                            ode=acc.OdeGrid(tolerances=(1e-6,),
                                            methods=("dop853-compiled/vector",)))
-    assert res["engines"]["stiff"]["n_ok"] == 2  # one point per method: rolling and the law
+    assert res.engines["stiff"].n_ok == 2  # one point per method: rolling and the law
     stiff = pd.read_csv(out / "accuracy_ode_stiff.csv")
     assert set(stiff["scene"]) == {"fig3_Lambda1e-06"}
     by = stiff.set_index("method")
@@ -353,10 +366,11 @@ def test_run_accuracy_both_engines(tmp_path: Path) -> None:
     assert "# MuJoCo: accuracy against cost" in md and "not the paper's law" in md
     assert "to get theta right to 0.01 rad, use " in md
     assert "| RK4/native |" in md
-    assert res["engines"]["mujoco"]["n_points"] == 8 and res["n_points"] == 9
-    assert res["csv"] == str(out / "accuracy_ode.csv")
-    assert {e["engine"] for e in res["pareto"]} == {"ode", "mujoco"}
-    assert "fig3 [mujoco]: to get theta right to 0.01 rad" in res["report"]
+    assert res.engines["mujoco"].n_points == 8 and res.n_points == 9
+    assert res.csv == str(out / "accuracy_ode.csv")
+    assert {e.engine for e in res.pareto} == {"ode", "mujoco"}
+    assert "fig3 [mujoco]: to get theta right to 0.01 rad" in res.report
+    assert AccuracyResult.from_json(res.to_json()) == res
     assert not list(out.glob(".*.tmp"))
     with pytest.raises(TippetopError, match="--force"):
         acc.run_accuracy(("fig3",), out, engines=("mujoco",), t_end_s=0.3)

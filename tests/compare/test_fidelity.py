@@ -19,6 +19,7 @@ import pytest
 
 from tests.conftest import session_processes
 from tippetop.compare import cli
+from tippetop.compare.results.fidelity import FidelityResult
 from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies import fidelity
 from tippetop.compare.studies.fidelity import GRIDS, cause_of, make_grid
@@ -142,7 +143,42 @@ def test_a_top_the_scene_refuses_is_a_row_not_a_crash(fake: None) -> None:
 def test_a_better_explanation_plugs_in(fake: None) -> None:
     res = fidelity.run_fidelity(make_grid("small", "1.0", "0.1", "1"), progress=False,
                                 explain=lambda p: "the contact's own mechanism at mu = 1")
-    assert res["points"][0]["cause"] == "the contact's own mechanism at mu = 1"
+    assert res.points[0].cause == "the contact's own mechanism at mu = 1"
+
+
+def test_the_map_reads_back_from_its_json(fake: None) -> None:
+    """A map's JSON (``--json``, results.json) rebuilds the same map; and the stored default
+    map reads back to the very JSON it was read from."""
+    from tippetop.compare.presentation.fidelity import summary_lines
+    from tippetop.compare.results.fidelity import FidelityResult
+
+    res = fidelity.run_fidelity(make_grid("small", None, None, "0.1"), progress=False)
+    data = res.to_json()
+    assert isinstance(res, FidelityResult) and FidelityResult.from_json(data) == res
+    assert data["agreement"] == {"agree": res.agree, "points": len(res.points)} == \
+        {"agree": 2, "points": 4}
+    assert data["runs"] == res.runs and data["points"][0]["departs"] == []
+    assert fidelity.summary_lines(data) == summary_lines(res)  # the report's way: its JSON
+    stored = json.loads((Path(__file__).resolve().parents[2] / "docs" / "data"
+                         / "fidelity-default.json").read_text(encoding="utf-8"))
+    assert FidelityResult.from_json(stored).to_json() == stored
+
+
+def test_a_tuning_that_returns_a_result_is_stored_as_its_json(fake: None) -> None:
+    """The tuning may answer with a result (``to_json()``) or a dict: a point keeps the dict."""
+    class Answer:
+        def __init__(self, data: dict[str, Any]) -> None:
+            self.data = data
+
+        def to_json(self) -> dict[str, Any]:
+            return self.data
+
+    def as_result(*args: Any, **kwargs: Any) -> Answer:
+        return Answer(fake_tune(*args, **kwargs))
+
+    p = fidelity.run_point(0.8, 0.1, 0.1, t_end_s=8.0, run_options={}, progress=False,
+                           tune_fn=as_result)
+    assert isinstance(p["tuned"], dict) and p["agrees"] and p["settings"]["cone"] == "pyramidal"
 
 
 def test_the_table_json_and_files(fake: None, capsys: pytest.CaptureFixture[str],
@@ -320,10 +356,10 @@ TINY = ("small", "0.8,1.3", "0.25", "0.3")
 TINY_RUN: dict[str, Any] = {"t_end_s": 1.0, "budget_runs": 30}
 
 
-def _points(res: dict[str, Any]) -> list[dict[str, Any]]:
+def _points(res: FidelityResult) -> list[dict[str, Any]]:
     """What each point is, its timing and cache flag aside, in the map's order."""
-    return [{k: v for k, v in p.items() if k not in ("wall_s", "cached")}
-            for p in res["points"]]
+    return [{k: v for k, v in p.to_json().items() if k not in ("wall_s", "cached")}
+            for p in res.points]
 
 
 def _own_cache(folder: Path) -> Path:
@@ -337,11 +373,11 @@ def _own_cache(folder: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def one_at_a_time() -> dict[str, Any]:
+def one_at_a_time() -> FidelityResult:
     """The tiny map one point at a time in this process (the map's way before issue 41)."""
     res = fidelity.run_fidelity(make_grid(*TINY), points_at_once=1, use_cache=False,
                                 progress=False, **TINY_RUN)
-    assert res["points_at_once"] == 1 and res["scheduler"] is None
+    assert res.points_at_once == 1 and res.scheduler is None
     return res
 
 
@@ -353,22 +389,22 @@ def test_each_point_at_once_gets_two_cores_or_its_share() -> None:
 
 def test_a_stand_in_tuning_runs_here_one_point_at_a_time(fake: None) -> None:
     res = fidelity.run_fidelity(make_grid("small"), workers=2, progress=False)
-    assert res["points_at_once"] == 1 and len(res["points"]) == 8
+    assert res.points_at_once == 1 and len(res.points) == 8
 
 
 def test_points_tuned_at_once_are_the_points_tuned_one_at_a_time(
-        one_at_a_time: dict[str, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        one_at_a_time: FidelityResult, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two points at once, each in a process of its own: the same points, in the grid's
     order; their tunings kept, so that a second map reads them here."""
     monkeypatch.setenv("TIPPETOP_CACHE", str(_own_cache(tmp_path / "cache")))
     grid = make_grid(*TINY)
     res = fidelity.run_fidelity(grid, points_at_once=2, progress=False, **TINY_RUN)
-    assert res["points_at_once"] == 2 and res["scheduler"] is None
-    assert [(p["A_over_C"], p["a_over_R"], p["mu"]) for p in res["points"]] == grid.points()
+    assert res.points_at_once == 2 and res.scheduler is None
+    assert [(p.A_over_C, p.a_over_R, p.mu) for p in res.points] == grid.points()
     assert _points(res) == _points(one_at_a_time)
-    assert not any(p["cached"] for p in res["points"])
+    assert not any(p.cached for p in res.points)
     again = fidelity.run_fidelity(grid, points_at_once=2, progress=False, **TINY_RUN)
-    assert all(p["cached"] for p in again["points"])
+    assert all(p.cached for p in again.points)
     assert _points(again) == _points(one_at_a_time)
 
 
@@ -407,7 +443,7 @@ def test_ctrl_c_while_points_are_tuned_at_once(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_each_point_is_one_task_on_a_dask_cluster(one_at_a_time: dict[str, Any],
+def test_each_point_is_one_task_on_a_dask_cluster(one_at_a_time: FidelityResult,
                                                   tmp_path: Path,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     """``--scheduler``: the whole tuning of each point on a Dask worker (none here), the same
@@ -424,8 +460,8 @@ def test_each_point_is_one_task_on_a_dask_cluster(one_at_a_time: dict[str, Any],
                       dashboard_address=None, env=env) as lc:
         res = fidelity.run_fidelity(make_grid(*TINY), scheduler=lc.scheduler_address,
                                     use_cache=False, progress=False, **TINY_RUN)
-        assert res["scheduler"] == lc.scheduler_address
-    assert res["points_at_once"] is None
+        assert res.scheduler == lc.scheduler_address
+    assert res.points_at_once is None
     assert _points(res) == _points(one_at_a_time)
 
 

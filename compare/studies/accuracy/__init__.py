@@ -39,13 +39,15 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "series_summary": "pareto",
     "mujoco_work_precision_figure": "figures",
     "work_precision_figure": "figures",
+    "AccuracyResult": "study",
     "MujocoGrid": "study",
     "OdeGrid": "study",
     "run_accuracy": "study",
 })
 
 __all__ = [
-    "ACCURACY_COLUMNS", "ATOL_PER_RTOL", "DEFAULT_BUDGET_S", "DEFAULT_INTEGRATORS",
+    "ACCURACY_COLUMNS", "AccuracyResult", "ATOL_PER_RTOL", "DEFAULT_BUDGET_S",
+    "DEFAULT_INTEGRATORS",
     "DEFAULT_METHODS", "PEER_METHODS", "default_methods", "DEFAULT_MODES",
     "DEFAULT_MUJOCO_BUDGET_S", "DEFAULT_THRESHOLDS",
     "DEFAULT_TIMESTEPS", "DEFAULT_TOLERANCES", "MUJOCO_NOTES", "MujocoGrid", "OdeGrid",

@@ -9,6 +9,12 @@ from typing import Any
 
 import pandas as pd
 
+from tippetop.compare.results.accuracy import (
+    AccuracyReference,
+    AccuracyResult,
+    EngineOutput,
+    ParetoEntry,
+)
 from tippetop.compare.running.io import check_writable, hold_output_lock, write_atomic
 from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.studies.accuracy.common import (
@@ -179,21 +185,23 @@ def _finish(done: _Gathered, engine: str, dfs: list[pd.DataFrame],
     done.report.extend(f"{e['scene']}{tag}: {e['text']}" for e in entries)
 
 
-def _summary(done: _Gathered, engines: tuple[str, ...]) -> dict[str, Any]:
+def _summary(done: _Gathered, engines: tuple[str, ...]) -> AccuracyResult:
     """The study's result: the first engine's files, every engine's figures, the totals."""
     first = done.per_engine[engines[0]]
     status = pd.concat(done.frames, ignore_index=True)["status"]
     n_ok = int((status == STATUS_OK).sum())
     n_skipped = int((status == STATUS_SKIPPED).sum())
-    return {
-        "csv": first["csv"],
-        "figures": [f for e in engines for f in done.per_engine[e]["figures"]],
-        "pareto_md": first["pareto_md"], "references": done.references,
-        "pareto": done.entries,
-        "n_points": len(status), "n_ok": n_ok, "n_skipped": n_skipped,
-        "n_failed": len(status) - n_ok - n_skipped, "engines": done.per_engine,
-        "report": "\n".join(done.report),
-    }
+    return AccuracyResult(
+        csv=first["csv"],
+        figures=tuple(f for e in engines for f in done.per_engine[e]["figures"]),
+        pareto_md=first["pareto_md"],
+        references={k: AccuracyReference.from_json(r) for k, r in done.references.items()},
+        pareto=tuple(ParetoEntry.from_json(e) for e in done.entries),
+        n_points=len(status), n_ok=n_ok, n_skipped=n_skipped,
+        n_failed=len(status) - n_ok - n_skipped,
+        engines={k: EngineOutput.from_json(e) for k, e in done.per_engine.items()},
+        report="\n".join(done.report),
+    )
 
 
 def run_accuracy(
@@ -208,7 +216,7 @@ def run_accuracy(
     force: bool = False,
     run: RunOptions = DEFAULT_RUN,
     log: Callable[[str], None] | None = None,
-) -> dict[str, Any]:
+) -> AccuracyResult:
     """Work-precision study; writes the CSV, the figures and the table of each engine.
 
     Files (each written atomically into ``out_dir``), per engine in ``engines``: ODE
@@ -234,12 +242,12 @@ def run_accuracy(
         log: Called with one line per finished point.
 
     Returns:
-        ``csv``, ``pareto_md`` (the ODE's when it ran, else MuJoCo's), ``figures`` (all),
-        ``references`` (per scene), ``pareto`` (the :func:`pareto_table` entries of every
-        engine), ``n_points``, ``n_ok``, ``n_skipped``, ``n_failed`` (totals; diverged MuJoCo
-        points count as failed), ``engines`` (per engine: ``csv``, ``figures``,
-        ``pareto_md``, ``n_points``, ``n_ok``, ``n_skipped``, ``n_diverged``, ``n_failed``)
-        and a printable ``report``.
+        The study (:class:`AccuracyResult`): ``csv``, ``pareto_md`` (the ODE's when it ran,
+        else MuJoCo's), ``figures`` (all), ``references`` (per scene), ``pareto`` (the
+        :func:`pareto_table` entries of every engine), ``n_points``, ``n_ok``, ``n_skipped``,
+        ``n_failed`` (totals; diverged MuJoCo points count as failed), ``engines`` (per
+        engine: ``csv``, ``figures``, ``pareto_md``, ``n_points``, ``n_ok``, ``n_skipped``,
+        ``n_diverged``, ``n_failed``) and a printable ``report``.
 
     Raises:
         TippetopError: bad scene or engine, an existing output without ``force``, or a
