@@ -78,6 +78,8 @@ RESULTS_WITH_FIELDS = frozenset({
     ("compare/studies/bisect.py", "bisect"),
     ("compare/studies/fidelity.py", "run_fidelity"),
     ("compare/studies/accuracy/study.py", "run_accuracy"),
+    ("compare/studies/validate.py", "validate"),
+    ("compare/tuning/tune.py", "tune"),
 })
 DICT_RESULT_TODO = STUDY_ENTRIES - RESULTS_WITH_FIELDS
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from tippetop.compare.commands.options import (
     add_force_option,
@@ -12,7 +11,6 @@ from tippetop.compare.commands.options import (
     number,
     print_json,
 )
-from tippetop.compare.presentation.terminal import fmt_duration
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.compare.tuning import TUNE_BUDGET_RUNS
 from tippetop.compare.tuning.calibrate.config import (
@@ -24,7 +22,6 @@ from tippetop.compare.tuning.calibrate.config import (
     DEFAULT_TIMESTEP_S,
     CalibrateConfig,
 )
-from tippetop.models.numbers import number_text
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -91,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(report)
     else:
+        from tippetop.compare.presentation.calibrate import print_report
+
         print_report(report)
     return 0
 
@@ -101,9 +100,8 @@ def run_mjcf(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
-    from tippetop.compare.commands.validate import check_budget_runs, print_tuned
+    from tippetop.compare.commands.validate import check_budget_runs
     from tippetop.compare.studies.validate import tune_only
-    from tippetop.compare.tuning.tune import start_label
     from tippetop.models.errors import expect
 
     t_end = DEFAULT_T_END_S if args.t_end_s is None else args.t_end_s
@@ -115,34 +113,9 @@ def run_mjcf(args: argparse.Namespace) -> int:
                     workers=args.workers, use_cache=not args.no_cache, progress=not args.json,
                     budget_runs=budget)
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
-        print(f"tippetop calibrate --mjcf {res['file']}: mu = {res['mu']}, "
-              f"{start_label(res['n0'], res['theta0'])}")
-        print_tuned(res["tuned"], indent="")
-    return 0 if res["tuned"].get("agrees") else 1
+        from tippetop.compare.presentation.validate import print_tune_only
 
-
-def print_report(report: dict[str, Any]) -> None:
-    """The settings, the objective and a table of residuals, as ``tippetop calibrate`` prints."""
-    p = report["provenance"]
-    s = report["settings"]
-    print(f"settings: {', '.join(f'{k}={v}' for k, v in s.items())}")
-    print(f"objective {number_text(p['objective'], 'rad')} on "
-          f"{', '.join(p['calibration_set'])} (MuJoCo defaults "
-          f"{number_text(p['objective_mujoco_defaults'], 'rad')}); {p['runs_used']} runs, "
-          f"{p['candidates_evaluated']} candidates, stop: {p['stop_reason']}")
-    print(f"MuJoCo defaults: {p['mujoco_defaults']}")
-    hdr = (f"{'scene':<12} {'role':<11} {'rms':>7} {'t_inv ode':>9} {'t_inv mj':>9} "
-           f"{'asymp ode':>9} {'asymp mj':>9} {'outcome':<24} {'J drift':>8}")
-    print(hdr)
-    for r in report["residuals"]:
-        def f(v: Any) -> str:
-            return "-" if v is None else f"{v:.3f}"
-        outcome = f"{r['outcome_mujoco']}/{r['outcome_ode']}"
-        print(f"{r['scene']:<12} {r['role']:<11} {f(r['rms_rad']):>7} {f(r['t_invert_ode']):>9} "
-              f"{f(r['t_invert_mujoco']):>9} {f(r['theta_asymp_ode']):>9} "
-              f"{f(r['theta_asymp_mujoco']):>9} {outcome:<24} {r['J_rel_drift']:>8.1e}")
-    for line in p["findings"]:
-        print(f"- {line}")
-    print(f"wrote {report['out']} in {fmt_duration(p['wall_s'])}")
+        print_tune_only(res)
+    return 0 if res.tuned.agrees else 1

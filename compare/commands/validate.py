@@ -8,7 +8,6 @@ import os
 import re
 import sys
 from pathlib import Path
-from typing import Any
 
 from tippetop.compare.commands.options import (
     add_force_option,
@@ -92,165 +91,25 @@ def run(args: argparse.Namespace) -> int:
                             engines=engines, tune=args.tune, progress=not args.json,
                             budget_runs=args.budget_runs)
     res = validate(config)
-    tables = res.pop("tables")
     if out is not None:
         from tippetop.compare.report.validate import render
         from tippetop.compare.running.io import json_ready
 
-        text = json.dumps(json_ready(res), indent=1) + "\n"
-        html = render(res, tables)
+        text = json.dumps(json_ready(res.to_json()), indent=1) + "\n"
+        html = render(res)
         with staged_output_dir(out) as stage:  # all files or none, even on Ctrl-C
             (stage / "tables").mkdir()
-            for mode, table in tables.items():
+            for mode, table in res.tables.items():
                 # a run's name holds a "/" (ENGINE/MODE), and an engine may hold a path
                 name = re.sub(r"[^A-Za-z0-9._=@+-]", "_", mode)
                 write_table(table, stage / "tables" / f"{name}.csv")
             (stage / "results.json").write_text(text, "utf-8")
             (stage / "report.html").write_text(html, "utf-8")
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
-        _print_summary(res, out)
+        from tippetop.compare.presentation.validate import print_validate
+
+        print_validate(res, out)
     sys.stdout.flush()
-    return EXIT_AGREES if res["agrees"] else EXIT_DEPARTS
-
-
-def _print_friction(res: dict[str, Any]) -> None:
-    """The law each MuJoCo run realised, and whether the refit reference explains the run."""
-    from tippetop.compare.measures.friction_realised import realised_sentence
-
-    lines = []
-    for mode, r in res["runs"].items():
-        fr = r.get("friction_realised")
-        if mode.startswith("ode/") or not fr:
-            continue
-        lines.append(f"    {realised_sentence(mode, fr)}")
-        refit = fr.get("refit")
-        if refit:
-            lines.append(f"      refit: {refit['sentence']}")
-            if refit.get("remains"):
-                lines.append("      what else differs: " + ", ".join(refit["remains"]))
-    if lines:
-        from tippetop.compare.measures.friction_realised import SENTENCE_TERMS
-        from tippetop.compare.presentation.terminal import wrapped
-
-        print("  the friction law as each run realises it (the ball's phase):")
-        print("\n".join(lines))
-        print(wrapped(f"({SENTENCE_TERMS})", indent="    "))
-
-
-def model_line(m: dict[str, Any]) -> str:
-    """The top as read from the file, and the theory's outcome: every number with its unit.
-
-    A/C and a/R are ratios and mu a coefficient (no unit); a value the file does not give says
-    so.
-    """
-    from tippetop.compare.presentation.terminal import fmt
-
-    mu = (fmt(float(m["mu"])) if m.get("mu") is not None
-          else "not read (the file's ball geom gives no friction)")
-    theta_s = (f"theta_s = {fmt(float(m['theta_s']), 'rad')}" if m.get("theta_s") is not None
-               else "no theta_s for this spin")
-    return (f"tippetop validate {m['file']}: Group {m['group']}, A/C = {m['A_over_C']:.4g}, "
-            f"a/R = {m['a_over_R']:.4g}, mu = {mu}, n0 = {fmt(float(m['n0']), 'rad/s')}: the "
-            f"theory says {m['theory_outcome']} ({theta_s})")
-
-
-def _print_summary(res: dict[str, Any], out: Path | None) -> None:
-    from tippetop.compare.presentation.terminal import check_note, check_text
-
-    checks = res["verdict"]
-    n_pass = sum(c["passed"] is not False for c in checks)
-    print(model_line(res["model"]))
-    print(f"verdict: {'AGREES' if res['agrees'] else 'DEPARTS'} ({n_pass} of {len(checks)} "
-          f"checks pass, {res['t_end_s']:g} s simulated)")
-    width = max(len(c["check"]) for c in checks)
-    mwidth = max(len(c["run"]) for c in checks)
-    for c in checks:
-        if c["passed"] is False:
-            shown = check_text(c, res["t_end_s"], res["runs"])
-            why = f"; {note}" if (note := check_note(c)) else ""
-            print(f"  departs: {c['run']:<{mwidth}} {c['check']:<{width}}  {shown}  "
-                  f"(tolerance {c['tolerance']}{why})")
-    for mode, r in res["runs"].items():
-        if r.get("note"):
-            print(f"  note: {mode}: {r['note']}")
-    for f in res["findings"]:
-        print(f"  the file's own settings: {f}")
-    _print_friction(res)
-    print_tuned(res.get("tuned") or {}, show_mjcf=False)
-    ans = res.get("answer") or {}
-    tried = ans.get("candidates") or []
-    if tried:
-        from tippetop.compare.studies.validate import show_setting
-
-        print("  candidates tried:")
-        for c in tried:
-            state = "agrees" if c["agrees"] else "departs"
-            print(f"    {c['what']}: {state}, {c['passes']} of {c['checks']} checks pass")
-            if c.get("note"):
-                print(f"      {c['note']}")
-            if c.get("changes"):
-                print("      changes from the file's: " + "; ".join(
-                    f"{ch['setting']} {show_setting(ch['setting'], ch['file'])} -> "
-                    f"{show_setting(ch['setting'], ch['calibrated'])}"
-                    for ch in c["changes"]))
-    lifted = res.get("lift") or {}
-    if lifted.get("sentences") or lifted.get("scan"):
-        print("  the contact's lift (MuJoCo's soft contact turns friction into normal force):")
-        for line in lifted.get("sentences", []):
-            print(f"    {line}")
-        if lifted.get("scan"):
-            print(f"    {lifted['scan']['sentence']}")
-    if out is not None:
-        print(f"report: {out / 'report.html'}")
-    # the last lines: the file's verdict and what to paste
-    f = ans.get("file") or {}
-    if f:
-        print(f"the file: {'AGREES' if f['agrees'] else 'DEPARTS'} ({f['passes']} of "
-              f"{f['checks']} of its checks pass)")
-    if ans:
-        print(ans["label"] + (":" if ans.get("mjcf") else ""))
-        for line in (ans.get("mjcf") or "").splitlines():
-            print(f"    {line}")
-
-
-def print_tuned(tuned: dict[str, Any], indent: str = "  ", *, show_mjcf: bool = True) -> None:
-    """The tuned settings: the fit, the MJCF (``show_mjcf``), each start's verification."""
-    if not tuned:
-        return
-    if tuned.get("skipped"):
-        print(f"{indent}tuned settings: not run ({tuned['skipped']})")
-        return
-    from tippetop.compare.presentation.terminal import fmt, fmt_duration
-    from tippetop.compare.tuning.tune import start_label
-
-    fit = tuned["fit"]
-    start = fit["starts"][0]
-    limited = " (budget-limited)" if tuned.get("budget_limited") else ""
-    print(f"{indent}tuned settings: {'AGREE' if tuned['agrees'] else 'DEPART'}{limited}: "
-          f"{tuned['note']}")
-    print(f"{indent}  fitted at {start_label(start['n0'], start['theta0'])} over "
-          f"{fmt(start['t_end_s'], 's')}: residual "
-          f"{fmt(fit['residual'], 'rad')} (theta and J), {fit['runs']} MuJoCo runs"
-          f"{' of --budget-runs ' + str(fit['budget_runs']) if fit.get('budget_runs') else ''}, "
-          f"{fmt_duration(fit['wall_s'])} (mujoco.sysid"
-          f"{'; from the cache' if tuned.get('cached') else ''})")
-    if show_mjcf:
-        for line in tuned["mjcf"].splitlines():
-            print(f"{indent}  {line}")
-    base_t_end = min((v.get("t_end_s") for v in tuned["verified"] if v.get("t_end_s")),
-                     default=None)
-    for v in tuned["verified"]:
-        where = f"{start_label(v['n0'], v['theta0'])} ({v['role']})"
-        if v.get("t_end_s") and base_t_end and v["t_end_s"] > base_t_end * (1 + 1e-9):
-            where += (f" over {fmt(v['t_end_s'], 's')}, its reference still moving at "
-                      f"{fmt(base_t_end, 's')}")
-        if v["passed"] is None:
-            state = v.get("note", "not verified")
-        elif v["passed"]:
-            state = f"passes all {len(v['checks'])} checks"
-        else:
-            state = "departs in " + ", ".join(c["check"] for c in v["checks"]
-                                              if c["passed"] is False)
-        print(f"{indent}  from {where}: {state}")
+    return EXIT_AGREES if res.agrees else EXIT_DEPARTS

@@ -21,6 +21,8 @@ from tippetop.compare.presentation.terminal import (
 from tippetop.compare.report.figures import friction_law_figure
 from tippetop.compare.report.groupmap import draw_groups
 from tippetop.compare.report.markup import Cell, Html, esc, fmt_num, html_table, page, png
+from tippetop.compare.results.tune import TuneSkipped, start_label
+from tippetop.compare.results.validate import ValidateResult
 from tippetop.compare.studies.validate import (
     REFERENCE_RUN,
     RUNS,
@@ -42,9 +44,9 @@ _CHECKS = {"completed": "the run completed",
            "energy_never_rises": "energy never rises (its largest rise, of E0)"}
 
 
-def _keys(res: Mapping[str, Any]) -> list[str]:
+def _keys(res: ValidateResult) -> list[str]:
     """The runs' keys in the page's order: each mode, then its runs on other engines."""
-    keys = list(res["runs"])
+    keys = list(res.runs)
     return [k for fam, m in RUNS for k in keys
             if mode_of(k) == m and (engine_of(k) == "ode") == (fam == "ode")]
 
@@ -76,9 +78,9 @@ def _cell(check: Mapping[str, Any], t_end_s: float | None = None,
     return Cell(f"{shown} ({mark}){note}", cls)
 
 
-def verdict_section(res: Mapping[str, Any]) -> str:
+def verdict_section(res: ValidateResult) -> str:
     """The verdict: one row per check, one column per mode; then findings and the fix."""
-    checks = res["verdict"]
+    checks = res.verdict
     modes = _keys(res)
     names = list(dict.fromkeys(c["check"] for c in checks))
     rows = []
@@ -87,21 +89,21 @@ def verdict_section(res: Mapping[str, Any]) -> str:
         tol = next(c["tolerance"] for c in checks if c["check"] == name)
         for m in modes:
             c = next((c for c in checks if c["check"] == name and c["run"] == m), None)
-            row.append(_cell(c, res["t_end_s"], res["runs"]) if c else
+            row.append(_cell(c, res.t_end_s, res.runs) if c else
                        "the reference itself" if m == REFERENCE_RUN else "not checked")
         row.append(tol)
         rows.append(row)
     n_pass = sum(c["passed"] is not False for c in checks)
-    ok = res["agrees"]
+    ok = res.agrees
     head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
             f"{'AGREES' if ok else 'DEPARTS'}</span> {n_pass} of {len(checks)} checks pass "
             f"against the paper's theory and the reference ODE "
-            f"({res['t_end_s']:g} s simulated).</p>")
+            f"({res.t_end_s:g} s simulated).</p>")
     parts = ["<section id='verdict'><h2>Verdict</h2>", head,
              html_table(["check", *(_label(m) for m in modes), "tolerance"], rows)]
-    if res["findings"]:
+    if res.findings:
         parts.append("<h3>What the file's own settings get wrong</h3><ul>"
-                     + "".join(f"<li>{esc(f)}</li>" for f in res["findings"]) + "</ul>")
+                     + "".join(f"<li>{esc(f)}</li>" for f in res.findings) + "</ul>")
     parts.append(answer_html(res))
     parts.append("</section>")
     return "".join(parts)
@@ -113,87 +115,81 @@ _WHERE = ("the contact attributes go on the ball's, the stem's and the table's g
           "any (they override the geoms')")
 
 
-def answer_html(res: Mapping[str, Any]) -> str:
+def answer_html(res: ValidateResult) -> str:
     """What to paste: one MJCF block (or none, and why), and every candidate tried."""
-    ans = res.get("answer") or {}
-    if not ans:
-        return ""
-    cls = "ok" if ans["agrees"] else "bad"
+    ans = res.answer
+    cls = "ok" if ans.agrees else "bad"
     parts = [f"<h3 id='paste'>What to paste</h3><p><span class='verdict {cls}'>"
-             f"{'AGREES' if ans['agrees'] else 'NONE AGREES'}</span> {esc(ans['label'])}.</p>"]
-    if ans.get("mjcf"):
-        parts.append(f"<p class='note'>As MJCF; {esc(_WHERE)}:</p><pre>{esc(ans['mjcf'])}</pre>")
-    tried = ans.get("candidates") or []
+             f"{'AGREES' if ans.agrees else 'NONE AGREES'}</span> {esc(ans.label)}.</p>"]
+    if ans.mjcf:
+        parts.append(f"<p class='note'>As MJCF; {esc(_WHERE)}:</p><pre>{esc(ans.mjcf)}</pre>")
+    tried = ans.candidates
     if tried:
-        rows = [(Cell(esc(c["what"]), "pass" if c["agrees"] else "fail"),
-                 "agrees" if c["agrees"] else "departs", f"{c['passes']} of {c['checks']}",
-                 ", ".join(dict.fromkeys(c["departs"])) or "none") for c in tried]
+        rows = [(Cell(esc(c.what), "pass" if c.agrees else "fail"),
+                 "agrees" if c.agrees else "departs", f"{c.passes} of {c.checks}",
+                 ", ".join(dict.fromkeys(c.departs)) or "none") for c in tried]
         parts.append("<p class='note'>The settings tried:</p>"
                      + html_table(["candidate", "verdict", "checks passed", "departs in"],
                                   rows))
     return "".join(parts)
 
 
-def tuned_section(res: Mapping[str, Any]) -> str:
+def tuned_section(res: ValidateResult) -> str:
     """The tuned settings: the MJCF to paste, the fit, each start's checks."""
-    from tippetop.compare.tuning.tune import start_label
-
-    t = res.get("tuned") or {}
-    if not t:
-        return ""
-    if t.get("skipped"):
+    t = res.tuned
+    if isinstance(t, TuneSkipped):
         return (f"<section id='tuned'><h2>Tuned settings</h2><p class='note'>Not run: "
-                f"{esc(t['skipped'])}.</p></section>")
-    fit = t["fit"]
-    start = fit["starts"][0]
-    ok = t["agrees"]
+                f"{esc(t.skipped)}.</p></section>")
+    fit = t.fit
+    start = fit.starts[0]
+    ok = t.agrees
     head = (f"<p><span class='verdict {'ok' if ok else 'bad'}'>"
-            f"{'AGREE' if ok else 'DEPART'}</span> {esc(t['note'])}.</p>")
+            f"{'AGREE' if ok else 'DEPART'}</span> {esc(t.note)}.</p>")
     how = (f"<p class='note'>The file's contact settings fitted to the reference at its own "
-           f"start ({start_label(start['n0'], start['theta0'])}, "
-           f"over {fmt(start['t_end_s'], 's')}) with MuJoCo's identification (mujoco.sysid): "
-           f"residual {fmt(fit['residual'], 'rad')} ({esc(fit['residual_definition'])}), "
-           f"{fit['runs']} MuJoCo runs, {fmt_duration(fit['wall_s'])}; then run by the "
+           f"start ({start_label(start.n0, start.theta0)}, "
+           f"over {fmt(start.t_end_s, 's')}) with MuJoCo's identification (mujoco.sysid): "
+           f"residual {fmt(fit.residual, 'rad')} ({esc(fit.residual_definition)}), "
+           f"{fit.runs} MuJoCo runs, {fmt_duration(fit.wall_s)}; then run by the "
            f"harness from every start "
-           f"below over {res['t_end_s']:g} s and checked as the verdict checks (what to paste: "
+           f"below over {res.t_end_s:g} s and checked as the verdict checks (what to paste: "
            f"<a href='#paste'>above</a>).</p>")
-    names = list(dict.fromkeys(c["check"] for v in t["verified"] for c in v["checks"]))
+    names = list(dict.fromkeys(c["check"] for v in t.verified for c in v.checks))
     rows = []
-    for v in t["verified"]:
-        row: list[Any] = [start_label(v["n0"], v["theta0"]), v["role"]]
-        by = {c["check"]: c for c in v["checks"]}
-        row += [_cell(by[n], res["t_end_s"]) if n in by else "not checked" for n in names]
-        if v["passed"] is None:
-            row[-1] = v.get("note", "not verified")
+    for v in t.verified:
+        row: list[Any] = [v.label(), v.role]
+        by = {c["check"]: c for c in v.checks}
+        row += [_cell(by[n], res.t_end_s) if n in by else "not checked" for n in names]
+        if v.passed is None:
+            row[-1] = v.note if v.note is not None else "not verified"
         rows.append(row)
     needs = "".join(
-        f"<li>{esc(n['integrator'])} at dt = {n['timestep_s']:g} s: "
-        f"{'kept' if n['kept'] else 'not kept: ' + esc(n.get('why', ''))}</li>"
-        for n in fit.get("needs", []))
+        f"<li>{esc(n.integrator)} at dt = {n.timestep_s:g} s: "
+        f"{'kept' if n.kept else 'not kept: ' + esc(n.why)}</li>"
+        for n in fit.needs)
     needs_html = (f"<p class='note'>The file's own integrator and step, tried with the fitted "
-                  f"contact (the fit ran {esc(fit['integrator'])} at dt = "
-                  f"{fit['timestep_s']:g} s):</p><ul>{needs}</ul>" if needs else "")
+                  f"contact (the fit ran {esc(fit.integrator)} at dt = "
+                  f"{fit.timestep_s:g} s):</p><ul>{needs}</ul>" if needs else "")
     return ("<section id='tuned'><h2>Tuned settings for this top</h2>" + head + how
             + html_table(["start", "role", *(_CHECKS.get(n, n) for n in names)], rows)
             + needs_html + "</section>")
 
 
-def model_section(res: Mapping[str, Any]) -> str:
+def model_section(res: ValidateResult) -> str:
     """The top's parameters read from the file and the theory's numbers."""
-    m = res["model"]
-    group = f"none for a Group {m['group']} top"
-    rows = [("file", m["file"]), ("R (m)", m["R_m"]), ("a (m)", m["a_m"]),
-            ("A (kg m^2)", m["A"]), ("C (kg m^2)", m["C"]), ("M (kg)", m["M_kg"]),
-            ("A/C", m["A_over_C"]), ("a/R", m["a_over_R"]),
-            ("mu (ball on table)", _or(m["mu"], "not read: the ball geom gives no friction")),
-            ("timestep (s)", _or(m.get("timestep_s"), "not read from the file")),
-            ("start (keyframe)", m["keyframe"] or "the scene's state"),
-            ("n0 (rad/s)", m["n0"]), ("theta0 (rad)", m["theta0"]),
-            ("group", m["group"]), ("n1 (rad/s)", _or(m["n1"], group)),
-            ("n4 (rad/s)", _or(m["n4"], group)), ("n_c (rad/s)", _or(m["nc"], group)),
-            ("theta_s for this spin (rad)", _or(m["theta_s"], "none for this spin")),
-            ("the theory's outcome", m["theory_outcome"]),
-            ("stem", _or(m["stem_note"], "none in the file"))]
+    m = res.model
+    group = f"none for a Group {m.group} top"
+    rows = [("file", m.file), ("R (m)", m.R_m), ("a (m)", m.a_m),
+            ("A (kg m^2)", m.A), ("C (kg m^2)", m.C), ("M (kg)", m.M_kg),
+            ("A/C", m.A_over_C), ("a/R", m.a_over_R),
+            ("mu (ball on table)", _or(m.mu, "not read: the ball geom gives no friction")),
+            ("timestep (s)", _or(m.timestep_s, "not read from the file")),
+            ("start (keyframe)", m.keyframe or "the scene's state"),
+            ("n0 (rad/s)", m.n0), ("theta0 (rad)", m.theta0),
+            ("group", m.group), ("n1 (rad/s)", _or(m.n1, group)),
+            ("n4 (rad/s)", _or(m.n4, group)), ("n_c (rad/s)", _or(m.nc, group)),
+            ("theta_s for this spin (rad)", _or(m.theta_s, "none for this spin")),
+            ("the theory's outcome", m.theory_outcome),
+            ("stem", _or(m.stem_note, "none in the file"))]
     return ("<section id='model'><h2>The top, read from the file</h2>"
             + html_table(["what", "value"], rows) + "</section>")
 
@@ -203,12 +199,12 @@ def _or(value: Any, why: str) -> Any:
     return why if value is None else value
 
 
-def runs_section(res: Mapping[str, Any]) -> str:
+def runs_section(res: ValidateResult) -> str:
     """What each run ran and how it ended; a missing number says why."""
     rows = []
-    within = within_run(res["t_end_s"])
+    within = within_run(res.t_end_s)
     for m in _keys(res):
-        r = res["runs"][m]
+        r = res.runs[m]
         s = r
         failed = "the run failed" if r.get("error") or s.get("theta_final") is None else None
         note = f"<br><small>{esc(r['note'])}</small>" if r.get("note") else ""
@@ -229,7 +225,7 @@ def runs_section(res: Mapping[str, Any]) -> str:
             + "</section>")
 
 
-def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+def theta_section(res: ValidateResult, tables: Mapping[str, pd.DataFrame]) -> str:
     """theta(t) of every run, and each MuJoCo run minus the reference underneath."""
     plt = pyplot()
     fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9.5, 6.2), sharex=True,
@@ -243,7 +239,7 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
         ax.plot(t["t"], t["theta"], color=_colour(m, keys), lw=1.4 if m == REFERENCE_RUN
                 else 1.0,
                 label=_label(m))
-        t_stem = res["runs"][m].get("t_stem")
+        t_stem = res.runs[m].get("t_stem")
         if t_stem is not None:
             ax.axvline(t_stem, color=_colour(m, keys), ls=":", lw=0.8)
         if ref is not None and m != REFERENCE_RUN:
@@ -262,20 +258,20 @@ def theta_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) ->
             + png(fig) + "</section>")
 
 
-def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
+def friction_section(res: ValidateResult, tables: Mapping[str, pd.DataFrame]) -> str:
     """The friction law as each run realises it: |F_t| / (mu N) against the slip speed.
 
     Each run's samples as points (log slip axis), the paper's law as the curve, and a sentence
     with the numbers per run (``friction_realised``).
     """
-    keys = [k for k in _keys(res) if k in tables and res["runs"][k].get("friction_realised")]
+    keys = [k for k in _keys(res) if k in tables and res.runs[k].get("friction_realised")]
     if not keys:
         return ""
     fig = friction_law_figure([(_label(k), _colour(k, keys), tables[k],
-                                res["runs"][k]["friction_realised"]) for k in keys])
+                                res.runs[k]["friction_realised"]) for k in keys])
 
     def sentence(k: str) -> str:
-        fr = res["runs"][k]["friction_realised"]
+        fr = res.runs[k]["friction_realised"]
         refit = (fr.get("refit") or {}).get("sentence")
         remains = (fr.get("refit") or {}).get("remains") or []
         more = f"<br><span class='note'>Refit: {esc(refit)}.</span>" if refit else ""
@@ -295,15 +291,15 @@ def friction_section(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame])
             + fig + f"<ul>{lines}</ul></section>")
 
 
-def groups_section(res: Mapping[str, Any]) -> str:
+def groups_section(res: ValidateResult) -> str:
     """The top's place on the paper's group diagram."""
     plt = pyplot()
-    m = res["model"]
+    m = res.model
     fig, ax = plt.subplots(figsize=(5.6, 4.2))
-    x, y = m["a_over_R"], m["A_over_C"]
+    x, y = m.a_over_R, m.A_over_C
     draw_groups(ax, (0.0, max(0.5, 1.3 * x)), (0.5, max(1.6, 1.2 * y)))
     ax.plot([x], [y], "k*", ms=14)
-    ax.annotate(f"this top (Group {m['group']})", (x, y), xytext=(8, 8),
+    ax.annotate(f"this top (Group {m.group})", (x, y), xytext=(8, 8),
                 textcoords="offset points", fontsize=9)
     for label, (gx, gy) in (("I", (0.05, 0.65)), ("II", (0.05, 1.0)), ("III", (0.05, 1.45))):
         ax.text(gx, gy, f"Group {label}", fontsize=8, color="0.3")
@@ -311,9 +307,15 @@ def groups_section(res: Mapping[str, Any]) -> str:
     return ("<section id='groups'><h2>The group diagram</h2>" + png(fig) + "</section>")
 
 
-def render(res: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> str:
-    """The page's HTML: verdict, model, runs, theta(t), group diagram."""
-    title = f"tippetop validate: {res['model']['file']}"
+def render(res: ValidateResult, tables: Mapping[str, pd.DataFrame] | None = None) -> str:
+    """The page's HTML: verdict, model, runs, theta(t), group diagram.
+
+    Args:
+        res: The validation.
+        tables: Each run's observables (default: the validation's own).
+    """
+    tables = res.tables if tables is None else tables
+    title = f"tippetop validate: {res.model.file}"
     body = [f"<h1>{esc(title)}</h1>", verdict_section(res), tuned_section(res),
             model_section(res),
             runs_section(res), theta_section(res, tables), friction_section(res, tables),

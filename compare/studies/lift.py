@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from tippetop.compare.results.lift import LiftResult
+from tippetop.compare.results.tune import Tuned, TuneResult
 from tippetop.models.numbers import number_text
 
 #: The runs whose contact is probed: MuJoCo's own contact (the paper's law is a callback and
@@ -60,9 +62,9 @@ def contact_of(run: dict[str, Any]) -> Any:
 
 
 def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
-         reference: str, tuned: dict[str, Any] | None = None, *,
+         reference: str, tuned: Tuned | None = None, *,
          mu: float | None = None, Lambda_mps: float = 0.01,
-         scan: bool = False, agrees: Any = ()) -> dict[str, Any]:
+         scan: bool = False, agrees: Any = ()) -> LiftResult:
     """The lift-off slip of each MuJoCo run's contact against the reference's slip.
 
     Args:
@@ -80,10 +82,10 @@ def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
             such slips without leaving).
 
     Returns:
-        ``reference`` ({slip_mps, t_s}, or None), ``runs`` (name -> {lift_off_slip_mps,
-        lifts (below the reference's slip), contact}), ``sentences`` (one per run that
-        lifts) and, with ``scan`` and a run that lifts, ``scan`` ({settings, stiff, stay,
-        limit, closest, closest_lift_mps, sentence}).
+        The lift (:class:`LiftResult`): ``reference`` ({slip_mps, t_s}, or None), ``runs``
+        (name -> {lift_off_slip_mps, lifts (below the reference's slip), contact}),
+        ``sentences`` (one per run that lifts) and, with ``scan`` and a run that lifts,
+        ``scan`` ({settings, stiff, stay, limit, closest, closest_lift_mps, sentence}).
     """
     from tippetop.mujoco_runner.contact_lift import Probe, limit_scan
 
@@ -91,40 +93,42 @@ def lift(runs: dict[str, dict[str, Any]], tables: dict[str, Any], top: Any,
 
     ref = runs.get(reference) or {}
     slip = reference_slip(tables.get(reference), ref.get("t_stem"))
-    out: dict[str, Any] = {"reference": None if slip is None else
-                           {"slip_mps": slip[0], "t_s": slip[1]}, "runs": {}, "sentences": []}
+    by_run: dict[str, dict[str, Any]] = {}
+    sentences: list[str] = []
     probed = [(name, r) for name, r in runs.items()
               if name.split("/", 1)[-1] in PROBED_MODES and name.split("/", 1)[0] == "mujoco"]
-    if tuned and tuned.get("settings") and not tuned.get("skipped"):
-        probed.append(("tuned", dict(tuned["settings"])))
+    if isinstance(tuned, TuneResult):
+        probed.append(("tuned", tuned.settings.to_json()))
     for name, r in probed:
         c = contact_of(r)
         if c is None:
             continue
         v = Probe(c, top.R_m, top.M_kg, top.g_mps2).lift_off_slip()
         lifts = slip is not None and v is not None and v < slip[0]
-        out["runs"][name] = {"lift_off_slip_mps": v, "lifts": lifts, "contact": c.label()}
+        by_run[name] = {"lift_off_slip_mps": v, "lifts": lifts, "contact": c.label()}
         # the probe holds its slip for 0.1 s, the top's reference passes through it: a run
         # that agrees anyway is not explained by it, and nothing is said of it
         if lifts and name not in agreeing:
-            out["sentences"].append(
+            sentences.append(
                 f"{name}: its contact pushes the ball off the table above a slip of "
                 f"{number_text(v, 'm/s')} (a ball of this top's radius and mass held at that "
                 f"slip for 0.1 s: the soft contact turns friction beyond mu N into normal "
                 f"force); the "
                 f"reference slips at up to {number_text(slip[0], 'm/s')} (at "
                 f"{number_text(slip[1], 's')}) before its stem lands")
+    scanned = None
     if scan and slip is not None and mu is not None and any(
-            r["lifts"] for r in out["runs"].values()):
+            r["lifts"] for r in by_run.values()):
         dt = min([float(r.get("timestep_s") or 2e-4) for _, r in probed] or [2e-4])
         res = limit_scan(float(mu), top.R_m, top.M_kg, Lambda_mps, slip[0], timestep_s=dt,
                          g_mps2=top.g_mps2)
-        out["scan"] = {"settings": res.settings, "stiff": res.stiff, "stay": len(res.stay),
-                       "limit": res.limit,
-                       "closest": res.closest.label() if res.closest else None,
-                       "closest_lift_mps": res.closest_lift_mps,
-                       "sentence": scan_sentence(res)}
-    return out
+        scanned = {"settings": res.settings, "stiff": res.stiff, "stay": len(res.stay),
+                    "limit": res.limit,
+                    "closest": res.closest.label() if res.closest else None,
+                    "closest_lift_mps": res.closest_lift_mps,
+                    "sentence": scan_sentence(res)}
+    return LiftResult(None if slip is None else {"slip_mps": slip[0], "t_s": slip[1]},
+                      by_run, tuple(sentences), scanned)
 
 
 def scan_sentence(res: Any) -> str:

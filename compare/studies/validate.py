@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,16 @@ from tippetop.compare.measures.verdict import (
     run_entry,
     verdict,
 )
+from tippetop.compare.presentation.validate import show_setting, show_value
+from tippetop.compare.results.tune import Tuned, TuneOnlyResult, TuneResult, TuneSkipped
+from tippetop.compare.results.validate import (
+    FileChecks,
+    Suggestion,
+    ValidateAnswer,
+    ValidateCandidate,
+    ValidateModel,
+    ValidateResult,
+)
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import DEFAULT_T_END_S
 from tippetop.compare.studies.lift import lift as lift_study
@@ -34,7 +44,7 @@ from tippetop.compare.tuning.judge import widening_step
 from tippetop.models.calibrated import CALIBRATION_MU
 from tippetop.models.errors import TippetopError, expect
 from tippetop.models.modes import run_label
-from tippetop.models.numbers import number_text, solver_text
+from tippetop.models.numbers import number_text
 from tippetop.models.scene import Override
 
 #: The runs of a validation (engine family, mode), in report order: the file as it says first,
@@ -152,26 +162,6 @@ SETTINGS = ("timestep_s", "integrator", "cone", "impratio", "noslip_iterations",
             "solref", "solimp")
 
 
-def show_value(v: Any) -> str:
-    """A setting as the report and the terminal show it: ``0.02``, ``[0.02, 1]``, ``RK4``."""
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(f"{x:g}" for x in v) + "]"
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
-def show_setting(setting: str, v: Any) -> str:
-    """A setting of :data:`SETTINGS` with its units: ``0.002 s``, ``[0.02 s, 1]``.
-
-    solref's first number is a time (s) when it is positive (MuJoCo's timeconst, dampratio;
-    negative, it is a stiffness and a damping); solimp's third is a width (m).
-    """
-    if setting == "timestep_s" and isinstance(v, int | float):
-        return f"{v:g} s"
-    if setting in ("solref", "solimp") and isinstance(v, list | tuple):
-        return f"[{solver_text(setting, v)}]"
-    return show_value(v)
-
-
 def setting_changes(file_run: dict[str, Any], native: dict[str, Any]) -> list[dict[str, Any]]:
     """Where the calibrated settings differ from the file's, as both ran (read back)."""
     out = []
@@ -267,14 +257,8 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
     }
 
 
-def _candidate(name: str, what: str, agrees: bool, passes: int, checks: int, mjcf: str,
-               departs: list[str]) -> dict[str, Any]:
-    return {"name": name, "what": what, "agrees": agrees, "passes": passes, "checks": checks,
-            "mjcf": mjcf, "departs": departs}
-
-
-def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
-               tuned: dict[str, Any]) -> list[dict[str, Any]]:
+def candidates(checks: list[dict[str, Any]], sug: Suggestion | None,
+               tuned: Tuned) -> list[ValidateCandidate]:
     """Every set of contact settings validate tried for the file, best evidence first.
 
     The tuned settings (fitted, verified from every start), the seeds the tuning verified
@@ -286,9 +270,9 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
     and ``changes`` (each setting they change from the file's: {setting, file, calibrated}).
     """
     out = []
-    if tuned and not tuned.get("skipped") and tuned.get("mjcf"):
-        n = sum(v["passed"] is not None for v in tuned["verified"])
-        chosen = tuned["fit"].get("chosen", "fit")
+    if isinstance(tuned, TuneResult) and tuned.mjcf:
+        n = len(tuned.checked())
+        chosen = tuned.fit.chosen
         if chosen == "fit":
             what = f"the tuned settings (fitted with mujoco.sysid, verified from {n} starts)"
         elif widening_step(chosen) is not None:
@@ -297,103 +281,101 @@ def candidates(checks: list[dict[str, Any]], sug: dict[str, Any],
         else:
             what = (f"the tuning's {chosen} (verified from {n} starts; the fit's own optimum "
                     "departs)")
-        checked = [c for v in tuned["verified"] for c in v["checks"]]
-        out.append(_candidate("tuned", what, bool(tuned["agrees"]),
-                              sum(c["passed"] is not False for c in checked), len(checked),
-                              tuned["mjcf"], list(tuned.get("departs") or [])))
-        for alt in tuned["fit"].get("alternatives") or []:
-            if (not alt.get("mjcf") or alt["settings"] == chosen.removeprefix("seed: ")
-                    or alt.get("what") == chosen):  # the answer itself, listed above
+        checked = [c for v in tuned.verified for c in v.checks]
+        out.append(ValidateCandidate("tuned", what, bool(tuned.agrees),
+                                     sum(c["passed"] is not False for c in checked),
+                                     len(checked), tuned.mjcf, tuned.departs))
+        for alt in tuned.fit.alternatives:
+            if (not alt.mjcf or alt.settings == chosen.removeprefix("seed: ")
+                    or alt.what == chosen):  # the answer itself, listed above
                 continue
-            label = ("the calibrated settings" if alt.get("calibrated") else
-                     alt.get("what") or "a seed of the tuning")
-            out.append(_candidate("seed", f"{label}: {alt['settings']} (verified from {n} "
-                                  "starts)", bool(alt["agrees"]), int(alt.get("passes", 0)),
-                                  int(alt.get("checks", 0)), alt["mjcf"],
-                                  list(alt.get("departs") or [])))
-    if sug:
+            label = ("the calibrated settings" if alt.calibrated else
+                     alt.what or "a seed of the tuning")
+            out.append(ValidateCandidate("seed", f"{label}: {alt.settings} (verified from {n} "
+                                         "starts)", bool(alt.agrees), int(alt.passes),
+                                         int(alt.checks), alt.mjcf, alt.departs))
+    if sug is not None:
         mine = [c for c in checks if c["run"] == CALIBRATED_RUN]
-        out.append(_candidate("calibrated", "the calibrated settings "
-                              "(models/calibrated_native.toml, the tuning's first seed), run "
-                              "from the file's start only", bool(sug["agrees"]),
-                              sum(c["passed"] is not False for c in mine), len(mine),
-                              f"{sug['option']}\n<geom ... {sug['geom']}/>",
-                              list(sug.get("departs") or [])))
-        out[-1]["changes"] = list(sug.get("changes") or [])
-        if not sug["agrees"]:  # why the calibration does not carry over, its mu said
-            out[-1]["note"] = sug.get("note", "")
+        out.append(ValidateCandidate(
+            "calibrated", "the calibrated settings (models/calibrated_native.toml, the "
+            "tuning's first seed), run from the file's start only", bool(sug.agrees),
+            sum(c["passed"] is not False for c in mine), len(mine),
+            f"{sug.option}\n<geom ... {sug.geom}/>", sug.departs, changes=sug.changes,
+            # why the calibration does not carry over, its mu said
+            note=None if sug.agrees else sug.note))
     return out
 
 
-def answer(checks: list[dict[str, Any]], sug: dict[str, Any],
-           tuned: dict[str, Any]) -> dict[str, Any]:
+def answer(checks: list[dict[str, Any]], sug: Suggestion | None,
+           tuned: Tuned) -> ValidateAnswer:
     """The one answer to paste: the file's own settings, the best candidate, or none and why.
 
     Returns:
-        ``agrees`` (what to paste follows the reference; also when nothing needs pasting),
-        ``source`` (``file``: the file as it is; else the chosen candidate's ``name``, or
-        None), ``label`` (one line: what it is and whether it agrees), ``mjcf`` (to paste;
-        None when nothing is), ``why`` (None, or why nothing is pasted), ``candidates``
-        (:func:`candidates`) and ``file`` ({agrees, passes, checks}: the file's own runs'
-        checks).
+        The answer (:class:`ValidateAnswer`): ``agrees`` (what to paste follows the
+        reference; also when nothing needs pasting), ``source`` (``file``: the file as it is;
+        else the chosen candidate's ``name``, or None), ``label`` (one line: what it is and
+        whether it agrees), ``mjcf`` (to paste; None when nothing is), ``why`` (None, or why
+        nothing is pasted), ``candidates`` (:func:`candidates`) and ``file`` ({agrees,
+        passes, checks}: the file's own runs' checks).
     """
     mine = [c for c in checks if mode_of(c["run"]) == "file"]
     file_ok = bool(mine) and all(c["passed"] is not False for c in mine)
     file_pass = sum(c["passed"] is not False for c in mine)
-    found = candidates(checks, sug, tuned)
+    found = tuple(candidates(checks, sug, tuned))
     # the tuning verifies from every start, the calibrated settings among its seeds: where it
     # ran, its candidates are the answers; the calibrated run from the file's start alone is
     # evidence, listed, not an answer (its settings may depart from another start)
-    tuned_ran = bool(tuned) and not tuned.get("skipped")
-    eligible = [c for c in found if c["name"] != "calibrated"] if tuned_ran else found
-    base = {"candidates": found,
-            "file": {"agrees": file_ok, "passes": file_pass, "checks": len(mine)}}
+    tuned_ran = isinstance(tuned, TuneResult)
+    eligible = [c for c in found if c.name != "calibrated"] if tuned_ran else list(found)
+    file = FileChecks(file_ok, file_pass, len(mine))
+
+    def said(agrees: bool, source: str | None, mjcf: str | None, why: str | None,
+             label: str) -> ValidateAnswer:
+        return ValidateAnswer(found, file, agrees, source, mjcf, why, label)
+
     if file_ok:
-        return {**base, "agrees": True, "source": "file", "mjcf": None, "why": None,
-                "label": "nothing to paste: the file's own settings follow the reference"}
-    agreeing = [c for c in eligible if c["agrees"]]
+        return said(True, "file", None, None,
+                    "nothing to paste: the file's own settings follow the reference")
+    agreeing = [c for c in eligible if c.agrees]
     if agreeing:
         c = agreeing[0]
-        where = ("from every start checked" if c["name"] != "calibrated" else
+        where = ("from every start checked" if c.name != "calibrated" else
                  "from the file's start (tuning skipped: held-out starts not checked)"
-                 if tuned.get("skipped") else "from the file's start")
-        return {**base, "agrees": True, "source": c["name"], "mjcf": c["mjcf"], "why": None,
-                "label": f"paste {c['what']}: they follow the reference {where}"}
+                 if isinstance(tuned, TuneSkipped) else "from the file's start")
+        return said(True, c.name, c.mjcf, None,
+                    f"paste {c.what}: they follow the reference {where}")
     if not eligible:
-        why = ("no candidate: the tuning did not run (" + str(tuned.get("skipped"))
-               + ") and the calibrated settings did not run" if tuned.get("skipped")
-               else "no candidate settings ran")
-        return {**base, "agrees": False, "source": None, "mjcf": None, "why": why,
-                "label": f"nothing to paste: {why}"}
-    best = max(eligible, key=lambda c: c["passes"] / max(c["checks"], 1))
-    share = best["passes"] / max(best["checks"], 1)
+        why = ("no candidate: the tuning did not run (" + tuned.skipped
+               + ") and the calibrated settings did not run"
+               if isinstance(tuned, TuneSkipped) else "no candidate settings ran")
+        return said(False, None, None, why, f"nothing to paste: {why}")
+    best = max(eligible, key=lambda c: c.passes / max(c.checks, 1))
+    share = best.passes / max(best.checks, 1)
     if share <= file_pass / max(len(mine), 1):
         why = (f"no candidate passes a larger share of its checks than the file's own "
-               f"settings ({file_pass} of {len(mine)}); the closest, {best['what']}, passes "
-               f"{best['passes']} of {best['checks']}")
-        return {**base, "agrees": False, "source": None, "mjcf": None, "why": why,
-                "label": f"nothing to paste: {why}"}
-    return {**base, "agrees": False, "source": best["name"], "mjcf": best["mjcf"],
-            "why": f"no setting tried follows the reference: {len(eligible)} candidate(s) "
-                   "depart",
-            "label": f"the closest, NOT agreeing: {best['what']}, passing {best['passes']} "
-                     f"of {best['checks']} checks (departs in "
-                     f"{', '.join(dict.fromkeys(best['departs'])) or '-'})"}
+               f"settings ({file_pass} of {len(mine)}); the closest, {best.what}, passes "
+               f"{best.passes} of {best.checks}")
+        return said(False, None, None, why, f"nothing to paste: {why}")
+    return said(False, best.name, best.mjcf,
+                f"no setting tried follows the reference: {len(eligible)} candidate(s) depart",
+                f"the closest, NOT agreeing: {best.what}, passing {best.passes} "
+                f"of {best.checks} checks (departs in "
+                f"{', '.join(dict.fromkeys(best.departs)) or '-'})")
 
 
-def validate(config: ValidateConfig) -> dict[str, Any]:
+def validate(config: ValidateConfig) -> ValidateResult:
     """Validate one MJCF top (see the module docstring).
 
     Returns:
-        ``model``, ``runs`` (run, ``ENGINE/MODE`` -> the simulate summary's keys,
-        ``t_invert``, ``t_stem`` and ``status`` always among them, and ``outcome``,
-        ``end_state``, ``ran`` (one line),
-        ``E0_J``, ``error`` (None, or why the run could not start), ``note`` (where the run
-        differs from the file's settings)),
+        The validation (:class:`ValidateResult`): ``model``, ``runs`` (run, ``ENGINE/MODE``
+        -> the simulate summary's keys, ``t_invert``, ``t_stem`` and ``status`` always among
+        them, and ``outcome``, ``end_state``, ``ran`` (one line), ``E0_J``, ``error`` (None,
+        or why the run could not start), ``note`` (where the run differs from the file's
+        settings)),
         ``verdict``, ``agrees`` (no check departs), ``findings``, ``suggestion`` (the
         calibrated settings as they ran), ``tuned``, ``answer`` (the one MJCF block to paste,
-        or none and why: :func:`answer`), ``t_end_s`` and ``tables`` (run -> observables,
-        not JSON: the caller writes them).
+        or none and why: :func:`answer`), ``lift``, ``t_end_s`` and ``tables`` (run ->
+        observables, not in the JSON: the caller writes them).
 
     Raises:
         TippetopError: A missing or invalid file, or a bad ``t_end_s`` (before any run).
@@ -421,15 +403,13 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     J0 = float(theory.jellett_from_spin(top, init.n0, init.theta0, init.Omega0))
     theta_pred, outcome_pred = predicted_outcome(top, J0)
     th = theory.summary(top)
-    model = {
-        "file": str(config.model), "R_m": top.R_m, "a_m": top.a_m, "A": top.A_kgm2,
-        "C": top.C_kgm2, "M_kg": top.M_kg, "A_over_C": top.A_over_C,
-        "a_over_R": top.a_over_R, "mu": loaded["mu"], "group": th["group"], "n1": th["n1"],
-        "n4": th["n4"], "nc": th["nc"], "theta_s": theta_pred, "theory_outcome": outcome_pred,
-        "n0": init.n0, "theta0": init.theta0, "keyframe": loaded["keyframe"],
-        "stem": loaded["stem"], "stem_note": loaded["stem_note"],
-        "timestep_s": loaded["timestep_s"],
-    }
+    model = ValidateModel(
+        file=str(config.model), R_m=top.R_m, a_m=top.a_m, A=top.A_kgm2, C=top.C_kgm2,
+        M_kg=top.M_kg, A_over_C=top.A_over_C, a_over_R=top.a_over_R, mu=loaded["mu"],
+        group=th["group"], n1=th["n1"], n4=th["n4"], nc=th["nc"], theta_s=theta_pred,
+        theory_outcome=outcome_pred, n0=init.n0, theta0=init.theta0,
+        keyframe=loaded["keyframe"], stem=loaded["stem"], stem_note=loaded["stem_note"],
+        timestep_s=loaded["timestep_s"])
     runs: dict[str, dict[str, Any]] = {}
     tables = {}
     for (mode, _task), res in zip(jobs, results, strict=True):
@@ -444,33 +424,24 @@ def validate(config: ValidateConfig) -> dict[str, Any]:
     checks = verdict(runs, outcome_pred, top.A_over_C, reference=REFERENCE_RUN,
                      theta_s=theta_pred)
     tuned = (tune_file(config, over, loaded, plan, runs) if config.tune
-             else {"skipped": "--no-tune"})
-    sug = (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN), file_mu=loaded["mu"])
-           if CALIBRATED_RUN in runs else {})
+             else TuneSkipped("--no-tune"))
+    sug_json = (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN),
+                           file_mu=loaded["mu"]) if CALIBRATED_RUN in runs else {})
+    sug = Suggestion.from_json(sug_json) if sug_json else None
     ans = answer(checks, sug, tuned)
     agreeing = {c["run"] for c in checks} - {c["run"] for c in checks if c["passed"] is False}
-    if tuned.get("agrees"):
+    if tuned.agrees:
         agreeing.add("tuned")
     # where nothing agrees and a contact lifts the ball, that is why: the scan asks whether
     # any geom setting can both follow the law and stay on
     lifted = lift_study(runs, tables, top, REFERENCE_RUN, tuned, mu=plan.ode.friction.mu,
-                        Lambda_mps=plan.ode.friction.Lambda_mps, scan=not ans["agrees"],
+                        Lambda_mps=plan.ode.friction.Lambda_mps, scan=not ans.agrees,
                         agrees=agreeing)
-    return {
-        "format": "tippetop-validate/1",
-        "model": model,
-        "t_end_s": config.t_end_s,
-        "engines": list(config.engines),
-        "runs": runs,
-        "verdict": checks,
-        "agrees": all(c["passed"] is not False for c in checks),
-        "findings": findings(runs, checks, top.A_over_C, config.t_end_s),
-        "suggestion": sug,
-        "tuned": tuned,
-        "answer": ans,
-        "lift": lifted,
-        "tables": tables,
-    }
+    return ValidateResult(
+        model=model, t_end_s=config.t_end_s, engines=tuple(config.engines), runs=runs,
+        verdict=tuple(checks), agrees=all(c["passed"] is not False for c in checks),
+        findings=tuple(findings(runs, checks, top.A_over_C, config.t_end_s)),
+        suggestion=sug, tuned=tuned, answer=ans, lift=lifted, tables=tables)
 
 
 def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[Override, ...],
@@ -485,7 +456,7 @@ def refit(runs: dict[str, dict[str, Any]], tables: dict[str, Any], over: tuple[O
 
 
 def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[str, Any],
-              plan: Any, runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
+              plan: Any, runs: dict[str, dict[str, Any]]) -> Tuned:
     """``tuned``: the file's contact settings fitted and verified, or what stopped it.
 
     See :func:`tippetop.compare.tuning.tune.tune`: fitted to the reference at the file's
@@ -495,8 +466,7 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
     from tippetop.compare.tuning.tune import TuneFile, tune
 
     if (runs.get(REFERENCE_RUN) or {}).get("status") != "ok":
-        return {"skipped": "the reference run from the file's start did not complete",
-                "agrees": False}
+        return TuneSkipped("the reference run from the file's start did not complete", False)
     top, init = plan.top, plan.init
     file_run = runs.get(FILE_RUN) or {}
 
@@ -511,8 +481,8 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
         try:
             cached = json.loads(path.read_text("utf-8"))
             if isinstance(cached, dict) and cached.get("fit"):
-                return {**cached, "cached": True}
-        except (OSError, ValueError):  # a damaged entry is computed again
+                return replace(TuneResult.from_json(cached), cached=True)
+        except (OSError, ValueError, KeyError, TypeError):  # a damaged entry: computed again
             pass
     try:
         out = tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
@@ -523,14 +493,14 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
                                   use_cache=config.use_cache, progress=config.progress),
                    budget_runs=config.budget_runs)
     except TippetopError as exc:
-        return {"skipped": str(exc), "agrees": False}
+        return TuneSkipped(str(exc), False)
     if path is not None:
         from tippetop.compare.running.io import json_ready, write_atomic
 
         text = json.dumps(json_ready(out))
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomic(path, lambda tmp: tmp.write_text(text, "utf-8"))
-    return {**out, "cached": False}
+    return replace(out, cached=False)
 
 
 def _tune_cache_path(over: tuple[Override, ...], budget_runs: int = TUNE_BUDGET_RUNS) -> Path:
@@ -557,7 +527,7 @@ def _tune_cache_path(over: tuple[Override, ...], budget_runs: int = TUNE_BUDGET_
 
 def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
               workers: int | None = None, use_cache: bool = True,
-              progress: bool = True, budget_runs: int = TUNE_BUDGET_RUNS) -> dict[str, Any]:
+              progress: bool = True, budget_runs: int = TUNE_BUDGET_RUNS) -> TuneOnlyResult:
     """``tippetop calibrate --mjcf FILE``: the file's contact settings tuned, no report.
 
     The reference and the file's own run at its start, then :func:`tune_file` (no paper or
@@ -577,9 +547,8 @@ def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
                         scheduler=scheduler, workers=workers, use_cache=use_cache,
                         label="calibrate --mjcf")
     runs = {REFERENCE_RUN: run_entry(results[0]), FILE_RUN: run_entry(results[1])}
-    return {"file": str(model), "mu": loaded["mu"], "n0": plan.init.n0,
-            "theta0": plan.init.theta0, "t_end_s": t_end_s,
-            "tuned": tune_file(config, over, loaded, plan, runs)}
+    return TuneOnlyResult(str(model), loaded["mu"], plan.init.n0, plan.init.theta0, t_end_s,
+                          tune_file(config, over, loaded, plan, runs))
 
 
 def plan_file_info(overrides: tuple[Override, ...]) -> dict[str, Any]:

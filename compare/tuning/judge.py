@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
+from tippetop.compare.results.tune import start_label
 from tippetop.compare.tuning.calibrate.identify import MAX_ITERS
-from tippetop.models.numbers import number_text
 from tippetop.models.scene import Override
 
 #: Held-out starts, relative to the file's: (spin factor, tilt factor); a tilt at least
@@ -98,11 +98,6 @@ class TuneEffort:
 
 #: The tuning's own effort: :data:`MAX_ITERS` iterations, every core, the runs' processes.
 DEFAULT_EFFORT = TuneEffort()
-
-
-def start_label(n0: float, theta0: float) -> str:
-    """A start as every line and report names it: ``n0 = 150 rad/s, theta0 = 0.04 rad``."""
-    return f"n0 = {number_text(n0, 'rad/s')}, theta0 = {number_text(theta0, 'rad')}"
 
 
 def starts_for(n0: float, theta0: float) -> list[TuneStart]:

@@ -20,6 +20,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from tippetop.compare.measures.verdict import FIRST_ORDER, REFERENCE_RUN, run_entry, verdict
+from tippetop.compare.results.tune import (
+    FittedStart,
+    TuneAlternative,
+    TunedSettings,
+    TuneFit,
+    TuneNeed,
+    TuneResult,
+    TuneVerification,
+)
 from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.tuning import TUNE_BUDGET_RUNS
@@ -125,6 +134,20 @@ def seeds(mu: float, file_run: dict[str, Any] | None, timestep_s: float) -> list
     return out
 
 
+#: What the fit's residual measures (its record's ``residual_definition``).
+RESIDUAL_DEFINITION = ("sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
+                       "while the ball alone touches)^2) on a 0.01 s grid (rad)")
+#: How the tuning fits, in words (its record's ``method``).
+METHOD = ("mujoco.sysid's residual and MuJoCo's bounded Levenberg-Marquardt "
+          "(mujoco.minimize.least_squares, log10 settings, finite-difference "
+          "step 0.01 decade, stopped when two iterations lower the residual "
+          f"by less than {STALL_FRACTION:.0%}) from the best seed of the "
+          "file's cone (elliptic first at mu >= 0.5), then of the other cone "
+          "if the first departs, then (mu >= 0.5) of the lift-free family; "
+          "where all depart, the answer with its integrator, step or cone "
+          "changed, then a fit at the best of those (the widening, from "
+          f"one in {WIDEN_ONE_IN} of the budget's runs, kept back for it)")
+
 #: The lift-free family's name among the fit's cones (:func:`fit_order`).
 LIFT_FREE = "lift-free"
 
@@ -162,7 +185,7 @@ def _say(progress: bool) -> Callable[[str], None] | None:
 def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_s: float, *,
          file: TuneFile = NO_FILE, run: RunOptions = DEFAULT_RUN,
          budget_runs: int = DEFAULT_BUDGET_RUNS,
-         effort: TuneEffort = DEFAULT_EFFORT) -> dict[str, Any]:
+         effort: TuneEffort = DEFAULT_EFFORT) -> TuneResult:
     """Fit the file's contact settings to the reference and verify them.
 
     The cones are fitted one at a time (:func:`cone_order`): each cone's seeds scored in one
@@ -192,9 +215,9 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
         effort: The fits' iterations and threads, the reference's worker processes.
 
     Returns:
-        ``settings``, ``mjcf``, ``fit`` ({starts, residual, runs, budget_runs, ...}),
-        ``verified`` ([{n0, theta0, role, checks, passed}]), ``agrees``, ``departs``,
-        ``budget_limited`` and ``note``.
+        The tuning (:class:`TuneResult`): its ``settings``, ``mjcf``, ``fit`` (its starts,
+        residual, runs, budget, ...), ``verified`` (each start's checks), ``agrees``,
+        ``departs``, ``budget_limited`` and ``note``.
 
     Raises:
         TippetopError: No spin to fit (n0 = 0), a budget below :func:`min_budget_runs`, or a
@@ -429,7 +452,7 @@ def _widen(fit: _Fit, runs: _Runs, answer: dict[str, Any], budget_runs: int, max
 
 def _report(fit: _Fit, runs: _Runs, answer: dict[str, Any], tried: list[dict[str, Any]],
             found: Identified, widened: dict[str, Any] | None, budget_runs: int,
-            t0: float) -> dict[str, Any]:
+            t0: float) -> TuneResult:
     """The tuning's result: the answer's settings and MJCF, the fit's record, the verdict."""
     verified, chosen, alternatives = answer["verified"], answer["chosen"], runs.alternatives
     agrees = _agrees(verified)
@@ -438,47 +461,35 @@ def _report(fit: _Fit, runs: _Runs, answer: dict[str, Any], tried: list[dict[str
     budget_note = (f"; budget-limited: the tuning stopped at {runs.spent()} of --budget-runs "
                    f"{budget_runs} MuJoCo runs with its best so far"
                    if runs.budget_limited else "")
-    return {
-        "settings": _settings(ran, answer["best"], answer["timestep"], answer["integrator"]),
-        "mjcf": _mjcf(ran),
-        "fit": {"starts": [{"n0": runs.starts[0].n0, "theta0": runs.starts[0].theta0,
-                            "t_end_s": fit.start.t_end_s}],
-                "residual": found.rms_rad, "residual_definition": (
-                    "sqrt(RMS(theta_mujoco - theta_reference)^2 + (100 rad x RMS(J/J0 - 1) "
-                    "while the ball alone touches)^2) on a 0.01 s grid (rad)"),
-                "runs": runs.spent(), "rollouts": sum(p.rollouts for p in runs.problems),
-                "verify_runs": runs.verify_runs, "budget_runs": budget_runs,
-                "seeds": [s for t in tried for s in t["found"].seeds],
-                "fits": [f for t in tried for f in t["found"].fits],
-                "cones": [t["found"].best.cone for t in tried],
-                "tried": [t["what"] for t in tried],
-                "timestep_s": fit.dt, "integrator": FIT_INTEGRATOR, "needs": answer["needs"],
-                "chosen": chosen, "alternatives": alternatives,
-                "bounds": {k: list(v) for k, v in fit.bounds.values.items()},
-                "method": "mujoco.sysid's residual and MuJoCo's bounded Levenberg-Marquardt "
-                          "(mujoco.minimize.least_squares, log10 settings, finite-difference "
-                          "step 0.01 decade, stopped when two iterations lower the residual "
-                          f"by less than {STALL_FRACTION:.0%}) from the best seed of the "
-                          "file's cone (elliptic first at mu >= 0.5), then of the other cone "
-                          "if the first departs, then (mu >= 0.5) of the lift-free family; "
-                          "where all depart, the answer with its integrator, step or cone "
-                          "changed, then a fit at the best of those (the widening, from "
-                          f"one in {WIDEN_ONE_IN} of the budget's runs, kept back for it)",
-                "widened": None if widened is None else [
-                    {k: w[k] for k in ("settings", "what", "agrees", "passes", "checks")}
-                    for w in widened["tried"]],
-                "wall_s": time.perf_counter() - t0},
-        "verified": verified,
-        "agrees": agrees,
-        "departs": departs,
-        **_passes(verified),
-        "budget_limited": runs.budget_limited,
-        "note": _note(agrees, departs, verified) + (
+    record = TuneFit(
+        starts=(FittedStart(runs.starts[0].n0, runs.starts[0].theta0, fit.start.t_end_s),),
+        residual=found.rms_rad, residual_definition=RESIDUAL_DEFINITION,
+        runs=runs.spent(), rollouts=sum(p.rollouts for p in runs.problems),
+        verify_runs=runs.verify_runs, budget_runs=budget_runs,
+        seeds=tuple(s for t in tried for s in t["found"].seeds),
+        fits=tuple(f for t in tried for f in t["found"].fits),
+        cones=tuple(t["found"].best.cone for t in tried),
+        tried=tuple(t["what"] for t in tried),
+        timestep_s=fit.dt, integrator=FIT_INTEGRATOR,
+        needs=tuple(TuneNeed.from_json(n) for n in answer["needs"]),
+        chosen=chosen, alternatives=tuple(TuneAlternative.from_json(a) for a in alternatives),
+        bounds={k: tuple(v) for k, v in fit.bounds.values.items()}, method=METHOD,
+        widened=None if widened is None else tuple(
+            {k: w[k] for k in ("settings", "what", "agrees", "passes", "checks")}
+            for w in widened["tried"]),
+        wall_s=time.perf_counter() - t0)
+    passes = _passes(verified)
+    return TuneResult(
+        settings=_settings(ran, answer["best"], answer["timestep"], answer["integrator"]),
+        mjcf=_mjcf(ran), fit=record,
+        verified=tuple(TuneVerification.from_json(v) for v in verified),
+        agrees=agrees, departs=tuple(departs), passes=passes["passes"],
+        checks=passes["checks"], budget_limited=runs.budget_limited,
+        note=_note(agrees, departs, verified) + (
             f" (the fit's own optimum departs from a held-out start; these are "
             f"{_chosen_words(chosen)})"
             if chosen != "fit" else f"; its seeds verified as well ({len(alternatives)}) "
-            f"depart too" if alternatives and not agrees else "") + budget_note,
-    }
+            f"depart too" if alternatives and not agrees else "") + budget_note)
 
 
 def _settle(found: Identified, problem: Problem, fit: _Fit, file: TuneFile,
@@ -605,38 +616,40 @@ def _cheaper(integ: str | None, step: float | None,
 
 
 def _settings(ran: dict[str, Any], best: Candidate, timestep: float,
-              integrator: str) -> dict[str, Any]:
+              integrator: str) -> TunedSettings:
     """The tuned settings as the verification run ran them (read back), else as fitted."""
     def get(key: str, default: Any) -> Any:
         v = ran.get(key)
         return default if v is None else v
-    return {"mu": get("mu", best.mu), "cone": get("cone", best.cone),
-            "impratio": get("impratio", best.impratio),
-            "solref": list(get("solref", best.solref)),
-            "solimp": list(get("solimp", best.solimp)),
-            "timestep_s": get("timestep_s", timestep), "integrator": get("integrator",
-                                                                         integrator),
-            "condim": get("condim", 3),
-            # the contact pairs' friction rows' own solref (the lift-free family), else None
-            "solreffriction": ran.get("solreffriction", best.solreffriction)}
+    # the contact pairs' friction rows' own solref (the lift-free family), else None
+    srf = ran.get("solreffriction", best.solreffriction)
+    return TunedSettings(mu=get("mu", best.mu), cone=get("cone", best.cone),
+                         impratio=get("impratio", best.impratio),
+                         solref=tuple(get("solref", best.solref)),
+                         solimp=tuple(get("solimp", best.solimp)),
+                         timestep_s=get("timestep_s", timestep),
+                         integrator=get("integrator", integrator),
+                         condim=get("condim", 3),
+                         solreffriction=None if srf is None else tuple(srf))
 
 
 def source_digest() -> str:
     """sha256 of the tuning's own code, which the runs' code fingerprint does not hold.
 
     This module, its starts and verdict, its widening and the widening's draws, the verdict's
-    rules, the fit and its scoring: what a cached tuning (validate's, a fidelity point's) was
-    computed with.
+    rules, the fit and its scoring, and its result (its start labels, its JSON): what a cached
+    tuning (validate's, a fidelity point's) was computed with.
     """
     import hashlib
     from pathlib import Path
 
     from tippetop.compare.measures import verdict as verdict_rule
+    from tippetop.compare.results import tune as result
     from tippetop.compare.tuning import judge, sobol, widen
     from tippetop.compare.tuning.calibrate import identify, scoring
 
     modules = (sys.modules[__name__], judge, widen, sobol, verdict_rule, identify,
-               scoring)
+               scoring, result)
     return hashlib.sha256(b"".join(Path(str(m.__file__)).read_bytes()
                                    for m in modules)).hexdigest()
 

@@ -17,6 +17,18 @@ from pathlib import Path
 
 import pytest
 
+from tippetop.compare.results.tune import (
+    FittedStart,
+    TuneAlternative,
+    TunedSettings,
+    TuneFit,
+    TuneNeed,
+    TuneOnlyResult,
+    TuneResult,
+    TuneSkipped,
+    TuneVerification,
+    tuned_from_json,
+)
 from tippetop.compare.tuning.calibrate.identify import Bounds
 from tippetop.compare.tuning.tune import (
     FIT_INTEGRATOR,
@@ -279,7 +291,10 @@ def test_a_tiny_budget_ends_with_an_answer() -> None:
     proc = _cli("calibrate", "--mjcf", str(EXAMPLE), "--budget-runs", "6", "--json",
                 "--no-cache")
     assert proc.returncode in (0, 1), proc.stderr
-    t = json.loads(proc.stdout)["tuned"]
+    data = json.loads(proc.stdout)
+    t = data["tuned"]
+    # the printed JSON is the result's, read back to the same JSON
+    assert TuneOnlyResult.from_json(data).to_json() == data
     assert t["budget_limited"] is True and "budget-limited" in t["note"]
     assert t["fit"]["runs"] <= 6 and t["fit"]["budget_runs"] == 6
     assert len(t["verified"]) == 1 + len(HELD_OUT) and t["mjcf"]
@@ -395,12 +410,14 @@ def test_a_start_whose_reference_is_still_moving_is_verified_over_a_longer_horiz
 def test_a_cached_tuning_is_keyed_by_all_of_the_tunings_code(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """validate's and fidelity's cached tunings are keyed by :func:`source_digest`: a change to
-    the widening, its draws or the verification's judge (modules of their own) is a new key."""
+    the widening, its draws, the verification's judge or the result (its start labels, its
+    JSON; modules of their own) is a new key."""
+    from tippetop.compare.results import tune as result
     from tippetop.compare.tuning import judge, sobol, tune, widen
     from tippetop.compare.tuning.tune import source_digest
 
     before = source_digest()
-    for module in (tune, judge, widen, sobol):
+    for module in (tune, judge, widen, sobol, result):
         real = Path.read_bytes
         path = Path(str(module.__file__))
 
@@ -412,3 +429,64 @@ def test_a_cached_tuning_is_keyed_by_all_of_the_tunings_code(
             m.setattr(Path, "read_bytes", edited)
             assert source_digest() != before, module.__name__
     assert source_digest() == before
+
+
+def _hand_built_tuning(*, cached: bool | None = None) -> TuneResult:
+    """A tuning with every form its JSON takes: a start verified and one not verifiable, an
+    alternative with and without ``what``, a widening, a lift-free contact."""
+    check = {"check": "outcome", "run": "mujoco/file", "engine": "mujoco", "mode": "file",
+             "passed": False, "value": None, "tolerance": "same", "note": "upright",
+             "against": "theory"}
+    fit = TuneFit(
+        starts=(FittedStart(100.0, 0.1, 3.49),), residual=0.024, residual_definition="rms",
+        runs=42, rollouts=30, verify_runs=12, budget_runs=300,
+        seeds=({"cone": "elliptic", "settings": "s", "rms_rad": 1.4},),
+        fits=({"cone": "elliptic", "from": "s", "from_rms_rad": 0.2, "to": "t",
+               "rms_rad": 0.02, "rollouts": 32, "iterations": 5, "stop": "converged"},),
+        cones=("elliptic",), tried=("the fit in the elliptic cone",), timestep_s=2e-4,
+        integrator="RK4",
+        needs=(TuneNeed("implicitfast", 2e-3, None, False, "first order"),
+               TuneNeed("RK4", 2e-3, 0.03, True, "")),
+        chosen="widened: Euler in place of RK4",
+        alternatives=(TuneAlternative("seed a", None, False, ("outcome from x",), 3, 5, "<m/>",
+                                      True),
+                      TuneAlternative("w", "widened: Euler", True, (), 5, 5, "<m/>", False)),
+        bounds={"mu": (0.05, 0.2), "impratio": (0.02, 1000.0)}, method="lm",
+        widened=({"settings": "w", "what": "widened: Euler", "agrees": True, "passes": 5,
+                  "checks": 5},),
+        wall_s=28.1)
+    return TuneResult(
+        settings=TunedSettings(1.0, "elliptic", 300.0, (-1e5, -632.0), (1e-4, 1e-4, 0.1, 0.5, 2.0),
+                               2e-4, "RK4", 3, (-1.0, -2.61)),
+        mjcf="<option/>", fit=fit,
+        verified=(TuneVerification(100.0, 0.1, "fit", 8.0, "inverted", (check,), False,
+                                   friction_realised={"mu_fit": 0.1}, left_table_s=None),
+                  TuneVerification(115.0, 0.1, "held-out", 16.0, None, (), None,
+                                   note="not verifiable: the reference stops")),
+        agrees=False, departs=("outcome from n0 = 100 rad/s (fit): upright",), passes=0,
+        checks=1, budget_limited=True, note="no setting", cached=cached)
+
+
+def test_a_tuning_reads_itself_back_from_its_json() -> None:
+    """from_json(to_json(r)) == r for every form; the JSON's keys keep their order (the
+    verified start's friction and the unverifiable one's note; a seed without ``what``)."""
+    for cached in (None, True, False):
+        r = _hand_built_tuning(cached=cached)
+        data = r.to_json()
+        assert TuneResult.from_json(data) == r
+        assert TuneResult.from_json(json.loads(json.dumps(data))) == r  # through JSON text
+        assert ("cached" in data) == (cached is not None)
+    data = _hand_built_tuning().to_json()
+    assert list(data) == ["settings", "mjcf", "fit", "verified", "agrees", "departs", "passes",
+                          "checks", "budget_limited", "note"]
+    assert list(data["verified"][0])[-2:] == ["friction_realised", "left_table_s"]
+    assert list(data["verified"][1])[-1] == "note" and "friction_realised" not in \
+        data["verified"][1]
+    assert "what" not in data["fit"]["alternatives"][0]
+    assert list(data["fit"]["alternatives"][1])[:2] == ["settings", "what"]
+    assert data["settings"]["solreffriction"] == [-1.0, -2.61]
+    for skipped in (TuneSkipped("--no-tune"), TuneSkipped("no reference", False)):
+        assert tuned_from_json(skipped.to_json()) == skipped
+    assert TuneSkipped("--no-tune").to_json() == {"skipped": "--no-tune"}
+    only = TuneOnlyResult("top.xml", 0.1, 100.0, 0.1, 8.0, _hand_built_tuning(cached=False))
+    assert TuneOnlyResult.from_json(only.to_json()) == only

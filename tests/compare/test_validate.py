@@ -21,9 +21,12 @@ from typing import Any
 import pytest
 
 from tests.conftest import session_processes
+from tippetop.compare.results.tune import TuneSkipped
+from tippetop.compare.results.validate import Suggestion, ValidateAnswer, ValidateResult
 from tippetop.compare.studies.validate import (
     EVENT_TOL_S,
     J_TOL,
+    answer,
     findings,
     setting_changes,
     suggestion,
@@ -192,6 +195,32 @@ def test_setting_changes_lists_only_what_differs() -> None:
         {"setting": "solref", "file": [0.02, 1.0], "calibrated": [0.002, 1.0]}]
 
 
+def test_the_answer_without_a_tuning_is_the_calibrated_settings() -> None:
+    """The file departs, the tuning did not run, the calibrated run agrees: it is the answer
+    (from the file's start only), with the settings it changes; the answer reads itself back
+    from its JSON."""
+    runs = _runs(mujoco_file={"t_invert": None, "outcome": "upright", "cone": "elliptic"})
+    checks = verdict(runs, "inverted")
+    sug = Suggestion.from_json(suggestion(runs["mujoco/native"], checks, runs["mujoco/file"]))
+    ans = answer(checks, sug, TuneSkipped("--no-tune"))
+    assert ans.agrees and ans.source == "calibrated" and ans.mjcf == ans.candidates[0].mjcf
+    assert "tuning skipped: held-out starts not checked" in ans.label
+    assert not ans.file.agrees and [c.setting for c in ans.candidates[0].changes] == ["cone"]
+    data = ans.to_json()
+    assert list(data) == ["candidates", "file", "agrees", "source", "mjcf", "why", "label"]
+    assert "note" not in data["candidates"][0] and data["candidates"][0]["changes"] == [
+        {"setting": "cone", "file": "elliptic", "calibrated": "pyramidal"}]
+    assert ValidateAnswer.from_json(data) == ans
+    # the calibrated run departs too: nothing agrees, the closest is named, and why
+    bad = _runs(mujoco_file={"t_invert": None, "outcome": "upright"},
+                mujoco_native={"t_invert": 1.0})
+    checks = verdict(bad, "inverted")
+    sug = Suggestion.from_json(suggestion(bad["mujoco/native"], checks, bad["mujoco/file"]))
+    ans = answer(checks, sug, TuneSkipped("no reference", False))
+    assert not ans.agrees and ans.candidates[0].note == sug.note
+    assert ValidateAnswer.from_json(ans.to_json()) == ans
+
+
 @pytest.mark.parametrize(("limit", "step"), [(2.67e-4, 2e-4), (1.66e-4, 1e-4), (5e-4, 5e-4),
                                              (9.9e-3, 5e-3), (1.0, 1.0)])
 def test_nice_step_below(limit: float, step: float) -> None:
@@ -233,6 +262,16 @@ def test_validate_json_contract(paper_example: tuple[Any, Path, int]) -> None:
     assert json.loads((out / "results.json").read_text()) == res
     names = {f"{k.replace('/', '_')}.csv" for k in KEYS}
     assert {p.name for p in (out / "tables").iterdir()} == names
+
+
+def test_validate_result_reads_itself_back(paper_example: tuple[Any, Path, int]) -> None:
+    """The printed JSON is the result's: read back, it gives the same JSON, and the result
+    read back from that is the same result (the tuning's among it)."""
+    res = paper_example[0]
+    r = ValidateResult.from_json(res)
+    assert r.to_json() == res
+    assert ValidateResult.from_json(r.to_json()) == r
+    assert r.tuned.to_json() == res["tuned"] and r.model.group == res["model"]["group"]
 
 
 def test_validate_tunes_the_files_contact(paper_example: tuple[Any, Path, int]) -> None:
