@@ -40,22 +40,22 @@ def main() -> None:
     t0 = time.perf_counter()
     run = RunOptions(workers=args.workers, use_cache=False)
     g = measure_growth(None, "mujoco", "n1", over, run=run)
-    rows.append(("growth", g, time.perf_counter() - t0, g["n_runs"] * g["horizon_s"]))
+    rows.append(("growth", g, time.perf_counter() - t0, g.n_runs * g.horizon_s))
     t0 = time.perf_counter()
     b = bisect_threshold(None, "mujoco", "n1", (*over, f"run.t_end_s={args.horizon_s!r}"),
                          search=BisectOptions(rel_tol=0.005), run=run)
     extra = 2 * 2 * args.horizon_s  # the horizon check: two runs over twice the horizon
-    rows.append(("bisect", b, time.perf_counter() - t0, b["n_runs"] * args.horizon_s + extra))
+    rows.append(("bisect", b, time.perf_counter() - t0, b.n_runs * args.horizon_s + extra))
     print(f"n1 of the Fig. 9 (a) top in MuJoCo paper mode, dt = {args.timestep_s:g} s "
-          f"(theory {g['theory']:.5f} rad/s)")
+          f"(theory {g.theory:.5f} rad/s)")
     print(f"{'method':8s} {'n1 (rad/s)':>12s} {'vs theory':>10s} {'runs':>5s} "
           f"{'sim s':>7s} {'wall s':>7s}")
     for name, res, wall, sim in rows:
-        print(f"{name:8s} {res['measured']:12.5f} {100 * res['rel_diff']:+9.4f}% "
-              f"{res['n_runs']:5d} {sim:7.0f} {wall:7.1f}")
+        print(f"{name:8s} {res.measured:12.5f} {100 * res.rel_diff:+9.4f}% "
+              f"{res.n_runs:5d} {sim:7.0f} {wall:7.1f}")
     ratio = rows[0][2] / rows[1][2]
     print(f"wall time growth / bisect: {ratio:.3f} (target <= 0.25); growth within "
-          f"{100 * abs(g['rel_diff']):.4f} % of the theory (target <= 0.5 %)")
+          f"{100 * abs(g.rel_diff):.4f} % of the theory (target <= 0.5 %)")
 
 
 if __name__ == "__main__":

@@ -68,6 +68,9 @@ STUDY_ENTRIES = frozenset({
     ("compare/studies/validate.py", "validate"),
     ("compare/studies/accuracy/study.py", "run_accuracy"),
     ("compare/tuning/tune.py", "tune"),
+    ("compare/studies/threshold.py", "measure_threshold"),
+    ("compare/studies/atlas.py", "run_atlas"),
+    ("compare/studies/crossval.py", "compare_scene"),
 })
 #: The studies whose result is a frozen dataclass with ``to_json``/``from_json`` in
 #: compare/results/ (issue 42, item 2). The rest still return a dictionary: this list may
@@ -80,6 +83,9 @@ RESULTS_WITH_FIELDS = frozenset({
     ("compare/studies/accuracy/study.py", "run_accuracy"),
     ("compare/studies/validate.py", "validate"),
     ("compare/tuning/tune.py", "tune"),
+    ("compare/studies/threshold.py", "measure_threshold"),
+    ("compare/studies/atlas.py", "run_atlas"),
+    ("compare/studies/crossval.py", "compare_scene"),
 })
 DICT_RESULT_TODO = STUDY_ENTRIES - RESULTS_WITH_FIELDS
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tippetop.compare.commands.options import (
     add_force_option,
@@ -22,6 +22,9 @@ from tippetop.compare.studies.defaults import (
     DEFAULT_ENGINES_TEXT,
     DEFAULT_MODES_TEXT,
 )
+
+if TYPE_CHECKING:
+    from tippetop.compare.results.atlas import AtlasResult
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -64,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
 
     An engine departing from the theory is a finding, printed and written, not a failure.
     """
+    from tippetop.compare.presentation.atlas import print_atlas
     from tippetop.compare.studies.atlas import parse_grid, run_atlas
 
     ac = parse_grid(args.A_over_C, "--A-over-C")
@@ -80,9 +84,8 @@ def run(args: argparse.Namespace) -> int:
                     workers=args.workers, use_cache=not args.no_cache)
     files = write_atlas(res, out_dir) if out_dir is not None else []
     if args.json:
-        print_json({"points": res["points"], "agreement": res["agreement"],
-                    "findings": res["findings"], "grid": res["grid"],
-                    "n_runs": res["n_runs"]})
+        data = res.to_json()
+        print_json({k: data[k] for k in ("points", "agreement", "findings", "grid", "n_runs")})
     else:
         print_atlas(res)
         if files:
@@ -90,31 +93,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_atlas(res: dict[str, Any]) -> None:
-    """The human summary: agreement per run, the findings, and the points that depart."""
-    g = res["grid"]
-    print(f"tippetop atlas: {len(g['A_over_C'])} x {len(g['a_over_R'])} points (A/C "
-          f"{g['A_over_C'][0]:g}..{g['A_over_C'][-1]:g}, a/R {g['a_over_R'][0]:g}.."
-          f"{g['a_over_R'][-1]:g}), {res['n_runs']} runs of 2 s")
-    for eng, frac in res["agreement"].items():
-        pts = [p for p in res["points"] if p["run"] == eng]
-        print(f"  {eng:<16} groups agree with the theory at {round(frac * len(pts))} of "
-              f"{len(pts)} points ({100 * frac:.0f} %)")
-    for f in res["findings"]:
-        print(f"  {f}")
-    wrong = [p for p in res["points"] if not p["agrees"]]
-    for p in wrong:
-        print(f"  departs: {p['run']} at A/C = {p['A_over_C']:.3g}, a/R = "
-              f"{p['a_over_R']:.3g}: Group {p['group_measured']} (theory {p['group_theory']});"
-              f" n1 {_fmt(p['n1_measured'])} (theory {_fmt(p['n1_theory'])}), n4 "
-              f"{_fmt(p['n4_measured'])} (theory {_fmt(p['n4_theory'])}) rad/s")
-
-
-def _fmt(v: float | None) -> str:
-    return "-" if v is None else f"{v:.4g}"
-
-
-def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
+def write_atlas(result: AtlasResult, out_dir: str | Path) -> list[Path]:
     """Write atlas.csv, atlas.png and atlas.json into ``out_dir``, all or nothing.
 
     The folder is checked (new, empty or ``--force``) by the caller before the work.
@@ -126,8 +105,9 @@ def write_atlas(result: dict[str, Any], out_dir: str | Path) -> list[Path]:
     names = ["atlas.csv", "atlas.png", "atlas.json"]
     with staged_output_dir(Path(out_dir)) as tmp:
         atlas_table(result).to_csv(tmp / "atlas.csv", index=False)
-        fig = atlas_figure(result)
+        data = result.to_json()
+        fig = atlas_figure(data)
         fig.savefig(tmp / "atlas.png", dpi=110)
         pyplot().close(fig)
-        (tmp / "atlas.json").write_text(json_text(result, indent=1), encoding="utf-8")
+        (tmp / "atlas.json").write_text(json_text(data, indent=1), encoding="utf-8")
     return [Path(out_dir) / n for n in names]

@@ -48,13 +48,13 @@ def run(args: argparse.Namespace) -> int:
     res = compare_scene(args.scene, runs, set_overrides(args), scheduler=args.scheduler,
                         workers=args.workers, use_cache=not args.no_cache)
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
         print_compare(res)
     # a failed run is reported in its row (the others kept), and the command exits 1
-    failed = [s["run"] for s in res["runs"] if s.get("outcome") == "failed"]
+    failed = res.failed()
     if failed:
-        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res['runs'])} runs "
+        sys.stderr.write(f"tippetop: run failed: {len(failed)} of {len(res.runs)} runs "
                          f"failed ({', '.join(failed)}); the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0

@@ -234,13 +234,13 @@ def _run_threshold(cr: CaseRun, *, scheduler: str | None, workers: int | None,
         log(f"  failed: {cr.error}")
         return
     cr.wall_s = time.perf_counter() - t0
-    if res.get("failed_runs"):
-        cr.error = f"RunFailedError: {res['warning']}"
+    if res.failed_runs:
+        cr.error = f"RunFailedError: {res.warning}"
         log(f"  failed: {cr.error}")
         return
-    cr.values = {"measured": res["measured"], "converged": bool(res["converged"])}
-    cr.detail = {"threshold": {**res, "rel_tol": c.rel_tol}}
-    log(f"  {res['measured']:.4g} rad/s (theory {res['theory']:.4g}), {res['n_runs']} runs, "
+    cr.values = {"measured": res.measured, "converged": bool(res.converged)}
+    cr.detail = {"threshold": {**res.to_json(), "rel_tol": c.rel_tol}}
+    log(f"  {res.measured:.4g} rad/s (theory {res.theory:.4g}), {res.n_runs} runs, "
         f"{cr.wall_s:.1f} s")
 
 
@@ -270,13 +270,13 @@ def _run_atlas(cr: CaseRun, *, scheduler: str | None, workers: int | None,
         log(f"  failed: {cr.error}")
         return
     cr.wall_s = time.perf_counter() - t0
-    pts = res["points"]
+    pts = [p.to_json() for p in res.points]
     cr.values = {
         "groups_measured": {point_key(p): p["group_measured"] for p in pts},
-        "agreement": res["agreement"][c.run],
+        "agreement": res.agreement[c.run],
         "n1_measured": {point_key(p): p["n1_measured"] for p in pts},
         "n4_measured": {point_key(p): p["n4_measured"] for p in pts},
     }
-    cr.detail = {"atlas": res}
-    log(f"  groups agree at {100 * res['agreement'][c.run]:.0f} % of {len(pts)} points, "
-        f"{res['n_runs']} runs, {cr.wall_s:.1f} s")
+    cr.detail = {"atlas": res.to_json()}
+    log(f"  groups agree at {100 * res.agreement[c.run]:.0f} % of {len(pts)} points, "
+        f"{res.n_runs} runs, {cr.wall_s:.1f} s")

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tippetop.compare.measures.metrics import METRICS, Wording
 from tippetop.compare.presentation.terminal import MISSING, fmt, fmt_value, labelled, table
+
+if TYPE_CHECKING:
+    from tippetop.compare.results.crossval import CompareResult
 
 
 def _unit(metric: str) -> str:
@@ -66,21 +69,27 @@ def difference_text(d: dict[str, Any]) -> str:
         f" ({why})" if why else "")
 
 
-def print_compare(res: dict[str, Any]) -> None:
-    """``tippetop compare`` for a person: the theory, one line per run, what differs and why.
-
-    Robust to the keys a result has: a missing value is ``-``.
-    """
-    th = res.get("theory") or {}
-    theta_s = th.get("theta_s")
-    tol_s = th.get("theta_s_tol")
-    head = f"{res.get('scene', '?')} (Group {res.get('group', '?')}): "
-    if "outcome" in th and th["outcome"] is None:  # needs a run's Jellett constant at t = 0
+def _print_prediction(res: CompareResult) -> None:
+    """The scene, its group and the theory's prediction, in one line."""
+    th = res.theory
+    head = (f"{'?' if res.scene is None else res.scene} "
+            f"(Group {'?' if res.group is None else res.group}): ")
+    if th is not None and th.outcome is None:  # needs a run's Jellett constant at t = 0
         print(head + "no prediction from the theory: every run failed")
     else:
-        print(head + f"the theory predicts {th.get('outcome', '?')}, theta_s = "
-              f"{fmt(theta_s, 'rad')}")
-    runs = {str(s.get("run")): s for s in res.get("runs") or []}
+        print(head + f"the theory predicts {'?' if th is None else th.outcome}, theta_s = "
+              f"{fmt(th.theta_s if th is not None else None, 'rad')}")
+
+
+def print_compare(res: CompareResult) -> None:
+    """``tippetop compare`` for a person: the theory, one line per run, what differs and why.
+
+    Robust to the keys each run and difference has, and to a partial result: a missing
+    value is ``-``.
+    """
+    _print_prediction(res)
+    tol_s = res.theory.theta_s_tol if res.theory is not None else None
+    runs = {str(s.get("run")): s for s in res.runs}
     rows = []
     for m, s in runs.items():
         matches = s.get("agrees", s.get("matches_theory"))
@@ -111,19 +120,19 @@ def print_compare(res: dict[str, Any]) -> None:
                   "the table, Jellett's constant kept, no energy gained")
     print(f"  (run: engine/mode; {agree_rule}; J drift: Jellett's constant while the ball "
           "alone touches, relative)")
-    against = [(str(r.get("run")), r.get("reasons") or []) for r in res.get("crossval") or []
+    against = [(str(r.get("run")), r.get("reasons") or []) for r in res.crossval
                if not r.get("agrees", True)]
     if against:
         print("\nwhy not:")
         width = max(len(m) for m, _ in against)
         for m, reasons in against:
             print(labelled(m, "; ".join(reasons) if reasons else "does not agree", width))
-    diffs = res.get("differences") or []
+    diffs = res.differences
     print()
     if not diffs:
         print("differences from the reference beyond their tolerances: none")
     else:
-        print(f"differences from the reference ({res.get('reference', 'ode')}) beyond their "
+        print(f"differences from the reference ({res.reference or 'ode'}) beyond their "
               "tolerances:")
         width = max(len(str(d.get("run", ""))) for d in diffs)
         for d in diffs:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from tippetop.compare.measures import theory
+from tippetop.compare.results.atlas import POINT_COLUMNS, AtlasPoint, AtlasResult
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.compare.studies.defaults import (  # noqa: F401 - re-exported
     DEFAULT_A_OVER_C,
@@ -70,7 +71,7 @@ def group_of(n1: float | None, n4: float | None) -> str:
 def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
               runs: Sequence[Run] = DEFAULT_RUNS, overrides: tuple[Override, ...] = (), *,
               rel_tol: float = ATLAS_REL_TOL, scheduler: str | None = None,
-              workers: int | None = None, use_cache: bool = True) -> dict[str, Any]:
+              workers: int | None = None, use_cache: bool = True) -> AtlasResult:
     """Measure n1 and n4 at every grid point on every engine and mode, against the theory.
 
     Args:
@@ -86,11 +87,13 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
         use_cache: Read and write the run cache.
 
     Returns:
-        ``points`` (one per grid point and run: ``A_over_C, a_over_R, engine, mode, run,
-        group_theory, group_measured, n1_theory, n1_measured, n4_theory, n4_measured``, and
-        ``agrees``, ``n_runs``, ``settled``), ``agreement`` (run, ``ENGINE/MODE`` -> fraction
-        of points whose group matches), ``findings`` (sentences: where a run moves a threshold
-        or a group boundary, with the numbers), ``runs``, ``grid`` and ``n_runs``.
+        An :class:`~tippetop.compare.results.atlas.AtlasResult`: ``points`` (one
+        :class:`~tippetop.compare.results.atlas.AtlasPoint` per grid point and run:
+        ``A_over_C, a_over_R, engine, mode, run, group_theory, group_measured, n1_theory,
+        n1_measured, n4_theory, n4_measured``, and ``agrees``, ``n_runs``, ``settled``),
+        ``agreement`` (run, ``ENGINE/MODE`` -> fraction of points whose group matches),
+        ``findings`` (sentences: where a run moves a threshold or a group boundary, with the
+        numbers), ``runs``, the grid (``A_over_C``, ``a_over_R``) and ``n_runs``.
     """
     labels = []
     for engine, mode, _extra in runs:
@@ -125,20 +128,18 @@ def run_atlas(A_over_C: Sequence[float], a_over_R: Sequence[float],
         n4 = jellett_pi_to_zero(top, inv.root) if inv.root is not None else None
         g_th, g_me = theory.group(top), group_of(n1, n4)
         fits = [p for s in (up, inv) for p in s.points.values()]
-        points.append({
-            "A_over_C": r, "a_over_R": e, "engine": up.engine, "mode": up.mode, "run": label,
-            "group_theory": g_th, "group_measured": g_me,
-            "n1_theory": theory.n1(top), "n1_measured": n1,
-            "n4_theory": theory.n4(top), "n4_measured": n4,
-            "agrees": g_th == g_me, "n_runs": len(fits),
-            "settled": settled(fits, [up.root, inv.root]),
-        })
-    agreement = {lab: float(np.mean([p["agrees"] for p in points if p["run"] == lab]))
+        points.append(AtlasPoint(
+            A_over_C=r, a_over_R=e, engine=up.engine, mode=up.mode, run=label,
+            group_theory=g_th, group_measured=g_me,
+            n1_theory=theory.n1(top), n1_measured=n1,
+            n4_theory=theory.n4(top), n4_measured=n4,
+            agrees=g_th == g_me, n_runs=len(fits),
+            settled=settled(fits, [up.root, inv.root]),
+        ))
+    agreement = {lab: float(np.mean([p.agrees for p in points if p.run == lab]))
                  for lab in labels}
-    return {"points": points, "agreement": agreement, "findings": findings(points),
-            "grid": {"A_over_C": list(A_over_C), "a_over_R": list(a_over_R)},
-            "runs": labels, "scan_spins": list(SCAN_SPINS),
-            "n_runs": sum(p["n_runs"] for p in points)}
+    return AtlasResult(tuple(points), agreement, tuple(findings([p.to_json() for p in points])),
+                       tuple(A_over_C), tuple(a_over_R), tuple(labels), tuple(SCAN_SPINS))
 
 
 def _rel(measured: float | None, th: float | None) -> float | None:
@@ -146,7 +147,11 @@ def _rel(measured: float | None, th: float | None) -> float | None:
 
 
 def findings(points: Sequence[dict[str, Any]]) -> list[str]:
-    """Sentences on where each run departs from the theory: groups, then moved thresholds."""
+    """Sentences on where each run departs from the theory: groups, then moved thresholds.
+
+    From the points' records (:meth:`AtlasPoint.to_json`, or an atlas.json's, as the report
+    reads them).
+    """
     out = []
     for eng in dict.fromkeys(p["run"] for p in points):
         mine = [p for p in points if p["run"] == eng]
@@ -174,11 +179,8 @@ def findings(points: Sequence[dict[str, Any]]) -> list[str]:
     return out
 
 
-def atlas_table(result: dict[str, Any]) -> Any:
+def atlas_table(result: AtlasResult) -> Any:
     """The points as a pandas DataFrame (the atlas.csv columns)."""
     import pandas as pd
 
-    cols = ["A_over_C", "a_over_R", "engine", "mode", "run", "group_theory", "group_measured",
-            "n1_theory",
-            "n1_measured", "n4_theory", "n4_measured", "agrees", "n_runs", "settled"]
-    return pd.DataFrame([{c: p[c] for c in cols} for p in result["points"]], columns=cols)
+    return pd.DataFrame([p.to_json() for p in result.points], columns=list(POINT_COLUMNS))

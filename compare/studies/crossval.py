@@ -25,6 +25,7 @@ from tippetop.compare.measures.verdict import (
     run_facts,
     tolerance_of,
 )
+from tippetop.compare.results.crossval import CompareResult, Prediction
 from tippetop.compare.running.runner import Task, TaskResult, run_tasks
 from tippetop.compare.studies.sweep import Run
 from tippetop.models.errors import TippetopError
@@ -35,7 +36,7 @@ from tippetop.models.scene import Override
 
 def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[Override, ...] = (), *,
                   scheduler: str | None = None, workers: int | None = None,
-                  use_cache: bool = True) -> dict[str, Any]:
+                  use_cache: bool = True) -> CompareResult:
     """Run ``scene`` on every (engine, mode) of ``runs`` and the reference, and compare them.
 
     Args:
@@ -49,7 +50,8 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[Override,
         use_cache: Read and write the run cache.
 
     Returns:
-        ``scene``, ``group``, ``theory`` (predicted theta_s and outcome), ``runs`` (one per
+        A :class:`~tippetop.compare.results.crossval.CompareResult`: ``scene``, ``group``,
+        ``theory`` (predicted theta_s and outcome), ``reference``, ``runs`` (one per
         run asked for, the reference first if asked: ``engine``, ``mode``, ``run``
         (``ENGINE/MODE``), the simulate summary keys, ``outcome``, ``agrees`` (the verdict,
         :func:`~tippetop.compare.measures.verdict.judge`), ``against`` (``theory`` or
@@ -106,17 +108,17 @@ def compare_scene(scene: str | None, runs: list[Run], overrides: tuple[Override,
             continue
         diffs += _differences(who, s, ref.summary, ref_facts["outcome"])
     _attach_refits(per_run, mine, ref, scene, overrides, options)
-    return {
-        "scene": sc.name,
-        "group": theory.group(top),
-        "theory": {"theta_s": th_pred, "outcome": out_pred, "theta_s_tol": THETA_S_TOL,
-                   "theta_s_tol_why": METRICS["theta_asymp"].agreement.why},  # type: ignore[union-attr]
-        "reference": ref_label,
-        "runs": list(per_run.values()),
-        "crossval": rows,
-        "differences": diffs,
-        "tolerances": {k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL},
-    }
+    return CompareResult(
+        scene=sc.name,
+        group=theory.group(top),
+        theory=Prediction(th_pred, out_pred, THETA_S_TOL,
+                          METRICS["theta_asymp"].agreement.why),  # type: ignore[union-attr]
+        reference=ref_label,
+        runs=tuple(per_run.values()),
+        crossval=tuple(rows),
+        differences=tuple(diffs),
+        tolerances={k: v[0] for k, v in TOLERANCES.items()} | {"theta_s": THETA_S_TOL},
+    )
 
 
 def _run_all(scene: str | None, runs: list[Run], overrides: tuple[Override, ...],
@@ -188,7 +190,7 @@ FRICTION_LAW_RUNS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("mujoco", "native-condim4", ()), ("mujoco", "native-condim6", ()))
 
 
-def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
+def friction_law_table(result: CompareResult) -> pd.DataFrame:
     """The friction-law table of a :func:`compare_scene` result, one row per run.
 
     Columns: the run (``ENGINE/MODE``), inverts or not, inversion time, theta_asymp, J drift,
@@ -197,7 +199,7 @@ def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
     :func:`describe_ran`).
     """
     rows = []
-    for s in result["runs"]:
+    for s in result.runs:
         label = s["run"]
         if s.get("outcome") == "failed":
             rows.append({"run": label, "inverts": None, "t_invert_s": None,
@@ -205,7 +207,7 @@ def friction_law_table(result: dict[str, Any]) -> pd.DataFrame:
                          "departs": f"the run failed: {s.get('message', '')}",
                          "ran": describe_ran(s)})
             continue
-        mine = [d for d in result["differences"] if d["run"] == label]
+        mine = [d for d in result.differences if d["run"] == label]
         if s.get("reference"):
             verdict = "The reference"
         elif not mine:

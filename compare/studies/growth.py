@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Generator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -16,6 +16,7 @@ import pandas as pd
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.results.threshold import FailedRun, ThresholdResult
 from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
@@ -290,7 +291,7 @@ def measure_growth(scene: str | None, engine: str, which: str,
                    overrides: tuple[Override | str, ...] = (), *,
                    search: GrowthOptions = GrowthOptions(),
                    run: RunOptions = DEFAULT_RUN,
-                   label: str = "growth rates", mode: str | None = None) -> dict[str, Any]:
+                   label: str = "growth rates", mode: str | None = None) -> ThresholdResult:
     """Measure ``n1``, ``n4`` or ``nc`` of a scene's top on ``engine`` from growth rates.
 
     ``engine``: :mod:`tippetop.models.engines`; ``mode``: :mod:`tippetop.models.modes` (None:
@@ -300,11 +301,12 @@ def measure_growth(scene: str | None, engine: str, which: str,
     terminal); ``label``: the progress bar's.
 
     Returns:
-        The threshold keys of :func:`tippetop.compare.studies.threshold.measure_threshold`
-        (``which, engine, mode, scene, measured, theory, rel_diff, bracket, runs, n_runs,
-        horizon_s, converged``) plus ``method`` ("growth"), ``rates`` (each ``{n0, state,
-        rate_per_s}``), ``settled`` (every fit clean: two modes describe every run), and
-        ``n1``/``n4`` (each measured or None) and ``n3`` (the inverted state's spin).
+        The threshold of :func:`tippetop.compare.studies.threshold.measure_threshold`
+        (:class:`~tippetop.compare.results.threshold.ThresholdResult`: ``which, engine, mode,
+        scene, measured, theory, rel_diff, bracket, runs, n_runs, horizon_s, converged``)
+        with ``method`` "growth", ``rates`` (each ``{n0, state, rate_per_s}``), ``settled``
+        (every fit clean: two modes describe every run), and ``n1``/``n4`` (each measured or
+        None) and ``n3`` (the inverted state's spin).
     """
     if which not in WHICH:
         raise TippetopError(f"--which: expected one of {', '.join(WHICH)}, got {which!r}")
@@ -342,35 +344,30 @@ def measure_growth(scene: str | None, engine: str, which: str,
                    [jellett_pi_to_zero(top, b) for b in brackets["inverted"]])
     points = [p for sr in searches.values() for p in sr.points.values()]
     points.sort(key=lambda p: (p["state"], p["n0"]))
-    out: dict[str, Any] = {
-        "which": which, "engine": engine, "mode": mode, "scene": scene_obj.name,
-        "method": "growth",
-        "measured": measured, "theory": th_value,
-        "rel_diff": (measured / th_value - 1.0) if measured and th_value else None,
-        "bracket": bracket,
-        "runs": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"],
-                  "crossed": (p["rate_per_s"] > 0) == (p["state"] == "upright"),
-                  "clean": p["clean"], "residual": p["residual"], "modes": p["modes"],
-                  **({"failed": p["failed"]} if p.get("failed") else {})}
-                 for p in points],
-        "rates": [{"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"]}
-                  for p in points],
-        "n_runs": len(points),
-        "horizon_s": search.run_s,
-        "settled": settled(points, [n1, n3]),
-        "converged": measured is not None and settled(points, [n1, n3]),
-        "n1": n1, "n3": n3, "n4": n4,
-    }
+    out = ThresholdResult(
+        which=which, engine=engine, mode=mode, scene=scene_obj.name, method="growth",
+        measured=measured, theory=th_value,
+        rel_diff=(measured / th_value - 1.0) if measured and th_value else None,
+        bracket=tuple(bracket),
+        runs=tuple({"n0": p["n0"], "state": p["state"], "rate_per_s": p["rate_per_s"],
+                    "crossed": (p["rate_per_s"] > 0) == (p["state"] == "upright"),
+                    "clean": p["clean"], "residual": p["residual"], "modes": p["modes"],
+                    **({"failed": p["failed"]} if p.get("failed") else {})}
+                   for p in points),
+        horizon_s=search.run_s,
+        settled=settled(points, [n1, n3]),
+        converged=measured is not None and settled(points, [n1, n3]),
+        n1=n1, n3=n3, n4=n4)
     failures = [sr.failed for sr in searches.values() if sr.failed is not None]
     if failures:
-        out["failed_runs"] = [{"n0": p["n0"], "state": p["state"], "message": p["failed"]}
-                              for p in points if p.get("failed")]
-        out["warning"] = "; ".join(failures) + " (the runs before it are kept)"
-        out["measured"], out["converged"], out["rel_diff"] = None, False, None
-        out["settled"] = False
-    elif measured is None:
-        out["warning"] = (f"no sign change of the growth rate found for {which}: the "
-                          f"{'upright' if which == 'n1' else 'inverted'} state is "
-                          f"{'stable' if which == 'n1' else 'unstable'} at every spin tried "
-                          f"({', '.join(f'{n:g}' for n in SCAN_SPINS)} rad/s)")
+        return replace(out, measured=None, converged=False, rel_diff=None, settled=False,
+                       failed_runs=tuple(FailedRun(p["n0"], p["failed"], p["state"])
+                                         for p in points if p.get("failed")),
+                       warning="; ".join(failures) + " (the runs before it are kept)")
+    if measured is None:
+        return replace(out, warning=(
+            f"no sign change of the growth rate found for {which}: the "
+            f"{'upright' if which == 'n1' else 'inverted'} state is "
+            f"{'stable' if which == 'n1' else 'unstable'} at every spin tried "
+            f"({', '.join(f'{n:g}' for n in SCAN_SPINS)} rad/s)"))
     return out

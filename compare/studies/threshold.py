@@ -6,7 +6,7 @@ How a run "crosses" in the bisection is in docs/design.md.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -15,6 +15,7 @@ import pandas as pd
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.series import OUTCOME_MARGIN, classify_outcome, theta_asymp
 from tippetop.compare.measures.summary import run_failed
+from tippetop.compare.results.threshold import FailedRun, HorizonCheck, ThresholdResult
 from tippetop.compare.running.options import DEFAULT_RUN, RunOptions
 from tippetop.compare.running.runner import Task, run_tasks
 from tippetop.models.errors import TippetopError
@@ -91,7 +92,7 @@ def measure_threshold(
     use_cache: bool = True,
     mode: str | None = None,
     **bisect_options: Any,
-) -> dict[str, Any]:
+) -> ThresholdResult:
     """Measure the critical spin ``which`` of a scene's top on ``engine`` in ``mode``.
 
     Args:
@@ -116,11 +117,11 @@ def measure_threshold(
             engine cannot run (one line each).
 
     Returns:
-        ``which, engine, mode, scene, measured, theory, rel_diff, bracket, runs, n_runs,
-        horizon_s, converged`` and ``method``, ``rates`` (growth: each {n0, state,
-        rate_per_s}; bisect: []), ``settled`` (growth: every fit clean; bisect: no run still
-        moving and the answer
-        does not depend on the horizon), and each method's own keys.
+        The measured spin against the theory's (:class:`ThresholdResult`: ``which, engine,
+        mode, scene, measured, theory, rel_diff, bracket, runs, n_runs, horizon_s,
+        converged``, ``method``, ``rates`` (growth: each {n0, state, rate_per_s}; bisect:
+        none), ``settled`` (growth: every fit clean; bisect: no run still moving and the
+        answer does not depend on the horizon), and each method's own fields).
     """
     from tippetop.compare.studies.growth import GrowthOptions, measure_growth
 
@@ -136,8 +137,8 @@ def measure_threshold(
                                 f"--method bisect only")
         search = GrowthOptions(rel_tol=rel_tol) if rel_tol else GrowthOptions()
         res = measure_growth(scene, engine, which, overrides, search=search, run=run, mode=mode)
-        if res["measured"] is None and not res.get("failed_runs"):
-            raise TippetopError(f"threshold: {res['warning']}")
+        if res.measured is None and not res.failed_runs:
+            raise TippetopError(f"threshold: {res.warning}")
         return res  # with failed_runs: the caller reports them (exit 1), the others kept
     if which == "n4":
         raise TippetopError("--method bisect: expected --which n1 or nc (n4 is measured from "
@@ -156,7 +157,7 @@ def bisect_threshold(
     search: BisectOptions = BisectOptions(),
     run: RunOptions = DEFAULT_RUN,
     mode: str | None = None,
-) -> dict[str, Any]:
+) -> ThresholdResult:
     """Bisect on n0 for the critical spin ``which`` (``n1`` or ``nc``) on ``engine``.
 
     ``search``: the tolerance, rounds, spins per round and horizon check
@@ -168,11 +169,11 @@ def bisect_threshold(
     ``converged`` false.
 
     Returns:
-        ``measured`` (bracket midpoint, rad/s), ``theory``, ``rel_diff`` (measured / theory - 1),
-        ``bracket`` [low, high], ``runs`` (each n0 with its result), ``n_runs``,
-        ``horizon_s``, ``bracket_converged``, ``horizon_check`` ({horizon_s, low_crossed,
-        high_crossed, depends_on_horizon} or None), ``depends_on_horizon``, ``warning`` and
-        ``converged`` (the bracket is within rel_tol AND does not depend on the horizon).
+        A :class:`ThresholdResult` with ``method`` ``bisect``: ``measured`` (bracket midpoint,
+        rad/s), ``theory``, ``rel_diff`` (measured / theory - 1), ``bracket`` (low, high),
+        ``runs`` (each n0 with its result), ``n_runs``, ``horizon_s``, ``bracket_converged``,
+        ``horizon_check`` (:class:`HorizonCheck` or None), ``depends_on_horizon``, ``warning``
+        and ``converged`` (the bracket is within rel_tol AND does not depend on the horizon).
     """
     if which not in ("n1", "nc"):
         raise TippetopError(f"--which: expected n1|nc, got {which!r}")
@@ -227,9 +228,9 @@ def bisect_threshold(
         return flags
 
     try:
-        return {**_bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
-                          search=search, k=k, horizon=base.run.t_end_s, runs=runs,
-                          unsettled=unsettled), "mode": mode}
+        return replace(_bisect(evaluate, which, scene_name=base.name, engine=engine, n_th=n_th,
+                               search=search, k=k, horizon=base.run.t_end_s, runs=runs,
+                               unsettled=unsettled), mode=mode)
     except _Failed as exc:  # every run so far is kept; no threshold is claimed
         return _failed_answer(exc, which, engine, mode, base, n_th, runs, unsettled)
 
@@ -258,25 +259,24 @@ def _stop_if_failed(which: str, results: dict[float, Any], runs: list[dict[str, 
 
 def _failed_answer(exc: _Failed, which: str, engine: str, mode: str | None, base: Scene,
                    n_th: float, runs: list[dict[str, Any]],
-                   unsettled: list[float]) -> dict[str, Any]:
+                   unsettled: list[float]) -> ThresholdResult:
     """The result of a bisection stopped by a failed run: its runs so far, no threshold."""
-    return {"which": which, "engine": engine, "mode": mode, "scene": base.name,
-            "measured": None,
-            "theory": n_th, "rel_diff": None, "bracket": [],
-            "runs": sorted(runs, key=lambda r: r["n0"]), "n_runs": len(runs),
-            "horizon_s": base.run.t_end_s, "converged": False, "method": "bisect",
-            "rates": [], "settled": False, "unsettled_n0": sorted(unsettled),
-            "failed_runs": exc.runs,
-            "warning": "; ".join(r["message"] for r in exc.runs)
-            + " (the runs before it are kept)"}
+    return ThresholdResult(
+        which=which, engine=engine, mode=mode, scene=base.name, method="bisect",
+        measured=None, theory=n_th, rel_diff=None, bracket=(),
+        runs=tuple(sorted(runs, key=lambda r: r["n0"])), horizon_s=base.run.t_end_s,
+        converged=False, settled=False, unsettled_n0=tuple(sorted(unsettled)),
+        failed_runs=tuple(FailedRun(r["n0"], r["message"]) for r in exc.runs),
+        warning="; ".join(r["message"] for r in exc.runs) + " (the runs before it are kept)")
 
 
 def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str, engine: str,
             n_th: float, search: BisectOptions, k: int, horizon: float,
-            runs: list[dict[str, Any]], unsettled: list[float]) -> dict[str, Any]:
+            runs: list[dict[str, Any]], unsettled: list[float]) -> ThresholdResult:
     """The bisection itself, on ``evaluate`` (True where a run is above the threshold).
 
     ``search``'s ``rel_tol``, ``max_rounds`` and ``horizon_check`` apply; ``k`` spins a round.
+    The result's ``mode`` is None: the caller puts it in.
     """
     lo, hi = 0.8 * n_th, 1.25 * n_th
     for _ in range(4):  # widen the bracket until its ends disagree
@@ -307,37 +307,22 @@ def _bisect(evaluate: Callable[..., list[bool]], which: str, *, scene_name: str,
     if search.horizon_check:
         again = evaluate([lo, hi], (Override.of("run.t_end_s", 2.0 * horizon),), record=False)
         depends = again != [False, True]
-        check = {"horizon_s": 2.0 * horizon, "low_crossed": again[0],
-                 "high_crossed": again[1], "depends_on_horizon": depends}
+        check = HorizonCheck(2.0 * horizon, again[0], again[1], depends)
     else:
         depends, check = False, None
     warning = None
     if depends:
-        moved = "the low end crosses" if check and check["low_crossed"] else \
+        moved = "the low end crosses" if check and check.low_crossed else \
             "the high end no longer crosses"
         warning = (f"the answer depends on the run length: over {2.0 * horizon:g} s instead of "
                    f"{horizon:g} s {moved}, so {which} lies outside [{lo:.4g}, {hi:.4g}] rad/s "
                    f"(a longer run.t_end_s moves it)")
-    return {
-        "which": which,
-        "engine": engine,
-        "scene": scene_name,
-        "measured": measured,
-        "theory": n_th,
-        "rel_diff": measured / n_th - 1.0,
-        "bracket": [lo, hi],
-        "runs": sorted(runs, key=lambda r: r["n0"]),
-        "n_runs": len(runs),
-        "horizon_s": horizon,
-        "bracket_converged": bracket_ok,
-        "horizon_check": check,
-        "depends_on_horizon": depends,
-        "warning": warning,
-        "converged": bracket_ok and not depends,
-        "method": "bisect",
-        "rates": [],
-        "settled": not depends and not unsettled,
-        "unsettled_n0": sorted(unsettled),
-    }
+    return ThresholdResult(
+        which=which, engine=engine, mode=None, scene=scene_name, method="bisect",
+        measured=measured, theory=n_th, rel_diff=measured / n_th - 1.0, bracket=(lo, hi),
+        runs=tuple(sorted(runs, key=lambda r: r["n0"])), horizon_s=horizon,
+        converged=bracket_ok and not depends, settled=not depends and not unsettled,
+        warning=warning, bracket_converged=bracket_ok, horizon_check=check,
+        depends_on_horizon=depends, unsettled_n0=tuple(sorted(unsettled)))
 
 

@@ -16,6 +16,7 @@ import matplotlib.image as mpimg
 import pandas as pd
 import pytest
 
+from tippetop.compare.results.atlas import AtlasPoint, AtlasResult
 from tippetop.compare.studies.atlas import group_of, parse_grid, run_atlas
 from tippetop.models.errors import TippetopError
 
@@ -29,16 +30,32 @@ def _private_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 def test_the_reference_reproduces_groups_one_to_three() -> None:
     # a/R = 0.1: Group I below A/C = 0.9, II between 0.9 and 1.1, III above 1.1
     res = run_atlas([0.8, 1.0, 1.3], [0.1], [("ode", "paper", ())], workers=2)
-    by = {p["A_over_C"]: p for p in res["points"]}
-    assert [by[r]["group_theory"] for r in (0.8, 1.0, 1.3)] == ["I", "II", "III"]
-    assert all(p["agrees"] for p in res["points"]) and res["agreement"] == {"ode/paper": 1.0}
-    assert by[0.8]["n1_measured"] is None and by[1.3]["n4_measured"] is None
-    for p in res["points"]:
-        for key in ("n1", "n4"):
-            if p[f"{key}_theory"] is not None:
-                assert p[f"{key}_measured"] == pytest.approx(p[f"{key}_theory"], rel=1e-3)
-        assert p["settled"]
-    assert any("keeps n1 within" in f for f in res["findings"])
+    by = {p.A_over_C: p for p in res.points}
+    assert [by[r].group_theory for r in (0.8, 1.0, 1.3)] == ["I", "II", "III"]
+    assert all(p.agrees for p in res.points) and res.agreement == {"ode/paper": 1.0}
+    assert by[0.8].n1_measured is None and by[1.3].n4_measured is None
+    for p in res.points:
+        assert p.n1_theory is None or p.n1_measured == pytest.approx(p.n1_theory, rel=1e-3)
+        assert p.n4_theory is None or p.n4_measured == pytest.approx(p.n4_theory, rel=1e-3)
+        assert p.settled
+    assert any("keeps n1 within" in f for f in res.findings)
+    # the result says itself as atlas.json and reads itself back
+    assert AtlasResult.from_json(json.loads(json.dumps(res.to_json()))) == res
+
+
+def test_an_atlas_says_itself_and_reads_itself_back() -> None:
+    pts = (AtlasPoint(0.8, 0.1, "ode", "paper", "ode/paper", "I", "I", None, None, 44.4, 45.0,
+                      True, 12, True),
+           AtlasPoint(1.3, 0.1, "ode", "paper", "ode/paper", "III", "II", 30.1, 30.2, None,
+                      90.0, False, 14, False))
+    res = AtlasResult(pts, {"ode/paper": 0.5}, ("a finding.",), (0.8, 1.3), (0.1,),
+                      ("ode/paper",), (5.0, 15.0))
+    data = res.to_json()
+    assert list(data) == ["points", "agreement", "findings", "grid", "runs", "scan_spins",
+                          "n_runs"]
+    assert data["n_runs"] == 26 and data["grid"] == {"A_over_C": [0.8, 1.3], "a_over_R": [0.1]}
+    assert list(data["points"][0])[:3] == ["A_over_C", "a_over_R", "engine"]
+    assert AtlasResult.from_json(json.loads(json.dumps(data))) == res
 
 
 def test_group_of_and_grids() -> None:

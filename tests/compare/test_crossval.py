@@ -11,6 +11,7 @@ import pytest
 from tippetop.compare.measures.metrics import THETA_S_TOL
 from tippetop.compare.measures.series import classify_outcome, theta_trend
 from tippetop.compare.measures.verdict import crossval_row
+from tippetop.compare.results.crossval import CompareResult
 from tippetop.compare.studies.crossval import compare_scene, friction_law_table
 from tippetop.models.errors import TippetopError
 from tippetop.models.numbers import number_text
@@ -30,8 +31,8 @@ def test_fig3_modes_and_differences() -> None:
     res = compare_scene("fig3", [("ode", "paper", ()), ("ode", "coulomb", ()),
                                  ("mujoco", "paper", ())],
                         ("mujoco.timestep_s=1e-4",), workers=1)
-    assert res["group"] == "II" and res["theory"]["outcome"] == "inverted"
-    runs = {s["run"]: s for s in res["runs"]}
+    assert res.group == "II" and res.theory.outcome == "inverted"
+    runs = {s["run"]: s for s in res.runs}
     for s in runs.values():
         assert SUMMARY_KEYS | {"outcome", "matches_theory", "engine", "mode"} <= set(s)
     assert runs["ode/paper"]["outcome"] == "inverted" and runs["ode/paper"]["matches_theory"]
@@ -39,10 +40,10 @@ def test_fig3_modes_and_differences() -> None:
     assert runs["mujoco/paper"]["matches_theory"]
     assert runs["ode/coulomb"]["outcome"] == "upright"
     assert not runs["ode/coulomb"]["matches_theory"]
-    flagged = {(d["run"], d["metric"]) for d in res["differences"]}
+    flagged = {(d["run"], d["metric"]) for d in res.differences}
     assert ("ode/coulomb", "outcome") in flagged
     assert not any(m == "mujoco/paper" for m, _ in flagged)
-    rows = {r["run"]: r for r in res["crossval"]}
+    rows = {r["run"]: r for r in res.crossval}
     assert set(rows) == {"ode/paper", "ode/coulomb", "mujoco/paper"}
     assert (rows["mujoco/paper"]["engine"], rows["mujoco/paper"]["mode"]) == ("mujoco", "paper")
     # the theory says theta_s = pi; both inverting runs end within THETA_S_TOL of it
@@ -54,6 +55,10 @@ def test_fig3_modes_and_differences() -> None:
     assert list(table["run"]) == ["ode/paper", "ode/coulomb", "mujoco/paper"]
     row = table.set_index("run").loc["ode/coulomb"]
     assert not row["inverts"] and "upright" in row["departs"]
+    # the result says itself as the command's JSON and reads itself back
+    assert CompareResult.from_json(res.to_json()) == res
+    assert list(res.to_json()) == ["scene", "group", "theory", "reference", "runs", "crossval",
+                                   "differences", "tolerances"]
 
 
 def test_unknown_mode() -> None:

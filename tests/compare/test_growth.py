@@ -11,6 +11,7 @@ tilt), so each bound is more than 10x what is seen, yet far below any bisection'
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -19,6 +20,7 @@ import pandas as pd
 import pytest
 
 from tippetop.compare.measures import theory
+from tippetop.compare.results.threshold import FailedRun, ThresholdResult
 from tippetop.compare.running.options import RunOptions
 from tippetop.compare.studies.growth import growth_fit, jellett_pi_to_zero, measure_growth
 from tippetop.compare.studies.threshold import measure_threshold
@@ -67,11 +69,11 @@ def test_n1_in_the_reference_on_other_tops(A_over_C: float, a_over_R: float,
     over = (f"top.A_over_C={A_over_C}", f"top.a_over_R={a_over_R}", f"top.C_factor={C_factor}")
     top = load_scene("fig11_n060", list(over)).top
     res = measure_growth("fig11_n060", "ode", "n1", over, run=ONE_WORKER)
-    assert res["settled"] and res["converged"] and res["method"] == "growth"
-    assert abs(res["measured"] / theory.n1(top) - 1) <= 1e-3
+    assert res.settled and res.converged and res.method == "growth"
+    assert abs(res.measured / theory.n1(top) - 1) <= 1e-3
     # the rate changes sign across the answer: decaying below, growing above
-    below = [r for r in res["rates"] if r["n0"] < 0.999 * res["measured"]]
-    above = [r for r in res["rates"] if r["n0"] > 1.001 * res["measured"]]
+    below = [r for r in res.rates if r["n0"] < 0.999 * res.measured]
+    above = [r for r in res.rates if r["n0"] > 1.001 * res.measured]
     assert below and above
     assert all(r["rate_per_s"] < 0 for r in below) and all(r["rate_per_s"] > 0 for r in above)
 
@@ -80,12 +82,17 @@ def test_nc_of_the_fig6_top() -> None:
     # A/C = 1 > r_c: the intermediate state joins theta = pi at n4, so n_c = n4 = 54.34 rad/s
     top = load_scene("fig6").top
     res = measure_threshold("fig6", "ode", "nc", workers=1)
-    assert res["method"] == "growth" and res["theory"] == pytest.approx(theory.n_c(top))
-    assert abs(res["rel_diff"]) <= 5e-3
-    assert res["measured"] == pytest.approx(res["n4"]) and res["n4"] > res["n1"]
+    assert res.method == "growth" and res.theory == pytest.approx(theory.n_c(top))
+    assert abs(res.rel_diff) <= 5e-3
+    assert res.measured == pytest.approx(res.n4) and res.n4 > res.n1
     # n4 is n3 carried to theta = 0 by Jellett's constant, J = C n (R - a cos theta)
-    assert res["n4"] == pytest.approx(jellett_pi_to_zero(top, res["n3"]), rel=1e-12)
-    assert abs(res["n3"] / theory.n3(top) - 1) <= 1e-3
+    assert res.n4 == pytest.approx(jellett_pi_to_zero(top, res.n3), rel=1e-12)
+    assert abs(res.n3 / theory.n3(top) - 1) <= 1e-3
+    # the result says itself as the command's JSON and reads itself back
+    data = res.to_json()
+    assert list(data)[:6] == ["which", "engine", "mode", "scene", "method", "measured"]
+    assert list(data)[-3:] == ["n1", "n3", "n4"] and data["n_runs"] == len(data["rates"])
+    assert ThresholdResult.from_json(json.loads(json.dumps(data))) == res
 
 
 def test_nc_below_r_c_is_n1() -> None:
@@ -93,18 +100,32 @@ def test_nc_below_r_c_is_n1() -> None:
     over = ("top.A_over_C=0.95", "top.a_over_R=0.1")
     top = load_scene("fig11_n060", list(over)).top
     res = measure_growth("fig11_n060", "ode", "nc", over, run=ONE_WORKER)
-    assert res["measured"] == pytest.approx(res["n1"]) and res["n1"] > res["n4"]
-    assert abs(res["measured"] / theory.n_c(top) - 1) <= 1e-3
+    assert res.measured == pytest.approx(res.n1) and res.n1 > res.n4
+    assert abs(res.measured / theory.n_c(top) - 1) <= 1e-3
 
 
 def test_a_group_one_top_has_no_n1() -> None:
     # A/C = 0.8 < 1 - a/R: the upright state decays at every spin scanned, so no n1 exists
     over = ("top.A_over_C=0.8", "top.a_over_R=0.1")
     res = measure_growth("fig11_n060", "ode", "n1", over, run=ONE_WORKER)
-    assert res["measured"] is None and "stable at every spin" in res["warning"]
-    assert all(r["rate_per_s"] < 0 for r in res["rates"])
+    assert res.measured is None and "stable at every spin" in res.warning
+    assert all(r["rate_per_s"] < 0 for r in res.rates)
+    assert list(res.to_json())[-1] == "warning" and "failed_runs" not in res.to_json()
+    assert ThresholdResult.from_json(res.to_json()) == res
     with pytest.raises(TippetopError, match="no sign change"):
         measure_threshold("fig11_n060", "ode", "n1", over, workers=1)
+
+
+def test_a_threshold_stopped_by_a_failed_run_reads_itself_back() -> None:
+    runs = ({"n0": 30.9, "state": "upright", "rate_per_s": math.nan, "crossed": False,
+             "clean": False, "residual": math.nan, "modes": [], "failed": "diverged"},)
+    res = ThresholdResult("n1", "mujoco", "native", "fig11_n060", "growth", None, 34.35, None,
+                          (), runs, 2.0, False, False, warning="diverged (kept)",
+                          failed_runs=(FailedRun(30.9, "diverged", "upright"),))
+    data = res.to_json()
+    assert data["failed_runs"] == [{"n0": 30.9, "state": "upright", "message": "diverged"}]
+    assert list(data)[-2:] == ["failed_runs", "warning"] and data["n_runs"] == 1
+    assert ThresholdResult.from_json(data) == res
 
 
 def test_mujoco_paper_mode_n1() -> None:
@@ -112,8 +133,8 @@ def test_mujoco_paper_mode_n1() -> None:
     # (measured 6.2e-5, the same as the reference: the law, not the engine, sets the rate)
     res = measure_threshold(None, "mujoco", "n1", ("mujoco.friction=paper",
                                                    "mujoco.timestep_s=1e-4"), workers=2)
-    assert res["settled"] and abs(res["rel_diff"]) <= 5e-3
-    assert math.isfinite(res["measured"]) and res["n_runs"] <= 12
+    assert res.settled and abs(res.rel_diff) <= 5e-3
+    assert math.isfinite(res.measured) and res.n_runs <= 12
 
 
 def test_a_threshold_on_another_engine_runs_there(tmp_path: Path) -> None:
@@ -125,10 +146,10 @@ def test_a_threshold_on_another_engine_runs_there(tmp_path: Path) -> None:
     here = measure_threshold(None, "mujoco", "n1", workers=2, use_cache=False, mode="native")
     there = measure_threshold(None, f"mujoco@{sys.executable}", "n1", workers=2,
                               use_cache=False, mode="native")
-    assert here["engine"] == "mujoco" and there["engine"] == f"mujoco@{sys.executable}"
-    assert here["mode"] == there["mode"] == "native"
-    assert there["measured"] == pytest.approx(here["measured"], rel=1e-9)
-    assert there["n_runs"] == here["n_runs"] and there["settled"]
+    assert here.engine == "mujoco" and there.engine == f"mujoco@{sys.executable}"
+    assert here.mode == there.mode == "native"
+    assert there.measured == pytest.approx(here.measured, rel=1e-9)
+    assert there.n_runs == here.n_runs and there.settled
     # a pairing that cannot run, and a bad engine, are refused before any run
     with pytest.raises(TippetopError, match="expected a mode the reference ODE runs"):
         measure_threshold(None, "ode", "n1", mode="native")

@@ -23,10 +23,12 @@ from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
     EXIT_STATUSES,
 )
-from tippetop.compare.commands.threshold import print_threshold
 from tippetop.compare.presentation.crossval import print_compare
 from tippetop.compare.presentation.sweep import print_sweep
+from tippetop.compare.presentation.threshold import print_threshold
+from tippetop.compare.results.crossval import CompareResult
 from tippetop.compare.results.sweep import SweepResult
+from tippetop.compare.results.threshold import ThresholdResult
 from tippetop.models.modes import MODES
 from tippetop.models.scene import catalogue_names, load_scene
 
@@ -197,7 +199,7 @@ def _compare_result() -> dict:
 
 def test_compare_names_the_tolerance_each_difference_broke(
         capsys: pytest.CaptureFixture) -> None:
-    print_compare(_compare_result())
+    print_compare(CompareResult.from_json(_compare_result()))
     out = capsys.readouterr().out
     _assert_readable(out)
     flat = " ".join(out.split())
@@ -211,20 +213,21 @@ def test_compare_names_the_tolerance_each_difference_broke(
 
 
 def test_compare_output_copes_with_missing_keys(capsys: pytest.CaptureFixture) -> None:
-    print_compare({"runs": [{"run": "ode/paper"}], "differences": [{"metric": "theta_asymp"}]})
+    print_compare(CompareResult.from_json({"runs": [{"run": "ode/paper"}],
+                                           "differences": [{"metric": "theta_asymp"}]}))
     out = capsys.readouterr().out
     assert "None" not in out and "theta_asymp" in out
 
 
 def test_threshold_prints_units_a_percentage_and_the_horizon_check(
         capsys: pytest.CaptureFixture) -> None:
-    print_threshold({
+    print_threshold(ThresholdResult.from_json({
         "which": "n1", "engine": "ode", "scene": "fig11_n060", "measured": 34.63857,
         "theory": 34.352341016782724, "rel_diff": 0.0083333, "bracket": [34.35234, 34.92488],
         "runs": [{}] * 8, "n_runs": 8, "horizon_s": 60.0, "bracket_converged": True,
         "horizon_check": {"horizon_s": 120.0, "depends_on_horizon": True},
         "depends_on_horizon": True, "warning": "the answer depends on the run length",
-        "converged": False})
+        "converged": False}))
     out = capsys.readouterr().out
     _assert_readable(out)
     assert "34.64 rad/s" in out and "34.35 rad/s" in out and "+0.833 %" in out
@@ -234,11 +237,11 @@ def test_threshold_prints_units_a_percentage_and_the_horizon_check(
 
 
 def test_threshold_by_growth_rates_says_so(capsys: pytest.CaptureFixture) -> None:
-    print_threshold({
+    print_threshold(ThresholdResult.from_json({
         "which": "nc", "engine": "ode", "scene": "fig6", "method": "growth",
         "measured": 54.3431234, "theory": 54.341, "rel_diff": 3.81e-5,
         "bracket": [54.3431, 54.87], "runs": [{}] * 16, "n_runs": 16, "horizon_s": 2.0,
-        "settled": False, "converged": False, "n1": 36.3812, "n3": 40.2, "n4": 54.3431})
+        "settled": False, "converged": False, "n1": 36.3812, "n3": 40.2, "n4": 54.3431}))
     out = capsys.readouterr().out
     _assert_readable(out)
     assert "from growth rates of 16 runs of 2 s" in out and "bisection" not in out

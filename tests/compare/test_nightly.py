@@ -21,6 +21,7 @@ from tippetop.compare import nightly
 from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.measures.tolerances import TOLERANCES, Tolerance, compare_value
 from tippetop.compare.nightly import load_catalogue, select_cases
+from tippetop.compare.results.threshold import ThresholdResult
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
 from tippetop.models.scene import catalogue_names
@@ -547,7 +548,8 @@ def test_thresholds_and_the_atlas_go_on_another_spec(monkeypatch) -> None:
 
     def fake(*args, **kw):
         seen.update(kw)
-        return {"measured": 34.3, "converged": True, "theory": 34.35, "n_runs": 1}
+        return ThresholdResult("n1", on.engine, on.mode, "fig11_n060", "growth", 34.3, 34.35,
+                               None, (), (), 2.0, True, True)
 
     monkeypatch.setattr(running, "measure_threshold", fake)
     running._run_threshold(running.CaseRun(on), scheduler=None, workers=1, use_cache=False,

@@ -127,7 +127,7 @@ def test_compare_gives_each_mujoco_mode_its_refit() -> None:
     from tippetop.compare.studies.crossval import compare_scene
 
     res = compare_scene("fig3", [("mujoco", "native", ())], ("run.t_end_s=8.0",), workers=1)
-    native = next(s for s in res["runs"] if s["run"] == "mujoco/native")
+    native = next(s for s in res.runs if s["run"] == "mujoco/native")
     refit = native["friction_realised"]["refit"]
     assert {"t_invert", "t_stem", "theta_asymp", "explains", "sentence"} <= set(refit)
     # the calibrated native law on Fig. 3 over 8 s (mu 0.0945, Lambda 10.2 mm/s, measured) is

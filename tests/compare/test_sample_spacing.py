@@ -77,8 +77,8 @@ def _rows(scene: str | None, mode: str | None, overrides: tuple[str, ...], dt: f
     for spacing in sorted({dt, 5 * dt, 1e-3, 3e-3}):
         res = compare_scene(scene, [("mujoco", mode, (*extra, f"run.sample_dt_s={spacing!r}"))],
                             overrides, use_cache=False, workers=1)
-        row = res["crossval"][-1]
-        summary = next(r for r in res["runs"] if not r.get("reference"))
+        row = res.crossval[-1]
+        summary = next(r for r in res.runs if not r.get("reference"))
         out[spacing] = {"row": row, "summary": summary}
     return out
 
@@ -157,7 +157,7 @@ def test_the_point_reported_as_leaving_the_table_stays_on_it() -> None:
         res = compare_scene(None, [("mujoco", None, (*_tuned(SETTINGS_ISSUE_41),
                                                       f"run.sample_dt_s={spacing!r}"))],
                             over, use_cache=False, workers=1)
-        runs.append(next(r for r in res["runs"] if not r.get("reference")))
+        runs.append(next(r for r in res.runs if not r.get("reference")))
     sampled, every = runs
     for s in runs:
         assert s["t_left_table"] is None

@@ -10,6 +10,7 @@ import pytest
 
 from tippetop.compare.measures import theory
 from tippetop.compare.results.sweep import SweepResult
+from tippetop.compare.results.threshold import ThresholdResult
 from tippetop.compare.running.runner import Task, run_tasks, strip_timing
 from tippetop.compare.studies.sweep import parse_range, run_sweep
 from tippetop.compare.studies.threshold import measure_threshold
@@ -31,15 +32,20 @@ def test_fig9a_n1_measured_in_the_reference() -> None:
     the bracket's 0.5 % width, not the 3 % once assumed; the bound on the relative difference
     is that width."""
     res = measure_threshold(None, "ode", "n1", method="bisect")
-    assert abs(res["measured"] - 34.4) <= 0.05
-    lo, hi = res["bracket"]
-    assert lo <= res["measured"] <= hi and (hi - lo) / res["measured"] <= 0.005
-    assert abs(res["rel_diff"]) <= 0.005
-    assert res["n_runs"] == len(res["runs"]) >= 4
+    assert abs(res.measured - 34.4) <= 0.05
+    lo, hi = res.bracket
+    assert lo <= res.measured <= hi and (hi - lo) / res.measured <= 0.005
+    assert abs(res.rel_diff) <= 0.005
+    assert res.n_runs == len(res.runs) >= 4
     # the bracket's ends keep their sides over 120 s: the answer is not the horizon's
-    assert res["horizon_check"]["low_crossed"] is False
-    assert res["horizon_check"]["high_crossed"] is True
-    assert res["converged"] and not res["depends_on_horizon"] and res["warning"] is None
+    assert res.horizon_check.low_crossed is False
+    assert res.horizon_check.high_crossed is True
+    assert res.converged and not res.depends_on_horizon and res.warning is None
+    # the result says itself as the command's JSON and reads itself back
+    data = res.to_json()
+    assert list(data)[:3] == ["which", "engine", "scene"] and list(data)[-1] == "mode"
+    assert data["horizon_check"]["horizon_s"] == 120.0 and data["rates"] == []
+    assert ThresholdResult.from_json(json.loads(json.dumps(data))) == res
 
 
 def test_a_threshold_that_depends_on_the_run_length_says_so() -> None:
@@ -50,12 +56,12 @@ def test_a_threshold_that_depends_on_the_run_length_says_so() -> None:
     answer moves with the horizon, so it is not 'converged' and says why. (Measured: 58.3
     rad/s against the theory's 54.3; 72.7 without continuing the runs.)"""
     res = measure_threshold("fig6", "ode", "nc", method="bisect")
-    assert res["bracket_converged"]
-    assert res["depends_on_horizon"] and not res["converged"]
-    assert res["horizon_check"]["horizon_s"] == 24.0 and res["horizon_check"]["low_crossed"]
-    assert "depends on the run length" in res["warning"]
-    assert not res["settled"] and res["unsettled_n0"]
-    assert all(r["t_end_s"] > 12.0 for r in res["runs"] if r["n0"] in res["unsettled_n0"])
+    assert res.bracket_converged
+    assert res.depends_on_horizon and not res.converged
+    assert res.horizon_check.horizon_s == 24.0 and res.horizon_check.low_crossed
+    assert "depends on the run length" in res.warning
+    assert not res.settled and res.unsettled_n0
+    assert all(r["t_end_s"] > 12.0 for r in res.runs if r["n0"] in res.unsettled_n0)
 
 
 def test_threshold_refuses_a_group_one_top() -> None:
