@@ -218,7 +218,7 @@ def parts(order: int, symmetric: bool) -> Parts:
         at_fraction="dense_eval(T, {x} * h, {out})", at_time="dense_eval(T, {t} - t, {out})",
         guard_stop="stats[S_H] = h", advance="for i in range(n):\n    yc[i] = y_new[i]",
         finish="stats[S_H] = h", locate_params="T, h", locate_signature="_M, _F8",
-        callables="globals")
+        callables="globals", sample_into_row=True)
 
 
 def kernel_source(order: int, symmetric: bool) -> str:
