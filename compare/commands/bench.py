@@ -99,23 +99,26 @@ def run(args: argparse.Namespace) -> int:
         raise TippetopError(f"bench: expected 'ode' or 'accuracy', got {args.what!r}")
     if args.sweep:
         return _sweep(args)
+    from tippetop.compare.presentation.bench import print_bench_ode
     from tippetop.compare.studies.bench import bench_ode
 
     res = bench_ode(n0=args.n0, t_end_s=60.0 if args.t_end_s is None else args.t_end_s,
                     rtol=args.rtol, rounds=args.rounds or 5, scipy_rounds=args.scipy_rounds)
     if args.json:
-        print_json(res)
+        print_json(res.to_json())
     else:
-        print(res.pop("report"))
+        print_bench_ode(res)
     return 0
 
 
 def _sweep(args: argparse.Namespace) -> int:
     """``tippetop bench ode --sweep``."""
+    from tippetop.compare.presentation.bench import print_work_precision
     from tippetop.compare.studies.work_precision_report import (
         DEFAULT_OUT,
         parse_tops,
         run_work_precision,
+        slow_peers,
     )
 
     if args.scene:
@@ -128,7 +131,7 @@ def _sweep(args: argparse.Namespace) -> int:
     res = run_work_precision(tops, args.out or DEFAULT_OUT, rounds=args.rounds or 3,
                              force=args.force, t_end_s=t_end)
     if args.json:
-        print_json({k: v for k, v in res.items() if k != "report"})
+        print_json(res.to_json())
     else:
-        print(res["report"])
+        print_work_precision(res, slow_peers())
     return 0

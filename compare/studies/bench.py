@@ -5,11 +5,21 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from tippetop.compare.presentation.bench import bench_ode_report
+from tippetop.compare.results.bench import (
+    EQUAL_ACCURACY_RAD,
+    MOONSHOT_VS_PEER,
+    SCIPY,
+    TARGET_SPEEDUP,
+    TARGET_THETA_AGREEMENT,
+    TARGET_VS_PEER,
+    BenchOdeResult,
+)
 from tippetop.compare.studies.accuracy.common import ATOL_PER_RTOL, REFERENCE_RTOL
 from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.compare.studies.peer_runs import theta_of_states
@@ -32,21 +42,10 @@ from tippetop.reference_ode.solve import (
 )
 from tippetop.reference_ode.taylor_peer import HEYOKA, TaylorPeer, heyoka_missing, unsupported
 
-#: The issue's target: the compiled integrator at least this many times faster than scipy.
-TARGET_SPEEDUP = 60.0
-#: ... with the final theta agreeing to this (rad).
-TARGET_THETA_AGREEMENT = 1e-6
-#: A peer is "of equal accuracy" when its final theta agrees with tippetop's to this (rad).
-EQUAL_ACCURACY_RAD = 1e-10
-#: The target against the fastest peer of equal accuracy (peer time / tippetop time), and
-#: the moonshot.
-TARGET_VS_PEER = 1.0
-MOONSHOT_VS_PEER = 1.2
 #: The truth of the equal-error comparison: the reference's kernel at its tightest rtol.
 TRUTH_RTOL = REFERENCE_RTOL
 #: The peers' small tolerance sweep (atol = ATOL_PER_RTOL rtol) for their frontier.
 PEER_SWEEP_RTOLS: tuple[float, ...] = tuple(10.0**-k for k in range(5, 14))
-SCIPY = "scipy solve_ivp(DOP853)"
 
 
 def _theta_of_vector_state(y: np.ndarray) -> float:
@@ -270,79 +269,8 @@ def _compare_peers(pb: _Problem, peer_names: list[str], best: dict[str, float],
     }
 
 
-def _row(base: _Baselines, name: str, s: float, n_rhs: int, theta: float | None,
-         note: str = "") -> str:
-    """A solver's line of the report, its ratio and |dtheta| against the kernel's."""
-    d = "" if theta is None else f"{abs(theta - base.theta_kernel):9.1e}"
-    ratio = s / base.t_kernel
-    return f"  {name:<24s} {s:9.4f} {n_rhs:>9,d} {ratio:8.2f}  {d:>9s}  {note}".rstrip()
-
-
-def _peer_lines(base: _Baselines, missing: str | None, peers: dict) -> list[str]:
-    """The report's lines of the peers, or the one saying why they did not run."""
-    if missing is not None:
-        return [f"  numbalsoda peers: not run ({missing})"]
-    lines = []
-    for name, sv in peers["solvers"].items():
-        note = (f"{sv['s_at_equal_error']:.4f} s at our error" if sv["equal_accuracy"]
-                else "does not reach our error at any rtol of its sweep")
-        lines.append(_row(base, name, sv["s"], sv["n_rhs"], sv["theta_final"], note))
-    return lines
-
-
-def _vs_peer_line(missing: str | None, peers: dict, best_peer: str | None,
-                  vs_peer: float | None) -> str:
-    """The report's line of the speed-up against the fastest peer at our error."""
-    if missing is not None:
-        return "  speed-up vs the best peer: not measured (numbalsoda is not installed)"
-    if best_peer is None:
-        return ("  speed-up vs the best peer: no peer reaches our error "
-                f"({peers['ours_theta_err']:.1e} rad against the truth)")
-    return (f"  speed-up vs the fastest peer at equal achieved error ({best_peer}, at our "
-            f"{peers['ours_theta_err']:.1e} rad): {vs_peer:.2f} x "
-            f"(peer time / tippetop's; target >= {TARGET_VS_PEER:g} x: "
-            f"{'met' if vs_peer >= TARGET_VS_PEER else 'NOT met'}; moonshot "
-            f"{MOONSHOT_VS_PEER:g} x: {'met' if vs_peer >= MOONSHOT_VS_PEER else 'not met'})")
-
-
-def _scipy_lines(pb: _Problem, base: _Baselines) -> list[str]:
-    """The report's closing lines: simulate_ode against scipy, and the cost of an evaluation."""
-    ratio, dtheta = base.ratio, base.dtheta
-    per = "jet (a Taylor step)" if pb.method.name == "taylor" else "rhs evaluation"
-    lines = [
-        f"  tippetop simulate_ode     {base.t_ours:9.4f} s (the whole call, observables table "
-        f"included), n_rhs = {base.res.n_rhs:,d}",
-        f"  speed-up vs scipy         {ratio:9.1f} x   (scipy / simulate_ode; target >= "
-        f"{TARGET_SPEEDUP:g} x: {'met' if ratio >= TARGET_SPEEDUP else 'NOT met'})",
-        f"  final theta               {base.theta_ours:.10f} vs {base.theta_scipy:.10f} rad, "
-        f"|diff| = {dtheta:.2e} (target <= {TARGET_THETA_AGREEMENT:g}: "
-        f"{'met' if dtheta <= TARGET_THETA_AGREEMENT else 'NOT met'})",
-        f"  per {per:<22s}{1e9 * base.t_kernel / base.kernel.n_rhs:9.1f} ns (kernel) vs "
-        f"{1e9 * base.t_scipy / base.sol.nfev:.1f} ns per rhs evaluation (scipy) "
-        "(whole run / n_rhs)",
-    ]
-    if pb.method.name == "taylor":
-        lines.append("  (the Taylor method's n_rhs counts its jets, one a step: a jet is the "
-                     "whole series of the step, not one evaluation)")
-    return lines
-
-
-def _header_lines(pb: _Problem, base: _Baselines, rounds: int, scipy_rounds: int) -> list[str]:
-    """The report's title, its column heads and the kernel's (baseline) row."""
-    return [
-        f"reference ODE benchmark: Fig. 11 top (A/C = 1, a/R = 0.15), n0 = {pb.n0:g} rad/s, "
-        f"{pb.t_end_s:g} s simulated, rtol = {pb.rtol:g}, atol = {pb.atol:g}; one compiled "
-        f"right-hand side; CPU time, best of {rounds} round(s) (solvers alternated; scipy: "
-        f"{scipy_rounds}); the reference's default (ode.method = auto) at this rtol runs "
-        f"{pb.method.name} at rtol {pb.k_rtol:g}, atol {pb.k_atol:g}",
-        f"  {'solver':<24s} {'s':>9s} {'n_rhs':>9s} {'ratio':>8s}  {'|dtheta|':>9s}",
-        _row(base, pb.ours, base.t_kernel, base.kernel.n_rhs, None,
-             "(baseline: one kernel call)"),
-    ]
-
-
 def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
-              atol: float = 1e-12, rounds: int = 5, scipy_rounds: int = 1) -> dict:
+              atol: float = 1e-12, rounds: int = 5, scipy_rounds: int = 1) -> BenchOdeResult:
     """Fig. 11 top: the reference's default method against its peers and scipy, at equal error.
 
     Every solver integrates the same compiled right-hand side (vector formulation, the paper's
@@ -357,7 +285,8 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
     Everything is loaded (compiled) before the first round.
 
     Returns:
-        The times, evaluation counts, final thetas and ratios, and a printable ``report``.
+        The times, evaluation counts, final thetas and ratios, and the printed ``report``
+        (:class:`BenchOdeResult`).
         ``ours_s`` is the whole :func:`simulate_ode` call (the observables table included),
         ``ours_kernel_s`` the kernel's; ``speedup`` is scipy's time over ``ours_s``,
         ``speedup_vs_best_peer`` the fastest peer's time at tippetop's achieved error
@@ -387,32 +316,30 @@ def bench_ode(n0: float = 60.0, t_end_s: float = 60.0, rtol: float = 1e-9,
         best_peer = peers["best_equal_accuracy"]
     vs_peer = (peers["solvers"][best_peer]["s_at_equal_error"] / t_kernel if best_peer
                else None)
-    lines = [
-        *_header_lines(pb, base, rounds, scipy_rounds),
-        *_peer_lines(base, missing, peers),
-        _row(base, SCIPY, t_scipy, int(sol.nfev), base.theta_scipy),
-        _vs_peer_line(missing, peers, best_peer, vs_peer),
-        *_scipy_lines(pb, base),
-    ]
-    return {
-        "n0": n0, "t_end_s": t_end_s, "rtol": rtol, "atol": atol,
-        "method": pb.method.name, "method_rtol": pb.k_rtol, "method_atol": pb.k_atol,
-        "timing": "CPU time (time.process_time), best of the rounds",
-        "rounds": rounds, "scipy_rounds": scipy_rounds,
-        "ours_s": t_ours, "ours_n_rhs": res.n_rhs,
-        "ours_kernel_s": t_kernel, "ours_kernel_n_rhs": kernel.n_rhs,
-        "theta_final_kernel": base.theta_kernel,
-        "scipy_s": t_scipy, "scipy_n_rhs": int(sol.nfev),
-        "speedup": base.ratio, "theta_final_ours": base.theta_ours,
-        "theta_final_scipy": base.theta_scipy,
-        "theta_final_abs_diff": base.dtheta,
-        "ours_ns_per_rhs": 1e9 * t_ours / res.n_rhs,
-        "scipy_ns_per_rhs": 1e9 * t_scipy / sol.nfev,
-        "target_speedup_met": base.ratio >= TARGET_SPEEDUP,
-        "target_theta_met": base.dtheta <= TARGET_THETA_AGREEMENT,
-        "peers": peers,
-        "speedup_vs_best_peer": vs_peer,
-        "best_peer": best_peer,
-        "target_vs_peer_met": None if vs_peer is None else vs_peer >= TARGET_VS_PEER,
-        "report": "\n".join(lines),
-    }
+    out = BenchOdeResult(
+        n0=n0, t_end_s=t_end_s, rtol=rtol, atol=atol,
+        method=pb.method.name, method_rtol=pb.k_rtol, method_atol=pb.k_atol,
+        timing="CPU time (time.process_time), best of the rounds",
+        rounds=rounds, scipy_rounds=scipy_rounds,
+        ours_s=t_ours, ours_n_rhs=res.n_rhs,
+        ours_kernel_s=t_kernel, ours_kernel_n_rhs=kernel.n_rhs,
+        theta_final_kernel=base.theta_kernel,
+        scipy_s=t_scipy, scipy_n_rhs=int(sol.nfev),
+        speedup=base.ratio, theta_final_ours=base.theta_ours,
+        theta_final_scipy=base.theta_scipy,
+        theta_final_abs_diff=base.dtheta,
+        ours_ns_per_rhs=1e9 * t_ours / res.n_rhs,
+        scipy_ns_per_rhs=1e9 * t_scipy / sol.nfev,
+        target_speedup_met=base.ratio >= TARGET_SPEEDUP,
+        target_theta_met=base.dtheta <= TARGET_THETA_AGREEMENT,
+        peers=peers,
+        speedup_vs_best_peer=vs_peer,
+        best_peer=best_peer,
+        target_vs_peer_met=None if vs_peer is None else vs_peer >= TARGET_VS_PEER,
+    )
+    return replace(out, report=bench_ode_report(out))
+
+
+__all__ = ["EQUAL_ACCURACY_RAD", "MOONSHOT_VS_PEER", "PEER_SWEEP_RTOLS", "SCIPY",
+           "TARGET_SPEEDUP", "TARGET_THETA_AGREEMENT", "TARGET_VS_PEER", "TRUTH_RTOL",
+           "BenchOdeResult", "bench_ode"]

@@ -19,10 +19,12 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 
+# the tables are printed by compare.presentation.bench (named here too, as before)
+from tippetop.compare.presentation.bench import format_ratio, level_table
+from tippetop.compare.results.work_precision import TARGET_RATIO
+
 #: Errors below this are plotted and interpolated as this (a point equal to the truth).
 ERROR_FLOOR = 1e-16
-#: The target: the fastest peer's time over the reference's, at equal achieved error.
-TARGET_RATIO = 1.2
 
 
 def frontier(points: Iterable[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -133,50 +135,6 @@ def compare_at_levels(points: Mapping[str, Sequence[tuple[float, float]]],
     return rows
 
 
-def format_ratio(r: float | None) -> str:
-    """A ratio for a table: ``1.35x``, ``inf`` (no peer reaches), ``-`` (we do not)."""
-    if r is None:
-        return "-"
-    return "inf" if math.isinf(r) else f"{r:.2f}x"
-
-
-def level_table(title: str, unit: str, rows: Sequence[dict], solvers: Sequence[str],
-                cancelled: Mapping[str, Sequence[float]] | None = None) -> str:
-    """The printed table: rows = levels, columns = solvers' times (ms), then the ratios.
-
-    Rows with ``ratio_steady`` (the ratio without cancellations) get that column too, and
-    ``cancelled`` (per solver, the rtols set aside) is listed under the table.
-    """
-    width = max(11, *(len(s) for s in solvers)) if solvers else 11
-    head = f"  {'level':>9s}  " + " ".join(f"{s:>{width}s}" for s in solvers)
-    steady = any("ratio_steady" in r for r in rows)
-    lines = [title, head + f"  {'peer/ref':>9s} {'peer/auto':>9s}"
-             + (f" {'steady':>9s}" if steady else "") + f"  target >= {TARGET_RATIO:g}x"]
-    for row in rows:
-        cells = []
-        for s in solvers:
-            t = row["times"].get(s)
-            if t is not None:
-                cells.append(f"{1e3 * t:>{width - 3}.2f} ms")
-            else:
-                e = row["smallest"].get(s)
-                cells.append(f"{'n/r' if e is None else f'n/r {e:.0e}':>{width}s}")
-        verdict = "met" if row["met"] else "NOT met"
-        if row["ratio"] is not None and row["met"] != row["met_auto"]:
-            verdict += f" (auto: {'met' if row['met_auto'] else 'NOT met'})"
-        if steady and not row["met"] and row.get("met_steady"):
-            verdict += " (met without cancellations)"
-        lines.append(f"  {row['level']:>7.0e} {unit:<2s} " + " ".join(cells)
-                     + f"  {format_ratio(row['ratio']):>9s} {format_ratio(row['ratio_auto']):>9s}"
-                     + (f" {format_ratio(row.get('ratio_steady')):>9s}" if steady else "")
-                     + f"  {verdict}")
-    lines.append("  (ms of CPU time at the level, on each solver's frontier; n/r = not reached, "
-                 "with the smallest error reached; peer/ref = the fastest peer's time over the "
-                 "fastest reference method's" + ("; steady = the same with every solver's "
-                                                  "cancellations set aside" if steady else "")
-                 + ")")
-    if cancelled:
-        lines.append("  cancellations (an error below the next tighter rtol's), set aside in "
-                     "steady: " + "; ".join(f"{n} at rtol {', '.join(f'{r:g}' for r in rs)}"
-                                           for n, rs in cancelled.items()))
-    return "\n".join(lines)
+__all__ = ["ERROR_FLOOR", "TARGET_RATIO", "cancellations", "compare_at_levels", "format_ratio",
+           "frontier", "level_table", "smallest_error", "time_at_error",
+           "without_cancellations"]

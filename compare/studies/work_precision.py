@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tippetop.compare.results.work_precision import FORMAT, WorkPrecisionTop
 from tippetop.compare.studies.accuracy.common import (
     ATOL_PER_RTOL,
     REFERENCE_RTOL,
@@ -50,8 +51,6 @@ from tippetop.reference_ode.methods import METHODS
 from tippetop.reference_ode.params_array import pack_params
 from tippetop.reference_ode.solve import initial_state_vector, simulate_ode
 
-#: The JSON's format key.
-FORMAT = "tippetop-work-precision/1"
 #: The sweep's relative tolerances (atol = ATOL_PER_RTOL rtol), loose to tight.
 TOLERANCES: tuple[float, ...] = tuple(10.0**-k for k in range(3, 14))
 #: A compiled solver's point whose first run is shorter than this (s) ...
@@ -371,7 +370,7 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
               tolerances: Sequence[float] = TOLERANCES, peers: Sequence[str] | None = None,
               methods: Sequence[str] | None = None, budget_s: float | None = None,
               tick: Callable[[], None] | None = None,
-              expect: Callable[[int], None] | None = None) -> dict:
+              expect: Callable[[int], None] | None = None) -> WorkPrecisionTop:
     """One top's sweep: the truth, every solver's points, and the equal-error tables' rows.
 
     Args:
@@ -409,6 +408,13 @@ def sweep_top(top: Top, *, rounds: int = 3, slow_rounds: int = 1,
         if metric == "t_invert" and truth["t_invert"] is None:
             continue
         levels[metric] = _level(metric, key, solvers, refs, auto, peer_names)
-    return {"name": top.name, "title": top.title, "t_end_s": top.t_end_s,
-            "stiff": top.stiff, "truth": truth, "solvers": solvers, "skipped": skipped,
-            "references": refs, "auto": auto, "peers": peer_names, "levels": levels}
+    return WorkPrecisionTop(name=top.name, title=top.title, t_end_s=top.t_end_s,
+                            stiff=top.stiff, truth=truth, solvers=solvers, skipped=skipped,
+                            references=tuple(refs), auto=auto, peers=tuple(peer_names),
+                            levels=levels)
+
+
+__all__ = ["AUTO", "FORMAT", "LEVELS", "REF_PREFIX", "SHORT_ROUNDS", "SHORT_S", "STIFF_T_END_S",
+           "STIFF_TRUTH_RTOL", "TOLERANCES", "TOPS", "TRUTH_RTOL", "TRUTH_THETA_AGREEMENT",
+           "TRUTH_T_INVERT_AGREEMENT", "UNITS", "Top", "WorkPrecisionTop", "check_truths",
+           "compute_truth", "make_top", "reference_methods", "run_reference", "sweep_top"]

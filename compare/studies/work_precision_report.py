@@ -26,14 +26,20 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from contextlib import nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from tippetop.compare.presentation.bench import METRIC_TITLES, work_precision_report
+from tippetop.compare.results.work_precision import (
+    TARGET_RATIO,
+    WorkPrecisionResult,
+    WorkPrecisionTop,
+)
 from tippetop.compare.running.io import json_ready
-from tippetop.compare.studies.frontier import ERROR_FLOOR, TARGET_RATIO, level_table
+from tippetop.compare.studies.frontier import ERROR_FLOOR
 from tippetop.compare.studies.peer_runs import PEERS
 from tippetop.compare.studies.work_precision import (
-    FORMAT,
     SHORT_ROUNDS,
     SHORT_S,
     TOLERANCES,
@@ -45,8 +51,6 @@ from tippetop.compare.studies.work_precision import (
 from tippetop.models.errors import TippetopError
 
 DEFAULT_OUT = "work-precision"
-METRIC_TITLES = {"theta": "theta(t_end) error (rad)", "t_invert": "t_invert error (s)",
-                 "J_drift": "Jellett's drift |J/J0 - 1|"}
 
 
 def parse_tops(text: str) -> list[str]:
@@ -70,19 +74,19 @@ def check_out(out: str | Path, force: bool) -> Path:
     return path
 
 
-def plot_top(res: dict, path: Path) -> None:
+def plot_top(res: WorkPrecisionTop, path: Path) -> None:
     """The top's figure: error against CPU time per metric, one line per solver."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    metrics = list(res["levels"])
+    metrics = list(res.levels)
     fig, axes = plt.subplots(1, len(metrics), figsize=(5.2 * len(metrics), 4.4), squeeze=False)
     keys = {"theta": "theta_err", "t_invert": "t_invert_err", "J_drift": "J_drift"}
     colors = plt.get_cmap("tab20").colors  # one colour per solver, the same in every panel
     for ax, metric in zip(axes[0], metrics, strict=True):
-        for i, (name, sv) in enumerate(res["solvers"].items()):
+        for i, (name, sv) in enumerate(res.solvers.items()):
             pts = sorted((p["rtol"], p["s"], p[keys[metric]]) for p in sv["points"]
                          if p["status"] == "ok" and p[keys[metric]] is not None
                          and math.isfinite(p[keys[metric]]))
@@ -92,68 +96,32 @@ def plot_top(res: dict, path: Path) -> None:
             ax.loglog([p[1] for p in pts], [max(p[2], ERROR_FLOOR) for p in pts],
                       "-o" if ref else "--s", lw=2.0 if ref else 1.2, ms=3.5, label=name,
                       color=colors[(2 * i) % 20 if i < 10 else (2 * i + 1) % 20])
-        for level in res["levels"][metric]["levels"]:
+        for level in res.levels[metric]["levels"]:
             ax.axhline(level, color="0.8", lw=0.6, ls=":")
         ax.set_xlabel("CPU time (s), best of the rounds")
         ax.set_ylabel(METRIC_TITLES[metric])
         ax.grid(True, which="major", alpha=0.3)
     axes[0][0].legend(fontsize=7)
-    fig.suptitle(f"work-precision: {res['title']}, {res['t_end_s']:g} s", fontsize=10)
+    fig.suptitle(f"work-precision: {res.title}, {res.t_end_s:g} s", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def top_report(res: dict) -> str:
-    """The printed tables of one top."""
-    tr = res["truth"]
-    lines = [f"== {res['name']}: {res['title']}, {res['t_end_s']:g} s simulated",
-             f"  truth: {tr['methods'][0]} vs {tr['methods'][1]} at rtol {tr['rtol']:g} "
-             f"(law throughout): theta(t_end) = {tr['theta']:.15f} rad, |diff| = "
-             f"{tr['theta_diff']:.1e} rad"]
-    if tr["t_invert"] is None:
-        lines.append("  the top does not invert within t_end: no t_invert table")
-    else:
-        loc = tr.get("t_invert_locate_err")
-        lines.append(f"  t_invert = {tr['t_invert']:.12f} s, |diff| = {tr['t_invert_diff']:.1e}"
-                     " s; " + ("the peers' inversion located from samples: not measured (no "
-                               "peer)" if loc is None else
-                               f"the peers' inversion located from samples to about {loc:.0e} "
-                               f"s (spline on {tr['locator']}'s dense output, 201 vs 101 "
-                               "samples)"))
-    for n, why in res["skipped"].items():
-        lines.append(f"  skipped {n}: {why}")
-    solvers = list(res["solvers"])
-    for n, sv in res["solvers"].items():
-        stopped = [p for p in sv["points"] if p["status"] != "ok"]
-        if stopped:
-            p = stopped[0]
-            lines.append(f"  {n}: stopped at rtol {p['rtol']:g} ({p['status']})")
-        elif n in PEERS and PEERS[n].slow and sv["points"] and \
-                len(sv["points"]) < len(PEERS[n].tolerances(TOLERANCES)):
-            lines.append(f"  {n}: stopped after rtol {sv['points'][-1]['rtol']:g} (over its "
-                         f"{PEERS[n].budget_s:g} s budget)")
-    for n, sv in res["solvers"].items():
-        said = [p for p in sv["points"] if p.get("printed")]
-        if said:
-            lines.append(f"  {n}: its compiled code printed {sum(p['printed'] for p in said)} "
-                         f"line(s) at {len(said)} of its {len(sv['points'])} tolerances, kept "
-                         "off the terminal (Hairer's DOP853: \"the problem seems to become "
-                         "stiff\"; the run goes on)")
-    if res["stiff"]:
-        lines.append("  (the reference runs its rolling phases where the law is stiff; the "
-                     "truth and the peers integrate the law: the reference's error includes "
-                     "the rolling phases' modelling error)")
-    for metric, lv in res["levels"].items():
-        lines.append(level_table(f"  {METRIC_TITLES[metric]}", lv["unit"], lv["rows"],
-                                 solvers, lv.get("cancellations")))
-    return "\n".join(lines)
+def slow_peers() -> dict[str, tuple[int, float]]:
+    """Per Python-driven peer, the tolerances of the full sweep it runs and its budget (s).
+
+    The report says a slow peer with fewer points stopped over its budget.
+    """
+    return {n: (len(p.tolerances(TOLERANCES)), p.budget_s) for n, p in PEERS.items()
+            if p.slow}
 
 
 def run_work_precision(tops: Sequence[str], out: str | Path = DEFAULT_OUT, *,
                        rounds: int = 3, force: bool = False, t_end_s: float | None = None,
                        tolerances: Sequence[float] = TOLERANCES,
-                       peers: Sequence[str] | None = None, write: bool = True) -> dict:
+                       peers: Sequence[str] | None = None, write: bool = True
+                       ) -> WorkPrecisionResult:
     """The benchmark on ``tops``: their sweeps, report and figures (all-or-nothing).
 
     Args:
@@ -167,7 +135,9 @@ def run_work_precision(tops: Sequence[str], out: str | Path = DEFAULT_OUT, *,
         write: Write the folder (False: compute only).
 
     Returns:
-        The JSON object (:data:`FORMAT`), with ``report`` the printed text.
+        The benchmark: its ``to_json()`` is the JSON object (``tippetop-work-precision/1``),
+        its printed text :func:`presentation.bench.work_precision_report` with
+        :func:`slow_peers`.
     """
     names = [n for n in tops]
     for n in names:
@@ -177,7 +147,7 @@ def run_work_precision(tops: Sequence[str], out: str | Path = DEFAULT_OUT, *,
         raise TippetopError(f"--rounds: expected an integer >= 1, got {rounds}")
     path = check_out(out, force) if write else None
     t_start = time.perf_counter()
-    results = {}
+    results: dict[str, WorkPrecisionTop] = {}
     _, skipped = reference_methods()
     top_objs = [make_top(n, t_end_s) for n in names]
     bar = _bar()
@@ -187,28 +157,17 @@ def run_work_precision(tops: Sequence[str], out: str | Path = DEFAULT_OUT, *,
                                           tick=(lambda: b.update(1)) if b is not None else None,
                                           expect=_more(b) if b is not None else None)
     elapsed = time.perf_counter() - t_start
-    head = (f"work-precision benchmark: every solver's error against a converged truth, "
-            f"rtol {max(tolerances):g}..{min(tolerances):g}, atol = 1e-3 rtol; CPU time, best "
-            f"of {rounds} round(s), {rounds * SHORT_ROUNDS} for a run under "
-            f"{SHORT_S * 1e3:g} ms (the Python-driven peers: 1 round, every other rtol; the "
-            f"reference: the integration's CPU time inside simulate_ode, OdeResult.cpu_s, "
-            f"without its fixed ~3 ms of table building); "
-            f"the reference = its fastest method at each level (target: the fastest peer >= "
-            f"{TARGET_RATIO:g}x the reference's time)")
-    report = "\n\n".join([head, *(top_report(r) for r in results.values()),
-                          f"({elapsed:.0f} s wall for the whole benchmark)"])
-    doc = {"format": FORMAT, "rounds": rounds, "short_rounds": rounds * SHORT_ROUNDS,
-           "short_s": SHORT_S, "timing": "CPU time (time.process_time), best of the rounds "
-           "(short_rounds for a compiled solver's point under short_s)",
-           "tolerances": list(tolerances), "atol_per_rtol": 1e-3,
-           "target_ratio": TARGET_RATIO, "skipped_methods": skipped, "tops": results,
-           "elapsed_s": elapsed}
     _inf_as_text(results)
+    res = WorkPrecisionResult(
+        rounds=rounds, short_rounds=rounds * SHORT_ROUNDS, short_s=SHORT_S,
+        timing="CPU time (time.process_time), best of the rounds (short_rounds for a compiled "
+        "solver's point under short_s)",
+        tolerances=tuple(tolerances), atol_per_rtol=1e-3, target_ratio=TARGET_RATIO,
+        skipped_methods=skipped, tops=results, elapsed_s=elapsed)
     if path is not None:
-        _write(path, doc, report, results, force)
-        doc["out"] = str(path)
-    doc["report"] = report
-    return doc
+        _write(path, res, force)
+        res = replace(res, out=str(path))
+    return res
 
 
 def _bar():
@@ -229,15 +188,16 @@ def _more(bar: Any) -> Callable[[int], None]:
     return more
 
 
-def _write(path: Path, doc: dict, report: str, results: dict, force: bool) -> None:
+def _write(path: Path, res: WorkPrecisionResult, force: bool) -> None:
     """Write everything to a temporary folder beside ``path``, then move it into place."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        for name, res in results.items():
-            plot_top(res, tmp / f"{name}.png")
-        (tmp / "work-precision.json").write_text(json.dumps(json_ready(doc), indent=1))
-        (tmp / "report.txt").write_text(report + "\n")
+        for name, top in res.tops.items():
+            plot_top(top, tmp / f"{name}.png")
+        (tmp / "work-precision.json").write_text(json.dumps(json_ready(res.to_json()),
+                                                            indent=1))
+        (tmp / "report.txt").write_text(work_precision_report(res, slow_peers()) + "\n")
         if path.exists():
             if not force:  # pragma: no cover - checked before the work
                 raise TippetopError(f"--out: {str(path)!r} appeared during the run")
@@ -248,10 +208,10 @@ def _write(path: Path, doc: dict, report: str, results: dict, force: bool) -> No
         raise
 
 
-def _inf_as_text(results: dict) -> None:
+def _inf_as_text(results: dict[str, WorkPrecisionTop]) -> None:
     """A ratio of inf (no peer reaches the level) as the string ``"inf"`` in the JSON."""
     for res in results.values():
-        for lv in res["levels"].values():
+        for lv in res.levels.values():
             for row in lv["rows"]:
                 for k in ("ratio", "ratio_auto"):
                     if row[k] is not None and math.isinf(row[k]):
@@ -270,9 +230,9 @@ def main(argv: list[str] | None = None) -> int:
               + (" ".join(args) or "nothing"), file=sys.stderr)
         return 2
     try:
-        doc = json.loads(Path(args[0]).read_text(encoding="utf-8"))
-        tops = doc["tops"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+        tops = WorkPrecisionResult.from_json(
+            json.loads(Path(args[0]).read_text(encoding="utf-8"))).tops
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, TippetopError) as exc:
         print(f"work-precision figure: expected a sweep's work-precision.json, got {args[0]} "
               f"({exc.__class__.__name__}: {exc})", file=sys.stderr)
         return 2

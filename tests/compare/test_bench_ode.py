@@ -12,6 +12,9 @@ import sys
 import pytest
 
 from tippetop.compare.cli import main
+from tippetop.compare.commands.options import json_text
+from tippetop.compare.presentation.bench import bench_ode_report
+from tippetop.compare.results.bench import BenchOdeResult
 from tippetop.compare.studies.bench import EQUAL_ACCURACY_RAD, bench_ode
 from tippetop.compare.studies.frontier import ERROR_FLOOR, time_at_error
 from tippetop.reference_ode.peers import NUMBALSODA_METHODS, NUMBALSODA_MISSING
@@ -108,7 +111,12 @@ def test_bench_ode_without_numbalsoda_says_so(monkeypatch: pytest.MonkeyPatch,
 
 def test_bench_ode_table_has_a_row_per_solver() -> None:
     pytest.importorskip("numbalsoda")
-    report = bench_ode(t_end_s=0.1, rounds=1)["report"]
+    res = bench_ode(t_end_s=0.1, rounds=1)
+    report = res.report
+    # the result reads back from its JSON, and its report is the printer's, from its fields
+    assert BenchOdeResult.from_json(res.to_json()) == res
+    assert BenchOdeResult.from_json(json.loads(json_text(res))) == res
+    assert bench_ode_report(res) == report
     rows = {line.split("  ")[1].strip() for line in report.splitlines()[2:7]}
     want = {"tippetop taylor", "numbalsoda DOP853", "numbalsoda LSODA", "scipy solve_ivp(DOP853)"}
     if heyoka_missing() is None:

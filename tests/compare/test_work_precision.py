@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 
 from tippetop.compare.cli import main
+from tippetop.compare.presentation.bench import format_ratio, work_precision_report
+from tippetop.compare.results.work_precision import WorkPrecisionResult
 from tippetop.compare.studies.frontier import (
     cancellations,
     compare_at_levels,
@@ -32,7 +34,7 @@ from tippetop.compare.studies.work_precision import (
     make_top,
     reference_methods,
 )
-from tippetop.compare.studies.work_precision_report import run_work_precision
+from tippetop.compare.studies.work_precision_report import run_work_precision, slow_peers
 from tippetop.models.errors import TippetopError
 
 #: (error, time) points: (2e-5 at 3.5 s) is dominated (the 2-s point reaches less error, for
@@ -174,7 +176,7 @@ def test_a_short_point_runs_more_rounds_and_the_bar_counts_every_run(
     assert [runs.get(("slow", t), 0) for t in times] == [1, 0, 1, 0]  # every other rtol
     assert sum(planned) == len(ticks) == sum(runs.values()) - 1
     assert planned[0] == 4 + 4 + 2  # the first round, as planned before it
-    assert {p["s"] for p in res["solvers"]["fast"]["points"]} == set(times.values())
+    assert {p["s"] for p in res.solvers["fast"]["points"]} == set(times.values())
 
 
 @pytest.mark.parametrize("args", [
@@ -214,29 +216,36 @@ def test_a_tiny_sweep_runs_end_to_end(tmp_path: Path) -> None:
     doc = run_work_precision(["fig3"], out, rounds=1, t_end_s=2.6,
                              tolerances=(1e-5, 1e-8, 1e-11),
                              peers=["numbalsoda DOP853", "numbalsoda LSODA"])
-    assert doc["format"] == FORMAT
+    assert doc.format == FORMAT
+    assert doc.out == str(out)
     assert (out / "fig3.png").stat().st_size > 1000
-    assert json.loads((out / "work-precision.json").read_text())["format"] == FORMAT
-    res = doc["tops"]["fig3"]
-    tr = res["truth"]
+    saved = json.loads((out / "work-precision.json").read_text())
+    assert saved["format"] == FORMAT
+    # the result reads back from its JSON, and from the file written (without ``out``)
+    assert WorkPrecisionResult.from_json(doc.to_json()) == doc
+    assert WorkPrecisionResult.from_json(saved).to_json() == saved
+    res = doc.tops["fig3"]
+    tr = res.truth
     assert tr["theta_diff"] <= TRUTH_THETA_AGREEMENT
     assert tr["t_invert"] == pytest.approx(2.33, abs=0.05)
     # the peers' inversion time is located from samples far below the smallest level (1e-10 s)
     assert tr["t_invert_locate_err"] < 1e-12
-    assert set(res["levels"]) == {"theta", "t_invert", "J_drift"}
-    for sv in res["solvers"].values():
+    assert set(res.levels) == {"theta", "t_invert", "J_drift"}
+    for sv in res.solvers.values():
         assert [p["rtol"] for p in sv["points"]] == [1e-5, 1e-8, 1e-11]
         assert all(p["status"] == "ok" for p in sv["points"])
     # every method's error falls as its tolerance tightens (a smooth problem: by >= 10x
     # over the 6 decades from 1e-5 to 1e-11, a loose bound for any convergent method)
-    for name, sv in res["solvers"].items():
+    for name, sv in res.solvers.items():
         e = [p["theta_err"] for p in sv["points"]]
         assert e[-1] < 0.1 * e[0], name
     for name in ("tippetop dop853", "numbalsoda DOP853"):  # an event; a located crossing
-        assert all(p["t_invert_err"] < 1e-3 for p in res["solvers"][name]["points"]), name
-    rows = res["levels"]["theta"]["rows"]
+        assert all(p["t_invert_err"] < 1e-3 for p in res.solvers[name]["points"]), name
+    rows = res.levels["theta"]["rows"]
     assert [r["level"] for r in rows] == [1e-4, 1e-6, 1e-8, 1e-10]
-    assert "theta(t_end) error" in doc["report"] and "peer/ref" in doc["report"]
+    report = work_precision_report(doc, slow_peers())
+    assert "theta(t_end) error" in report and "peer/ref" in report
+    assert (out / "report.txt").read_text() == report + "\n"
     with pytest.raises(TippetopError, match="--force"):
         run_work_precision(["fig3"], out, rounds=1, t_end_s=2.6, tolerances=(1e-5,))
 
@@ -246,9 +255,9 @@ def test_the_json_keys(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> No
     """The CLI's --json on a very short run of one top with the compiled solvers only."""
     pytest.importorskip("numbalsoda")
     doc = run_work_precision(["fig11"], tmp_path / "wp", rounds=1, t_end_s=0.05,
-                             tolerances=(1e-4, 1e-8), peers=["numbalsoda DOP853"])
+                             tolerances=(1e-4, 1e-8), peers=["numbalsoda DOP853"]).to_json()
     assert {"format", "rounds", "timing", "tolerances", "atol_per_rtol", "target_ratio",
-            "skipped_methods", "tops", "elapsed_s", "report", "out"} <= set(doc)
+            "skipped_methods", "tops", "elapsed_s", "out"} <= set(doc)
     res = doc["tops"]["fig11"]
     assert {"title", "t_end_s", "truth", "solvers", "skipped", "levels", "references",
             "auto", "peers"} <= set(res)
@@ -265,6 +274,23 @@ def test_the_json_keys(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> No
                     "J_drift"} <= set(p)
     saved = json.loads((tmp_path / "wp" / "work-precision.json").read_text())
     assert saved["format"] == FORMAT and set(saved["tops"]) == {"fig11"}
+
+
+def test_the_stored_json_reads_back() -> None:
+    """docs/data/work-precision.json (the docs' figures are drawn from it) reads back as a
+    result that gives the same JSON, and prints (its ratios of "inf" as inf)."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "data" / "work-precision.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    res = WorkPrecisionResult.from_json(data)
+    assert res.to_json() == data
+    assert WorkPrecisionResult.from_json(res.to_json()) == res
+    assert res.out is None and set(res.tops) == set(data["tops"])
+    report = work_precision_report(res, slow_peers())
+    assert report.count("\n== ") == len(res.tops) and "peer/ref" in report
+    assert format_ratio("inf") == format_ratio(math.inf) == "inf"
+    assert format_ratio(None) == "-" and format_ratio(1.5) == "1.50x"
+    with pytest.raises(TippetopError, match="format"):
+        WorkPrecisionResult.from_json({**data, "format": "something/2"})
 
 
 def test_tops() -> None:
