@@ -68,24 +68,25 @@ STUDY_ENTRIES = frozenset({
     ("compare/studies/validate.py", "validate"),
     ("compare/studies/accuracy/study.py", "run_accuracy"),
     ("compare/tuning/tune.py", "tune"),
-    ("compare/studies/threshold.py", "measure_threshold"),
-    ("compare/studies/atlas.py", "run_atlas"),
-    ("compare/studies/crossval.py", "compare_scene"),
+    ("compare/studies/bench.py", "bench_ode"),
+    ("compare/studies/work_precision_report.py", "run_work_precision"),
 })
 #: The studies whose result is a frozen dataclass with ``to_json``/``from_json`` in
 #: compare/results/ (issue 42, item 2). The rest still return a dictionary: this list may
 #: only grow.
 RESULTS_WITH_FIELDS = frozenset({
     ("compare/studies/sweep.py", "run_sweep"),
+    ("compare/studies/atlas.py", "run_atlas"),
     ("compare/studies/matrix.py", "run_matrix"),
+    ("compare/studies/crossval.py", "compare_scene"),
+    ("compare/studies/threshold.py", "measure_threshold"),
     ("compare/studies/bisect.py", "bisect"),
     ("compare/studies/fidelity.py", "run_fidelity"),
-    ("compare/studies/accuracy/study.py", "run_accuracy"),
     ("compare/studies/validate.py", "validate"),
+    ("compare/studies/accuracy/study.py", "run_accuracy"),
     ("compare/tuning/tune.py", "tune"),
-    ("compare/studies/threshold.py", "measure_threshold"),
-    ("compare/studies/atlas.py", "run_atlas"),
-    ("compare/studies/crossval.py", "compare_scene"),
+    ("compare/studies/bench.py", "bench_ode"),
+    ("compare/studies/work_precision_report.py", "run_work_precision"),
 })
 DICT_RESULT_TODO = STUDY_ENTRIES - RESULTS_WITH_FIELDS
 
