@@ -125,7 +125,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(_json(path, runs, found))
         return 0
-    print_history(path, runs, found)
+    from tippetop.compare.presentation.history import print_history
+
+    print_history(path, runs, [(s, c, h.series_text(s, c)) for s, c in found])
     return 0
 
 
@@ -134,34 +136,3 @@ def _json(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]]) -> di
 
     return {"format": h.JSON_FORMAT, "history": str(path), "format_version": h.FORMAT_VERSION,
             "runs": runs, "series": [h.series_json(s, c) for s, c in found]}
-
-
-def print_history(path: Any, runs: list[dict], found: list[tuple[Any, list[Any]]]) -> None:
-    """The history for a person: the runs in a line, then each case and engine's series."""
-    if not runs:
-        print(f"history: {path}: no runs yet (each nightly and matrix appends to it; --import "
-              "adds old results.json files)")
-        return
-    kinds: dict[str, int] = {}
-    for r in runs:
-        kinds[r["kind"]] = kinds.get(r["kind"], 0) + 1
-    days = [runs[0]["started"][:10], runs[-1]["started"][:10]] if runs else []
-    span = "" if not days else f", {days[0]}" if days[0] == days[1] else \
-        f", {days[0]} to {days[1]}"
-    changed = sum(bool(c) for _, c in found)
-    print(f"history: {path}: {len(runs)} run{'' if len(runs) == 1 else 's'} ("
-          + ", ".join(f"{n} {k}" for k, n in kinds.items()) + f"){span}; {len(found)} series, "
-          f"{changed} changed")
-    if not found:
-        print("  nothing matches")
-        return
-    head = None
-    from tippetop.compare.nightly import history as h
-
-    for s, changes in found:
-        if (s.kind, s.case, s.engine) != head:
-            head = (s.kind, s.case, s.engine)
-            versions = list(dict.fromkeys(v.engine_version or "?" for v in s.values))
-            print(f"{s.kind} {s.case} on {s.engine} ({', '.join(versions)}):")
-        for line in h.series_text(s, changes):
-            print(line)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from tippetop.compare.commands.options import (
     EXIT_RUN_FAILED,
@@ -18,13 +18,6 @@ from tippetop.compare.commands.options import (
     engine_and_mode,
     load_scene,
     print_json,
-)
-from tippetop.compare.presentation.terminal import (
-    RAN_KEYS,
-    fmt_stiff,
-    fmt_value,
-    none_means,
-    ran_lines,
 )
 from tippetop.models.errors import TippetopError
 
@@ -95,7 +88,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(run.summary)
     else:
-        _print_summary(plan.scene, run.summary, out_path if not failed else None)
+        from tippetop.compare.presentation.simulate import print_summary
+
+        print_summary(plan.scene, run.summary, out_path if not failed else None)
     if failed:
         sys.stderr.write(f"tippetop: run failed: {run.message}\n")
         return EXIT_RUN_FAILED
@@ -133,39 +128,3 @@ def read_plan(args: argparse.Namespace) -> RunPlan:
         raise TippetopError(f"--plan: expected a readable UTF-8 JSON file, got {args.plan!r} "
                             f"({type(exc).__name__})") from None
     return RunPlan.from_json(text)
-
-
-def _print_summary(scene: str, summary: dict[str, Any], table_path: Any = None) -> None:
-    """A run's summary: the results, then what ran, then the unused ``--set`` keys.
-
-    Every number with its unit, to four significant digits (a relative drift to two, and
-    said to be relative); a value that is not there says why.
-    """
-    ran = [k for k in RAN_KEYS if k in summary]
-    # the rolling phases are said beside what ran for stiff friction
-    rest = [(k, v) for k, v in summary.items()
-            if k not in RAN_KEYS and k not in ("unused", "rolling_phases")]
-    pairs = [("scene", scene), *rest]
-    width = max(len(k) for k in [*(k for k, _ in pairs), *ran, "unused"])
-
-    finished = summary.get("status") in (None, "ok")
-
-    def said(k: str, v: Any) -> str:
-        # what ran for stiff friction, beside the rolling phases the run did (or did not) enter
-        if k == "stiff":
-            return fmt_stiff(v, summary.get("rolling_phases"))
-        if v is None and not finished and none_means(k) is not None:
-            # "never" only of a run that finished: this one stopped before it could tell
-            return f"- (the run stopped: {summary.get('status')}, see its message)"
-        return fmt_value(k, v)
-
-    print("\n".join(f"{k:<{width}}  {said(k, v)}" for k, v in pairs))
-    if ran:
-        print("what ran:")
-        print("\n".join(ran_lines(summary, width)))
-    unused = summary.get("unused")
-    if unused is not None:
-        print(f"{'unused':<{width}}  {', '.join(unused) if unused else 'none'} (--set keys "
-              "the engine did not read)")
-    if table_path is not None:
-        print(f"wrote {table_path}")

@@ -12,7 +12,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,9 +48,10 @@ from tippetop.compare.nightly.outputs import (
     summary_text,
     timestamp,
 )
-from tippetop.compare.nightly.running import error_text, run_cases
+from tippetop.compare.nightly.running import CaseRun, error_text, run_cases
 from tippetop.compare.nightly.videos import render_videos
 from tippetop.compare.presentation.verdict import crossval_rows
+from tippetop.compare.results.nightly import NightlyResult
 from tippetop.compare.running.io import (
     check_output_dir,
     json_ready,
@@ -275,7 +276,6 @@ def _update_baselines(files: dict[str, Path], profile: str, catalogue: Catalogue
 def _run_locked(opts: NightlyOptions, checked: _Checked, write_report: ReportWriter,
                 log: Callable[[str], None], echo: Callable[[str], None]) -> int:
     """The run itself, its inputs checked and its output folder locked; the exit status."""
-    started, t0, catalogue = checked.started, checked.t0, checked.catalogue
     cases, skipped, files = checked.cases, checked.skipped, checked.files
     baseline, out_dir = checked.baseline, checked.out_dir
     shown = ", ".join(f"{f}{'' if f.is_file() else ' (missing: every case is new)'}"
@@ -303,67 +303,72 @@ def _run_locked(opts: NightlyOptions, checked: _Checked, write_report: ReportWri
                 write_atomic(stage / rel, lambda tmp, t=tab: t.to_parquet(tmp, index=False))
                 rec["table"] = rel
                 tables[cr.case.id] = tab
-        results: dict[str, Any] = {
-            "format": RESULTS_FORMAT,
-            "profile": opts.profile,
-            "profile_description": catalogue.profiles[opts.profile],
-            "catalogue": str(catalogue.path),
-            "engines": list(opts.engines),
-            "case_patterns": list(opts.cases),
-            "models": [str(Path(m).absolute()) for m in opts.models],
-            "model_changed": model_changed,
-            "command": ["tippetop", "nightly", *opts.argv],
-            "started": started,
-            "baseline_file": ("none (--no-baseline: every check is new)" if opts.no_baseline
-                              else ", ".join(str(f) for f in files.values())),
-            "baseline_files": {k: str(f) for k, f in files.items()},
-            "not_run": skipped,
-            "no_baseline": opts.no_baseline,
-            "baseline_update": None,
-            "videos": (render_videos(cases, stage, log) if opts.videos
-                       else {"requested": False, "status": "not requested", "files": {}}),
-            "environment": env,
-            # the native cases: the calibration this run used, and each baseline's
-            "calibration": {"this_run": env.get("calibration"),
-                            "baselines": baseline_calibrations(
-                                {k: v for k, v in baseline.items()
-                                 if k in {cr.case.id for cr in runs}})},
-            "tolerances": {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
-                               "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()},
-            "cases": records,
-            "crossval": crossval_rows(records),
-        }
-        results["counts"] = count(records)
-        if opts.update_baseline:
-            results["baseline_update"] = _update_baselines(files, opts.profile, catalogue,
-                                                           cases, records, env)
-        c = results["counts"]
-        videos_failed = bool(results["videos"].get("failed"))
+        res = _result(opts, checked, runs, records, model_changed, env, stage, log)
+        c = res.counts
         failed = (c["cases_error"] > 0 or (c["cases_fail"] > 0 and not opts.update_baseline)
-                  or videos_failed)
-        results["verdict"] = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
-                              else "ERROR" if c["cases_error"] else
-                              "ERROR (videos failed)" if videos_failed else "OK")
-        results["finished"] = timestamp()
-        results["wall_s"] = time.perf_counter() - t0
+                  or res.videos_failed)
         if not opts.no_history:  # a failed append is said, and the results are kept
-            results["history"] = record_nightly(results, opts.history, log)
-
-        def write_results() -> None:
-            text = json.dumps(json_ready(results), indent=1) + "\n"
-            write_atomic(stage / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
-            xml = junit_xml(json_ready(results))
-            write_atomic(stage / "junit.xml", lambda tmp: tmp.write_bytes(xml))
-
-        write_results()
+            res = replace(res, history=record_nightly(res.to_json(), opts.history, log))
+        results = res.to_json()
+        _write_results(stage, results)
         try:
             write_report(json_ready(results), stage / "report.html", tables, opts.accuracy_dir)
         except Exception as exc:  # noqa: BLE001 - the verdict is written; the report is part of it
             traceback.print_exc(file=sys.stderr)
-            results["report_error"] = error_text(exc)
-            results["verdict"] = ("ERROR" if results["verdict"] == "OK" else results["verdict"]) \
-                + " (report failed)"
+            res = replace(res, report_error=error_text(exc),
+                          verdict=("ERROR" if res.verdict == "OK" else res.verdict)
+                          + " (report failed)")
             failed = True
-            write_results()
-    echo(summary_text(results, out_dir))
+            _write_results(stage, res.to_json())
+    echo(summary_text(res.to_json(), out_dir))
     return EXIT_REGRESSION if failed else EXIT_OK
+
+
+def _result(opts: NightlyOptions, checked: _Checked, runs: list[CaseRun],
+            records: list[dict[str, Any]], model_changed: dict[str, str], env: dict[str, Any],
+            stage: Path, log: Callable[[str], None]) -> NightlyResult:
+    """The nightly's result, before the history and the report are added to it.
+
+    With ``update_baseline`` it writes the baselines; with ``videos`` it renders the videos
+    into ``stage``.
+    """
+    catalogue, files, baseline = checked.catalogue, checked.files, checked.baseline
+    videos = (render_videos(checked.cases, stage, log) if opts.videos
+              else {"requested": False, "status": "not requested", "files": {}})
+    # the native cases: the calibration this run used, and each baseline's
+    calibration = {"this_run": env.get("calibration"),
+                   "baselines": baseline_calibrations(
+                       {k: v for k, v in baseline.items()
+                        if k in {cr.case.id for cr in runs}})}
+    tolerances = {k: {"kind": t.kind, "value": t.value, "floor": t.floor, "unit": t.unit,
+                      "text": t.describe(), "why": t.why} for k, t in TOLERANCES.items()}
+    crossval = crossval_rows(records)
+    c = count(records)
+    update = (_update_baselines(files, opts.profile, catalogue, checked.cases, records, env)
+              if opts.update_baseline else None)
+    verdict = ("REGRESSION" if c["cases_fail"] and not opts.update_baseline
+               else "ERROR" if c["cases_error"] else
+               "ERROR (videos failed)" if videos.get("failed") else "OK")
+    return NightlyResult(
+        format=RESULTS_FORMAT, profile=opts.profile,
+        profile_description=catalogue.profiles[opts.profile],
+        catalogue=str(catalogue.path), engines=tuple(opts.engines),
+        case_patterns=tuple(opts.cases),
+        models=tuple(str(Path(m).absolute()) for m in opts.models),
+        model_changed=model_changed, command=("tippetop", "nightly", *opts.argv),
+        started=checked.started,
+        baseline_file=("none (--no-baseline: every check is new)" if opts.no_baseline
+                       else ", ".join(str(f) for f in files.values())),
+        baseline_files={k: str(f) for k, f in files.items()}, not_run=tuple(checked.skipped),
+        no_baseline=opts.no_baseline, baseline_update=update, videos=videos, environment=env,
+        calibration=calibration, tolerances=tolerances, cases=tuple(records),
+        crossval=tuple(crossval), counts=c, verdict=verdict, finished=timestamp(),
+        wall_s=time.perf_counter() - checked.t0)
+
+
+def _write_results(stage: Path, results: dict[str, Any]) -> None:
+    """``results.json`` and ``junit.xml`` of the results, into the staging folder."""
+    text = json.dumps(json_ready(results), indent=1) + "\n"
+    write_atomic(stage / "results.json", lambda tmp: tmp.write_text(text, "utf-8"))
+    xml = junit_xml(json_ready(results))
+    write_atomic(stage / "junit.xml", lambda tmp: tmp.write_bytes(xml))

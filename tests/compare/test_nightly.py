@@ -21,6 +21,7 @@ from tippetop.compare import nightly
 from tippetop.compare.commands import nightly as nightly_command
 from tippetop.compare.measures.tolerances import TOLERANCES, Tolerance, compare_value
 from tippetop.compare.nightly import load_catalogue, select_cases
+from tippetop.compare.results.nightly import NightlyResult
 from tippetop.compare.results.threshold import ThresholdResult
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import MODES
@@ -166,6 +167,37 @@ def test_update_baseline_writes_the_ode_cases(tiny: dict) -> None:
     res = _results(tiny["first"])
     assert res["counts"]["checks_new"] == res["counts"]["checks"] > 0
     assert res["baseline_update"]["added"] == len(ids)
+
+
+def test_results_json_reads_back_as_a_nightly_result(tiny: dict) -> None:
+    """results.json is NightlyResult.to_json(), key for key in its order, and reads back."""
+    data = _results(tiny["first"])
+    res = NightlyResult.from_json(data)
+    assert res.profile == "tiny" and res.engines == ("ode",) and res.history is not None
+    assert res.baseline_update is not None and res.report_error is None
+    assert list(res.to_json()) == list(data) and res.to_json() == data
+    assert NightlyResult.from_json(res.to_json()) == res
+
+
+def test_a_failed_report_is_said_in_results_json(cached: dict, tmp_path: Path) -> None:
+    """No history (no key), the report's error last, and the verdict says the report failed."""
+    from tippetop.compare.nightly.suite import NightlyOptions
+    from tippetop.compare.nightly.suite import run_nightly as run_suite
+
+    def no_report(*_args: object) -> None:
+        raise RuntimeError("no report")
+
+    opts = NightlyOptions(profile="tiny", catalogue=cached["catalogue"],
+                          baseline_dir=cached["baselines"], out=str(tmp_path / "out"),
+                          engines=("ode",), workers=1, cache=True, no_history=True)
+    said: list[str] = []
+    code = run_suite(opts, write_report=no_report, log=lambda s: None, echo=said.append)
+    data = _results(tmp_path / "out")
+    res = NightlyResult.from_json(data)
+    assert code == 1 and "history" not in data and list(data)[-1] == "report_error"
+    assert res.report_error == "RuntimeError: no report" and res.history is None
+    assert res.verdict == "ERROR (report failed)" and "ERROR (report failed)" in said[0]
+    assert res.to_json() == data
 
 
 def test_untouched_baselines_exit_0_and_are_not_written(cached: dict,
