@@ -2,9 +2,9 @@
 
 tests/stored/outputs.py says what is stored (the quick profile, validate on the three examples,
 the fidelity map's small grid and the bisect fixture), from which commit, and how they are
-compared: keys and texts exactly, numbers to a relative 1e-9 (the same code on another build
-of numpy or MuJoCo may round the last digits otherwise; a change of behaviour moves a verdict, a
-sentence or a number by far more). The bisect fixture runs in seconds; the others run the
+compared: keys and texts exactly, numbers to a relative 1e-5 (the quick profile's MuJoCo growth
+fits moved by up to 1.4e-6 between two runs of the same code; a change of behaviour moves a
+verdict, a sentence or a number by far more). The bisect fixture runs in seconds; the others run the
 commands and are slow (the quick nightly ~4 min on 2 cores, validate ~1 min an example, the
 fidelity grid ~3 min).
 """
@@ -51,8 +51,8 @@ def test_fidelity_on_its_small_grid_as_stored(tmp_path: Path) -> None:
 
 def test_the_comparison_sees_a_changed_number_key_and_text() -> None:
     stored = {"a": 1.0, "b": [1, "x"], "c": {"d": None}}
-    assert outputs.same({"a": 1.0 + 1e-12, "b": [1, "x"], "c": {"d": None}}, stored) == []
-    assert outputs.same({"a": 1.001, "b": [1, "x"], "c": {"d": None}}, stored)
+    assert outputs.same({"a": 1.0 + 2e-6, "b": [1, "x"], "c": {"d": None}}, stored) == []
+    assert outputs.same({"a": 1.0001, "b": [1, "x"], "c": {"d": None}}, stored)
     assert outputs.same({"a": 1.0, "b": [1, "y"], "c": {"d": None}}, stored)
     assert outputs.same({"a": 1.0, "b": [1, "x"], "c": {"e": None}}, stored)
     assert outputs.same({"a": 1.0, "b": [1], "c": {"d": None}}, stored)

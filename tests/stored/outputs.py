@@ -14,10 +14,14 @@ The cases:
 - ``bisect_<case>``: bisect over tests/stored/bisect_fixture.py's fake ranges.
 
 What is compared (:func:`same`): every key and every text exactly, every number to a relative
-1e-9 (two builds of the same libraries may round the last digits differently: a float compared
-with ``==`` across two machines is a test of luck). Left out, being the machine's and not the
-code's: wall-clock times, absolute paths (:func:`normalised`) and the nightly's environment
-(the machine, its packages, the commit).
+1e-5. Not closer: on one machine with the same packages, today's code met the stored quick
+profile to 1e-9 in one run and missed it by up to 1.4e-6 relative in the next (a fresh clone's
+CI), in the MuJoCo growth fits of its threshold cases (rates near 1e-7/s, residuals near
+3e-6): a float compared with ``==`` across two runs is a test of luck. A change of behaviour moves a
+verdict, a sentence or a number by far more: the nightly's own tolerances start at 1e-3.
+Numbers near zero (a growth rate at the threshold) agree to 1e-12 absolute. Left out, being the
+machine's and not the code's: wall-clock times, absolute paths (:func:`normalised`) and the
+nightly's environment (the machine, its packages, the commit).
 
 To make them again (only when an output is meant to change, with the reason in the commit):
 ``python tests/stored/outputs.py [CASE ...]`` from the repository's root.
@@ -47,8 +51,10 @@ VOLATILE = re.compile(r"(^|_)(wall|elapsed|started|finished|timestamp|created|da
                       r"machine|duration|cpu)(_|$)")
 #: A wall-clock time in a sentence ("... to t = 8 s in 0.18 s").
 WALL_IN_TEXT = re.compile(r" in [0-9][0-9.,]*(?:e[-+]?[0-9]+)? (?:s|ms)\b")
-#: Numbers agree to this (relative; absolute below 1e-300).
-REL = 1e-9
+#: Numbers agree to this, relative (see the module's docstring) ...
+REL = 1e-5
+#: ... or to this, absolute.
+ABS = 1e-12
 
 
 def _cli(args: list[str], cache: Path, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -134,7 +140,7 @@ def same(a: Any, b: Any, where: str = "") -> list[str]:
     numbers = (int, float)
     if (isinstance(a, numbers) and isinstance(b, numbers) and not isinstance(a, bool)
             and not isinstance(b, bool)):
-        if (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=REL, abs_tol=1e-300):
+        if (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=REL, abs_tol=ABS):
             return []
         return [f"{where}: {a!r}, stored {b!r}"]
     return [] if a == b else [f"{where}: {a!r}, stored {b!r}"]
