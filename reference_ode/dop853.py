@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from functools import cache
 from types import ModuleType
 
 import numba as nb
 import numpy as np
 
 from tippetop.reference_ode import dop853_tableau as _coef
-from tippetop.reference_ode import driver, explicit_rk
+from tippetop.reference_ode import explicit_rk
 from tippetop.reference_ode.explicit_rk import Pair
 
 STATUS_OK = 0  # reached t_end
@@ -207,23 +206,19 @@ else:
 
 #: The pair, as the driver writes its kernel (:mod:`reference_ode.explicit_rk`): 12 stages and
 #: f(y_new) in every attempt (FSAL), the interpolant's 3 extra stages for a step read densely.
-PAIR = Pair(name="dop853", module=__name__, a=A, b=B, n_stages=N_STAGES, fsal=True,
+PAIR = Pair(name="dop853", module=__name__, a=A, b=B, weights={"E3": E3, "E5": E5},
+            n_stages=N_STAGES, n_k=N_K, fsal=True,
             error=_error, buffers="e5 = np.zeros(m)\ne3 = np.zeros(m)", imports=("E3", "E5"),
             dense_prepare="dense_coeffs(rhs, yc_v, y_new_v, f_new, h, p, K, F, yt_v)",
             dense_stages="3", interp_rows="7")
 
 
-@cache
 def kernel() -> ModuleType:
-    """The compiled kernel's module (:mod:`reference_ode.driver`): ``run`` and ``locate``.
+    """The compiled kernel's module: :func:`explicit_rk.kernel` of :data:`PAIR`.
 
-    ``run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out,
-    Y_out, i_out, stats, h_fixed, K_out)`` is :func:`dop853_run` with, for ``h_fixed`` > 0,
-    steps of that size and no error control (every step accepted: for tests of the method's
-    order and dense output; a ``K_out`` of shape (16, n) then receives each step's stage
-    buffer, rows 0-12).
+    (A ``K_out`` of shape (16, n) receives each fixed step's stage buffer, rows 0-12.)
     """
-    return driver.load("dop853", driver.kernel_source(explicit_rk.parts(PAIR)))
+    return explicit_rk.kernel(PAIR)
 
 
 def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.ndarray,
@@ -232,8 +227,9 @@ def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
                stats: np.ndarray) -> tuple[int, float, int]:
     """Integrate y' = rhs(y) from (t, y) until t >= t_stop (the last step ends at t_end).
 
-    One call of the compiled :func:`_kernel` (this wrapper is Python: a compiled one would
-    compile the kernel's code again, numba optimising every callee inside its caller).
+    One call of the compiled kernel (:func:`explicit_rk.run`; this wrapper is Python: a
+    compiled one would compile the kernel's code again, numba optimising every callee inside
+    its caller).
 
     Args:
         rhs: ``rhs(y, p, dy) -> guard`` (njit); the run stops where the guard falls to <= 0.
@@ -259,31 +255,19 @@ def dop853_run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
         (status, t, i_out): one of the ``STATUS_*`` codes, the time reached (at a guard stop:
         the located crossing, with ``y`` on the dense output there) and the next sample.
     """
-    return kernel().run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
-                        monitor_floor, t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
-
-
-_NO_K_OUT = np.empty((0, 0))
+    return explicit_rk.run(PAIR, rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+                           monitor_floor, t_out, Y_out, i_out, stats)
 
 
 def fixed_steps(rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int,
                 t_out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``n_steps`` steps of size ``h`` from (0, ``y``), no error control (for tests).
 
-    The kernel of :func:`dop853_run` with every step accepted; ``y`` (float64) is advanced in
-    place.
-
-    Returns:
-        (the state after the steps, the samples at ``t_out`` on the dense output, the last
-        step's stage buffer K, (16, n): rows 0-11 the stages, 12 f(y_new)).
+    :func:`explicit_rk.fixed_steps` of :data:`PAIR`: (the state after the steps, the samples
+    at ``t_out`` on the dense output, the last step's stage buffer K, (16, n): rows 0-11 the
+    stages, 12 f(y_new)).
     """
-    t_out = np.empty(0) if t_out is None else np.ascontiguousarray(t_out, dtype=float)
-    Y = np.full((t_out.size, y.size), np.nan)
-    K = np.zeros((N_K, y.size))
-    t_end = float(h * n_steps)
-    kernel().run(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float), 1.0,
-                 1.0, n_steps, -np.inf, t_out, Y, 0, new_stats(), float(h), K)
-    return y, Y, K
+    return explicit_rk.fixed_steps(PAIR, rhs, watch, y, p, h, n_steps, t_out, new_stats())
 
 
 #: The method contract's name for the kernel (:mod:`reference_ode.methods`).

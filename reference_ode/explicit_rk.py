@@ -14,11 +14,13 @@ from.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 
+from tippetop.reference_ode import driver
 from tippetop.reference_ode.driver import Parts
 
 #: The kernel's parameters (the method contract's, then the fixed step and the stage buffer
@@ -41,13 +43,16 @@ class Pair:
             ``dense_eval``, ``initial_step``, ``padded``).
         a: The stage coefficients (the stages' sums are written over their non-zero entries).
         b: The solution's weights.
+        weights: The error estimate's weight vectors by their name in ``module`` (each sum
+            is written over its non-zero entries).
         n_stages: Stages per step, the first (f(y)) included; f(y_new) is row ``n_stages``.
+        n_k: Rows of the stage buffer K (the stages, f(y_new), the interpolant's stages).
         fsal: Whether f(y_new) is evaluated in every attempt (its guard and its value in the
             error estimate: DOP853) or once the step is accepted (Verner).
         error: The error norm ``err`` of an attempt, given a function that writes a weight
             vector's sum over the stages (``wsum("E")`` -> ``E[0] * K[0, i] + ...``).
         buffers: Extra buffers the error norm uses (code).
-        imports: The names ``error`` uses from ``module``.
+        imports: The names ``error`` uses from ``module`` (the weights' names included).
         dense_prepare: The interpolant's coefficients for the step (code), before it is read.
         dense_stages: The extra evaluations ``dense_prepare`` makes (counted in ``S_NRHS``).
         interp_rows: Rows of the interpolant's coefficients ``F``.
@@ -57,7 +62,9 @@ class Pair:
     module: str
     a: np.ndarray
     b: np.ndarray
+    weights: Mapping[str, np.ndarray]
     n_stages: int
+    n_k: int
     fsal: bool
     error: Callable[[Callable[[str], str]], str]
     buffers: str
@@ -108,7 +115,7 @@ def _step(pair: Pair) -> str:
     count = "stats[S_NRHS] += N_STAGES" if pair.fsal else "stats[S_NRHS] += N_STAGES - 1"
     in_attempt = f"\n{_f_new()}" if pair.fsal else ""
     after = "" if pair.fsal else f"{_f_new()}\nstats[S_NRHS] += 1\n"
-    error = pair.error(lambda name: _terms(name, getattr(_module(pair), name)))
+    error = pair.error(lambda name: _terms(name, pair.weights[name]))
     return f"""
 rejected = False
 while True:
@@ -174,12 +181,6 @@ def _indent(code: str, level: int) -> str:
     return "\n".join(("    " * level + ln) if ln.strip() else ln for ln in code.split("\n"))
 
 
-def _module(pair: Pair):
-    import importlib
-
-    return importlib.import_module(pair.module)
-
-
 def parts(pair: Pair) -> Parts:
     """The driver's parts of a pair's kernel."""
     names = ", ".join(("A", "B", "N_K", "N_STAGES", "SAFETY", "MIN_FACTOR", "MAX_FACTOR",
@@ -224,3 +225,50 @@ elif not h_abs > 0.0:
         advance="for i in range(m):\n    yc[i] = y_new[i]\n    K[0, i] = K[N_STAGES, i]",
         finish="stats[S_H] = h_abs",
         locate_params="F, yc_v", locate_signature="_M, _V")
+
+
+_KERNELS: dict[str, ModuleType] = {}
+_NO_K_OUT = np.empty((0, 0))
+
+
+def kernel(pair: Pair) -> ModuleType:
+    """The pair's compiled kernel module (:mod:`reference_ode.driver`): ``run`` and ``locate``.
+
+    ``run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps, monitor_floor, t_out,
+    Y_out, i_out, stats, h_fixed, K_out)`` is the method contract's ``run`` with, for
+    ``h_fixed`` > 0, steps of that size and no error control (every step accepted: for tests
+    of the method's order and dense output; a ``K_out`` of shape (``n_k``, n) then receives
+    each step's stage buffer). Written and imported once per process.
+    """
+    if pair.name not in _KERNELS:
+        _KERNELS[pair.name] = driver.load(pair.name, driver.kernel_source(parts(pair)))
+    return _KERNELS[pair.name]
+
+
+def run(pair: Pair, rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
+        p: np.ndarray, rtol: float, atol: float, max_steps: int, monitor_floor: float,
+        t_out: np.ndarray, Y_out: np.ndarray, i_out: int,
+        stats: np.ndarray) -> tuple[int, float, int]:
+    """One call of the pair's compiled kernel, with error control (the method contract)."""
+    return kernel(pair).run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+                            monitor_floor, t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
+
+
+def fixed_steps(pair: Pair, rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int,
+                t_out: np.ndarray | None, stats: np.ndarray,
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``n_steps`` steps of size ``h`` from (0, ``y``), no error control (for tests).
+
+    ``y`` (float64) is advanced in place; ``stats`` is a fresh vector of the method's.
+
+    Returns:
+        (the state after the steps, the samples at ``t_out`` on the dense output, the last
+        step's stage buffer K, (``n_k``, n)).
+    """
+    t_out = np.empty(0) if t_out is None else np.ascontiguousarray(t_out, dtype=float)
+    Y = np.full((t_out.size, y.size), np.nan)
+    K = np.zeros((pair.n_k, y.size))
+    t_end = float(h * n_steps)
+    kernel(pair).run(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float),
+                     1.0, 1.0, n_steps, -np.inf, t_out, Y, 0, stats, float(h), K)
+    return y, Y, K

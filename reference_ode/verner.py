@@ -12,13 +12,12 @@ arguments, statuses, ``stats`` slots, events, chunks and stiffness hook.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import cache
 from types import ModuleType
 
 import numba as nb
 import numpy as np
 
-from tippetop.reference_ode import driver, explicit_rk
+from tippetop.reference_ode import explicit_rk
 from tippetop.reference_ode import verner_tableau as _coef
 from tippetop.reference_ode.dop853 import (  # noqa: F401 (the pair's constants, for its kernel)
     MAX_FACTOR,
@@ -117,20 +116,19 @@ err = math.sqrt(s2 / n)
 #: The pair, as the driver writes its kernel (:mod:`reference_ode.explicit_rk`): 16 stages,
 #: f(y_new) once a step is accepted (not FSAL), the interpolant's 9 extra stages for a step
 #: read densely.
-PAIR = Pair(name="vern9", module=__name__, a=A, b=B, n_stages=N_STAGES, fsal=False,
+PAIR = Pair(name="vern9", module=__name__, a=A, b=B, weights={"E": E}, n_stages=N_STAGES,
+            n_k=N_K, fsal=False,
             error=_error, buffers="", imports=("E", "DEG"),
             dense_prepare="dense_coeffs(rhs, yc_v, h, p, K, F, yt_v)",
             dense_stages="N_K - N_STAGES - 1", interp_rows="DEG")
 
 
-@cache
 def kernel() -> ModuleType:
-    """The compiled kernel's module (:mod:`reference_ode.driver`), as :func:`dop853.kernel`.
+    """The compiled kernel's module: :func:`explicit_rk.kernel` of :data:`PAIR`.
 
-    (For tests: with ``h_fixed`` > 0 a ``K_out`` of shape (26, n) receives each step's stage
-    buffer, rows 0-16.)
+    (A ``K_out`` of shape (26, n) receives each fixed step's stage buffer, rows 0-16.)
     """
-    return driver.load("vern9", driver.kernel_source(explicit_rk.parts(PAIR)))
+    return explicit_rk.kernel(PAIR)
 
 
 def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.ndarray,
@@ -139,31 +137,22 @@ def run(rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float, p: np.
     """Integrate y' = rhs(y) from (t, y) until t >= t_stop (the last step ends at t_end).
 
     Exactly :func:`dop853.dop853_run`'s contract (arguments, ``STATUS_*`` codes, ``stats``
-    slots, events on the dense output, chunks), with Verner's 9(8) pair. One call of the
-    compiled kernel (:func:`kernel`).
+    slots, events on the dense output, chunks), with Verner's 9(8) pair
+    (:func:`explicit_rk.run`).
 
     Returns:
         (status, t, i_out), as :func:`dop853.dop853_run`.
     """
-    return kernel().run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
-                        monitor_floor, t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
-
-
-_NO_K_OUT = np.empty((0, 0))
+    return explicit_rk.run(PAIR, rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
+                           monitor_floor, t_out, Y_out, i_out, stats)
 
 
 def fixed_steps(rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int,
                 t_out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``n_steps`` steps of size ``h`` from (0, ``y``), no error control (for tests).
 
-    Returns:
-        (the state after the steps (``y``, advanced in place), the samples at ``t_out``, the
-        last step's stage buffer, (26, n): rows 0-15 the stages, 16 f(y_new)).
+    :func:`explicit_rk.fixed_steps` of :data:`PAIR`: (the state after the steps (``y``,
+    advanced in place), the samples at ``t_out``, the last step's stage buffer, (26, n):
+    rows 0-15 the stages, 16 f(y_new)).
     """
-    t_out = np.empty(0) if t_out is None else np.ascontiguousarray(t_out, dtype=float)
-    Y = np.full((t_out.size, y.size), np.nan)
-    K = np.zeros((N_K, y.size))
-    t_end = float(h * n_steps)
-    kernel().run(rhs, watch, y, 0.0, t_end, t_end, np.ascontiguousarray(p, dtype=float), 1.0,
-                 1.0, n_steps, -np.inf, t_out, Y, 0, new_stats(), float(h), K)
-    return y, Y, K
+    return explicit_rk.fixed_steps(PAIR, rhs, watch, y, p, h, n_steps, t_out, new_stats())
