@@ -336,7 +336,8 @@ def describe_ran(summary: dict[str, Any]) -> str:
     MuJoCo's stiffness and damping, none).
     """
     if summary.get("engine") == "ode":
-        return (f"reference ODE, DOP853 on the {summary.get('formulation')} formulation at "
+        method = summary.get("method") or "(method not recorded)"
+        return (f"reference ODE, {method} on the {summary.get('formulation')} formulation at "
                 f"rtol {number_text(summary.get('rtol'))}, law {summary.get('friction_law')}")
     if summary.get("timestep_s") is None:
         return "MuJoCo (no settings recorded)"

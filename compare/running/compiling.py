@@ -11,18 +11,23 @@ import sys
 from collections.abc import Sequence
 from typing import Any, TextIO
 
-#: Compiled parts: (module, what it is, seconds to compile on a 2-core machine, which plans need
-#: it). Measured in a fresh ``TIPPETOP_CACHE`` against a second time: importing the integrator
-#: 13.7 s against 1.2 s, then ``tippetop simulate fig3`` 5.5 s against 1.5 s; ``--set
-#: ode.formulation=paper`` 2.8 s against 1.4 s; MuJoCo's paper mode 3.9 s against 3.0 s, native
-#: mode 3.3 s against 2.4 s.
+#: Compiled parts: (module, what it is, seconds to compile on a 2-core machine). Measured in a
+#: fresh ``TIPPETOP_CACHE`` against a second time: ``tippetop simulate fig3`` (the Taylor method)
+#: 18.0 s against 1.5 s, ``--set ode.method=dop853`` 11.3 s against 1.3 s, ``vern9`` 13.3 s
+#: against 1.5 s, ``adams`` 11.2 s against 1.4 s (of each, about 4 s the equations of motion);
+#: ``--set ode.formulation=paper`` 2.8 s against 1.4 s; MuJoCo's paper mode 3.9 s against 3.0 s,
+#: native mode 3.3 s against 2.4 s.
 PARTS: tuple[tuple[str, str, float], ...] = (
-    ("tippetop.reference_ode.dop853", "the reference's integrator (DOP853)", 12.0),
     ("tippetop.reference_ode.top", "the equations of motion", 4.0),
     ("tippetop.reference_ode.paper", "the paper's Appendix A equations", 1.5),
     ("tippetop.mujoco_runner.stepper", "MuJoCo's stepper", 1.0),
     ("tippetop.mujoco_runner.friction_callback", "the paper's law as a MuJoCo callback", 1.0),
 )
+#: The reference's integrators, by the method that runs (the plan's, ``auto`` resolved): the
+#: kernel's name in the compiled-code cache (:mod:`tippetop.reference_ode.driver`; the Taylor
+#: method's carries its order) and seconds to compile it, its helpers included (the measured
+#: totals above, less the equations of motion).
+INTEGRATOR_S: dict[str, float] = {"taylor": 12.5, "dop853": 6.0, "vern9": 8.0, "adams": 6.0}
 #: Below this many seconds of compiling nothing is said: the run's own output follows soon.
 QUIET_BELOW_S = 3.0
 #: A reference run that enters a rolling phase compiles it then (measured: about 6 s more).
@@ -31,10 +36,22 @@ ROLLING_S = 6.0
 _said = False
 
 
+def _integrator(plan: Any) -> tuple[str, str, float]:
+    """The reference's integrator that ``plan`` runs: (kernel name prefix, what, seconds)."""
+    ran = plan.ode.what_runs()
+    title = ran["method"]  # e.g. 'taylor (order 12)'
+    name = title.split(" ")[0]
+    prefix = name
+    if name == "taylor":
+        prefix = f"taylor_p{title.split('order ')[1].rstrip(')')}"
+    return (f"kernel:{prefix}", f"the reference's integrator ({title})",
+            INTEGRATOR_S.get(name, 6.0))
+
+
 def _needs(plan: Any) -> set[str]:
     """The modules of :data:`PARTS` a run of ``plan`` compiles (the in-process engines')."""
     if plan.ode is not None:
-        out = {"tippetop.reference_ode.dop853", "tippetop.reference_ode.top"}
+        out = {"tippetop.reference_ode.top"}
         if plan.ode.options.formulation == "paper":
             out.add("tippetop.reference_ode.paper")
         return out
@@ -44,20 +61,37 @@ def _needs(plan: Any) -> set[str]:
     return out
 
 
+def _kernel_compiled(prefix: str) -> bool:
+    """Whether the compiled-code cache holds a kernel named ``prefix``_HASH.
+
+    Any of its hashes: the kernel's source, and so its hash, is known only once its module is
+    imported, which compiles.
+    """
+    from tippetop.reference_ode._jit import is_compiled
+    from tippetop.reference_ode.driver import source_dir
+
+    return any(is_compiled(f) for f in source_dir().glob(f"{prefix}_*.py"))
+
+
 def _todo(plans: Sequence[Any]) -> list[tuple[str, str, float]]:
-    """The parts of :data:`PARTS` that running ``plans`` here would compile (not yet cached)."""
+    """The parts that running ``plans`` here would compile (not yet cached)."""
     from importlib.util import find_spec
 
     from tippetop.reference_ode._jit import is_compiled
 
     needed: set[str] = set()
+    integrators: dict[str, tuple[str, str, float]] = {}
     for p in plans:
         needed |= _needs(p)
-    todo = []
+        if p.ode is not None:
+            key, what, seconds = _integrator(p)
+            integrators.setdefault(key, (key, what, seconds))
+    todo = [part for key, part in integrators.items()
+            if not _kernel_compiled(key.removeprefix("kernel:"))]
     for module, what, seconds in PARTS:
         if module not in needed:
             continue
-        spec = find_spec(module)  # not imported: importing the integrator compiles it
+        spec = find_spec(module)  # not imported: importing a module compiles it
         if spec is not None and spec.origin and not is_compiled(spec.origin):
             todo.append((module, what, seconds))
     return todo
@@ -79,9 +113,9 @@ def compile_note(plans: Sequence[Any]) -> str | None:
         plans: Run plans (:class:`tippetop.models.plan.RunPlan`) of the installed engines.
 
     Returns:
-        ``tippetop: compiling the reference's integrator (DOP853) and the equations of motion
-        into FOLDER, once for this code: about 16 s (...)``, or None when the cache holds the
-        code or compiling takes under :data:`QUIET_BELOW_S`.
+        ``tippetop: compiling the reference's integrator (taylor (order 12)) and the equations
+        of motion into FOLDER, once for this code: about 16 s (...)``, or None when the cache
+        holds the code or compiling takes under :data:`QUIET_BELOW_S`.
     """
     from tippetop.reference_ode import NUMBA_CACHE_DIR
 
@@ -111,4 +145,4 @@ def say_compile(plans: Sequence[Any], stream: TextIO | None = None) -> None:
         out.flush()
 
 
-__all__ = ["PARTS", "QUIET_BELOW_S", "compile_note", "compile_s", "say_compile"]
+__all__ = ["INTEGRATOR_S", "PARTS", "QUIET_BELOW_S", "compile_note", "compile_s", "say_compile"]

@@ -25,10 +25,23 @@ def test_a_fresh_cache_says_what_compiles_and_how_long(monkeypatch: pytest.Monke
     monkeypatch.setattr(jit, "is_compiled", lambda source: False)
     note = compiling.compile_note([_plan("ode")])
     assert note is not None
-    assert "compiling the reference's integrator (DOP853) and the equations of motion" in note
+    # the scene's default, ode.method = auto, runs the Taylor method at order 12 on Fig. 3
+    assert ("compiling the reference's integrator (taylor (order 12)) and the equations of "
+            "motion") in note
     assert "about 16 s" in note and "rolling phase" in note
     # MuJoCo alone compiles in about 2 s: nothing to say before it
     assert compiling.compile_note([_plan("mujoco", "mujoco.friction=native")]) is None
+
+
+@pytest.mark.parametrize("method", ["dop853", "vern9", "adams"])
+def test_the_note_names_the_integrator_that_runs(monkeypatch: pytest.MonkeyPatch,
+                                                 method: str) -> None:
+    monkeypatch.setattr(jit, "is_compiled", lambda source: False)
+    note = compiling.compile_note([_plan("ode", f"ode.method={method}")])
+    assert note is not None and f"the reference's integrator ({method})" in note
+    # a stem: auto runs the Adams method at rtol 1e-9 (the Taylor method has no stem)
+    note = compiling.compile_note([_plan("ode", "effects.stem=true")])
+    assert note is not None and "the reference's integrator (adams)" in note
 
 
 def test_nothing_is_said_when_the_code_is_cached(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -65,3 +78,12 @@ def test_the_cache_check_reads_numbas_own_folder() -> None:
 
     assert jit.is_compiled(dop853.__file__)
     assert not jit.is_compiled(compiling.__file__)
+
+
+def test_the_kernel_check_reads_the_drivers_cache() -> None:
+    # a kernel is compiled into a module the driver writes to the cache (reference_ode/driver.py)
+    from tippetop.reference_ode import dop853
+
+    dop853.kernel()  # loaded (and compiled into the cache if it was not)
+    assert compiling._kernel_compiled("dop853")
+    assert not compiling._kernel_compiled("no_such_method")

@@ -360,3 +360,20 @@ def test_what_ran_says_its_units() -> None:
                     "solimp [0.05, 0.95, 0.001 m, 0.5, 2]")
     # MuJoCo's direct form (negative solref: stiffness and damping) has no time constant
     assert "solref [-1000, -10]" in describe_ran({**native, "solref": [-1000.0, -10.0]})
+
+
+def test_what_ran_names_the_reference_method_that_ran() -> None:
+    # the line reads the method back from the run's summary: a stem top's reference runs the
+    # Adams method under ode.method = auto, a ball on the table the Taylor method; the line
+    # said "DOP853" for both before (validate's report of 2026-11-29)
+    from tippetop.compare.measures.summary import describe_ran
+    from tippetop.compare.running.engines import plan_for
+    from tippetop.models.scene import load_scene
+
+    for sets, method in (([], "taylor (order 12)"), (["effects.stem=true"], "adams"),
+                         (["ode.method=dop853"], "dop853")):
+        ran = plan_for(load_scene("fig3", sets), "ode").ode.what_runs()
+        summary = {"engine": "ode", **ran}
+        text = describe_ran(summary)
+        assert text.startswith(f"reference ODE, {method} on the vector formulation at rtol "), \
+            text
