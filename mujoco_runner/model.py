@@ -150,6 +150,15 @@ _ELEMENT_ERROR = re.compile(r"^(?:XML )?Error: (.*?)\s*\n\s*Element '([^']*)', l
                             re.DOTALL)
 _COMPILE_ERROR = re.compile(r"^Error: (.*?)\s*\n\s*Element name '([^']*)', id \d+, line "
                             r"(\d+)\s*$", re.DOTALL)
+#: MuJoCo's compiler on a keyframe with more numbers than the model has room for (qpos, qvel
+#: and act say how many they got; ctrl, mpos and mquat do not). The keyframe is named by
+#: name or by id, then by its element's name and id (no line).
+_KEY_SIZE_ERROR = re.compile(r"^Error: keyframe (?:'[^']*'|\d+): invalid (\w+) size, expected "
+                             r"(?:length )?(\d+)(?:, got (\d+))?\s*\n\s*Element name '([^']*)', "
+                             r"id (\d+)(?:, line (\d+))?\s*$", re.DOTALL)
+#: What a keyframe's numbers of each kind are for (the hint of a keyframe with too many).
+_KEY_FIELDS = {"qpos": "joints", "qvel": "joints", "act": "actuators with an activation",
+               "ctrl": "actuators", "mpos": "mocap bodies", "mquat": "mocap bodies"}
 
 
 def load_error(message: str, path: str | None, text: str | None = None, *,
@@ -221,6 +230,9 @@ def _mujoco_reason(message: str, path: str | None, text: str | None) -> str:
         reason = _TINYXML_REASONS.get(code, code.removeprefix("XML_ERROR_").replace("_", " ")
                                       .lower())
         return f"an XML error at line {line}: {reason}" + (f" (<{element}>)" if element else "")
+    found = _KEY_SIZE_ERROR.match(message)
+    if found is not None:
+        return _keyframe_reason(found, path, text)
     found = _ELEMENT_ERROR.match(message)
     if found is not None:
         reason, element, line = found.groups()
@@ -234,9 +246,76 @@ def _mujoco_reason(message: str, path: str | None, text: str | None) -> str:
     return "a MuJoCo error: " + ("; ".join(lines).removeprefix("Error: ") or "(no message)")
 
 
+def _keyframe_reason(found: re.Match[str], path: str | None, text: str | None) -> str:
+    """A keyframe with too many numbers of a kind, with its line and a hint (``got`` of load_error).
+
+    MuJoCo names neither the line nor what the extra numbers were for; the commonest cause is
+    a keyframe left behind when the free joint (7 qpos, 6 qvel numbers) was removed.
+    """
+    kind, room, got, name, index, line = found.groups()
+    keys, includes = _key_elements(path, text)
+    key = None
+    if name:
+        named = [k for k in keys if k[0] == name]
+        key = named[0] if len(named) == 1 else None
+    elif not includes and int(index) < len(keys):
+        key = keys[int(index)]  # keyframes compile in document order
+    if got is None and key is not None and kind in key[2]:
+        got = str(len(key[2][kind].split()))
+    if line is None and key is not None:
+        line = str(key[1])
+    where = f"a MuJoCo error at line {line} (<key>)" if line else "a MuJoCo error"
+    who = f"keyframe '{name}'" if name else f"keyframe {index} (no name)"
+    many = f"{got} {kind} numbers" if got is not None else f"more {kind} numbers"
+    n_room, extra = int(room), (int(got) - int(room) if got is not None else 0)
+    per_free = {"qpos": 7, "qvel": 6}.get(kind)
+    if per_free and extra > 0 and extra % per_free == 0:
+        n = extra // per_free
+        meant = "a free joint that is" if n == 1 else f"{n} free joints that are"
+    else:
+        meant = f"{_KEY_FIELDS.get(kind, kind)} that are"
+    return (f"{where}: {who} has {many} but the model has {n_room}: a keyframe written for "
+            f"{meant} no longer there? Remove the keyframe or fix its {kind}")
+
+
+def _key_elements(path: str | None, text: str | None
+                  ) -> tuple[list[tuple[str, int, dict[str, str]]], bool]:
+    """The document's ``<key>`` elements (name, line, attributes) and whether it includes files.
+
+    Only the document itself is read (an included file's keyframes are not listed); a
+    document Python's XML parser cannot read has none.
+    """
+    from xml.parsers import expat
+
+    try:
+        data = Path(path).read_bytes() if path is not None else (text or "").encode()
+    except OSError:
+        return [], False
+    keys: list[tuple[str, int, dict[str, str]]] = []
+    includes = False
+    parser = expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        nonlocal includes
+        if tag == "key":
+            keys.append((attrs.get("name", ""), parser.CurrentLineNumber, attrs))
+        includes = includes or tag == "include"
+
+    parser.StartElementHandler = start
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError:
+        return [], False
+    return keys, includes
+
+
 def load_top(mjcf: str | os.PathLike[str]) -> TopModel:
-    """Compile MJCF (text or path) and read the top's parameters; see :func:`top_from_model`."""
-    return top_from_model(load_model(mjcf))
+    """Compile MJCF (text or path) and read the top's parameters; see :func:`top_from_model`.
+
+    A file's messages name it (as given); text's name ``mjcf``.
+    """
+    is_text = isinstance(mjcf, str) and mjcf.lstrip().startswith("<")
+    return top_from_model(load_model(mjcf), source=None if is_text else os.fspath(mjcf))
 
 
 def top_from_mjcf_file(path: str | os.PathLike[str]) -> TopParams:
@@ -263,10 +342,14 @@ def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _symmetry_axis(
-    model: mujoco.MjModel, b: int, centre_body: np.ndarray, R: float
+    model: mujoco.MjModel, b: int, centre_body: np.ndarray, R: float,
+    source: str | None = None,
 ) -> tuple[np.ndarray, float, float]:
-    """The unit axis k (body frame, O -> S) and the moments (A, C); raise if not axisymmetric."""
-    body = _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+    """The unit axis k (body frame, O -> S) and the moments (A, C); raise if not axisymmetric.
+
+    ``source``: the file the model came from, named in the message (None: text).
+    """
+    body = _in(source, f"body '{_name(model, mujoco.mjtObj.mjOBJ_BODY, b)}'")
     moments = np.array(model.body_inertia[b], dtype=float)
     axes = quat_to_mat(model.body_iquat[b])  # columns: principal axes in the body frame
     offset = centre_body - np.array(model.body_ipos[b], dtype=float)  # S - O, body frame
@@ -276,7 +359,7 @@ def _symmetry_axis(
         (i, j, c) for i, j, c in pairs
         if abs(moments[i] - moments[j]) <= AXISYMMETRY_RTOL * max(moments[i], moments[j])
     ]
-    expect(bool(equal), f"body '{body}' inertia",
+    expect(bool(equal), f"{body} inertia",
            f"two equal principal moments (axisymmetric to {AXISYMMETRY_RTOL:g} relative)",
            tuple(float(m) for m in moments))
     if len(equal) == 3:  # spherical inertia: any axis is principal; take O -> S
@@ -287,7 +370,7 @@ def _symmetry_axis(
     A, C = 0.5 * float(moments[i] + moments[j]), float(moments[c])
     axis = axes[:, c] / np.linalg.norm(axes[:, c])
     off_axis = float(np.linalg.norm(offset - np.dot(offset, axis) * axis))
-    expect(off_axis <= AXISYMMETRY_RTOL * R, f"body '{body}' centre of mass",
+    expect(off_axis <= AXISYMMETRY_RTOL * R, f"{body} centre of mass",
            "on the principal C axis through the sphere's centre (off by <= "
            f"{AXISYMMETRY_RTOL:g} R)", f"{off_axis:.3e} m off the axis")
     if a > 0 and np.dot(offset, axis) < 0:
@@ -484,8 +567,20 @@ def _extra_geom_warnings(top_model: TopModel) -> tuple[str, ...]:
     return tuple(out)
 
 
-def top_from_model(model: mujoco.MjModel) -> TopModel:
+def _in(source: str | None, what: str, text_what: str | None = None) -> str:
+    """What a message names: ``FILE: what`` for a file, else ``text_what`` (default ``what``)."""
+    if source is None:
+        return what if text_what is None else text_what
+    return f"{source}: {what}"
+
+
+def top_from_model(model: mujoco.MjModel, *, source: str | None = None) -> TopModel:
     """Read the paper's parameters of the one free body of a compiled model.
+
+    Args:
+        model: The compiled model.
+        source: The file it was compiled from, named in every message (None: ``mjcf``, a
+            document given as text).
 
     Raises:
         TippetopError: If the model has not exactly one free body, the free body has child
@@ -498,15 +593,20 @@ def top_from_model(model: mujoco.MjModel) -> TopModel:
             from the sphere's centre (also listed in :attr:`TopModel.warnings`).
     """
     free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
-    expect(len(free) == 1, "mjcf", "exactly one body with a free joint",
-           f"{len(free)} free joints")
+    if len(free) != 1:
+        bodies = ", ".join(f"'{_name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.jnt_bodyid[j]))}'"
+                           for j in free)
+        got = (f"{len(free)} free joints (bodies {bodies})" if free else
+               "0 free joints (the top's <body> needs a <freejoint/>)")
+        raise TippetopError(f"{source or 'mjcf'}: expected exactly one body with a free joint, "
+                            f"got {got}")
     j = free[0]
     b = int(model.jnt_bodyid[j])
     body = _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
     children = [_name(model, mujoco.mjtObj.mjOBJ_BODY, c) for c in range(model.nbody)
                 if c != b and model.body_parentid[c] == b]
-    expect(not children, f"body '{body}'", "no child bodies (put every geom in the one body)",
-           children)
+    expect(not children, _in(source, f"body '{body}'"),
+           "no child bodies (put every geom in the one body)", children)
     spheres = [
         g for g in range(model.ngeom)
         if model.geom_bodyid[g] == b and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE
@@ -514,18 +614,21 @@ def top_from_model(model: mujoco.MjModel) -> TopModel:
     ]
     radii = sorted((float(model.geom_size[g, 0]), g) for g in spheres)
     expect(len(spheres) == 1 or (len(spheres) > 1 and radii[-1][0] > radii[-2][0]),
-           f"body '{body}'", "a colliding sphere geom (the ball; the largest if several)",
+           _in(source, f"body '{body}'"),
+           "a colliding sphere geom (the ball; the largest if several)",
            [_name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in spheres])
     ball = radii[-1][1]
     timestep = float(model.opt.timestep)  # MuJoCo compiles 0 (or less); no run can take it
-    expect(np.isfinite(timestep) and timestep > 0, "mjcf option timestep",
+    expect(np.isfinite(timestep) and timestep > 0,
+           _in(source, "option timestep", "mjcf option timestep"),
            "a step in seconds > 0", timestep)
     gravity = np.array(model.opt.gravity, dtype=float)
-    expect(gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0, "mjcf option gravity",
+    expect(gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0,
+           _in(source, "option gravity", "mjcf option gravity"),
            "(0, 0, -g) with g > 0 (the table is the plane z = 0)", tuple(gravity))
     R = float(model.geom_size[ball, 0])
     centre_body = np.array(model.geom_pos[ball], dtype=float)
-    axis, A, C = _symmetry_axis(model, b, centre_body, R)
+    axis, A, C = _symmetry_axis(model, b, centre_body, R, source)
     a = float(np.linalg.norm(centre_body - model.body_ipos[b]))
     top = TopParams(R_m=R, a_m=a, M_kg=float(model.body_mass[b]), A_kgm2=A, C_kgm2=C,
                     g_mps2=float(-gravity[2]))

@@ -109,7 +109,7 @@ def test_the_model_hash_follows_the_content_not_the_folder(tmp_path: Path) -> No
 @pytest.mark.parametrize(("edit", "message"), [
     (lambda s: s.replace('model = "mytop.xml"', 'model = "nothere.xml"'), "no such file"),
     (lambda s: s.replace('model = "mytop.xml"', 'model = "notop.xml"'),
-     "expected an MJCF top file, got 'notop.xml': mjcf: expected exactly one body with a free"),
+     "notop.xml: expected exactly one body with a free joint, got 0 free joints"),
     (lambda s: s.replace('model = "mytop.xml"', 'model = "mytop.xml"\nscene = "fig3"'),
      "got both"),
     (lambda s: s.replace('kind = "run"', 'kind = "sweep"\nn0 = "30:60:15"'),
