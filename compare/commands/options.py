@@ -4,8 +4,9 @@ An option that several commands take is declared here once (its name, dest, type
 help), asv-style: a command calls ``add_..._option(parser)``, in the place of its help listing
 where the option should appear, and passes its own ``help`` only where its wording differs.
 
-This module imports only the standard library and :mod:`tippetop.models.errors`, so building
-the command line stays cheap.
+This module imports only the standard library, :mod:`tippetop.models.errors` and
+:mod:`tippetop.compare.running.interrupt` (standard library only), so building the command line
+stays cheap.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import warnings
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NoReturn
 
+from tippetop.compare.running.interrupt import EXIT_BOUND_S
 from tippetop.models.errors import RunFailedError, TippetopError, did_you_mean
 
 if TYPE_CHECKING:
@@ -29,6 +31,7 @@ EXIT_OK = 0
 EXIT_RUN_FAILED = 1  # a run that diverged or stopped short: reported, never as numbers
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130  # Ctrl-C: one line, the runs going are stopped
+EXIT_TERMINATED = 143  # SIGTERM: as Ctrl-C (128 + the signal's number, as a shell says it)
 
 #: Every exit status of ``tippetop`` and what it means (``tippetop --help`` lists them).
 EXIT_STATUSES: dict[int, str] = {
@@ -37,8 +40,9 @@ EXIT_STATUSES: dict[int, str] = {
                      "could not be written, the nightly found a regression, or a validate "
                      "check departs",
     EXIT_BAD_INPUT: "bad input: one line on stderr, nothing written",
-    EXIT_INTERRUPTED: "interrupted (Ctrl-C, or SIGTERM to tippetop): the runs going are "
-                      "stopped, nothing half-written",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C): the runs going are stopped, nothing "
+                      f"half-written, the process gone within {EXIT_BOUND_S:g} s",
+    EXIT_TERMINATED: "stopped by SIGTERM: as 130",
 }
 
 #: Help of the shared options, where every command words them the same.
@@ -199,23 +203,31 @@ _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 
 def run_main(args: argparse.Namespace) -> int:
-    """An entry point's run: SIGTERM as Ctrl-C, and Ctrl-C as one line and exit 130."""
+    """An entry point's run: Ctrl-C as one line and exit 130, SIGTERM the same with 143.
+
+    Once interrupted, the process ends within :data:`~tippetop.compare.running.interrupt.
+    EXIT_BOUND_S` whatever its exit waits on, and at once on a second signal.
+    """
     from tippetop.compare.running.interrupt import (
+        Terminated,
         exit_at_next_signal,
         install_sigterm_handler,
         outputs_complete,
     )
 
-    install_sigterm_handler()  # SIGTERM stops the runs and exits 130, as Ctrl-C does
+    install_sigterm_handler()  # SIGTERM stops the runs as Ctrl-C does, and exits 143
     try:
         status = run_command(args)
         outputs_complete()  # the work is done: no interrupt in the interpreter's exit
         return status
-    except KeyboardInterrupt:
-        # the runs are stopped: a signal from here on ends the process with 130 at once
-        exit_at_next_signal(EXIT_INTERRUPTED)
-        sys.stderr.write("tippetop: interrupted\n")
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        status = EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+        # the runs are stopped: a signal from here on ends the process at once, and the
+        # interpreter's exit may take EXIT_BOUND_S at most
+        exit_at_next_signal(status)
+        sys.stderr.write("tippetop: interrupted\n" if status == EXIT_INTERRUPTED
+                         else "tippetop: stopped by SIGTERM\n")
+        return status
     except BrokenPipeError:  # e.g. piped into head
         sys.stderr.close()
         return EXIT_OK

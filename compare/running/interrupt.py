@@ -1,7 +1,8 @@
 """SIGTERM handled as Ctrl-C in a command's main process (standard library only).
 
 The runs going are stopped (the runner ends its workers on a :class:`KeyboardInterrupt`),
-staged outputs removed, one line ``tippetop: interrupted``, exit status 130.
+staged outputs removed, one line ``tippetop: interrupted``, exit status 130 (143 for SIGTERM).
+From then on the process ends within :data:`EXIT_BOUND_S`, whatever its exit waits on.
 """
 
 from __future__ import annotations
@@ -11,6 +12,13 @@ import signal
 import sys
 import threading
 from typing import Any
+
+#: After an interrupt has stopped the runs, the process ends within this many seconds (s). What
+#: is left then is a line and the interpreter's exit, which joins the process pools' manager
+#: threads: measured, one of them can wait without end on a result a worker, killed by the
+#: same signal, had half written (2 of 42 Ctrl-Cs to a quick nightly on a loaded machine hung
+#: 65 and 145 s). Everything the command owns is complete or removed before the bound starts.
+EXIT_BOUND_S = 3.0
 
 
 class Terminated(KeyboardInterrupt):
@@ -66,27 +74,82 @@ def exit_at_next_signal(status: int) -> None:
     status, where it would otherwise raise out of the exit (a traceback, and death by SIGINT in
     place of 130) or interrupt nothing. Outside the main thread it does nothing, and so it
     does unless :func:`own_process` was called.
+
+    The process then ends within :data:`EXIT_BOUND_S` with ``status`` whatever its exit waits
+    on (:func:`exit_within`).
     """
     def leave(signum: int, frame: Any) -> None:
-        try:
-            sys.stderr.flush()
-        finally:
-            os._exit(status)
+        _leave(status)
 
-    _on_interrupts(leave)
+    if _on_interrupts(leave):
+        exit_within(EXIT_BOUND_S, status)
 
 
-def _on_interrupts(handler: Any) -> None:
-    """Ctrl-C and SIGTERM handled by ``handler`` from now on.
+def _leave(status: int) -> None:
+    """End the process now with ``status``: its streams flushed, its semaphores released."""
+    try:
+        _release_semaphores()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):  # a closed or broken stream: nothing more to say
+        pass
+    finally:
+        os._exit(status)
+
+
+def _release_semaphores() -> None:
+    """Unlink this process's multiprocessing semaphores and tell the resource tracker so.
+
+    An exit that skips the interpreter's cleanup leaves them to the resource tracker, which
+    unlinks them too but prints "There appear to be N leaked semaphore objects" under the
+    command's last line.
+    """
+    if "multiprocessing.synchronize" not in sys.modules:
+        return
+    import gc
+
+    try:
+        import _multiprocessing
+        from multiprocessing import resource_tracker, synchronize
+    except ImportError:  # pragma: no cover - a platform without them: the tracker says it
+        return
+    for obj in gc.get_objects():
+        name = getattr(getattr(obj, "_semlock", None), "name", None) \
+            if isinstance(obj, synchronize.SemLock) else None
+        if name:
+            try:
+                _multiprocessing.sem_unlink(name)
+                resource_tracker.unregister(name, "semaphore")
+            except (OSError, ValueError):  # already gone
+                pass
+
+
+def exit_within(seconds: float, status: int) -> threading.Timer:
+    """End the process with ``status`` in ``seconds`` unless it has ended by then.
+
+    A daemon timer thread: it runs while the main thread waits in the interpreter's exit (on a
+    pool's manager thread, a result pipe, a lock), which a signal handler cannot interrupt when
+    the wait is in C.
+    """
+    timer = threading.Timer(seconds, _leave, args=(status,))
+    timer.daemon = True
+    timer.name = "tippetop-exit-bound"
+    timer.start()
+    return timer
+
+
+def _on_interrupts(handler: Any) -> bool:
+    """Ctrl-C and SIGTERM handled by ``handler`` from now on; whether they are.
 
     Only in a process of tippetop's own (:func:`own_process`), on its main thread; elsewhere
     nothing changes.
     """
     if not _owns_process or threading.current_thread() is not threading.main_thread():
-        return
+        return False
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
+    return True
 
 
-__all__ = ["Terminated", "exit_at_next_signal", "install_sigterm_handler", "outputs_complete",
-           "own_process"]
+__all__ = ["EXIT_BOUND_S", "Terminated", "exit_at_next_signal", "exit_within",
+           "install_sigterm_handler", "outputs_complete", "own_process"]

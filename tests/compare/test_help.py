@@ -22,6 +22,7 @@ from tippetop.compare.commands.options import (
     EXIT_OK,
     EXIT_RUN_FAILED,
     EXIT_STATUSES,
+    EXIT_TERMINATED,
 )
 from tippetop.compare.presentation.crossval import print_compare
 from tippetop.compare.presentation.sweep import print_sweep
@@ -137,8 +138,9 @@ def test_top_level_help_lists_scenes_modes_exit_codes_and_the_cache_variable() -
 def test_the_exit_codes_listed_are_the_ones_used() -> None:
     """0 ok, 1 a failed run or regression, 2 bad input, 130 interrupted: the help reads them
     from the constants the commands return."""
-    assert (EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED) == (0, 1, 2, 130)
-    assert set(EXIT_STATUSES) == {0, 1, 2, 130}
+    assert (EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED,
+            EXIT_TERMINATED) == (0, 1, 2, 130, 143)
+    assert set(EXIT_STATUSES) == {0, 1, 2, 130, 143}
     assert tippetop("simulate", "--set", "init.n0=nan").returncode == EXIT_BAD_INPUT
 
 
