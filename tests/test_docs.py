@@ -27,10 +27,13 @@ the line.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import re
 import shlex
 import shutil
+import sqlite3
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -415,23 +418,168 @@ def test_docs_commands_slow(block: Block, docs_env: dict[str, str], tmp_path: Pa
     _run_block(block, docs_env, tmp_path)
 
 
-def test_docs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
-    """The site builds with warnings as errors (links, anchors, the API pages' docstrings),
-    printing only INFO lines (no notice, no deprecation: a newcomer reads what it prints); the
-    images are left out here (TIPPETOP_DOCS_IMAGES=0): CI builds them in its own step."""
-    pytest.importorskip("properdocs", reason="the docs extra: pip install -e '.[docs]'")
-    pytest.importorskip("mkdocstrings_handlers.python", reason="pip install -e '.[docs]'")
-    env = dict(docs_env, TIPPETOP_DOCS_IMAGES="0")
-    # as in a fresh clone: the API hook's links (build/docs-api) made by this build (a first
-    # build once failed where a second passed: mkdocstrings left out a path not there yet)
-    shutil.rmtree(ROOT / "build" / "docs-api", ignore_errors=True)
-    # the README's command, as a newcomer runs it (no config file named: properdocs.yml is
-    # found by its name; no variable to hide a notice); only the site folder is a temporary one
-    proc = subprocess.run(["properdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
-                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+def _images_hook():
+    """docs/hooks/images.py as a module (loaded by its path, as properdocs loads it)."""
+    import importlib.util
+
+    pytest.importorskip("mkdocs", reason="the docs extra: pip install -e '.[docs]'")
+    spec = importlib.util.spec_from_file_location("tippetop_docs_images_hook",
+                                                  ROOT / "docs" / "hooks" / "images.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _tree(folder: Path) -> dict[str, tuple[int, int, str]]:
+    """Everything under ``folder``: relative path -> (size, mtime in ns, sha256 of a file)."""
+    out = {}
+    for p in sorted(folder.rglob("*")):
+        st = p.lstat()
+        digest = hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "folder"
+        out[str(p.relative_to(folder))] = (st.st_size, st.st_mtime_ns, digest)
+    return out
+
+
+def _seed_user_cache(folder: Path) -> dict[str, tuple[int, int, str]]:
+    """A user's ``TIPPETOP_CACHE`` as a docs build may find it, and its :func:`_tree`: a history
+    of one nightly (written by the project's own history code), a cached run, compiled code."""
+    from tippetop.compare.nightly.history import Measure, RunInfo, append_run
+
+    append_run(RunInfo(kind="nightly", started="2026-01-02T03:04:05+00:00", profile="quick",
+                       argv=["tippetop", "nightly", "--profile", "quick"]),
+               [Measure(case="paper/fig3", engine="ode", metric="t_flip_s", value=1.5)],
+               folder / "history.sqlite")
+    (folder / "ab").mkdir()
+    (folder / "ab" / "abcdef.json").write_text('{"a user\'s": "cached run"}\n')
+    (folder / "numba" / "0123456789abcdef").mkdir(parents=True)
+    (folder / "numba" / "0123456789abcdef" / "user.nbi").write_bytes(b"compiled")
+    return _tree(folder)
+
+
+def _unchanged(folder: Path, before: dict[str, tuple[int, int, str]]) -> str:
+    """What differs in ``folder`` from ``before`` ('' when nothing does)."""
+    after = _tree(folder)
+
+    def how(name: str) -> str:
+        return "new" if name not in before else "gone" if name not in after else "changed"
+
+    return "\n".join(f"  {name}: {how(name)}" for name in sorted(before.keys() | after.keys())
+                     if before.get(name) != after.get(name))
+
+
+def _history_runs(path: Path) -> list[str]:
+    """The argv of every run in a history file (none when there is no file)."""
+    if not path.is_file():
+        return []
+    con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    try:
+        return [argv for (argv,) in con.execute("SELECT argv FROM runs ORDER BY id")]
+    finally:
+        con.close()
+
+
+def _build(env: dict[str, str], site: Path) -> str:
+    """The README's command, as a newcomer runs it (no config file named: properdocs.yml is
+    found by its name; no variable to hide a notice); only the site folder is a temporary one.
+    What it printed; the build must pass."""
+    proc = subprocess.run(["properdocs", "build", "--strict", "--site-dir", str(site)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=900,
                           check=False)
     log = proc.stdout + proc.stderr
     assert proc.returncode == 0, log[-3000:]
+    return log
+
+
+#: Run by :func:`test_the_picture_commands_keep_to_the_docs_cache` through the images hook:
+#: appends a run to the default history (as ``nightly`` does) and says where its cache is.
+_WHERE = """
+import json, os, sys
+from tippetop.compare.nightly.history import RunInfo, append_run, history_path, timestamp_now
+from tippetop.models.resources import user_cache_dir
+from tippetop.reference_ode import NUMBA_CACHE_DIR
+append_run(RunInfo(kind="nightly", started=timestamp_now(), argv=["docs-hook-test"]), [])
+json.dump({"cache": str(user_cache_dir()), "history": str(history_path()),
+           "numba": None if NUMBA_CACHE_DIR is None else str(NUMBA_CACHE_DIR),
+           "numba_env": os.environ.get("NUMBA_CACHE_DIR")}, open(sys.argv[1], "w"))
+"""
+
+
+@pytest.mark.parametrize("user_numba", [False, True], ids=["default-numba", "user-numba"])
+def test_the_picture_commands_keep_to_the_docs_cache(user_numba: bool, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/hooks/images.py runs its commands (``tippetop validate``, ``nightly``, ``render``)
+    with the docs build's own cache, ``build/docs-cache``: a command run as they are, with the
+    user's ``TIPPETOP_CACHE`` set, appends its run to the docs cache's history and compiles
+    there, and leaves the user's cache as it was. A ``NUMBA_CACHE_DIR`` the user set is kept."""
+    hook = _images_hook()
+    user = tmp_path / "user-cache"
+    before = _seed_user_cache(user)
+    monkeypatch.setenv("TIPPETOP_CACHE", str(user))
+    if user_numba:
+        monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "user-numba"))
+    else:
+        monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    repo = tmp_path / "repo"  # not the repository's own build/docs-cache
+    monkeypatch.setattr(hook, "ROOT", repo)
+    out = tmp_path / "where.json"
+    hook._run([sys.executable, "-c", _WHERE, str(out)], tmp_path)
+    changed = _unchanged(user, before)
+    assert not changed, f"the docs build's command changed the user's TIPPETOP_CACHE:\n{changed}"
+    where = json.loads(out.read_text())
+    docs_cache = (repo / "build" / "docs-cache").resolve()
+    assert where["cache"] == str(docs_cache)
+    assert where["history"] == str(docs_cache / "history.sqlite")
+    assert _history_runs(docs_cache / "history.sqlite") == ['["docs-hook-test"]']
+    if user_numba:
+        assert where["numba"] is None
+        assert where["numba_env"] == str(tmp_path / "user-numba")
+    else:
+        assert where["numba_env"] is None
+        assert Path(where["numba"]).parent == docs_cache / "numba"
+
+
+def test_chromium_keeps_out_of_the_users_home(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reports' screenshot: Chromium gets a profile, a config and a cache folder in the
+    build's temporary folder, and writes nothing into the user's home (~/.config/chromium,
+    ~/.cache/chromium-headless)."""
+    hook = _images_hook()
+    if hook._chromium() is None:
+        pytest.skip("chromium not installed (bash scripts/install-system-packages.sh)")
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    for name in ("XDG_CONFIG_HOME", "XDG_CACHE_HOME", "XDG_DATA_HOME"):
+        monkeypatch.delenv(name, raising=False)
+    page = tmp_path / "report" / "report.html"
+    page.parent.mkdir()
+    page.write_text("<!doctype html><p>a report</p>\n")
+    work = tmp_path / "work"
+    work.mkdir()
+    png = hook._screenshot(page, 100, work)
+    assert png.startswith(b"\x89PNG")
+    wrote = sorted(str(q.relative_to(home)) for q in home.glob("*/*"))
+    assert not list(home.iterdir()), f"chromium wrote into the home: {wrote}"
+
+
+def test_docs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
+    """The site builds with warnings as errors (links, anchors, the API pages' docstrings),
+    printing only INFO lines (no notice, no deprecation: a newcomer reads what it prints), and
+    leaves the user's ``TIPPETOP_CACHE`` as it was (the hooks in this process: API links,
+    formulas, glossary). The images are left out here (TIPPETOP_DOCS_IMAGES=0): CI builds them
+    in its own step, and :func:`test_docs_build_with_pictures_leaves_the_users_cache` in the
+    slow suite."""
+    pytest.importorskip("properdocs", reason="the docs extra: pip install -e '.[docs]'")
+    pytest.importorskip("mkdocstrings_handlers.python", reason="pip install -e '.[docs]'")
+    user = tmp_path / "user-cache"
+    before = _seed_user_cache(user)
+    env = dict(docs_env, TIPPETOP_DOCS_IMAGES="0", TIPPETOP_CACHE=str(user))
+    # as in a fresh clone: the API hook's links (build/docs-api) made by this build (a first
+    # build once failed where a second passed: mkdocstrings left out a path not there yet)
+    shutil.rmtree(ROOT / "build" / "docs-api", ignore_errors=True)
+    log = _build(env, tmp_path / "site")
+    changed = _unchanged(user, before)
+    assert not changed, f"the docs build changed the user's TIPPETOP_CACHE:\n{changed}"
     # every line it prints is an INFO line
     not_info = [ln for ln in log.splitlines() if ln.strip() and not ln.startswith("INFO")]
     assert not not_info, "the docs build printed more than INFO lines:\n" + log[-3000:]
@@ -451,3 +599,56 @@ def test_docs_build_strict(docs_env: dict[str, str], tmp_path: Path) -> None:
     theory = (tmp_path / "site" / "physics" / "theory.html").read_text(encoding="utf-8")
     assert re.search(r'href="#the-gyroscopic[^"]*" class="md-nav__link">\s*<span[^>]*>\s*'
                      r"The gyroscopic balance condition and the <math", theory)
+    _search_works_from_disk(tmp_path / "site", tmp_path)
+
+
+def _search_works_from_disk(site: Path, tmp_path: Path) -> None:
+    """The site's search box is there when a page is opened from disk with no network: no page
+    loads a script from the network (Material's offline plugin loaded its iframe-worker shim
+    from unpkg.com, and without it Material hides the box: issue 43), and in headless Chromium
+    the search dialog of index.html is not hidden once its scripts have run, and a query
+    finds a page."""
+    remote = [p.name for p in site.rglob("*.html")
+              if re.search(r'<script[^>]+src="https?://', p.read_text(encoding="utf-8"))]
+    assert not remote, f"pages load a script from the network: {remote[:5]}"
+    hook = _images_hook()
+    chromium = hook._chromium()
+    if chromium is None:
+        pytest.skip("chromium not installed (bash scripts/install-system-packages.sh)")
+    dom = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu",
+                          f"--user-data-dir={tmp_path / 'chromium'}",
+                          "--virtual-time-budget=5000", "--dump-dom",
+                          (site / "index.html").as_uri() + "?q=jellett"],
+                         capture_output=True, text=True, timeout=120).stdout
+    box = re.search(r'<div class="md-search"[^>]*>', dom)
+    assert box is not None, dom[:2000]
+    assert "hidden" not in box.group(0), f"the search box is hidden: {box.group(0)}"
+    found = re.search(r'md-search-result__meta">\s*(\d+) matching document', dom)
+    assert found and int(found.group(1)) >= 3, "no search results for 'jellett'"
+
+
+@pytest.mark.slow
+def test_docs_build_with_pictures_leaves_the_users_cache(docs_env: dict[str, str],
+                                                         tmp_path: Path) -> None:
+    """The build CI runs, its pictures made by real commands (docs/hooks/images.py), leaves
+    the user's ``TIPPETOP_CACHE`` as it was, file for file: the picture's nightly is appended
+    to the docs build's own history (``build/docs-cache``), not to the one ``tippetop history``
+    shows the user."""
+    pytest.importorskip("properdocs", reason="the docs extra: pip install -e '.[docs]'")
+    pytest.importorskip("mkdocstrings_handlers.python", reason="pip install -e '.[docs]'")
+    hook = _images_hook()
+    if hook._chromium() is None:
+        pytest.skip("chromium not installed (bash scripts/install-system-packages.sh)")
+    user = tmp_path / "user-cache"
+    before = _seed_user_cache(user)
+    docs_history = ROOT / hook.CACHE / "history.sqlite"
+    runs = len(_history_runs(docs_history))
+    env = dict(docs_env, TIPPETOP_CACHE=str(user))
+    env.pop(hook.ENV, None)
+    log = _build(env, tmp_path / "site")
+    not_made = [name for name in hook.IMAGES if f"docs image {name} made in" not in log]
+    assert not not_made, f"pictures not made: {not_made}\n" + log[-3000:]
+    changed = _unchanged(user, before)
+    assert not changed, f"the docs build changed the user's TIPPETOP_CACHE:\n{changed}"
+    added = _history_runs(docs_history)[runs:]
+    assert len(added) == 1 and '"nightly"' in added[0], added

@@ -6,11 +6,17 @@ the commands below into a temporary folder, opens each report in headless Chromi
 few frames of the video (imageio), and adds the PNGs to the site as generated files
 (``images/*.png``), so a picture is always of the code that built the site.
 
-About 50 s on 2 cores (measured with a fresh and with a warm compile cache, which the commands
-share with the user's: ``$TIPPETOP_CACHE``). ``TIPPETOP_DOCS_IMAGES=0`` skips
-the commands for a quick local build: the pages then show placeholders, with one notice (not a
-warning). A missing Chromium, a missing offscreen OpenGL or a failing command is one warning
-line naming it, which fails ``properdocs build --strict``.
+The commands run with a cache of their own, ``build/docs-cache/`` (ignored by git): their
+runs, the history their ``nightly`` appends to, their compiled code and any managed environment
+go there, never into the user's ``$TIPPETOP_CACHE``, so a docs build leaves no run in the user's
+``tippetop history`` (:data:`CACHE`, :func:`command_env`). A ``NUMBA_CACHE_DIR`` the user set is
+kept. The folder stays between builds, so a second build loads the compiled code. Chromium too
+gets a profile, a config and a cache folder of its own, in the temporary folder.
+
+About 50 s on 2 cores (measured with a fresh and with a warm compile cache).
+``TIPPETOP_DOCS_IMAGES=0`` skips the commands for a quick local build: the pages then show
+placeholders, with one notice (not a warning). A missing Chromium, a missing offscreen OpenGL
+or a failing command is one warning line naming it, which fails ``properdocs build --strict``.
 """
 
 from __future__ import annotations
@@ -56,6 +62,12 @@ WORK_PRECISION_RESULTS = "docs/data/work-precision.json"
 
 #: Each command's time limit (s): a hung command is a failed image, not a hung build.
 TIMEOUT_S = 600
+
+#: The repository (this file is docs/hooks/images.py).
+ROOT = Path(__file__).resolve().parents[2]
+#: The commands' own ``TIPPETOP_CACHE`` (relative to the repository; ``build/`` is ignored by
+#: git): their run cache, history, compiled code and managed environments, kept between builds.
+CACHE = Path("build") / "docs-cache"
 
 #: The generated images: site path -> (what it shows, for the placeholder).
 IMAGES = {
@@ -132,10 +144,24 @@ def _tippetop() -> str:
     return found
 
 
-def _run(args: list[str], cwd: Path, ok: tuple[int, ...] = (0,)) -> None:
+def command_env(root: Path | None = None) -> dict[str, str]:
+    """The environment the commands run in: this process's, with the docs build's own cache.
+
+    ``TIPPETOP_CACHE`` decides where a command keeps its runs, its history
+    (``history.sqlite``), its compiled code (``numba/``, unless ``NUMBA_CACHE_DIR`` is set: the
+    user's choice, kept) and its managed environments (``envs/``): here ``root``/:data:`CACHE`.
+
+    Args:
+        root: The repository (default :data:`ROOT`).
+    """
+    return dict(os.environ, TIPPETOP_CACHE=str(((root or ROOT) / CACHE).resolve()))
+
+
+def _run(args: list[str], cwd: Path, ok: tuple[int, ...] = (0,),
+         env: dict[str, str] | None = None) -> None:
     try:
-        proc = subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S,
-                              check=False)
+        proc = subprocess.run(args, cwd=cwd, env=command_env() | (env or {}), capture_output=True,
+                              text=True, timeout=TIMEOUT_S, check=False)
     except subprocess.TimeoutExpired as exc:
         raise ImageError(f"`{_show(args)}` took over {TIMEOUT_S} s") from exc
     if proc.returncode not in ok:
@@ -165,8 +191,13 @@ def _screenshot(html: Path, crop_height: int, tmp: Path) -> bytes:
     if chromium is None:
         raise ImageError("chromium not found")
     png = tmp / f"{html.parent.name}.png"
+    # a profile, a config and a cache folder of its own in the temporary folder: none of the
+    # user's (~/.config/chromium, ~/.cache/chromium-headless)
+    own = tmp / "chromium"
     _run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-          f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--screenshot={png}", html.as_uri()], tmp)
+          f"--user-data-dir={own / 'profile'}", f"--window-size={WINDOW[0]},{WINDOW[1]}",
+          f"--screenshot={png}", html.as_uri()], tmp,
+         env={"XDG_CONFIG_HOME": str(own / "config"), "XDG_CACHE_HOME": str(own / "cache")})
     if not png.is_file():
         raise ImageError(f"chromium wrote no screenshot of {html}")
     with Image.open(png) as im:
