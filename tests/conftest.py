@@ -3,17 +3,29 @@
 from __future__ import annotations
 
 import functools
+import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tippetop.models.options import OdeOptions
-from tippetop.models.params import FrictionParams, InitialState, TopParams
-from tippetop.models.plan import MujocoPlan
-from tippetop.models.resolve import resolve_plan
-from tippetop.models.scene import load_scene
-from tippetop.reference_ode.solve import OdeResult, simulate_ode
+#: The suite's own cache and history (issue 43: the tests leave the user's state alone). Every
+#: run the tests make, every history they append to and the code they compile go here, never to
+#: the user's ``$TIPPETOP_CACHE`` (before: ``~/.cache/tippetop`` held the tests' matrix and
+#: bisect runs in its history). Kept between sessions under the repository's gitignored build/
+#: so that compiled code is reused; ``TIPPETOP_TEST_CACHE`` names another folder. Set before
+#: tippetop is imported: the compiled-code cache is chosen on import.
+TEST_CACHE = Path(os.environ.get("TIPPETOP_TEST_CACHE")
+                  or Path(__file__).resolve().parents[1] / "build" / "test-cache")
+USER_CACHE = os.environ.get("TIPPETOP_CACHE")  # the user's, for the test that it is left alone
+os.environ["TIPPETOP_CACHE"] = str(TEST_CACHE)
+
+from tippetop.models.options import OdeOptions  # noqa: E402 (after TIPPETOP_CACHE)
+from tippetop.models.params import FrictionParams, InitialState, TopParams  # noqa: E402 (after TIPPETOP_CACHE)
+from tippetop.models.plan import MujocoPlan  # noqa: E402 (after TIPPETOP_CACHE)
+from tippetop.models.resolve import resolve_plan  # noqa: E402 (after TIPPETOP_CACHE)
+from tippetop.models.scene import load_scene  # noqa: E402 (after TIPPETOP_CACHE)
+from tippetop.reference_ode.solve import OdeResult, simulate_ode  # noqa: E402 (after TIPPETOP_CACHE)
 
 if TYPE_CHECKING:
     from tippetop.mujoco_runner.results import MujocoResult

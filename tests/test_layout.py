@@ -87,3 +87,21 @@ def test_the_files_that_shape_a_cached_result_exist() -> None:
 
     for pkg, name in cache.MODULES:
         assert data_path(pkg, name).is_file(), (pkg, name)
+
+
+def test_the_suite_keeps_to_its_own_cache() -> None:
+    """Issue 43: the tests use their own cache and history, never the user's: conftest.py sets
+    ``TIPPETOP_CACHE`` to the suite's folder before tippetop is imported, so the runs, the
+    history and the compiled code of this process and of every command a test starts (they
+    inherit the environment) go there."""
+    import os
+
+    from tests.conftest import TEST_CACHE, USER_CACHE
+    from tippetop.compare.nightly.history import history_path
+    from tippetop.models.resources import user_cache_dir
+
+    assert os.environ["TIPPETOP_CACHE"] == str(TEST_CACHE)
+    assert user_cache_dir() == TEST_CACHE
+    assert history_path().parent == TEST_CACHE
+    assert TEST_CACHE != Path.home() / ".cache" / "tippetop"
+    assert USER_CACHE is None or Path(USER_CACHE) != TEST_CACHE
