@@ -44,6 +44,40 @@ AUTO_RULE: tuple[tuple[float, str, float], ...] = (
 TAYLOR_ORDERS: tuple[tuple[float, int], ...] = ((1e-4, 7), (1e-5, 9), (1e-6, 10), (0.0, 12))
 
 
+def taylor_orders_text() -> str:
+    """The Taylor method's orders as words: "7, 9, 10 and 12" (:data:`TAYLOR_ORDERS`)."""
+    orders = [str(o) for o in sorted({o for _, o in TAYLOR_ORDERS})]
+    return orders[0] if len(orders) == 1 else f"{', '.join(orders[:-1])} and {orders[-1]}"
+
+
+#: What each method of :data:`ODE_METHODS` is, in a few words (tables, run summaries, the
+#: glossary; reference_ode/methods.py declares the methods with them).
+METHOD_TITLES: dict[str, str] = {
+    "dop853": "Dormand-Prince 8(5,3) (Hairer's DOP853)",
+    "vern9": "Verner 9(8) (the most efficient pair, IIIXb)",
+    "adams": "variable-order Adams PECE, orders 1-12",
+    "taylor": f"adaptive Taylor series, orders {taylor_orders_text()} (the ball on the table, "
+              "the modified Coulomb law)",
+}
+
+
+def auto_text() -> str:
+    """What ``auto``, the default, runs, in words.
+
+    Made from :data:`AUTO_TAYLOR` and :data:`AUTO_RULE`.
+    """
+    rule = []
+    lower = None
+    for limit, name, factor in AUTO_RULE:
+        at = "" if factor == 1.0 else f" at {factor:g} x the rtol"
+        where = (f"rtol >= {limit:g}" if lower is None else
+                 f"{lower:g} > rtol >= {limit:g}" if limit > 0 else f"rtol < {lower:g}")
+        rule.append(f"{name}{at} where {where}")
+        lower = limit
+    return (f"the default, auto, runs {AUTO_TAYLOR[0]} at {AUTO_TAYLOR[1]:g} x the rtol "
+            "where it runs; elsewhere " + ", ".join(rule))
+
+
 def taylor_order(rtol: float) -> int:
     """The Taylor method's order at the relative tolerance it runs at (:data:`TAYLOR_ORDERS`)."""
     for limit, order in TAYLOR_ORDERS:

@@ -27,6 +27,7 @@ from tippetop.models.errors import TippetopError
 from tippetop.models.options import (
     AUTO_RULE,
     AUTO_TAYLOR,
+    METHOD_TITLES,
     ODE_METHODS,
     TAYLOR_ORDERS,
     auto_method,
@@ -70,21 +71,13 @@ class Method:
         return self._kernel().new_stats(n)
 
 
-def _orders() -> str:
-    """The Taylor method's orders as words: "7, 9, 10 and 12" (:data:`TAYLOR_ORDERS`)."""
-    orders = [str(o) for o in sorted({o for _, o in TAYLOR_ORDERS})]
-    return orders[0] if len(orders) == 1 else f"{', '.join(orders[:-1])} and {orders[-1]}"
-
-
 #: The methods there are, by name.
 METHODS: dict[str, Method] = {m.name: m for m in (
-    Method("dop853", "dop853", 8, "Dormand-Prince 8(5,3) (Hairer's DOP853)"),
-    Method("vern9", "verner", 9, "Verner 9(8) (the most efficient pair, IIIXb)"),
-    Method("adams", "adams", 12, "variable-order Adams PECE, orders 1-12",
+    Method("dop853", "dop853", 8, METHOD_TITLES["dop853"]),
+    Method("vern9", "verner", 9, METHOD_TITLES["vern9"]),
+    Method("adams", "adams", 12, METHOD_TITLES["adams"], hands_over_stiff=True),
+    Method("taylor", "taylor", max(o for _, o in TAYLOR_ORDERS), METHOD_TITLES["taylor"],
            hands_over_stiff=True),
-    Method("taylor", "taylor", max(o for _, o in TAYLOR_ORDERS),
-           f"adaptive Taylor series, orders {_orders()} (the ball on the table, the modified "
-           "Coulomb law)", hands_over_stiff=True),
 )}
 assert tuple(METHODS) == ODE_METHODS[1:]
 

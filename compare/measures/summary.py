@@ -20,6 +20,7 @@ from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import LAW_MODES, run_label
 from tippetop.models.numbers import number_text, solver_text
+from tippetop.models.options import METHOD_TITLES, auto_text
 from tippetop.models.plan import NATIVE_LAW
 
 #: ``friction_law`` of a run on MuJoCo's own contact: today's, and the release before's.
@@ -72,9 +73,9 @@ RAN_FIELDS: dict[str, RanField] = {f.name: f for f in (
              f"or {NATIVE_LAW} (MuJoCo's own contact makes the friction)", FAMILIES),
     RanField("formulation", "", "the reference's equations: vector (regular at theta = 0 and "
              "pi) or paper (the paper's own variables)", ("ode",)),
-    RanField("method", "", "the reference's integration method: dop853 (Dormand-Prince "
-             "8(5,3)), vern9 (Verner 9(8)) or adams (variable-order Adams), auto resolved from "
-             "the tolerance", ("ode",)),
+    RanField("method", "", "the reference's integration method that ran, one of "
+             + "; ".join(f"{m}: {t}" for m, t in METHOD_TITLES.items()) + ". "
+             + auto_text()[0].upper() + auto_text()[1:], ("ode",)),
     RanField("rtol", "relative", "the reference integrator's relative tolerance", ("ode",)),
     RanField("atol", "", "the reference integrator's absolute tolerance, in each state "
              "variable's own unit", ("ode",)),

@@ -377,3 +377,17 @@ def test_what_ran_names_the_reference_method_that_ran() -> None:
         text = describe_ran(summary)
         assert text.startswith(f"reference ODE, {method} on the vector formulation at rtol "), \
             text
+
+
+def test_the_method_row_names_every_method_and_the_default() -> None:
+    # the glossary's `method` row is made from the declarations (issue 43: it listed dop853,
+    # vern9 and adams, not taylor, which simulate and plan run by default on a ball)
+    from tippetop.compare.measures.summary import RAN_FIELDS
+    from tippetop.models.options import AUTO_RULE, AUTO_TAYLOR, ODE_METHODS
+
+    meaning = RAN_FIELDS["method"].meaning
+    for method in ODE_METHODS[1:]:
+        assert f"{method}: " in meaning, method
+    assert f"The default, auto, runs {AUTO_TAYLOR[0]} at {AUTO_TAYLOR[1]:g} x the rtol" in meaning
+    for _, name, _ in AUTO_RULE:
+        assert f"{name} " in meaning.split("elsewhere")[1]
