@@ -245,13 +245,14 @@ def kernel(pair: Pair) -> ModuleType:
     return _KERNELS[pair.name]
 
 
-def run(pair: Pair, rhs, watch, y: np.ndarray, t: float, t_stop: float, t_end: float,
-        p: np.ndarray, rtol: float, atol: float, max_steps: int, monitor_floor: float,
-        t_out: np.ndarray, Y_out: np.ndarray, i_out: int,
-        stats: np.ndarray) -> tuple[int, float, int]:
-    """One call of the pair's compiled kernel, with error control (the method contract)."""
-    return kernel(pair).run(rhs, watch, y, t, t_stop, t_end, p, rtol, atol, max_steps,
-                            monitor_floor, t_out, Y_out, i_out, stats, 0.0, _NO_K_OUT)
+def run(pair: Pair, *contract: object) -> tuple[int, float, int]:
+    """One call of the pair's compiled kernel with error control.
+
+    ``contract`` is the method contract's arguments (``rhs, watch, y, t, t_stop, t_end, p,
+    rtol, atol, max_steps, monitor_floor, t_out, Y_out, i_out, stats``:
+    :func:`reference_ode.dop853.dop853_run`), passed on as they are.
+    """
+    return kernel(pair).run(*contract, 0.0, _NO_K_OUT)
 
 
 def fixed_steps(pair: Pair, rhs, watch, y: np.ndarray, p: np.ndarray, h: float, n_steps: int,
