@@ -382,3 +382,43 @@ def test_a_worker_killed_half_way_through_its_result_does_not_hold_the_exit(
             pass
     proc.communicate(timeout=30)
     assert hung, "without the bound the exit did not hang: the test no longer shows the cause"
+
+
+_LOST = """
+import os, signal, sys, threading, time, weakref
+from tippetop.compare.running import interrupt
+interrupt.own_process()
+if sys.argv[1] == "installed":
+    interrupt.install_sigterm_handler()
+class Thing:
+    pass
+def callback(_):  # busy for 1 s: the signal's handler runs in here
+    t = time.monotonic()
+    while time.monotonic() - t < 1.0:
+        pass
+thing = Thing()
+ref = weakref.ref(thing, callback)
+threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+try:
+    del thing  # the callback runs now, and Ctrl-C lands in it
+    time.sleep(5)
+    print("lost")
+except KeyboardInterrupt:
+    print("caught")
+"""
+
+
+@pytest.mark.parametrize("hook", ["installed", "absent"])
+def test_a_ctrl_c_landing_in_a_weakref_callback_is_not_lost(hook: str) -> None:
+    """1 of 20 Ctrl-Cs to a quick nightly (tests/compare/test_interrupt_stress.py) landed in a
+    garbage collector's weakref callback: Python printed 'Exception ignored in ...
+    KeyboardInterrupt' and the command went on. With the entry point's handlers installed
+    (interrupt.install_sigterm_handler) the signal is sent again and the command's own code
+    gets its KeyboardInterrupt, nothing printed; without them (``absent``) it is lost, as
+    Python does (the test's case is the real one)."""
+    proc = subprocess.run([sys.executable, "-c", _LOST, hook], capture_output=True, text=True,
+                          timeout=60)
+    if hook == "installed":
+        assert proc.stdout.strip() == "caught" and proc.stderr == "", proc.stderr
+    else:
+        assert proc.stdout.strip() == "lost" and "Exception ignored" in proc.stderr
