@@ -6,7 +6,8 @@ Frozen, as the plan is, with :meth:`~RunSummary.to_json` and :meth:`~RunSummary.
 it reads as a mapping of its JSON keys too (``summary["t_invert"]``), as the JSON does.
 
 Whether a run finished (:func:`run_failed`), what ran in one line (:func:`describe_ran`), the
-contact settings it ran as MJCF to paste (:func:`mjcf_attributes`), and the steps it took for
+contact settings it ran as MJCF attributes (:func:`mjcf_attributes`) and as one block to paste
+into its file, named with the file's own geoms (:func:`paste_block`), and the steps it took for
 the cost model (:func:`measured_steps`). Nothing here starts a run.
 """
 
@@ -16,6 +17,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from tippetop.models.contacts import ContactSetting, mix
 from tippetop.models.engines import FAMILIES
 from tippetop.models.errors import TippetopError
 from tippetop.models.modes import LAW_MODES, run_label
@@ -392,24 +394,263 @@ def _coefficients(s: dict[str, Any]) -> list[float]:
 
 
 def mjcf_pair(summary: dict[str, Any]) -> str | None:
-    """The contact pair to paste where the run's contact had its own solreffriction, else None.
+    """The contact pair of tippetop's own top where the run had its own solreffriction.
 
-    MuJoCo takes ``solreffriction`` only on an explicit ``<pair>``: one for each geom of the
-    top that touches the table (the ball, the stem), with the contact's own values.
+    MuJoCo takes ``solreffriction`` only on an explicit ``<pair>``: the ball's with the table,
+    with the contact's own values (a generated top names its geoms ball, stem and table; a
+    file's block names its own: :func:`paste_block`). None without one.
     """
     s = summary
     if s.get("solreffriction") is None:
         return None
     mu, tor, rol = _coefficients(s)
     return ("<contact>\n"
-            f'  <pair geom1="BALL" geom2="TABLE" condim="{s.get("condim", 3)}" '
-            f'friction="{_nums([mu, mu, tor, rol, rol])}"\n'
+            f'  <pair geom1="{GENERATED_NAMES["ball"]}" geom2="{GENERATED_NAMES["table"]}" '
+            f'condim="{s.get("condim", 3)}" friction="{_nums([mu, mu, tor, rol, rol])}"\n'
             f'        solref="{_nums(s["solref"])}" solimp="{_nums(s["solimp"])}" '
             f'solreffriction="{_nums(s["solreffriction"])}"/>\n'
-            "</contact>\n"
-            "<!-- BALL, TABLE: your ball's and table's geom names; the same pair for\n"
-            "     every other geom of the top that touches the table (a stem) -->")
+            "</contact>")
 
 
-__all__ = ["FINISHED_STATUSES", "NATIVE_LAWS", "RESULT_KEYS", "describe_ran", "measured_steps",
-           "mjcf_attributes", "mjcf_pair", "run_failed"]
+# ---------------------------------------------------------------- the block to paste
+#: The geom names of the top tippetop generates (models/mjcf.py), by role.
+GENERATED_NAMES = {"ball": "ball", "stem": "stem", "table": "table"}
+#: MuJoCo's geom types, by their number (``mjtGeom``), to say which geom has no name.
+_GEOM_TYPES = ("plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh",
+               "sdf")
+
+
+@dataclass(frozen=True)
+class FileContacts:
+    """A file's contacts as the block to paste names them (:func:`paste_block`).
+
+    Attributes:
+        contacts: The file's contact settings as a run plan reads them (its colliding geoms
+            of the top and of the table, and its pairs of the top; :mod:`models.contacts`).
+        geom_names: Every geom's name by id, ``""`` where it has none.
+        geom_places: Every geom by id, in words a reader finds it by (``the plane, the 1st
+            geom of <worldbody>``).
+        geom_margins: Every geom's (margin, gap) by id (m).
+        pair_margins: Every pair's (margin, gap) by id (m).
+    """
+
+    contacts: tuple[ContactSetting, ...]
+    geom_names: tuple[str, ...]
+    geom_places: tuple[str, ...]
+    geom_margins: tuple[tuple[float, float], ...]
+    pair_margins: tuple[tuple[float, float], ...] = ()
+
+    @classmethod
+    def of_model(cls, model: Any, contacts: Iterable[ContactSetting]) -> FileContacts:
+        """Read from a compiled ``mujoco.MjModel`` and the plan's contacts of it."""
+        def num(v: Any) -> tuple[float, float]:
+            return float(v[0]), float(v[1])
+
+        def place(g: int) -> str:
+            t = int(model.geom_type[g])
+            kind = _GEOM_TYPES[t] if 0 <= t < len(_GEOM_TYPES) else "geom"
+            b = int(model.geom_bodyid[g])
+            body = "<worldbody>" if b == 0 else f"body {model.body(b).name or '#' + str(b)}"
+            return f"the {kind}, the {_ordinal(g - int(model.body_geomadr[b]) + 1)} geom of {body}"
+
+        return cls(tuple(contacts),
+                   tuple(model.geom(g).name for g in range(model.ngeom)),
+                   tuple(place(g) for g in range(model.ngeom)),
+                   tuple(num(v) for v in zip(model.geom_margin, model.geom_gap, strict=True)),
+                   tuple(num(v) for v in zip(model.pair_margin, model.pair_gap, strict=True)))
+
+
+@dataclass(frozen=True)
+class PastePair:
+    """One ``<pair>`` of the block: two geoms (ids) and the contact's values as they ran.
+
+    ``replaces``: the file has its own pair of these geoms, which this one replaces.
+    """
+
+    geom1: int
+    geom2: int
+    condim: int
+    friction: tuple[float, ...]
+    solref: tuple[float, ...]
+    solimp: tuple[float, ...]
+    solreffriction: tuple[float, ...] = ()
+    margin: float = 0.0
+    gap: float = 0.0
+    replaces: bool = False
+
+
+def _collide(a: ContactSetting, b: ContactSetting) -> bool:
+    """Whether MuJoCo's contact filter lets geoms ``a`` and ``b`` collide."""
+    return bool(a.contype & b.conaffinity or b.contype & a.conaffinity)
+
+
+def paste_pairs(ran: Mapping[str, Any], contacts: FileContacts, *,
+                keeps_dims: bool = True) -> list[PastePair]:
+    """Every contact of the top with the table as the run had it, one pair each.
+
+    The run wrote its contact settings on every contact setting of the file (each colliding
+    geom of the top and of the table, each pair of the top: ``ContactSetting.with_values``,
+    as the plan does) and MuJoCo made each contact from them (:func:`~models.contacts.mix`)
+    or took a pair's. Here the same, from the values the run read back (``ran``: mu, solref,
+    solimp; with ``keeps_dims`` False condim, torsional and rolling too): the file's own pairs
+    of the top first (in their order, each with its margin and gap), then one for each geom
+    of the top and each table geom it can collide with that no pair covers (in geom order,
+    the geoms' larger margin and gap, as MuJoCo's dynamic contact has them; none where the
+    run set a solreffriction, whose pairs the plan writes without), as MuJoCo orders its
+    contacts. A pair supersedes the two geoms' own contact, so with these pairs the contacts
+    are the run's whatever the geoms say.
+
+    Args:
+        ran: The run's summary (what ran, read back: the ball's contact with the table).
+        contacts: The file's contacts.
+        keeps_dims: The run kept each geom's own condim, torsional and rolling friction (the
+            tuning's candidates set mu, solref and solimp only); False: it set them on every
+            geom (validate's calibrated run).
+    """
+    values: dict[str, Any] = {"mu": ran.get("mu"), "solref": ran.get("solref"),
+                              "solimp": ran.get("solimp")}
+    if not keeps_dims:
+        values.update(condim=ran.get("condim"), torsional=ran.get("torsional") or 0.0,
+                      rolling=ran.get("rolling") or 0.0)
+    srf = tuple(float(v) for v in ran.get("solreffriction") or ())
+    own = [c for c in contacts.contacts if c.element == "pair"]
+    ball = next((c for c in contacts.contacts if c.role == "ball"), None)
+    ball_pair = next((p for p in own if ball is not None and ball.index in p.geoms), None)
+    # the run's solreffriction is its own (on every contact of the top) unless it is the
+    # ball's pair's in the file, which the run kept
+    srf_set = bool(srf) and (ball_pair is None or ball_pair.solreffriction != srf)
+    margins = contacts.pair_margins
+    table_ids = {c.index for c in contacts.contacts if c.role == "table"}
+    out = []
+    for p in own:
+        q = p.with_values(**values)
+        margin, gap = margins[p.index] if p.index < len(margins) else (0.0, 0.0)
+        # the top's geom first, as the file's pairs are written (MuJoCo orders them itself)
+        first, second = p.geoms if p.geoms[0] not in table_ids else p.geoms[::-1]
+        out.append(PastePair(first, second, q.condim, q.friction, q.solref, q.solimp,
+                             srf if srf_set else p.solreffriction, margin, gap, replaces=True))
+    covered = {frozenset(p.geoms) for p in own}
+    geoms = [c.with_values(**values) for c in contacts.contacts if c.element == "geom"]
+    tables = [t for t in geoms if t.role == "table"]
+    gm = contacts.geom_margins
+    for g in geoms:
+        if g.role not in ("ball", "stem") or not g.collides:
+            continue
+        for t in tables:
+            if not _collide(g, t) or frozenset((g.index, t.index)) in covered:
+                continue
+            m = mix(t, g)
+            # a dynamic contact's margin and gap are the geoms' larger; the pairs a run makes
+            # for its solreffriction (models.contacts.with_friction_pairs) have none
+            margin, gap = ((0.0, 0.0) if srf_set else
+                           (max(gm[g.index][0], gm[t.index][0]),
+                            max(gm[g.index][1], gm[t.index][1])))
+            out.append(PastePair(g.index, t.index, m.condim, m.friction, m.solref, m.solimp,
+                                 srf if srf_set else (), margin, gap))
+    return out
+
+
+def _exact(x: float) -> str:
+    """A number as MJCF text that reads back as the same double (short where it can be)."""
+    short = f"{float(x):g}"
+    return short if float(short) == float(x) else repr(float(x))
+
+
+def _exacts(v: Iterable[float]) -> str:
+    return " ".join(_exact(x) for x in v)
+
+
+def paste_option(ran: Mapping[str, Any]) -> str:
+    """The run's ``<option>`` (timestep, integrator, cone, impratio), its numbers exact.
+
+    Pasted beside the file's own, a second ``<option>`` sets only the attributes it names.
+    """
+    return (f'<option timestep="{_exact(ran["timestep_s"])}" integrator="{ran["integrator"]}" '
+            f'cone="{ran["cone"]}" impratio="{_exact(ran["impratio"])}"/>')
+
+
+def _names(contacts: FileContacts, pairs: list[PastePair]) -> tuple[dict[int, str], list[str]]:
+    """The name of each geom of ``pairs``; a name for each unnamed one, and the line saying so."""
+    roles = {c.index: c.role for c in contacts.contacts if c.element == "geom"}
+    taken = set(contacts.geom_names)
+    names: dict[int, str] = {}
+    said = []
+    for g in dict.fromkeys(i for p in pairs for i in (p.geom1, p.geom2)):
+        name = contacts.geom_names[g] if g < len(contacts.geom_names) else ""
+        if not name:
+            role = roles.get(g, "geom")
+            base = GENERATED_NAMES.get(role, "geom")
+            name, k = base, 1
+            while name in taken:
+                k += 1
+                name = f"{base}{k}"
+            taken.add(name)
+            where = contacts.geom_places[g] if g < len(contacts.geom_places) else f"geom #{g}"
+            said.append(f'add name="{name}" to the {role}\'s geom ({where})')
+        names[g] = name
+    return names, said
+
+
+def _ordinal(n: int) -> str:
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
+
+
+def paste_block(ran: Mapping[str, Any], contacts: FileContacts | None, *,
+                keeps_dims: bool = True) -> str:
+    """The settings a MuJoCo run ran, as one MJCF block to paste into its file as it is.
+
+    For a file (``contacts``): a comment, the run's ``<option>`` (:func:`paste_option`) and a
+    ``<contact>`` with one ``<pair>`` for each contact of the top with the table, named with
+    the file's geoms and carrying the values the run had (:func:`paste_pairs`, every number
+    exact): pasted inside the file's ``<mujoco>``, the model steps as the run did. A comment
+    line says which of the file's own pairs the block replaces (to be removed: two pairs of
+    the same geoms make two contacts), and one which unnamed geoms need the name the pairs
+    give them. For a top tippetop generated (``contacts`` None): the option, the contact's
+    attributes for the geoms and the line saying which geoms take them. ``""`` for a run
+    that recorded no settings.
+    """
+    if ran.get("timestep_s") is None:
+        return ""
+    option = paste_option(ran)
+    if contacts is None:
+        _, geom = mjcf_attributes(dict(ran))
+        pair = mjcf_pair(dict(ran))
+        return "\n".join([
+            "<!-- no file was read: tippetop's own top names its geoms ball, stem and table; "
+            "in a file, the geom attributes go on its geoms that touch the table and on the "
+            "table's, and a pair names its own -->",
+            option, f"<geom ... {geom}/>", *([pair] if pair else [])])
+    pairs = paste_pairs(ran, contacts, keeps_dims=keeps_dims)
+    names, unnamed = _names(contacts, pairs)
+    lines = ["<!-- tippetop: paste inside <mujoco>; this option sets only what it names, and each "
+             "pair is one contact of the top with the table as it ran -->", option]
+    replaced = [f"{names[p.geom1]} and {names[p.geom2]}" for p in pairs if p.replaces]
+    if replaced:
+        them = "them" if len(replaced) > 1 else "it"
+        lines.append(f"<!-- remove the file's own pair{'s' if len(replaced) > 1 else ''} of "
+                     f"{', of '.join(replaced)}: the pairs below replace {them} (two pairs of "
+                     "the same geoms make two contacts) -->")
+    if unnamed:
+        lines.append(f"<!-- unnamed geoms: {'; '.join(unnamed)}: the pairs below name them "
+                     "so -->")
+    if not pairs:
+        lines.append("<!-- no geom of the top can touch the table: no pair -->")
+        return "\n".join(lines)
+    lines.append("<contact>")
+    for p in pairs:
+        mu = p.friction
+        extra = (f' solreffriction="{_exacts(p.solreffriction)}"' if p.solreffriction else "")
+        if p.margin or p.gap:
+            extra += f' margin="{_exact(p.margin)}" gap="{_exact(p.gap)}"'
+        lines.append(f'  <pair geom1="{names[p.geom1]}" geom2="{names[p.geom2]}" '
+                     f'condim="{p.condim}" friction="{_exacts(mu)}"')
+        lines.append(f'        solref="{_exacts(p.solref)}" solimp="{_exacts(p.solimp)}"'
+                     f"{extra}/>")
+    lines.append("</contact>")
+    return "\n".join(lines)
+
+
+__all__ = ["FINISHED_STATUSES", "GENERATED_NAMES", "NATIVE_LAWS", "RESULT_KEYS", "FileContacts",
+           "PastePair", "describe_ran", "measured_steps", "mjcf_attributes", "mjcf_pair",
+           "paste_block", "paste_option", "paste_pairs", "run_failed"]

@@ -109,10 +109,12 @@ def verdict_section(res: ValidateResult) -> str:
     return "".join(parts)
 
 
-#: Where the contact attributes of a pasted block go.
-_WHERE = ("the contact attributes go on the ball's, the stem's and the table's geoms (MuJoCo "
-          "mixes the two geoms' values of a contact), or on the file's contact pairs if it has "
-          "any (they override the geoms')")
+#: Where a pasted block goes.
+_WHERE = ("paste it as it is inside the file's <mujoco> element (before </mujoco>, say): its "
+          "<option> sets only the options it names, and each of its contact pairs makes one "
+          "contact of the top with the table as the run had it, whatever the geoms' own "
+          "attributes (a pair supersedes them); its comments say which of the file's own pairs "
+          "it replaces and which unnamed geoms it names")
 
 
 def answer_html(res: ValidateResult) -> str:

@@ -14,7 +14,7 @@ from typing import Any
 
 from tippetop.compare.measures import theory
 from tippetop.compare.measures.metrics import EVENT_RTOL, EVENT_TOL_S, J_TOL
-from tippetop.compare.measures.summary import mjcf_attributes
+from tippetop.compare.measures.summary import mjcf_attributes, paste_block
 from tippetop.compare.measures.verdict import (
     ENERGY_RISE_FLOOR,
     FIRST_ORDER,
@@ -258,7 +258,7 @@ def suggestion(native: dict[str, Any], checks: list[dict[str, Any]],
 
 
 def candidates(checks: list[dict[str, Any]], sug: Suggestion | None,
-               tuned: Tuned) -> list[ValidateCandidate]:
+               tuned: Tuned, calibrated_mjcf: str | None = None) -> list[ValidateCandidate]:
     """Every set of contact settings validate tried for the file, best evidence first.
 
     The tuned settings (fitted, verified from every start), the seeds the tuning verified
@@ -268,6 +268,8 @@ def candidates(checks: list[dict[str, Any]], sug: Suggestion | None,
     paste) and ``departs`` (the checks that do not); the calibrated settings, where they
     depart, also ``note`` (why the calibration does not carry over, with its mu and the file's),
     and ``changes`` (each setting they change from the file's: {setting, file, calibrated}).
+    ``calibrated_mjcf`` is the calibrated run's block to paste, named with the file's geoms
+    (:func:`paste_block`); without it, the suggestion's option and geom attributes.
     """
     out = []
     if isinstance(tuned, TuneResult) and tuned.mjcf:
@@ -300,14 +302,15 @@ def candidates(checks: list[dict[str, Any]], sug: Suggestion | None,
             "calibrated", "the calibrated settings (models/calibrated_native.toml, the "
             "tuning's first seed), run from the file's start only", bool(sug.agrees),
             sum(c["passed"] is not False for c in mine), len(mine),
-            f"{sug.option}\n<geom ... {sug.geom}/>", sug.departs, changes=sug.changes,
+            calibrated_mjcf or f"{sug.option}\n<geom ... {sug.geom}/>", sug.departs,
+            changes=sug.changes,
             # why the calibration does not carry over, its mu said
             note=None if sug.agrees else sug.note))
     return out
 
 
 def answer(checks: list[dict[str, Any]], sug: Suggestion | None,
-           tuned: Tuned) -> ValidateAnswer:
+           tuned: Tuned, calibrated_mjcf: str | None = None) -> ValidateAnswer:
     """The one answer to paste: the file's own settings, the best candidate, or none and why.
 
     Returns:
@@ -316,12 +319,13 @@ def answer(checks: list[dict[str, Any]], sug: Suggestion | None,
         else the chosen candidate's ``name``, or None), ``label`` (one line: what it is and
         whether it agrees), ``mjcf`` (to paste; None when nothing is), ``why`` (None, or why
         nothing is pasted), ``candidates`` (:func:`candidates`) and ``file`` ({agrees,
-        passes, checks}: the file's own runs' checks).
+        passes, checks}: the file's own runs' checks). ``calibrated_mjcf``: the calibrated
+        run's block (:func:`candidates`).
     """
     mine = [c for c in checks if mode_of(c["run"]) == "file"]
     file_ok = bool(mine) and all(c["passed"] is not False for c in mine)
     file_pass = sum(c["passed"] is not False for c in mine)
-    found = tuple(candidates(checks, sug, tuned))
+    found = tuple(candidates(checks, sug, tuned, calibrated_mjcf))
     # the tuning verifies from every start, the calibrated settings among its seeds: where it
     # ran, its candidates are the answers; the calibrated run from the file's start alone is
     # evidence, listed, not an answer (its settings may depart from another start)
@@ -428,7 +432,11 @@ def validate(config: ValidateConfig) -> ValidateResult:
     sug_json = (suggestion(runs[CALIBRATED_RUN], checks, runs.get(FILE_RUN),
                            file_mu=loaded["mu"]) if CALIBRATED_RUN in runs else {})
     sug = Suggestion.from_json(sug_json) if sug_json else None
-    ans = answer(checks, sug, tuned)
+    # the calibrated run set condim, torsional and rolling on every geom (the tuning's keep
+    # the file's): its block says so to name each contact as it ran
+    pasted = (paste_block(runs[CALIBRATED_RUN], loaded["contacts"], keeps_dims=False)
+              if sug is not None else None)
+    ans = answer(checks, sug, tuned, pasted or None)
     agreeing = {c["run"] for c in checks} - {c["run"] for c in checks if c["passed"] is False}
     if tuned.agrees:
         agreeing.add("tuned")
@@ -488,7 +496,8 @@ def tune_file(config: ValidateConfig, over: tuple[Override, ...], loaded: dict[s
         out = tune(base, float(loaded["mu"]), init.n0, init.theta0, config.t_end_s,
                    file=TuneFile(run=file_run, timestep_s=file_run.get("timestep_s"),
                                  integrator=file_run.get("integrator"),
-                                 A_over_C=top.A_over_C, theory=outcome_at),
+                                 A_over_C=top.A_over_C, theory=outcome_at,
+                                 contacts=loaded.get("contacts")),
                    run=RunOptions(scheduler=config.scheduler, workers=config.workers,
                                   use_cache=config.use_cache, progress=config.progress),
                    budget_runs=config.budget_runs)
@@ -552,8 +561,14 @@ def tune_only(model: Path, t_end_s: float, *, scheduler: str | None = None,
 
 
 def plan_file_info(overrides: tuple[Override, ...]) -> dict[str, Any]:
-    """The file's mu, keyframe and stem as the plan reads them."""
+    """The file's mu, keyframe and stem as the plan reads them, and its contacts.
+
+    ``contacts``: the file's contacts with its geoms' names, places, margins and gaps, which
+    the blocks to paste name (:class:`FileContacts`).
+    """
+    from tippetop.compare.measures.summary import FileContacts
     from tippetop.models.scene import load_scene
+    from tippetop.mujoco_runner.model import load_model
     from tippetop.mujoco_runner.state import file_top
 
     scene = load_scene(None, list(overrides))
@@ -565,7 +580,8 @@ def plan_file_info(overrides: tuple[Override, ...]) -> dict[str, Any]:
     return {"mu": ft.mu, "keyframe": key, "timestep_s": ft.timestep_s,
             "stem": None if stem is None else {"kind": stem.kind, "offset_m": stem.offset_m,
                                                "radius_m": stem.radius_m},
-            "stem_note": ft.stem_note}
+            "stem_note": ft.stem_note,
+            "contacts": FileContacts.of_model(load_model(ft.path), ft.contacts)}
 
 
 __all__ = ["DEFAULT_T_END_S", "ENERGY_RISE_FLOOR", "EVENT_RTOL", "EVENT_TOL_S", "FIRST_ORDER",

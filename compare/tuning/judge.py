@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from tippetop.compare.measures.summary import mjcf_attributes, mjcf_pair
+from tippetop.compare.measures.summary import FileContacts, paste_block
 from tippetop.compare.results.tune import start_label
 from tippetop.compare.tuning.calibrate.identify import MAX_ITERS
 from tippetop.models.scene import Override
@@ -64,6 +64,8 @@ class TuneFile:
         theory: (n0, theta0, role) -> the theory's theta_s and outcome at that start
             (``fit``: the file's own start, with its precession); None: the reference's
             outcome, no theta_s.
+        contacts: The file's contacts, which the blocks to paste name (:func:`mjcf_block`);
+            None: a top tippetop generated.
     """
 
     run: dict[str, Any] | None = None
@@ -71,6 +73,7 @@ class TuneFile:
     integrator: str | None = None
     A_over_C: float | None = None
     theory: Callable[[float, float, str], tuple[float | None, str]] | None = None
+    contacts: FileContacts | None = None
 
 
 #: A file the tuning knows nothing of besides its start (every field None).
@@ -135,14 +138,14 @@ def departs(verified: list[dict[str, Any]]) -> list[str]:
             f"({v['role']}): {c['note']}"
             for v in verified for c in v["checks"] if c["passed"] is False]
 
-def mjcf_block(ran: dict[str, Any]) -> str:
-    """The tuned settings as MJCF attributes to paste (``<option>`` and the contact's)."""
-    if ran.get("timestep_s") is None:
-        return ""
-    option, geom = mjcf_attributes(ran)
-    out = f"{option}\n<geom ... {geom}/>"
-    pair = mjcf_pair(ran)
-    return out if pair is None else f"{out}\n{pair}"
+def mjcf_block(ran: dict[str, Any], contacts: FileContacts | None = None) -> str:
+    """A tuning's settings as they ran, one MJCF block to paste (:func:`paste_block`).
+
+    Named with the file's geoms (``contacts``, :attr:`TuneFile.contacts`); the tuning's
+    candidates set mu, solref and solimp and keep each geom's own condim, torsional and
+    rolling friction. ``""`` for a run that recorded no settings.
+    """
+    return paste_block(ran, contacts, keeps_dims=True)
 
 
 __all__ = ["DEFAULT_EFFORT", "HELD_OUT", "MIN_TILT_STEP_RAD", "NO_FILE", "N_STARTS", "WIDENED",

@@ -255,7 +255,7 @@ def tune(base: tuple[Override, ...], mu: float, n0: float, theta0: float, t_end_
     pick = next((t for t in tried if _agrees(t["verified"])),
                 min(tried, key=lambda t: t["found"].rms_rad))
     answer = {**pick, "chosen": "fit"}
-    runs.alternatives += [_tried_alternative(t) for t in tried if t is not pick]
+    runs.alternatives += [_tried_alternative(t, file) for t in tried if t is not pick]
     if not _agrees(answer["verified"]):
         # the fit is local and holds at the file's start: where it departs elsewhere, the
         # seeds it started from are verified too (the best of each cone, as scored, and the
@@ -393,11 +393,11 @@ def _fit_families(fit: _Fit, runs: _Runs, order: list[str], mu: float, main_budg
     return tried
 
 
-def _tried_alternative(t: dict[str, Any]) -> dict[str, Any]:
-    """A fit other than the answer, as an alternative: its settings, verdict and MJCF."""
-    return {"settings": t["best"].label(), "what": t["what"],
-            "agrees": _agrees(t["verified"]), "departs": _departs(t["verified"]),
-            **_passes(t["verified"]), "mjcf": _mjcf(run_entry(t["mj"][0])), "calibrated": False}
+def _tried_alternative(t: dict[str, Any], file: TuneFile) -> dict[str, Any]:
+    """A fit other than the answer, as an alternative: its settings, verdict and its MJCF."""
+    return {"settings": t["best"].label(), "what": t["what"], "agrees": _agrees(t["verified"]),
+            "departs": _departs(t["verified"]), **_passes(t["verified"]),
+            "mjcf": _mjcf(run_entry(t["mj"][0]), file.contacts), "calibrated": False}
 
 
 def _verify_seeds(fit: _Fit, runs: _Runs, tried: list[dict[str, Any]],
@@ -415,7 +415,7 @@ def _verify_seeds(fit: _Fit, runs: _Runs, tried: list[dict[str, Any]],
         v2, mj2 = runs.check(seed, fit.dt, FIT_INTEGRATOR)
         runs.alternatives.append({"settings": seed.label(), "agrees": _agrees(v2),
                                   "departs": _departs(v2), **_passes(v2),
-                                  "mjcf": _mjcf(run_entry(mj2[0])),
+                                  "mjcf": _mjcf(run_entry(mj2[0]), runs.file.contacts),
                                   "calibrated": seed == fit.bounds.clip(fit.seeds[0]).rounded()
                                   and bool(calibrated_native_settings())})
         if _agrees(v2):
@@ -431,7 +431,8 @@ def _widen(fit: _Fit, runs: _Runs, answer: dict[str, Any], budget_runs: int, max
     problem = fit.lift_free if best.frictiondamping is not None else fit.problem
     widened = widen(best, answer["timestep"], answer["integrator"], problem,
                     runs.file.A_over_C, Refit(fit.start, fit.threads, fit.ball_until, max_iters),
-                    WidenRuns(runs.check, lambda: budget_runs - runs.spent(), runs.problems, say))
+                    WidenRuns(runs.check, lambda: budget_runs - runs.spent(), runs.problems, say,
+                              runs.file.contacts))
     for w in widened["tried"]:
         runs.alternatives.append({k: w[k] for k in ("settings", "what", "agrees", "departs",
                                                     "passes", "checks", "mjcf")}
@@ -481,7 +482,7 @@ def _report(fit: _Fit, runs: _Runs, answer: dict[str, Any], tried: list[dict[str
     passes = _passes(verified)
     return TuneResult(
         settings=_settings(ran, answer["best"], answer["timestep"], answer["integrator"]),
-        mjcf=_mjcf(ran), fit=record,
+        mjcf=_mjcf(ran, runs.file.contacts), fit=record,
         verified=tuple(TuneVerification.from_json(v) for v in verified),
         agrees=agrees, departs=tuple(departs), passes=passes["passes"],
         checks=passes["checks"], budget_limited=runs.budget_limited,

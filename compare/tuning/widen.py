@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from tippetop.compare.measures.summary import FileContacts
 from tippetop.compare.measures.verdict import FIRST_ORDER, run_entry
 from tippetop.compare.tuning.calibrate.identify import (
     DAMPRATIO_BOUNDS,
@@ -154,12 +155,15 @@ class WidenRuns:
         left: The runs left to it (the budget's reserve, :func:`widen_reserve`).
         problems: Every fit's problem, whose rollouts count: its own fit joins them.
         say: Progress lines, or None.
+        contacts: The file's contacts, which the blocks to paste name (None: a top tippetop
+            generated; :func:`.judge.mjcf_block`).
     """
 
     check: Callable[[Candidate, float, str], tuple[list[dict[str, Any]], list[Any]]]
     left: Callable[[], int]
     problems: list[Problem]
     say: Callable[[str], None] | None
+    contacts: FileContacts | None = None
 
 
 def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
@@ -197,7 +201,8 @@ def widen(best: Candidate, timestep: float, integrator: str, problem: Problem,
                v: list[dict[str, Any]], mj: list[Any]) -> dict[str, Any]:
         row = {"settings": f"{cand.label()} {integ} dt={step:g}", "what": f"{WIDENED}{what}",
                "agrees": agrees(v), "departs": departs(v), **passes(v),
-               "mjcf": mjcf_block(run_entry(mj[0])), "cand": cand, "timestep_s": step,
+               "mjcf": mjcf_block(run_entry(mj[0]), runs.contacts), "cand": cand,
+               "timestep_s": step,
                "integrator": integ, "verified": v, "mj": mj}
         tried.append(row)
         if say:

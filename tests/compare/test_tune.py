@@ -331,19 +331,33 @@ def test_ctrl_c_while_tuning_leaves_nothing(tmp_path: Path) -> None:
 
 
 def test_the_pair_to_paste_is_mjcf() -> None:
-    """The lift-free answer's contact pair (solreffriction has no geom attribute) parses as
-    XML with its note, and carries the run's values; a run without one has none."""
+    """The lift-free answer's contact pairs (solreffriction has no geom attribute) parse as
+    XML and carry the run's values, one for each geom of the file's top that touches its
+    table, named as the file names them (issue 43: the block said BALL and TABLE); a
+    generated top's names its own geoms; a run without one has none."""
     import xml.etree.ElementTree as ET
 
+    from tests.conftest import mujoco_plan
     from tippetop.compare.measures.summary import mjcf_pair
+    from tippetop.compare.studies.validate import plan_file_info
+    from tippetop.compare.tuning.calibrate.identify import lift_free_seeds
+    from tippetop.compare.tuning.judge import mjcf_block
+    from tippetop.models.scene import Override
 
-    ran = {"condim": 3, "mu": 1.0, "torsional": None, "rolling": None,
-           "solref": [-1e5, -632.0], "solimp": [1e-4, 1e-4, 0.1, 0.5, 2.0],
-           "solreffriction": [-1.0, -2.61]}
-    root = ET.fromstring(f"<mujoco>{mjcf_pair(ran)}</mujoco>")
-    pair = root.find("contact/pair")
-    assert pair is not None and pair.get("solreffriction") == "-1 -2.61"
-    assert pair.get("solref") == "-100000 -632" and pair.get("friction").split()[:2] == ["1", "1"]
+    g2 = ROOT / "tests" / "data" / "stranger" / "group2_mu1_implicitfast.xml"
+    seed = lift_free_seeds(1.0)[0]
+    ran = mujoco_plan(f"top.mjcf={str(g2)!r}", *seed.overrides(2e-4, "RK4")).what_runs()
+    contacts = plan_file_info((Override.of("top.mjcf", str(g2)),))["contacts"]
+    root = ET.fromstring(f"<mujoco>{mjcf_block(ran, contacts)}</mujoco>")
+    pairs = root.findall("contact/pair")
+    assert [(p.get("geom1"), p.get("geom2")) for p in pairs] == [("ball", "floor"),
+                                                                  ("stem", "floor")]
+    for pair in pairs:
+        assert pair.get("solreffriction") == "-1 -2.6"
+        assert [float(v) for v in pair.get("solref", "").split()] == ran["solref"]
+        assert pair.get("friction", "").split()[:2] == ["1", "1"]
+    generated = ET.fromstring(f"<mujoco>{mjcf_pair(ran)}</mujoco>").find("contact/pair")
+    assert generated is not None and generated.get("geom1") == "ball"
     assert mjcf_pair({**ran, "solreffriction": None}) is None
 
 

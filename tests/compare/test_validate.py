@@ -221,6 +221,19 @@ def test_the_answer_without_a_tuning_is_the_calibrated_settings() -> None:
     assert ValidateAnswer.from_json(ans.to_json()) == ans
 
 
+def test_the_calibrated_candidate_pastes_the_block_made_from_its_run() -> None:
+    """validate passes the calibrated run's block, named with the file's geoms (issue 43;
+    :func:`paste_block`): the candidate and the answer are that block, not attributes."""
+    runs = _runs(mujoco_file={"t_invert": None, "outcome": "upright"})
+    checks = verdict(runs, "inverted")
+    sug = Suggestion.from_json(suggestion(runs["mujoco/native"], checks, runs["mujoco/file"]))
+    block = '<option timestep="0.0002"/>\n<contact>\n  <pair geom1="shell" geom2="floor"/>'
+    ans = answer(checks, sug, TuneSkipped("--no-tune"), block)
+    assert ans.source == "calibrated" and ans.mjcf == ans.candidates[0].mjcf == block
+    # without it (a caller that has no file): the suggestion's attributes, as before
+    assert "<geom ... " in (answer(checks, sug, TuneSkipped("--no-tune")).mjcf or "")
+
+
 @pytest.mark.parametrize(("limit", "step"), [(2.67e-4, 2e-4), (1.66e-4, 1e-4), (5e-4, 5e-4),
                                              (9.9e-3, 5e-3), (1.0, 1.0)])
 def test_nice_step_below(limit: float, step: float) -> None:
@@ -296,6 +309,8 @@ def test_validate_tunes_the_files_contact(paper_example: tuple[Any, Path, int]) 
     assert t["fit"]["residual"] < min(s["rms_rad"] for s in t["fit"]["seeds"])
     s = t["settings"]
     assert f'timestep="{s["timestep_s"]:g}"' in t["mjcf"] and f'cone="{s["cone"]}"' in t["mjcf"]
+    # named with the file's own geoms, to paste as it is (issue 43)
+    assert '<pair geom1="ball" geom2="table"' in t["mjcf"] and "<geom ..." not in t["mjcf"]
     # mu stays the material's: within the fit's factor 2 of the file's 0.1
     assert 0.05 <= s["mu"] <= 0.2
 
