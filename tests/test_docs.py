@@ -282,16 +282,22 @@ def test_readme_links_resolve() -> None:
 
 
 
-def _math_hook():
-    """docs/hooks/math.py as a module (by its path: its name would shadow the standard math)."""
+def _hook(name: str, needs: str):
+    """docs/hooks/NAME.py as a module, loaded by its path as properdocs loads it (a hook's name
+    may shadow a standard module: math); skipped without ``needs``, the docs extra's."""
     import importlib.util
 
-    pytest.importorskip("latex2mathml", reason="the docs extra: pip install -e '.[docs]'")
-    spec = importlib.util.spec_from_file_location("tippetop_docs_math_hook",
-                                                  ROOT / "docs" / "hooks" / "math.py")
+    pytest.importorskip(needs, reason="the docs extra: pip install -e '.[docs]'")
+    spec = importlib.util.spec_from_file_location(f"tippetop_docs_{name}_hook",
+                                                  ROOT / "docs" / "hooks" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def _math_hook():
+    """docs/hooks/math.py as a module."""
+    return _hook("math", "latex2mathml")
 
 
 def _math_headings() -> list[tuple[str, str]]:
@@ -419,15 +425,8 @@ def test_docs_commands_slow(block: Block, docs_env: dict[str, str], tmp_path: Pa
 
 
 def _images_hook():
-    """docs/hooks/images.py as a module (loaded by its path, as properdocs loads it)."""
-    import importlib.util
-
-    pytest.importorskip("mkdocs", reason="the docs extra: pip install -e '.[docs]'")
-    spec = importlib.util.spec_from_file_location("tippetop_docs_images_hook",
-                                                  ROOT / "docs" / "hooks" / "images.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    """docs/hooks/images.py as a module."""
+    return _hook("images", "mkdocs")
 
 
 def _tree(folder: Path) -> dict[str, tuple[int, int, str]]:
