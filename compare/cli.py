@@ -24,6 +24,7 @@ from tippetop.compare.commands import (
     mjcf,
     nightly,
     plan,
+    probe,
     render,
     report,
     simulate,
@@ -38,7 +39,7 @@ from tippetop.models.engines import ENGINE_MEANINGS
 #: The command modules, in the order ``tippetop --help`` lists them; each has
 #: ``add_parser(sub)`` and ``run(args) -> int``.
 COMMANDS = (theory, simulate, plan, compare, matrix, bisect, threshold, sweep, bench, nightly,
-            history, report, calibrate, render, validate, atlas, fidelity, mjcf, metrics)
+            history, report, calibrate, render, validate, atlas, fidelity, mjcf, probe, metrics)
 
 
 #: The environment variables ``tippetop`` reads, with what they do (``tippetop --help``).

@@ -332,6 +332,10 @@ def answer(line: str) -> dict:
         if not isinstance(request, dict) or request.get("protocol") != PROTOCOL:
             got = request.get("protocol") if isinstance(request, dict) else request
             raise ValueError(f"expected protocol {PROTOCOL}, got {got!r}")
+        if request.get("kind") == "probe":  # tippetop probe: one small model, every step
+            from .probe_steps import answer_probe
+
+            return answer_probe(request)
         return run(request)
     except Refused as exc:  # said as it is
         return {"status": "error", "message": str(exc)}

@@ -1,0 +1,105 @@
+"""``tippetop probe --out``: a figure per probe (the motion against its exact curve) and HTML.
+
+Each probe's figure has one panel per mode; each engine's run is a line, the exact curve a
+dashed black line. The page holds the rows' table (every quantity against its exact value)
+and the figures, which it links as files beside it.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+
+from tippetop.compare.probes.study import ProbeResult, ProbeRun
+
+
+def figure(res: ProbeResult, probe: str, path: Path) -> bool:
+    """Draw ``probe``'s runs into ``path`` (PNG); False when it has no curve to draw."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    runs: list[ProbeRun] = [r for r in res.runs if r.probe == probe and r.curve is not None]
+    if not runs:
+        return False
+    modes = list(dict.fromkeys(r.mode for r in runs))
+    fig, axes = plt.subplots(1, len(modes), figsize=(4.2 * len(modes), 3.4), squeeze=False)
+    for ax, mode in zip(axes[0], modes, strict=True):
+        drawn_exact = False
+        for r in (r for r in runs if r.mode == mode):
+            c = r.curve
+            assert c is not None
+            ax.plot(c.t, c.value, lw=1.2, label=r.engine)
+            if not drawn_exact and np.isfinite(c.exact).any():
+                ax.plot(c.t, c.exact, "k--", lw=1.0, label="exact")
+                drawn_exact = True
+            ax.set_ylabel(c.label)
+        ax.set_title(mode, fontsize=10)
+        ax.set_xlabel("t (s)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(probe, fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def _num(x: float) -> str:
+    return f"{x:.6g}" if math.isfinite(x) else "-"
+
+
+def render(res: ProbeResult, figures: dict[str, str]) -> str:
+    """The page: the table of rows, then each probe's figure."""
+    rows = []
+    for r in res.rows:
+        cls = "ok" if r.passed else "fail"
+        why = html.escape(r.reason or r.note or "")
+        rows.append(
+            f"<tr class='{cls}'><td>{html.escape(r.probe)}</td><td>{html.escape(r.mode)}</td>"
+            f"<td>{html.escape(r.engine)} {html.escape(r.version)}</td>"
+            f"<td>{html.escape(r.integrator)} {r.timestep_s:g} s</td>"
+            f"<td>{html.escape(r.quantity)} ({html.escape(r.unit)})</td>"
+            f"<td>{_num(r.value)}</td><td>{_num(r.exact)}</td>"
+            f"<td>{_num(r.error)}</td><td>{r.tolerance:g}</td>"
+            f"<td>{'ok' if r.passed else 'FAIL'}</td><td>{why}</td></tr>")
+    figs = "\n".join(f"<h2>{html.escape(p)}</h2><img src='{html.escape(f)}' alt='{html.escape(p)}"
+                     f": the motion against its exact curve'>" for p, f in figures.items())
+    n_ok = sum(r.passed for r in res.rows)
+    return f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>tippetop probes</title>
+<style>
+body {{ font-family: sans-serif; margin: 1.5em; }}
+table {{ border-collapse: collapse; font-size: 13px; }}
+td, th {{ border: 1px solid #ccc; padding: 3px 6px; text-align: left; }}
+tr.fail td {{ background: #fde2e2; }}
+img {{ max-width: 100%; }}
+</style></head><body>
+<h1>Probes: the engine's parts against exact answers</h1>
+<p>{n_ok} of {len(res.rows)} quantities within tolerance, {len(res.runs)} runs on
+{html.escape(", ".join(res.engines))}. Each value is measured from every step of its run; the
+exact values are closed forms (docs/physics/probes.md).</p>
+<table><tr><th>probe</th><th>mode</th><th>engine</th><th>integrator, step</th>
+<th>quantity</th><th>value</th><th>exact</th><th>error</th><th>tolerance</th><th></th>
+<th>reason or note</th></tr>
+{chr(10).join(rows)}
+</table>
+{figs}
+</body></html>
+"""
+
+
+def write_outputs(res: ProbeResult, folder: Path) -> None:
+    """The figures (``<probe>.png``) and ``report.html`` into ``folder``."""
+    figures = {}
+    for probe in res.probes:
+        name = f"{probe}.png"
+        if figure(res, probe, folder / name):
+            figures[probe] = name
+    (folder / "report.html").write_text(render(res, figures), "utf-8")
+
+
+__all__ = ["figure", "render", "write_outputs"]
