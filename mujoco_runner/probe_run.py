@@ -126,12 +126,12 @@ def run_in(python: str, req: ProbeRequest, engine: dict[str, str] | None = None,
         ProbeRefused: The worker refused it (an integrator that release does not have).
         WorkerFailed: The worker crashed, hung or did not answer as one.
     """
-    from tippetop.mujoco_runner.remote import WorkerFailed, _converse
+    from tippetop.mujoco_runner.remote import WorkerFailed, converse
 
     with tempfile.TemporaryDirectory(prefix="tippetop-probe-") as tmp:
         out = Path(tmp) / "probe.npz"
         text = json.dumps({**req.as_json(engine), "out": str(out)})
-        reply, _lines = _converse(python, text, budget_s, progress, None)
+        reply = converse(python, text, budget_s, progress)
         if reply.get("status") != "ok":
             message = str(reply.get("message", "no reason given"))
             if message.startswith(("integrator:", "timestep:", "duration:")):

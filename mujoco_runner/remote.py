@@ -348,6 +348,17 @@ def _converse(python: str, text: str, budget_s: float,
     return reply, lines
 
 
+def converse(python: str, text: str, budget_s: float,
+             progress: Callable[[float], None] | None = None) -> dict[str, Any]:
+    """Send one request line to a worker in ``python`` and return its reply.
+
+    The worker is kept for the next request, stopped past ``budget_s``; a worker that ended
+    without a reply is :class:`WorkerFailed`. (A probe's request goes this way:
+    :mod:`.probe_run`.)
+    """
+    return _converse(python, text, budget_s, progress, None)[0]
+
+
 def _ask(w: _Worker, python: str, text: str, budget_s: float,
          progress: Callable[[float], None] | None) -> tuple[dict[str, Any] | None, list[str]]:
     """One request to ``w``: (its reply, the lines before it), or (None, lines) if it ended.

@@ -136,7 +136,7 @@ COMMANDS = "tippetop.compare.commands"
 #: The rooms of compare (its folders and top-level modules), each importing only those before
 #: it: pure measurements at the bottom, the code that runs things above them, the commands and
 #: the parser at the top. ``_lazy`` is a helper for packages' ``__init__`` at the very bottom.
-ROOMS = ("_lazy", "measures", "running", "results", "presentation", "tuning", "studies",
+ROOMS = ("_lazy", "measures", "running", "results", "probes", "presentation", "tuning", "studies",
          "report", "nightly", "commands", "cli", "__main__")
 #: Rooms that must not know each other although the order puts one above the other: the
 #: nightly command composes the nightly and the report.

@@ -37,15 +37,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--engines", default="mujoco", metavar="ENGINE,...",
                    help="comma-separated MuJoCo engines: mujoco, mujoco==X.Y.Z, mujoco@PYTHON, "
                    "mjx, mjx-f32, warp (default: mujoco, the one installed)")
-    p.add_argument("--modes", metavar="MODE,...", help="only these of the probes' modes "
-                   "(their contact settings: pyramidal, elliptic, condim4, ...; default: "
-                   "every mode of each probe)")
+    p.add_argument("--modes", metavar="MODE,...", help="only these of the probes' modes: "
+                   "each probe's own settings (pyramidal, elliptic, condim4, ...), not a run's "
+                   "paper or native mode (default: every mode of each probe)")
     p.add_argument("--integrator", metavar="NAME", help="MuJoCo's integrator for every run: "
                    "Euler, RK4, implicit, implicitfast (default: each probe's own)")
     p.add_argument("--timestep", type=finite_float, metavar="S", help="the step for every "
-                   "run, in s (default: each probe's own)")
+                   "run (s; default: each probe's own)")
     add_set_option(p, help="a probe parameter, SI: KEY=VALUE for every probe that has it, or "
-                   "PROBE.KEY=VALUE (mu=0.5, slide-to-roll.v0=2); repeatable")
+                   "PROBE.KEY=VALUE (mu=0.5, slide-to-roll.v0=2); repeatable (default: each "
+                   "probe's own values, listed in --json's params)")
     p.add_argument("--out", metavar="DIR", help="folder for results.json, a figure per probe "
                    "and report.html, new or empty, or --force (default: none)")
     add_force_option(p, help="write into a non-empty --out")
