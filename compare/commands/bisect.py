@@ -17,6 +17,7 @@ from tippetop.compare.commands.options import (
     add_scheduler_option,
     add_set_option,
     add_workers_option,
+    finite_float,
     json_text,
     print_json,
     set_overrides,
@@ -39,8 +40,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Declare ``tippetop bisect`` and its options."""
     p = sub.add_parser("bisect", help="which MuJoCo release moved a metric",
                        description=DESCRIPTION)
-    p.add_argument("scene", metavar="SCENE|MODEL.xml", help="a catalogue name, a scene .toml "
-                   "file or an MJCF top (required)")
+    p.add_argument("scene", nargs="?", metavar="SCENE|MODEL.xml", help="a catalogue name, a "
+                   "scene .toml file or an MJCF top (required unless --probe)")
+    p.add_argument("--probe", metavar="NAME", help="bisect a probe's quantities instead of a "
+                   "scene's metrics (tippetop probe; --metric then names its quantities, "
+                   "--mode one of its modes; default: none)")
+    p.add_argument("--integrator", metavar="NAME", help="with --probe: MuJoCo's integrator "
+                   "for every release's run (default: the probe's own)")
+    p.add_argument("--timestep", type=finite_float, metavar="S", help="with --probe: the "
+                   "step for every release's run (s; default: the probe's own)")
     p.add_argument("--between", nargs=2, metavar=("A", "B"), help="the range's first and last "
                    "releases (3.3.7 3.17.0), A before B; with --pythons, two of its lines "
                    "(default with --pythons: its first and last; required otherwise)")
@@ -91,6 +99,32 @@ def _check_scene(scene: str, mode: str | None, overrides: tuple[str, ...]) -> st
     return chosen
 
 
+def _check_probe(args: argparse.Namespace) -> tuple[list[str], str, object]:
+    """``--probe``: its metrics, its mode and a maker of its runner; bad input is one line."""
+    from tippetop.compare.probes.study import integrator_name, probes_for
+    from tippetop.compare.studies import bisect as bs
+    from tippetop.models.errors import TippetopError
+
+    probe = probes_for([args.probe], args.set or ())[0]
+    mode = args.mode or probe.modes[0]
+    if mode not in probe.modes:
+        from tippetop.models.errors import did_you_mean
+
+        raise TippetopError(f"--mode: expected one of probe {probe.name}'s modes ("
+                            f"{', '.join(probe.modes)}), got {mode!r}"
+                            f"{did_you_mean(mode, probe.modes)}")
+    integrator = integrator_name(args.integrator) if args.integrator else None
+    if args.timestep is not None and not args.timestep > 0:
+        raise TippetopError(f"--timestep: expected a positive step in s, got {args.timestep!r}")
+    metrics = bs.probe_metrics_of(probe.name, args.metric)
+
+    def runner_for(say):  # noqa: ANN001, ANN202 - made once the range is known
+        return bs.ProbeRunner(probe.name, mode, integrator, args.timestep,
+                              tuple(args.set or ()), use_cache=not args.no_cache, say=say)
+
+    return metrics, mode, runner_for
+
+
 def run(args: argparse.Namespace) -> int:
     """``tippetop bisect``."""
     import dataclasses
@@ -100,11 +134,26 @@ def run(args: argparse.Namespace) -> int:
     from tippetop.compare.studies import bisect as bs
     from tippetop.models.errors import TippetopError
 
-    overrides = set_overrides(args)
-    metrics = bs.check_metrics(args.metric)
     if args.budget is not None and args.budget < 2:
         raise TippetopError(f"--budget: expected an integer >= 2 (runs), got {args.budget}")
-    mode = _check_scene(args.scene, args.mode, overrides)
+    if args.probe:
+        if args.scene:
+            raise TippetopError(f"SCENE: expected no scene with --probe {args.probe}, got "
+                                f"{args.scene!r}")
+        overrides = ()
+        metrics, mode, runner_for = _check_probe(args)
+    else:
+        if not args.scene:
+            raise TippetopError("SCENE: expected a scene, an MJCF top or --probe NAME, got "
+                                "none")
+        for flag in ("integrator", "timestep"):
+            if getattr(args, flag) is not None:
+                raise TippetopError(f"--{flag}: expected only with --probe (a scene's runs "
+                                    f"take it from --set), got {getattr(args, flag)!r}")
+        overrides = set_overrides(args)
+        metrics = bs.check_metrics(args.metric)
+        mode = _check_scene(args.scene, args.mode, overrides)
+        runner_for = None
     from tippetop.compare.nightly.history import check_history, timestamp_now
 
     if not args.no_history:  # before the runs: a file that is not a history is bad input
@@ -130,12 +179,18 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(line + "\n")
         sys.stderr.flush()
 
-    runner = bs.MatrixRunner(args.scene, mode, overrides, workers=args.workers,
-                             use_cache=not args.no_cache, scheduler=args.scheduler, say=say)
+    if runner_for is not None:
+        runner: bs.Runner = runner_for(say)
+    else:
+        runner = bs.MatrixRunner(args.scene, mode, overrides, workers=args.workers,
+                                 use_cache=not args.no_cache, scheduler=args.scheduler,
+                                 say=say)
     found = bs.bisect(cands, metrics, runner, budget=args.budget,
-                      attribution=not args.no_attribution, say=say, tty=sys.stderr.isatty())
+                      attribution=not args.no_attribution and runner_for is None, say=say,
+                      tty=sys.stderr.isatty())
+    scene = f"probe {args.probe}" if args.probe else args.scene
     res = dataclasses.replace(found, context=BisectContext(
-        args.scene, mode, tuple(args.set or []), source, started))
+        scene, mode, tuple(args.set or []), source, started))
     if not args.no_history:  # a failed append is said in one line; the results are kept
         from tippetop.compare.commands.history import record_command
 

@@ -12,6 +12,10 @@ from tippetop.compare.results.bisect import BisectContext, BisectResult
 
 def _unit(metric: str) -> str:
     """The unit printed after a metric's value (:attr:`Metric.table_unit`, declared once)."""
+    if metric.startswith("probe."):
+        from tippetop.compare.probes import probe_metric
+
+        return probe_metric(metric).table_unit
     return declared(metric).table_unit
 
 
@@ -32,8 +36,11 @@ def print_bisect(res: BisectResult) -> None:
           f"{res.environments_new} made now; the versions read back from the runs):")
     ms = res.metrics
     own = all(t.engine == f"mujoco@{t.release}" for t in res.tested)
+    probe = {m.split(".")[1] for m in ms if m.startswith("probe.")}
+    short = len(probe) == 1 and all(m.startswith("probe.") for m in ms)  # one probe's
     cols = ["interpreter" if own else "release", *(() if own else ("engine",)), "version",
-            *(() if "status" in ms else ("status",)), *ms]
+            *(() if "status" in ms else ("status",)),
+            *(m.rsplit(".", 1)[1] if short else m for m in ms)]
     rows = [(t.release, *(() if own else (t.engine,)), fmt(t.version),
              *(() if "status" in ms else (str(t.status),)),
              *(fmt(t.values.get(m), _unit(m)) for m in ms)) for t in res.tested]

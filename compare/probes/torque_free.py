@@ -106,12 +106,12 @@ class TorqueFree(Probe):
     params: ClassVar[dict[str, float]] = {"M": 0.015, "C": 1.35e-6, "A_over_C": 0.8,
                                           "w3": 100.0, "w1": 5.0, "T": 2.0}
     quantities: ClassVar[tuple[Quantity, ...]] = (
-        Quantity("energy_drift", "1", BUDGET,
+        Quantity("energy_drift", "relative", BUDGET,
                  "the kinetic energy's largest relative change over the run, signed "
                  "(+ gained, - lost)",
                  "E is conserved: 1e-3, MuJoCo's budget for the top's conserved Jellett "
                  "constant, none of it a contact's here"),
-        Quantity("momentum_drift", "1", BUDGET,
+        Quantity("momentum_drift", "relative", BUDGET,
                  "|L|'s largest relative change over the run, signed",
                  "|L| is conserved: the same 1e-3 budget as E"),
         Quantity("momentum_turn_rad", "rad", BUDGET,
@@ -123,7 +123,7 @@ class TorqueFree(Probe):
                  "its unwrapped phase over every step",
                  "1e-3 of the default Omega = 25 rad/s (the same relative budget; fixed when "
                  "--set changes Omega): 0.05 rad of phase over the 2 s run"),
-        Quantity("transverse_drift", "1", BUDGET,
+        Quantity("transverse_drift", "relative", BUDGET,
                  "|w_perp| = hypot(w1, w2): its largest relative change over the run, signed",
                  "|w_perp| is conserved (the nutation's size): the same 1e-3 budget; a "
                  "first-order step moves its log by Omega^2 h T / 2 (1.25 at 2 ms)"),

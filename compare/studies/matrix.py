@@ -72,8 +72,28 @@ def _scene_task_args(scene: str) -> tuple[str | None, tuple[Override, ...], bool
     return scene, (), False
 
 
+def metric_tolerance(metric: str) -> Any:
+    """A metric's tolerance against a baseline: a run metric's, or a probe quantity's.
+
+    A probe quantity is ``probe.<probe>.<quantity>``
+    (:func:`tippetop.compare.probes.probe_metrics`).
+
+    Raises:
+        KeyError: Not a metric with a tolerance.
+    """
+    if metric in METRIC_TOLERANCES:
+        return METRIC_TOLERANCES[metric]
+    if metric.startswith("probe."):
+        from tippetop.compare.probes import probe_metric
+
+        tol = probe_metric(metric).tolerance
+        if tol is not None:
+            return tol
+    raise KeyError(metric)
+
+
 def _differ(metric: str, a: Any, b: Any) -> bool:
-    tol = METRIC_TOLERANCES[metric]
+    tol = metric_tolerance(metric)
     if a is None or b is None:
         return (a is None) != (b is None)
     if tol.kind == "exact":
@@ -331,4 +351,4 @@ def _differences(runs: list[MatrixRun], engines: Sequence[EngineSpec],
 
 
 __all__ = ["DEFAULT_FILE_MODES", "DEFAULT_MODES", "COMPARED", "FORMAT", "PROFILES",
-           "differs", "profile_scenes", "run_matrix", "table_key"]
+           "differs", "metric_tolerance", "profile_scenes", "run_matrix", "table_key"]
