@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import importlib
 
-from tippetop.compare.probes.base import Probe
+from tippetop.compare.measures.metrics import Metric, Tolerance
+from tippetop.compare.probes.base import Probe, metric_name
 from tippetop.models.errors import TippetopError, did_you_mean
 
 #: Each probe's name -> ``module:Class`` under this package, in the order they run.
@@ -41,4 +42,40 @@ def probe_class(name: str) -> type[Probe]:
     return getattr(importlib.import_module(f"{__name__}.{module}"), cls)
 
 
-__all__ = ["REGISTRY", "probe_class", "probe_names"]
+def _metrics_of(cls: type[Probe]) -> dict[str, Metric]:
+    out: dict[str, Metric] = {}
+    for q in cls.quantities:
+        mname = metric_name(cls.name, q.name)
+        out[mname] = Metric(
+            name=mname, unit=q.unit, meaning=f"{cls.name}: {q.what}", kinds=("probe",),
+            tolerance=Tolerance("abs", q.tolerance / 10, unit=q.unit,
+                                why="a tenth of its tolerance against the exact value: a "
+                                "move that takes a tenth of that allowance is a change"),
+            agreement=Tolerance("abs", q.tolerance, unit=q.unit, why=q.why),
+            against="theory", label=q.name)
+    return out
+
+
+def probe_metrics() -> dict[str, Metric]:
+    """Every probe quantity as a declared metric (``probe.<probe>.<quantity>``, kind ``probe``).
+
+    Its agreement is with the theory (the closed form), within the quantity's tolerance; its
+    tolerance against a baseline (the nightly, the matrix between engines, bisect) is a tenth
+    of that.
+    """
+    return {k: m for name in REGISTRY for k, m in _metrics_of(probe_class(name)).items()}
+
+
+def probe_metric(name: str) -> Metric:
+    """The declared metric ``probe.<probe>.<quantity>``.
+
+    Raises:
+        KeyError: No such probe quantity.
+    """
+    _, probe, _q = name.split(".", 2) if name.count(".") >= 2 else ("", "", "")
+    if probe not in REGISTRY:
+        raise KeyError(name)
+    return _metrics_of(probe_class(probe))[name]
+
+
+__all__ = ["REGISTRY", "probe_class", "probe_metric", "probe_metrics", "probe_names"]
