@@ -67,6 +67,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "what each difference follows (the integrator, contacts, friction, the cone, "
                    "the solver, the timestep) and which engine is nearer the reference and its "
                    "own converged answer")
+    p.add_argument("--probes", nargs="?", const="all", metavar="NAME,...", help="also run "
+                   "the probes (tippetop probe: each part of the engine against an exact "
+                   "answer) on the same engines and say which probe quantities moved between "
+                   "them: all of them, or those named (default: none)")
     p.add_argument("--no-cache", action="store_true", help="compute every run again and "
                    "write nothing to the cache")
     add_history_options(p, "this matrix's values, engine versions, commit and machine")
@@ -85,6 +89,14 @@ def run(args: argparse.Namespace) -> int:
 
     engines = parse_engines(args.engines)
     modes = parse_modes(args.modes) if args.modes else None
+    probe_names: list[str] | None = None
+    if args.probes is not None:
+        from tippetop.compare.probes import probe_class
+
+        probe_names = [] if args.probes == "all" else \
+            [n.strip() for n in args.probes.split(",") if n.strip()]
+        for n in probe_names:
+            probe_class(n)  # an unknown probe: one line, before any run
     scenes = list(args.scenes) or list(profile_scenes(args.profile))
     from tippetop.compare.nightly.history import check_history, timestamp_now
 
@@ -101,23 +113,39 @@ def run(args: argparse.Namespace) -> int:
                      tables=tables, scheduler=args.scheduler)
     if res.started is None:
         res = dataclasses.replace(res, started=started)
+    probes = None
+    if probe_names is not None:
+        from tippetop.compare.probes.study import probe_moves, run_probes
+
+        probe_res = run_probes(probe_names, engines, use_cache=not args.no_cache,
+                               progress=not args.json)
+        probes = {**probe_res.to_json(),
+                  "moved": [m.to_json() for m in probe_moves(probe_res)]}
     if not args.no_history:  # a failed append is said in one line; the results are kept
         res = dataclasses.replace(res, history=record_matrix(res, args))
     if out_dir is not None:
         from tippetop.compare.report.matrix import render
         from tippetop.compare.running.io import staged_output_dir
 
-        text = json_text(res.to_json(), indent=1) + "\n"
+        text = json_text(_with_probes(res.to_json(), probes), indent=1) + "\n"
         html = render(res, tables)
+        if probes is not None:
+            from tippetop.compare.report.probes import moves_section
+
+            html = html.replace("</body>", moves_section(probes) + "</body>", 1)
         with staged_output_dir(out_dir) as stage:  # all files or none, even on Ctrl-C
             (stage / "results.json").write_text(text, "utf-8")
             (stage / "report.html").write_text(html, "utf-8")
     if args.json:
-        print_json(res.to_json())
+        print_json(_with_probes(res.to_json(), probes))
     else:
         from tippetop.compare.presentation.matrix import print_matrix
 
         print_matrix(res)
+        if probes is not None:
+            from tippetop.compare.presentation.probes import print_moves
+
+            print_moves(probes)
         if out_dir is not None:
             print(f"wrote {out_dir / 'results.json'} and {out_dir / 'report.html'}")
         if res.history and res.history["run"] is not None:
@@ -129,6 +157,11 @@ def run(args: argparse.Namespace) -> int:
                          "failed; the reasons are in the output\n")
         return EXIT_RUN_FAILED
     return 0
+
+
+def _with_probes(data: dict[str, Any], probes: dict[str, Any] | None) -> dict[str, Any]:
+    """The matrix's JSON with its ``probes`` (``--probes``: the probes' result and ``moved``)."""
+    return data if probes is None else {**data, "probes": probes}
 
 
 def record_matrix(res: MatrixResult, args: argparse.Namespace) -> dict[str, Any]:

@@ -67,4 +67,31 @@ def print_probes(res: ProbeResult, out: TextIO | None = None) -> None:
         print(f"not run: {name} (none of its modes asked for)", file=out)
 
 
-__all__ = ["print_probes", "row_line"]
+def move_lines(probes: dict) -> list[str]:
+    """``matrix --probes``: which probe quantities moved between which engines, one a line."""
+    moved = probes.get("moved", [])
+    n = probes.get("total", 0)
+    if not moved:
+        return [f"probes: no probe quantity moved between the engines ({n} rows, each within "
+                "a tenth of its tolerance against the exact value of the other engines')"]
+    out = [f"probes: {len(moved)} quantities moved between the engines (beyond a tenth of "
+           "their tolerance against the exact value):"]
+    for m in moved:
+        a, b = m["engines"]
+        va, vb = m["values"]
+
+        def num(x: float | None) -> str:
+            return "failed" if x is None else f"{x:.6g}"
+
+        near = f"; nearer the exact value: {m['nearer_exact']}" if m.get("nearer_exact") else ""
+        out.append(f"  {m['probe']} [{m['mode']}] {m['quantity']}: {a} {num(va)}, {b} "
+                   f"{num(vb)} (exact {num(m['exact'])}){near}")
+    return out
+
+
+def print_moves(probes: dict, out: TextIO | None = None) -> None:
+    """Print :func:`move_lines`."""
+    print("\n" + "\n".join(move_lines(probes)), file=out or sys.stdout)
+
+
+__all__ = ["move_lines", "print_moves", "print_probes", "row_line"]

@@ -396,5 +396,63 @@ def run_probes(names: Sequence[str], engines: Sequence[EngineSpec], *,
                        time.perf_counter() - t0)
 
 
-__all__ = ["FORMAT", "ROW_KEYS", "ProbeCache", "ProbeResult", "ProbeRow", "ProbeRun",
-           "check_modes", "integrator_name", "probes_for", "run_one", "run_probes"]
+@dataclass(frozen=True)
+class ProbeMove:
+    """A probe quantity that differs between two engines beyond its baseline tolerance.
+
+    That tolerance is a tenth of its tolerance against the exact value.
+    """
+
+    probe: str
+    mode: str
+    quantity: str
+    engines: tuple[str, str]
+    values: tuple[float, float]
+    exact: float
+    tolerance: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The move's keys (non-finite values as null)."""
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {"probe": self.probe, "mode": self.mode, "quantity": self.quantity,
+                "metric": metric_name(self.probe, self.quantity),
+                "engines": list(self.engines), "values": [num(v) for v in self.values],
+                "exact": num(self.exact), "tolerance": self.tolerance,
+                "nearer_exact": (self.engines[0] if abs(self.values[0] - self.exact)
+                                 <= abs(self.values[1] - self.exact) else self.engines[1])
+                if all(math.isfinite(v) for v in self.values) else None}
+
+
+def probe_moves(res: ProbeResult) -> list[ProbeMove]:
+    """The probe quantities that moved between each pair of the result's engines.
+
+    A quantity moves when the two values differ by more than its baseline tolerance (a tenth
+    of its tolerance against the exact value), or one of them is missing (a failed run).
+    """
+    from itertools import combinations
+
+    from tippetop.compare.probes import probe_metric
+
+    by = {(r.probe, r.mode, r.quantity, r.engine): r for r in res.rows}
+    keys = list(dict.fromkeys((r.probe, r.mode, r.quantity) for r in res.rows))
+    out = []
+    for a, b in combinations(res.engines, 2):
+        for probe, mode, q in keys:
+            ra, rb = by.get((probe, mode, q, a)), by.get((probe, mode, q, b))
+            if ra is None or rb is None:
+                continue
+            tol = probe_metric(metric_name(probe, q)).tolerance
+            bound = tol.value if tol is not None else ra.tolerance
+            va, vb = ra.value, rb.value
+            moved = (math.isfinite(va) != math.isfinite(vb)
+                     or (math.isfinite(va) and abs(va - vb) > bound))
+            if moved:
+                out.append(ProbeMove(probe, mode, q, (a, b), (va, vb), ra.exact, bound))
+    return out
+
+
+__all__ = ["FORMAT", "ROW_KEYS", "ProbeCache", "ProbeMove", "ProbeResult", "ProbeRow", "ProbeRun",
+           "check_modes", "integrator_name", "probe_moves", "probes_for", "run_one",
+           "run_probes"]

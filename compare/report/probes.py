@@ -102,4 +102,14 @@ def write_outputs(res: ProbeResult, folder: Path) -> None:
     (folder / "report.html").write_text(render(res, figures), "utf-8")
 
 
-__all__ = ["figure", "render", "write_outputs"]
+def moves_section(probes: dict) -> str:
+    """``matrix --probes``'s section: the probe quantities that moved between the engines."""
+    from tippetop.compare.presentation.probes import move_lines
+
+    lines = move_lines(probes)
+    items = "".join(f"<li>{html.escape(x.strip())}</li>" for x in lines[1:])
+    return (f"<h2>Probes</h2><p>{html.escape(lines[0])}</p>"
+            + (f"<ul>{items}</ul>" if items else ""))
+
+
+__all__ = ["figure", "moves_section", "render", "write_outputs"]
