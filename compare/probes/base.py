@@ -145,6 +145,10 @@ class Probe:
         """The declared quantity ``name``."""
         return next(q for q in self.quantities if q.name == name)
 
+    def quantities_of(self, mode: str) -> tuple[Quantity, ...]:
+        """The quantities ``mode``'s run measures (default: all of them)."""
+        return self.quantities
+
     def setup(self, mode: str) -> Setup:  # pragma: no cover - abstract
         """The model, start and duration for ``mode``."""
         raise NotImplementedError
