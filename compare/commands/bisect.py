@@ -41,7 +41,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bisect", help="which MuJoCo release moved a metric",
                        description=DESCRIPTION)
     p.add_argument("scene", nargs="?", metavar="SCENE|MODEL.xml", help="a catalogue name, a "
-                   "scene .toml file or an MJCF top (required unless --probe)")
+                   "scene .toml file or an MJCF top (default: none; required unless --probe)")
     p.add_argument("--probe", metavar="NAME", help="bisect a probe's quantities instead of a "
                    "scene's metrics (tippetop probe; --metric then names its quantities, "
                    "--mode one of its modes; default: none)")
@@ -102,7 +102,7 @@ def _check_scene(scene: str, mode: str | None, overrides: tuple[str, ...]) -> st
 def _check_probe(args: argparse.Namespace) -> tuple[list[str], str, object]:
     """``--probe``: its metrics, its mode and a maker of its runner; bad input is one line."""
     from tippetop.compare.probes.study import integrator_name, probes_for
-    from tippetop.compare.studies import bisect as bs
+    from tippetop.compare.studies import bisect_probe as bp
     from tippetop.models.errors import TippetopError
 
     probe = probes_for([args.probe], args.set or ())[0]
@@ -116,10 +116,10 @@ def _check_probe(args: argparse.Namespace) -> tuple[list[str], str, object]:
     integrator = integrator_name(args.integrator) if args.integrator else None
     if args.timestep is not None and not args.timestep > 0:
         raise TippetopError(f"--timestep: expected a positive step in s, got {args.timestep!r}")
-    metrics = bs.probe_metrics_of(probe.name, args.metric)
+    metrics = bp.probe_metrics_of(probe.name, args.metric)
 
     def runner_for(say):  # noqa: ANN001, ANN202 - made once the range is known
-        return bs.ProbeRunner(probe.name, mode, integrator, args.timestep,
+        return bp.ProbeRunner(probe.name, mode, integrator, args.timestep,
                               tuple(args.set or ()), use_cache=not args.no_cache, say=say)
 
     return metrics, mode, runner_for

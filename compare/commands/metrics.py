@@ -20,9 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "move from a baseline (the nightly, the matrix between engines) and how "
                        "far a run may be from the theory or the reference and still agree (the "
                        "verdict). Then the verdict's checks.")
-    p.add_argument("names", nargs="*", metavar="NAME", help="only these metrics (default: "
-                   "all)")
-    p.add_argument("--kind", choices=("run", "threshold", "sweep", "atlas"),
+    p.add_argument("names", nargs="*", metavar="NAME", help="only these metrics, or patterns "
+                   "such as 'probe.*' (default: all)")
+    p.add_argument("--kind", choices=("run", "threshold", "sweep", "atlas", "probe"),
                    help="only the metrics of this kind of case (default: every kind)")
     add_json_option(p, help="print a JSON list of {name, unit, meaning, kinds, tolerance, "
                     "agreement, against, style, label} instead")
@@ -35,14 +35,23 @@ def selected(names: list[str], kind: str | None) -> list[Any]:
     Raises:
         TippetopError: A name that is not a declared metric (one line, with the closest).
     """
-    from tippetop.compare.measures.metrics import METRICS
+    import fnmatch
+
+    from tippetop.compare.measures.metrics import METRICS as RUN_METRICS
+    from tippetop.compare.probes import probe_metrics
     from tippetop.models.errors import TippetopError, did_you_mean
 
+    METRICS = {**RUN_METRICS, **probe_metrics()}  # noqa: N806 - every declared metric
+    wanted: set[str] = set()
     for n in names:
-        if n not in METRICS:
-            raise TippetopError(f"NAME: expected a metric ({', '.join(METRICS)}), got {n!r}"
+        found = fnmatch.filter(METRICS, n) if any(c in n for c in "*?[") else \
+            [n] if n in METRICS else []
+        if not found:
+            raise TippetopError(f"NAME: expected a metric or a pattern such as probe.* ("
+                                f"{', '.join(METRICS)}), got {n!r}"
                                 f"{did_you_mean(n, tuple(METRICS))}")
-    return [m for m in METRICS.values() if (not names or m.name in names)
+        wanted.update(found)
+    return [m for m in METRICS.values() if (not names or m.name in wanted)
             and (kind is None or kind in m.kinds)]
 
 

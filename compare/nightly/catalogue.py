@@ -129,7 +129,10 @@ class Catalogue:
 
 _COMMON_KEYS = {"name", "category", "kind", "scene", "model", "set", "engines", "modes",
                 "profiles", "metrics", "description"}
-_KIND_KEYS = {"run": {"departs"}, "atlas": {"A_over_C", "a_over_R"},
+#: The kinds of case: the run metrics' kinds, and ``probe`` (``tippetop probe``: one probe's
+#: quantities against their exact values, in each of its modes).
+CASE_KINDS: tuple[str, ...] = (*KINDS, "probe")
+_KIND_KEYS = {"run": {"departs"}, "atlas": {"A_over_C", "a_over_R"}, "probe": {"probe"},
               "threshold": {"which", "method", "rel_tol", "max_rounds", "points_per_round"},
               "sweep": {"n0", "figure", "label"}}
 
@@ -254,9 +257,11 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
     if not isinstance(entry, dict):
         raise TippetopError(f"{where}: expected a table, got {entry!r}")
     kind = _req(entry, "kind", str, where)
-    if kind not in KINDS:
-        raise TippetopError(f"{where}.kind: expected one of {'|'.join(KINDS)}, got {kind!r}"
-                            f"{did_you_mean(kind, KINDS)}")
+    if kind not in CASE_KINDS:
+        raise TippetopError(f"{where}.kind: expected one of {'|'.join(CASE_KINDS)}, got "
+                            f"{kind!r}{did_you_mean(kind, CASE_KINDS)}")
+    if kind == "probe":
+        return _probe_cases(entry, where, profiles)
     allowed = _COMMON_KEYS | _KIND_KEYS[kind]
     for key in entry:
         if key not in allowed:
@@ -301,6 +306,69 @@ def _entry_cases(entry: dict[str, Any], where: str, profiles: dict[str, str],
                  model=model, model_sha256=model_sha256,
                  model_origin=origin if model else "", **extra)
             for engine, mode, more in runs]
+
+
+def _probe_cases(entry: dict[str, Any], where: str, profiles: dict[str, str]) -> list[Case]:
+    """A probe entry's cases: the probe in each of its modes (all by default) on MuJoCo.
+
+    Its ``scene`` is the probe's name, its ``set`` the probe's parameters (``KEY=VALUE``), its
+    metrics the probe's quantities (``probe.<probe>.<quantity>``; a bare quantity name is
+    read as the probe's; default: all of them).
+    """
+    from tippetop.compare.probes import probe_class
+    from tippetop.compare.probes.base import metric_name
+    from tippetop.compare.probes.study import probes_for
+
+    allowed = {"name", "category", "kind", "probe", "set", "modes", "profiles", "metrics",
+               "description"}
+    for key in entry:
+        if key not in allowed:
+            raise TippetopError(f"{where}: unknown key {key!r}{did_you_mean(key, allowed)} "
+                                f"for a probe case (expected one of: "
+                                f"{', '.join(sorted(allowed))})")
+    name = _req(entry, "name", str, where)
+    category = _req(entry, "category", str, where)
+    probe = _req(entry, "probe", str, where)
+    try:
+        cls = probe_class(probe)
+        over = entry.get("set", [])
+        if not (isinstance(over, list) and all(isinstance(x, str) for x in over)):
+            raise TippetopError(f"set: expected a list of 'KEY=VALUE' strings, got {over!r}")
+        probes_for([probe], over)  # the parameters checked
+    except TippetopError as exc:
+        raise TippetopError(f"{where}: {exc}") from None
+    modes = list(entry.get("modes", cls.modes))
+    for m in modes:
+        if m not in cls.modes:
+            raise TippetopError(f"{where}.modes: expected modes of probe {probe} ("
+                                f"{', '.join(cls.modes)}), got {m!r}"
+                                f"{did_you_mean(str(m), cls.modes)}")
+    known = [metric_name(probe, q.name) for q in cls.quantities]
+    metrics = []
+    for m in entry.get("metrics", known):
+        full = m if str(m).startswith("probe.") else metric_name(probe, str(m))
+        if full not in known:
+            raise TippetopError(f"{where}.metrics: expected quantities of probe {probe} ("
+                                f"{', '.join(q.name for q in cls.quantities)}), got {m!r}")
+        metrics.append(full)
+    profs = _req(entry, "profiles", list, where)
+    for p in profs:
+        if p not in profiles:
+            raise TippetopError(f"{where}.profiles: expected names from "
+                                f"{', '.join(profiles)}, got {p!r}{did_you_mean(p, profiles)}")
+    if not (modes and profs and metrics):
+        raise TippetopError(f"{where}: expected non-empty modes, profiles and metrics")
+    probe_ = cls()
+
+    def measured(mode: str) -> tuple[str, ...]:  # the mode's own quantities, in that order
+        own = {metric_name(probe, q.name) for q in probe_.quantities_of(mode)}
+        return tuple(m for m in metrics if m in own)
+
+    return [Case(id=f"{category}/{name}[{run_label('mujoco', m)}]", name=name,
+                 category=category, kind="probe", scene=probe, engine="mujoco", mode=m,
+                 metrics=measured(m), profiles=tuple(profs), set=tuple(over),
+                 description=entry.get("description", "") or cls.title)
+            for m in modes if measured(m)]
 
 
 def _entry_scene(entry: dict[str, Any], kind: str, where: str, base: Path | None,

@@ -20,7 +20,16 @@ from tippetop.models.scene import Scene, load_scene, override_texts
 
 
 def tolerance_for(metric: str, case: Case) -> Tolerance:
-    """The tolerance of ``metric`` for ``case`` (a threshold's is at least its ``rel_tol``)."""
+    """The tolerance of ``metric`` for ``case`` (a threshold's is at least its ``rel_tol``).
+
+    A probe's quantity (``probe.<probe>.<quantity>``) has its declared metric's.
+    """
+    if metric.startswith("probe."):
+        from tippetop.compare.probes import probe_metric
+
+        probe_tol = probe_metric(metric).tolerance
+        assert probe_tol is not None
+        return probe_tol
     tol = TOLERANCES[metric]
     if metric == "measured" and case.method == "growth":
         return GROWTH_MEASURED
@@ -105,6 +114,13 @@ def _top_record(scene: Scene, plan: RunPlan) -> tuple[dict[str, Any], dict[str, 
 def case_record(cr: CaseRun, checks: list[dict[str, Any]]) -> dict[str, Any]:
     """The results.json entry of a case."""
     c = cr.case
+    if c.kind == "probe":
+        return {"id": c.id, "name": c.name, "category": c.category, "kind": c.kind,
+                "engine": c.engine, "mode": c.mode, "run": c.run, "scene": c.scene,
+                "scene_name": f"probe {c.scene}", "set": list(c.set), "overrides": list(c.set),
+                "description": c.description, "metrics": list(c.metrics),
+                "status": case_status(checks), "error": cr.error, "expected_departure": None,
+                "wall_s": cr.wall_s, "values": cr.values, "checks": checks, **cr.detail}
     scene = load_scene(c.scene_arg, list(c.overrides))
     params, th = _top_record(scene, plan_for(scene, c.engine, c.mode))
     rec: dict[str, Any] = {

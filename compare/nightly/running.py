@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -126,6 +127,8 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
     out = {c.id: CaseRun(c) for c in cases}
     scenes: dict[str, Scene] = {}
     for c in cases:  # validate every scene before any work
+        if c.kind == "probe":
+            continue
         try:
             scenes[c.id] = load_scene(c.scene_arg, list(c.overrides))
         except TippetopError as exc:
@@ -159,6 +162,11 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
             if c.kind == "atlas":
                 _run_atlas(out[c.id], scheduler=scheduler, workers=workers,
                            use_cache=shared_cache, log=log)
+        probes = [c for c in cases if c.kind == "probe"]
+        if probes:
+            log(f"nightly: {len(probes)} probe runs")
+            for c in probes:
+                _run_probe(out[c.id], use_cache=shared_cache)
     for c in cases:
         if c.model:  # results.json says which file, and which content, ran
             out[c.id].detail["model"] = model_detail(c)
@@ -170,6 +178,45 @@ def run_cases(cases: Sequence[Case], *, scheduler: str | None = None,
                 "outcomes_vs_n0": {f"{p['n0']:g}": p["outcome"] for p in pts},
             }
     return [out[c.id] for c in cases]
+
+
+def _run_probe(cr: CaseRun, *, use_cache: bool) -> None:
+    """A probe case: its probe in its mode on its engine, each quantity a metric value.
+
+    The detail holds the rows (value, exact, error, tolerance, passed) and what ran; a run
+    that failed (diverged, warned, an engine that did not answer) is the case's error.
+    """
+    from tippetop.compare.probes.study import probes_for, run_one
+    from tippetop.models.engines import parse_engine
+
+    c = cr.case
+    t0 = time.perf_counter()
+    try:
+        probe = probes_for([c.scene], c.set)[0]
+        run = run_one(probe, c.mode, parse_engine(c.engine), integrator=None, timestep_s=None,
+                      cache=_probe_cache() if use_cache else None)
+    except TippetopError as exc:
+        cr.error = error_text(exc)
+        return
+    finally:
+        cr.wall_s = time.perf_counter() - t0
+    rows = [r.to_json() for r in run.rows]
+    cr.values = {r.metric: (r.value if math.isfinite(r.value) else None) for r in run.rows}
+    reasons = [r.reason for r in run.rows if r.reason]
+    if reasons:
+        cr.error = reasons[0]
+    cr.detail = {"probe": {"rows": rows, "ran": run.ran, "engine": run.engine_ran,
+                           "params": {k: probe.p(k) for k in probe.params}},
+                 "summary": {"version": run.engine_ran.get("version"),
+                             "integrator": rows[0]["integrator"] if rows else None,
+                             "timestep_s": rows[0]["timestep_s"] if rows else None}}
+
+
+def _probe_cache() -> Any:
+    from tippetop.compare.probes.study import ProbeCache
+    from tippetop.compare.running.cache import default_cache_dir
+
+    return ProbeCache(default_cache_dir() / "probes")
 
 
 def model_detail(case: Case) -> dict[str, Any]:

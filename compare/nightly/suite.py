@@ -216,8 +216,8 @@ def engine_specs(engines: tuple[str, ...]) -> tuple[tuple[str, ...], list[str]]:
 def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], list[str]]:
     """Each MuJoCo case on each MuJoCo engine; the cases that cannot run on one, said.
 
-    Runs, sweeps, thresholds and the atlas run on any engine (a release, a build, MJX, Warp:
-    locally or on a Dask cluster).
+    Runs, sweeps, thresholds, the atlas and the probes run on any engine (a release, a build,
+    MJX, Warp: locally or on a Dask cluster; probes locally).
     """
     out, skipped = [], []
     for c in cases:
@@ -225,7 +225,8 @@ def cases_on_specs(cases: list[Case], specs: list[str]) -> tuple[list[Case], lis
             out.append(c)
             continue
         for spec in specs:
-            if spec != "mujoco" and c.kind not in ("run", "sweep", "threshold", "atlas"):
+            if spec != "mujoco" and c.kind not in ("run", "sweep", "threshold", "atlas",
+                                                   "probe"):
                 skipped.append(f"{c.id} on {spec} (a {c.kind} runs on the installed MuJoCo "
                                "only)")
                 continue

@@ -48,9 +48,10 @@ def _metrics_of(cls: type[Probe]) -> dict[str, Metric]:
         mname = metric_name(cls.name, q.name)
         out[mname] = Metric(
             name=mname, unit=q.unit, meaning=f"{cls.name}: {q.what}", kinds=("probe",),
-            tolerance=Tolerance("abs", q.tolerance / 10, unit=q.unit,
-                                why="a tenth of its tolerance against the exact value: a "
-                                "move that takes a tenth of that allowance is a change"),
+            tolerance=Tolerance("abs", q.baseline_tolerance, unit=q.unit,
+                                why=q.baseline_why if q.baseline is not None else
+                                "a tenth of its tolerance against the exact value: a move "
+                                "that takes a tenth of that allowance is a change"),
             agreement=Tolerance("abs", q.tolerance, unit=q.unit, why=q.why),
             against="theory", label=q.name)
     return out

@@ -46,6 +46,10 @@ class Quantity:
         what: One line: what it is.
         why: One line: why that tolerance (what the engine's model allows, or the step's
             order).
+        baseline: How far it may move between two runs (the nightly against its baseline,
+            the matrix and bisect between engines), in ``unit``; None: a tenth of
+            ``tolerance``.
+        baseline_why: Why that bound, when ``baseline`` is given.
     """
 
     name: str
@@ -53,6 +57,13 @@ class Quantity:
     tolerance: float
     what: str
     why: str
+    baseline: float | None = None
+    baseline_why: str = ""
+
+    @property
+    def baseline_tolerance(self) -> float:
+        """:attr:`baseline`, or a tenth of :attr:`tolerance`."""
+        return self.tolerance / 10 if self.baseline is None else self.baseline
 
 
 @dataclass(frozen=True)

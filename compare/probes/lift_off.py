@@ -207,8 +207,10 @@ class LiftOff(Probe):
                  "the slip at which the ball first leaves the table (no contact for 10 ms, "
                  "risen 10 um); the ramp's largest slip if it does not leave within the ramp",
                  "none: Coulomb's ball never leaves, written as the ramp's largest slip, which "
-                 "the value is, the same float, only when no flight begins within the ramp"),
-        Quantity("normal_excess", "1", 0.01,
+                 "the value is, the same float, only when no flight begins within the ramp",
+                 baseline=0.01, baseline_why="1 % of the ramp's 1 m/s: the slip moves 2 mm/s "
+                 "a step at 2 ms, so 5 steps' worth; a flight a few steps sooner is no change"),
+        Quantity("normal_excess", "relative", 0.01,
                  "the normal force averaged over the steps in contact, while the slip is at "
                  "most the ramp's largest, over M g, minus 1",
                  "a ball that keeps its contact has (1 + dv_z / (g T)): its vertical speed in "

@@ -14,6 +14,7 @@ from tippetop.compare.report.figures import sweeps_section, timeseries_section
 from tippetop.compare.report.friction import friction_section
 from tippetop.compare.report.groupmap import group_map_section
 from tippetop.compare.report.markup import page
+from tippetop.compare.report.probes import nightly_section as probes_nightly_section
 from tippetop.compare.report.sections import (
     accuracy_section,
     checks_section,
@@ -40,6 +41,7 @@ _NAV = ("<nav><ul><li><a href='#verdict'>Against the theory</a></li>"
         "<li><a href='#atlas'>Group diagram measured</a></li>"
         "<li><a href='#friction'>Friction laws</a></li>"
         "<li><a href='#thresholds'>Thresholds</a></li>"
+        "<li><a href='#probes'>Probes</a></li>"
         "<li><a href='#accuracy'>Accuracy against cost</a></li>"
         "<li><a href='#all'>Every check</a></li><li><a href='#env'>Environment</a></li>"
         "</ul></nav>")
@@ -65,8 +67,9 @@ def render_report(results: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]
             verdict_section(results), trends_section(results), scenes_section(results),
             timeseries_section(results, tables), sweeps_section(results),
             group_map_section(results), atlas_section(results), friction_section(results),
-            threshold_section(results), accuracy_section(accuracy_dir),
-            checks_section(results), environment_section(results)]
+            threshold_section(results), probes_nightly_section(results),
+            accuracy_section(accuracy_dir), checks_section(results),
+            environment_section(results)]
     title = f"tippetop report ({results.get('profile', '')}, {results.get('verdict', '')})"
     return page(title, body)
 

@@ -112,4 +112,39 @@ def moves_section(probes: dict) -> str:
             + (f"<ul>{items}</ul>" if items else ""))
 
 
-__all__ = ["figure", "moves_section", "render", "write_outputs"]
+def nightly_section(results: dict) -> str:
+    """The nightly report's probes: each quantity of each probe case against its exact value.
+
+    Empty when the nightly ran no probe case.
+    """
+    from tippetop.compare.report.markup import html_table
+
+    recs = [r for r in results.get("cases", []) if r.get("kind") == "probe"]
+    if not recs:
+        return ""
+    rows, classes = [], []
+    for r in recs:
+        for row in (r.get("probe") or {}).get("rows", []):
+            def num(x: float | None) -> str:
+                return "-" if x is None else f"{x:.6g}"
+
+            rows.append((row["probe"], row["mode"], f"{row['engine']} {row['version']}",
+                         f"{row['integrator']} {row['timestep_s']:g} s",
+                         f"{row['quantity']} ({row['unit']})", num(row["value"]),
+                         num(row["exact"]), num(row["error"]), f"{row['tolerance']:g}",
+                         "ok" if row["passed"] else "FAIL", row.get("reason") or ""))
+            classes.append("pass" if row["passed"] else "fail")
+        if r.get("error") and not (r.get("probe") or {}).get("rows"):
+            rows.append((r["scene"], r["mode"], r["engine"], "-", "-", "-", "-", "-", "-",
+                         "FAIL", r["error"]))
+            classes.append("fail")
+    n_ok = sum(c == "pass" for c in classes)
+    return ("<h2 id='probes'>Probes: the engine's parts against exact answers</h2>"
+            f"<p>{n_ok} of {len(rows)} quantities within their tolerance of the exact value "
+            "(each case's checks against its baseline are with the others, below). The "
+            "closed forms: docs/physics/probes.md.</p>"
+            + html_table(["probe", "mode", "engine", "integrator, step", "quantity", "value",
+                          "exact", "error", "tolerance", "", "reason"], rows, classes))
+
+
+__all__ = ["figure", "moves_section", "nightly_section", "render", "write_outputs"]

@@ -87,6 +87,25 @@ IMAGES = {
 }
 
 
+#: The probes' figures (``tippetop probe --out``: each probe's motion against its exact curve)
+#: and today's table of every probe over the installed MuJoCo's integrators, which
+#: docs/physics/probes.md shows where it writes ``{{ probe_table }}``.
+PROBE_INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
+PROBE_TABLE_MARKER = "{{ probe_table }}"
+
+
+def _probe_names() -> tuple[str, ...]:
+    from tippetop.compare.probes import probe_names
+
+    return probe_names()
+
+
+IMAGES.update({f"images/probe-{name}.png": f"tippetop probe {name} --out DIR: {name}.png"
+               for name in _probe_names()})
+#: The table made by this build (markdown), or why there is none.
+_PROBE_TABLE = {"text": ""}
+
+
 class ImageError(Exception):
     """An image that could not be made: one line saying why."""
 
@@ -132,8 +151,105 @@ def _images(config: MkDocsConfig) -> dict[str, bytes]:
                 out[name] = _placeholder(f"failed: {exc}")
             else:
                 log.info("docs image %s made in %.1f s", name, time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        try:
+            out.update(_probe_images(root, Path(tmp)))
+        except ImageError as exc:
+            log.warning("docs probe figures and table: %s (%s=0 builds without images)", exc,
+                        ENV)
+            _PROBE_TABLE["text"] = f"*(the table was not built: {exc})*"
+            out.update({name: _placeholder(f"failed: {exc}") for name in IMAGES
+                        if name.startswith("images/probe-")})
+        else:
+            log.info("docs probe figures and table made in %.1f s", time.perf_counter() - t0)
     log.info("docs images made in %.1f s", time.perf_counter() - start)
     return out
+
+
+def _probe_images(root: Path, tmp: Path) -> dict[str, bytes]:
+    """``tippetop probe --out``'s figures, and the table over the integrators (kept aside).
+
+    A probe outside its tolerance exits 1: a finding the page shows, not a failed build.
+    """
+    import json
+
+    folder = tmp / "probes"
+    _run([_tippetop(), "probe", "--out", str(folder)], root, ok=(0, 1))
+    out = {}
+    for name in _probe_names():
+        png = folder / f"{name}.png"
+        if not png.is_file():
+            raise ImageError(f"tippetop probe --out wrote no {png.name}")
+        out[f"images/probe-{name}.png"] = png.read_bytes()
+    results = {}
+    for integ in PROBE_INTEGRATORS:
+        js = tmp / f"probes-{integ}.json"
+        _run_to([_tippetop(), "probe", "--integrator", integ, "--json"], root, js, ok=(0, 1))
+        results[integ] = json.loads(js.read_text())
+    _PROBE_TABLE["text"] = probe_table(results)
+    return out
+
+
+def _run_to(args: list[str], cwd: Path, path: Path, ok: tuple[int, ...] = (0,)) -> None:
+    """:func:`_run`, its stdout written to ``path``."""
+    try:
+        proc = subprocess.run(args, cwd=cwd, env=command_env(), capture_output=True, text=True,
+                              timeout=TIMEOUT_S, check=False)
+    except subprocess.TimeoutExpired as exc:
+        raise ImageError(f"`{_show(args)}` took over {TIMEOUT_S} s") from exc
+    if proc.returncode not in ok:
+        lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.strip()]
+        raise ImageError(f"`{_show(args)}` exited {proc.returncode}: "
+                         f"{lines[-1].strip() if lines else 'no output'}")
+    path.write_text(proc.stdout)
+
+
+def probe_table(results: dict[str, dict]) -> str:
+    """A markdown table: each probe quantity's exact value and its value under each integrator.
+
+    A value outside its tolerance is marked **x**; a run that failed says so.
+    """
+    integs = list(results)
+    first = next(iter(results.values()))
+    version = first["results"][0]["version"] if first["results"] else "?"
+    rows: dict[tuple[str, str, str], dict[str, dict]] = {}
+    for integ, res in results.items():
+        for r in res["results"]:
+            rows.setdefault((r["probe"], r["mode"], r["quantity"]), {})[integ] = r
+
+    def cell(r: dict | None) -> str:
+        if r is None:
+            return "-"
+        if r["value"] is None:
+            return "failed"
+        text = f"{r['value']:.4g}"
+        return text if r["passed"] else f"**{text} x**"
+
+    head = ("| probe | mode | quantity | exact | tolerance | "
+            + " | ".join(integs) + " |\n|" + "---|" * (5 + len(integs)) + "\n")
+    body = []
+    for (probe, mode, q), by in rows.items():
+        any_row = next(iter(by.values()))
+        exact = "-" if any_row["exact"] is None else f"{any_row['exact']:.4g}"
+        body.append(f"| {probe} | {mode} | {q} ({any_row['unit']}) | {exact} | "
+                    f"{any_row['tolerance']:g} | "
+                    + " | ".join(cell(by.get(i)) for i in integs) + " |")
+    steps = sorted({f"{r['timestep_s']:g}" for r in first["results"]})
+    n = {i: sum(r["passed"] for r in results[i]["results"]) for i in integs}
+    total = len(first["results"])
+    summary = ", ".join(f"{i} {n[i]} of {total}" for i in integs)
+    return (f"MuJoCo {version}, each probe at its own step ({', '.join(steps)} s), built with "
+            f"this page; within tolerance: {summary}. **x**: outside the tolerance.\n\n"
+            + head + "\n".join(body) + "\n")
+
+
+def on_page_markdown(markdown: str, page: object, **kwargs: object) -> str:
+    """Put today's probe table where a page writes ``{{ probe_table }}``."""
+    if PROBE_TABLE_MARKER not in markdown:
+        return markdown
+    text = _PROBE_TABLE["text"] or (f"*(not built: {ENV}=0; the table is made by "
+                                    "`tippetop probe --integrator NAME` for each integrator)*")
+    return markdown.replace(PROBE_TABLE_MARKER, text)
 
 
 def _tippetop() -> str:

@@ -73,10 +73,16 @@ def test_the_nightly_checks_what_is_declared_and_stores_each() -> None:
 
 
 def test_metrics_command_lists_the_declarations() -> None:
+    from tippetop.compare.probes import probe_metrics
+
     listed = _tippetop("metrics")
-    assert [m["name"] for m in listed] == list(METRICS)
+    # the run metrics, then every probe quantity (issue 44), each declared once
+    assert [m["name"] for m in listed] == [*METRICS, *probe_metrics()]
     for m in listed:
         assert {"name", "unit", "meaning", "kinds", "tolerance"} <= set(m)
+    probes = _tippetop("metrics", "probe.*", "--kind", "probe")
+    assert probes and all(m["name"].startswith("probe.") and m["kinds"] == ["probe"]
+                          and m["unit"] and m["agreement"]["value"] >= 0 for m in probes)
     t_invert = next(m for m in listed if m["name"] == "t_invert")
     assert t_invert["unit"] == "s" and t_invert["tolerance"]["text"] == "+-0.1 s"
     proc = subprocess.run([sys.executable, "-m", "tippetop.compare.cli", "metrics", "t_invrt"],

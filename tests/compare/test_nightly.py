@@ -467,7 +467,17 @@ def test_shipped_catalogue_covers_the_issue() -> None:
                             "mujoco/native-condim4", "mujoco/native-condim6",
                             "mujoco/native-pyramidal"}
         for c in cases:
+            if c.kind == "probe":  # a probe's own modes and quantities (issue 44)
+                from tippetop.compare.probes import probe_class, probe_metric
+
+                assert c.mode in probe_class(c.scene).modes
+                assert all(probe_metric(m).tolerance is not None for m in c.metrics)
+                continue
             assert c.mode in MODES and all(m in TOLERANCES for m in c.metrics)
+        # every probe runs in the profile (issue 44: a probes category, in quick)
+        from tippetop.compare.probes import probe_names
+
+        assert {c.scene for c in cases if c.kind == "probe"} == set(probe_names())
     quick_sweeps = {(c.figure, c.label) for c in select_cases(cat, "quick") if c.kind == "sweep"}
     assert ("Fig. 9", "(a)") in quick_sweeps
     full_sweeps = {(c.figure, c.label) for c in select_cases(cat, "full") if c.kind == "sweep"}
