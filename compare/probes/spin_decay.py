@@ -187,6 +187,11 @@ class SpinDecay(Probe):
         """
         return np.asarray(trace.qvel[:, 5], dtype=float)
 
+    def quantities_of(self, mode: str) -> tuple[Quantity, ...]:
+        """The quantity of a mode: the spin kept (condim 3), or its decay rate (condim 4)."""
+        return (self.quantity("spin_final_radps" if _MODES[mode][0] == 3
+                              else "spin_decay_radps2"),)
+
     def measure(self, mode: str, trace: ProbeTrace) -> list[Measured]:
         """The decay rate against mu_t M g / I (condim 4), the last spin against w0 (condim 3)."""
         w0 = self.p("w0")

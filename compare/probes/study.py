@@ -268,8 +268,10 @@ def _failure(trace: Any) -> str | None:
         first = int(np.argmax(counts.any(axis=1)))
         names = [trace.warning_names[i] if i < len(trace.warning_names) else str(i)
                  for i in np.flatnonzero(counts[-1])]
-        return (f"MuJoCo warned ({', '.join(names)}) at t = {float(trace.time[first]):.4g} s: "
-                "the run is not the model's motion from there")
+        # MuJoCo resets the state (and its clock) on some warnings: the step says when
+        dt = float(trace.ran.get("timestep_s", 0.0))
+        return (f"MuJoCo warned ({', '.join(names)}) at step {first} (t = {first * dt:.4g} "
+                "s): the run is not the model's motion from there")
     return None
 
 
