@@ -188,8 +188,11 @@ def _step_mjx(mujoco, np, model, data, steps: int, precision: str) -> tuple[dict
     d = mjx.put_data(model, data)
 
     def body(d, _):
-        d = mjx.step(m, d)
-        return d, (d.time, d.qpos, d.qvel)
+        new = mjx.step(m, d)
+        # the carry keeps its types (under x64 a step's contact indices come back int64)
+        new = jax.tree_util.tree_map(lambda a, b: a.astype(b.dtype) if hasattr(a, "astype")
+                                     else a, new, d)
+        return new, (new.time, new.qpos, new.qvel)
 
     t0 = time.perf_counter()
     _, (t, qpos, qvel) = jax.jit(lambda d: jax.lax.scan(body, d, None, length=steps))(d)
