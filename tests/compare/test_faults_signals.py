@@ -422,3 +422,56 @@ def test_a_ctrl_c_landing_in_a_weakref_callback_is_not_lost(hook: str) -> None:
         assert proc.stdout.strip() == "caught" and proc.stderr == "", proc.stderr
     else:
         assert proc.stdout.strip() == "lost" and "Exception ignored" in proc.stderr
+
+
+def test_ctrl_c_stops_a_probe_and_its_worker(tmp_path: Path) -> None:
+    """Issue 44: probes obey Ctrl-C as every run does.
+
+    A long slide-to-roll (v0 = 30 m/s at 20 us: 1.3 M steps, ~15 s) on ``mujoco@PYTHON``, a
+    worker process of this interpreter: Ctrl-C to the group while the worker steps ends the
+    command with 130 within the bound, leaves no process and writes no --out folder.
+    """
+    out = tmp_path / "probe-out"
+    proc = _start(["probe", "slide-to-roll", "--engines", f"mujoco@{sys.executable}",
+                   "--set", "v0=30", "--timestep", "0.00002", "--modes", "elliptic", "--no-cache",
+                   "--out", str(out)],
+                  tmp_path)
+    def children() -> list[int]:  # a worker runs in a session of its own: found by parent
+        found = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == proc.pid and fields[0] != "Z":
+                found.append(int(stat.parent.name))
+        return found
+
+    deadline = time.monotonic() + START_S
+    while time.monotonic() < deadline:  # until the worker steps
+        assert proc.poll() is None, proc.communicate()[1]
+        workers = children()
+        if workers:
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail(f"no worker within {START_S} s")
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGINT)
+    elapsed, stderr = _stopped_within(proc, STOP_S)
+
+    def alive(pid: int) -> bool:
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:  # gone
+            return False
+
+    t0 = time.monotonic()
+    while any(alive(w) for w in workers) and time.monotonic() - t0 < STOP_S:
+        time.sleep(0.05)
+    assert not [w for w in workers if alive(w)], "the worker outlived the command"
+    assert elapsed < STOP_S, f"stopped in {elapsed:.1f} s"
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr, stderr
+    assert stderr.strip().splitlines()[-1] == "tippetop: interrupted"
+    assert not out.exists()
