@@ -43,6 +43,8 @@ class ProbeRequest:
             ``implicitfast``); None: the model's.
         timestep_s: The step; None: the model's.
         ctrl: The actuators' controls, held over the run.
+        law: The paper's law at the probed ball's lowest point (``{"mu", "Lambda", "R"}``,
+            MuJoCo C only), or None.
     """
 
     mjcf: str
@@ -53,6 +55,7 @@ class ProbeRequest:
     integrator: str | None = None
     timestep_s: float | None = None
     ctrl: tuple[float, ...] = ()
+    law: dict[str, float] | None = None
 
     def as_json(self, engine: dict[str, str] | None = None) -> dict[str, Any]:
         """The worker's request (its ``out`` added by the caller)."""
@@ -60,6 +63,7 @@ class ProbeRequest:
                 "body": self.body, "qpos": list(self.qpos), "qvel": list(self.qvel),
                 "duration_s": self.duration_s, "integrator": self.integrator,
                 "timestep_s": self.timestep_s, "ctrl": list(self.ctrl),
+                "law": None if self.law is None else dict(self.law),
                 "engine": dict(engine or {"implementation": "mujoco", "precision": "float64"})}
 
 
@@ -134,7 +138,7 @@ def run_in(python: str, req: ProbeRequest, engine: dict[str, str] | None = None,
         reply = converse(python, text, budget_s, progress)
         if reply.get("status") != "ok":
             message = str(reply.get("message", "no reason given"))
-            if message.startswith(("integrator:", "timestep:", "duration:")):
+            if message.startswith(("integrator:", "timestep:", "duration:", "law:")):
                 raise ProbeRefused(message)
             raise WorkerFailed(f"the worker in {python} failed: {message}")
         try:

@@ -100,6 +100,9 @@ class Setup:
         timestep_s: The probe's own step (``--timestep`` overrides it).
         integrator: The probe's own integrator (``--integrator`` overrides it).
         ctrl: The actuators' controls, held over the run (a model without actuators: ()).
+        law: The paper's friction law applied at the probed ball's lowest point by MuJoCo
+            C's passive callback (``{"mu", "Lambda", "R"}``: the worker's ``PaperLaw``, paper
+            mode's), or None: the model's own contact friction.
     """
 
     mjcf: str
@@ -110,6 +113,7 @@ class Setup:
     timestep_s: float = 0.002
     integrator: str = "Euler"
     ctrl: tuple[float, ...] = ()
+    law: dict[str, float] | None = None
 
 
 @dataclass(frozen=True)

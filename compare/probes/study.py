@@ -291,7 +291,7 @@ def run_one(probe: Probe, mode: str, spec: EngineSpec, *, integrator: str | None
     s = probe.setup(mode)
     req = ProbeRequest(s.mjcf, s.body, s.qpos, s.qvel, s.duration_s,
                        integrator or s.integrator,
-                       timestep_s if timestep_s is not None else s.timestep_s, s.ctrl)
+                       timestep_s if timestep_s is not None else s.timestep_s, s.ctrl, s.law)
     engine_req = {"implementation": spec.implementation, "precision": spec.precision}
     key = _cache_key(req.as_json(engine_req), spec)
     use = cache is not None and not spec.spec.startswith("mujoco@")
@@ -308,7 +308,9 @@ def run_one(probe: Probe, mode: str, spec: EngineSpec, *, integrator: str | None
                 trace = run_in(python or engine_python(spec), req, engine_req,
                                progress=progress)
         except ProbeRefused as exc:
-            raise TippetopError(f"engine {spec.spec}: {exc}") from None
+            if not str(exc).startswith("law:"):
+                raise TippetopError(f"engine {spec.spec}: {exc}") from None
+            reason = f"not run: {str(exc).removeprefix('law: ')}"
         except WorkerFailed as exc:
             reason = f"the engine failed: {exc}"
         if trace is not None and use:

@@ -68,6 +68,25 @@ def ran_options(mujoco, model) -> dict:
             "friction": [[float(v) for v in row] for row in model.geom_friction]}
 
 
+def _ball_law(model, body: int, law: dict):
+    """Paper mode's law (:class:`.paper_law.PaperLaw`) at the lowest point of the ball ``body``.
+
+    The ball's centre is the body's origin; the normal force is the last evaluation's
+    constraint force on the free joint, as paper mode's.
+    """
+    from .paper_law import PaperLaw
+
+    jnt = int(model.body_jntadr[body])
+    if jnt < 0 or int(model.jnt_type[jnt]) != 0:  # mjJNT_FREE
+        raise Refused("law: expected the probed body to have a free joint, got none")
+    params = {"coulomb_kind": 1, "mu": float(law["mu"]), "Lambda": float(law["Lambda"]),
+              "v_eps": 1e-5, "viscous_on": 0, "viscous": 0.0, "R": float(law["R"]),
+              "centre": (0.0, 0.0, 0.0), "axis": (0.0, 0.0, 1.0), "stem_kind": 0,
+              "stem_l": 0.0, "stem_r": 0.0, "qpos_adr": int(model.jnt_qposadr[jnt]),
+              "dof_adr": int(model.jnt_dofadr[jnt])}
+    return PaperLaw(model, params)
+
+
 def _start(mujoco, model, request: dict):
     data = mujoco.MjData(model)
     data.qpos[:] = request["qpos"]
@@ -121,15 +140,28 @@ def step_probe(mujoco, np, request: dict, progress=None) -> tuple[dict, dict, di
     if not 0 < steps <= MAX_STEPS:
         raise Refused(f"duration: expected 1 to {MAX_STEPS} steps of {dt:g} s, got {steps}")
     ran = ran_options(mujoco, model)
+    law = None
+    if request.get("law"):
+        if impl != "mujoco":
+            raise Refused(f"law: the paper's law is MuJoCo C's passive callback here, not "
+                          f"{impl}'s")
+        law = _ball_law(model, body, request["law"])
+        ran["friction_law"] = "modified_coulomb (the paper's, by mjcb_passive)"
     engine = {"implementation": impl, "version": mujoco.__version__, "precision": "float64",
               "device": "cpu"}
     t0 = time.perf_counter()
-    if impl == "mujoco":
-        arrays = _step_c(mujoco, np, model, data, body, steps, progress)
-    elif impl == "mjx":
-        arrays, engine = _step_mjx(mujoco, np, model, data, steps, precision)
-    else:
-        arrays, engine = _step_warp(mujoco, np, model, data, steps)
+    if law is not None:
+        mujoco.set_mjcb_passive(law)
+    try:
+        if impl == "mujoco":
+            arrays = _step_c(mujoco, np, model, data, body, steps, progress)
+        elif impl == "mjx":
+            arrays, engine = _step_mjx(mujoco, np, model, data, steps, precision)
+        else:
+            arrays, engine = _step_warp(mujoco, np, model, data, steps)
+    finally:
+        if law is not None:
+            mujoco.set_mjcb_passive(None)
     engine["wall_s"] = time.perf_counter() - t0
     return arrays, ran, engine
 

@@ -63,7 +63,7 @@ def test_the_quick_nightly_checks_the_probes_against_their_baselines(tmp_path: P
     assert proc.returncode == 0, proc.stderr
     res = json.loads((out / "results.json").read_text())
     cases = [c for c in res["cases"] if c["kind"] == "probe"]
-    assert {c["mode"] for c in cases} == {"pyramidal", "elliptic"}
+    assert {c["mode"] for c in cases} == {"pyramidal", "elliptic", "paper"}
     for c in cases:
         assert c["status"] == "pass" and c["error"] is None
         assert [ch["metric"] for ch in c["checks"]] == ["probe.slide-to-roll.roll_time_s",
