@@ -59,8 +59,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    metavar="N", help="ode: rounds in which the solvers take turns (runs of "
                    "each), each keeping its best time (default 5; --sweep: 3)")
     p.add_argument("--scipy-rounds", dest="scipy_rounds", type=worker_count, default=1,
-                   metavar="N", help="ode: of those, the rounds scipy runs in (~6 s each at the "
-                   "defaults; default 1)")
+                   metavar="N", help="ode: of those, the rounds scipy runs in (about 4 s each at "
+                   "the defaults; default 1)")
     add_json_option(p)
     p.set_defaults(func=run)
 

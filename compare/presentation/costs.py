@@ -30,10 +30,14 @@ class Cost:
 
     Attributes:
         key: Its name (``nightly_quick_s``).
-        value: The measured value, in ``unit``.
-        unit: ``s`` (wall-clock seconds) or ``x`` (a ratio of two wall-clock times).
+        value: The measured value, in ``unit`` (of a range: its low end).
+        unit: ``s`` (wall-clock seconds), ``ms`` (milliseconds), ``MB`` (megabytes, 2^20
+            bytes) or ``x`` (a ratio of two times).
         what: What was measured, in words.
-        command: How (the command or the benchmark that measured it).
+        command: How (the command or the benchmark that measured it, or the stored result it
+            was read from).
+        high: The high end of a range (several measurements of one kind: two releases' managed
+            environments), or None for one value.
     """
 
     key: str
@@ -41,6 +45,11 @@ class Cost:
     unit: str
     what: str
     command: str
+    high: float | None = None
+
+
+#: The units a cost may be stored in.
+UNITS = ("s", "ms", "MB", "x")
 
 
 def load(path: Path | None = None) -> tuple[dict[str, Cost], dict[str, Any]]:
@@ -49,27 +58,54 @@ def load(path: Path | None = None) -> tuple[dict[str, Cost], dict[str, Any]]:
     if data.get("format") != FORMAT:
         raise ValueError(f"{path or DEFAULT_PATH}: expected format {FORMAT}, got "
                          f"{data.get('format')!r}")
-    costs = {k: Cost(k, float(v["value"]), v["unit"], v["what"], v["command"])
+    costs = {k: Cost(k, float(v["value"]), v["unit"], v["what"], v["command"],
+                     None if v.get("high") is None else float(v["high"]))
              for k, v in data["costs"].items()}
     return costs, {k: v for k, v in data.items() if k != "costs"}
+
+
+def _seconds(v: float) -> tuple[str, str]:
+    if v < 20:
+        return str(max(1, round(v))), "s"
+    if v < 100:
+        return str(5 * round(v / 5)), "s"
+    return str(round(v / 60)), "min"
+
+
+def _figure(v: float) -> str:
+    """Two figures at most: 0.3, 2.6, 16, 140, 990, 1500."""
+    if v >= 100:
+        return str(int(float(f"{v:.2g}")))
+    if v >= 10:
+        return str(round(v))
+    if v >= 1:
+        return f"{v:.1f}"
+    return f"{v:.1g}"
 
 
 def cost_text(cost: Cost) -> str:
     """The words a page quotes ``cost`` in: ``about 15 s``, ``about 11 min``, ``about 2.0x``.
 
-    Seconds under 20 to the second, under 100 to 5 s, longer to the minute; a ratio to one
-    decimal.
+    Seconds under 20 to the second, under 100 to 5 s, longer to the minute; milliseconds,
+    megabytes and ratios to two figures (a ratio under 10 to one decimal: ``about 2.0x``,
+    ``about 110x``). A range is worded ``about 3-5 s`` (``about 7 s to 7 min`` where its ends
+    take different units).
     """
-    if cost.unit == "x":
-        return f"about {cost.value:.1f}x"
-    if cost.unit != "s":
-        raise ValueError(f"cost {cost.key}: expected unit s or x, got {cost.unit!r}")
-    v = cost.value
-    if v < 20:
-        return f"about {max(1, round(v))} s"
-    if v < 100:
-        return f"about {5 * round(v / 5)} s"
-    return f"about {round(v / 60)} min"
+    if cost.unit not in UNITS:
+        raise ValueError(f"cost {cost.key}: expected unit {', '.join(UNITS)}, got "
+                         f"{cost.unit!r}")
+    ends = [cost.value] if cost.high is None else [cost.value, cost.high]
+    if cost.unit == "s":
+        worded = [_seconds(v) for v in ends]
+    else:
+        worded = [(_figure(v), cost.unit) for v in ends]
+    sep = "" if cost.unit == "x" else " "
+    (lo, unit), (hi, high_unit) = worded[0], worded[-1]
+    if len(worded) == 1 or (lo, unit) == (hi, high_unit):
+        return f"about {lo}{sep}{unit}"
+    if unit == high_unit:
+        return f"about {lo}-{hi}{sep}{unit}"
+    return f"about {lo}{sep}{unit} to {hi}{sep}{high_unit}"
 
 
 def expand(text: str, costs: dict[str, Cost]) -> str:
@@ -88,4 +124,4 @@ def expand(text: str, costs: dict[str, Cost]) -> str:
     return MARKER.sub(fill, text)
 
 
-__all__ = ["DEFAULT_PATH", "FORMAT", "MARKER", "Cost", "cost_text", "expand", "load"]
+__all__ = ["DEFAULT_PATH", "FORMAT", "MARKER", "UNITS", "Cost", "cost_text", "expand", "load"]
