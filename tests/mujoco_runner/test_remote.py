@@ -258,7 +258,8 @@ def test_the_worker_modules_shadow_nothing_it_imports() -> None:
     """Its modules are reached through its package alone (off ``sys.path`` when run by path);
     even so none is named like a module of the standard library or of the engines' packages."""
     own = {p.stem for p in remote.WORKER.glob("*.py")} - {"__init__", "__main__"}
-    assert own == {"protocol", "serve", "paper_law", "mjx_stepper", "warp_stepper", "windows"}
+    assert own == {"protocol", "serve", "paper_law", "mjx_stepper", "warp_stepper", "windows",
+                   "probe_steps"}
     assert not own & (set(sys.stdlib_module_names) | {"mujoco", "numpy", "jax", "jaxlib",
                                                        "warp", "mujoco_warp", "glfw"})
 
