@@ -1,4 +1,4 @@
-"""``tippetop probe``'s text: one line per quantity, its value against its exact value."""
+"""``tippetop probe``'s text: each run's line, then a line per quantity against its exact value."""
 
 from __future__ import annotations
 
@@ -21,44 +21,39 @@ def _err(x: float) -> str:
     return f"{x:+.3g}"
 
 
-def row_line(r: ProbeRow, widths: dict[str, int]) -> str:
-    """One row: probe, mode, engine, integrator and step, quantity, value, exact, error, tol."""
+def row_line(r: ProbeRow, width: int) -> str:
+    """One quantity of a run: its name and unit, value, exact value, error, tolerance, verdict.
+
+    Its reason (a failed run) or note follows on the next line, indented.
+    """
     verdict = "ok" if r.passed else "FAIL"
-    parts = [r.probe.ljust(widths["probe"]), r.mode.ljust(widths["mode"]),
-             f"{r.engine} {r.version}".ljust(widths["engine"]),
-             f"{r.integrator} {r.timestep_s:g}s".ljust(widths["integrator"]),
-             f"{r.quantity} ({r.unit})".ljust(widths["quantity"]),
-             _num(r.value).rjust(12), _num(r.exact).rjust(12), _err(r.error).rjust(10),
-             f"{r.tolerance:g}".rjust(8), verdict]
-    line = "  ".join(parts)
-    if r.reason:
-        line += f"  ({r.reason})"
-    elif r.note:
-        line += f"  ({r.note})"
-    return line
+    line = (f"  {f'{r.quantity} ({r.unit})'.ljust(width)}  {_num(r.value):>11}  "
+            f"{_num(r.exact):>11}  {_err(r.error):>10}  {r.tolerance:>8g}  {verdict}")
+    why = r.reason or r.note
+    return f"{line}\n      {why}" if why else line
+
+
+def run_header(r: ProbeRow) -> str:
+    """A run's line: the probe in its mode on its engine, the integrator and step that ran."""
+    return f"{r.probe} [{r.mode}] on {r.engine} {r.version}, {r.integrator} at {r.timestep_s:g} s"
 
 
 def print_probes(res: ProbeResult, out: TextIO | None = None) -> None:
-    """Print every row, then how many passed and what did not."""
+    """Print each run's line and its quantities under it, then how many passed."""
     out = out or sys.stdout
     rows = res.rows
     if not rows:
         print("no probe ran (no probe has the modes asked for)", file=out)
         return
-    widths = {
-        "probe": max(5, *(len(r.probe) for r in rows)),
-        "mode": max(4, *(len(r.mode) for r in rows)),
-        "engine": max(6, *(len(f"{r.engine} {r.version}") for r in rows)),
-        "integrator": max(10, *(len(f"{r.integrator} {r.timestep_s:g}s") for r in rows)),
-        "quantity": max(8, *(len(f"{r.quantity} ({r.unit})") for r in rows)),
-    }
-    head = "  ".join(["probe".ljust(widths["probe"]), "mode".ljust(widths["mode"]),
-                      "engine".ljust(widths["engine"]), "integrator".ljust(widths["integrator"]),
-                      "quantity".ljust(widths["quantity"]), "value".rjust(12),
-                      "exact".rjust(12), "error".rjust(10), "tol".rjust(8), ""])
-    print(head.rstrip(), file=out)
-    for r in rows:
-        print(row_line(r, widths), file=out)
+    width = max(8, *(len(f"{r.quantity} ({r.unit})") for r in rows))
+    print(f"  {'quantity'.ljust(width)}  {'value':>11}  {'exact':>11}  {'error':>10}  "
+          f"{'tol':>8}", file=out)
+    for run in res.runs:
+        if not run.rows:
+            continue
+        print(run_header(run.rows[0]), file=out)
+        for r in run.rows:
+            print(row_line(r, width), file=out)
     n_ok = sum(r.passed for r in rows)
     cached = sum(run.cached for run in res.runs)
     print(f"\n{n_ok} of {len(rows)} quantities within tolerance; {len(res.runs)} runs "
@@ -94,4 +89,4 @@ def print_moves(probes: dict, out: TextIO | None = None) -> None:
     print("\n" + "\n".join(move_lines(probes)), file=out or sys.stdout)
 
 
-__all__ = ["move_lines", "print_moves", "print_probes", "row_line"]
+__all__ = ["move_lines", "print_moves", "print_probes", "row_line", "run_header"]
