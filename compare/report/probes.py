@@ -15,7 +15,10 @@ from tippetop.compare.probes.study import ProbeResult, ProbeRun
 
 
 def figure(res: ProbeResult, probe: str, path: Path) -> bool:
-    """Draw ``probe``'s runs into ``path`` (PNG); False when it has no curve to draw."""
+    """Draw ``probe``'s runs into ``path`` (PNG); False when it has no curve to draw.
+
+    One panel per mode, at most four to a row.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -26,8 +29,12 @@ def figure(res: ProbeResult, probe: str, path: Path) -> bool:
     if not runs:
         return False
     modes = list(dict.fromkeys(r.mode for r in runs))
-    fig, axes = plt.subplots(1, len(modes), figsize=(4.2 * len(modes), 3.4), squeeze=False)
-    for ax, mode in zip(axes[0], modes, strict=True):
+    ncols = min(4, len(modes))  # a grid of at most 4 columns: readable at a page's width
+    nrows = -(-len(modes) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.2 * nrows), squeeze=False)
+    for ax in axes.flat[len(modes):]:
+        ax.set_visible(False)
+    for ax, mode in zip(axes.flat, modes, strict=False):
         drawn_exact = False
         for r in (r for r in runs if r.mode == mode):
             c = r.curve
