@@ -187,25 +187,11 @@ def _probe_images(root: Path, tmp: Path) -> dict[str, bytes]:
         out[f"images/probe-{name}.png"] = png.read_bytes()
     results = {}
     for integ in PROBE_INTEGRATORS:
-        js = tmp / f"probes-{integ}.json"
-        _run_to([_tippetop(), "probe", "--integrator", integ, "--json"], root, js, ok=(0, 1))
-        results[integ] = json.loads(js.read_text())
+        out_text = _run([_tippetop(), "probe", "--integrator", integ, "--json"], root,
+                        ok=(0, 1))
+        results[integ] = json.loads(out_text)
     _PROBE_TABLE["text"] = probe_table(results)
     return out
-
-
-def _run_to(args: list[str], cwd: Path, path: Path, ok: tuple[int, ...] = (0,)) -> None:
-    """:func:`_run`, its stdout written to ``path``."""
-    try:
-        proc = subprocess.run(args, cwd=cwd, env=command_env(), capture_output=True, text=True,
-                              timeout=TIMEOUT_S, check=False)
-    except subprocess.TimeoutExpired as exc:
-        raise ImageError(f"`{_show(args)}` took over {TIMEOUT_S} s") from exc
-    if proc.returncode not in ok:
-        lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.strip()]
-        raise ImageError(f"`{_show(args)}` exited {proc.returncode}: "
-                         f"{lines[-1].strip() if lines else 'no output'}")
-    path.write_text(proc.stdout)
 
 
 def probe_table(results: dict[str, dict]) -> str:
@@ -278,7 +264,8 @@ def command_env(root: Path | None = None) -> dict[str, str]:
 
 
 def _run(args: list[str], cwd: Path, ok: tuple[int, ...] = (0,),
-         env: dict[str, str] | None = None) -> None:
+         env: dict[str, str] | None = None) -> str:
+    """Run a command with the docs build's own cache; its stdout (ImageError if it fails)."""
     try:
         proc = subprocess.run(args, cwd=cwd, env=command_env() | (env or {}), capture_output=True,
                               text=True, timeout=TIMEOUT_S, check=False)
@@ -288,6 +275,7 @@ def _run(args: list[str], cwd: Path, ok: tuple[int, ...] = (0,),
         lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.strip()]
         why = lines[-1].strip() if lines else "no output"
         raise ImageError(f"`{_show(args)}` exited {proc.returncode}: {why}")
+    return proc.stdout
 
 
 def _show(args: list[str]) -> str:
